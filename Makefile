@@ -1,0 +1,38 @@
+# The README's two commands: `make demo` and `make test`. Both bootstrap everything they need.
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+INSTALLED := $(VENV)/.installed
+SYSTEM_TOOLS := riscv64-unknown-elf-gcc=gcc-riscv64-unknown-elf
+BUILD := build
+
+.PHONY: demo test lint tools modules bench clean
+
+tools:
+	@scripts/ensure-tools.sh $(SYSTEM_TOOLS)
+
+$(INSTALLED): pyproject.toml | tools
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[dev]'
+	touch $@
+
+modules: tools $(INSTALLED)
+	$(PY) -m firmware_sim.sdk.build --out $(BUILD)/modules
+
+demo: modules
+	@scripts/demo.sh $(VENV) $(BUILD)/modules
+
+lint: $(INSTALLED)
+	$(PY) -m ruff check .
+	$(PY) -m ruff format --check .
+
+test: tools $(INSTALLED) lint
+	$(PY) -m pytest
+
+bench: $(INSTALLED)
+	$(PY) benchmarks/hex_codec.py
+
+clean:
+	rm -rf $(BUILD) .pytest_cache .ruff_cache .hypothesis

@@ -1,0 +1,200 @@
+"""The `hexmigrate` command: pack, inspect, verify and relocate module files.
+
+Errors print ``error: FILE:LINE: message`` and exit 1; usage errors exit 2 (argparse);
+``--debug`` shows the traceback instead.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import traceback
+from collections.abc import Sequence
+from pathlib import Path
+
+from hexmigrate.elf import DEFAULT_INIT_SYMBOL, image_from_elf
+from hexmigrate.errors import HexError
+from hexmigrate.image import ModuleImage
+from hexmigrate.mapfile import image_from_map
+from hexmigrate.report import build_report, render_text
+
+EXIT_ERROR = 1
+EXIT_USAGE = 2
+
+
+class CommandError(Exception):
+    """A failure the user can fix, reported as one ``error:`` line."""
+
+
+def address(text: str) -> int:
+    """Parse an address given as decimal or 0x-prefixed hexadecimal (argparse type)."""
+    try:
+        value = int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected an address like 0x20000, got {text!r}"
+        ) from None
+    if not 0 <= value < 1 << 32:
+        raise argparse.ArgumentTypeError(f"expected an address below 0x100000000, got {text!r}")
+    return value
+
+
+def cmd_pack(args: argparse.Namespace) -> int:
+    """Build a module file from an ELF, or from a raw binary and its map (the paper's route)."""
+    if (args.map is None) != (args.bin is None):
+        raise CommandError("--map and --bin go together: the map route needs both files")
+    if args.elf is None and args.map is None:
+        raise CommandError("expected MODULE.elf, or --map MODULE.map --bin MODULE.bin")
+    images = []
+    if args.elf is not None:
+        images.append(image_from_elf(args.elf, args.init, args.name))
+    if args.map is not None:
+        images.append(image_from_map(args.bin, args.map, args.init, args.name))
+    if len(images) == 2 and images[0] != images[1]:
+        raise CommandError(_route_difference(images[0], images[1]))
+    image = images[-1]
+    image.write(args.output, args.record_size)
+    print(
+        f"{args.output}: module {image.name}, {image.size} bytes at 0x{image.link_base:08X}, "
+        f"{len(image.relocations)} relocations, init 0x{image.init:08X}"
+    )
+    return 0
+
+
+def _route_difference(from_elf: ModuleImage, from_map: ModuleImage) -> str:
+    """Say how the ELF route and the map route disagree."""
+    if (from_elf.link_base, from_elf.data) != (from_map.link_base, from_map.data):
+        return (
+            "the ELF and the map route disagree on the data: ELF "
+            f"{from_elf.size} bytes at 0x{from_elf.link_base:08X}, map "
+            f"{from_map.size} bytes at 0x{from_map.link_base:08X}"
+        )
+    if from_elf.relocations != from_map.relocations:
+        only_elf = sorted(set(from_elf.relocations) - set(from_map.relocations))
+        only_map = sorted(set(from_map.relocations) - set(from_elf.relocations))
+        return (
+            "the ELF and the map route disagree on the relocations: only in the ELF "
+            f"{[f'0x{x:08X}' for x in only_elf]}, only in the map {[f'0x{x:08X}' for x in only_map]}"
+        )
+    return (
+        f"the ELF and the map route disagree on init: ELF 0x{from_elf.init:08X}, "
+        f"map 0x{from_map.init:08X}"
+    )
+
+
+def cmd_inspect(args: argparse.Namespace) -> int:
+    """Show what a module file holds."""
+    image = ModuleImage.read(args.file)
+    text = Path(args.file).read_text(encoding="latin-1")
+    report = build_report(image, text, str(args.file))
+    print(json.dumps(report, indent=2) if args.json else render_text(report))
+    return 0
+
+
+def cmd_verify(args: argparse.Namespace) -> int:
+    """Exit 0 when the file is a valid module file."""
+    image = ModuleImage.read(args.file)
+    print(
+        f"{args.file}: valid module {image.name}, {image.size} bytes, "
+        f"{len(image.relocations)} relocations"
+    )
+    return 0
+
+
+def cmd_relocate(args: argparse.Namespace) -> int:
+    """Write the flat flash bytes of the module placed at --base."""
+    image = ModuleImage.read(args.file)
+    try:
+        flat = image.relocate(args.base)
+    except ValueError as error:
+        raise CommandError(str(error)) from None
+    partial = args.output.with_name(args.output.name + ".partial")
+    partial.write_bytes(flat)
+    partial.replace(args.output)
+    print(
+        f"{args.output}: {len(flat)} bytes for 0x{args.base:08X}, "
+        f"{len(image.relocations)} pointers moved by {args.base - image.link_base:+#x}"
+    )
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of `hexmigrate` with one sub-parser per command."""
+    parser = argparse.ArgumentParser(
+        prog="hexmigrate",
+        description="ReFrESH modules as extended Intel HEX (record 07: offset function pointer, "
+        "record 08: module initialization pointer).",
+    )
+    parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    pack = commands.add_parser("pack", help="build a module file from an ELF or a binary + map")
+    pack.add_argument(
+        "elf", nargs="?", type=Path, metavar="MODULE.elf", help="RV32 ELF linked with --emit-relocs"
+    )
+    pack.add_argument(
+        "--map",
+        type=Path,
+        metavar="MODULE.map",
+        help="GNU ld map file (with --bin; with MODULE.elf too, both routes must agree)",
+    )
+    pack.add_argument(
+        "--bin", type=Path, metavar="MODULE.bin", help="raw binary from the link base"
+    )
+    pack.add_argument(
+        "--init",
+        default=DEFAULT_INIT_SYMBOL,
+        metavar="SYMBOL",
+        help=f"init subroutine for record 08 (default: {DEFAULT_INIT_SYMBOL})",
+    )
+    pack.add_argument(
+        "--record-size",
+        type=int,
+        choices=(16, 32),
+        default=16,
+        help="data bytes per record (default: 16)",
+    )
+    pack.add_argument("--name", help="module name (default: the input file's stem)")
+    pack.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.hex")
+    pack.set_defaults(func=cmd_pack)
+
+    inspect = commands.add_parser("inspect", help="show segments, flash blocks, relocations, init")
+    inspect.add_argument("file", type=Path, metavar="FILE.hex")
+    inspect.add_argument("--json", action="store_true", help="print the report as JSON")
+    inspect.set_defaults(func=cmd_inspect)
+
+    verify = commands.add_parser("verify", help="exit 0 if the file is a valid module, 1 if not")
+    verify.add_argument("file", type=Path, metavar="FILE.hex")
+    verify.set_defaults(func=cmd_verify)
+
+    relocate = commands.add_parser("relocate", help="write the flash bytes for a load address")
+    relocate.add_argument("file", type=Path, metavar="FILE.hex")
+    relocate.add_argument(
+        "--base", type=address, required=True, metavar="ADDR", help="load address, e.g. 0x20000"
+    )
+    relocate.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.bin")
+    relocate.set_defaults(func=cmd_relocate)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; return the exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (HexError, CommandError, OSError) as error:
+        if args.debug:
+            traceback.print_exc()
+        print(f"error: {_describe(error)}", file=sys.stderr)
+        return EXIT_ERROR
+
+
+def _describe(error: Exception) -> str:
+    if isinstance(error, OSError) and error.filename is not None:
+        return f"{error.filename}: {error.strerror}"
+    return str(error)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,98 @@
+"""The PBO module descriptor, read from image bytes.
+
+The layout mirrors `struct pbo_descriptor` in `firmware_sim/sdk/pbo_module.h` (see
+docs/module-abi.md). hexmigrate reads it for two reasons: the map-file route finds the pointer
+words to relocate inside the descriptor section, and `hexmigrate inspect` names each relocated
+word after the method slot that holds it. The emulated node reads the same layout when a module
+registers itself.
+"""
+
+from __future__ import annotations
+
+import struct
+from dataclasses import dataclass
+
+DESCRIPTOR_SECTION = ".pbo_descriptor"
+MAGIC = 0x314F4250  # "PBO1" as a little-endian word
+ABI_VERSION = 1
+NAME_LEN = 16
+PORT_NAME_LEN = 12
+MAX_PORTS = 8
+METHODS = ("init", "on", "cycle", "off", "kill", "error", "clear", "evaluate", "estimate")
+
+_HEADER = struct.Struct(f"<IHH{NAME_LEN}sI")
+_PORT = struct.Struct(f"<{PORT_NAME_LEN}sBBHI")
+_METHODS = struct.Struct(f"<{len(METHODS)}I")
+METHODS_OFFSET = _HEADER.size + MAX_PORTS * _PORT.size
+SIZE = METHODS_OFFSET + _METHODS.size
+
+PORT_DIRECTIONS = ("in", "out", "const", "resource")
+PORT_TYPES = ("scalar", "vector", "frame")
+
+
+class DescriptorError(ValueError):
+    """The bytes are not a descriptor of a supported ABI version."""
+
+
+@dataclass(frozen=True)
+class PortSpec:
+    """One port of a module as its descriptor declares it."""
+
+    name: str
+    direction: str
+    type: str
+    element_size: int
+    size_bytes: int
+
+
+@dataclass(frozen=True)
+class Descriptor:
+    """A decoded `struct pbo_descriptor`; `methods` maps slot name to address (0 = absent)."""
+
+    name: str
+    abi_version: int
+    state_size: int
+    ports: tuple[PortSpec, ...]
+    methods: dict[str, int]
+
+    @classmethod
+    def decode(cls, data: bytes) -> Descriptor:
+        """Decode the first `SIZE` bytes of `data`."""
+        if len(data) < SIZE:
+            raise DescriptorError(f"expected {SIZE} descriptor bytes, got {len(data)}")
+        magic, abi, port_count, name, state_size = _HEADER.unpack_from(data)
+        if magic != MAGIC:
+            raise DescriptorError(f"expected descriptor magic 0x{MAGIC:08X}, got 0x{magic:08X}")
+        if abi != ABI_VERSION:
+            raise DescriptorError(f"expected ABI version {ABI_VERSION}, got {abi}")
+        if port_count > MAX_PORTS:
+            raise DescriptorError(f"expected at most {MAX_PORTS} ports, got {port_count}")
+        ports = tuple(_decode_port(data, index) for index in range(port_count))
+        methods = dict(zip(METHODS, _METHODS.unpack_from(data, METHODS_OFFSET), strict=True))
+        return cls(_c_string(name), abi, state_size, ports, methods)
+
+
+def method_slot(offset: int) -> str | None:
+    """The method whose pointer sits `offset` bytes into a descriptor, if any."""
+    index, remainder = divmod(offset - METHODS_OFFSET, 4)
+    if remainder or not 0 <= index < len(METHODS):
+        return None
+    return METHODS[index]
+
+
+def _decode_port(data: bytes, index: int) -> PortSpec:
+    name, direction, kind, element_size, size_bytes = _PORT.unpack_from(
+        data, _HEADER.size + index * _PORT.size
+    )
+    if direction >= len(PORT_DIRECTIONS) or kind >= len(PORT_TYPES):
+        raise DescriptorError(
+            f"port {index}: expected direction < {len(PORT_DIRECTIONS)} and type < "
+            f"{len(PORT_TYPES)}, got {direction} and {kind}"
+        )
+    return PortSpec(
+        _c_string(name), PORT_DIRECTIONS[direction], PORT_TYPES[kind], element_size, size_bytes
+    )
+
+
+def _c_string(raw: bytes) -> str:
+    return raw.split(b"\0", 1)[0].decode("ascii", errors="replace")

@@ -1,0 +1,175 @@
+"""The exception tree of hexmigrate.
+
+Every failure to read a HEX file or to build a module image raises a subclass of `HexError`, so a
+caller (the CLI, the loader of a node) can catch one class and report the rest uniformly. Each
+exception carries where the problem is (`path`, `line`) and a message that says what was expected
+and what came instead; `str(error)` renders them as ``FILE:LINE: message``, the form compilers use,
+so editors can jump to the place.
+
+Tree::
+
+    HexError (ValueError)
+    ├── HexSyntaxError                 one line cannot be decoded as a record
+    │   ├── BadStartCodeError
+    │   ├── OddLengthError
+    │   ├── NonHexDigitError
+    │   ├── ByteCountError
+    │   └── ChecksumError
+    ├── HexRecordError                 the record decodes but its content is not allowed
+    │   ├── UnknownRecordTypeError
+    │   ├── RecordSizeError
+    │   ├── AddressFieldError
+    │   └── DuplicateStartAddressError
+    ├── HexStructureError              the records do not form a valid file
+    │   ├── MissingEofError
+    │   ├── RecordAfterEofError
+    │   ├── TextAfterEofError
+    │   ├── AddressOverflowError
+    │   ├── OverlapError
+    │   └── OrderError
+    └── ModuleError                    the file is not a valid relocatable module
+        ├── MultipleInitError
+        ├── MissingInitError
+        ├── GapError
+        ├── DuplicateRelocationError
+        ├── RelocationOutsideImageError
+        ├── InitOutsideImageError
+        └── ModuleSourceError          an ELF, map or binary the image is built from is unusable
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class HexError(ValueError):
+    """Base class of every hexmigrate format error; carries the file and line it concerns."""
+
+    def __init__(self, message: str, *, line: int | None = None, path: str | Path | None = None):
+        super().__init__(message)
+        self.message = message
+        self.line = line
+        self.path = str(path) if path is not None else None
+
+    def with_path(self, path: str | Path) -> HexError:
+        """Attach the file name once the caller knows it (the codec works on text, not files)."""
+        self.path = str(path)
+        return self
+
+    @property
+    def location(self) -> str:
+        """``FILE:LINE``, ``FILE``, ``line N`` or an empty string, whatever is known."""
+        if self.path is not None and self.line is not None:
+            return f"{self.path}:{self.line}"
+        if self.path is not None:
+            return self.path
+        if self.line is not None:
+            return f"line {self.line}"
+        return ""
+
+    def __str__(self) -> str:
+        return f"{self.location}: {self.message}" if self.location else self.message
+
+
+class HexSyntaxError(HexError):
+    """A line cannot be decoded as an Intel HEX record."""
+
+
+class BadStartCodeError(HexSyntaxError):
+    """A line does not start with ':'."""
+
+
+class OddLengthError(HexSyntaxError):
+    """A line has an odd number of hex digits, so the last byte is cut in half."""
+
+
+class NonHexDigitError(HexSyntaxError):
+    """A line holds a character that is not a hexadecimal digit."""
+
+
+class ByteCountError(HexSyntaxError):
+    """The byte count field does not match the number of bytes on the line."""
+
+
+class ChecksumError(HexSyntaxError):
+    """The checksum byte is not the two's complement of the sum of the other bytes."""
+
+
+class HexRecordError(HexError):
+    """A record decodes but is not allowed in a module file."""
+
+
+class UnknownRecordTypeError(HexRecordError):
+    """The record type is none of 00-05, 07, 08."""
+
+
+class RecordSizeError(HexRecordError):
+    """A record type with a fixed payload size (01-05, 07, 08) has another byte count."""
+
+
+class AddressFieldError(HexRecordError):
+    """A record other than data has an address field other than 0000."""
+
+
+class DuplicateStartAddressError(HexRecordError):
+    """A second start address record (03 or 05) appears."""
+
+
+class HexStructureError(HexError):
+    """The records are valid one by one but do not form a valid file."""
+
+
+class MissingEofError(HexStructureError):
+    """The file has no end-of-file record."""
+
+
+class RecordAfterEofError(HexStructureError):
+    """A record follows the end-of-file record, which must be last."""
+
+
+class TextAfterEofError(HexStructureError):
+    """Something other than blank lines follows the end-of-file record."""
+
+
+class AddressOverflowError(HexStructureError):
+    """Data would extend past the 4 GiB address space."""
+
+
+class OverlapError(HexStructureError):
+    """Two data records write the same address."""
+
+
+class OrderError(HexStructureError):
+    """Data records do not come in ascending address order, as a streaming node needs them."""
+
+
+class ModuleError(HexError):
+    """The file or its sources do not describe a valid relocatable module."""
+
+
+class MultipleInitError(ModuleError):
+    """More than one module initialization pointer (record 08)."""
+
+
+class MissingInitError(ModuleError):
+    """A module file has no module initialization pointer (record 08)."""
+
+
+class GapError(ModuleError):
+    """A module file's data is not one contiguous run (a module fills consecutive flash blocks)."""
+
+
+class DuplicateRelocationError(ModuleError):
+    """The same pointer word is listed twice by offset function pointer records (07)."""
+
+
+class RelocationOutsideImageError(ModuleError):
+    """An offset function pointer (07) names a word that is not entirely inside the image data."""
+
+
+class InitOutsideImageError(ModuleError):
+    """The module initialization pointer (08) targets an address outside the image data."""
+
+
+class ModuleSourceError(ModuleError):
+    """An ELF file, a map file or a raw binary cannot give a module image."""

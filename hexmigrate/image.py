@@ -1,0 +1,212 @@
+"""`ModuleImage`: a relocatable module, as the loader of a node sees it.
+
+An image is linked at a link base (the lowest address of its data) and can be placed anywhere:
+only the 32-bit little-endian words listed as relocations (07 records) hold absolute addresses,
+and `relocate` adds ``load_base - link_base`` to each of them. Everything else is
+position-independent code and constant data (ARCHITECTURE.md, "Module images").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from hexmigrate.errors import (
+    AddressOverflowError,
+    DuplicateRelocationError,
+    GapError,
+    HexError,
+    InitOutsideImageError,
+    MissingInitError,
+    ModuleSourceError,
+    OverlapError,
+    RelocationOutsideImageError,
+)
+from hexmigrate.records import (
+    ADDRESS_SPACE,
+    POINTER_SIZE,
+    HexContent,
+    Segment,
+    decode,
+    encode,
+)
+
+FLASH_BLOCK_SIZE = 256
+ERASED_BYTE = 0xFF
+
+
+@dataclass(frozen=True)
+class ModuleImage:
+    """A module: one contiguous run of bytes at its link base, the pointer words to fix, its init.
+
+    A module is written to consecutive flash blocks, so it is one run of bytes; `from_segments`
+    fills gaps between linker segments with erased flash (0xFF), as the loader would find them.
+    `symbols` maps function start addresses to names when the image was built from linker output;
+    it is not part of the HEX file, so it takes no part in equality.
+    """
+
+    name: str
+    link_base: int
+    data: bytes
+    relocations: tuple[int, ...]
+    init: int
+    symbols: Mapping[int, str] = field(default_factory=dict, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if not self.data:
+            raise ModuleSourceError(f"module {self.name!r}: expected image data, got none")
+        if self.link_base + len(self.data) > ADDRESS_SPACE:
+            raise AddressOverflowError(
+                f"module {self.name!r}: expected the image to end at or before 0x100000000, got "
+                f"{len(self.data)} bytes at 0x{self.link_base:08X}"
+            )
+        relocations = tuple(sorted(self.relocations))
+        for first, second in zip(relocations, relocations[1:], strict=False):
+            if first == second:
+                raise DuplicateRelocationError(
+                    f"module {self.name!r}: expected each pointer word once, got 0x{first:08X} twice"
+                )
+        object.__setattr__(self, "relocations", relocations)
+        self._check_inside()
+
+    def _check_inside(self) -> None:
+        segment = self.segment
+        for location in self.relocations:
+            if not segment.contains(location, POINTER_SIZE):
+                raise RelocationOutsideImageError(
+                    f"module {self.name!r}: expected the pointer word at 0x{location:08X} "
+                    f"inside the image data ({_span(segment)}), got it outside"
+                )
+        if not segment.contains(self.init):
+            raise InitOutsideImageError(
+                f"module {self.name!r}: expected the init subroutine at 0x{self.init:08X} "
+                f"inside the image data ({_span(segment)}), got it outside"
+            )
+
+    @classmethod
+    def from_segments(
+        cls,
+        name: str,
+        segments: Iterable[Segment],
+        relocations: Iterable[int],
+        init: int,
+        symbols: Mapping[int, str] | None = None,
+    ) -> ModuleImage:
+        """Join linker segments into one run, filling the gaps with erased flash bytes."""
+        ordered = sorted(segments, key=lambda s: s.address)
+        if not ordered:
+            raise ModuleSourceError(f"module {name!r}: expected image data, got none")
+        for before, after in zip(ordered, ordered[1:], strict=False):
+            if after.address < before.end:
+                raise OverlapError(
+                    f"module {name!r}: expected segments not to overlap, but the one at "
+                    f"0x{after.address:08X} starts before 0x{before.end:08X}"
+                )
+        link_base = ordered[0].address
+        flat = bytearray([ERASED_BYTE]) * (ordered[-1].end - link_base)
+        for segment in ordered:
+            offset = segment.address - link_base
+            flat[offset : offset + len(segment.data)] = segment.data
+        return cls(name, link_base, bytes(flat), tuple(relocations), init, symbols or {})
+
+    @property
+    def segment(self) -> Segment:
+        """The image data as a segment at the link base."""
+        return Segment(self.link_base, self.data)
+
+    @property
+    def size(self) -> int:
+        """Number of bytes of the image."""
+        return len(self.data)
+
+    @property
+    def content(self) -> HexContent:
+        """The image as HEX file content (data, 07 records, 08 record)."""
+        return HexContent((self.segment,), self.relocations, self.init)
+
+    def to_hex(self, record_size: int = 16) -> str:
+        """The image as canonical extended Intel HEX text."""
+        return encode(self.content, record_size)
+
+    @classmethod
+    def from_hex(cls, text: str, name: str) -> ModuleImage:
+        """Parse extended Intel HEX text; a module file must have its 08 record."""
+        return cls.from_content(decode(text), name)
+
+    @classmethod
+    def from_content(cls, content: HexContent, name: str) -> ModuleImage:
+        """Build an image from decoded HEX content: one run of data with an 08 record."""
+        if content.init is None:
+            raise MissingInitError(
+                "expected a module initialization pointer (record 08), got none: "
+                "this is a plain HEX file, not a module"
+            )
+        if len(content.segments) != 1:
+            raise GapError(_gap_message(content.segments))
+        segment = content.segments[0]
+        return cls(name, segment.address, segment.data, content.relocations, content.init)
+
+    @classmethod
+    def read(cls, path: str | Path) -> ModuleImage:
+        """Read a module file; errors carry the file name. The module is named after the file."""
+        path = Path(path)
+        try:
+            return cls.from_hex(path.read_text(encoding="latin-1"), path.stem)
+        except HexError as error:
+            raise error.with_path(path) from None
+
+    def write(self, path: str | Path, record_size: int = 16) -> None:
+        """Write the module file whole or not at all: a failure midway leaves no half file."""
+        path = Path(path)
+        partial = path.with_name(path.name + ".partial")
+        partial.write_text(self.to_hex(record_size), encoding="ascii", newline="")
+        partial.replace(path)
+
+    def relocate(self, load_base: int) -> bytes:
+        """The bytes as they sit in flash when the image is placed at `load_base`.
+
+        Each relocation word gets ``load_base - link_base`` added, modulo 2**32 as the 32-bit
+        CPU computes it.
+        """
+        if not 0 <= load_base <= ADDRESS_SPACE - self.size:
+            raise ValueError(
+                f"expected a load base from 0x0 to 0x{ADDRESS_SPACE - self.size:08X} for "
+                f"{self.size} bytes of module {self.name!r}, got 0x{load_base:X}"
+            )
+        flat = bytearray(self.data)
+        delta = load_base - self.link_base
+        for location in self.relocations:
+            offset = location - self.link_base
+            word = int.from_bytes(flat[offset : offset + 4], "little")
+            flat[offset : offset + 4] = ((word + delta) % ADDRESS_SPACE).to_bytes(4, "little")
+        return bytes(flat)
+
+    def word_at(self, address: int) -> int:
+        """The little-endian 32-bit word stored at a link-time address of the image."""
+        if not self.segment.contains(address, 4):
+            raise ValueError(f"module {self.name!r}: no 32-bit word at 0x{address:08X}")
+        offset = address - self.link_base
+        return int.from_bytes(self.data[offset : offset + 4], "little")
+
+    def flash_blocks(self, load_base: int | None = None) -> list[int]:
+        """Start addresses of the 256-byte flash blocks the image fills at `load_base`
+        (the link base by default)."""
+        start = self.link_base if load_base is None else load_base
+        first = start // FLASH_BLOCK_SIZE
+        last = (start + self.size - 1) // FLASH_BLOCK_SIZE
+        return [block * FLASH_BLOCK_SIZE for block in range(first, last + 1)]
+
+
+def _span(segment: Segment) -> str:
+    return f"0x{segment.address:08X}..0x{segment.end - 1:08X}"
+
+
+def _gap_message(segments: tuple[Segment, ...]) -> str:
+    if not segments:
+        return "expected the module's data, got no data records"
+    first, second = segments[0], segments[1]
+    return (
+        "expected one contiguous run of data (a module fills consecutive flash blocks), "
+        f"got a gap at 0x{first.end:08X}..0x{second.address - 1:08X}"
+    )

@@ -1,0 +1,172 @@
+"""Module images from a raw binary and its GNU ld map file: the paper's route.
+
+The paper builds the 07 records from the ``.map`` file, which "indicates each function start
+address": here the function starts are the ``.text.<name>`` input sections (modules are compiled
+with ``-ffunction-sections``, so static functions appear too) and the global symbols in ``.text``.
+The pointer slots are the words of the descriptor section that hold one of those addresses. The
+raw binary (``objcopy -O binary``) starts at the link base, which the SDK linker script names
+``__module_start``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from hexmigrate.descriptor import DESCRIPTOR_SECTION
+from hexmigrate.elf import DEFAULT_INIT_SYMBOL
+from hexmigrate.errors import HexError, ModuleSourceError
+from hexmigrate.image import ModuleImage
+
+MEMORY_MAP_HEADING = "Linker script and memory map"
+LINK_BASE_SYMBOL = "__module_start"
+
+
+@dataclass(frozen=True)
+class Section:
+    """An output or input section of the map: name, address and size."""
+
+    name: str
+    address: int
+    size: int
+
+    @property
+    def end(self) -> int:
+        """First address after the section."""
+        return self.address + self.size
+
+
+@dataclass
+class LinkerMap:
+    """What the memory map part of a GNU ld map file says."""
+
+    output_sections: dict[str, Section] = field(default_factory=dict)
+    input_sections: list[Section] = field(default_factory=list)
+    symbols: dict[str, int] = field(default_factory=dict)
+
+    def function_starts(self) -> dict[int, str]:
+        """Start address to function name, from ``.text.*`` input sections and text symbols."""
+        starts = {
+            section.address: section.name.removeprefix(".text.")
+            for section in self.input_sections
+            if section.name.startswith(".text.") and section.size
+        }
+        text = self.output_sections.get(".text")
+        if text is not None:
+            starts.update(
+                (address, name)
+                for name, address in self.symbols.items()
+                if text.address <= address < text.end
+            )
+        return starts
+
+
+def parse_map(text: str) -> LinkerMap:
+    """Parse the ``Linker script and memory map`` part of a GNU ld map file.
+
+    ld writes a section whose name is longer than its column on one line and its address, size
+    and file on the next; `pending` carries the name across.
+    """
+    linker_map = LinkerMap()
+    _, found, body = text.partition(MEMORY_MAP_HEADING)
+    if not found:
+        raise ModuleSourceError(f"expected a GNU ld map file with a '{MEMORY_MAP_HEADING}' part")
+    pending: tuple[str, bool] | None = None
+    for line in body.splitlines():
+        tokens = line.split()
+        if not tokens:
+            continue
+        if not line[0].isspace():
+            pending = _section_line(linker_map, tokens, output=True)
+        elif line[1] != " " and not tokens[0].startswith("*"):
+            pending = _section_line(linker_map, tokens, output=False)
+        elif tokens[0].startswith("0x") and pending is not None:
+            _section_line(linker_map, [pending[0], *tokens], output=pending[1])
+            pending = None
+        elif len(tokens) >= 2 and tokens[0].startswith("0x") and _is_symbol(tokens[1]):
+            linker_map.symbols[tokens[1]] = int(tokens[0], 16)
+    return linker_map
+
+
+def _is_symbol(token: str) -> bool:
+    return token.replace("_", "a").replace(".", "a").replace("$", "a").isalnum()
+
+
+def _section_line(
+    linker_map: LinkerMap, tokens: list[str], output: bool
+) -> tuple[str, bool] | None:
+    """Record a section line; return the name when its numbers are on the next line."""
+    name = tokens[0]
+    if not name.startswith("."):
+        return None
+    if len(tokens) < 3 or not tokens[1].startswith("0x"):
+        return (name, output)
+    section = Section(name, int(tokens[1], 16), int(tokens[2], 16))
+    if output:
+        linker_map.output_sections[name] = section
+    else:
+        linker_map.input_sections.append(section)
+    return None
+
+
+def image_from_map(
+    binary_path: str | Path,
+    map_path: str | Path,
+    init_symbol: str = DEFAULT_INIT_SYMBOL,
+    name: str | None = None,
+) -> ModuleImage:
+    """Build the module image of a raw binary, with the pointer slots and init from its map."""
+    binary_path, map_path = Path(binary_path), Path(map_path)
+    try:
+        data = binary_path.read_bytes()
+        linker_map = parse_map(map_path.read_text(encoding="utf-8", errors="replace"))
+    except OSError as error:
+        raise ModuleSourceError(f"cannot read: {error.strerror}", path=error.filename) from None
+    except ModuleSourceError as error:
+        raise error.with_path(map_path) from None
+    link_base = _required_symbol(linker_map, LINK_BASE_SYMBOL, map_path, "the link base")
+    init = _required_symbol(linker_map, init_symbol, map_path, "the init subroutine")
+    relocations = _descriptor_pointers(linker_map, data, link_base, map_path)
+    try:
+        return ModuleImage(
+            name or binary_path.stem,
+            link_base,
+            data,
+            tuple(relocations),
+            init,
+            linker_map.function_starts(),
+        )
+    except HexError as error:
+        raise error.with_path(binary_path) from None
+
+
+def _required_symbol(linker_map: LinkerMap, symbol: str, map_path: Path, role: str) -> int:
+    if symbol not in linker_map.symbols:
+        raise ModuleSourceError(f"expected the symbol {symbol!r} ({role}), got none", path=map_path)
+    return linker_map.symbols[symbol]
+
+
+def _descriptor_pointers(
+    linker_map: LinkerMap, data: bytes, link_base: int, map_path: Path
+) -> list[int]:
+    """Words of the descriptor section whose value is a function start from the map."""
+    descriptor = linker_map.output_sections.get(DESCRIPTOR_SECTION)
+    if descriptor is None or not descriptor.size:
+        raise ModuleSourceError(
+            f"expected an output section {DESCRIPTOR_SECTION} (the module descriptor), got none",
+            path=map_path,
+        )
+    if descriptor.address < link_base or descriptor.end > link_base + len(data):
+        raise ModuleSourceError(
+            f"expected {DESCRIPTOR_SECTION} at 0x{descriptor.address:08X}..0x{descriptor.end:08X} "
+            f"inside the binary (0x{link_base:08X}..0x{link_base + len(data):08X}), "
+            "got it outside: does the binary belong to this map?",
+            path=map_path,
+        )
+    starts = linker_map.function_starts()
+    offset = descriptor.address - link_base
+    return [
+        descriptor.address + position
+        for position in range(0, descriptor.size - 3, 4)
+        if int.from_bytes(data[offset + position : offset + position + 4], "little") in starts
+    ]

@@ -1,0 +1,116 @@
+"""Hypothesis: anything either parses or raises a HexError; mutated valid files are caught."""
+
+from __future__ import annotations
+
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from hexmigrate.errors import HexError
+from hexmigrate.image import ModuleImage
+from hexmigrate.records import HexContent, decode, encode
+
+HEX_ALPHABET = "0123456789ABCDEFabcdef:\r\n \tG"
+FUZZ = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+
+
+@st.composite
+def module_images(draw: st.DrawFn) -> ModuleImage:
+    """Random valid modules anywhere in the address space, pointers and init inside the data."""
+    data = draw(st.binary(min_size=4, max_size=600))
+    base = draw(st.integers(0, (1 << 32) - len(data)))
+    words = range(base, base + len(data) - 3)
+    relocations = draw(st.lists(st.sampled_from(words), unique=True, max_size=8))
+    init = draw(st.sampled_from(words))
+    return ModuleImage("fuzz", base, data, tuple(relocations), init)
+
+
+@FUZZ
+@given(st.text())
+def test_any_text_parses_or_raises_hex_error(text):
+    try:
+        decode(text)
+    except HexError:
+        pass
+
+
+@FUZZ
+@given(st.text(alphabet=HEX_ALPHABET, max_size=400))
+def test_hex_looking_text_parses_or_raises_hex_error(text):
+    try:
+        ModuleImage.from_hex(text, "fuzz")
+    except HexError:
+        pass
+
+
+@FUZZ
+@given(st.lists(st.binary(max_size=40), max_size=12), st.randoms())
+def test_checksummed_records_of_any_type_parse_or_raise_hex_error(bodies, random):
+    lines = []
+    for body in bodies:
+        record = bytes([len(body)]) + random.randbytes(2) + bytes([random.randrange(10)]) + body
+        lines.append(":" + (record + bytes([-sum(record) & 0xFF])).hex())
+    lines.append(":00000001FF")
+    try:
+        ModuleImage.from_hex("\n".join(lines), "fuzz")
+    except HexError:
+        pass
+
+
+@FUZZ
+@given(module_images(), st.sampled_from([16, 32]))
+def test_image_round_trip(image, record_size):
+    text = image.to_hex(record_size)
+    parsed = ModuleImage.from_hex(text, image.name)
+    assert parsed == image
+    assert parsed.to_hex(record_size) == text
+
+
+@FUZZ
+@given(module_images(), st.data())
+def test_flipped_digit_is_caught(image, data):
+    lines = image.to_hex().splitlines()
+    row = data.draw(st.integers(0, len(lines) - 1))
+    column = data.draw(st.integers(1, len(lines[row]) - 1))
+    old = lines[row][column]
+    new = data.draw(st.sampled_from([d for d in "0123456789ABCDEF" if d != old]))
+    lines[row] = lines[row][:column] + new + lines[row][column + 1 :]
+    try:
+        ModuleImage.from_hex("\n".join(lines), image.name)
+    except HexError:
+        return
+    raise AssertionError(f"flipping line {row + 1} column {column + 1} went unnoticed")
+
+
+@FUZZ
+@given(module_images(), st.data())
+def test_truncated_line_is_caught(image, data):
+    lines = image.to_hex().splitlines()
+    row = data.draw(st.integers(0, len(lines) - 1))
+    cut = data.draw(st.integers(1, len(lines[row]) - 1))
+    lines[row] = lines[row][:-cut]
+    try:
+        ModuleImage.from_hex("\n".join(lines), image.name)
+    except HexError:
+        return
+    raise AssertionError(f"cutting {cut} characters off line {row + 1} went unnoticed")
+
+
+@FUZZ
+@given(module_images(), st.data())
+def test_swapped_lines_are_caught_or_harmless(image, data):
+    lines = image.to_hex().splitlines()
+    first, second = sorted(
+        data.draw(st.lists(st.integers(0, len(lines) - 1), min_size=2, max_size=2, unique=True))
+    )
+    assume(lines[first] != lines[second])
+    lines[first], lines[second] = lines[second], lines[first]
+    try:
+        swapped = ModuleImage.from_hex("\n".join(lines), image.name)
+    except HexError:
+        return
+    # Pointer records (07/08) carry absolute addresses: their order does not matter.
+    assert swapped == image, f"swapping lines {first + 1} and {second + 1} changed the image"
+
+
+def test_content_without_data_round_trips():
+    assert decode(encode(HexContent(()))) == HexContent(())
