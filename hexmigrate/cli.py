@@ -75,7 +75,8 @@ def _route_difference(from_elf: ModuleImage, from_map: ModuleImage) -> str:
         only_map = sorted(set(from_map.relocations) - set(from_elf.relocations))
         return (
             "the ELF and the map route disagree on the relocations: only in the ELF "
-            f"{[f'0x{x:08X}' for x in only_elf]}, only in the map {[f'0x{x:08X}' for x in only_map]}"
+            f"{[f'0x{x:08X}' for x in only_elf]}, "
+            f"only in the map {[f'0x{x:08X}' for x in only_map]}"
         )
     return (
         f"the ELF and the map route disagree on init: ELF 0x{from_elf.init:08X}, "

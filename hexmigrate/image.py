@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from itertools import pairwise
 from pathlib import Path
 
 from hexmigrate.errors import (
@@ -62,10 +63,11 @@ class ModuleImage:
                 f"{len(self.data)} bytes at 0x{self.link_base:08X}"
             )
         relocations = tuple(sorted(self.relocations))
-        for first, second in zip(relocations, relocations[1:], strict=False):
+        for first, second in pairwise(relocations):
             if first == second:
                 raise DuplicateRelocationError(
-                    f"module {self.name!r}: expected each pointer word once, got 0x{first:08X} twice"
+                    f"module {self.name!r}: expected each pointer word once, "
+                    f"got 0x{first:08X} twice"
                 )
         object.__setattr__(self, "relocations", relocations)
         self._check_inside()
@@ -97,7 +99,7 @@ class ModuleImage:
         ordered = sorted(segments, key=lambda s: s.address)
         if not ordered:
             raise ModuleSourceError(f"module {name!r}: expected image data, got none")
-        for before, after in zip(ordered, ordered[1:], strict=False):
+        for before, after in pairwise(ordered):
             if after.address < before.end:
                 raise OverlapError(
                     f"module {name!r}: expected segments not to overlap, but the one at "

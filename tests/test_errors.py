@@ -66,7 +66,8 @@ CASES = [
         "bad_record_after_eof",
         errors.RecordAfterEofError,
         7,
-        "expected the end-of-file record on line 6 to be the last record, got another record after it",
+        "expected the end-of-file record on line 6 to be the last record, "
+        "got another record after it",
     ),
     (
         "bad_text_after_eof",
@@ -98,7 +99,8 @@ CASES = [
         "bad_multiple_init",
         errors.MultipleInitError,
         3,
-        "expected one module initialization pointer (08), got a second one (the first is on line 2)",
+        "expected one module initialization pointer (08), "
+        "got a second one (the first is on line 2)",
     ),
     (
         "bad_missing_init",
