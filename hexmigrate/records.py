@@ -31,6 +31,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from enum import IntEnum
 
+from hexmigrate.bulk import parse_well_formed
 from hexmigrate.errors import (
     AddressFieldError,
     AddressOverflowError,
@@ -39,6 +40,7 @@ from hexmigrate.errors import (
     ChecksumError,
     DuplicateRelocationError,
     DuplicateStartAddressError,
+    HexError,
     InitOutsideImageError,
     MissingEofError,
     MultipleInitError,
@@ -305,9 +307,8 @@ class _Decoder:
         else:
             self.start_linear = record.value
 
-    def finish(self) -> HexContent:
-        """Merge the data chunks into segments and check the pointers against them."""
-        segments = _merge(self.chunks)
+    def finish(self, segments: tuple[Segment, ...]) -> HexContent:
+        """Check the pointers against the data segments and give the file's content."""
         content = HexContent(
             segments=segments,
             relocations=tuple(self.relocations),
@@ -394,23 +395,35 @@ def decode(text: str) -> HexContent:
 
     Accepts Unix and Windows line endings, lower-case digits and blank lines after the end-of-file
     record. Raises a `HexError` subclass, with the line number, on anything else that is wrong.
+    Well-formed files take the vectorised path of `hexmigrate.bulk`; anything it cannot prove
+    well formed goes line by line, which reports the first error exactly.
     """
     lines = text.splitlines()
-    count = len(lines)
-    while count and not lines[count - 1].strip():
-        count -= 1
+    while lines and not lines[-1].strip():
+        lines.pop()
+    parsed = parse_well_formed(lines)
+    if parsed is not None:
+        try:
+            decoder = _Decoder()
+            for line_number, raw in parsed.others:
+                decoder.apply(_check_record(raw, line_number), line_number)
+            return decoder.finish(join_contiguous(parsed.pieces))
+        except HexError:
+            pass  # the line-by-line decoder below raises the first error in file order
+    return _decode_lines(lines)
+
+
+def _decode_lines(lines: list[str]) -> HexContent:
+    """The reference decoder: one line at a time, raising the first error in file order."""
     decoder = _Decoder()
     chunks = decoder.chunks
-    fromhex = bytes.fromhex
-    well_formed = _is_well_formed
     end = 0
-    for index in range(count):
-        line = lines[index]
+    for index, line in enumerate(lines):
         try:
-            raw = fromhex(line[1:])
+            raw = bytes.fromhex(line[1:])
         except ValueError:
             raw = b""
-        if not well_formed(line, raw):
+        if not _is_well_formed(line, raw):
             _diagnose(line, index + 1)
         if raw[3] == RecordType.DATA:
             if raw[0]:
@@ -422,12 +435,12 @@ def decode(text: str) -> HexContent:
             continue
         record = _check_record(raw, index + 1)
         if record.type is RecordType.EOF:
-            _check_after_eof(lines[index + 1 : count], index + 1)
-            return decoder.finish()
+            _check_after_eof(lines[index + 1 :], index + 1)
+            return decoder.finish(_merge(chunks))
         decoder.apply(record, index + 1)
     raise MissingEofError(
         "expected an end-of-file record (:00000001FF) as the last record, got none",
-        line=count or None,
+        line=len(lines) or None,
     )
 
 

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from hexmigrate.errors import HexError
 from hexmigrate.image import ModuleImage
-from hexmigrate.records import HexContent, decode, encode
+from hexmigrate.records import HexContent, _decode_lines, decode, encode
 
 HEX_ALPHABET = "0123456789ABCDEFabcdef:\r\n \tG"
 FUZZ = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -110,3 +110,45 @@ def test_swapped_lines_are_caught_or_harmless(image, data):
 
 def test_content_without_data_round_trips():
     assert decode(encode(HexContent(()))) == HexContent(())
+
+
+def outcome(decoder, text: str):
+    """What a decoder makes of `text`: the content, or the error's class and message."""
+    try:
+        return decoder(text)
+    except HexError as error:
+        return type(error), error.message, error.line
+
+
+def line_by_line(text: str) -> HexContent:
+    lines = text.splitlines()
+    while lines and not lines[-1].strip():
+        lines.pop()
+    return _decode_lines(lines)
+
+
+@st.composite
+def mutated_files(draw: st.DrawFn) -> str:
+    """A valid module file with zero to three random character edits, line swaps or cuts."""
+    lines = draw(module_images()).to_hex(draw(st.sampled_from([16, 32]))).splitlines()
+    for _ in range(draw(st.integers(0, 3))):
+        row = draw(st.integers(0, len(lines) - 1))
+        kind = draw(st.sampled_from(["char", "swap", "cut", "drop"]))
+        if kind == "char":
+            column = draw(st.integers(0, len(lines[row])))
+            char = draw(st.sampled_from("0123456789ABCDEFa: \tx"))
+            lines[row] = lines[row][:column] + char + lines[row][column + 1 :]
+        elif kind == "swap":
+            other = draw(st.integers(0, len(lines) - 1))
+            lines[row], lines[other] = lines[other], lines[row]
+        elif kind == "cut":
+            lines[row] = lines[row][: draw(st.integers(0, len(lines[row])))]
+        elif len(lines) > 1:
+            del lines[row]
+    return "\n".join(lines)
+
+
+@FUZZ
+@given(st.one_of(mutated_files(), st.text(alphabet=HEX_ALPHABET, max_size=300)))
+def test_fast_path_and_line_by_line_decoder_agree(text):
+    assert outcome(decode, text) == outcome(line_by_line, text)
