@@ -24,7 +24,11 @@ EXIT_USAGE = 2
 
 
 class CommandError(Exception):
-    """A failure the user can fix, reported as one ``error:`` line."""
+    """A failure the user can fix, reported as one ``error:`` line (exit status 1)."""
+
+
+class UsageError(CommandError):
+    """Arguments that do not go together, reported like argparse's own (exit status 2)."""
 
 
 def address(text: str) -> int:
@@ -43,20 +47,20 @@ def address(text: str) -> int:
 def cmd_pack(args: argparse.Namespace) -> int:
     """Build a module file from an ELF, or from a raw binary and its map (the paper's route)."""
     if (args.map is None) != (args.bin is None):
-        raise CommandError("--map and --bin go together: the map route needs both files")
+        raise UsageError("--map and --bin go together: the map route needs both files")
     if args.elf is None and args.map is None:
-        raise CommandError("expected MODULE.elf, or --map MODULE.map --bin MODULE.bin")
+        raise UsageError("expected MODULE.elf, or --map MODULE.map --bin MODULE.bin")
     images = []
     if args.elf is not None:
-        images.append(image_from_elf(args.elf, args.init, args.name))
+        images.append(image_from_elf(args.elf, args.init))
     if args.map is not None:
-        images.append(image_from_map(args.bin, args.map, args.init, args.name))
+        images.append(image_from_map(args.bin, args.map, args.init))
     if len(images) == 2 and images[0] != images[1]:
         raise CommandError(_route_difference(images[0], images[1]))
     image = images[-1]
     image.write(args.output, args.record_size)
     print(
-        f"{args.output}: module {image.name}, {image.size} bytes at 0x{image.link_base:08X}, "
+        f"{args.output}: module {args.output.stem}, {image.size} bytes at 0x{image.link_base:08X}, "
         f"{len(image.relocations)} relocations, init 0x{image.init:08X}"
     )
     return 0
@@ -156,11 +160,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=16,
         help="data bytes per record (default: 16)",
     )
-    pack.add_argument("--name", help="module name (default: the input file's stem)")
     pack.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.hex")
     pack.set_defaults(func=cmd_pack)
 
-    inspect = commands.add_parser("inspect", help="show segments, flash blocks, relocations, init")
+    inspect = commands.add_parser(
+        "inspect", help="show size, flash blocks, descriptor, relocations, init"
+    )
     inspect.add_argument("file", type=Path, metavar="FILE.hex")
     inspect.add_argument("--json", action="store_true", help="print the report as JSON")
     inspect.set_defaults(func=cmd_inspect)
@@ -181,9 +186,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status."""
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
     try:
         return args.func(args)
+    except UsageError as error:
+        parser.error(str(error))
     except (HexError, CommandError, OSError) as error:
         if args.debug:
             traceback.print_exc()

@@ -23,7 +23,8 @@ METHODS = ("init", "on", "cycle", "off", "kill", "error", "clear", "evaluate", "
 _HEADER = struct.Struct(f"<IHH{NAME_LEN}sI")
 _PORT = struct.Struct(f"<{PORT_NAME_LEN}sBBHI")
 _METHODS = struct.Struct(f"<{len(METHODS)}I")
-METHODS_OFFSET = _HEADER.size + MAX_PORTS * _PORT.size
+PORT_SIZE = _PORT.size
+METHODS_OFFSET = _HEADER.size + MAX_PORTS * PORT_SIZE
 SIZE = METHODS_OFFSET + _METHODS.size
 
 PORT_DIRECTIONS = ("in", "out", "const", "resource")
@@ -82,7 +83,7 @@ def method_slot(offset: int) -> str | None:
 
 def _decode_port(data: bytes, index: int) -> PortSpec:
     name, direction, kind, element_size, size_bytes = _PORT.unpack_from(
-        data, _HEADER.size + index * _PORT.size
+        data, _HEADER.size + index * PORT_SIZE
     )
     if direction >= len(PORT_DIRECTIONS) or kind >= len(PORT_TYPES):
         raise DescriptorError(

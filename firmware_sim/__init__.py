@@ -1,0 +1,1 @@
+"""The emulated node package; the module SDK lives in `firmware_sim.sdk`."""

@@ -1,0 +1,162 @@
+"""Build migrating modules: C source -> object, ELF, map file, raw binary and plain Intel HEX.
+
+The flow is the reproducible one from the toolchain notes: compile with ``-c``, then link in a
+second call (a one-step build puts a random temporary object name into the map file). Every tool
+runs in the output directory with relative file names, and ``-ffile-prefix-map`` strips the
+source directory from the object's file symbol, so the outputs are byte-identical whatever the
+output directory and wherever the checkout lives.
+
+Usage: ``python -m firmware_sim.sdk.build --out DIR [SOURCE.c ...]`` (default: all examples).
+"""
+
+import argparse
+import shutil
+import subprocess
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+SDK_DIR = Path(__file__).resolve().parent
+EXAMPLES_DIR = SDK_DIR / "examples"
+LINKER_SCRIPT = SDK_DIR / "module.ld"
+
+GCC = "riscv64-unknown-elf-gcc"
+OBJCOPY = "riscv64-unknown-elf-objcopy"
+# The Debian package that provides each tool (objcopy comes with the compiler's binutils).
+_PACKAGES = {GCC: "gcc-riscv64-unknown-elf", OBJCOPY: "binutils-riscv64-unknown-elf"}
+
+# Both steps must agree on the ISA and ABI: the linker refuses to mix them.
+_TARGET = ["-march=rv32im", "-mabi=ilp32"]
+_COMPILE_FLAGS = [
+    *_TARGET,
+    "-mcmodel=medany",  # PC-relative code: only descriptor words need fixing when the image moves
+    "-Os",
+    "-nostdlib",
+    "-ffreestanding",
+    "-ffunction-sections",  # one .text.<function> input section each, named in the map file
+    "-fno-asynchronous-unwind-tables",
+    "-fno-unwind-tables",
+    "-fno-common",  # tentative definitions become .bss, which the linker script rejects
+    "-Wall",
+    "-Wextra",
+    "-Werror",
+]
+
+
+class BuildError(RuntimeError):
+    """A module could not be built: a missing tool, a missing source, or a tool that failed."""
+
+
+@dataclass(frozen=True)
+class ModuleBuild:
+    """The files one module build produced, all in the same output directory."""
+
+    name: str
+    elf: Path
+    map: Path
+    bin: Path
+    objcopy_hex: Path
+
+
+def _tool(name: str) -> str:
+    """Find a cross tool on PATH, or say which Debian package installs it."""
+    path = shutil.which(name)
+    if path is None:
+        raise BuildError(
+            f"{name} not found on PATH: install it with "
+            f"`apt-get install {_PACKAGES[name]}` (as root, after `apt-get update`)"
+        )
+    return path
+
+
+def _run(command: list[str], step: str, cwd: Path) -> None:
+    """Run one tool in the output directory; a failure carries the tool's own diagnostics."""
+    result = subprocess.run(command, cwd=cwd, capture_output=True, text=True, check=False)
+    if result.returncode != 0:
+        output = (result.stderr + result.stdout).strip()
+        raise BuildError(
+            f"{Path(command[0]).name} failed {step} in {cwd} "
+            f"(exit status {result.returncode}):\n{output}"
+        )
+
+
+def build_module(source: Path, out_dir: Path) -> ModuleBuild:
+    """Compile and link one module source into ``out_dir``, named after the source's stem.
+
+    Produces NAME.o, NAME.elf (with --emit-relocs, so every absolute pointer word is listed as an
+    R_RISCV_32 relocation), NAME.map, NAME.bin (the image bytes from the link base) and
+    NAME.objcopy.hex (objcopy's plain Intel HEX, a reference for the extended HEX writer).
+    """
+    source = source.resolve()
+    if not source.is_file():
+        raise BuildError(f"module source {source} does not exist")
+    gcc = _tool(GCC)
+    objcopy = _tool(OBJCOPY)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise BuildError(f"cannot create output directory {out_dir}: {error.strerror}") from error
+    out_dir = out_dir.resolve()
+
+    name = source.stem
+    obj, elf, map_file = f"{name}.o", f"{name}.elf", f"{name}.map"
+    binary, hex_file = f"{name}.bin", f"{name}.objcopy.hex"
+    # The file symbol would otherwise hold the source's absolute path.
+    source_prefix = f"-ffile-prefix-map={source.parent}/="
+    compile_command = [gcc, *_COMPILE_FLAGS, f"-I{SDK_DIR}", source_prefix, "-c", str(source)]
+    _run([*compile_command, "-o", obj], f"compiling {source.name}", out_dir)
+    link_flags = ["-nostdlib", "-T", str(LINKER_SCRIPT), "-Wl,--emit-relocs"]
+    link_outputs = [f"-Wl,-Map={map_file}", "-Wl,--build-id=none", obj, "-o", elf]
+    _run([gcc, *_TARGET, *link_flags, *link_outputs], f"linking {elf}", out_dir)
+    _run([objcopy, "-O", "binary", elf, binary], f"writing {binary}", out_dir)
+    _run([objcopy, "-O", "ihex", elf, hex_file], f"writing {hex_file}", out_dir)
+    return ModuleBuild(
+        name=name,
+        elf=out_dir / elf,
+        map=out_dir / map_file,
+        bin=out_dir / binary,
+        objcopy_hex=out_dir / hex_file,
+    )
+
+
+def example_sources() -> list[Path]:
+    """The example modules shipped with the SDK, in a stable (sorted) order."""
+    return sorted(EXAMPLES_DIR.glob("*.c"))
+
+
+def build_examples(out_dir: Path) -> list[ModuleBuild]:
+    """Build every example module into ``out_dir``."""
+    return [build_module(source, out_dir) for source in example_sources()]
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Command line: build modules and print one line per module; ``error: ...`` on failure."""
+    parser = argparse.ArgumentParser(
+        prog="python -m firmware_sim.sdk.build",
+        description="Build migrating modules (C for RV32IM) into ELF, map, binary and Intel HEX.",
+    )
+    parser.add_argument("--out", type=Path, required=True, help="output directory")
+    parser.add_argument(
+        "sources", nargs="*", type=Path, metavar="SOURCE.c", help="default: the SDK's examples"
+    )
+    parser.add_argument("--debug", action="store_true", help="show a traceback on errors")
+    args = parser.parse_args(argv)
+    sources = args.sources or example_sources()
+    try:
+        for source in sources:
+            built = build_module(source, args.out)
+            print(
+                f"{built.name}: elf={built.elf} map={built.map} bin={built.bin} "
+                f"hex={built.objcopy_hex}"
+            )
+    except BuildError as error:
+        if args.debug:
+            raise
+        print(f"error: {error}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,201 @@
+/*
+ * moving_average - smooths its input: y = mean of the last 8 samples of x, signed Q16.16.
+ *
+ * Ports: x (variable input), y (variable output). The window is a ring buffer in ctx->state;
+ * the first sample after on or error fills the whole window, so the output starts at the
+ * input instead of ramping up from 0.
+ * Evaluator: functional value 0 = the mean absolute deviation of the window from y (how much the
+ * filter smooths away: large when the input is noisy); non-functional value 0 = power in mW from
+ * a per-cycle energy and the measured cycle period. Estimator: the same filter on its own context
+ * and ports, then the functional value.
+ */
+#include "pbo_module.h"
+
+enum { PORT_X, PORT_Y, PORT_COUNT };
+
+#define WINDOW_LOG2 3u             /* a power of two: the ring index wraps with a mask */
+#define WINDOW (1u << WINDOW_LOG2) /* 8 samples */
+#define IDLE_POWER_MILLI_MW 500u   /* 0.5 mW while the module is loaded */
+#define ENERGY_PER_CYCLE_NJ 90u    /* energy of one cycle: port copies and a sum of 8 samples */
+
+struct ma_state {
+    int32_t window[WINDOW]; /* the latest samples; meaningless until primed */
+    uint32_t next;          /* ring index the next sample goes to */
+    uint32_t last_cycle_us; /* node time of the latest cycle */
+    uint32_t period_us;     /* time between the two latest cycles; 0 until measured */
+    uint8_t primed;         /* the window holds samples */
+    uint8_t timed;          /* last_cycle_us is valid */
+};
+
+/* Forget the samples: the next one fills the window. */
+static void reset_window(struct ma_state *s)
+{
+    s->next = 0;
+    s->primed = 0;
+}
+
+static void reset_timing(struct ma_state *s)
+{
+    s->last_cycle_us = 0;
+    s->period_us = 0;
+    s->timed = 0;
+}
+
+static int32_t window_mean(const struct ma_state *s)
+{
+    int64_t sum = 0;
+    for (uint32_t i = 0; i < WINDOW; i++) {
+        sum += s->window[i];
+    }
+    /* / WINDOW rounded, as a shift: a 64-bit divide would need libgcc, which modules lack */
+    return (int32_t)((sum + WINDOW / 2) >> WINDOW_LOG2);
+}
+
+static int32_t ma_init(struct pbo_context *ctx)
+{
+    reset_window(ctx->state);
+    reset_timing(ctx->state);
+    return PBO_OK;
+}
+
+/* Each run starts from fresh samples: old ones may be from long ago. Timing was reset by off. */
+static int32_t ma_on(struct pbo_context *ctx)
+{
+    reset_window(ctx->state);
+    return PBO_OK;
+}
+
+static int32_t ma_cycle(struct pbo_context *ctx)
+{
+    struct ma_state *s = ctx->state;
+    int32_t x;
+    int32_t y;
+    uint32_t now;
+
+    if (pbo_sys_port_read(ctx, PORT_X, &x, sizeof x) != (int32_t)sizeof x) {
+        return PBO_ERR_INVALID;
+    }
+    if (!s->primed) {
+        for (uint32_t i = 0; i < WINDOW; i++) {
+            s->window[i] = x;
+        }
+        s->primed = 1;
+    }
+    s->window[s->next] = x;
+    s->next = (s->next + 1u) & (WINDOW - 1u);
+    y = window_mean(s);
+    if (pbo_sys_port_write(ctx, PORT_Y, &y, sizeof y) != (int32_t)sizeof y) {
+        return PBO_ERR_INVALID;
+    }
+
+    now = pbo_sys_time_us();
+    if (s->timed) {
+        s->period_us = now - s->last_cycle_us; /* unsigned: correct across the 32-bit wrap */
+    }
+    s->last_cycle_us = now;
+    s->timed = 1;
+    return PBO_OK;
+}
+
+/* Switched off: the next on must not count the pause as a cycle period. */
+static int32_t ma_off(struct pbo_context *ctx)
+{
+    reset_timing(ctx->state);
+    return PBO_OK;
+}
+
+static int32_t ma_kill(struct pbo_context *ctx)
+{
+    (void)ctx;
+    PBO_LOG("moving_average: killed");
+    return PBO_OK;
+}
+
+/* A cycle failed: the window may hold a bad sample, so drop it. */
+static int32_t ma_error(struct pbo_context *ctx)
+{
+    PBO_LOG("moving_average: error, window dropped");
+    reset_window(ctx->state);
+    return PBO_OK;
+}
+
+/* Back to off: error already dropped the window; restart the period measurement like off. */
+static int32_t ma_clear(struct pbo_context *ctx)
+{
+    reset_timing(ctx->state);
+    return PBO_OK;
+}
+
+/* Mean |window[i] - y| in thousandths, from the state and output port the last cycle left. */
+static int32_t deviation_milli(const struct pbo_context *ctx)
+{
+    const struct ma_state *s = ctx->state;
+    int64_t y = *(const int32_t *)ctx->ports[PORT_Y];
+    uint64_t total = 0;
+
+    if (!s->primed) {
+        return 0;
+    }
+    for (uint32_t i = 0; i < WINDOW; i++) {
+        int64_t diff = s->window[i] - y;
+        total += (uint64_t)(diff < 0 ? -diff : diff);
+    }
+    /* total < WINDOW * 2^32, so total * 1000 fits; the shift is / WINDOW and leaves Q16.16 */
+    return (int32_t)((total * 1000u) >> (WINDOW_LOG2 + 16u));
+}
+
+/*
+ * Evaluator: observes the executor's context right after its cycle and writes nothing.
+ * Power in thousandths of a mW: idle power plus ENERGY_PER_CYCLE_NJ nJ every period_us us,
+ * i.e. 1000 * nJ / us thousandths of a mW.
+ */
+static int32_t ma_evaluate(struct pbo_context *ctx)
+{
+    const struct ma_state *s = ctx->state;
+    uint32_t power = IDLE_POWER_MILLI_MW;
+
+    if (s->period_us != 0) {
+        power += 1000u * ENERGY_PER_CYCLE_NJ / s->period_us;
+    }
+    pbo_sys_perf_report(ctx, PBO_PERF_FUNCTIONAL, 0, deviation_milli(ctx));
+    pbo_sys_perf_report(ctx, PBO_PERF_NON_FUNCTIONAL, 0, (int32_t)power);
+    return PBO_OK;
+}
+
+/*
+ * Estimator: runs the filter on its own context (its own window and ports) and reports the
+ * functional value; like the paper's E-PBO estimator it reports no non-functional value, since
+ * only configurations known to be feasible are estimated.
+ */
+static int32_t ma_estimate(struct pbo_context *ctx)
+{
+    int32_t status = ma_cycle(ctx);
+    if (status != PBO_OK) {
+        return status;
+    }
+    pbo_sys_perf_report(ctx, PBO_PERF_FUNCTIONAL, 0, deviation_milli(ctx));
+    return PBO_OK;
+}
+
+static const struct pbo_descriptor ma_descriptor PBO_DESCRIPTOR = {
+    .magic = PBO_MAGIC,
+    .abi_version = PBO_ABI_VERSION,
+    .port_count = PORT_COUNT,
+    .name = "moving_average",
+    .state_size = sizeof(struct ma_state),
+    .ports = {
+        [PORT_X] = {"x", PBO_PORT_IN, PBO_SCALAR, sizeof(int32_t), sizeof(int32_t)},
+        [PORT_Y] = {"y", PBO_PORT_OUT, PBO_SCALAR, sizeof(int32_t), sizeof(int32_t)},
+    },
+    .init = ma_init,
+    .on = ma_on,
+    .cycle = ma_cycle,
+    .off = ma_off,
+    .kill = ma_kill,
+    .error = ma_error,
+    .clear = ma_clear,
+    .evaluate = ma_evaluate,
+    .estimate = ma_estimate,
+};
+
+PBO_MODULE(ma_descriptor)

@@ -1,0 +1,223 @@
+/*
+ * pbo_module.h - the ABI between a migrating module (guest code) and the PBO/RT kernel.
+ *
+ * A module is C compiled for RV32IM with -mcmodel=medany and no libc, linked at the link base
+ * by module.ld. The node loads it anywhere in flash, fixes the descriptor's method pointers
+ * (the only absolute words in the image) and calls module_init, which hands the descriptor to
+ * the kernel. From then on the kernel calls the methods, each with a context it built in SRAM.
+ *
+ * This header mirrors docs/module-abi.md; change both together and bump PBO_ABI_VERSION when
+ * a layout or a service changes.
+ *
+ * Freestanding C99 (plus _Static_assert and GNU inline asm): only <stdint.h> and <stddef.h>.
+ */
+#ifndef PBO_MODULE_H
+#define PBO_MODULE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#define PBO_ABI_VERSION 1
+#define PBO_MAGIC 0x314F4250u /* "PBO1" as a little-endian word */
+#define PBO_NAME_LEN 16       /* module name, NUL-terminated: at most 15 characters */
+#define PBO_PORT_NAME_LEN 12  /* port name, NUL-terminated: at most 11 characters */
+#define PBO_MAX_PORTS 8
+
+/* Port direction, after Stewart's port-based objects. */
+enum pbo_port_direction {
+    PBO_PORT_IN = 0,       /* variable input: filled from the state-variable table before cycle */
+    PBO_PORT_OUT = 1,      /* variable output: copied to the state-variable table after cycle */
+    PBO_PORT_CONST = 2,    /* configuration constant: set by whoever configures the module */
+    PBO_PORT_RESOURCE = 3, /* resource: a sensor or actuator behind a peripheral driver */
+};
+
+/* What a port carries; element_size and size_bytes give the shape. */
+enum pbo_port_type {
+    PBO_SCALAR = 0, /* one element: size_bytes == element_size */
+    PBO_VECTOR = 1, /* size_bytes / element_size elements */
+    PBO_FRAME = 2,  /* an image frame: element_size bytes per pixel */
+};
+
+/* Method results and the kernel services' negative results. */
+enum pbo_status {
+    PBO_OK = 0,
+    PBO_ERR_INVALID = -1,   /* bad argument: port index, direction, pointer or length */
+    PBO_ERR_ABI = -2,       /* descriptor with a wrong magic or ABI version */
+    PBO_ERR_NO_MEMORY = -3, /* no SRAM left for the state or the port buffers */
+    PBO_ERR_EXISTS = -4,    /* a module with this name is already registered */
+};
+
+struct pbo_port {
+    char name[PBO_PORT_NAME_LEN];
+    uint8_t direction;     /* enum pbo_port_direction */
+    uint8_t type;          /* enum pbo_port_type */
+    uint16_t element_size; /* bytes per element */
+    uint32_t size_bytes;   /* bytes of the whole port buffer */
+};
+
+/*
+ * Built by the kernel in SRAM for one instance of a module. state points to state_size bytes
+ * (NULL when state_size is 0); ports[i] is the buffer of descriptor port i (size_bytes bytes) and
+ * NULL for i >= port_count. All are 8-byte aligned and zero-filled when the context is built,
+ * before init. The estimator gets a context of its own, with its own state and port buffers, so
+ * estimating never disturbs the running executor.
+ */
+struct pbo_context {
+    void *state;
+    void *ports[PBO_MAX_PORTS];
+};
+
+/* Every method: PBO_OK (0) on success, a negative value on error. */
+typedef int32_t (*pbo_method)(struct pbo_context *ctx);
+
+/*
+ * The module descriptor: const, in section .pbo_descriptor (see PBO_DESCRIPTOR). It holds no
+ * pointer other than the nine method pointers, so that the words the loader must relocate are
+ * exactly the descriptor words that hold a function start address. An absent method is NULL.
+ */
+struct pbo_descriptor {
+    uint32_t magic;       /* PBO_MAGIC */
+    uint16_t abi_version; /* PBO_ABI_VERSION */
+    uint16_t port_count;  /* ports[0 .. port_count-1] are used, the rest are zero */
+    char name[PBO_NAME_LEN];
+    uint32_t state_size; /* bytes of ctx->state the kernel allocates */
+    struct pbo_port ports[PBO_MAX_PORTS];
+    pbo_method init;     /* once, after the kernel built the context */
+    pbo_method on;       /* when the module is switched on, before its first cycle */
+    pbo_method cycle;    /* once per period while on */
+    pbo_method off;      /* when the module is switched off */
+    pbo_method kill;     /* once, before the kernel frees the context */
+    pbo_method error;    /* after a method failed: reach a safe state */
+    pbo_method clear;    /* to leave the error state: back to a clean off state */
+    pbo_method evaluate; /* evaluator: right after each cycle, on the executor's context */
+    pbo_method estimate; /* estimator: on demand, on its own context */
+};
+
+_Static_assert(sizeof(void *) == 4, "the module ABI is for RV32 (ilp32)");
+_Static_assert(sizeof(pbo_method) == 4, "method pointers are 32-bit words");
+
+_Static_assert(sizeof(struct pbo_port) == 20, "struct pbo_port is 20 bytes");
+_Static_assert(offsetof(struct pbo_port, name) == 0, "pbo_port.name at 0");
+_Static_assert(offsetof(struct pbo_port, direction) == 12, "pbo_port.direction at 12");
+_Static_assert(offsetof(struct pbo_port, type) == 13, "pbo_port.type at 13");
+_Static_assert(offsetof(struct pbo_port, element_size) == 14, "pbo_port.element_size at 14");
+_Static_assert(offsetof(struct pbo_port, size_bytes) == 16, "pbo_port.size_bytes at 16");
+
+_Static_assert(sizeof(struct pbo_context) == 36, "struct pbo_context is 36 bytes");
+_Static_assert(offsetof(struct pbo_context, state) == 0, "pbo_context.state at 0");
+_Static_assert(offsetof(struct pbo_context, ports) == 4, "pbo_context.ports at 4");
+
+_Static_assert(sizeof(struct pbo_descriptor) == 224, "struct pbo_descriptor is 224 bytes");
+_Static_assert(offsetof(struct pbo_descriptor, magic) == 0, "descriptor.magic at 0");
+_Static_assert(offsetof(struct pbo_descriptor, abi_version) == 4, "descriptor.abi_version at 4");
+_Static_assert(offsetof(struct pbo_descriptor, port_count) == 6, "descriptor.port_count at 6");
+_Static_assert(offsetof(struct pbo_descriptor, name) == 8, "descriptor.name at 8");
+_Static_assert(offsetof(struct pbo_descriptor, state_size) == 24, "descriptor.state_size at 24");
+_Static_assert(offsetof(struct pbo_descriptor, ports) == 28, "descriptor.ports at 28");
+_Static_assert(offsetof(struct pbo_descriptor, init) == 188, "descriptor.init at 188");
+_Static_assert(offsetof(struct pbo_descriptor, on) == 192, "descriptor.on at 192");
+_Static_assert(offsetof(struct pbo_descriptor, cycle) == 196, "descriptor.cycle at 196");
+_Static_assert(offsetof(struct pbo_descriptor, off) == 200, "descriptor.off at 200");
+_Static_assert(offsetof(struct pbo_descriptor, kill) == 204, "descriptor.kill at 204");
+_Static_assert(offsetof(struct pbo_descriptor, error) == 208, "descriptor.error at 208");
+_Static_assert(offsetof(struct pbo_descriptor, clear) == 212, "descriptor.clear at 212");
+_Static_assert(offsetof(struct pbo_descriptor, evaluate) == 216, "descriptor.evaluate at 216");
+_Static_assert(offsetof(struct pbo_descriptor, estimate) == 220, "descriptor.estimate at 220");
+
+/*
+ * Kernel services, called with ecall: service number in a7, arguments in a0..a3, result in a0.
+ * The port services return PBO_ERR_INVALID for an unknown context, a port index >= port_count, a
+ * write to an IN or CONST port, or a buffer outside the node's memory.
+ * The table in docs/module-abi.md is the reference; keep the two identical.
+ */
+enum pbo_service {
+    /* (const struct pbo_descriptor *d) -> PBO_OK or a negative enum pbo_status */
+    PBO_SYS_REGISTER = 1,
+    /* (ctx, port_index, void *dst, uint32_t len) -> bytes copied, min(len, size_bytes); any port */
+    PBO_SYS_PORT_READ = 2,
+    /* (ctx, port_index, const void *src, uint32_t len) -> bytes copied; OUT and RESOURCE ports */
+    PBO_SYS_PORT_WRITE = 3,
+    /* () -> low 32 bits of the node's virtual time in microseconds */
+    PBO_SYS_TIME_US = 4,
+    /* (const char *text, uint32_t len) -> 0; text need not be NUL-terminated */
+    PBO_SYS_LOG = 5,
+    /* (ctx, kind, index, int32_t value_milli) -> 0; kind is enum pbo_perf_kind */
+    PBO_SYS_PERF_REPORT = 6,
+};
+
+/* The kind of a performance report; value_milli is the value in thousandths of its unit. */
+enum pbo_perf_kind {
+    PBO_PERF_FUNCTIONAL = 0,     /* how well the module does its job, e.g. an output error */
+    PBO_PERF_NON_FUNCTIONAL = 1, /* the resources it costs, e.g. power in mW */
+};
+
+/* One ecall; the services ignore the arguments they do not take. */
+static inline uint32_t pbo_ecall(uint32_t service, uint32_t arg0, uint32_t arg1, uint32_t arg2,
+                                 uint32_t arg3)
+{
+    register uint32_t a0 __asm__("a0") = arg0;
+    register uint32_t a1 __asm__("a1") = arg1;
+    register uint32_t a2 __asm__("a2") = arg2;
+    register uint32_t a3 __asm__("a3") = arg3;
+    register uint32_t a7 __asm__("a7") = service;
+    __asm__ volatile("ecall" : "+r"(a0) : "r"(a1), "r"(a2), "r"(a3), "r"(a7) : "memory");
+    return a0;
+}
+
+static inline int32_t pbo_sys_register(const struct pbo_descriptor *d)
+{
+    return (int32_t)pbo_ecall(PBO_SYS_REGISTER, (uint32_t)(uintptr_t)d, 0, 0, 0);
+}
+
+static inline int32_t pbo_sys_port_read(struct pbo_context *ctx, uint32_t port_index, void *dst,
+                                        uint32_t len)
+{
+    return (int32_t)pbo_ecall(PBO_SYS_PORT_READ, (uint32_t)(uintptr_t)ctx, port_index,
+                              (uint32_t)(uintptr_t)dst, len);
+}
+
+static inline int32_t pbo_sys_port_write(struct pbo_context *ctx, uint32_t port_index,
+                                         const void *src, uint32_t len)
+{
+    return (int32_t)pbo_ecall(PBO_SYS_PORT_WRITE, (uint32_t)(uintptr_t)ctx, port_index,
+                              (uint32_t)(uintptr_t)src, len);
+}
+
+static inline uint32_t pbo_sys_time_us(void)
+{
+    return pbo_ecall(PBO_SYS_TIME_US, 0, 0, 0, 0);
+}
+
+static inline int32_t pbo_sys_log(const char *text, uint32_t len)
+{
+    return (int32_t)pbo_ecall(PBO_SYS_LOG, (uint32_t)(uintptr_t)text, len, 0, 0);
+}
+
+static inline int32_t pbo_sys_perf_report(struct pbo_context *ctx, enum pbo_perf_kind kind,
+                                          uint32_t index, int32_t value_milli)
+{
+    return (int32_t)pbo_ecall(PBO_SYS_PERF_REPORT, (uint32_t)(uintptr_t)ctx, (uint32_t)kind,
+                              index, (uint32_t)value_milli);
+}
+
+/* Logs a string literal without its NUL. */
+#define PBO_LOG(literal) pbo_sys_log((literal), (uint32_t)(sizeof(literal) - 1u))
+
+/* Marks the module's one descriptor:
+ *     static const struct pbo_descriptor my_descriptor PBO_DESCRIPTOR = {...};
+ */
+#define PBO_DESCRIPTOR __attribute__((section(".pbo_descriptor"), used, aligned(4)))
+
+/*
+ * Defines the module's registration subroutine, module_init: the image's entry point, linked
+ * first at the link base and named by the HEX file's 08 record. It only registers the descriptor;
+ * the kernel then builds the context and calls init.
+ */
+#define PBO_MODULE(descriptor_variable)                                                            \
+    void module_init(void) __attribute__((section(".text.module_init")));                          \
+    void module_init(void)                                                                         \
+    {                                                                                              \
+        (void)pbo_sys_register(&(descriptor_variable));                                            \
+    }
+
+#endif /* PBO_MODULE_H */

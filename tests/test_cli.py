@@ -1,0 +1,149 @@
+"""The `hexmigrate` command as a user runs it: output, exit codes, error lines."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from hexmigrate.elf import image_from_elf
+from hexmigrate.image import ModuleImage
+
+HEXMIGRATE = Path(sys.executable).with_name("hexmigrate")
+
+
+def run(*args: object) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "hexmigrate", *map(str, args)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+
+
+@pytest.fixture
+def packed(example_builds, tmp_path) -> Path:
+    out = tmp_path / "gain.hex"
+    result = run("pack", example_builds["gain"].elf, "-o", out)
+    assert result.returncode == 0, result.stderr
+    return out
+
+
+def test_console_script_is_installed():
+    result = subprocess.run([HEXMIGRATE, "--help"], capture_output=True, text=True, check=False)
+    assert result.returncode == 0
+    for command in ("pack", "inspect", "verify", "relocate"):
+        assert command in result.stdout
+
+
+def test_pack_from_elf_and_from_map_agree(example_builds, tmp_path, packed):
+    gain = example_builds["gain"]
+    from_map = tmp_path / "from-map.hex"
+    result = run("pack", "--map", gain.map, "--bin", gain.bin, "-o", from_map)
+    assert result.returncode == 0, result.stderr
+    assert from_map.read_bytes() == packed.read_bytes()
+    both = run("pack", gain.elf, "--map", gain.map, "--bin", gain.bin, "-o", tmp_path / "b.hex")
+    assert both.returncode == 0, both.stderr
+    assert "module gain, 1216 bytes at 0x00010000, 9 relocations" in result.stdout
+
+
+def test_pack_refuses_routes_that_disagree(example_builds, tmp_path):
+    gain, average = example_builds["gain"], example_builds["moving_average"]
+    result = run(
+        "pack", gain.elf, "--map", average.map, "--bin", average.bin, "-o", tmp_path / "x.hex"
+    )
+    assert result.returncode == 1
+    assert result.stderr.startswith("error: the ELF and the map route disagree on the data")
+    assert not (tmp_path / "x.hex").exists()
+
+
+def test_pack_record_size_32(example_builds, tmp_path):
+    out = tmp_path / "gain.hex"
+    assert run("pack", example_builds["gain"].elf, "--record-size", "32", "-o", out).returncode == 0
+    counts = {line[1:3] for line in out.read_text().splitlines() if line[7:9] == "00"}
+    assert "20" in counts and "10" not in counts
+    assert ModuleImage.read(out) == image_from_elf(example_builds["gain"].elf)
+
+
+def test_inspect_text_names_every_slot(packed):
+    result = run("inspect", packed)
+    assert result.returncode == 0, result.stderr
+    assert "relocations 9 (record 07)" in result.stdout
+    assert "descriptor  at 0x000103E0: 'gain', ABI 1" in result.stdout
+    for slot in ("init", "on", "cycle", "off", "kill", "error", "clear", "evaluate", "estimate"):
+        assert f"descriptor.{slot}" in result.stdout
+    assert "5 block(s) of 256 bytes" in result.stdout
+
+
+def test_inspect_json(packed):
+    result = run("inspect", packed, "--json")
+    report = json.loads(result.stdout)
+    image = ModuleImage.read(packed)
+    assert report["link_base"] == image.link_base == 0x10000
+    assert report["size"] == image.size
+    assert report["init"] == image.init
+    assert [r["location"] for r in report["relocations"]] == list(image.relocations)
+    assert all(r["target"] == image.word_at(r["location"]) for r in report["relocations"])
+    assert report["flash_blocks"] == [0x10000 + 256 * i for i in range(5)]
+    assert report["descriptor"]["name"] == "gain"
+    assert report["records"] == {"00": 76, "01": 1, "04": 1, "07": 9, "08": 1}
+
+
+def test_verify_exit_codes_and_error_line(packed, data_dir):
+    assert run("verify", packed).returncode == 0
+    bad = data_dir / "bad_checksum.hex"
+    result = run("verify", bad)
+    assert result.returncode == 1
+    assert result.stderr == f"error: {bad}:5: expected checksum 68, got 00\n"
+    assert result.stdout == ""
+
+
+def test_debug_shows_the_traceback(data_dir):
+    result = run("--debug", "verify", data_dir / "bad_checksum.hex")
+    assert result.returncode == 1
+    assert "Traceback" in result.stderr
+    assert "ChecksumError" in result.stderr
+
+
+def test_relocate_writes_flash_bytes(packed, tmp_path):
+    out = tmp_path / "gain.bin"
+    result = run("relocate", packed, "--base", "0x20000", "-o", out)
+    assert result.returncode == 0, result.stderr
+    assert out.read_bytes() == ModuleImage.read(packed).relocate(0x20000)
+    assert "9 pointers moved by +0x10000" in result.stdout
+
+
+def test_relocate_refuses_a_base_past_4_gib(packed, tmp_path):
+    result = run("relocate", packed, "--base", "0xFFFFFF00", "-o", tmp_path / "x.bin")
+    assert result.returncode == 1
+    assert "expected a load base from 0x0 to 0xFFFFFB40" in result.stderr
+    assert not (tmp_path / "x.bin").exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (
+            ["relocate", "m.hex", "--base", "twelve", "-o", "x.bin"],
+            "expected an address like 0x20000, got 'twelve'",
+        ),
+        (["pack", "--map", "m.map", "-o", "x.hex"], "--map and --bin go together"),
+        (["pack", "-o", "x.hex"], "expected MODULE.elf, or --map MODULE.map --bin MODULE.bin"),
+        (["pack", "m.elf"], "the following arguments are required: -o/--output"),
+    ],
+)
+def test_usage_errors_exit_2(args, message):
+    result = run(*args)
+    assert result.returncode == 2
+    assert message in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_missing_file_is_one_error_line(tmp_path):
+    missing = tmp_path / "missing.hex"
+    result = run("inspect", missing)
+    assert result.returncode == 1
+    assert result.stderr == f"error: {missing}: No such file or directory\n"
