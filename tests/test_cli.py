@@ -47,7 +47,7 @@ def test_pack_from_elf_and_from_map_agree(example_builds, tmp_path, packed):
     assert from_map.read_bytes() == packed.read_bytes()
     both = run("pack", gain.elf, "--map", gain.map, "--bin", gain.bin, "-o", tmp_path / "b.hex")
     assert both.returncode == 0, both.stderr
-    assert "module gain, 1216 bytes at 0x00010000, 9 relocations" in result.stdout
+    assert "module from-map, 1216 bytes at 0x00010000, 9 relocations" in result.stdout
 
 
 def test_pack_refuses_routes_that_disagree(example_builds, tmp_path):
