@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import itertools
 import shutil
 import subprocess
 from pathlib import Path
@@ -12,7 +13,7 @@ from elftools.elf.elffile import ELFFile
 from intelhex import IntelHex
 
 from hexmigrate.elf import image_from_elf
-from hexmigrate.errors import ModuleSourceError
+from hexmigrate.errors import HexError, ModuleSourceError
 from hexmigrate.image import ModuleImage
 from hexmigrate.mapfile import image_from_map, parse_map
 from hexmigrate.records import decode
@@ -148,3 +149,20 @@ def test_map_without_link_base_symbol(example, tmp_path):
     stripped.write_text(example.map.read_text().replace("__module_start", "__elsewhere"))
     with pytest.raises(ModuleSourceError, match="expected the symbol '__module_start'"):
         image_from_map(example.bin, stripped)
+
+
+def test_every_swap_of_two_lines_in_a_real_module_is_caught_or_harmless(example_builds):
+    image = image_from_elf(example_builds["gain"].elf)
+    lines = image.to_hex().splitlines()
+    harmless = []
+    for first, second in itertools.combinations(range(len(lines)), 2):
+        swapped = lines.copy()
+        swapped[first], swapped[second] = swapped[second], swapped[first]
+        try:
+            result = ModuleImage.from_hex("\n".join(swapped), image.name)
+        except HexError:
+            continue
+        assert result == image, f"swapping lines {first + 1} and {second + 1} changed the module"
+        harmless.append({lines[first][7:9], lines[second][7:9]})
+    # Only records that carry absolute addresses (07, 08) or precede all data (04) trade places.
+    assert all(kinds <= {"07", "08", "04"} for kinds in harmless)
