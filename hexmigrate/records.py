@@ -240,22 +240,16 @@ class HexContent:
     start_segment: tuple[int, int] | None = None
     start_linear: int | None = None
 
-    @property
-    def data_size(self) -> int:
-        """Number of data bytes in all segments."""
-        return sum(len(segment.data) for segment in self.segments)
-
     def contains(self, address: int, size: int = 1) -> bool:
         """True when the `size` bytes at `address` lie inside one data segment."""
         return any(segment.contains(address, size) for segment in self.segments)
 
 
 class _Decoder:
-    """State of one whole-file decode: the address base, pointers seen, data chunks."""
+    """State of one whole-file decode: the address base and the non-data records seen."""
 
     def __init__(self) -> None:
         self.base = 0
-        self.chunks: list[tuple[int, bytes, int]] = []
         self.relocations: list[int] = []
         self.relocation_lines: dict[int, int] = {}
         self.init: int | None = None
@@ -416,7 +410,7 @@ def decode(text: str) -> HexContent:
 def _decode_lines(lines: list[str]) -> HexContent:
     """The reference decoder: one line at a time, raising the first error in file order."""
     decoder = _Decoder()
-    chunks = decoder.chunks
+    chunks: list[tuple[int, bytes, int]] = []
     end = 0
     for index, line in enumerate(lines):
         try:
