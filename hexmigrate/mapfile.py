@@ -10,6 +10,7 @@ raw binary (``objcopy -O binary``) starts at the link base, which the SDK linker
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -19,6 +20,7 @@ from hexmigrate.errors import HexError, ModuleSourceError
 from hexmigrate.image import ModuleImage
 
 MEMORY_MAP_HEADING = "Linker script and memory map"
+SYMBOL_NAME = re.compile(r"[A-Za-z_.$][\w.$]*")
 LINK_BASE_SYMBOL = "__module_start"
 
 
@@ -89,7 +91,8 @@ def parse_map(text: str) -> LinkerMap:
 
 
 def _is_symbol(token: str) -> bool:
-    return token.replace("_", "a").replace(".", "a").replace("$", "a").isalnum()
+    """True for a C or assembler symbol name (ld also prints expressions and file names)."""
+    return SYMBOL_NAME.fullmatch(token) is not None
 
 
 def _section_line(
