@@ -1,0 +1,184 @@
+"""The scheduler: one CPU, cooperative and non-preemptive, on a pluggable clock.
+
+Releases wait on a timeline heap of ``(time, priority, order, seq, job)``. When the CPU is free,
+every release that is due moves to a ready heap ordered by ``(priority, order, seq)``, and the ready
+job with the lowest priority number runs, ties going to the PBO registered first: the order never
+depends on hashing or on how the heap happened to be built. A job runs to completion; its
+`duration` (the virtual CPU time its calls reported) then passes on the clock, so a slow PBO delays
+the others, and under the virtual clock it does so deterministically.
+
+A periodic PBO is released on a fixed grid from the moment it was switched on. A job's deadline is
+its next release. A release that comes while the previous job has not started or not finished is
+skipped and counted as an overrun: the scheduler never queues a backlog, it resumes at the first
+grid point after the late job finished. An aperiodic PBO is released by `release(job)` (an event,
+or a write of a variable it watches); a release while one is pending is merged and counted as an
+overrun.
+
+The clock is the only difference between simulation and real time (see `pbort.clock`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from heapq import heappop, heappush
+from itertools import count
+
+from pbort.clock import Clock
+from pbort.stats import Counters
+
+_SLACK = 1e-9
+"""Seconds within which two times count as equal: grids that meet in theory (10 Hz and 100 Hz at
+0.3 s) then meet in practice although 3 * 0.1 != 30 * 0.01 in floats, and a job that takes exactly
+its period does not miss its deadline by a rounding error."""
+
+_IDLE = -1
+"""`Job.pending` when no release is pending."""
+
+
+class Job:
+    """What the scheduler knows of one PBO: when and how to run it, and its counters.
+
+    `execute()` runs the PBO's calls and returns the virtual seconds they took; `complete()` runs
+    once that time has passed on the clock (the kernel writes the outputs back then).
+    """
+
+    __slots__ = (
+        "active",
+        "complete",
+        "counters",
+        "execute",
+        "index",
+        "name",
+        "order",
+        "pending",
+        "period",
+        "phase",
+        "priority",
+    )
+
+    def __init__(
+        self,
+        name: str,
+        execute: Callable[[], float],
+        complete: Callable[[], None],
+        counters: Counters,
+        *,
+        period: float | None,
+        priority: int,
+        order: int,
+    ) -> None:
+        self.name = name
+        self.execute = execute
+        self.complete = complete
+        self.counters = counters
+        self.period = period
+        self.priority = priority
+        self.order = order
+        self.active = False
+        self.pending = _IDLE
+        self.phase = 0.0
+        self.index = 0
+
+
+class Scheduler:
+    """Releases jobs on time and runs them one at a time."""
+
+    def __init__(self, clock: Clock) -> None:
+        self.clock = clock
+        """The clock the scheduler reads and waits on."""
+        self._timeline: list[tuple[float, int, int, int, Job]] = []
+        self._ready: list[tuple[int, int, int, float, Job]] = []
+        self._sequence = count()
+
+    def start(self, job: Job) -> None:
+        """Make a job runnable; a periodic job is released now and then on its grid."""
+        job.active = True
+        if job.period is not None:
+            job.phase = self.clock.now()
+            job.index = 0
+            self._push(job, job.phase)
+
+    def stop(self, job: Job) -> None:
+        """Make a job idle; a pending release is dropped."""
+        job.active = False
+        job.pending = _IDLE
+
+    def release(self, job: Job) -> None:
+        """Release an active aperiodic job now, merging with a release already pending."""
+        if not job.active:
+            return
+        if job.pending != _IDLE:
+            job.counters.overruns += 1
+            return
+        self._push(job, self.clock.now())
+
+    def _push(self, job: Job, time: float) -> None:
+        seq = next(self._sequence)
+        job.pending = seq
+        heappush(self._timeline, (time, job.priority, job.order, seq, job))
+
+    def run(self, until: float | None = None, cycles: int | None = None) -> int:
+        """Run jobs released before `until` (absolute time), at most `cycles` of them.
+
+        Returns the number of jobs run. Unless `cycles` stopped it first, a run with `until` leaves
+        the clock at `until` (or later, if the last job ended after it), idle time included.
+        """
+        clock = self.clock
+        timeline, ready = self._timeline, self._ready
+        limit = math.inf if until is None else until - _SLACK
+        ran = 0
+        while cycles is None or ran < cycles:
+            horizon = clock.now() + _SLACK
+            while timeline and timeline[0][0] <= horizon and timeline[0][0] < limit:
+                time, priority, order, seq, job = heappop(timeline)
+                heappush(ready, (priority, order, seq, time, job))
+            if ready:
+                _, _, seq, _, job = heappop(ready)
+                if job.pending == seq:
+                    self._dispatch(job)
+                    ran += 1
+                continue
+            self._drop_stale()
+            if not timeline or timeline[0][0] >= limit:
+                if until is not None:
+                    clock.wait_until(until)
+                break
+            clock.wait_until(timeline[0][0])
+        return ran
+
+    def _drop_stale(self) -> None:
+        """Forget releases of jobs stopped since, so the clock never waits for them."""
+        timeline = self._timeline
+        while timeline and timeline[0][4].pending != timeline[0][3]:
+            heappop(timeline)
+
+    def _dispatch(self, job: Job) -> None:
+        """Run a job's calls, let their duration pass on the clock, then complete and count it."""
+        clock = self.clock
+        job.pending = _IDLE
+        start = clock.now()
+        duration = job.execute()
+        if duration:
+            clock.wait_until(start + duration)
+        finish = clock.now()
+        job.complete()
+        counters = job.counters
+        counters.cycles += 1
+        counters.busy_time += finish - start
+        if job.period is not None:
+            self._account_period(job, job.period, finish)
+
+    def _account_period(self, job: Job, period: float, finish: float) -> None:
+        """Count a missed deadline and skipped releases, and release the job on its grid again."""
+        next_index = job.index + 1
+        if finish > job.phase + next_index * period + _SLACK:
+            job.counters.missed_deadlines += 1
+        if not job.active:
+            return
+        first_free = math.ceil((finish - _SLACK - job.phase) / period)
+        if first_free > next_index:
+            job.counters.overruns += first_free - next_index
+            next_index = first_free
+        job.index = next_index
+        self._push(job, job.phase + next_index * period)
