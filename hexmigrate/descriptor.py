@@ -21,7 +21,7 @@ MAX_PORTS = 8
 METHODS = ("init", "on", "cycle", "off", "kill", "error", "clear", "evaluate", "estimate")
 
 _HEADER = struct.Struct(f"<IHH{NAME_LEN}sI")
-_PORT = struct.Struct(f"<{PORT_NAME_LEN}sBBHI")
+_PORT = struct.Struct(f"<{PORT_NAME_LEN}sBBHHH")
 _METHODS = struct.Struct(f"<{len(METHODS)}I")
 PORT_SIZE = _PORT.size
 METHODS_OFFSET = _HEADER.size + MAX_PORTS * PORT_SIZE
@@ -29,21 +29,39 @@ SIZE = METHODS_OFFSET + _METHODS.size
 
 PORT_DIRECTIONS = ("in", "out", "const", "resource")
 PORT_TYPES = ("scalar", "vector", "frame")
+ELEMENT_SIZES = (1, 2, 4)  # uint8_t, int16_t, int32_t
 
 
 class DescriptorError(ValueError):
-    """The bytes are not a descriptor of a supported ABI version."""
+    """The bytes are not a valid descriptor of a supported ABI version."""
+
+
+class AbiMismatchError(DescriptorError):
+    """The bytes are not a descriptor of this ABI: a wrong magic or ABI version.
+
+    Kept apart from other descriptor errors because the kernel answers it with its own status
+    (PBO_ERR_ABI) rather than PBO_ERR_INVALID.
+    """
 
 
 @dataclass(frozen=True)
 class PortSpec:
-    """One port of a module as its descriptor declares it."""
+    """One port of a module as its descriptor declares it: rows x columns elements.
+
+    A scalar is 1x1, a vector 1xN, a frame rows x columns pixels.
+    """
 
     name: str
     direction: str
     type: str
     element_size: int
-    size_bytes: int
+    rows: int
+    columns: int
+
+    @property
+    def size_bytes(self) -> int:
+        """Bytes of the port buffer."""
+        return self.element_size * self.rows * self.columns
 
 
 @dataclass(frozen=True)
@@ -63,9 +81,9 @@ class Descriptor:
             raise DescriptorError(f"expected {SIZE} descriptor bytes, got {len(data)}")
         magic, abi, port_count, name, state_size = _HEADER.unpack_from(data)
         if magic != MAGIC:
-            raise DescriptorError(f"expected descriptor magic 0x{MAGIC:08X}, got 0x{magic:08X}")
+            raise AbiMismatchError(f"expected descriptor magic 0x{MAGIC:08X}, got 0x{magic:08X}")
         if abi != ABI_VERSION:
-            raise DescriptorError(f"expected ABI version {ABI_VERSION}, got {abi}")
+            raise AbiMismatchError(f"expected ABI version {ABI_VERSION}, got {abi}")
         if port_count > MAX_PORTS:
             raise DescriptorError(f"expected at most {MAX_PORTS} ports, got {port_count}")
         ports = tuple(_decode_port(data, index) for index in range(port_count))
@@ -82,7 +100,7 @@ def method_slot(offset: int) -> str | None:
 
 
 def _decode_port(data: bytes, index: int) -> PortSpec:
-    name, direction, kind, element_size, size_bytes = _PORT.unpack_from(
+    name, direction, kind, element_size, rows, columns = _PORT.unpack_from(
         data, _HEADER.size + index * PORT_SIZE
     )
     if direction >= len(PORT_DIRECTIONS) or kind >= len(PORT_TYPES):
@@ -90,9 +108,35 @@ def _decode_port(data: bytes, index: int) -> PortSpec:
             f"port {index}: expected direction < {len(PORT_DIRECTIONS)} and type < "
             f"{len(PORT_TYPES)}, got {direction} and {kind}"
         )
-    return PortSpec(
-        _c_string(name), PORT_DIRECTIONS[direction], PORT_TYPES[kind], element_size, size_bytes
+    port = PortSpec(
+        _c_string(name), PORT_DIRECTIONS[direction], PORT_TYPES[kind], element_size, rows, columns
     )
+    _check_shape(index, port)
+    return port
+
+
+def _check_shape(index: int, port: PortSpec) -> None:
+    """Refuse shapes no back end can hold: the kernel sizes buffers and values from them."""
+    if port.element_size not in ELEMENT_SIZES:
+        raise DescriptorError(
+            f"port {index} ({port.name!r}): expected an element size in {ELEMENT_SIZES}, "
+            f"got {port.element_size}"
+        )
+    if port.rows < 1 or port.columns < 1:
+        raise DescriptorError(
+            f"port {index} ({port.name!r}): expected at least 1 row and 1 column, "
+            f"got {port.rows}x{port.columns}"
+        )
+    if port.type == "scalar" and (port.rows, port.columns) != (1, 1):
+        raise DescriptorError(
+            f"port {index} ({port.name!r}): expected a scalar of 1x1, "
+            f"got {port.rows}x{port.columns}"
+        )
+    if port.type == "vector" and port.rows != 1:
+        raise DescriptorError(
+            f"port {index} ({port.name!r}): expected a vector of 1xN (one row), "
+            f"got {port.rows}x{port.columns}"
+        )
 
 
 def _c_string(raw: bytes) -> str:

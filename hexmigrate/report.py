@@ -63,7 +63,7 @@ def _descriptor_report(found: tuple[int, abi.Descriptor] | None) -> dict[str, An
         "name": descriptor.name,
         "abi_version": descriptor.abi_version,
         "state_size": descriptor.state_size,
-        "ports": [vars(port) for port in descriptor.ports],
+        "ports": [{**vars(port), "size_bytes": port.size_bytes} for port in descriptor.ports],
         "methods": descriptor.methods,
     }
 
@@ -122,7 +122,7 @@ def _descriptor_lines(descriptor: dict[str, Any] | None) -> list[str]:
     ]
     lines += [
         f"    port {p['name']:<12} {p['direction']:<8} {p['type']:<6} "
-        f"{p['size_bytes']} bytes ({p['element_size']}-byte elements)"
+        f"{p['size_bytes']} bytes ({p['rows']}x{p['columns']} of {p['element_size']}-byte elements)"
         for p in descriptor["ports"]
     ]
     return lines

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from hexmigrate.descriptor import METHODS_OFFSET
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
 
@@ -47,7 +48,8 @@ def test_pack_from_elf_and_from_map_agree(example_builds, tmp_path, packed):
     assert from_map.read_bytes() == packed.read_bytes()
     both = run("pack", gain.elf, "--map", gain.map, "--bin", gain.bin, "-o", tmp_path / "b.hex")
     assert both.returncode == 0, both.stderr
-    assert "module from-map, 1216 bytes at 0x00010000, 9 relocations" in result.stdout
+    size = ModuleImage.read(packed).size
+    assert f"module from-map, {size} bytes at 0x00010000, 9 relocations" in result.stdout
 
 
 def test_pack_refuses_routes_that_disagree(example_builds, tmp_path):
@@ -72,10 +74,13 @@ def test_inspect_text_names_every_slot(packed):
     result = run("inspect", packed)
     assert result.returncode == 0, result.stderr
     assert "relocations 9 (record 07)" in result.stdout
-    assert "descriptor  at 0x000103E0: 'gain', ABI 1" in result.stdout
+    image = ModuleImage.read(packed)
+    descriptor = image.relocations[0] - METHODS_OFFSET
+    assert f"descriptor  at 0x{descriptor:08X}: 'gain', ABI 1" in result.stdout
+    assert "port x            in       scalar 4 bytes (1x1 of 4-byte elements)" in result.stdout
     for slot in ("init", "on", "cycle", "off", "kill", "error", "clear", "evaluate", "estimate"):
         assert f"descriptor.{slot}" in result.stdout
-    assert "5 block(s) of 256 bytes" in result.stdout
+    assert f"{len(image.flash_blocks())} block(s) of 256 bytes" in result.stdout
 
 
 def test_inspect_json(packed):
@@ -87,9 +92,10 @@ def test_inspect_json(packed):
     assert report["init"] == image.init
     assert [r["location"] for r in report["relocations"]] == list(image.relocations)
     assert all(r["target"] == image.word_at(r["location"]) for r in report["relocations"])
-    assert report["flash_blocks"] == [0x10000 + 256 * i for i in range(5)]
+    blocks = -(-image.size // 256)
+    assert report["flash_blocks"] == [0x10000 + 256 * i for i in range(blocks)]
     assert report["descriptor"]["name"] == "gain"
-    assert report["records"] == {"00": 76, "01": 1, "04": 1, "07": 9, "08": 1}
+    assert report["records"] == {"00": -(-image.size // 16), "01": 1, "04": 1, "07": 9, "08": 1}
 
 
 def test_verify_exit_codes_and_error_line(packed, data_dir):
@@ -119,7 +125,8 @@ def test_relocate_writes_flash_bytes(packed, tmp_path):
 def test_relocate_refuses_a_base_past_4_gib(packed, tmp_path):
     result = run("relocate", packed, "--base", "0xFFFFFF00", "-o", tmp_path / "x.bin")
     assert result.returncode == 1
-    assert "expected a load base from 0x0 to 0xFFFFFB40" in result.stderr
+    highest = (1 << 32) - ModuleImage.read(packed).size
+    assert f"expected a load base from 0x0 to 0x{highest:08X}" in result.stderr
     assert not (tmp_path / "x.bin").exists()
 
 

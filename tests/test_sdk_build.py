@@ -19,7 +19,9 @@ from hexmigrate.descriptor import (
     METHODS_OFFSET,
     PORT_SIZE,
     SIZE,
+    AbiMismatchError,
     Descriptor,
+    DescriptorError,
     PortSpec,
 )
 
@@ -45,15 +47,15 @@ EXPECTED = {
         prefix="gain",
         state_size=12,
         ports=(
-            PortSpec("x", "in", "scalar", 4, 4),
-            PortSpec("y", "out", "scalar", 4, 4),
-            PortSpec("k", "const", "scalar", 4, 4),
+            PortSpec("x", "in", "scalar", 4, 1, 1),
+            PortSpec("y", "out", "scalar", 4, 1, 1),
+            PortSpec("k", "const", "scalar", 4, 1, 1),
         ),
     ),
     "moving_average": Expected(
         prefix="ma",
         state_size=48,
-        ports=(PortSpec("x", "in", "scalar", 4, 4), PortSpec("y", "out", "scalar", 4, 4)),
+        ports=(PortSpec("x", "in", "scalar", 4, 1, 1), PortSpec("y", "out", "scalar", 4, 1, 1)),
     ),
 }
 
@@ -78,13 +80,44 @@ static const struct pbo_descriptor minimal_descriptor PBO_DESCRIPTOR = {
     .abi_version = PBO_ABI_VERSION,
     .port_count = 1,
     .name = "minimal",
-    .ports = {{"t", PBO_PORT_OUT, PBO_SCALAR, 4, 4}},
+    .ports = {{"t", PBO_PORT_OUT, PBO_SCALAR, 4, 1, 1}},
     .init = minimal_init,
     .cycle = minimal_cycle,
 };
 
 PBO_MODULE(minimal_descriptor)
 """
+
+
+# A module with a frame input and a vector output: shapes beyond 1x1.
+SHAPES_SOURCE = """\
+#include "pbo_module.h"
+
+static int32_t shapes_cycle(struct pbo_context *ctx)
+{
+    const uint8_t *frame = ctx->ports[0];
+    int16_t *histogram = ctx->ports[1];
+    histogram[frame[0] >> 4]++;
+    return PBO_OK;
+}
+
+static const struct pbo_descriptor shapes_descriptor PBO_DESCRIPTOR = {
+    .magic = PBO_MAGIC,
+    .abi_version = PBO_ABI_VERSION,
+    .port_count = 2,
+    .name = "shapes",
+    .ports = {
+        {"image", PBO_PORT_IN, PBO_FRAME, sizeof(uint8_t), 48, 64},
+        {"histogram", PBO_PORT_OUT, PBO_VECTOR, sizeof(int16_t), 1, 16},
+    },
+    .cycle = shapes_cycle,
+};
+
+PBO_MODULE(shapes_descriptor)
+"""
+
+# Offset of port 0's type (uint8), then element_size, rows and columns (uint16) in a descriptor.
+PORT0_SHAPE_OFFSET = METHODS_OFFSET - MAX_PORTS * PORT_SIZE + 13
 
 
 # A module that keeps a counter outside its context; DEFINITION is the variable's definition.
@@ -217,6 +250,52 @@ def test_null_methods_have_no_relocation(minimal: ModuleBuild) -> None:
     descriptor = check_image(minimal)
     present = [name for name, address in descriptor.methods.items() if address]
     assert present == ["init", "cycle"]
+
+
+def test_frame_and_vector_ports_keep_their_shape(tmp_path: Path) -> None:
+    source = tmp_path / "shapes.c"
+    source.write_text(SHAPES_SOURCE)
+    descriptor = check_image(build_module(source, tmp_path / "out"))
+    assert descriptor.ports == (
+        PortSpec("image", "in", "frame", 1, 48, 64),
+        PortSpec("histogram", "out", "vector", 2, 1, 16),
+    )
+    assert [port.size_bytes for port in descriptor.ports] == [48 * 64, 32]
+
+
+def descriptor_bytes(module: ModuleBuild) -> bytes:
+    """The descriptor as it sits in the module's image."""
+    with module.elf.open("rb") as stream:
+        start = ELFFile(stream).get_section_by_name(".pbo_descriptor")["sh_addr"] - LINK_BASE
+    return module.bin.read_bytes()[start : start + SIZE]
+
+
+@pytest.mark.parametrize(
+    ("kind", "shape", "message"),
+    [
+        (0, (3, 1, 1), "expected an element size in (1, 2, 4), got 3"),
+        (2, (4, 0, 1), "expected at least 1 row and 1 column, got 0x1"),
+        (0, (4, 1, 2), "expected a scalar of 1x1, got 1x2"),
+        (1, (4, 2, 4), "expected a vector of 1xN (one row), got 2x4"),
+    ],
+)
+def test_port_shapes_outside_the_abi_are_refused(
+    minimal: ModuleBuild, kind: int, shape: tuple[int, int, int], message: str
+) -> None:
+    data = bytearray(descriptor_bytes(minimal))
+    data[PORT0_SHAPE_OFFSET : PORT0_SHAPE_OFFSET + 7] = bytes([kind]) + b"".join(
+        value.to_bytes(2, "little") for value in shape
+    )
+    with pytest.raises(DescriptorError, match=re.escape(f"port 0 ('t'): {message}")):
+        Descriptor.decode(bytes(data))
+
+
+def test_wrong_magic_or_version_is_an_abi_mismatch(minimal: ModuleBuild) -> None:
+    data = descriptor_bytes(minimal)
+    with pytest.raises(AbiMismatchError, match="expected descriptor magic 0x314F4250"):
+        Descriptor.decode(b"PBO2" + data[4:])
+    with pytest.raises(AbiMismatchError, match="expected ABI version 1, got 2"):
+        Descriptor.decode(data[:4] + (2).to_bytes(2, "little") + data[6:])
 
 
 def test_methods_are_local_functions_in_their_own_sections(examples: list[ModuleBuild]) -> None:

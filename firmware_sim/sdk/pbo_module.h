@@ -31,36 +31,46 @@ enum pbo_port_direction {
     PBO_PORT_RESOURCE = 3, /* resource: a sensor or actuator behind a peripheral driver */
 };
 
-/* What a port carries; element_size and size_bytes give the shape. */
+/*
+ * What a port carries; rows x columns elements of element_size bytes give its shape and its
+ * buffer size, element_size * rows * columns bytes.
+ */
 enum pbo_port_type {
-    PBO_SCALAR = 0, /* one element: size_bytes == element_size */
-    PBO_VECTOR = 1, /* size_bytes / element_size elements */
-    PBO_FRAME = 2,  /* an image frame: element_size bytes per pixel */
+    PBO_SCALAR = 0, /* one element: rows == columns == 1 */
+    PBO_VECTOR = 1, /* columns elements: rows == 1 */
+    PBO_FRAME = 2,  /* an image frame: rows x columns pixels, row after row */
 };
 
 /* Method results and the kernel services' negative results. */
 enum pbo_status {
     PBO_OK = 0,
-    PBO_ERR_INVALID = -1,   /* bad argument: port index, direction, pointer or length */
+    PBO_ERR_INVALID = -1,   /* a bad descriptor; methods use it for their own failures */
     PBO_ERR_ABI = -2,       /* descriptor with a wrong magic or ABI version */
-    PBO_ERR_NO_MEMORY = -3, /* no SRAM left for the state or the port buffers */
+    PBO_ERR_NO_MEMORY = -3, /* no room for the context, state and port buffers */
     PBO_ERR_EXISTS = -4,    /* a module with this name is already registered */
 };
 
+/*
+ * One port. element_size is 1 (uint8_t, e.g. a grey pixel), 2 (int16_t) or 4 (int32_t, e.g.
+ * Q16.16); the buffer holds rows x columns elements, row after row, little-endian.
+ */
 struct pbo_port {
     char name[PBO_PORT_NAME_LEN];
     uint8_t direction;     /* enum pbo_port_direction */
     uint8_t type;          /* enum pbo_port_type */
-    uint16_t element_size; /* bytes per element */
-    uint32_t size_bytes;   /* bytes of the whole port buffer */
+    uint16_t element_size; /* bytes per element: 1, 2 or 4 */
+    uint16_t rows;         /* 1 for a scalar and a vector */
+    uint16_t columns;      /* 1 for a scalar; the elements of a vector; the pixels of a row */
 };
 
 /*
  * Built by the kernel in SRAM for one instance of a module. state points to state_size bytes
- * (NULL when state_size is 0); ports[i] is the buffer of descriptor port i (size_bytes bytes) and
- * NULL for i >= port_count. All are 8-byte aligned and zero-filled when the context is built,
- * before init. The estimator gets a context of its own, with its own state and port buffers, so
- * estimating never disturbs the running executor.
+ * (NULL when state_size is 0); ports[i] is the buffer of descriptor port i (element_size * rows *
+ * columns bytes) and NULL for i >= port_count. All are 8-byte aligned and zero-filled when the
+ * context is built, before init. For a method call the kernel copies the instance into the task
+ * window (and back afterwards), and ctx and its pointers point there: a method may write its own
+ * state and buffers and its stack, nothing else. The estimator gets a context of its own, with
+ * its own state and port buffers, so estimating never disturbs the running executor.
  */
 struct pbo_context {
     void *state;
@@ -101,7 +111,8 @@ _Static_assert(offsetof(struct pbo_port, name) == 0, "pbo_port.name at 0");
 _Static_assert(offsetof(struct pbo_port, direction) == 12, "pbo_port.direction at 12");
 _Static_assert(offsetof(struct pbo_port, type) == 13, "pbo_port.type at 13");
 _Static_assert(offsetof(struct pbo_port, element_size) == 14, "pbo_port.element_size at 14");
-_Static_assert(offsetof(struct pbo_port, size_bytes) == 16, "pbo_port.size_bytes at 16");
+_Static_assert(offsetof(struct pbo_port, rows) == 16, "pbo_port.rows at 16");
+_Static_assert(offsetof(struct pbo_port, columns) == 18, "pbo_port.columns at 18");
 
 _Static_assert(sizeof(struct pbo_context) == 36, "struct pbo_context is 36 bytes");
 _Static_assert(offsetof(struct pbo_context, state) == 0, "pbo_context.state at 0");
@@ -126,20 +137,23 @@ _Static_assert(offsetof(struct pbo_descriptor, estimate) == 220, "descriptor.est
 
 /*
  * Kernel services, called with ecall: service number in a7, arguments in a0..a3, result in a0.
- * The port services return PBO_ERR_INVALID for an unknown context, a port index >= port_count, a
- * write to an IN or CONST port, or a buffer outside the node's memory.
+ * A bad argument is not returned as an error: it stops the method with a fault (the kernel then
+ * puts the module into its error state). Bad arguments are an unknown service, a context other
+ * than the running method's own, a port index >= port_count, a PORT_WRITE to an IN or CONST port,
+ * a PORT_READ destination outside the task window (ctx's own memory) and the stack, a source or
+ * text outside memory the module may read, and a LOG longer than 256 bytes.
  * The table in docs/module-abi.md is the reference; keep the two identical.
  */
 enum pbo_service {
-    /* (const struct pbo_descriptor *d) -> PBO_OK or a negative enum pbo_status */
+    /* (const struct pbo_descriptor *d) -> PBO_OK or a negative enum pbo_status; module_init only */
     PBO_SYS_REGISTER = 1,
-    /* (ctx, port_index, void *dst, uint32_t len) -> bytes copied, min(len, size_bytes); any port */
+    /* (ctx, port_index, void *dst, uint32_t len) -> bytes copied, min(len, port size); any port */
     PBO_SYS_PORT_READ = 2,
     /* (ctx, port_index, const void *src, uint32_t len) -> bytes copied; OUT and RESOURCE ports */
     PBO_SYS_PORT_WRITE = 3,
-    /* () -> low 32 bits of the node's virtual time in microseconds */
+    /* () -> low 32 bits of the node's virtual time in microseconds, this call's time included */
     PBO_SYS_TIME_US = 4,
-    /* (const char *text, uint32_t len) -> 0; text need not be NUL-terminated */
+    /* (const char *text, uint32_t len) -> 0; at most 256 bytes, text need not be NUL-terminated */
     PBO_SYS_LOG = 5,
     /* (ctx, kind, index, int32_t value_milli) -> 0; kind is enum pbo_perf_kind */
     PBO_SYS_PERF_REPORT = 6,

@@ -1,0 +1,507 @@
+"""The node's CPU: an RV32IM core on Unicorn that runs one guest function per `call`.
+
+A call sets a0..a3, points ra at the kernel's return trampoline and sp at the top of the stack,
+and runs until the guest returns to the trampoline. Three things can end it early, each reported
+as a fault text naming the addresses involved, after which the next call works as usual:
+
+- the watchdog: every call runs with an instruction budget (Unicorn's ``count``);
+- a memory fault: Unicorn enforces the memory map's guest permissions on every access, so a write
+  outside the task window and the stack stops the guest without a per-access Python hook;
+- an illegal instruction, or a kernel service that refuses its arguments (`ServiceFault`).
+
+Executed instructions are counted exactly with a block hook (RV32IM without the C extension:
+every instruction is 4 bytes) and converted to virtual time at a fixed clock with one cycle per
+instruction (docs/memory-map.md, "The CPU").
+
+Unicorn translates guest code into blocks once and caches them, and a hook or budget added after
+a block was translated does not apply to it. So the hooks are installed before anything runs,
+every call passes a budget, and kernel writes into executable memory drop the cached blocks of
+the bytes they change.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from types import TracebackType
+
+from unicorn import (
+    UC_ARCH_RISCV,
+    UC_ERR_OK,
+    UC_HOOK_BLOCK,
+    UC_HOOK_INTR,
+    UC_HOOK_MEM_INVALID,
+    UC_MEM_FETCH_PROT,
+    UC_MEM_FETCH_UNMAPPED,
+    UC_MEM_READ_PROT,
+    UC_MEM_READ_UNMAPPED,
+    UC_MODE_RISCV32,
+    Uc,
+    UcError,
+)
+from unicorn.riscv_const import (
+    UC_RISCV_REG_A0,
+    UC_RISCV_REG_A1,
+    UC_RISCV_REG_A2,
+    UC_RISCV_REG_A3,
+    UC_RISCV_REG_A7,
+    UC_RISCV_REG_PC,
+    UC_RISCV_REG_RA,
+    UC_RISCV_REG_SP,
+)
+from unicorn.unicorn_py3 import unicorn as _binding
+
+from firmware_sim.memory_map import TRAMPOLINE, MemoryMap, Permission, Region
+from firmware_sim.services import GuestServices, ServiceFault, dispatch, signed32
+
+DEFAULT_FREQUENCY_HZ = 100e6
+INSTRUCTION_SIZE = 4  # RV32IM without the C extension
+WORD_MASK = 0xFFFF_FFFF
+# `j .` at the trampoline. The CPU stops before running it; were it ever run, it would spin into
+# the watchdog rather than fall through into whatever follows.
+TRAMPOLINE_CODE = (0x0000_006F).to_bytes(4, "little")
+
+_ARGUMENT_REGISTERS = (UC_RISCV_REG_A0, UC_RISCV_REG_A1, UC_RISCV_REG_A2, UC_RISCV_REG_A3)
+_ECALL_CAUSES = frozenset({8, 9, 11})  # environment call from U-, S- or M-mode
+_ILLEGAL_INSTRUCTION = 2
+_FETCHES = frozenset({UC_MEM_FETCH_PROT, UC_MEM_FETCH_UNMAPPED})
+_READS = frozenset({UC_MEM_READ_PROT, UC_MEM_READ_UNMAPPED})
+
+# The C signatures of the three hooks (unicorn.h: uc_cb_hookcode_t, uc_cb_hookintr_t,
+# uc_cb_eventmem_t); the first argument is the engine, the last the user data.
+_BLOCK_HOOK = ctypes.CFUNCTYPE(
+    None, ctypes.c_void_p, ctypes.c_uint64, ctypes.c_uint32, ctypes.c_void_p
+)
+_INTERRUPT_HOOK = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_uint32, ctypes.c_void_p)
+_MEMORY_HOOK = ctypes.CFUNCTYPE(
+    ctypes.c_bool,
+    ctypes.c_void_p,
+    ctypes.c_int,
+    ctypes.c_uint64,
+    ctypes.c_int,
+    ctypes.c_int64,
+    ctypes.c_void_p,
+)
+
+
+class CpuClosedError(RuntimeError):
+    """The CPU was closed; its memory and code are gone."""
+
+
+class KernelAccessError(ValueError):
+    """A kernel read or write outside the memory map (a kernel bug, not a guest fault)."""
+
+
+@dataclass(frozen=True)
+class GuestRun:
+    """How one guest call ended.
+
+    `a0` is the returned register as an unsigned 32-bit value (`status` reads it signed).
+    `instructions` counts the instructions that completed: on a fault the faulting one is not
+    counted, and a call stopped by the watchdog ran exactly its budget. `fault` is None when the
+    guest returned to the trampoline. `duration` is the virtual time, instructions / frequency.
+    """
+
+    a0: int
+    instructions: int
+    fault: str | None
+    duration: float
+
+    @property
+    def status(self) -> int:
+        """a0 as a signed value: a method's PBO_OK (0) or negative pbo_status."""
+        return signed32(self.a0)
+
+    @property
+    def ok(self) -> bool:
+        """True when the guest returned on its own, whatever it returned."""
+        return self.fault is None
+
+
+class _Bank:
+    """The host memory behind one region: Unicorn maps it (mem_map_ptr), the kernel slices it.
+
+    Kernel accesses then cost a slice instead of a call into Unicorn, and a write to a region
+    the guest may only read does not make Unicorn toggle its protection (about 10 µs each).
+    """
+
+    def __init__(self, region: Region) -> None:
+        self.region = region
+        self.end = region.end
+        self.executable = Permission.EXECUTE in region.guest
+        self._buffer = (ctypes.c_ubyte * region.size)()  # zero-filled
+        self.address = ctypes.addressof(self._buffer)
+        self.view = memoryview(self._buffer).cast("B")
+
+
+class _Engine:
+    """The hot path into Unicorn's C API: registers, emu_start and hooks, past the binding.
+
+    The Python binding spends about 0.6 µs of Python on each register access and 0.7 µs on each
+    hook call, and a method call makes dozens of them: measured here, an empty call costs 14.5 µs
+    through the binding and 8 µs this way, each ecall 10.5 µs and 5 µs. This calls the same C
+    functions through the library and engine handle the binding opened (private names of
+    unicorn 2.1.4, which the project pins); mapping, cache control and closing stay with the
+    binding. An exception in a hook stops the guest and is raised again by `start`, as the
+    binding does.
+    """
+
+    def __init__(self, uc: Uc) -> None:
+        self._lib = _binding.uclib
+        self._handle = uc._uch
+        self._value = ctypes.c_uint32()
+        self._reference = ctypes.byref(self._value)
+        # The C callbacks must stay alive as long as Unicorn may call them.
+        self._hooks: list[tuple[ctypes._CFunctionType, ctypes.c_size_t]] = []
+        self._error: BaseException | None = None
+
+    def read(self, register: int) -> int:
+        """One 32-bit register."""
+        status = self._lib.uc_reg_read(self._handle, register, self._reference)
+        if status != UC_ERR_OK:
+            raise UcError(status)
+        return self._value.value
+
+    def write(self, register: int, value: int) -> None:
+        """Set one 32-bit register."""
+        self._value.value = value
+        status = self._lib.uc_reg_write(self._handle, register, self._reference)
+        if status != UC_ERR_OK:
+            raise UcError(status)
+
+    def registers(self, *ids: int) -> _Registers:
+        """A fixed set of registers, read or written together in one call into Unicorn (a C
+        call costs about as much as the Python around it, so several registers go at once)."""
+        return _Registers(self._lib, self._handle, ids)
+
+    def start(self, begin: int, until: int, count: int) -> None:
+        """Run from `begin` until `until` or `count` instructions; raises UcError or what a
+        hook raised."""
+        self._error = None
+        status = self._lib.uc_emu_start(self._handle, begin, until, 0, count)
+        if self._error is not None:
+            raise self._error
+        if status != UC_ERR_OK:
+            raise UcError(status)
+
+    def stop(self) -> None:
+        """Stop the running guest at the next instruction (from a hook)."""
+        self._lib.uc_emu_stop(self._handle)  # cannot fail while a guest runs
+
+    def hook_block(self, callback: Callable[[int, int], None]) -> None:
+        """Call `callback(address, size)` as each translated block starts.
+
+        The hottest hook runs unguarded: `callback` must not raise (an exception would be
+        printed by ctypes and ignored).
+        """
+        self._add(
+            UC_HOOK_BLOCK, _BLOCK_HOOK(lambda _uc, address, size, _data: callback(address, size))
+        )
+
+    def hook_interrupt(self, callback: Callable[[int], None]) -> None:
+        """Call `callback(cause)` on an exception or ecall."""
+        self._add(
+            UC_HOOK_INTR, _INTERRUPT_HOOK(lambda _uc, cause, _data: self._guard(callback, cause))
+        )
+
+    def hook_invalid_memory(self, callback: Callable[[int, int, int], None]) -> None:
+        """Call `callback(access, address, size)` on an unmapped or protected access; the
+        access then fails and `start` raises UcError."""
+
+        def hook(_uc: int, access: int, address: int, size: int, _value: int, _data: int) -> bool:
+            self._guard(callback, access, address, size)
+            return False
+
+        self._add(UC_HOOK_MEM_INVALID, _MEMORY_HOOK(hook))
+
+    def remove_hooks(self) -> None:
+        """Delete every hook (before the engine is closed)."""
+        for _, handle in self._hooks:
+            self._lib.uc_hook_del(self._handle, handle)
+        self._hooks.clear()
+
+    def _add(self, kind: int, function: ctypes._CFunctionType) -> None:
+        handle = _binding.uc_hook_h()
+        pointer = ctypes.cast(function, ctypes.c_void_p)
+        status = self._lib.uc_hook_add(
+            self._handle, ctypes.byref(handle), kind, pointer, None, 1, 0
+        )
+        if status != UC_ERR_OK:
+            raise UcError(status)
+        self._hooks.append((function, handle))
+
+    def _guard(self, callback: Callable[..., None], *args: int) -> None:
+        """Run a hook; an exception must not unwind through C, so keep it and stop the guest."""
+        try:
+            callback(*args)
+        except BaseException as error:
+            if self._error is None:
+                self._error = error
+            self._lib.uc_emu_stop(self._handle)
+
+
+class _Registers:
+    """Registers accessed as one batch (uc_reg_read_batch / uc_reg_write_batch), with the
+    ctypes arrays built once: one C call, whatever the number of registers."""
+
+    def __init__(self, lib: ctypes.CDLL, handle: object, ids: Sequence[int]) -> None:
+        self._lib = lib
+        self._handle = handle
+        self._count = len(ids)
+        self._ids = (ctypes.c_int * self._count)(*ids)
+        self._values = (ctypes.c_uint32 * self._count)()
+        base = ctypes.addressof(self._values)
+        self._pointers = (ctypes.c_void_p * self._count)(
+            *(base + index * ctypes.sizeof(ctypes.c_uint32) for index in range(self._count))
+        )
+
+    def read(self) -> list[int]:
+        """The registers' values, in the order given."""
+        status = self._lib.uc_reg_read_batch(self._handle, self._ids, self._pointers, self._count)
+        if status != UC_ERR_OK:
+            raise UcError(status)
+        return self._values[:]
+
+    def write(self, *values: int) -> None:
+        """Set the registers, in the order given (32-bit values)."""
+        self._values[:] = list(values)
+        status = self._lib.uc_reg_write_batch(self._handle, self._ids, self._pointers, self._count)
+        if status != UC_ERR_OK:
+            raise UcError(status)
+
+
+class Cpu:
+    """One RV32IM core with the node's memory map (docs/memory-map.md); use it as a context manager.
+
+    `frequency_hz` converts executed instructions to virtual time (one cycle per instruction).
+    """
+
+    def __init__(
+        self, memory: MemoryMap | None = None, frequency_hz: float = DEFAULT_FREQUENCY_HZ
+    ) -> None:
+        if frequency_hz <= 0:
+            raise ValueError(f"expected a positive CPU frequency, got {frequency_hz} Hz")
+        self.memory = memory or MemoryMap()
+        self.frequency_hz = frequency_hz
+        self._uc: Uc | None = Uc(UC_ARCH_RISCV, UC_MODE_RISCV32)
+        self._banks = tuple(_Bank(region) for region in self.memory.regions)
+        # Regions start at distinct multiples of 16 MiB, so an address's top byte picks the
+        # only region it can be in: a dict lookup instead of a search on every kernel access.
+        self._bank_by_top = {
+            top: bank
+            for bank in self._banks
+            for top in range(bank.region.base >> 24, ((bank.end - 1) >> 24) + 1)
+        }
+        for bank in self._banks:
+            region = bank.region
+            self._uc.mem_map_ptr(region.base, region.size, region.guest.value, bank.address)
+        self.write(TRAMPOLINE, TRAMPOLINE_CODE)
+        self._engine = _Engine(self._uc)
+        registers = self._engine.registers
+        self._call_registers = registers(*_ARGUMENT_REGISTERS, UC_RISCV_REG_RA, UC_RISCV_REG_SP)
+        self._result_registers = registers(UC_RISCV_REG_PC, UC_RISCV_REG_A0)
+        self._service_registers = registers(UC_RISCV_REG_A7, *_ARGUMENT_REGISTERS)
+        # Before the first run, so that every translated block carries them.
+        self._engine.hook_block(self._on_block)
+        self._engine.hook_invalid_memory(self._on_invalid_memory)
+        self._engine.hook_interrupt(self._on_interrupt)
+        self._running = False
+        self._count = 0  # instructions of the blocks entered in this call
+        self._block_end = 0  # the address after the latest block entered
+        self._fault: str | None = None
+        self._completed: int | None = None  # the exact count when the last block did not finish
+        self._services: GuestServices | None = None
+
+    @property
+    def instructions(self) -> int:
+        """Instructions the running call has executed so far (for TIME_US inside a call)."""
+        return self._count
+
+    def call(
+        self,
+        entry: int,
+        args: Sequence[int],
+        budget: int,
+        services: GuestServices | None = None,
+    ) -> GuestRun:
+        """Run the guest function at `entry` with up to four arguments and at most `budget`
+        instructions; `services` answers its ecalls (None: an ecall is a fault)."""
+        self._open()
+        if self._running:
+            raise RuntimeError("Cpu.call is not reentrant: a guest call is already running")
+        if budget < 1:
+            raise ValueError(f"expected an instruction budget of at least 1, got {budget}")
+        if len(args) > len(_ARGUMENT_REGISTERS):
+            raise ValueError(f"expected at most 4 arguments (a0..a3), got {len(args)}")
+        arguments = [value & WORD_MASK for value in args]
+        arguments += [0] * (len(_ARGUMENT_REGISTERS) - len(arguments))
+        self._call_registers.write(*arguments, TRAMPOLINE, self.memory.stack_top)
+        self._count, self._fault, self._completed = 0, None, None
+        self._services, self._running = services, True
+        try:
+            self._engine.start(entry, TRAMPOLINE, budget)
+        except UcError as error:
+            if self._fault is None:  # not described by a hook: say what Unicorn says
+                pc = self._engine.read(UC_RISCV_REG_PC)
+                self._fault_at(pc, f"{error} at 0x{pc:08X}")
+        finally:
+            self._services, self._running = None, False
+        return self._result(budget)
+
+    def _result(self, budget: int) -> GuestRun:
+        pc, a0 = self._result_registers.read()
+        instructions = self._count if self._completed is None else self._completed
+        if self._fault is None and pc != TRAMPOLINE:
+            if self._count > budget:  # the budget stopped the guest inside a block it entered
+                self._fault = f"watchdog: instruction budget of {budget} exhausted at 0x{pc:08X}"
+                instructions = budget
+            else:  # Unicorn ends emu_start early, without an error, only when a wfi halts it
+                self._fault = f"halted by a wfi at 0x{pc - 4:08X}: no interrupt will come"
+        return GuestRun(
+            a0=a0,
+            instructions=instructions,
+            fault=self._fault,
+            duration=instructions / self.frequency_hz,
+        )
+
+    def read(self, address: int, size: int) -> bytes:
+        """Kernel read: `size` bytes at `address`, whatever the guest may do there."""
+        bank, offset = self._bank(address, size, "read")
+        return bytes(bank.view[offset : offset + size])
+
+    def write(self, address: int, data: bytes | bytearray | memoryview) -> None:
+        """Kernel write, bypassing guest permissions (flash and SRAM included)."""
+        bank, offset = self._bank(address, len(data), "write")
+        bank.view[offset : offset + len(data)] = data
+        self._written(bank, address, len(data))
+
+    def copy(self, destination: int, source: int, size: int) -> None:
+        """Kernel copy of `size` bytes inside guest memory (overlap allowed), without an
+        intermediate bytes object: the task window and the port services copy a lot."""
+        source_bank, source_offset = self._bank(source, size, "read")
+        bank, offset = self._bank(destination, size, "write")
+        bank.view[offset : offset + size] = source_bank.view[source_offset : source_offset + size]
+        self._written(bank, destination, size)
+
+    def close(self) -> None:
+        """Free the emulator and its memory; calling it again does nothing."""
+        uc, self._uc = self._uc, None
+        if uc is None:
+            return
+        self._engine.remove_hooks()
+        # The binding frees the engine in a weakref finalizer only, and the Uc object sits in
+        # reference cycles, so it would live until the next GC run; the finalizer runs at most
+        # once. The host memory goes after the engine that maps it.
+        finalizer: Callable[[], object] = vars(uc)["_Uc__finalizer"]
+        finalizer()
+        for bank in self._banks:
+            bank.view.release()
+        self._banks = ()
+        self._bank_by_top = {}
+
+    def __enter__(self) -> Cpu:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def _open(self) -> Uc:
+        if self._uc is None:
+            raise CpuClosedError("the CPU is closed")
+        return self._uc
+
+    def _bank(self, address: int, size: int, operation: str) -> tuple[_Bank, int]:
+        """The host memory holding `size` bytes at `address`, and the offset there."""
+        self._open()
+        bank = self._bank_by_top.get(address >> 24)
+        if bank is not None and bank.region.base <= address and address + size <= bank.end:
+            return bank, address - bank.region.base
+        raise KernelAccessError(
+            f"kernel {operation} of {size} bytes at 0x{address:08X}: expected it inside one "
+            f"region of the memory map, got {self.memory.describe(address)}"
+            f"..{self.memory.describe(address + max(size, 1) - 1)}"
+        )
+
+    def _written(self, bank: _Bank, address: int, size: int) -> None:
+        """Unicorn does not see writes to host memory: drop the code it translated from there,
+        so that a module written over another one runs as its new bytes say."""
+        if bank.executable:
+            self._open().ctl_remove_cache(address, address + size)
+
+    # Hooks: Unicorn calls them during a call; they record what happened for _result.
+
+    def _on_block(self, address: int, size: int) -> None:
+        if (address | size) % INSTRUCTION_SIZE:
+            # Unicorn's RISC-V always decodes compressed instructions; the node's RV32IM core
+            # would not. Stopping here, before the block runs, keeps the count exact too.
+            self._fault = (
+                f"instruction fetch at 0x{address:08X}: expected 4-byte aligned RV32IM "
+                "instructions, got a misaligned address or a compressed instruction"
+            )
+            self._engine.stop()
+            return
+        self._count += size // INSTRUCTION_SIZE
+        self._block_end = address + size
+
+    def _on_invalid_memory(self, access: int, address: int, size: int) -> None:
+        where = self._note(address)
+        if access in _FETCHES:
+            self._fault = f"memory fault: instruction fetch at 0x{address:08X} ({where})"
+            return
+        pc = self._engine.read(UC_RISCV_REG_PC)
+        operation = "read" if access in _READS else "write"
+        self._fault_at(
+            pc,
+            f"memory fault: {size}-byte {operation} at 0x{address:08X} ({where}) by the "
+            f"instruction at 0x{pc:08X}",
+        )
+
+    def _on_interrupt(self, cause: int) -> None:
+        if cause in _ECALL_CAUSES:
+            self._ecall()
+            return
+        pc = self._engine.read(UC_RISCV_REG_PC)  # already past the illegal instruction
+        if cause == _ILLEGAL_INSTRUCTION:
+            faulting = pc - INSTRUCTION_SIZE
+            word = int.from_bytes(self.read(faulting, INSTRUCTION_SIZE), "little")
+            self._fault_at(faulting, f"illegal instruction 0x{word:08X} at 0x{faulting:08X}")
+        else:
+            self._fault = f"exception (cause {cause}), pc 0x{pc:08X}"
+        self._engine.stop()
+
+    def _ecall(self) -> None:
+        number, *arguments = self._service_registers.read()
+        try:
+            if self._services is None:
+                raise ServiceFault(f"service {number}: no kernel services attached to this call")
+            result = dispatch(self._services, number, *arguments)
+        except ServiceFault as fault:
+            ecall = self._engine.read(UC_RISCV_REG_PC) - INSTRUCTION_SIZE  # pc is past it
+            self._fault = f"{fault} (ecall at 0x{ecall:08X})"
+            self._engine.stop()
+            return
+        self._engine.write(UC_RISCV_REG_A0, result & WORD_MASK)
+
+    def _fault_at(self, pc: int, text: str) -> None:
+        """Record a fault of the instruction at `pc`; it and the rest of its block did not run."""
+        self._fault = text
+        self._completed = self._count - (self._block_end - pc) // INSTRUCTION_SIZE
+
+    def _note(self, address: int) -> str:
+        """Where an address lies and what a guest may do there: 'SRAM, guest r--'."""
+        region = self.memory.region_at(address)
+        if region is None:
+            return "unmapped memory"
+        letters = "".join(
+            letter if permission in region.guest else "-"
+            for letter, permission in zip(
+                "rwx", (Permission.READ, Permission.WRITE, Permission.EXECUTE), strict=True
+            )
+        )
+        return f"{region.name}, guest {letters}"
