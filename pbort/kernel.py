@@ -196,7 +196,8 @@ class Kernel:
             raise ConfigurationError(f"run: expected a finite time for until, got {until}")
         if cycles is not None and cycles < 0:
             raise ConfigurationError(f"run: expected cycles >= 0, got {cycles}")
-        return self._scheduler.run(until, cycles)
+        with self.clock.running():
+            return self._scheduler.run(until, cycles)
 
     @property
     def now(self) -> float:

@@ -8,8 +8,10 @@ type and size so that a value can be copied into and out of a PBO, native or gue
 
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass
 from enum import Enum
+from functools import cached_property
 from math import prod
 
 import numpy as np
@@ -33,6 +35,21 @@ class PortKind(Enum):
 
 
 PortValue = int | float | np.ndarray
+
+# (numpy kind, item size) -> struct code, for the scalar fast path.
+_STRUCT_CODES = {
+    ("i", 1): "b",
+    ("i", 2): "h",
+    ("i", 4): "i",
+    ("i", 8): "q",
+    ("u", 1): "B",
+    ("u", 2): "H",
+    ("u", 4): "I",
+    ("u", 8): "Q",
+    ("f", 4): "f",
+    ("f", 8): "d",
+    ("b", 1): "?",
+}
 
 
 @dataclass(frozen=True)
@@ -85,12 +102,33 @@ class PortSpec:
         array.setflags(write=False)
         return array
 
+    @cached_property
+    def _scalar(self) -> struct.Struct | None:
+        """A struct for a scalar port's element: packing one number with it is several times
+        faster than going through numpy, and guest ports are copied every call."""
+        if self.kind is not PortKind.SCALAR:
+            return None
+        dtype = np.dtype(self.dtype)
+        code = _STRUCT_CODES.get((dtype.kind, dtype.itemsize))
+        return (
+            None if code is None else struct.Struct(("<" if dtype.byteorder != ">" else ">") + code)
+        )
+
     def encode(self, value: PortValue) -> bytes:
         """The value as the bytes a guest sees in its port buffer (little-endian)."""
+        scalar = self._scalar
+        if scalar is not None and type(value) in (int, float):
+            try:
+                return scalar.pack(value)
+            except struct.error:
+                pass  # out of range or of another type: numpy converts as `coerce` does
         return np.asarray(value, dtype=self.dtype).reshape(self.shape).tobytes()
 
     def decode(self, data: bytes) -> PortValue:
         """A value from the bytes of a guest's port buffer."""
+        scalar = self._scalar
+        if scalar is not None:
+            return scalar.unpack_from(data)[0]
         array = np.frombuffer(data, dtype=self.dtype, count=prod(self.shape)).reshape(self.shape)
         if self.kind is PortKind.SCALAR:
             return array.item()

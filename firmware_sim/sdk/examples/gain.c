@@ -15,8 +15,8 @@ enum { PORT_X, PORT_Y, PORT_K, PORT_COUNT };
 #define ENERGY_PER_CYCLE_NJ 60u  /* energy of one cycle: port copies and a multiply */
 
 struct gain_state {
-    uint32_t last_cycle_us; /* node time of the latest cycle */
-    uint32_t period_us;     /* time between the two latest cycles; 0 until measured */
+    uint32_t last_cycle_us; /* node time of the latest evaluation */
+    uint32_t period_us;     /* time between the two latest evaluations (the period) */
     uint8_t timed;          /* last_cycle_us is valid */
 };
 
@@ -59,20 +59,11 @@ static int32_t gain_on(struct pbo_context *ctx)
 
 static int32_t gain_cycle(struct pbo_context *ctx)
 {
-    struct gain_state *s = ctx->state;
-    uint32_t now;
-
     /* Port buffers are plain memory: the kernel copied the inputs in before this call and
        copies the outputs out after it, so direct access is safe and costs no service call. */
     *(int32_t *)ctx->ports[PORT_Y] =
         q16_mul_sat(*(const int32_t *)ctx->ports[PORT_K], *(const int32_t *)ctx->ports[PORT_X]);
 
-    now = pbo_sys_time_us();
-    if (s->timed) {
-        s->period_us = now - s->last_cycle_us; /* unsigned: correct across the 32-bit wrap */
-    }
-    s->last_cycle_us = now;
-    s->timed = 1;
     return PBO_OK;
 }
 
@@ -129,8 +120,17 @@ static int32_t output_error_milli(const struct pbo_context *ctx)
  */
 static int32_t gain_evaluate(struct pbo_context *ctx)
 {
-    const struct gain_state *s = ctx->state;
+    struct gain_state *s = ctx->state;
     uint32_t power = IDLE_POWER_MILLI_MW;
+    /* The evaluator runs right after every cycle, at its rate: the time between two
+       evaluations is the cycle period. Measuring it here keeps the cycle free of service calls. */
+    const uint32_t now = pbo_sys_time_us();
+
+    if (s->timed) {
+        s->period_us = now - s->last_cycle_us; /* unsigned: correct across the 32-bit wrap */
+    }
+    s->last_cycle_us = now;
+    s->timed = 1;
 
     if (s->period_us != 0) {
         power += 1000u * ENERGY_PER_CYCLE_NJ / s->period_us;

@@ -21,8 +21,8 @@ enum { PORT_X, PORT_Y, PORT_COUNT };
 struct ma_state {
     int32_t window[WINDOW]; /* the latest samples; meaningless until primed */
     uint32_t next;          /* ring index the next sample goes to */
-    uint32_t last_cycle_us; /* node time of the latest cycle */
-    uint32_t period_us;     /* time between the two latest cycles; 0 until measured */
+    uint32_t last_cycle_us; /* node time of the latest evaluation */
+    uint32_t period_us;     /* time between the two latest evaluations (the period) */
     uint8_t primed;         /* the window holds samples */
     uint8_t timed;          /* last_cycle_us is valid */
 };
@@ -69,7 +69,6 @@ static int32_t ma_cycle(struct pbo_context *ctx)
 {
     struct ma_state *s = ctx->state;
     int32_t y;
-    uint32_t now;
     /* Port buffers are plain memory, copied in before the call and out after it. The checked
        service (pbo_sys_port_read) would do the same at the cost of a kernel call. */
     const int32_t x = *(const int32_t *)ctx->ports[PORT_X];
@@ -85,12 +84,6 @@ static int32_t ma_cycle(struct pbo_context *ctx)
     y = window_mean(s);
     *(int32_t *)ctx->ports[PORT_Y] = y;
 
-    now = pbo_sys_time_us();
-    if (s->timed) {
-        s->period_us = now - s->last_cycle_us; /* unsigned: correct across the 32-bit wrap */
-    }
-    s->last_cycle_us = now;
-    s->timed = 1;
     return PBO_OK;
 }
 
@@ -148,8 +141,17 @@ static int32_t deviation_milli(const struct pbo_context *ctx)
  */
 static int32_t ma_evaluate(struct pbo_context *ctx)
 {
-    const struct ma_state *s = ctx->state;
+    struct ma_state *s = ctx->state;
     uint32_t power = IDLE_POWER_MILLI_MW;
+    /* The evaluator runs right after every cycle, at its rate: the time between two
+       evaluations is the cycle period. Measuring it here keeps the cycle free of service calls. */
+    const uint32_t now = pbo_sys_time_us();
+
+    if (s->timed) {
+        s->period_us = now - s->last_cycle_us; /* unsigned: correct across the 32-bit wrap */
+    }
+    s->last_cycle_us = now;
+    s->timed = 1;
 
     if (s->period_us != 0) {
         power += 1000u * ENERGY_PER_CYCLE_NJ / s->period_us;
