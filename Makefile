@@ -31,8 +31,9 @@ lint: $(INSTALLED)
 test: tools $(INSTALLED) lint
 	$(PY) -m pytest
 
-bench: $(INSTALLED)
+bench: tools $(INSTALLED)
 	$(PY) benchmarks/hex_codec.py
+	$(PY) benchmarks/scheduler.py
 
 clean:
 	rm -rf $(BUILD) .pytest_cache .ruff_cache .hypothesis

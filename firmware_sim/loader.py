@@ -17,6 +17,7 @@ from __future__ import annotations
 import zlib
 from dataclasses import dataclass, field
 from types import TracebackType
+from typing import Protocol
 
 from firmware_sim.flash import BLOCK_SIZE, Flash
 from firmware_sim.flash_space import Extent, FlashSpace
@@ -37,6 +38,37 @@ from hexmigrate.records import POINTER_SIZE, Record, RecordType, decode_record
 
 class LoadError(RuntimeError):
     """The node cannot install the module (no room, read-back mismatch, misplaced pointer)."""
+
+
+class BlockBuffer(Protocol):
+    """Where the block being received waits before it is programmed: the node's SRAM."""
+
+    def store(self, offset: int, data: bytes) -> None:
+        """Put `data` at `offset` of the block."""
+
+    def contents(self, length: int) -> bytes:
+        """The first `length` bytes of the block."""
+
+    def release(self) -> None:
+        """The load is over: give the memory back."""
+
+
+class HostBlockBuffer:
+    """A block buffer in host memory, for a loader used without a node."""
+
+    def __init__(self) -> None:
+        self._data = bytearray(BLOCK_SIZE)
+
+    def store(self, offset: int, data: bytes) -> None:
+        """Put `data` at `offset` of the block."""
+        self._data[offset : offset + len(data)] = data
+
+    def contents(self, length: int) -> bytes:
+        """The first `length` bytes of the block."""
+        return bytes(self._data[:length])
+
+    def release(self) -> None:
+        """Nothing to give back."""
 
 
 @dataclass(frozen=True)
@@ -89,7 +121,8 @@ class _Progress:
 class LoadSession:
     """One module being loaded. Feed it lines or records, then `finish` (or `abort`).
 
-    `size` (bytes), when the sender announces it, reserves just enough blocks; without it the
+    `buffer` holds the block being received (the node passes one in its SRAM). `size` (bytes),
+    when the sender announces it, reserves just enough blocks; without it the
     largest free run is reserved and trimmed at the end. `address` asks for a load address
     (block-aligned); by default the first fitting free run is used. Use it as a context manager
     to abort automatically when something raises.
@@ -103,11 +136,12 @@ class LoadSession:
         *,
         size: int | None = None,
         address: int | None = None,
+        buffer: BlockBuffer | None = None,
     ) -> None:
         self.flash = flash
         self.space = space
         self.owner = owner
-        self._buffer = bytearray(BLOCK_SIZE)
+        self._buffer = buffer or HostBlockBuffer()
         self._progress = _Progress()
         self._lines = 0
         self._extent = self._reserve(size, address)
@@ -220,7 +254,7 @@ class LoadSession:
         while position < len(data):
             room = BLOCK_SIZE - progress.buffered
             chunk = data[position : position + room]
-            self._buffer[progress.buffered : progress.buffered + len(chunk)] = chunk
+            self._buffer.store(progress.buffered, chunk)
             progress.buffered += len(chunk)
             position += len(chunk)
             if progress.buffered == BLOCK_SIZE:
@@ -263,7 +297,7 @@ class LoadSession:
     def _relocate_block(self, index: int, length: int) -> bytes:
         progress = self._progress
         assert progress.link_base is not None
-        block = bytearray(self._buffer[:length])
+        block = bytearray(self._buffer.contents(length))
         start = progress.link_base + index * BLOCK_SIZE
         delta = self.load_base - progress.link_base
         for location, line in progress.relocations.items():
@@ -304,6 +338,7 @@ class LoadSession:
         self._check_read_back(size)
         extent = self.space.shrink(self.owner, progress.programmed_blocks)
         self._done = True
+        self._buffer.release()
         return InstalledImage(
             link_base=progress.link_base,
             load_base=self.load_base,
@@ -346,6 +381,7 @@ class LoadSession:
         if self._done:
             return
         self._done = True
+        self._buffer.release()
         for index in range(self._progress.programmed_blocks):
             self.flash.erase(self.flash.block_address(self._extent.first + index))
         self.space.free(self.owner)

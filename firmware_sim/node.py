@@ -15,7 +15,7 @@ from pathlib import Path
 from types import TracebackType
 
 from firmware_sim.cpu import Cpu
-from firmware_sim.flash import Flash, FlashTiming
+from firmware_sim.flash import BLOCK_SIZE, Flash, FlashTiming
 from firmware_sim.flash_space import FlashSpace
 from firmware_sim.guest import DEFAULT_BUDGET, GuestModule, register_module
 from firmware_sim.loader import InstalledImage, LoadSession
@@ -69,7 +69,32 @@ class InstalledModule:
     def flash_blocks(self) -> list[int]:
         """Start addresses of the flash blocks the module occupies."""
         first = self.image.load_base
-        return [first + 256 * index for index in range(self.image.extent.count)]
+        return [first + BLOCK_SIZE * index for index in range(self.image.extent.count)]
+
+
+class SramBlockBuffer:
+    """The loader's block buffer, allocated in the node's SRAM for the duration of one load."""
+
+    def __init__(self, cpu: Cpu, sram: SramAllocator, owner: str) -> None:
+        self._cpu = cpu
+        self._sram = sram
+        self.address: int | None = sram.allocate(BLOCK_SIZE, f"loader buffer ({owner})")
+
+    def store(self, offset: int, data: bytes) -> None:
+        """Put `data` at `offset` of the block."""
+        assert self.address is not None
+        self._cpu.write(self.address + offset, data)
+
+    def contents(self, length: int) -> bytes:
+        """The first `length` bytes of the block."""
+        assert self.address is not None
+        return self._cpu.read(self.address, length)
+
+    def release(self) -> None:
+        """Free the buffer; a second call does nothing."""
+        if self.address is not None:
+            self._sram.free(self.address)
+            self.address = None
 
 
 class Node:
@@ -119,8 +144,18 @@ class Node:
     def begin_load(
         self, owner: str, size: int | None = None, address: int | None = None
     ) -> LoadSession:
-        """Start receiving a module record by record (for a transfer); finish with `install`."""
-        return LoadSession(self.flash, self.space, owner, size=size, address=address)
+        """Start receiving a module record by record (for a transfer); finish with `install`.
+
+        The block being received waits in a 256-byte buffer in SRAM, as on the paper's nodes.
+        """
+        buffer = SramBlockBuffer(self.cpu, self.sram, owner)
+        try:
+            return LoadSession(
+                self.flash, self.space, owner, size=size, address=address, buffer=buffer
+            )
+        except Exception:
+            buffer.release()
+            raise
 
     def install(self, session: LoadSession) -> InstalledModule:
         """Finish a load, call the module's init subroutine and register the module.
@@ -183,7 +218,8 @@ class Node:
         self._note(f"unloaded {name!r}")
 
     def _erase(self, image: InstalledImage) -> None:
-        for address in range(image.load_base, image.load_base + image.extent.count * 256, 256):
+        end = image.load_base + image.extent.count * BLOCK_SIZE
+        for address in range(image.load_base, end, BLOCK_SIZE):
             self.flash.erase(address)
 
     # Running PBOs.

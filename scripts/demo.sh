@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The demo `make demo` runs until the end-to-end visual-servoing demo exists: take the SDK's
 # example modules (already built by `make modules`), pack them as extended Intel HEX by both
-# routes (ELF relocations, and the paper's binary + map file), inspect them, verify them and
-# relocate them, echoing every command as a user would type it.
+# routes (ELF relocations, and the paper's binary + map file), inspect, verify and relocate them,
+# then load them into an emulated node and run them behind a native signal source, echoing every
+# command as a user would type it.
 #
 # Usage: scripts/demo.sh VENV MODULE_BUILD_DIR
 set -euo pipefail
@@ -42,4 +43,9 @@ for offset in range(0, len(first), 4):
 PY
     echo
 done
+echo "=== an emulated node runs both modules: signal -> gain (x2.5) -> moving_average ==="
+run firmware-sim run --module "$out/gain.hex" --module "$out/moving_average.hex@0x08010000" \
+    --native signal --set signal.shape=1 --set signal.amplitude=1000 --set signal.period_ms=200 \
+    --set gain.k=0x28000 --wire signal.y=gain.x --wire gain.y=moving_average.x \
+    --rate signal=100 --rate gain=100 --rate moving_average=100 --seconds 0.5
 echo "module files written to $out/"

@@ -209,3 +209,18 @@ def test_running_modules_draw_power(node, images):
     assert node.power.used == pytest.approx(
         node.config.base_draw / 1000 * 1.0 + node.power.draws["gain"] / 1000 * 1.0, rel=0.05
     )
+
+
+def test_the_block_being_received_waits_in_sram(node, images):
+    session = node.begin_load("incoming", images["gain"].size)
+    buffers = [a for a in node.sram.allocations if "loader buffer" in a.owner]
+    assert len(buffers) == 1
+    lines = images["gain"].to_hex().splitlines()
+    data = [line for line in lines if line[7:9] == "00"]
+    for line in [line for line in lines if line[7:9] != "00"][:-1] + data[:3]:
+        session.feed_line(line)
+    first_bytes = images["gain"].relocate(session.load_base)[:48]
+    assert node.cpu.read(buffers[0].address, 48) == first_bytes  # not yet in flash
+    assert node.flash.read(session.load_base, 4) == b"\xff" * 4
+    session.abort()
+    assert not [a for a in node.sram.allocations if "loader buffer" in a.owner]
