@@ -26,7 +26,7 @@ from firmware_sim.memory_map import (
     WINDOW_BASE,
     MemoryMap,
 )
-from firmware_sim.sdk.build import _COMPILE_FLAGS, _TARGET, GCC, OBJCOPY, SDK_DIR
+from firmware_sim.sdk.build import COMPILE_FLAGS, GCC, OBJCOPY, SDK_DIR, TARGET
 from firmware_sim.services import LOG_LIMIT, Service, ServiceFault, Status
 
 GUEST = r"""
@@ -75,8 +75,8 @@ class Guest:
 def build_guest(source: str, directory: Path) -> Guest:
     """Compile and link C functions at the start of flash; their addresses by name."""
     (directory / "guest.c").write_text(source)
-    compile_flags = [*_COMPILE_FLAGS, f"-I{SDK_DIR}", "-c", "guest.c", "-o", "guest.o"]
-    link_flags = [*_TARGET, "-nostdlib", f"-Wl,-Ttext=0x{FLASH_BASE:08X}", "-Wl,-e,0"]
+    compile_flags = [*COMPILE_FLAGS, f"-I{SDK_DIR}", "-c", "guest.c", "-o", "guest.o"]
+    link_flags = [*TARGET, "-nostdlib", f"-Wl,-Ttext=0x{FLASH_BASE:08X}", "-Wl,-e,0"]
     for command in (
         [GCC, *compile_flags],
         [GCC, *link_flags, "-Wl,--build-id=none", "guest.o", "-o", "guest.elf"],

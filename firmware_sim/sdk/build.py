@@ -27,9 +27,9 @@ OBJCOPY = "riscv64-unknown-elf-objcopy"
 _PACKAGES = {GCC: "gcc-riscv64-unknown-elf", OBJCOPY: "binutils-riscv64-unknown-elf"}
 
 # Both steps must agree on the ISA and ABI: the linker refuses to mix them.
-_TARGET = ["-march=rv32im", "-mabi=ilp32"]
-_COMPILE_FLAGS = [
-    *_TARGET,
+TARGET = ["-march=rv32im", "-mabi=ilp32"]
+COMPILE_FLAGS = [
+    *TARGET,
     "-mcmodel=medany",  # PC-relative code: only descriptor words need fixing when the image moves
     "-Os",
     "-nostdlib",
@@ -104,11 +104,11 @@ def build_module(source: Path, out_dir: Path) -> ModuleBuild:
     binary, hex_file = f"{name}.bin", f"{name}.objcopy.hex"
     # The file symbol would otherwise hold the source's absolute path.
     source_prefix = f"-ffile-prefix-map={source.parent}/="
-    compile_command = [gcc, *_COMPILE_FLAGS, f"-I{SDK_DIR}", source_prefix, "-c", str(source)]
+    compile_command = [gcc, *COMPILE_FLAGS, f"-I{SDK_DIR}", source_prefix, "-c", str(source)]
     _run([*compile_command, "-o", obj], f"compiling {source.name}", out_dir)
     link_flags = ["-nostdlib", "-T", str(LINKER_SCRIPT), "-Wl,--emit-relocs"]
     link_outputs = [f"-Wl,-Map={map_file}", "-Wl,--build-id=none", obj, "-o", elf]
-    _run([gcc, *_TARGET, *link_flags, *link_outputs], f"linking {elf}", out_dir)
+    _run([gcc, *TARGET, *link_flags, *link_outputs], f"linking {elf}", out_dir)
     _run([objcopy, "-O", "binary", elf, binary], f"writing {binary}", out_dir)
     _run([objcopy, "-O", "ihex", elf, hex_file], f"writing {hex_file}", out_dir)
     return ModuleBuild(
