@@ -5,19 +5,44 @@ It behaves like the on-chip flash of a small MCU, which is what makes module loa
 clear bits (1 -> 0), and both operations take time. Erase and program times are accumulated as
 virtual time, and every block counts its erases (wear). `on_change` lets the node mirror the bytes
 into the CPU's address space, where guests execute them.
+
+Two things make it a model of non-volatile memory rather than a byte array:
+
+* a backing file (`path`): the cells live in a raw image of exactly `size` bytes, and each
+  block's erase count and erased flag in a sidecar (`path` + ".blocks", see `FlashFile`);
+  every erase and program is written through at once, so the files always hold what the chip
+  holds and a new `Flash` on the same path continues where the last one stopped;
+* power cuts (`power_cut_after`): the N-th next erase or program is interrupted half way, leaves
+  what real flash could leave, and raises `PowerCut`; the chip then refuses every further erase
+  and program, as a node without power would.
 """
 
 from __future__ import annotations
 
+import os
+import random
+import struct
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
+from types import TracebackType
 
 BLOCK_SIZE = 256
 ERASED = 0xFF
+STATE_SUFFIX = ".blocks"
 
 
 class FlashError(RuntimeError):
-    """A flash operation the hardware would refuse (bad address, program without erase)."""
+    """A flash operation the hardware would refuse (bad address, program without erase), or a
+    backing file that does not fit the flash."""
+
+
+class PowerCut(BaseException):
+    """The power failed during a flash erase or program (simulated).
+
+    A BaseException, like KeyboardInterrupt, so that no ``except Exception`` on the way out
+    undoes anything: after a power cut nothing runs, and the flash holds what the cut left.
+    """
 
 
 @dataclass(frozen=True)
@@ -28,8 +53,95 @@ class FlashTiming:
     program: float = 2.0e-3
 
 
+class FlashFile:
+    """The raw image file of a flash and its sidecar of per-block state, written through.
+
+    Sidecar layout (little-endian): a 16-byte header ``b"RFBS"``, version u32 (1), block size
+    u32, block count u32; then 8 bytes per block: erase count u32, erased flag u32 (1 when the
+    block was erased and not programmed since). A missing sidecar next to an existing image
+    (an image copied on its own) is rebuilt: no wear, and a block is erased when all its bytes
+    are 0xFF.
+    """
+
+    MAGIC = b"RFBS"
+    VERSION = 1
+    HEADER = struct.Struct("<4sIII")
+    BLOCK = struct.Struct("<II")
+
+    def __init__(self, path: Path, size: int) -> None:
+        self.state_path = path.with_name(path.name + STATE_SUFFIX)
+        self.size = size
+        self.block_count = size // BLOCK_SIZE
+        self.existed = path.exists()
+        if self.existed and path.stat().st_size != size:
+            raise FlashError(
+                f"flash file {path}: expected {size} bytes (the configured flash size), "
+                f"got {path.stat().st_size}"
+            )
+        self._had_state = self.state_path.exists()
+        self._image = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            self._state = os.open(self.state_path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError:
+            os.close(self._image)
+            raise
+
+    def read(self) -> tuple[bytearray, list[bool], list[int]]:
+        """The cells, the erased flags and the erase counts the files hold."""
+        data = bytearray(os.pread(self._image, self.size, 0))
+        if not self._had_state:
+            blank = bytes([ERASED]) * BLOCK_SIZE
+            erased = [data[i : i + BLOCK_SIZE] == blank for i in range(0, self.size, BLOCK_SIZE)]
+            counts = [0] * self.block_count
+            self.write_all(data, erased, counts)
+            return data, erased, counts
+        erased, counts = self._read_state()
+        return data, erased, counts
+
+    def _read_state(self) -> tuple[list[bool], list[int]]:
+        expected = self.HEADER.size + self.block_count * self.BLOCK.size
+        raw = os.pread(self._state, expected + 1, 0)
+        header = (self.MAGIC, self.VERSION, BLOCK_SIZE, self.block_count)
+        if len(raw) != expected or self.HEADER.unpack_from(raw) != header:
+            found = self.HEADER.unpack_from(raw) if len(raw) >= self.HEADER.size else raw
+            raise FlashError(
+                f"flash state file {self.state_path}: expected {expected} bytes starting with "
+                f"{header}, got {len(raw)} bytes starting with {found!r}"
+            )
+        states = list(self.BLOCK.iter_unpack(raw[self.HEADER.size :]))
+        return [bool(flag) for _, flag in states], [count for count, _ in states]
+
+    def write_all(self, data: bytes | bytearray, erased: list[bool], counts: list[int]) -> None:
+        """Write the whole image and every block's state (a new file)."""
+        os.pwrite(self._image, data, 0)
+        header = self.HEADER.pack(self.MAGIC, self.VERSION, BLOCK_SIZE, self.block_count)
+        blocks = b"".join(self.BLOCK.pack(n, f) for n, f in zip(counts, erased, strict=True))
+        os.pwrite(self._state, header + blocks, 0)
+        os.ftruncate(self._state, len(header) + len(blocks))
+
+    def write_block(self, index: int, block: bytes, erased: bool, count: int) -> None:
+        """Write one block's cells and its state. The descriptors are unbuffered: each pwrite
+        reaches the operating system at once, so a process that dies leaves the files current."""
+        os.pwrite(self._image, block, index * BLOCK_SIZE)
+        state = self.BLOCK.pack(count, erased)
+        os.pwrite(self._state, state, self.HEADER.size + index * self.BLOCK.size)
+
+    def close(self) -> None:
+        """Close both files; a second call does nothing."""
+        for descriptor in (self._image, self._state):
+            if descriptor >= 0:
+                os.close(descriptor)
+        self._image = self._state = -1
+
+
 class Flash:
-    """Flash memory of `size` bytes at `base`, in blocks of `BLOCK_SIZE` bytes."""
+    """Flash memory of `size` bytes at `base`, in blocks of `BLOCK_SIZE` bytes.
+
+    `path` makes it non-volatile (an existing file is loaded, its size must be `size`);
+    `power_cut_after` = N interrupts the N-th next erase or program (1 = the next one), with
+    partial effects drawn from a generator seeded by `seed`. A context manager: `close`
+    releases the backing file.
+    """
 
     def __init__(
         self,
@@ -37,6 +149,10 @@ class Flash:
         size: int,
         timing: FlashTiming | None = None,
         on_change: Callable[[int, bytes], None] | None = None,
+        *,
+        path: str | os.PathLike[str] | None = None,
+        power_cut_after: int | None = None,
+        seed: int = 0,
     ) -> None:
         if size <= 0 or size % BLOCK_SIZE or base % BLOCK_SIZE:
             raise ValueError(
@@ -51,6 +167,52 @@ class Flash:
         self._erased = [True] * self.block_count
         self.erase_counts = [0] * self.block_count
         self.busy_time = 0.0
+        self.power_cut_after = power_cut_after
+        self._random = random.Random(seed)
+        self._cut: str | None = None  # the interrupted operation, once the power is off
+        self._file = None if path is None else self._open(Path(path))
+
+    def _open(self, path: Path) -> FlashFile:
+        backing = FlashFile(path, self.size)
+        if not backing.existed:
+            backing.write_all(self._data, self._erased, self.erase_counts)
+            return backing
+        try:
+            self._data, self._erased, self.erase_counts = backing.read()
+        except BaseException:
+            backing.close()
+            raise
+        self._changed(self.base, self.size)
+        return backing
+
+    def __enter__(self) -> Flash:
+        return self
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        error: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Release the backing file (its content is already current); safe to call twice."""
+        if self._file is not None:
+            self._file.close()
+
+    @property
+    def power_cut_after(self) -> int | None:
+        """How many erase/program operations until the power cut (the N-th is cut), or None."""
+        return self._countdown
+
+    @power_cut_after.setter
+    def power_cut_after(self, count: int | None) -> None:
+        if count is not None and count < 1:
+            raise ValueError(
+                f"expected power_cut_after >= 1 (1 cuts the next operation), got {count}"
+            )
+        self._countdown = count
 
     @property
     def block_count(self) -> int:
@@ -90,13 +252,23 @@ class Flash:
         return bytes(self._data[offset : offset + size])
 
     def erase(self, address: int) -> float:
-        """Erase the block that starts at `address`; return the time it took."""
+        """Erase the block that starts at `address`; return the time it took.
+
+        Cut by a power failure, some bits of the block are set and others not (random), and the
+        block still needs an erase before it can be programmed.
+        """
+        self._check_power(f"the erase of block 0x{address:08X}")
         index = self._aligned_block(address, "erase")
-        offset = index * BLOCK_SIZE
-        self._data[offset : offset + BLOCK_SIZE] = bytes([ERASED]) * BLOCK_SIZE
-        self._erased[index] = True
+        cut = self._power_fails(f"the erase of block 0x{address:08X}")
         self.erase_counts[index] += 1
-        self._changed(address, BLOCK_SIZE)
+        if cut:
+            offset = index * BLOCK_SIZE
+            old = self._data[offset : offset + BLOCK_SIZE]
+            noise = self._random.randbytes(BLOCK_SIZE)
+            partial = bytes(a | b for a, b in zip(old, noise, strict=True))
+            self._store(index, partial, BLOCK_SIZE, erased=False)
+            self._raise_cut()
+        self._store(index, bytes([ERASED]) * BLOCK_SIZE, BLOCK_SIZE, erased=True)
         return self._spend(self.timing.erase)
 
     def program(self, address: int, data: bytes) -> float:
@@ -104,7 +276,9 @@ class Flash:
 
         The block must have been erased since it was last programmed. The cells take
         ``old AND new``, as flash can only clear bits; the erased block makes that `data`.
+        Cut by a power failure, only a random prefix of `data` is programmed (never all of it).
         """
+        self._check_power(f"the program of block 0x{address:08X}")
         index = self._aligned_block(address, "program")
         if not 0 < len(data) <= BLOCK_SIZE:
             raise FlashError(
@@ -115,14 +289,44 @@ class Flash:
                 f"expected block 0x{address:08X} to be erased before programming, but it was "
                 "programmed since its last erase"
             )
+        cut = self._power_fails(f"the program of block 0x{address:08X}")
+        length = self._random.randrange(len(data)) if cut else len(data)
         offset = index * BLOCK_SIZE
-        old = self._data[offset : offset + len(data)]
-        self._data[offset : offset + len(data)] = bytes(
-            a & b for a, b in zip(old, data, strict=True)
-        )
-        self._erased[index] = False
-        self._changed(address, len(data))
+        block = bytearray(self._data[offset : offset + BLOCK_SIZE])
+        block[:length] = bytes(a & b for a, b in zip(block[:length], data[:length], strict=True))
+        self._store(index, bytes(block), len(data), erased=False)
+        if cut:
+            self._raise_cut()
         return self._spend(self.timing.program)
+
+    def _check_power(self, operation: str) -> None:
+        """After a cut nothing reaches the cells: code that runs on (an undo, a retry) must not
+        change what the cut left."""
+        if self._cut is not None:
+            raise PowerCut(f"flash: {operation} refused, the power is off since {self._cut}")
+
+    def _power_fails(self, operation: str) -> bool:
+        """Count an operation against `power_cut_after`; True when this one is cut."""
+        if self._countdown is None:
+            return False
+        self._countdown -= 1
+        if self._countdown:
+            return False
+        self._countdown, self._cut = None, operation
+        return True
+
+    def _raise_cut(self) -> None:
+        raise PowerCut(f"flash: power cut during {self._cut}")
+
+    def _store(self, index: int, block: bytes, changed: int, *, erased: bool) -> None:
+        """Put a whole block's new cells in place, write them through to the backing file and
+        tell `on_change` about the first `changed` bytes (the only ones that can differ)."""
+        offset = index * BLOCK_SIZE
+        self._data[offset : offset + BLOCK_SIZE] = block
+        self._erased[index] = erased
+        if self._file is not None:
+            self._file.write_block(index, block, erased, self.erase_counts[index])
+        self._changed(self.block_address(index), changed)
 
     def _aligned_block(self, address: int, operation: str) -> int:
         index = self.block_of(address)

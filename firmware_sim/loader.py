@@ -169,6 +169,50 @@ class LoadSession:
         """Image bytes received so far."""
         return self._progress.programmed_blocks * BLOCK_SIZE + self._progress.buffered
 
+    @property
+    def programmed(self) -> int:
+        """Image bytes already programmed into flash (whole blocks): what a transfer may ack."""
+        return self._progress.programmed_blocks * BLOCK_SIZE
+
+    @property
+    def link_base(self) -> int | None:
+        """The link address of the image's first byte, once data arrived."""
+        return self._progress.link_base
+
+    @property
+    def relocation_count(self) -> int:
+        """How many 07 records arrived."""
+        return len(self._progress.relocations)
+
+    @property
+    def has_init(self) -> bool:
+        """True once the 08 record arrived."""
+        return self._progress.init is not None
+
+    def rewind(self) -> None:
+        """Drop the partly received block: the sender will send it again from its start.
+
+        Only the block in the SRAM buffer is dropped; programmed blocks stay, so a transfer
+        resumes from `programmed`.
+        """
+        progress = self._progress
+        progress.next_address -= progress.buffered
+        progress.buffered = 0
+
+    def flush(self) -> None:
+        """Program the partly filled last block now: all data has arrived (a transfer knows the
+        image size) and the sender waits for that block's acknowledgement."""
+        if self._progress.buffered:
+            self._program_block()
+
+    def reset_pointers(self) -> None:
+        """Forget the 07 and 08 records received so far, for a sender that sends its header
+        again (allowed only before any block was programmed)."""
+        if self._progress.programmed_blocks:
+            raise LoadError("the pointer records cannot change once a block is programmed")
+        self._progress.relocations.clear()
+        self._progress.init = None
+
     def _reserve(self, size: int | None, address: int | None) -> Extent:
         count = None if size is None else max(1, -(-size // BLOCK_SIZE))
         if address is None:
@@ -201,20 +245,25 @@ class LoadSession:
         """Take one decoded record; `line` is its line number, for error messages."""
         kind = record.type
         if kind is RecordType.DATA:
-            self._data(self._progress.base + record.address, record.data, line)
+            self.feed_data(self._progress.base + record.address, record.data, line)
         elif kind is RecordType.EXTENDED_LINEAR_ADDRESS:
             self._progress.base = record.value << 16
         elif kind is RecordType.EXTENDED_SEGMENT_ADDRESS:
             self._progress.base = record.value << 4
         elif kind is RecordType.OFFSET_FUNCTION_POINTER:
-            self._relocation(record.value, line)
+            self.feed_relocation(record.value, line)
         elif kind is RecordType.MODULE_INIT_POINTER:
-            self._init(record.value, line)
+            self.feed_init(record.value, line)
         elif kind is RecordType.EOF:
-            self._progress.eof_line = line
+            self.end(line)
         # Start address records (03, 05) mean nothing for a module: the 08 record is its entry.
 
-    def _relocation(self, location: int, line: int) -> None:
+    def end(self, line: int = 0) -> None:
+        """The end-of-file record arrived (or the binary protocol's END)."""
+        self._progress.eof_line = line or max(self._lines, 1)
+
+    def feed_relocation(self, location: int, line: int = 0) -> None:
+        """An offset function pointer (07): the link address of a pointer word to fix."""
         progress = self._progress
         if location in progress.relocations:
             raise DuplicateRelocationError(
@@ -232,7 +281,8 @@ class LoadSession:
                 )
         progress.relocations[location] = line
 
-    def _init(self, target: int, line: int) -> None:
+    def feed_init(self, target: int, line: int = 0) -> None:
+        """The module initialization pointer (08)."""
         progress = self._progress
         if progress.init is not None:
             raise MultipleInitError(
@@ -242,7 +292,8 @@ class LoadSession:
             )
         progress.init, progress.init_line = target, line
 
-    def _data(self, address: int, data: bytes, line: int) -> None:
+    def feed_data(self, address: int, data: bytes, line: int = 0) -> None:
+        """Data at a link address; it must continue exactly where the previous data ended."""
         progress = self._progress
         if not data:
             return

@@ -4,20 +4,27 @@ This is where `hexmigrate` and `pbort` meet (ARCHITECTURE.md): a module file arr
 writes it to flash block by block and fixes its pointers, its init subroutine registers it, and the
 kernel runs it as a port-based object next to the node's native PBOs. A module is installed only
 when every step succeeded; on any failure the node is as it was before (flash content, flash
-space, SRAM, kernel), which `install` guarantees by undoing what was done.
+space, SRAM, kernel), which `commit` guarantees by undoing what was done.
+
+The flash directory (`firmware_sim/flash_directory.py`) is the commit point: a module belongs to
+the node once the directory lists it, and a node whose flash is a file (`NodeConfig.flash_file`)
+boots with exactly the modules the directory lists, whatever moment a power cut struck.
 """
 
 from __future__ import annotations
 
+import zlib
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
 
 from firmware_sim.cpu import Cpu
-from firmware_sim.flash import BLOCK_SIZE, Flash, FlashTiming
-from firmware_sim.flash_space import FlashSpace
-from firmware_sim.guest import DEFAULT_BUDGET, GuestModule, register_module
+from firmware_sim.flash import BLOCK_SIZE, Flash, FlashError, FlashTiming
+from firmware_sim.flash_directory import OWNER as DIRECTORY_OWNER
+from firmware_sim.flash_directory import SLOT_COUNT, DirectoryEntry, ModuleDirectory
+from firmware_sim.flash_space import Extent, FlashFullError, FlashSpace
+from firmware_sim.guest import DEFAULT_BUDGET, GuestModule, RegistrationError, register_module
 from firmware_sim.loader import InstalledImage, LoadSession
 from firmware_sim.memory_map import (
     DEFAULT_FLASH_SIZE,
@@ -32,15 +39,20 @@ from firmware_sim.sram import SramAllocator
 from hexmigrate.image import ModuleImage
 from pbort.clock import Clock
 from pbort.code import ModuleCode, PerformanceKind, Services
+from pbort.errors import MethodFailedError
 from pbort.kernel import Kernel
-from pbort.lifecycle import State
+from pbort.lifecycle import REMOVABLE, State
 
 POWER_INDEX = 0  # the non-functional value an evaluator reports its draw (mW) under
 
 
 @dataclass(frozen=True)
 class NodeConfig:
-    """The hardware of a node. Sizes in bytes, frequency in Hz, energy in J, draw in mW."""
+    """The hardware of a node. Sizes in bytes, frequency in Hz, energy in J, draw in mW.
+
+    `flash_file` makes the flash non-volatile: a raw image of `flash_size` bytes (created when
+    missing) and its ".blocks" sidecar of wear counters; None keeps the flash in memory only.
+    """
 
     flash_size: int = DEFAULT_FLASH_SIZE
     sram_size: int = DEFAULT_SRAM_SIZE
@@ -50,15 +62,23 @@ class NodeConfig:
     flash_timing: FlashTiming = field(default_factory=FlashTiming)
     energy: float = 3600.0
     base_draw: float = 50.0
+    flash_file: Path | None = None
 
 
 @dataclass(frozen=True)
 class InstalledModule:
-    """A guest module on this node: where its image is and the code the kernel runs."""
+    """A guest module on this node: where its image is, the code the kernel runs, and its line
+    in the flash directory.
+
+    A module brought back by `Node.boot` has an image with no relocation addresses (they were
+    applied when it was committed; the directory keeps only their count, `entry.relocations`)
+    and a `flash_time` of 0 (nothing was written).
+    """
 
     name: str
     image: InstalledImage
     code: GuestModule
+    entry: DirectoryEntry
 
     @property
     def load_address(self) -> int:
@@ -97,8 +117,16 @@ class SramBlockBuffer:
             self.address = None
 
 
+class BootError(RuntimeError):
+    """A directory entry that does not describe a whole module in flash (checked at boot)."""
+
+
 class Node:
-    """One emulated node. A context manager; `close` may be called twice."""
+    """One emulated node. A context manager; `close` may be called twice.
+
+    With a flash file that holds a directory, the node boots: the committed modules are
+    registered again (not started) before the constructor returns.
+    """
 
     def __init__(
         self, name: str = "node", config: NodeConfig | None = None, clock: Clock | None = None
@@ -109,16 +137,31 @@ class Node:
             self.config.flash_size, self.config.sram_size, self.config.window_size
         )
         self.cpu = Cpu(self.memory, self.config.cpu_frequency)
-        self.flash = Flash(
-            FLASH_BASE, self.config.flash_size, self.config.flash_timing, on_change=self.cpu.write
-        )
+        try:
+            self.flash = Flash(
+                FLASH_BASE,
+                self.config.flash_size,
+                self.config.flash_timing,
+                on_change=self.cpu.write,
+                path=self.config.flash_file,
+            )
+        except BaseException:
+            self.cpu.close()
+            raise
+        self.directory = ModuleDirectory(self.flash)
         self.space = FlashSpace(self.flash.block_count)
+        self.space.place(DIRECTORY_OWNER, self.directory.first_block, SLOT_COUNT)
         self.sram = SramAllocator(SRAM_BASE, self.config.sram_size)
         self.kernel = Kernel(clock)
         self.power = PowerModel(self.config.energy, self.config.base_draw)
         self.modules: dict[str, InstalledModule] = {}
         self.log: list[tuple[float, str]] = []
         self._closed = False
+        try:
+            self.boot()
+        except BaseException:
+            self.close()
+            raise
 
     def __enter__(self) -> Node:
         return self
@@ -132,19 +175,83 @@ class Node:
         self.close()
 
     def close(self) -> None:
-        """Stop the kernel and release the CPU."""
+        """Stop the kernel and release the CPU and the flash file (which is already current)."""
         if self._closed:
             return
         self._closed = True
         self.kernel.close()
         self.cpu.close()
+        self.flash.close()
+
+    def boot(self) -> list[InstalledModule]:
+        """Register again every module the flash directory lists whose image is intact.
+
+        Called by the constructor. Each entry's blocks are taken, its image's CRC-32 checked,
+        and its init subroutine run; an entry that fails any check is skipped and the node's log
+        says why. The modules are not started: that is the application's job. Blocks no valid
+        entry owns stay free, so the remains of a transfer cut short are erased on reuse.
+        """
+        scan = self.directory.scan()
+        for problem in scan.problems:
+            self._note(problem)
+        if scan.newest is None:
+            return []
+        booted = []
+        for entry in scan.newest.entries:
+            try:
+                booted.append(self._restore(entry))
+            except (BootError, FlashError, FlashFullError, RegistrationError) as error:
+                self._note(f"boot: skipped module {entry.name!r}: {error}")
+        return booted
+
+    def _restore(self, entry: DirectoryEntry) -> InstalledModule:
+        """Take an entry's blocks, check its image and register it."""
+        first = self.flash.block_of(entry.load_address)
+        if (entry.load_address - self.flash.base) % BLOCK_SIZE or entry.size <= 0:
+            raise BootError(
+                f"expected a block-aligned load address and a size > 0, got "
+                f"0x{entry.load_address:08X} and {entry.size} bytes"
+            )
+        owner = f"module:{entry.name}"
+        extent = self.space.place(owner, first, -(-entry.size // BLOCK_SIZE))
+        try:
+            image = self._image_of(entry, extent)
+            code = self._register(image, taken=set(self.kernel.names) | set(self.modules))
+        except BaseException:
+            self.space.free(owner)
+            raise
+        module = InstalledModule(code.name, image, code, entry)
+        self.modules[code.name] = module
+        self._note(f"booted {code.name!r} at 0x{image.load_base:08X} ({image.size} bytes)")
+        return module
+
+    def _image_of(self, entry: DirectoryEntry, extent: Extent) -> InstalledImage:
+        """The installed image an entry describes, once its bytes in flash match its CRC-32."""
+        crc = zlib.crc32(self.flash.read(entry.load_address, entry.size))
+        if crc != entry.crc32:
+            raise BootError(
+                f"the image at 0x{entry.load_address:08X} ({entry.size} bytes) has CRC-32 "
+                f"0x{crc:08X}, the directory expects 0x{entry.crc32:08X}"
+            )
+        delta = entry.load_address - entry.link_base
+        return InstalledImage(
+            link_base=entry.link_base,
+            load_base=entry.load_address,
+            size=entry.size,
+            relocations=(),
+            init=(entry.init_address - delta) % (1 << 32),
+            crc32=entry.crc32,
+            extent=extent,
+            flash_time=0.0,
+        )
 
     # Loading modules.
 
     def begin_load(
         self, owner: str, size: int | None = None, address: int | None = None
     ) -> LoadSession:
-        """Start receiving a module record by record (for a transfer); finish with `install`.
+        """Start receiving a module record by record (for a transfer); finish with `install`
+        (or `session.finish()`, then `commit` or `discard`).
 
         The block being received waits in a 256-byte buffer in SRAM, as on the paper's nodes.
         """
@@ -158,26 +265,60 @@ class Node:
             raise
 
     def install(self, session: LoadSession) -> InstalledModule:
-        """Finish a load, call the module's init subroutine and register the module.
-
-        On any failure everything the load did is undone and the error is raised again.
-        """
+        """Finish a load and commit it; on any failure everything the load did is undone and
+        the error is raised again."""
         with session:
             image = session.finish()
+        return self.commit(session.owner, image)
+
+    def commit(self, owner: str, image: InstalledImage) -> InstalledModule:
+        """Make a received image (flash owner `owner`) one of the node's modules.
+
+        Its init subroutine registers it; a module of the same name is replaced, so only the
+        names of other PBOs are taken. Then the directory is written: the commit point. Only
+        after it is the module it replaces stopped, removed from the kernel, and its flash freed
+        and erased, so a failure before it (the new module does not register, the directory is
+        full) discards the new image and leaves the old module exactly as it was, running if it
+        ran, and a power cut at any moment leaves one of the two listed in the directory.
+        """
         try:
-            code = self._register(image)
+            code = self._register(image, taken=set(self.kernel.names) - set(self.modules))
+            entry = self._entry(code.name, image)
+            kept = [module.entry for name, module in self.modules.items() if name != code.name]
+            self.directory.write([*kept, entry])
         except Exception:
-            self._erase(image)
-            self.space.free(session.owner)
+            self.discard(owner, image)
             raise
-        self.space.rename(session.owner, f"module:{code.name}")
-        module = InstalledModule(code.name, image, code)
+        replaced = self.modules.pop(code.name, None)
+        if replaced is not None:
+            self._retire(replaced)
+        self.space.rename(owner, f"module:{code.name}")
+        module = InstalledModule(code.name, image, code, entry)
         self.modules[code.name] = module
         self._note(
             f"installed {code.name!r} at 0x{image.load_base:08X} "
             f"({image.size} bytes, {len(image.relocations)} pointers fixed)"
+            + (f", replacing the one at 0x{replaced.load_address:08X}" if replaced else "")
         )
         return module
+
+    def discard(self, owner: str, image: InstalledImage) -> None:
+        """Erase and free a received image that is not to be committed."""
+        self._erase(image)
+        self.space.free(owner)
+
+    def _entry(self, name: str, image: InstalledImage) -> DirectoryEntry:
+        """The directory line of an image about to be committed."""
+        return DirectoryEntry(
+            name=name,
+            load_address=image.load_base,
+            size=image.size,
+            link_base=image.link_base,
+            init_address=image.init_address,
+            relocations=len(image.relocations),
+            crc32=image.crc32,
+            sequence=self.directory.scan().next_sequence,
+        )
 
     def load(self, source: ModuleImage | str | Path, address: int | None = None) -> InstalledModule:
         """Load a whole module (an image or a module file) through the streaming path."""
@@ -188,9 +329,9 @@ class Node:
                 session.feed_line(line)
         return self.install(session)
 
-    def _register(self, image: InstalledImage) -> GuestModule:
+    def _register(self, image: InstalledImage, taken: set[str]) -> GuestModule:
         services = Services(
-            report=lambda kind, index, value: None, now=self.kernel.now, log=self._note
+            report=lambda kind, index, value: None, now=lambda: self.kernel.now, log=self._note
         )
         descriptor = register_module(
             self.cpu,
@@ -199,7 +340,7 @@ class Node:
             image.size,
             image.init_address,
             services,
-            taken=set(self.kernel.names),
+            taken=taken,
             budget=self.config.budget,
         )
         return GuestModule(
@@ -207,15 +348,29 @@ class Node:
         )
 
     def unload(self, name: str) -> None:
-        """Stop and remove a module, then free (and erase) its flash and its SRAM."""
+        """Write the directory without the module, then stop and remove it and free (and erase)
+        its flash and its SRAM. A power cut before the directory write completes leaves the
+        module installed; one after it leaves it gone (its blocks are free, erased or not)."""
         module = self.modules[name]
-        if name in self.kernel.names:
-            self.stop(name)
-            self.kernel.remove(name)
-        self._erase(module.image)
-        self.space.free(f"module:{name}")
+        self.directory.write(m.entry for other, m in self.modules.items() if other != name)
         del self.modules[name]
+        self._retire(module)
         self._note(f"unloaded {name!r}")
+
+    def _retire(self, module: InstalledModule) -> None:
+        """Take a module that left the directory off the node: its PBO out of the kernel,
+        whatever its off and kill methods answer (its code is about to be erased), then its
+        flash blocks freed and erased."""
+        name = module.name
+        if name in self.kernel.names:
+            while self.kernel.state(name) not in REMOVABLE:
+                try:
+                    self.stop(name)
+                except MethodFailedError as error:
+                    self._note(f"stopping {name!r} on its way out: {error}")
+            self.kernel.remove(name)
+        self.space.free(f"module:{name}")
+        self._erase(module.image)
 
     def _erase(self, image: InstalledImage) -> None:
         end = image.load_base + image.extent.count * BLOCK_SIZE

@@ -1,4 +1,5 @@
-"""The `hexmigrate` command: pack, inspect, verify and relocate module files.
+"""The `hexmigrate` command: pack, inspect, verify and relocate module files; send them to
+nodes (send, ls, rm, ping) and run a listening node (node).
 
 Errors print ``error: FILE:LINE: message`` and exit 1; usage errors exit 2 (argparse);
 ``--debug`` shows the traceback instead.
@@ -7,6 +8,7 @@ Errors print ``error: FILE:LINE: message`` and exit 1; usage errors exit 2 (argp
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 import traceback
@@ -16,8 +18,17 @@ from pathlib import Path
 from hexmigrate.elf import DEFAULT_INIT_SYMBOL, image_from_elf
 from hexmigrate.errors import HexError
 from hexmigrate.image import ModuleImage
+from hexmigrate.links import open_link
+from hexmigrate.links.base import LinkError
 from hexmigrate.mapfile import image_from_map
 from hexmigrate.report import build_report, render_text
+from hexmigrate.transfer.sender import (
+    MODES,
+    Progress,
+    Sender,
+    TransferError,
+    TransferInterrupted,
+)
 
 EXIT_ERROR = 1
 EXIT_USAGE = 2
@@ -124,6 +135,94 @@ def cmd_relocate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _progress_bar(progress: Progress) -> None:
+    rate = progress.acknowledged / progress.elapsed if progress.elapsed > 0 else 0.0
+    left = (progress.total - progress.acknowledged) / rate if rate > 0 else 0.0
+    print(
+        f"\r{progress.acknowledged}/{progress.total} bytes, {progress.blocks} blocks, "
+        f"{rate / 1000:.1f} kB/s, ETA {left:.1f} s, {progress.retransmissions} resent  ",
+        end="",
+        file=sys.stderr,
+        flush=True,
+    )
+
+
+def _sender(args: argparse.Namespace, progress: bool = False) -> Sender:
+    link = open_link(args.to)
+    return Sender(
+        link,
+        args.mode,
+        window=args.window,
+        timeout=args.timeout,
+        retries=args.retries,
+        progress=_progress_bar if progress else None,
+    )
+
+
+def cmd_send(args: argparse.Namespace) -> int:
+    """Send a module to a node, show progress, commit it."""
+    image = ModuleImage.read(args.file)
+    sender = _sender(args, progress=not args.quiet)
+    with contextlib.closing(sender.link):
+        try:
+            result = sender.send(image, args.base)
+        except TransferInterrupted as error:
+            raise CommandError(f"{error}; run `hexmigrate send` again to start over") from None
+        except TransferError as error:
+            raise CommandError(str(error)) from None
+    if not args.quiet:
+        print(file=sys.stderr)
+    rate = result.size / result.seconds if result.seconds else 0.0
+    print(
+        f"{args.file}: module {result.name} installed at 0x{result.load_address:08X} on "
+        f"{args.to}: {result.size} bytes in {result.blocks} blocks, {result.seconds:.2f} s, "
+        f"{rate / 1000:.1f} kB/s, {result.wire_bytes} bytes sent, "
+        f"{result.retransmissions} retransmissions"
+    )
+    return 0
+
+
+def cmd_ping(args: argparse.Namespace) -> int:
+    """Ask a node who it is."""
+    sender = _sender(args)
+    with contextlib.closing(sender.link):
+        print(_ask(sender.ping))
+    return 0
+
+
+def cmd_ls(args: argparse.Namespace) -> int:
+    """List a node's modules."""
+    sender = _sender(args)
+    with contextlib.closing(sender.link):
+        modules = _ask(sender.modules)
+    for name, address, size in modules:
+        print(f"{name:<16} 0x{address:08X}  {size} bytes")
+    return 0
+
+
+def cmd_rm(args: argparse.Namespace) -> int:
+    """Unload a module from a node."""
+    sender = _sender(args)
+    with contextlib.closing(sender.link):
+        _ask(sender.remove, args.name)
+    print(f"removed {args.name} from {args.to}")
+    return 0
+
+
+def _ask(request, *arguments):
+    try:
+        return request(*arguments)
+    except TransferError as error:
+        raise CommandError(str(error)) from None
+
+
+def cmd_node(args: argparse.Namespace) -> int:
+    """Run an emulated node that accepts modules on a link and runs them."""
+    from firmware_sim.listen import listen  # the application layer, imported only here
+
+    return listen(args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of `hexmigrate` with one sub-parser per command."""
     parser = argparse.ArgumentParser(
@@ -181,7 +280,88 @@ def build_parser() -> argparse.ArgumentParser:
     )
     relocate.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.bin")
     relocate.set_defaults(func=cmd_relocate)
+    _add_link_commands(commands)
     return parser
+
+
+def _link_options(command: argparse.ArgumentParser) -> None:
+    command.add_argument(
+        "--to",
+        required=True,
+        metavar="URL",
+        help="the node's link, e.g. /dev/pts/5, socket://127.0.0.1:7777, "
+        "can://remote/127.0.0.1:54701/0 (docs/links.md)",
+    )
+    command.add_argument(
+        "--mode",
+        choices=MODES,
+        default="binary",
+        help="binary framing (fast) or the paper's hex lines (default: binary)",
+    )
+    command.add_argument("--window", type=int, default=4, help="blocks in flight (default 4)")
+    command.add_argument(
+        "--timeout", type=float, default=1.0, help="seconds to wait for an answer (default 1)"
+    )
+    command.add_argument("--retries", type=int, default=10, help="tries per step (default 10)")
+
+
+def _add_link_commands(commands: argparse._SubParsersAction) -> None:
+    send = commands.add_parser("send", help="send a module to a node and commit it")
+    send.add_argument("file", type=Path, metavar="FILE.hex")
+    send.add_argument("--base", type=address, metavar="ADDR", help="ask for a load address")
+    send.add_argument("--quiet", action="store_true", help="no progress bar")
+    _link_options(send)
+    send.set_defaults(func=cmd_send)
+    for name, func, text in (
+        ("ping", cmd_ping, "ask a node who it is"),
+        ("ls", cmd_ls, "list a node's modules"),
+    ):
+        command = commands.add_parser(name, help=text)
+        _link_options(command)
+        command.set_defaults(func=func)
+    remove = commands.add_parser("rm", help="unload a module from a node")
+    remove.add_argument("name")
+    _link_options(remove)
+    remove.set_defaults(func=cmd_rm)
+    node = commands.add_parser("node", help="run an emulated node that accepts modules")
+    node.add_argument(
+        "--listen",
+        required=True,
+        metavar="URL",
+        help="where to listen: pty (a new pty pair; its path is printed), a device, "
+        "socket://127.0.0.1:PORT, can://... (docs/links.md)",
+    )
+    node.add_argument(
+        "--flash",
+        type=Path,
+        metavar="FILE",
+        help="keep the flash in FILE and boot the modules it holds",
+    )
+    node.add_argument("--name", default="node", help="the node's name (default: node)")
+    node.add_argument(
+        "--rate",
+        type=float,
+        default=100.0,
+        help="frequency of the PBOs the node starts (default 100 Hz)",
+    )
+    node.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="PBO.port=VALUE",
+        help="a constant set when that PBO starts (decimal or 0x...)",
+    )
+    node.add_argument(
+        "--show",
+        action="append",
+        default=[],
+        metavar="PBO.port",
+        help="print this port's value every second",
+    )
+    node.add_argument(
+        "--seconds", type=float, help="stop after this long (default: run until interrupted)"
+    )
+    node.set_defaults(func=cmd_node)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -192,7 +372,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return args.func(args)
     except UsageError as error:
         parser.error(str(error))
-    except (HexError, CommandError, OSError) as error:
+    except KeyboardInterrupt:
+        return 130
+    except (HexError, CommandError, LinkError, OSError) as error:
         if args.debug:
             traceback.print_exc()
         print(f"error: {_describe(error)}", file=sys.stderr)

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from firmware_sim.flash_directory import DirectoryError
 from firmware_sim.guest import RegistrationError
 from firmware_sim.natives import Signal
 from firmware_sim.node import Node
@@ -144,8 +145,14 @@ def test_a_module_that_fails_init_stays_not_created(node, images):
 
 
 def snapshot(node: Node) -> tuple:
+    """Everything a load, a commit or an unload may change. The directory is compared by what
+    it lists: each commit writes a new record (the sequence moves on even when the list is
+    back to what it was)."""
+    modules = node.flash.read(node.flash.base, node.directory.slot_address(0) - node.flash.base)
+    listed = node.directory.scan().newest
     return (
-        node.flash.read(node.flash.base, node.flash.size),
+        modules,
+        () if listed is None else tuple(entry.name for entry in listed.entries),
         node.space.owners,
         node.sram.allocations,
         node.kernel.names,
@@ -224,3 +231,63 @@ def test_the_block_being_received_waits_in_sram(node, images):
     assert node.flash.read(session.load_base, 4) == b"\xff" * 4
     session.abort()
     assert not [a for a in node.sram.allocations if "loader buffer" in a.owner]
+
+
+def test_a_module_of_the_same_name_replaces_the_old_one(node, images):
+    old = node.load(images["gain"])
+    node.start("gain", 100, constants={"k": Q16})
+    node.run(until=0.05)
+    new = node.load(images["gain"], address=0x0802_0000)
+    assert node.modules == {"gain": new}
+    assert "gain" not in node.kernel.names  # stopped and removed; starting it is the caller's
+    assert not [a for a in node.sram.allocations if "0x08000000" in a.owner]
+    assert node.space.owners["module:gain"] == new.image.extent
+    blocks = len(old.flash_blocks) * 256
+    assert node.flash.read(old.load_address, blocks) == b"\xff" * blocks
+    listed = node.directory.scan().newest
+    assert [(e.name, e.load_address) for e in listed.entries] == [("gain", 0x0802_0000)]
+    node.start("gain", 100, constants={"k": 2 * Q16})
+    node.run(until=0.1)
+    assert node.kernel.state("gain") is State.ON
+
+
+def test_a_replacement_that_fails_before_the_directory_write_leaves_the_old_one_running(
+    node, images, monkeypatch
+):
+    node.load(images["gain"])
+    node.start(NativeModule(Signal), 100, constants={"shape": 0, "amplitude": 1})
+    node.start("gain", 100, constants={"k": 2 * Q16})
+    node.kernel.connect("signal.y", "gain.x")
+    node.run(cycles=4)
+    before = snapshot(node)
+
+    def full(entries):
+        raise DirectoryError("expected at most 5 modules in the directory, got 6")
+
+    monkeypatch.setattr(node.directory, "write", full)
+    with pytest.raises(DirectoryError, match="at most 5 modules"):
+        node.load(images["gain"], address=0x0802_0000)
+    assert snapshot(node) == before
+    assert node.kernel.state("gain") is State.ON
+    node.run(cycles=2)
+    assert node.kernel.value("gain.y") == 2 * node.kernel.value("signal.y")
+
+
+def test_a_received_image_can_be_discarded_instead_of_committed(node, images):
+    node.load(images["gain"])
+    before = snapshot(node)
+    session = node.begin_load("incoming", images["moving_average"].size)
+    for line in images["moving_average"].to_hex().splitlines():
+        session.feed_line(line)
+    image = session.finish()
+    assert node.space.owners["incoming"] == image.extent
+    node.discard("incoming", image)
+    assert snapshot(node) == before
+
+
+def test_a_module_cannot_take_the_name_of_a_pbo_that_is_not_a_module(node, images):
+    node.start(NativeModule(Signal), 100, name="gain", constants={"period_ms": 100})
+    before = snapshot(node)
+    with pytest.raises(RegistrationError, match="a module 'gain' is already loaded"):
+        node.load(images["gain"])
+    assert snapshot(node) == before

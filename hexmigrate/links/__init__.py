@@ -1,0 +1,80 @@
+"""Transports for module transfers, opened by URL: ``open_link(url)``, one module per scheme.
+
+=============================  ===========================================  ================
+URL                            what                                         module
+=============================  ===========================================  ================
+``serial:///dev/ttyUSB0``      a serial device, ``?baudrate=`` (115200)     `serial`
+``/dev/pts/5``                 a bare device path (a pty's far end)         `serial`
+``loop://``                    pyserial's loopback                          `serial`
+``socket://127.0.0.1:PORT``    a raw TCP byte stream                        `serial`
+``can://virtual/CHANNEL``      python-can's in-process bus, ISO-TP          `can`
+``can://remote/H:P/CHANNEL``   a python-can-remote server, ISO-TP           `can`
+``can://slcan//dev/DEVICE``    an SLCAN adapter, ISO-TP                     `can`
+``can://socketcan/vcan0``      Linux SocketCAN, ISO-TP                      `can`
+``faulty+INNER#FAULTS``        any of the above with injected faults        `faulty`
+=============================  ===========================================  ================
+
+Each module documents its grammar at its top. `framing` says how messages travel on a byte
+stream; `remote_server` runs a python-can-remote server for two processes on one CAN channel, and
+`slcan_device` makes a node's CAN controller look like an SLCAN adapter on a pty. Scheme modules
+are imported when first used, so a machine without python-can can still use serial links.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+from hexmigrate.links.base import Link, LinkBase, LinkError, LinkUrlError, is_text
+
+__all__ = ["Link", "LinkBase", "LinkError", "LinkUrlError", "is_text", "open_link"]
+
+_SCHEMES: dict[str, tuple[str, str]] = {
+    "": ("serial", "pyserial"),
+    "serial": ("serial", "pyserial"),
+    "loop": ("serial", "pyserial"),
+    "socket": ("serial", "pyserial"),
+    "can": ("can", "python-can, can-isotp and (for can://remote) python-can-remote"),
+    "faulty": ("faulty", "nothing more than its inner link"),
+}
+"""Scheme -> (module in this package, what it needs installed). The empty scheme is a bare
+device path."""
+
+_FORMS = "serial:///dev/DEVICE, /dev/DEVICE, loop://, socket://HOST:PORT, can://... or faulty+URL"
+_KNOWN = "serial, loop, socket, can or faulty+"
+
+
+def open_link(url: str, **options: object) -> LinkBase:
+    """The link `url` names, open. `options` are the scheme's URL parameters given as keywords
+    (``open_link("can://virtual/x", role="node")``); they override the URL's own.
+
+    Raises LinkUrlError for a malformed URL, LinkError when the transport cannot be opened.
+    """
+    scheme = _scheme(url)
+    if scheme not in _SCHEMES:
+        raise LinkUrlError(
+            f"bad link URL {url!r}: expected a scheme among {_KNOWN}, got {scheme!r}; "
+            f"the form is {_FORMS}"
+        )
+    module_name, needs = _SCHEMES[scheme]
+    try:
+        module = importlib.import_module(f"{__name__}.{module_name}")
+    except ImportError as error:
+        what = f"the {scheme}: scheme" if scheme else "a device path"
+        raise LinkError(f"cannot open {url}: {what} needs {needs}: {error}") from error
+    link: LinkBase = module.open_url(url, **options)
+    return link
+
+
+def _scheme(url: str) -> str:
+    """The scheme that picks the module: ``faulty`` for ``faulty+...``, "" for a device path."""
+    if url.startswith("/"):
+        return ""
+    head, colon, _ = url.partition(":")
+    if head.startswith("faulty+"):
+        return "faulty"
+    if not colon or not head:
+        raise LinkUrlError(
+            f"bad link URL {url!r}: expected SCHEME:... or an absolute device path, got no "
+            f"scheme; the form is {_FORMS}"
+        )
+    return head

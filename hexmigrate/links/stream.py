@@ -1,0 +1,99 @@
+"""A message link over any byte stream: framing on send, a reader thread that deframes.
+
+The reader thread drains the stream all the time, as a UART's receive interrupt would, so a
+sender never blocks because its peer is itself busy sending: without it, two ends that both send
+a 64 KiB message at once fill each other's 4 KiB buffers and wait forever, and `loop://` (whose
+buffer is 4 KiB) could not carry a message larger than that to itself.
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+from abc import abstractmethod
+
+from hexmigrate.links.base import LinkBase, LinkError
+from hexmigrate.links.framing import Deframer, frame
+
+POLL_INTERVAL = 0.02
+"""How long the reader waits for bytes before it checks whether the link is closing: the upper
+bound on the time `close` takes."""
+
+
+class StreamLink(LinkBase):
+    """Framing and deframing on top of a byte stream given by three protected hooks.
+
+    A back end implements `_read_chunk` (wait at most POLL_INTERVAL, return what arrived),
+    `_write` (all the bytes, or raise) and `_close_stream`. Errors of the stream become a
+    LinkError naming the URL; messages that arrived before a read error are still delivered.
+    """
+
+    def __init__(self, url: str) -> None:
+        super().__init__(url)
+        self.deframer = Deframer()
+        self._messages: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
+        self._failure: LinkError | None = None
+        self._stopping = threading.Event()
+        self._reader = threading.Thread(target=self._read_loop, name=f"reader {url}", daemon=True)
+
+    @property
+    def dropped(self) -> int:
+        """Received lines and frames given up as garbage (see `framing.Deframer`)."""
+        return self.deframer.dropped
+
+    def _start(self) -> None:
+        """Start the reader; a subclass calls it once its stream is open."""
+        self._reader.start()
+
+    def _send(self, message: bytes) -> None:
+        if self._failure is not None:
+            raise self._failure
+        try:
+            self._write(frame(message))
+        except OSError as error:
+            raise LinkError(f"{self.url}: cannot write: {error}") from error
+
+    def _receive(self, timeout: float) -> bytes | None:
+        try:
+            message = self._messages.get(timeout=timeout)
+        except queue.Empty:
+            return None
+        if message is None:
+            self._messages.put(None)
+            assert self._failure is not None
+            raise self._failure
+        return message
+
+    def _close(self) -> None:
+        self._stopping.set()
+        if self._reader.is_alive():
+            self._reader.join(timeout=10 * POLL_INTERVAL + 1.0)
+        self._close_stream()
+
+    def _read_loop(self) -> None:
+        while not self._stopping.is_set():
+            try:
+                chunk = self._read_chunk()
+            except OSError as error:
+                if not self._stopping.is_set():
+                    self._fail(LinkError(f"{self.url}: cannot read: {error}"))
+                return
+            for message in self.deframer.feed(chunk):
+                self._messages.put(message)
+
+    def _fail(self, failure: LinkError) -> None:
+        """Remember why the stream died and wake a waiting `receive` to raise it."""
+        self._failure = failure
+        self._messages.put(None)
+
+    @abstractmethod
+    def _read_chunk(self) -> bytes:
+        """The bytes that arrived, waiting at most POLL_INTERVAL; OSError if the stream died."""
+
+    @abstractmethod
+    def _write(self, data: bytes) -> None:
+        """Write all of `data`; OSError if the stream died."""
+
+    @abstractmethod
+    def _close_stream(self) -> None:
+        """Close the stream (the reader has stopped)."""

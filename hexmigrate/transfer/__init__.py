@@ -1,0 +1,1 @@
+"""The module transfer protocol: messages in two modes, the node's receiver, the sender."""

@@ -1,0 +1,410 @@
+"""The messages of the transfer protocol, and their two encodings.
+
+The same conversation runs in two modes (docs/transfer.md):
+
+* **hex mode**, the paper's: text lines a person can type on a terminal. Commands are words
+  (``BEGIN 7 gain 1120 9 0x10000``), the module itself travels as its Intel HEX record lines,
+  replies are ``ACK``/``NAK`` lines.
+* **binary mode**, compact: one message = a type byte (< 0x20), a fixed little-endian body and a
+  CRC-32 of both; the module's data travels as raw 256-byte blocks.
+
+Both decode to the dataclasses below, so the receiver and the sender have one state machine each.
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from dataclasses import dataclass
+
+from hexmigrate.links.base import is_text
+
+NO_ADDRESS = 0xFFFF_FFFF
+
+
+class MessageError(ValueError):
+    """Bytes that are not a valid protocol message."""
+
+
+@dataclass(frozen=True)
+class Ping:
+    """Is anybody there? Answered by `Pong`."""
+
+
+@dataclass(frozen=True)
+class ListModules:
+    """Which modules does the node hold? Answered by `Listing`."""
+
+
+@dataclass(frozen=True)
+class Remove:
+    """Unload a module and free its flash."""
+
+    name: str
+
+
+@dataclass(frozen=True)
+class Begin:
+    """Open transfer `tid` of an image of `size` bytes linked at `link_base`, with
+    `relocations` pointer records to come; `base` asks for a load address (None: any)."""
+
+    tid: int
+    name: str
+    size: int
+    relocations: int
+    link_base: int
+    base: int | None = None
+
+
+@dataclass(frozen=True)
+class Header:
+    """Binary mode: the pointer records of transfer `tid` (hex mode sends 07/08 lines)."""
+
+    tid: int
+    init: int
+    relocations: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Data:
+    """Binary mode: image bytes at a link address (one flash block)."""
+
+    tid: int
+    address: int
+    payload: bytes
+
+
+@dataclass(frozen=True)
+class HexLine:
+    """Hex mode: one Intel HEX record line of the module file."""
+
+    text: str
+
+
+@dataclass(frozen=True)
+class End:
+    """All data sent; `crc` is the CRC-32 of the image as it must sit in flash (relocated)."""
+
+    tid: int
+    crc: int
+
+
+@dataclass(frozen=True)
+class Commit:
+    """Make a verified transfer the node's module (register it, replace the old one)."""
+
+    tid: int
+
+
+@dataclass(frozen=True)
+class Abort:
+    """Forget a transfer and erase what it wrote."""
+
+    tid: int
+
+
+@dataclass(frozen=True)
+class Resume:
+    """After a cut link: how far did transfer `tid` get? Answered by `Ack` (bytes programmed)."""
+
+    tid: int
+
+
+@dataclass(frozen=True)
+class Pong:
+    """The answer to `Ping`: a line about the node."""
+
+    text: str
+
+
+@dataclass(frozen=True)
+class Listing:
+    """The modules of a node: (name, load address, size) each."""
+
+    modules: tuple[tuple[str, int, int], ...]
+
+
+@dataclass(frozen=True)
+class Ack:
+    """Success. `value` depends on the request: the load address for Begin and Commit, the
+    bytes programmed so far for data, Header and Resume, the image size for End."""
+
+    tid: int
+    value: int
+    text: str = ""
+
+
+@dataclass(frozen=True)
+class Nak:
+    """Failure. `value` is where the transfer stands (bytes programmed): a sender goes back
+    there. A `fatal` one ends the transfer."""
+
+    tid: int
+    value: int
+    reason: str
+    fatal: bool = False
+
+
+Message = (
+    Ping
+    | ListModules
+    | Remove
+    | Begin
+    | Header
+    | Data
+    | HexLine
+    | End
+    | Commit
+    | Abort
+    | Resume
+    | Pong
+    | Listing
+    | Ack
+    | Nak
+)
+
+# Binary encoding: type byte -> (class, struct of the fixed part, name of the variable tail).
+_U32 = struct.Struct("<I")
+_BINARY: dict[int, tuple[type, struct.Struct | None, str | None]] = {
+    0x01: (Ping, None, None),
+    0x02: (ListModules, None, None),
+    0x03: (Remove, None, "name"),
+    0x04: (Begin, struct.Struct("<IIHII"), "name"),
+    0x05: (Header, struct.Struct("<II"), "relocations"),
+    0x06: (Data, struct.Struct("<II"), "payload"),
+    0x07: (End, struct.Struct("<II"), None),
+    0x08: (Commit, struct.Struct("<I"), None),
+    0x09: (Abort, struct.Struct("<I"), None),
+    0x0A: (Resume, struct.Struct("<I"), None),
+    0x11: (Pong, None, "text"),
+    0x12: (Listing, None, "modules"),
+    0x13: (Ack, struct.Struct("<II"), "text"),
+    0x14: (Nak, struct.Struct("<IIB"), "reason"),
+}
+_TYPE_OF = {cls: code for code, (cls, _, _) in _BINARY.items()}
+
+
+def encode(message: Message, text: bool) -> bytes:
+    """The message in hex mode (`text`) or binary mode."""
+    if not text:
+        return _encode_binary(message)
+    line = _encode_text(message)
+    if isinstance(message, HexLine):
+        return line.encode("ascii")  # a record carries its own checksum
+    return f"{line} *{_line_sum(line):02X}".encode("ascii")
+
+
+def _line_sum(line: str) -> int:
+    """The checksum of a text command: the byte sum of the line, low 8 bits. Optional on input
+    (a person at a terminal need not type it), always written by the protocol, so that a
+    flipped bit in a command or an answer is refused instead of obeyed."""
+    return sum(line.encode("ascii")) & 0xFF
+
+
+def decode(raw: bytes) -> Message:
+    """A message from a text line or a binary frame (told apart by the first byte)."""
+    if not raw:
+        raise MessageError("expected a message, got nothing")
+    return _decode_text(raw) if is_text(raw) else _decode_binary(raw)
+
+
+def _encode_binary(message: Message) -> bytes:
+    code = _TYPE_OF[type(message)]
+    _, fixed, tail = _BINARY[code]
+    body = b""
+    if isinstance(message, Begin):
+        base = NO_ADDRESS if message.base is None else message.base
+        body = fixed.pack(message.tid, message.size, message.relocations, message.link_base, base)
+    elif isinstance(message, Header):
+        body = fixed.pack(message.tid, message.init)
+    elif isinstance(message, Data | End | Ack):
+        first = {Data: "address", End: "crc", Ack: "value"}[type(message)]
+        body = fixed.pack(message.tid, getattr(message, first))
+    elif isinstance(message, Nak):
+        body = fixed.pack(message.tid, message.value, int(message.fatal))
+    elif fixed is not None:
+        body = fixed.pack(message.tid)
+    body += _binary_tail(message, tail)
+    frame = bytes([code]) + body
+    return frame + _U32.pack(zlib.crc32(frame))
+
+
+def _binary_tail(message: Message, tail: str | None) -> bytes:
+    if tail is None:
+        return b""
+    value = getattr(message, tail)
+    if tail == "relocations":
+        return b"".join(_U32.pack(location) for location in value)
+    if tail == "modules":
+        return _listing_text(value).encode("utf-8")
+    return value if isinstance(value, bytes) else value.encode("utf-8")
+
+
+def _decode_binary(raw: bytes) -> Message:
+    if len(raw) < 5 or zlib.crc32(raw[:-4]) != _U32.unpack(raw[-4:])[0]:
+        raise MessageError("expected a binary message with a valid CRC-32")
+    code, body = raw[0], raw[1:-4]
+    if code not in _BINARY:
+        raise MessageError(f"expected a binary message type, got 0x{code:02X}")
+    cls, fixed, _ = _BINARY[code]
+    size = 0 if fixed is None else fixed.size
+    if len(body) < size:
+        raise MessageError(f"expected at least {size} bytes after type 0x{code:02X}")
+    fields = () if fixed is None else fixed.unpack(body[:size])
+    rest = body[size:]
+    try:
+        return _build_binary(cls, fields, rest)
+    except (UnicodeDecodeError, struct.error) as error:
+        raise MessageError(f"bad {cls.__name__} message: {error}") from None
+
+
+def _build_binary(cls: type, fields: tuple, rest: bytes) -> Message:
+    if cls is Begin:
+        tid, size, relocations, link_base, base = fields
+        return Begin(
+            tid,
+            rest.decode("utf-8"),
+            size,
+            relocations,
+            link_base,
+            None if base == NO_ADDRESS else base,
+        )
+    if cls is Header:
+        if len(rest) % 4:
+            raise MessageError("expected 4-byte pointer locations in a Header message")
+        locations = tuple(value for (value,) in _U32.iter_unpack(rest))
+        return Header(fields[0], fields[1], locations)
+    if cls is Data:
+        return Data(fields[0], fields[1], rest)
+    if cls is Nak:
+        return Nak(fields[0], fields[1], rest.decode("utf-8"), bool(fields[2]))
+    if cls is Ack:
+        return Ack(fields[0], fields[1], rest.decode("utf-8"))
+    if cls is Listing:
+        return Listing(_parse_listing(rest.decode("utf-8").split()))
+    if cls in (Pong, Remove):
+        return cls(rest.decode("utf-8"))
+    return cls(*fields)
+
+
+def _listing_text(modules: tuple[tuple[str, int, int], ...]) -> str:
+    return " ".join(f"{name}@0x{address:08X}:{size}" for name, address, size in modules)
+
+
+def _parse_listing(words: list[str]) -> tuple[tuple[str, int, int], ...]:
+    modules = []
+    for word in words:
+        name, _, rest = word.partition("@")
+        address, _, size = rest.partition(":")
+        modules.append((name, _number(address), _number(size)))
+    return tuple(modules)
+
+
+def _encode_text(message: Message) -> str:
+    if isinstance(message, HexLine):
+        return message.text
+    if isinstance(message, Begin):
+        words = [
+            "BEGIN",
+            message.tid,
+            message.name,
+            message.size,
+            message.relocations,
+            f"0x{message.link_base:X}",
+        ]
+        return " ".join(map(str, words + ([] if message.base is None else [f"0x{message.base:X}"])))
+    if isinstance(message, Nak):
+        return (
+            f"NAK {message.tid} {message.value} {'FATAL' if message.fatal else 'RETRY'} "
+            f"{message.reason}"
+        )
+    if isinstance(message, Ack):
+        return f"ACK {message.tid} {message.value} {message.text}".rstrip()
+    if isinstance(message, Listing):
+        return f"MODULES {_listing_text(message.modules)}".rstrip()
+    if isinstance(message, Pong):
+        return f"PONG {message.text}"
+    if isinstance(message, Remove):
+        return f"RM {message.name}"
+    if isinstance(message, End):
+        return f"END {message.tid} 0x{message.crc:08X}"
+    if isinstance(message, Header | Data):
+        raise MessageError(f"{type(message).__name__} exists in binary mode only")
+    word = {Ping: "PING", ListModules: "LS", Commit: "COMMIT", Abort: "ABORT", Resume: "RESUME"}[
+        type(message)
+    ]
+    return word if isinstance(message, Ping | ListModules) else f"{word} {message.tid}"
+
+
+def _decode_text(raw: bytes) -> Message:
+    try:
+        line = raw.decode("ascii").strip()
+    except UnicodeDecodeError:
+        raise MessageError("expected an ASCII line") from None
+    if line.startswith(":"):
+        return HexLine(line)
+    line = _strip_checksum(line)
+    word, *args = line.split()
+    word = word.upper()
+    try:
+        return _TEXT_PARSERS[word](args, line)
+    except KeyError:
+        raise MessageError(
+            f"expected a command ({', '.join(sorted(_TEXT_PARSERS))}) or a record line, "
+            f"got {line[:30]!r}"
+        ) from None
+    except (ValueError, IndexError):
+        raise MessageError(f"expected {_USAGE.get(word, word)}, got {line[:60]!r}") from None
+
+
+def _strip_checksum(line: str) -> str:
+    body, found, tail = line.rpartition(" *")
+    if not found or len(tail) != 2 or not all(c in "0123456789abcdefABCDEF" for c in tail):
+        return line
+    if _line_sum(body) != int(tail, 16):
+        raise MessageError(f"expected checksum {_line_sum(body):02X}, got {tail} in {line[:40]!r}")
+    return body
+
+
+def _number(text: str) -> int:
+    return int(text, 0)
+
+
+def _begin(args: list[str], line: str) -> Begin:
+    tid, name, size, relocations, link_base, *base = args
+    return Begin(
+        _number(tid),
+        name,
+        _number(size),
+        _number(relocations),
+        _number(link_base),
+        _number(base[0]) if base else None,
+    )
+
+
+_TEXT_PARSERS = {
+    "PING": lambda args, line: Ping(),
+    "LS": lambda args, line: ListModules(),
+    "RM": lambda args, line: Remove(args[0]),
+    "BEGIN": _begin,
+    "END": lambda args, line: End(_number(args[0]), _number(args[1])),
+    "COMMIT": lambda args, line: Commit(_number(args[0])),
+    "ABORT": lambda args, line: Abort(_number(args[0])),
+    "RESUME": lambda args, line: Resume(_number(args[0])),
+    "PONG": lambda args, line: Pong(line.partition(" ")[2]),
+    "MODULES": lambda args, line: Listing(_parse_listing(args)),
+    "ACK": lambda args, line: Ack(_number(args[0]), _number(args[1]), " ".join(args[2:])),
+    "NAK": lambda args, line: Nak(
+        _number(args[0]), _number(args[1]), " ".join(args[3:]), args[2].upper() == "FATAL"
+    ),
+}
+_USAGE = {
+    "RM": "RM NAME",
+    "BEGIN": "BEGIN TID NAME SIZE RELOCATIONS LINK_BASE [LOAD_BASE]",
+    "END": "END TID CRC32",
+    "COMMIT": "COMMIT TID",
+    "ABORT": "ABORT TID",
+    "RESUME": "RESUME TID",
+    "ACK": "ACK TID VALUE [TEXT]",
+    "NAK": "NAK TID VALUE RETRY|FATAL REASON",
+}

@@ -1,0 +1,349 @@
+"""The node's side of the transfer protocol: one state machine for both modes.
+
+`Receiver.handle(raw)` takes one message and returns the replies, in the mode the message came
+in. The module goes to a `Target` (the emulated node implements it) through a `LoadSession`-like
+object that programs flash a block at a time; the receiver acknowledges each block once it is
+programmed, refuses what does not fit (``NAK`` with the position to go back to, the partial block
+dropped), keeps transfers across link cuts (``RESUME``), checks the final CRC (``END``) and only
+makes the module the node's on an explicit ``COMMIT``. Until then the node's modules are
+untouched; ``ABORT`` or any fatal error erases what the transfer wrote.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from hexmigrate.errors import HexError
+from hexmigrate.links.base import is_text
+from hexmigrate.records import RecordType, decode_record
+from hexmigrate.transfer.messages import (
+    Abort,
+    Ack,
+    Begin,
+    Commit,
+    Data,
+    End,
+    Header,
+    HexLine,
+    Listing,
+    ListModules,
+    Message,
+    MessageError,
+    Nak,
+    Ping,
+    Pong,
+    Remove,
+    Resume,
+    decode,
+    encode,
+)
+
+IMPLICIT = 0  # the transfer id of a module typed or pasted on a terminal without BEGIN
+REMEMBERED_COMMITS = 64
+
+
+class Session(Protocol):
+    """What the receiver needs of a load in progress (firmware_sim's LoadSession)."""
+
+    load_base: int
+    programmed: int
+    received: int
+
+    def feed_relocation(self, location: int, line: int = 0) -> None: ...
+    def feed_init(self, target: int, line: int = 0) -> None: ...
+    def feed_data(self, address: int, data: bytes, line: int = 0) -> None: ...
+    def flush(self) -> None: ...
+    def reset_pointers(self) -> None: ...
+    def rewind(self) -> None: ...
+    def end(self, line: int = 0) -> None: ...
+    def finish(self) -> Image: ...
+    def abort(self) -> None: ...
+
+
+class Image(Protocol):
+    """A verified image in flash, not yet committed."""
+
+    size: int
+    crc32: int
+
+
+class Target(Protocol):
+    """The node a receiver loads modules into."""
+
+    def begin(self, owner: str, size: int | None, address: int | None) -> Session: ...
+    def commit(self, owner: str, image: Image) -> tuple[str, int]: ...
+    def discard(self, owner: str, image: Image) -> None: ...
+    def modules(self) -> tuple[tuple[str, int, int], ...]: ...
+    def remove(self, name: str) -> None: ...
+    def describe(self) -> str: ...
+
+
+class TransferFailed(Exception):
+    """Ends a transfer: replied as a fatal NAK, everything the transfer wrote is erased."""
+
+
+@dataclass
+class Transfer:
+    """One transfer in progress on the node."""
+
+    tid: int
+    owner: str
+    session: Session
+    link_base: int | None
+    relocations: int | None
+    size: int | None = None
+    header_done: bool = False
+    acked: int = 0
+    base: int = 0  # the 02/04 address base of hex mode
+    image: Image | None = None
+    locations: set[int] = field(default_factory=set)
+
+
+class Receiver:
+    """The protocol state of one node, shared by all its links."""
+
+    def __init__(self, target: Target) -> None:
+        self.target = target
+        self.transfers: dict[int, Transfer] = {}
+        # The answers to recent commits: when an ACK is lost the sender commits again, and must
+        # hear the same answer rather than "unknown transfer".
+        self.committed: OrderedDict[int, Ack] = OrderedDict()
+
+    def handle(self, raw: bytes) -> list[bytes]:
+        """Replies to one received message (encoded in the mode it came in)."""
+        text = is_text(raw)
+        try:
+            message = decode(raw)
+        except MessageError as error:
+            return [encode(Nak(0, 0, f"bad message: {error}"), text)]
+        return [encode(reply, text) for reply in self.dispatch(message)]
+
+    def dispatch(self, message: Message) -> list[Message]:
+        """Replies to one decoded message."""
+        handler = _HANDLERS.get(type(message))
+        if handler is None:
+            return [Nak(0, 0, f"unexpected {type(message).__name__} at a node", fatal=True)]
+        tid = getattr(message, "tid", IMPLICIT)
+        try:
+            return handler(self, message)
+        except TransferFailed as error:
+            self._drop(tid)
+            return [Nak(tid, 0, str(error), fatal=True)]
+
+    def _transfer(self, tid: int) -> Transfer:
+        transfer = self.transfers.get(tid)
+        if transfer is None:
+            raise TransferFailed(f"unknown transfer {tid}: send BEGIN first")
+        return transfer
+
+    def _drop(self, tid: int) -> None:
+        """Erase what a transfer wrote and forget it."""
+        transfer = self.transfers.pop(tid, None)
+        if transfer is None:
+            return
+        if transfer.image is not None:
+            self.target.discard(transfer.owner, transfer.image)
+        else:
+            transfer.session.abort()
+
+    # Requests that are not transfers.
+
+    def _ping(self, message: Ping) -> list[Message]:
+        return [Pong(self.target.describe())]
+
+    def _list(self, message: ListModules) -> list[Message]:
+        return [Listing(self.target.modules())]
+
+    def _remove(self, message: Remove) -> list[Message]:
+        try:
+            self.target.remove(message.name)
+        except KeyError:
+            return [Nak(0, 0, f"no module named {message.name!r}", fatal=True)]
+        return [Ack(0, 0, f"removed {message.name}")]
+
+    # A transfer.
+
+    def _begin(self, message: Begin) -> list[Message]:
+        existing = self.transfers.get(message.tid)
+        if existing is not None:  # our ACK was lost and the sender asks again
+            return [Ack(message.tid, existing.session.load_base, "begun")]
+        owner = f"transfer:{message.tid:08X}"
+        try:
+            session = self.target.begin(owner, message.size, message.base)
+        except Exception as error:  # no room, bad address: the node says why
+            return [Nak(message.tid, 0, f"cannot begin: {error}", fatal=True)]
+        self.transfers[message.tid] = Transfer(
+            message.tid, owner, session, message.link_base, message.relocations, message.size
+        )
+        return [Ack(message.tid, session.load_base, "begun")]
+
+    def _header(self, message: Header) -> list[Message]:
+        transfer = self._transfer(message.tid)
+        if not transfer.header_done:
+            _guard(transfer.session.reset_pointers)
+            for location in message.relocations:
+                _guard(transfer.session.feed_relocation, location)
+            _guard(transfer.session.feed_init, message.init)
+            transfer.locations = set(message.relocations)
+            transfer.header_done = True
+        return [Ack(message.tid, transfer.session.programmed, "header")]
+
+    def _data(self, message: Data) -> list[Message]:
+        transfer = self._transfer(message.tid)
+        return self._feed(transfer, message.address, message.payload)
+
+    def _feed(self, transfer: Transfer, address: int, payload: bytes) -> list[Message]:
+        """Data at a link address: in order it is loaded, a repeat is acknowledged again, a
+        gap is refused with the position to go back to."""
+        session = transfer.session
+        if transfer.link_base is None:
+            transfer.link_base = address
+        if not transfer.header_done and transfer.relocations is not None:
+            session.rewind()
+            return [Nak(transfer.tid, session.programmed, "header incomplete: send it again")]
+        expected = transfer.link_base + session.received
+        if address + len(payload) <= expected:
+            return [Ack(transfer.tid, session.programmed, "repeat")]
+        if address != expected:
+            session.rewind()
+            return [
+                Nak(
+                    transfer.tid,
+                    session.programmed,
+                    f"expected data at 0x{transfer.link_base + session.programmed:08X}, "
+                    f"got 0x{address:08X}",
+                )
+            ]
+        _guard(session.feed_data, address, payload)
+        if transfer.size is not None and session.received >= transfer.size:
+            _guard(session.flush)
+        if session.programmed > transfer.acked:
+            transfer.acked = session.programmed
+            return [Ack(transfer.tid, session.programmed)]
+        return []
+
+    def _line(self, message: HexLine) -> list[Message]:
+        transfer = self._text_transfer()
+        try:
+            record = decode_record(message.text)
+        except HexError as error:
+            transfer.session.rewind()
+            return [Nak(transfer.tid, transfer.session.programmed, f"bad record: {error}")]
+        kind = record.type
+        if kind is RecordType.DATA:
+            return self._feed(transfer, transfer.base + record.address, record.data)
+        if kind is RecordType.EXTENDED_LINEAR_ADDRESS:
+            transfer.base = record.value << 16
+        elif kind is RecordType.EXTENDED_SEGMENT_ADDRESS:
+            transfer.base = record.value << 4
+        elif kind in (RecordType.OFFSET_FUNCTION_POINTER, RecordType.MODULE_INIT_POINTER):
+            return self._pointer_line(transfer, kind, record.value)
+        elif kind is RecordType.EOF:
+            return self._end(End(transfer.tid, 0), check_crc=False)
+        return []
+
+    def _text_transfer(self) -> Transfer:
+        """The hex-mode transfer a record line belongs to: the open one, or an implicit one for
+        a module typed on a terminal without BEGIN."""
+        open_transfers = [t for t in self.transfers.values() if t.image is None]
+        if open_transfers:
+            return open_transfers[-1]
+        owner = f"transfer:{IMPLICIT:08X}"
+        try:
+            session = self.target.begin(owner, None, None)
+        except Exception as error:
+            raise TransferFailed(f"cannot begin: {error}") from None
+        transfer = Transfer(IMPLICIT, owner, session, None, None)
+        self.transfers[IMPLICIT] = transfer
+        return transfer
+
+    def _pointer_line(self, transfer: Transfer, kind: RecordType, value: int) -> list[Message]:
+        session = transfer.session
+        if kind is RecordType.OFFSET_FUNCTION_POINTER:
+            if value not in transfer.locations:
+                _guard(session.feed_relocation, value)
+                transfer.locations.add(value)
+            return []
+        if not transfer.header_done:
+            _guard(session.feed_init, value)
+            transfer.header_done = transfer.relocations is None or (
+                len(transfer.locations) == transfer.relocations
+            )
+            if not transfer.header_done:
+                _guard(session.reset_pointers)
+                transfer.locations.clear()
+                return [Nak(transfer.tid, 0, "header incomplete: send it again")]
+        # Also when the header comes again because our acknowledgement was lost.
+        return [Ack(transfer.tid, session.programmed, "header")]
+
+    def _end(self, message: End, check_crc: bool = True) -> list[Message]:
+        transfer = self._transfer(message.tid)
+        if transfer.image is None:
+            transfer.session.end()
+            try:
+                transfer.image = transfer.session.finish()
+            except Exception as error:
+                raise TransferFailed(f"not a valid module: {error}") from None
+        image = transfer.image
+        if check_crc and image.crc32 != message.crc:
+            raise TransferFailed(
+                f"CRC-32 of the programmed image is 0x{image.crc32:08X}, expected "
+                f"0x{message.crc:08X}"
+            )
+        return [Ack(message.tid, image.size, f"verified crc=0x{image.crc32:08X}")]
+
+    def _commit(self, message: Commit) -> list[Message]:
+        if message.tid in self.committed:
+            return [self.committed[message.tid]]
+        transfer = self._transfer(message.tid)
+        if transfer.image is None:
+            return [Nak(message.tid, transfer.session.programmed, "not verified: send END first")]
+        del self.transfers[message.tid]
+        try:
+            name, address = self.target.commit(transfer.owner, transfer.image)
+        except Exception as error:  # the node erased the new image; the old module stays
+            return [Nak(message.tid, 0, f"commit refused: {error}", fatal=True)]
+        ack = Ack(message.tid, address, f"installed {name}")
+        self.committed[message.tid] = ack
+        while len(self.committed) > REMEMBERED_COMMITS:
+            self.committed.popitem(last=False)
+        return [ack]
+
+    def _abort(self, message: Abort) -> list[Message]:
+        self._drop(message.tid)
+        return [Ack(message.tid, 0, "aborted")]
+
+    def _resume(self, message: Resume) -> list[Message]:
+        transfer = self._transfer(message.tid)
+        transfer.session.rewind()
+        state = (
+            "verified"
+            if transfer.image is not None
+            else ("header" if transfer.header_done else "begun")
+        )
+        return [Ack(message.tid, transfer.session.programmed, state)]
+
+
+def _guard(action, *args: object) -> None:
+    """Run a session step; a refusal (format error, no room) ends the transfer."""
+    try:
+        action(*args)
+    except (HexError, ValueError, RuntimeError) as error:
+        raise TransferFailed(str(error)) from None
+
+
+_HANDLERS = {
+    Ping: Receiver._ping,
+    ListModules: Receiver._list,
+    Remove: Receiver._remove,
+    Begin: Receiver._begin,
+    Header: Receiver._header,
+    Data: Receiver._data,
+    HexLine: Receiver._line,
+    End: Receiver._end,
+    Commit: Receiver._commit,
+    Abort: Receiver._abort,
+    Resume: Receiver._resume,
+}

@@ -1,0 +1,327 @@
+"""The sending side of the transfer protocol: `Sender` over any `Link`.
+
+A module goes in 256-byte blocks, the node's flash blocks, go-back-N: up to `window` blocks are
+in flight; the node acknowledges each block once it is programmed; a timeout or a ``NAK`` sends
+again from the first block not acknowledged. ``END`` carries the CRC-32 the node must read back,
+``COMMIT`` makes the module the node's. A cut link raises `TransferInterrupted`, which says how
+to `resume` on a new link.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import random
+import time
+import zlib
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
+from hexmigrate.links.base import Link, LinkError
+from hexmigrate.records import Record, RecordType
+from hexmigrate.transfer.messages import (
+    Abort,
+    Ack,
+    Begin,
+    Commit,
+    Data,
+    End,
+    Header,
+    HexLine,
+    Listing,
+    ListModules,
+    Message,
+    MessageError,
+    Nak,
+    Ping,
+    Pong,
+    Remove,
+    Resume,
+    decode,
+    encode,
+)
+
+MODES = ("binary", "hex")
+
+
+class TransferError(RuntimeError):
+    """The node refused, or stopped answering: the transfer did not happen."""
+
+
+class TransferInterrupted(TransferError):
+    """The link failed mid-transfer; `resume(image, tid)` on a new link continues it."""
+
+    def __init__(self, message: str, tid: int, programmed: int) -> None:
+        super().__init__(message)
+        self.tid = tid
+        self.programmed = programmed
+
+
+@dataclass(frozen=True)
+class Progress:
+    """Where a transfer stands, for a progress bar."""
+
+    acknowledged: int
+    total: int
+    blocks: int
+    elapsed: float
+    retransmissions: int
+
+
+@dataclass(frozen=True)
+class TransferResult:
+    """A committed transfer."""
+
+    name: str
+    load_address: int
+    size: int
+    blocks: int
+    seconds: float
+    retransmissions: int
+    wire_bytes: int
+
+
+class Sender:
+    """Talks to one node over `link`, in `mode` ("binary" or "hex")."""
+
+    def __init__(
+        self,
+        link: Link,
+        mode: str = "binary",
+        *,
+        window: int = 4,
+        timeout: float = 1.0,
+        retries: int = 10,
+        progress: Callable[[Progress], None] | None = None,
+    ) -> None:
+        if mode not in MODES:
+            raise ValueError(f"expected a mode in {MODES}, got {mode!r}")
+        if window < 1:
+            raise ValueError(f"expected a window of at least 1 block, got {window}")
+        self.link = link
+        self.text = mode == "hex"
+        self.window = window
+        self.timeout = timeout
+        self.retries = retries
+        self.progress = progress
+        self.wire_bytes = 0
+        self.retransmissions = 0
+        self.acknowledged = 0
+
+    # Plain requests.
+
+    def ping(self) -> str:
+        """The node's description."""
+        return self._request(Ping(), Pong, tid=None).text
+
+    def modules(self) -> tuple[tuple[str, int, int], ...]:
+        """The node's modules: (name, load address, size) each."""
+        return self._request(ListModules(), Listing, tid=None).modules
+
+    def remove(self, name: str) -> None:
+        """Unload a module from the node."""
+        self._request(Remove(name), Ack, tid=0, what="removed")
+
+    # Transfers.
+
+    def send(
+        self, image: ModuleImage, base: int | None = None, tid: int | None = None
+    ) -> TransferResult:
+        """Transfer and commit `image`; `base` asks for a load address."""
+        tid = random.getrandbits(31) | 1 if tid is None else tid
+        begin = Begin(tid, image.name, image.size, len(image.relocations), image.link_base, base)
+        try:
+            load_base = self._request(begin, Ack, tid, what="begun").value
+            return self._transfer(image, tid, load_base, header_done=False, programmed=0)
+        except TransferInterrupted:
+            raise
+        except TransferError:
+            self._abandon(tid)
+            raise
+
+    def _abandon(self, tid: int) -> None:
+        """Ask the node to erase what a failed transfer wrote (best effort: the link may be
+        too bad even for that, then the node keeps it until ABORT or a restart)."""
+        with contextlib.suppress(TransferError, LinkError):
+            self._request(Abort(tid), Ack, tid, what="aborted")
+
+    def resume(self, image: ModuleImage, tid: int) -> TransferResult:
+        """Continue transfer `tid` of `image` after a cut link."""
+        state = self._request(Resume(tid), Ack, tid, what=("begun", "header", "verified"))
+        load_base = self._request(
+            Begin(tid, image.name, image.size, len(image.relocations), image.link_base),
+            Ack,
+            tid,
+            what="begun",
+        ).value
+        return self._transfer(
+            image, tid, load_base, header_done=state.text != "begun", programmed=state.value
+        )
+
+    def _transfer(
+        self, image: ModuleImage, tid: int, load_base: int, *, header_done: bool, programmed: int
+    ) -> TransferResult:
+        start = time.perf_counter()
+        try:
+            if not header_done:
+                self._send_header(image, tid)
+            self._send_blocks(image, tid, programmed, start)
+            crc = zlib.crc32(image.relocate(load_base))
+            self._request(End(tid, crc), Ack, tid, what="verified")
+            committed = self._request(Commit(tid), Ack, tid, what="installed")
+        except LinkError as error:
+            raise TransferInterrupted(
+                f"link failed during transfer {tid} after {self.acknowledged} bytes: {error}",
+                tid,
+                self.acknowledged,
+            ) from None
+        return TransferResult(
+            name=committed.text.removeprefix("installed "),
+            load_address=committed.value,
+            size=image.size,
+            blocks=-(-image.size // FLASH_BLOCK_SIZE),
+            seconds=time.perf_counter() - start,
+            retransmissions=self.retransmissions,
+            wire_bytes=self.wire_bytes,
+        )
+
+    def _send_header(self, image: ModuleImage, tid: int) -> None:
+        if not self.text:
+            self._request(Header(tid, image.init, image.relocations), Ack, tid, what="header")
+            return
+        lines = [
+            Record.pointer(RecordType.OFFSET_FUNCTION_POINTER, location).encode()
+            for location in image.relocations
+        ]
+        lines.append(Record.pointer(RecordType.MODULE_INIT_POINTER, image.init).encode())
+        for _ in range(self.retries + 1):
+            for line in lines:
+                self._send(HexLine(line))
+            reply = self._await(tid, (Ack, Nak), what="header")
+            if isinstance(reply, Ack):
+                return
+            self._check_fatal(reply)
+            self.retransmissions += 1
+        raise TransferError(f"transfer {tid}: the node did not take the header")
+
+    def _send_blocks(self, image: ModuleImage, tid: int, programmed: int, start: float) -> None:
+        """Go-back-N over the blocks, from `programmed` bytes on."""
+        total = image.size
+        acked = next_offset = self.acknowledged = programmed
+        stale_nak = -1
+        silent = 0
+        while acked < total:
+            while next_offset < total and next_offset - acked < self.window * FLASH_BLOCK_SIZE:
+                for message in self._block(image, tid, next_offset):
+                    self._send(message)
+                next_offset += FLASH_BLOCK_SIZE
+            reply = self._await(tid, (Ack, Nak), timeout=self.timeout)
+            if reply is None:
+                silent += 1
+                if silent > self.retries:
+                    raise TransferError(
+                        f"transfer {tid}: the node stopped answering at {acked} of {total} bytes"
+                    )
+                self.retransmissions += 1
+                next_offset = acked
+                continue
+            silent = 0
+            self._check_fatal(reply)
+            if reply.value > acked:
+                acked = self.acknowledged = reply.value
+                stale_nak = -1
+                self._report(acked, total, start)
+            if isinstance(reply, Nak) and reply.value != stale_nak:
+                stale_nak = reply.value  # the messages in flight will be refused alike
+                self.retransmissions += 1
+                next_offset = max(acked, reply.value)
+
+    def _block(self, image: ModuleImage, tid: int, offset: int) -> Iterator[Message]:
+        """The messages of the block at image offset `offset`."""
+        address = image.link_base + offset
+        chunk = image.data[offset : offset + FLASH_BLOCK_SIZE]
+        if not self.text:
+            yield Data(tid, address, chunk)
+            return
+        yield HexLine(
+            Record(
+                RecordType.EXTENDED_LINEAR_ADDRESS, 0, (address >> 16).to_bytes(2, "big")
+            ).encode()
+        )
+        for position in range(0, len(chunk), 16):
+            here = address + position
+            yield HexLine(
+                Record(RecordType.DATA, here & 0xFFFF, chunk[position : position + 16]).encode()
+            )
+
+    def _report(self, acked: int, total: int, start: float) -> None:
+        if self.progress is not None:
+            self.progress(
+                Progress(
+                    acked,
+                    total,
+                    -(-acked // FLASH_BLOCK_SIZE),
+                    time.perf_counter() - start,
+                    self.retransmissions,
+                )
+            )
+
+    # Messages.
+
+    def _send(self, message: Message) -> None:
+        raw = encode(message, self.text)
+        self.wire_bytes += len(raw)
+        self.link.send(raw)
+
+    def _request(
+        self, message: Message, expected: type, tid: int | None, what: str | tuple[str, ...] = ""
+    ) -> Message:
+        """Send `message` until a reply of type `expected` (for `tid`) comes, or fail.
+
+        An Ack must also start with `what`, the word that says what it acknowledges: a late
+        acknowledgement of a data block must not pass for the acknowledgement of a commit.
+        """
+        for attempt in range(self.retries + 1):
+            self._send(message)
+            reply = self._await(tid, (expected, Nak), what=what)
+            if isinstance(reply, expected):
+                return reply
+            if reply is not None:
+                self._check_fatal(reply)
+            if attempt:
+                self.retransmissions += 1
+        raise TransferError(
+            f"no answer to {type(message).__name__} after "
+            f"{self.retries + 1} tries ({self.timeout} s each)"
+        )
+
+    def _await(
+        self,
+        tid: int | None,
+        kinds: tuple[type, ...],
+        timeout: float | None = None,
+        what: str | tuple[str, ...] = "",
+    ) -> Message | None:
+        """The next reply of one of `kinds` for `tid` within the timeout; an Ack must start
+        with `what`. Anything else is stale (a late answer to an earlier message) and skipped."""
+        deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
+        while True:  # at least one look, even with a zero timeout
+            raw = self.link.receive(max(0.0, deadline - time.monotonic()))
+            if raw is None:
+                return None
+            try:
+                reply = decode(raw)
+            except MessageError:
+                continue  # corrupted on the way: the retry logic covers it
+            if not isinstance(reply, kinds):
+                continue
+            if tid is not None and getattr(reply, "tid", tid) not in (tid, 0):
+                continue
+            if isinstance(reply, Ack) and not reply.text.startswith(what):
+                continue
+            return reply
+
+    @staticmethod
+    def _check_fatal(reply: Message) -> None:
+        if isinstance(reply, Nak) and reply.fatal:
+            raise TransferError(f"the node refused: {reply.reason}")

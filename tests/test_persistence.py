@@ -1,0 +1,391 @@
+"""Non-volatile flash, power cuts and the module directory: what a node holds after a restart."""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from firmware_sim.flash import BLOCK_SIZE, STATE_SUFFIX, Flash, FlashError, PowerCut
+from firmware_sim.flash_directory import (
+    MAX_ENTRIES,
+    DirectoryEntry,
+    DirectoryError,
+    ModuleDirectory,
+)
+from firmware_sim.natives import Signal
+from firmware_sim.node import Node, NodeConfig
+from firmware_sim.sdk.build import build_module
+from hexmigrate.elf import image_from_elf
+from hexmigrate.image import ModuleImage
+from pbort.native import NativeModule
+
+BASE = 0x0800_0000
+GUESTS = Path(__file__).parent / "guests"
+Q16 = 1 << 16
+Operation = tuple[str, int]  # ("erase" or "program", block address)
+
+
+@pytest.fixture(scope="session")
+def images(example_builds, tmp_path_factory: pytest.TempPathFactory) -> dict[str, ModuleImage]:
+    """gain and moving_average, and unruly as a third module."""
+    unruly = build_module(GUESTS / "unruly.c", tmp_path_factory.mktemp("third"))
+    builds = {**example_builds, "unruly": unruly}
+    return {name: image_from_elf(build.elf) for name, build in builds.items()}
+
+
+@pytest.fixture
+def committed(tmp_path, images) -> Path:
+    """A flash file in which gain and then moving_average were committed."""
+    path = tmp_path / "committed.bin"
+    with Node(config=NodeConfig(flash_file=path)) as node:
+        node.load(images["gain"])
+        node.load(images["moving_average"])
+    return path
+
+
+def config(path: Path) -> NodeConfig:
+    return NodeConfig(flash_file=path)
+
+
+def copy_flash(source: Path, destination: Path) -> Path:
+    """The image and its block-state sidecar, as a second chip holding the same."""
+    shutil.copyfile(source, destination)
+    shutil.copyfile(f"{source}{STATE_SUFFIX}", f"{destination}{STATE_SUFFIX}")
+    return destination
+
+
+def record_operations(flash: Flash) -> list[Operation]:
+    """Note every erase and program the flash performs from now on."""
+    operations: list[Operation] = []
+    erase, program = flash.erase, flash.program
+
+    def noted_erase(address: int) -> float:
+        operations.append(("erase", address))
+        return erase(address)
+
+    def noted_program(address: int, data: bytes) -> float:
+        operations.append(("program", address))
+        return program(address, data)
+
+    flash.erase, flash.program = noted_erase, noted_program  # type: ignore[method-assign]
+    return operations
+
+
+def trace(node: Node) -> list[tuple]:
+    """signal -> gain -> moving_average for 40 periods: the outputs after each."""
+    node.start(
+        NativeModule(Signal), 100, constants={"shape": 1, "amplitude": 1000, "period_ms": 130}
+    )
+    node.start("gain", 100, constants={"k": 3 * Q16 // 2})
+    node.start("moving_average", 100)
+    node.kernel.connect("signal.y", "gain.x")
+    node.kernel.connect("gain.y", "moving_average.x")
+    values = []
+    for _ in range(40):
+        node.run(cycles=3)
+        values.append((node.kernel.value("gain.y"), node.kernel.value("moving_average.y")))
+    return values
+
+
+def placed(node: Node) -> dict[str, int]:
+    return {name: module.load_address for name, module in node.modules.items()}
+
+
+def assert_whole(node: Node, images: dict[str, ModuleImage]) -> None:
+    """Every module the node holds is its image, relocated to where it is, byte for byte."""
+    for name, module in node.modules.items():
+        image = images[name]
+        assert node.flash.read(module.load_address, image.size) == image.relocate(
+            module.load_address
+        ), name
+
+
+# The flash file.
+
+
+def test_the_flash_file_is_what_the_chip_holds(tmp_path):
+    path = tmp_path / "flash.bin"
+    with Flash(BASE, 4 * BLOCK_SIZE, path=path) as flash:
+        flash.program(BASE + BLOCK_SIZE, b"\x12\x34")
+        flash.erase(BASE + 2 * BLOCK_SIZE)
+        content = flash.read(BASE, 4 * BLOCK_SIZE)
+        assert path.read_bytes() == content
+    changes = []
+    with Flash(BASE, 4 * BLOCK_SIZE, path=path, on_change=lambda a, d: changes.append((a, d))) as f:
+        assert f.read(BASE, 4 * BLOCK_SIZE) == content
+        assert changes == [(BASE, content)]  # mirrored into the CPU once, at load
+        assert f.erase_counts == [0, 0, 1, 0]
+        assert [f.is_erased(i) for i in range(4)] == [True, False, True, True]
+        with pytest.raises(FlashError, match="expected block 0x08000100 to be erased before"):
+            f.program(BASE + BLOCK_SIZE, b"\x00")
+
+
+def test_an_image_without_its_sidecar_is_taken_as_it_is(tmp_path):
+    path = tmp_path / "flash.bin"
+    path.write_bytes(b"\x00" + b"\xff" * (2 * BLOCK_SIZE - 1))
+    with Flash(BASE, 2 * BLOCK_SIZE, path=path) as flash:
+        assert flash.erase_counts == [0, 0]
+        assert [flash.is_erased(0), flash.is_erased(1)] == [False, True]
+    assert Path(f"{path}{STATE_SUFFIX}").stat().st_size == 16 + 2 * 8
+
+
+@pytest.mark.parametrize(
+    ("size", "damage", "message"),
+    [
+        (1000, None, r"flash\.bin: expected 512 bytes \(the configured flash size\), got 1000"),
+        (512, b"RFBS", r"flash\.bin\.blocks: expected 32 bytes starting with \(b'RFBS', 1, 256, 2"),
+    ],
+    ids=["image", "sidecar"],
+)
+def test_a_flash_file_that_does_not_fit_is_refused(tmp_path, size, damage, message):
+    path = tmp_path / "flash.bin"
+    path.write_bytes(b"\xff" * size)
+    if damage is not None:
+        Path(f"{path}{STATE_SUFFIX}").write_bytes(damage)
+    with pytest.raises(FlashError, match=message):
+        Flash(BASE, 2 * BLOCK_SIZE, path=path)
+
+
+def test_a_node_refuses_a_flash_file_of_the_wrong_size(tmp_path):
+    path = tmp_path / "node.bin"
+    path.write_bytes(bytes(4096))
+    with pytest.raises(FlashError, match=r"expected 262144 bytes \(the configured flash size\)"):
+        Node(config=config(path))
+
+
+# Power cuts in the flash.
+
+
+def test_a_cut_program_leaves_a_prefix_and_no_power(tmp_path):
+    path = tmp_path / "flash.bin"
+    with Flash(BASE, 2 * BLOCK_SIZE, path=path, power_cut_after=2, seed=1) as flash:
+        flash.program(BASE, b"\x00" * 4)
+        with pytest.raises(PowerCut, match="power cut during the program of block 0x08000100"):
+            flash.program(BASE + BLOCK_SIZE, bytes(BLOCK_SIZE))
+        cells = flash.read(BASE + BLOCK_SIZE, BLOCK_SIZE)
+        done = cells.find(b"\xff")
+        assert 0 <= done < BLOCK_SIZE
+        assert cells == bytes(done) + b"\xff" * (BLOCK_SIZE - done)
+        with pytest.raises(PowerCut, match="erase of block 0x08000000 refused, the power is off"):
+            flash.erase(BASE)
+        assert path.read_bytes()[BLOCK_SIZE:] == cells
+    assert not issubclass(PowerCut, Exception)
+    with Flash(BASE, 2 * BLOCK_SIZE, path=path) as again:
+        assert not again.is_erased(1)  # half programmed: it needs an erase first
+        again.erase(BASE + BLOCK_SIZE)
+        again.program(BASE + BLOCK_SIZE, b"\x42")
+
+
+def cut_erase(path: Path, seed: int) -> bytes:
+    with Flash(BASE, BLOCK_SIZE, path=path, seed=seed) as flash:
+        flash.program(BASE, bytes(BLOCK_SIZE))
+        flash.power_cut_after = 1
+        with pytest.raises(PowerCut, match="power cut during the erase of block 0x08000000"):
+            flash.erase(BASE)
+        assert flash.erase_counts == [1]
+        assert not flash.is_erased(0)
+        return flash.read(BASE, BLOCK_SIZE)
+
+
+def test_a_cut_erase_leaves_the_block_partly_erased_the_same_way_for_a_seed(tmp_path):
+    cells = cut_erase(tmp_path / "a.bin", seed=7)
+    assert cells not in (bytes(BLOCK_SIZE), b"\xff" * BLOCK_SIZE)
+    assert cut_erase(tmp_path / "b.bin", seed=7) == cells
+    assert cut_erase(tmp_path / "c.bin", seed=8) != cells
+
+
+def test_power_cut_after_counts_from_one():
+    with pytest.raises(ValueError, match="expected power_cut_after >= 1"):
+        Flash(BASE, BLOCK_SIZE, power_cut_after=0)
+
+
+# The directory.
+
+
+def entry(name: str, sequence: int = 1) -> DirectoryEntry:
+    return DirectoryEntry(name, BASE, 300, 0x2_0000, BASE + 8, 3, 0xDEADBEEF, sequence)
+
+
+def test_the_directory_alternates_slots_with_rising_sequence_numbers():
+    flash = Flash(BASE, 8 * BLOCK_SIZE)
+    directory = ModuleDirectory(flash)
+    assert directory.scan().newest is None
+    assert directory.scan().next_sequence == 1
+    directory.write([entry("gain")])
+    directory.write([entry("gain"), entry("moving_average", 2)])
+    scan = directory.scan()
+    assert (scan.slot, scan.newest.sequence) == (1, 2)
+    assert scan.newest.entries == (entry("gain"), entry("moving_average", 2))
+    directory.write([])
+    assert (directory.scan().slot, directory.scan().newest.entries) == (0, ())
+    assert flash.erase_counts[6:] == [1, 0]  # slot 0 erased before its second record
+
+
+def test_a_directory_beyond_one_block_is_refused_before_the_flash_is_touched():
+    flash = Flash(BASE, 8 * BLOCK_SIZE)
+    directory = ModuleDirectory(flash)
+    directory.write([entry(f"m{index}") for index in range(MAX_ENTRIES)])
+    before = flash.read(BASE, flash.size)
+    with pytest.raises(DirectoryError, match=r"at most 5 modules in the directory \(one 256-byte"):
+        directory.write([entry(f"m{index}") for index in range(MAX_ENTRIES + 1)])
+    with pytest.raises(DirectoryError, match="1 to 16 ASCII characters, got 'a_name_of_17_char'"):
+        directory.write([entry("a_name_of_17_char")])
+    assert flash.read(BASE, flash.size) == before
+
+
+def test_the_directory_needs_room_besides_its_two_blocks():
+    with pytest.raises(ValueError, match=r"more than 2 blocks \(the directory takes the last 2\)"):
+        ModuleDirectory(Flash(BASE, 2 * BLOCK_SIZE))
+
+
+# Nodes that restart.
+
+
+def test_committed_modules_boot_and_run_as_before(tmp_path, images):
+    path = tmp_path / "node.bin"
+    with Node(config=config(path)) as node:
+        node.load(images["gain"])
+        node.load(images["moving_average"], address=BASE + 0x1_0000)
+        addresses = placed(node)
+        before = trace(node)
+    with Node(config=config(path)) as node:
+        assert placed(node) == addresses
+        assert node.kernel.names == ()  # booted, not started
+        assert node.modules["moving_average"].entry.relocations > 0
+        assert_whole(node, images)
+        assert trace(node) == before
+    assert len(set(before)) > 10
+
+
+def test_unload_persists(committed, images):
+    with Node(config=config(committed)) as node:
+        gain = node.modules["gain"]
+        node.start("gain", 100, constants={"k": Q16})
+        node.run(cycles=2)
+        node.unload("gain")
+    with Node(config=config(committed)) as node:
+        assert set(node.modules) == {"moving_average"}
+        assert "module:gain" not in node.space.owners
+        assert node.flash.read(gain.load_address, gain.image.size) == b"\xff" * gain.image.size
+        assert node.load(images["gain"]).load_address == gain.load_address
+
+
+def test_a_directory_slot_with_a_bad_crc_is_ignored(committed, images):
+    with Node(config=config(committed)) as node:
+        newest = node.directory.scan()
+        slot = node.directory.slot_address(newest.slot) - BASE
+    with committed.open("r+b") as image:  # one bit of moving_average's entry flips
+        image.seek(slot + 12 + 44 + 4)
+        byte = image.read(1)[0]
+        image.seek(slot + 12 + 44 + 4)
+        image.write(bytes([byte ^ 0x01]))
+    with Node(config=config(committed)) as node:
+        assert set(node.modules) == {"gain"}  # the previous record, from the other slot
+        assert any(
+            f"directory slot {newest.slot} at 0x{BASE + slot:08X} ignored: expected CRC-32" in text
+            for _, text in node.log
+        )
+        node.load(images["moving_average"])  # over the blocks no valid entry owns
+    with Node(config=config(committed)) as node:
+        assert set(node.modules) == {"gain", "moving_average"}
+        assert_whole(node, images)
+
+
+def test_an_image_that_no_longer_matches_its_crc_is_skipped(committed, images):
+    with Node(config=config(committed)) as node:
+        address = node.modules["moving_average"].load_address
+    with committed.open("r+b") as image:
+        image.seek(address - BASE + 40)
+        image.write(b"\x00")
+    with Node(config=config(committed)) as node:
+        assert set(node.modules) == {"gain"}
+        assert any(
+            "boot: skipped module 'moving_average': the image at" in text and "CRC-32" in text
+            for _, text in node.log
+        )
+        assert "module:moving_average" not in node.space.owners
+
+
+def cut_each_operation(
+    tmp_path: Path, start: Path, change: Callable[[Node], object]
+) -> tuple[list[Operation], dict[str, int], list[Path]]:
+    """Run `change` on a node booted from `start` once uncut, to learn its flash operations and
+    where the modules end up, then once per operation with the power cut during it. Returns the
+    operations, the placement after the uncut change and the flash file each cut left."""
+    with Node(config=config(copy_flash(start, tmp_path / "dry.bin"))) as node:
+        operations = record_operations(node.flash)
+        change(node)
+        after = placed(node)
+    results = []
+    for count in range(1, len(operations) + 1):
+        path = copy_flash(start, tmp_path / f"cut{count}.bin")
+        with Node(config=config(path)) as node:
+            node.flash.power_cut_after = count
+            with pytest.raises(PowerCut):
+                change(node)
+        results.append(path)
+    return operations, after, results
+
+
+def directory_write(node: Node, operations: list[Operation]) -> int:
+    """The 1-based number of the operation that programs the directory (there is one)."""
+    slots = {node.directory.slot_address(slot) for slot in (0, 1)}
+    writes = [n for n, (kind, at) in enumerate(operations, 1) if kind == "program" and at in slots]
+    assert len(writes) == 1
+    return writes[0]
+
+
+def check_cuts(
+    committed: Path,
+    images: dict[str, ModuleImage],
+    change: Callable[[Node], object],
+    cut: tuple[list[Operation], dict[str, int], list[Path]],
+) -> None:
+    """Each cut up to the directory write leaves the modules as they were, and the change can
+    be made again; each later cut leaves them as the change makes them. Always whole."""
+    operations, after, paths = cut
+    with Node(config=config(committed)) as node:
+        commit_point = directory_write(node, operations)
+        before = placed(node)
+    assert before != after
+    for count, path in enumerate(paths, 1):
+        with Node(config=config(path)) as node:
+            assert placed(node) == (before if count <= commit_point else after), count
+            assert_whole(node, images)
+            if count <= commit_point:
+                change(node)
+                assert placed(node) == after
+
+
+@pytest.mark.parametrize(
+    ("name", "address"),
+    [("unruly", None), ("gain", BASE + 0x2_0000)],
+    ids=["third-module", "replacing-gain"],
+)
+def test_a_power_cut_at_any_step_of_a_commit_leaves_only_whole_modules(
+    tmp_path, committed, images, name, address
+):
+    def load(node: Node) -> None:
+        node.start("gain", 100, constants={"k": Q16})
+        node.load(images[name], address)
+
+    cut = cut_each_operation(tmp_path, committed, load)
+    operations = cut[0]
+    assert [kind for kind, _ in operations].count("program") >= 3
+    if name == "gain":  # the replaced image is erased after the directory write
+        assert operations[-1][0] == "erase"
+    check_cuts(committed, images, load, cut)
+
+
+def test_a_power_cut_at_any_step_of_an_unload_leaves_the_module_or_not(tmp_path, committed, images):
+    def unload(node: Node) -> None:
+        node.start("gain", 100, constants={"k": Q16})
+        node.run(cycles=1)
+        node.unload("gain")
+
+    cut = cut_each_operation(tmp_path, committed, unload)
+    assert cut[0][-1][0] == "erase"  # gain's blocks go after the directory write
+    check_cuts(committed, images, unload, cut)
