@@ -256,11 +256,12 @@ class Sender:
 
     def _report(self, acked: int, total: int, start: float) -> None:
         if self.progress is not None:
+            done = min(acked, total)  # the last block is acknowledged whole, padding included
             self.progress(
                 Progress(
-                    acked,
+                    done,
                     total,
-                    -(-acked // FLASH_BLOCK_SIZE),
+                    -(-done // FLASH_BLOCK_SIZE),
                     time.perf_counter() - start,
                     self.retransmissions,
                 )
