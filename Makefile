@@ -34,6 +34,7 @@ test: tools $(INSTALLED) lint
 bench: tools $(INSTALLED)
 	$(PY) benchmarks/hex_codec.py
 	$(PY) benchmarks/scheduler.py
+	$(PY) benchmarks/migration.py
 
 clean:
 	rm -rf $(BUILD) .pytest_cache .ruff_cache .hypothesis

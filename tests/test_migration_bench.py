@@ -1,0 +1,162 @@
+"""benchmarks/migration.py's core on a small module: the virtual-time wires, the accounting of
+every byte and frame, and the invariants its figures rest on."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+from firmware_sim.wire import can_frame_bits, can_frame_bits_worst
+from hexmigrate.elf import image_from_elf
+from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
+from hexmigrate.links.framing import frame
+from hexmigrate.transfer.messages import Data, encode
+from hexmigrate.transfer.sender import BLOCKS_PER_DATA
+
+SMALL = 2000  # 8 blocks, the last one partial
+
+
+def _load_benchmark() -> ModuleType:
+    path = Path(__file__).parents[1] / "benchmarks" / "migration.py"
+    spec = importlib.util.spec_from_file_location("migration_bench", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up while the class is built
+    spec.loader.exec_module(module)
+    return module
+
+
+bench = _load_benchmark()
+
+
+@pytest.fixture(scope="module")
+def image(example_builds) -> ModuleImage:
+    return bench.random_module(image_from_elf(example_builds["gain"].elf), SMALL)
+
+
+@pytest.fixture(scope="module")
+def runs(image) -> dict[str, object]:
+    return {
+        f"{wire} {mode}": bench.run_transfer(image, wire, mode, bench.DEFAULT_WINDOW)
+        for wire, mode in bench.WIRES
+    }
+
+
+def data_messages(image: ModuleImage) -> list[bytes]:
+    """The binary DATA messages of a transfer of `image`, BLOCKS_PER_DATA blocks each."""
+    step = FLASH_BLOCK_SIZE * BLOCKS_PER_DATA
+    return [
+        encode(Data(bench.TID, image.link_base + offset, image.data[offset : offset + step]), False)
+        for offset in range(0, image.size, step)
+    ]
+
+
+def test_the_module_is_random_data_around_real_code(image, example_builds):
+    code = image_from_elf(example_builds["gain"].elf)
+    assert image.size == SMALL
+    assert image.data.startswith(code.data)
+    assert image.init == code.init
+    extra = set(image.relocations) - set(code.relocations)
+    assert len(extra) == bench.EXTRA_RELOCATIONS
+    assert all(location % 4 == 0 and location >= code.link_base + code.size for location in extra)
+
+
+@pytest.mark.parametrize("size", [1, 7, 8, 13, 269, 4095])
+def test_isotp_frames_carry_the_message(size):
+    message = bytes(range(256)) * 16
+    message = message[:size]
+    frames = bench.isotp_frames(message)
+    assert all(len(data) == 8 for data in frames)
+    if size <= 7:
+        assert len(frames) == 1 and frames[0][0] == size
+        assert frames[0][1 : 1 + size] == message
+        return
+    assert frames[0][0] >> 4 == 1 and ((frames[0][0] & 0xF) << 8 | frames[0][1]) == size
+    payload = frames[0][2:]
+    for number, data in enumerate(frames[1:], start=1):
+        assert data[0] == 0x20 | number & 0xF
+        payload += data[1:]
+    assert payload[:size] == message
+    assert len(frames) == 1 + -(-(size - 6) // 7)
+
+
+def test_the_idle_bus_goes_to_the_lowest_identifier():
+    simulation = bench.Simulation()
+    bus = simulation.bus(500_000)
+    node, host = bench.Transmitter(bus, 0x7E8), bench.Transmitter(bus, 0x7E0)
+    order = []
+    node.put(0.0, 100, lambda end: order.append(("node", end)))
+    host.put(0.0, 100, lambda end: order.append(("host", end)))
+    host.put(1.0, 50, lambda end: order.append(("late", end)))
+    while simulation.step(float("inf")):
+        pass
+    assert order == [("host", 100 / 500_000), ("node", 200 / 500_000), ("late", 1.0 + 1e-4)]
+
+
+def test_receive_waits_in_virtual_time():
+    simulation = bench.Simulation()
+    host, _ = bench.connect(simulation, "serial")
+    link = bench.SimulatedLink(simulation, host)
+    assert link.receive(0.5) is None
+    assert simulation.now == 0.5
+    assert link.timeouts == 1
+
+
+@pytest.mark.parametrize("name", ["serial binary", "serial hex", "CAN binary"])
+def test_a_transfer_is_clean_and_within_its_wire(runs, name):
+    run = runs[name]
+    assert run.retransmissions == 0 and run.timeouts == 0
+    assert 0 < run.header_at < run.data_at < run.seconds
+    assert 0 < run.efficiency <= 1
+    if run.wire == "CAN":  # one bus for both directions
+        busy = (run.host.total_bits() + run.node.total_bits()) / bench.CAN_BITRATE
+        assert can_frame_bits_worst(8) > run.cf_bits > 100
+    else:
+        busy = max(run.host.total_bits(), run.node.total_bits()) / bench.BAUDRATE
+    assert run.seconds >= busy
+
+
+def test_binary_beats_hex_and_can_beats_serial(runs):
+    assert runs["serial binary"].throughput > 2 * runs["serial hex"].throughput
+    assert runs["CAN binary"].throughput > runs["serial binary"].throughput
+
+
+def test_the_serial_wire_carries_exactly_the_framed_bytes(image, runs):
+    expected = sum(len(frame(raw)) for raw in data_messages(image))
+    assert runs["serial binary"].host.bits["DATA", "bytes"] == 10 * expected
+    hex_run = runs["serial hex"]
+    assert hex_run.host.bits["data record", "bytes"] == 10 * (SMALL // 16) * bench.HEX_LINE_CHARS
+    assert hex_run.host.bits["04 record", "bytes"] == 10 * hex_run.blocks * 16
+
+
+def test_the_can_bus_carries_exactly_the_isotp_frames(image, runs):
+    run = runs["CAN binary"]
+    frames = [bench.isotp_frames(raw) for raw in data_messages(image)]
+    consecutive = [data for message in frames for data in message[1:]]
+    assert run.host.units["DATA", "FF"] == len(frames) == run.node.units["DATA", "FC"]
+    assert run.host.units["DATA", "CF"] == len(consecutive)
+    assert run.host.bits["DATA", "CF"] == sum(
+        can_frame_bits(bench.HOST_ID, data) for data in consecutive
+    )
+    # One cumulative ACK per DATA message, once its blocks are programmed. A 13-byte ACK does
+    # not fit a single frame: first frame, flow control, consecutive frame.
+    acks = len(frames)
+    assert run.node.units["ACK block", "FF"] == run.node.units["ACK block", "CF"] == acks
+    assert run.host.units["ACK block", "FC"] == acks
+
+
+def test_a_window_of_one_waits_for_each_acknowledgement(image, runs):
+    single = bench.run_transfer(image, "serial", "binary", 1)
+    assert single.seconds > runs["serial binary"].seconds
+    assert single.efficiency < runs["serial binary"].efficiency
+
+
+@pytest.mark.parametrize("framed", [False, True])
+def test_the_stack_is_measured_against_a_copy_through_the_same_link(image, framed):
+    for mode in ("binary", "hex"):
+        stack = bench.stack_seconds(image, mode, framed, repeat=1)
+        assert 0 < bench.copy_seconds(image, framed, repeat=1) < stack
