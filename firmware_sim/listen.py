@@ -4,6 +4,12 @@ It prints each registration, starts every module it installs (at `--rate`, with 
 given by `--set`), prints the ports named by `--show` every second, and with `--flash FILE` keeps
 its flash in a file and boots the modules it had. On the real-time clock, so a terminal user sees
 the node live.
+
+Its first line of output says where it listens, so that a script can read it: ``listening on
+/dev/pts/N ...`` for ``pty`` (a new pty pair), ``listening on tcp-listen://127.0.0.1:PORT ...``
+with the port the system picked for ``tcp-listen://127.0.0.1:0``, both followed by the command that
+connects. One `Receiver` serves the node for its whole life, so a transfer cut with the
+connection (a host that reconnects to a ``tcp-listen://`` node, or reopens the pty) resumes.
 """
 
 from __future__ import annotations
@@ -16,6 +22,7 @@ from firmware_sim.node import Node, NodeConfig
 from firmware_sim.server import NodeTarget, serve
 from hexmigrate.links import open_link
 from hexmigrate.links.base import Link
+from hexmigrate.links.tcp import TcpListenLink
 from hexmigrate.transfer.receiver import Receiver
 from pbort.clock import RealTimeClock
 from pbort.errors import KernelError
@@ -48,8 +55,26 @@ def _open(url: str) -> Link:
         _say(f"listening on {pair.path} (connect with: hexmigrate send FILE.hex --to {pair.path})")
         return pair.link
     link = open_link(url, role="node") if url.startswith("can://") else open_link(url)
-    _say(f"listening on {url}")
+    server = _tcp_server(link)
+    if server is None:
+        _say(f"listening on {url}")
+    else:  # say the port the system picked for port 0, also through a faulty+ wrapper
+        shown = url.replace(server.url, server.bound_url, 1)
+        _say(
+            f"listening on {shown} (connect with: hexmigrate send FILE.hex --to "
+            f"{server.connect_url})"
+        )
     return link
+
+
+def _tcp_server(link: Link) -> TcpListenLink | None:
+    """The ``tcp-listen://`` link `link` is or wraps (faulty+...), if any."""
+    current: object = link
+    while current is not None:
+        if isinstance(current, TcpListenLink):
+            return current
+        current = getattr(current, "inner", None)
+    return None
 
 
 def listen(args: argparse.Namespace) -> int:
@@ -65,8 +90,6 @@ def listen(args: argparse.Namespace) -> int:
             except KernelError as error:
                 _say(f"{name} did not start: {error}")
 
-        for module in list(node.modules.values()):
-            start(module.name, module.load_address)
         deadline = None if args.seconds is None else time.monotonic() + args.seconds
         next_show = time.monotonic() + 1.0
 
@@ -78,9 +101,14 @@ def listen(args: argparse.Namespace) -> int:
                 _say("  ".join(f"{port}={_value(node, port)}" for port in args.show))
             return deadline is not None and now >= deadline
 
+        # The link first: its "listening on" line is the first line out, before the boot.
         with _open(args.listen) as link:
+            for module in list(node.modules.values()):
+                start(module.name, module.load_address)
+            # One receiver for the node's life: a transfer survives a reconnect (RESUME).
+            receiver = Receiver(NodeTarget(node, on_install=start))
             try:
-                serve(node, link, receiver=Receiver(NodeTarget(node, on_install=start)), stop=stop)
+                serve(node, link, receiver=receiver, stop=stop)
             except KeyboardInterrupt:
                 _say("stopped")
     return 0

@@ -329,7 +329,8 @@ def _add_link_commands(commands: argparse._SubParsersAction) -> None:
         required=True,
         metavar="URL",
         help="where to listen: pty (a new pty pair; its path is printed), a device, "
-        "socket://127.0.0.1:PORT, can://... (docs/links.md)",
+        "tcp-listen://127.0.0.1:PORT (senders use socket://127.0.0.1:PORT), can://... "
+        "(docs/links.md)",
     )
     node.add_argument(
         "--flash",

@@ -49,3 +49,52 @@ run firmware-sim run --module "$out/gain.hex" --module "$out/moving_average.hex@
     --set gain.k=0x28000 --wire signal.y=gain.x --wire gain.y=moving_average.x \
     --rate signal=100 --rate gain=100 --rate moving_average=100 --seconds 0.5
 echo "module files written to $out/"
+
+echo
+echo "=== serial loopback: a node on a pty pair takes both modules over the wire and runs them ==="
+node_log="$out/node.log"
+node_pid=""
+stop_node() {
+    if [[ -n "$node_pid" ]] && kill -0 "$node_pid" 2>/dev/null; then
+        kill "$node_pid" 2>/dev/null || true
+        wait "$node_pid" 2>/dev/null || true
+    fi
+    node_pid=""
+}
+trap stop_node EXIT
+trap 'stop_node; exit 130' INT TERM
+node_command=(hexmigrate node --listen pty --seconds 6 --show gain.y --show moving_average.y
+    --set gain.k=0x28000)
+echo "\$ ${node_command[*]} > $node_log 2>&1 &"
+: >"$node_log" # there before the node writes to it, for the loop below to read
+"${node_command[@]}" >>"$node_log" 2>&1 &
+node_pid=$!
+pty=""
+for _ in $(seq 100); do # its first line names the pty: wait for it, 10 s at most
+    pty=$(sed -n 's|^listening on \(/dev/pts/[0-9]*\) .*|\1|p' "$node_log" || true)
+    if [[ -n "$pty" ]] || ! kill -0 "$node_pid" 2>/dev/null; then
+        break
+    fi
+    sleep 0.1
+done
+if [[ -z "$pty" ]]; then
+    echo "the node did not say where it listens:"
+    cat "$node_log"
+    exit 1
+fi
+echo "(the node listens on $pty)"
+echo
+run hexmigrate send "$out/gain.hex" --to "$pty" --mode hex --quiet
+run hexmigrate send "$out/moving_average.hex" --to "$pty" --mode binary --quiet
+run hexmigrate ls --to "$pty"
+run hexmigrate ping --to "$pty"
+echo "(waiting for the node to end: --seconds 6)"
+node_status=0
+wait "$node_pid" || node_status=$?
+node_pid=""
+echo "the node's output ($node_log):"
+sed 's/^/  /' "$node_log"
+if [[ $node_status -ne 0 ]]; then
+    echo "the node exited with status $node_status"
+    exit 1
+fi

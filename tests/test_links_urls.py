@@ -25,7 +25,11 @@ SLCAN_RATES = "10000, 20000, 50000, 100000, 125000, 250000, 500000, 750000, 1000
 BAD_URLS = [
     ("", "expected SCHEME:... or an absolute device path, got no scheme", ANY),
     ("dev/ttyUSB0", "expected SCHEME:... or an absolute device path, got no scheme", ANY),
-    ("ftp://x", "expected a scheme among serial, loop, socket, can or faulty+, got 'ftp'", ANY),
+    (
+        "ftp://x",
+        "expected a scheme among serial, loop, socket, tcp-listen, can or faulty+, got 'ftp'",
+        ANY,
+    ),
     (
         "serial://dev/ttyUSB0",
         "expected an absolute device path after serial://, got 'dev/ttyUSB0'",

@@ -1,23 +1,26 @@
 """Transports for module transfers, opened by URL: ``open_link(url)``, one module per scheme.
 
-=============================  ===========================================  ================
-URL                            what                                         module
-=============================  ===========================================  ================
-``serial:///dev/ttyUSB0``      a serial device, ``?baudrate=`` (115200)     `serial`
-``/dev/pts/5``                 a bare device path (a pty's far end)         `serial`
-``loop://``                    pyserial's loopback                          `serial`
-``socket://127.0.0.1:PORT``    a raw TCP byte stream                        `serial`
-``can://virtual/CHANNEL``      python-can's in-process bus, ISO-TP          `can`
-``can://remote/H:P/CHANNEL``   a python-can-remote server, ISO-TP           `can`
-``can://slcan//dev/DEVICE``    an SLCAN adapter, ISO-TP                     `can`
-``can://socketcan/vcan0``      Linux SocketCAN, ISO-TP                      `can`
-``faulty+INNER#FAULTS``        any of the above with injected faults        `faulty`
-=============================  ===========================================  ================
+===============================  ========================================  ================
+URL                              what                                      module
+===============================  ========================================  ================
+``serial:///dev/ttyUSB0``        a serial device, ``?baudrate=`` (115200)  `serial`
+``/dev/pts/5``                   a bare device path (a pty's far end)      `serial`
+``loop://``                      pyserial's loopback                       `serial`
+``socket://127.0.0.1:PORT``      a raw TCP byte stream (a client)          `serial`
+``tcp-listen://127.0.0.1:PORT``  its server end, for a node; port 0: any   `tcp`
+``can://virtual/CHANNEL``        python-can's in-process bus, ISO-TP       `can`
+``can://remote/H:P/CHANNEL``     a python-can-remote server, ISO-TP        `can`
+``can://slcan//dev/DEVICE``      an SLCAN adapter, ISO-TP                  `can`
+``can://socketcan/vcan0``        Linux SocketCAN, ISO-TP                   `can`
+``faulty+INNER#FAULTS``          any of the above with injected faults     `faulty`
+===============================  ========================================  ================
 
 Each module documents its grammar at its top. `framing` says how messages travel on a byte
-stream; `remote_server` runs a python-can-remote server for two processes on one CAN channel, and
-`slcan_device` makes a node's CAN controller look like an SLCAN adapter on a pty. Scheme modules
-are imported when first used, so a machine without python-can can still use serial links.
+stream; `tcp` is the listening end a ``socket://`` client connects to, for a node that serves one
+host after another; `remote_server` runs a python-can-remote server for two processes on one CAN
+channel, and `slcan_device` makes a node's CAN controller look like an SLCAN adapter on a pty.
+Scheme modules are imported when first used, so a machine without python-can can still use
+serial links.
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ _SCHEMES: dict[str, tuple[str, str]] = {
     "serial": ("serial", "pyserial"),
     "loop": ("serial", "pyserial"),
     "socket": ("serial", "pyserial"),
+    "tcp-listen": ("tcp", "nothing beyond Python's standard library"),
     "can": ("can", "python-can, can-isotp and (for can://remote) python-can-remote"),
     "faulty": ("faulty", "nothing more than its inner link"),
 }
@@ -40,7 +44,7 @@ _SCHEMES: dict[str, tuple[str, str]] = {
 device path."""
 
 _FORMS = "serial:///dev/DEVICE, /dev/DEVICE, loop://, socket://HOST:PORT, can://... or faulty+URL"
-_KNOWN = "serial, loop, socket, can or faulty+"
+_KNOWN = "serial, loop, socket, tcp-listen, can or faulty+"
 
 
 def open_link(url: str, **options: object) -> LinkBase:

@@ -288,14 +288,14 @@ class Sender:
         acknowledgement of a data block must not pass for the acknowledgement of a commit.
         """
         for attempt in range(self.retries + 1):
+            if attempt:
+                self.retransmissions += 1
             self._send(message)
             reply = self._await(tid, (expected, Nak), what=what)
             if isinstance(reply, expected):
                 return reply
             if reply is not None:
                 self._check_fatal(reply)
-            if attempt:
-                self.retransmissions += 1
         raise TransferError(
             f"no answer to {type(message).__name__} after "
             f"{self.retries + 1} tries ({self.timeout} s each)"

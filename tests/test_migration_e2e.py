@@ -1,0 +1,536 @@
+"""End to end: a module crosses a real transport to a node, is installed there, and runs.
+
+Two processes where the transport joins processes (a pty pair, TCP to a ``tcp-listen://`` node,
+CAN through a python-can-remote server, SLCAN on a pty): the node is ``hexmigrate node --listen
+URL`` or the host is ``hexmigrate send``/``ls``/``ping``/``rm``, each a subprocess, as a user
+would run them; the node's output (its "listening on" line first, registrations, ``--show``
+values) is read as it comes. The pty node is restarted on its flash file to boot what it got.
+In one process (``can://virtual``) the node is served by `firmware_sim.server.serve` in a thread
+of its own: the node (and its Unicorn CPU) is made, used and closed in that thread only, and the
+test thread holds nothing but the sender and its link. Then faults: 1 % corruption and drops in
+both directions, and a link cut mid-transfer that `Sender.resume` completes on a new link while
+the node keeps its `Receiver`.
+
+Every wait is bounded; every subprocess is terminated (and killed if need be) in a finally.
+Everything stays on 127.0.0.1.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import queue
+import re
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import uuid
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from firmware_sim.natives import Signal
+from firmware_sim.node import Node
+from firmware_sim.server import NodeTarget, serve
+from hexmigrate.elf import image_from_elf
+from hexmigrate.image import ModuleImage
+from hexmigrate.links import LinkBase, open_link
+from hexmigrate.links.faulty import FaultyLink
+from hexmigrate.links.remote_server import RemoteCanServer
+from hexmigrate.links.slcan_device import SlcanDevice
+from hexmigrate.links.tcp import TcpListenLink
+from hexmigrate.transfer.receiver import Receiver
+from hexmigrate.transfer.sender import Sender, TransferInterrupted
+from pbort.errors import KernelError
+from pbort.native import NativeModule
+
+NODE_SECONDS = 20
+"""How long a node subprocess lives at most; each test ends it much sooner."""
+LINE_TIMEOUT = 15.0
+"""How long to wait for a line of a node subprocess (its start imports Unicorn and python-can)."""
+CLI_TIMEOUT = 30.0
+THREAD_TIMEOUT = 10.0
+RUN_TIMEOUT = 10.0
+"""How long to wait for an installed module's output to show that it runs."""
+GAIN_K = 0x20000  # 2.0 in Q16.16: gain refuses to start with k == 0
+RAMP_STEP = 21  # the native signal's ramp: 21, 42, 63, ...
+RATE = 100.0
+FAULTS = "corrupt=0.01&drop=0.01"
+MAX_FAULTY_ROUNDS = 20
+GAIN_SHOWN = re.compile(r"\bgain\.y=(-?\d+)\b")
+
+
+def unique(prefix: str) -> str:
+    """A CAN channel name no other test uses (python-can's virtual buses are per process)."""
+    return f"{prefix}-{uuid.uuid4().hex[:8]}"
+
+
+@pytest.fixture(scope="module")
+def images(example_builds) -> dict[str, ModuleImage]:
+    return {name: image_from_elf(build.elf) for name, build in example_builds.items()}
+
+
+@pytest.fixture(scope="module")
+def hex_files(images, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    folder = tmp_path_factory.mktemp("hex")
+    files = {}
+    for name, image in images.items():
+        files[name] = folder / f"{name}.hex"
+        image.write(files[name])
+    return files
+
+
+def hexmigrate(*arguments: object) -> str:
+    """Run ``python -m hexmigrate ARGUMENTS`` to the end (at most CLI_TIMEOUT s); its stdout."""
+    command = [sys.executable, "-m", "hexmigrate", *map(str, arguments)]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=CLI_TIMEOUT)
+    shown = " ".join(command[3:])
+    assert done.returncode == 0, f"hexmigrate {shown}: exit {done.returncode}\n{done.stderr}"
+    return done.stdout
+
+
+class NodeProcess:
+    """``python -m hexmigrate node --listen URL OPTIONS`` in a subprocess, its stdout read line by
+    line by a thread, its stderr kept in a file for failure messages."""
+
+    def __init__(self, listen: str, *options: str) -> None:
+        command = [sys.executable, "-m", "hexmigrate", "node", "--listen", listen]
+        command += ["--seconds", str(NODE_SECONDS), "--set", f"gain.k={GAIN_K:#x}", *options]
+        self._stderr = tempfile.TemporaryFile(mode="w+")  # noqa: SIM115 (closed by stop)
+        self.lines: list[str] = []
+        self._changed = threading.Condition()
+        self._ended = False
+        self.process = subprocess.Popen(
+            command, stdout=subprocess.PIPE, stderr=self._stderr, text=True, bufsize=1
+        )
+        self._reader = threading.Thread(target=self._read, name="node stdout", daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        assert self.process.stdout is not None
+        for line in self.process.stdout:
+            with self._changed:
+                self.lines.append(line.rstrip("\n"))
+                self._changed.notify_all()
+        with self._changed:
+            self._ended = True
+            self._changed.notify_all()
+
+    def wait_for(self, pattern: re.Pattern[str] | str, start: int = 0) -> tuple[int, re.Match[str]]:
+        """The index and match of the first line from `start` on that `pattern` finds."""
+        pattern = re.compile(pattern)
+        deadline = time.monotonic() + LINE_TIMEOUT
+        with self._changed:
+            while True:
+                for index in range(start, len(self.lines)):
+                    found = pattern.search(self.lines[index])
+                    if found:
+                        return index, found
+                start = max(start, len(self.lines))
+                left = deadline - time.monotonic()
+                if self._ended or left <= 0:
+                    break
+                self._changed.wait(left)
+        raise AssertionError(
+            f"no line matching {pattern.pattern!r} from the node:\n{self.output()}"
+        )
+
+    def output(self) -> str:
+        """What the node printed so far, stdout then stderr."""
+        self._stderr.seek(0)
+        return "\n".join(self.lines) + "\n--- stderr ---\n" + self._stderr.read()
+
+    def stop(self) -> None:
+        """Terminate the node (kill it if it does not end) and collect its output."""
+        try:
+            if self.process.poll() is None:
+                self.process.terminate()
+                try:
+                    self.process.wait(timeout=5)
+                except subprocess.TimeoutExpired:
+                    self.process.kill()
+                    self.process.wait(timeout=5)
+        finally:
+            self._reader.join(timeout=5)
+            if self.process.stdout is not None:
+                self.process.stdout.close()
+            self._stderr.close()
+
+    def __enter__(self) -> NodeProcess:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.stop()
+
+
+def check_node_output(node: NodeProcess, names: Iterable[str]) -> dict[str, int]:
+    """The node printed its listening line first, registered each of `names`, started them (no
+    "did not start") and then showed a number for gain.y; the load address of each module."""
+    assert node.lines[0].startswith("listening on "), node.output()
+    assert sum(line.startswith("listening on ") for line in node.lines) == 1, node.output()
+    addresses = {}
+    last = 0
+    for name in names:
+        index, found = node.wait_for(rf"^registered {name} at 0x([0-9A-F]{{8}})$")
+        addresses[name] = int(found[1], 16)
+        last = max(last, index)
+    if "gain" in addresses:
+        node.wait_for(GAIN_SHOWN, start=last + 1)
+    assert not any("did not start" in line for line in node.lines), node.output()
+    return addresses
+
+
+class NodeThread:
+    """A node served by `serve` in a thread of its own, on each of `urls` in turn with one
+    `Receiver` (`advance` moves it to the next link). Only that thread touches the node: it
+    starts each module it installs (gain behind a native ramp signal), copies the values of the
+    watched ports to `values` after every message, and fills `report` when it stops."""
+
+    WATCHED = ("signal.y", "gain.y")
+
+    def __init__(self, urls: Iterable[str], images: dict[str, ModuleImage]) -> None:
+        self.urls = list(urls)
+        self.images = images
+        self.values: dict[str, int] = {}
+        self.installed: list[tuple[str, int]] = []
+        self.report: dict[str, Any] = {}
+        self.link: LinkBase | None = None
+        self.error: BaseException | None = None
+        self._opened: queue.SimpleQueue[str] = queue.SimpleQueue()
+        self._next = threading.Event()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="node", daemon=True)
+
+    def __enter__(self) -> NodeThread:
+        self._thread.start()
+        try:
+            self._wait_open()
+        except BaseException:
+            self.stop(check=False)
+            raise
+        return self
+
+    def __exit__(self, exc_type: object, *exc_info: object) -> None:
+        self.stop(check=exc_type is None)
+
+    def advance(self) -> None:
+        """Close the link served now and serve the next one (same node, same Receiver)."""
+        self._next.set()
+        self._wait_open()
+
+    def stop(self, check: bool = True) -> None:
+        """End the thread; re-raise what failed in it."""
+        self._stop.set()
+        self._thread.join(timeout=THREAD_TIMEOUT)
+        if check:
+            assert not self._thread.is_alive(), "the node thread did not stop"
+            if self.error is not None:
+                raise self.error
+
+    def wait_running(self) -> int:
+        """gain.y once it is positive: gain runs on the node, fed by the ramp."""
+        deadline = time.monotonic() + RUN_TIMEOUT
+        while time.monotonic() < deadline and self._thread.is_alive():
+            value = self.values.get("gain.y", 0)
+            if value > 0:
+                assert value % (2 * RAMP_STEP) == 0, f"gain.y = {value}: not 2.0 x the ramp"
+                return value
+            time.sleep(0.01)
+        raise AssertionError(f"gain did not run: {self.values}, {self.error!r}")
+
+    def _wait_open(self) -> None:
+        deadline = time.monotonic() + THREAD_TIMEOUT
+        while time.monotonic() < deadline:
+            if self.error is not None:
+                raise self.error
+            try:
+                self._opened.get(timeout=0.05)
+            except queue.Empty:
+                continue
+            return
+        raise AssertionError("the node thread did not open its link")
+
+    def _run(self) -> None:
+        try:
+            with Node("e2e") as node:
+                receiver = Receiver(NodeTarget(node, on_install=lambda n, a: self._start(node, n)))
+                for url in self.urls:
+                    with open_link(url) as link:
+                        self.link = link
+                        self._next.clear()
+                        self._opened.put(url)
+                        serve(node, link, receiver=receiver, stop=lambda: self._watch(node))
+                    if self._stop.is_set():
+                        break
+                self.report = self._inspect(node)
+        except BaseException as error:
+            self.error = error
+
+    def _start(self, node: Node, name: str) -> None:
+        """What `hexmigrate node` does on a registration, with gain's input wired to a ramp."""
+        self.installed.append((name, node.modules[name].load_address))
+        if name != "gain":
+            node.start(name, RATE)
+            return
+        if "signal" not in node.kernel.names:
+            constants = {"shape": 0, "amplitude": RAMP_STEP}
+            node.start(NativeModule(Signal), RATE, constants=constants)
+        self.values.pop("gain.y", None)
+        node.start("gain", RATE, constants={"k": GAIN_K})
+        node.kernel.connect("signal.y", "gain.x")
+
+    def _watch(self, node: Node) -> bool:
+        for port in self.WATCHED:
+            with contextlib.suppress(KernelError):  # not (or no longer) on the node
+                self.values[port] = int(node.kernel.value(port))
+        return self._next.is_set() or self._stop.is_set()
+
+    def _inspect(self, node: Node) -> dict[str, Any]:
+        """Where each module sits and whether its flash holds the image relocated there."""
+        modules = {}
+        for name, module in node.modules.items():
+            image = self.images[name]
+            flash = node.flash.read(module.load_address, image.size)
+            modules[name] = (module.load_address, flash == image.relocate(module.load_address))
+        return {"modules": modules, "values": dict(self.values)}
+
+
+def assert_installed_and_ran(node: NodeThread, names: Iterable[str]) -> None:
+    """After `node.stop()`: each module sits in flash as relocated for its address, gain ran."""
+    expected = {name: (address, True) for name, address in node.installed if name in names}
+    assert node.report["modules"] == expected
+    assert node.report["values"]["gain.y"] > 0
+
+
+# The tcp-listen link the TCP tests' node listens on.
+
+
+def test_tcp_listen_serves_one_client_after_another():
+    with open_link("tcp-listen://127.0.0.1:0") as server:
+        assert isinstance(server, TcpListenLink)
+        assert server.connect_url == f"socket://127.0.0.1:{server.port}"
+        server.send(b"NOBODY THERE")  # a serial line with no cable: lost, not raised
+        address = ("127.0.0.1", server.port)
+        with socket.create_connection(address, timeout=5.0) as first:
+            first.sendall(b"ONE\n")
+            assert server.receive(5.0) == b"ONE"
+            with socket.create_connection(address, timeout=5.0) as second:
+                second.sendall(b"TWO\n")
+                assert server.receive(0.2) is None  # waits until the first hangs up
+                first.sendall(b"\x00\x05\x01ab")  # a binary frame cut short by the hang-up
+                first.close()
+                assert server.receive(5.0) == b"TWO"  # not joined to the first's leftover
+                server.send(b"HELLO")
+                assert second.recv(64) == b"HELLO\n"
+        assert (server.lost, server.connections) == (1, 2)
+
+
+# Two processes.
+
+
+def test_a_pty_pair_between_two_processes(hex_files, tmp_path):
+    flash = ("--flash", str(tmp_path / "flash.bin"))
+    with NodeProcess("pty", "--show", "gain.y", "--show", "moving_average.y", *flash) as node:
+        index, listening = node.wait_for(r"^listening on (/dev/pts/\d+) ")
+        pty = listening[1]
+        assert index == 0
+        assert (
+            node.lines[0]
+            == f"listening on {pty} (connect with: hexmigrate send FILE.hex --to {pty})"
+        )
+        sent = hexmigrate("send", hex_files["gain"], "--to", pty, "--quiet", "--mode", "hex")
+        assert "module gain installed at 0x" in sent
+        hexmigrate("send", hex_files["moving_average"], "--to", pty, "--quiet")
+        addresses = check_node_output(node, ["gain", "moving_average"])
+        listing = hexmigrate("ls", "--to", pty).splitlines()
+        assert [line.split()[:2] for line in listing] == [
+            [name, f"0x{address:08X}"] for name, address in addresses.items()
+        ]
+        assert hexmigrate("ping", "--to", pty).startswith("node: 2 module(s), ")
+        removed = hexmigrate("rm", "moving_average", "--to", pty, "--mode", "hex")
+        assert removed == f"removed moving_average from {pty}\n"
+        assert [line.split()[0] for line in hexmigrate("ls", "--to", pty).splitlines()] == ["gain"]
+        index, _ = node.wait_for(r"moving_average\.y=\?$", start=len(node.lines))
+        node.wait_for(GAIN_SHOWN, start=index)  # gain still runs once moving_average is gone
+
+    # The node again on the same flash: it says where it listens first, then boots gain.
+    with NodeProcess("pty", "--show", "gain.y", *flash) as node:
+        node.wait_for(GAIN_SHOWN)
+        assert re.fullmatch(r"listening on /dev/pts/\d+ \(connect with: .*\)", node.lines[0])
+        assert node.lines[1] == f"registered gain at 0x{addresses['gain']:08X}"
+        assert check_node_output(node, ["gain"]) == {"gain": addresses["gain"]}
+
+
+def test_tcp_listen_between_two_processes_and_resume_after_a_cut(hex_files, images):
+    with NodeProcess("tcp-listen://127.0.0.1:0", "--show", "gain.y") as node:
+        _, listening = node.wait_for(
+            r"^listening on tcp-listen://127\.0\.0\.1:(\d+) \(connect with: hexmigrate send "
+            r"FILE\.hex --to (socket://127\.0\.0\.1:(\d+))\)$"
+        )
+        port, to = listening[1], listening[2]
+        assert port == listening[3] != "0"
+        hexmigrate("send", hex_files["gain"], "--to", to, "--quiet", "--mode", "hex")
+        check_node_output(node, ["gain"])
+
+        # A cable pulled mid-transfer, then a new connection to the same node: RESUME.
+        image = images["moving_average"]
+        with (
+            open_link(f"faulty+{to}#cut_after=800") as cut_link,
+            pytest.raises(TransferInterrupted) as cut,
+        ):
+            Sender(cut_link, "binary", window=1).send(image)
+        assert 0 < cut.value.programmed < image.size
+        with open_link(to) as link:
+            resumed = Sender(link, "binary").resume(image, cut.value.tid)
+        assert resumed.name == "moving_average"
+        assert resumed.wire_bytes < image.size  # the blocks the node had were not sent again
+        assert [line.split()[0] for line in hexmigrate("ls", "--to", to).splitlines()] == [
+            "gain",
+            "moving_average",
+        ]
+        check_node_output(node, ["gain", "moving_average"])
+
+
+def test_faults_on_both_ends_of_a_tcp_link_between_processes(hex_files):
+    with NodeProcess(
+        f"faulty+tcp-listen://127.0.0.1:0#{FAULTS}&seed=5", "--show", "gain.y"
+    ) as node:
+        _, listening = node.wait_for(
+            rf"^listening on faulty\+tcp-listen://127\.0\.0\.1:(\d+)#{FAULTS}&seed=5 "
+            r"\(connect with: hexmigrate send FILE\.hex --to (socket://127\.0\.0\.1:\d+)\)$"
+        )
+        to = f"faulty+{listening[2]}#{FAULTS}&seed=6"
+        for mode in ("hex", "binary"):
+            sent = hexmigrate(
+                "send", hex_files["gain"], "--to", to, "--quiet", "--mode", mode,
+                "--timeout", "0.3", "--retries", "20",
+            )  # fmt: skip
+            assert "module gain installed at 0x" in sent
+        check_node_output(node, ["gain"])
+
+
+def test_can_through_a_remote_server_between_two_processes(hex_files, images):
+    with (
+        RemoteCanServer(unique("e2e-remote")) as server,
+        NodeProcess(server.url(role="node"), "--show", "gain.y") as node,
+    ):
+        node.wait_for(r"^listening on can://remote/127\.0\.0\.1:\d+/e2e-remote-\w+\?role=node$")
+        hexmigrate("send", hex_files["gain"], "--to", server.url(), "--quiet")
+        with open_link(server.url()) as link:
+            sender = Sender(link, "hex")
+            assert sender.send(images["moving_average"]).name == "moving_average"
+            assert [name for name, _, _ in sender.modules()] == ["gain", "moving_average"]
+            assert sender.ping().startswith("node: 2 module(s), ")
+        check_node_output(node, ["gain", "moving_average"])
+
+
+def test_slcan_on_a_pty_between_two_processes(hex_files, images):
+    channel = unique("e2e-slcan")
+    with (
+        SlcanDevice(channel) as device,
+        NodeThread([f"can://virtual/{channel}?role=node"], images) as node,
+    ):
+        assert device.url.startswith("can://slcan//dev/pts/")
+        sent = hexmigrate("send", hex_files["gain"], "--to", device.url, "--quiet", "--mode", "hex")
+        assert "module gain installed at 0x" in sent
+        hexmigrate("send", hex_files["moving_average"], "--to", device.url, "--quiet")
+        listing = hexmigrate("ls", "--to", device.url)
+        assert [line.split()[0] for line in listing.splitlines()] == ["gain", "moving_average"]
+        node.wait_running()
+        node.stop()
+    assert device.to_bus > 0 and device.to_host > 0
+    assert_installed_and_ran(node, ["gain", "moving_average"])
+
+
+# One process, the node in a thread of its own.
+
+
+@pytest.mark.parametrize("mode", ["binary", "hex"])
+def test_can_virtual_in_one_process(images, mode):
+    channel = unique("e2e-virtual")
+    with NodeThread([f"can://virtual/{channel}?role=node"], images) as node:
+        with open_link(f"can://virtual/{channel}") as link:
+            sender = Sender(link, mode)
+            assert sender.ping().startswith("e2e: 0 module(s), ")
+            for name in ("gain", "moving_average"):
+                result = sender.send(images[name])
+                assert (result.name, result.retransmissions) == (name, 0)
+            assert [name for name, _, _ in sender.modules()] == ["gain", "moving_average"]
+            sender.remove("moving_average")
+            assert [name for name, _, _ in sender.modules()] == ["gain"]
+        node.wait_running()
+        node.stop()
+    assert_installed_and_ran(node, ["gain"])
+
+
+@pytest.mark.skipif(
+    not Path("/sys/class/net/vcan0").exists(), reason="needs a SocketCAN interface vcan0"
+)
+def test_socketcan_in_one_process(images):
+    with NodeThread(["can://socketcan/vcan0?role=node"], images) as node:
+        with open_link("can://socketcan/vcan0") as link:
+            assert Sender(link, "binary").send(images["gain"]).name == "gain"
+        node.wait_running()
+        node.stop()
+    assert_installed_and_ran(node, ["gain"])
+
+
+# Faults.
+
+
+@pytest.mark.parametrize(("mode", "seeds"), [("binary", (9, 10)), ("hex", (15, 16))])
+def test_one_percent_corruption_and_drops_both_ways(images, mode, seeds):
+    channel = unique("e2e-faulty")
+    node_url = f"faulty+can://virtual/{channel}?role=node#{FAULTS}&seed={seeds[0]}"
+    with (
+        NodeThread([node_url], images) as node,
+        open_link(f"faulty+can://virtual/{channel}#{FAULTS}&seed={seeds[1]}") as link,
+    ):
+        node_end = node.link
+        assert isinstance(link, FaultyLink) and isinstance(node_end, FaultyLink)
+        sender = Sender(link, mode, timeout=0.3, retries=20)
+
+        def injected() -> bool:
+            """Faults went both ways, and both kinds of them (the seeds make it so soon)."""
+            ends = [link.counts, node_end.counts]
+            return (
+                all(end.corrupted + end.dropped for end in ends)
+                and any(end.corrupted for end in ends)
+                and any(end.dropped for end in ends)
+            )
+
+        # Each round replaces gain at its commit; again until both directions saw faults.
+        for _ in range(MAX_FAULTY_ROUNDS):
+            assert sender.send(images["gain"]).name == "gain"
+            if injected():
+                break
+        assert injected(), (link.counts, node_end.counts)
+        node.wait_running()
+        node.stop()
+    assert_installed_and_ran(node, ["gain"])
+
+
+@pytest.mark.parametrize(("mode", "cut_after"), [("binary", 800), ("hex", 2500)])
+def test_a_cut_link_resumes_on_a_new_link_with_the_same_receiver(images, mode, cut_after):
+    first, second = unique("e2e-cut"), unique("e2e-new")
+    image = images["gain"]
+    urls = [f"can://virtual/{first}?role=node", f"can://virtual/{second}?role=node"]
+    with NodeThread(urls, images) as node:
+        with (
+            open_link(f"faulty+can://virtual/{first}#cut_after={cut_after}") as cut_link,
+            pytest.raises(TransferInterrupted) as cut,
+        ):
+            Sender(cut_link, mode, window=1).send(image)
+        assert 0 < cut.value.programmed < image.size
+        assert node.installed == []
+        node.advance()  # the node serves a new link, with the Receiver that holds the transfer
+        with open_link(f"can://virtual/{second}") as link:
+            resumed = Sender(link, mode).resume(image, cut.value.tid)
+        assert resumed.name == "gain"
+        node.wait_running()
+        node.stop()
+    assert_installed_and_ran(node, ["gain"])
