@@ -11,6 +11,7 @@ import argparse
 import contextlib
 import json
 import sys
+import time
 import traceback
 from collections.abc import Sequence
 from pathlib import Path
@@ -28,6 +29,7 @@ from hexmigrate.transfer.sender import (
     Sender,
     TransferError,
     TransferInterrupted,
+    TransferResult,
 )
 
 EXIT_ERROR = 1
@@ -162,14 +164,10 @@ def _sender(args: argparse.Namespace, progress: bool = False) -> Sender:
 def cmd_send(args: argparse.Namespace) -> int:
     """Send a module to a node, show progress, commit it."""
     image = ModuleImage.read(args.file)
-    sender = _sender(args, progress=not args.quiet)
-    with contextlib.closing(sender.link):
-        try:
-            result = sender.send(image, args.base)
-        except TransferInterrupted as error:
-            raise CommandError(f"{error}; run `hexmigrate send` again to start over") from None
-        except TransferError as error:
-            raise CommandError(str(error)) from None
+    try:
+        result = _send_resuming(args, image)
+    except TransferError as error:
+        raise CommandError(str(error)) from None
     if not args.quiet:
         print(file=sys.stderr)
     rate = result.size / result.seconds if result.seconds else 0.0
@@ -180,6 +178,30 @@ def cmd_send(args: argparse.Namespace) -> int:
         f"{result.retransmissions} retransmissions"
     )
     return 0
+
+
+def _send_resuming(args: argparse.Namespace, image: ModuleImage) -> TransferResult:
+    """Send `image`; when the link fails midway, open it again and resume the transfer where
+    the node got to (`--reconnects` times, a second apart), as after a cable was re-plugged."""
+    sender = _sender(args, progress=not args.quiet)
+    try:
+        with contextlib.closing(sender.link):
+            return sender.send(image, args.base)
+    except TransferInterrupted as error:
+        interrupted = error
+    for attempt in range(1, args.reconnects + 1):
+        print(f"\n{interrupted}; reconnecting ({attempt}/{args.reconnects})", file=sys.stderr)
+        time.sleep(1.0)
+        try:
+            sender = _sender(args, progress=not args.quiet)
+        except LinkError:
+            continue
+        try:
+            with contextlib.closing(sender.link):
+                return sender.resume(image, interrupted.tid)
+        except TransferInterrupted as error:
+            interrupted = error
+    raise TransferError(f"{interrupted}; gave up after {args.reconnects} reconnections")
 
 
 def cmd_ping(args: argparse.Namespace) -> int:
@@ -310,6 +332,12 @@ def _add_link_commands(commands: argparse._SubParsersAction) -> None:
     send.add_argument("file", type=Path, metavar="FILE.hex")
     send.add_argument("--base", type=address, metavar="ADDR", help="ask for a load address")
     send.add_argument("--quiet", action="store_true", help="no progress bar")
+    send.add_argument(
+        "--reconnects",
+        type=int,
+        default=3,
+        help="times to reopen a failed link and resume (default 3)",
+    )
     _link_options(send)
     send.set_defaults(func=cmd_send)
     for name, func, text in (

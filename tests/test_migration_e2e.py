@@ -534,3 +534,33 @@ def test_a_cut_link_resumes_on_a_new_link_with_the_same_receiver(images, mode, c
         node.wait_running()
         node.stop()
     assert_installed_and_ran(node, ["gain"])
+
+
+def test_send_reconnects_and_resumes_by_itself(hex_files, images):
+    """`hexmigrate send` over a link that dies after 700 bytes each time it is opened: it opens
+    the link again and resumes where the node got to, until the module is installed."""
+    with NodeProcess("tcp-listen://127.0.0.1:0", "--show", "gain.y") as node:
+        _, listening = node.wait_for(r"--to (socket://127\.0\.0\.1:\d+)\)$")
+        flaky = f"faulty+{listening[1]}#cut_after=700"
+        result = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "hexmigrate",
+                "send",
+                str(hex_files["moving_average"]),
+                "--to",
+                flaky,
+                "--quiet",
+            ],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
+        assert result.returncode == 0, result.stderr
+        assert "reconnecting (1/3)" in result.stderr
+        assert "module moving_average installed" in result.stdout
+        check_node_output(node, ["moving_average"])
+        listing = hexmigrate("ls", "--to", listening[1])
+        assert f"{images['moving_average'].size} bytes" in listing
