@@ -18,6 +18,7 @@ import argparse
 import time
 from collections import defaultdict
 
+from firmware_sim.natives import NATIVES
 from firmware_sim.node import Node, NodeConfig
 from firmware_sim.server import NodeTarget, serve
 from hexmigrate.links import open_link
@@ -25,7 +26,9 @@ from hexmigrate.links.base import Link
 from hexmigrate.links.tcp import TcpListenLink
 from hexmigrate.transfer.receiver import Receiver
 from pbort.clock import RealTimeClock
+from pbort.code import ModuleCode
 from pbort.errors import KernelError
+from pbort.native import NativeModule
 
 PTY = "pty"
 
@@ -80,15 +83,37 @@ def _tcp_server(link: Link) -> TcpListenLink | None:
 def listen(args: argparse.Namespace) -> int:
     """Run the node until interrupted or for `args.seconds`."""
     constants = _constants(args.set)
+    unknown = [name for name in args.native if name not in NATIVES]
+    if unknown:
+        raise ValueError(f"--native: expected one of {sorted(NATIVES)}, got {unknown}")
     config = NodeConfig(flash_file=args.flash)
     with Node(args.name, config, RealTimeClock()) as node:
+        pending_wires = list(args.wire)
+
+        def connect_ready() -> None:
+            """Apply every --wire whose two PBOs exist by now (modules arrive one by one)."""
+            for wire in list(pending_wires):
+                source, sink = wire
+                if {source.split(".")[0], sink.split(".")[0]} <= set(node.kernel.names):
+                    pending_wires.remove(wire)
+                    try:
+                        node.kernel.connect(source, sink)
+                    except KernelError as error:
+                        _say(f"cannot wire {source} -> {sink}: {error}")
+
+        def run_pbo(code: ModuleCode | str, name: str) -> None:
+            try:
+                node.start(code, args.rate, name=name, constants=constants.get(name))
+            except KernelError as error:
+                _say(f"{name} did not start: {error}")
+            connect_ready()
 
         def start(name: str, address: int) -> None:
             _say(f"registered {name} at 0x{address:08X}")
-            try:
-                node.start(name, args.rate, constants=constants.get(name))
-            except KernelError as error:
-                _say(f"{name} did not start: {error}")
+            run_pbo(name, name)
+
+        for native in args.native:
+            run_pbo(NativeModule(NATIVES[native]), native)
 
         deadline = None if args.seconds is None else time.monotonic() + args.seconds
         next_show = time.monotonic() + 1.0

@@ -238,6 +238,14 @@ def _ask(request, *arguments):
         raise CommandError(str(error)) from None
 
 
+def _wire(text: str) -> tuple[str, str]:
+    """``OUT_PBO.port=IN_PBO.port`` (argparse type)."""
+    source, found, sink = text.partition("=")
+    if not (found and "." in source and "." in sink):
+        raise argparse.ArgumentTypeError(f"expected OUT_PBO.port=IN_PBO.port, got {text!r}")
+    return source, sink
+
+
 def cmd_node(args: argparse.Namespace) -> int:
     """Run an emulated node that accepts modules on a link and runs them."""
     from firmware_sim.listen import listen  # the application layer, imported only here
@@ -381,6 +389,21 @@ def _add_link_commands(commands: argparse._SubParsersAction) -> None:
         help="a constant set when that PBO starts (decimal or 0x...)",
     )
     node.add_argument(
+        "--native",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="start a native PBO of the node's firmware (signal: docs/node.md)",
+    )
+    node.add_argument(
+        "--wire",
+        action="append",
+        default=[],
+        type=_wire,
+        metavar="OUT_PBO.port=IN_PBO.port",
+        help="connect an output to an input as soon as both PBOs run",
+    )
+    node.add_argument(
         "--show",
         action="append",
         default=[],
@@ -403,7 +426,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(str(error))
     except KeyboardInterrupt:
         return 130
-    except (HexError, CommandError, LinkError, OSError) as error:
+    except (HexError, CommandError, LinkError, OSError, ValueError) as error:
         if args.debug:
             traceback.print_exc()
         print(f"error: {_describe(error)}", file=sys.stderr)

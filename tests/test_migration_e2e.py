@@ -564,3 +564,26 @@ def test_send_reconnects_and_resumes_by_itself(hex_files, images):
         check_node_output(node, ["moving_average"])
         listing = hexmigrate("ls", "--to", listening[1])
         assert f"{images['moving_average'].size} bytes" in listing
+
+
+def test_a_listening_node_wires_a_native_source_to_a_module_it_receives(hex_files):
+    """`--native signal --wire signal.y=gain.x`: the wire is made once gain arrives, and gain
+    then computes 2 x the ramp (the --show lines), not 0."""
+    with NodeProcess(
+        "tcp-listen://127.0.0.1:0",
+        "--native",
+        "signal",
+        "--set",
+        "signal.amplitude=3",
+        "--set",
+        "gain.k=0x20000",
+        "--wire",
+        "signal.y=gain.x",
+        "--show",
+        "gain.y",
+    ) as node:
+        _, listening = node.wait_for(r"--to (socket://127\.0\.0\.1:\d+)\)$")
+        hexmigrate("send", hex_files["gain"], "--to", listening[1], "--quiet")
+        index, _ = node.wait_for(r"^registered gain at 0x")
+        _, shown = node.wait_for(r"gain\.y=([1-9]\d*)", index)  # 0 until the first cycles
+        assert int(shown[1]) % 6 == 0  # 2 x k=2.0 x a ramp of +3 per cycle
