@@ -30,6 +30,7 @@ from firmware_sim.memory_map import MemoryMap
 from firmware_sim.natives import NATIVES
 from firmware_sim.node import Node
 from firmware_sim.services import DESCRIPTIONS, Service
+from firmware_sim.settings import number
 from firmware_sim.sram import OutOfSramError
 from hexmigrate.errors import HexError
 from pbort.code import ModuleCode
@@ -69,17 +70,6 @@ def pair(text: str, separator: str = "=") -> tuple[str, str]:
     if not found or not left or not right:
         raise argparse.ArgumentTypeError(f"expected NAME{separator}VALUE, got {text!r}")
     return left, right
-
-
-def number(text: str) -> int | float:
-    """An integer (decimal or 0x...) or a float, as a port value."""
-    try:
-        return int(text, 0)
-    except ValueError:
-        try:
-            return float(text)
-        except ValueError:
-            raise ValueError(f"expected a number like 3, 0x20000 or 1.5, got {text!r}") from None
 
 
 def rate(text: str) -> tuple[str, float]:

@@ -16,11 +16,11 @@ from __future__ import annotations
 
 import argparse
 import time
-from collections import defaultdict
 
 from firmware_sim.natives import NATIVES
 from firmware_sim.node import Node, NodeConfig
 from firmware_sim.server import NodeTarget, serve
+from firmware_sim.settings import constants_by_pbo
 from hexmigrate.links import open_link
 from hexmigrate.links.base import Link
 from hexmigrate.links.tcp import TcpListenLink
@@ -31,18 +31,6 @@ from pbort.errors import KernelError
 from pbort.native import NativeModule
 
 PTY = "pty"
-
-
-def _constants(settings: list[str]) -> dict[str, dict[str, int]]:
-    """``PBO.port=VALUE`` options, grouped by PBO."""
-    constants: dict[str, dict[str, int]] = defaultdict(dict)
-    for setting in settings:
-        port, found, value = setting.partition("=")
-        pbo, dot, name = port.partition(".")
-        if not (found and dot and pbo and name):
-            raise ValueError(f"--set: expected PBO.port=VALUE, got {setting!r}")
-        constants[pbo][name] = int(value, 0)
-    return constants
 
 
 def _say(text: str) -> None:
@@ -82,7 +70,7 @@ def _tcp_server(link: Link) -> TcpListenLink | None:
 
 def listen(args: argparse.Namespace) -> int:
     """Run the node until interrupted or for `args.seconds`."""
-    constants = _constants(args.set)
+    constants = constants_by_pbo(args.set)
     unknown = [name for name in args.native if name not in NATIVES]
     if unknown:
         raise ValueError(f"--native: expected one of {sorted(NATIVES)}, got {unknown}")

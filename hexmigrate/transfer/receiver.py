@@ -12,6 +12,7 @@ untouched; ``ABORT`` or any fatal error erases what the transfer wrote.
 from __future__ import annotations
 
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -326,7 +327,7 @@ class Receiver:
         return [Ack(message.tid, transfer.session.programmed, state)]
 
 
-def _guard(action, *args: object) -> None:
+def _guard(action: Callable[..., object], *args: object) -> None:
     """Run a session step; a refusal (format error, no room) ends the transfer."""
     try:
         action(*args)
