@@ -4,7 +4,8 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 INSTALLED := $(VENV)/.installed
-SYSTEM_TOOLS := riscv64-unknown-elf-gcc=gcc-riscv64-unknown-elf
+SYSTEM_TOOLS := riscv64-unknown-elf-gcc=gcc-riscv64-unknown-elf iverilog=iverilog yosys=yosys \
+	ccache=ccache /usr/include/lz4.h=liblz4-dev
 BUILD := build
 
 .PHONY: demo test lint tools modules bench clean

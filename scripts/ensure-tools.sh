@@ -3,7 +3,8 @@
 #
 # Usage: scripts/ensure-tools.sh COMMAND=DEBIAN_PACKAGE [...]
 #
-# Each argument names a command that must be on PATH and the Debian package that provides it.
+# Each argument names a command that must be on PATH, or an absolute path to a file that must exist
+# (a header, for example), and the Debian package that provides it.
 # As root, the missing packages are installed with apt-get (one `apt-get update` first).
 # Otherwise nothing is changed: the script prints the exact apt-get line to run and fails.
 set -euo pipefail
@@ -12,7 +13,9 @@ missing=()
 for pair in "$@"; do
     command="${pair%%=*}"
     package="${pair#*=}"
-    if ! command -v "$command" >/dev/null 2>&1; then
+    if [[ "$command" == /* ]]; then
+        [ -e "$command" ] || missing+=("$package")
+    elif ! command -v "$command" >/dev/null 2>&1; then
         missing+=("$package")
     fi
 done
