@@ -64,7 +64,7 @@ from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
 from hexmigrate.links.base import message_problem
 from hexmigrate.links.can import DEFAULT_BITRATE, DEFAULT_PADDING, HOST_IDS
 from hexmigrate.links.framing import Deframer, frame
-from hexmigrate.transfer.messages import Ack, HexLine, decode
+from hexmigrate.transfer.messages import Ack, BlockAck, HexLine, decode
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 
@@ -220,6 +220,8 @@ def message_kind(raw: bytes) -> str:
     if isinstance(message, HexLine):
         record_type = raw[7:9].decode("ascii")
         return {"00": "data record", "04": "04 record"}.get(record_type, "pointer record")
+    if isinstance(message, BlockAck):
+        return "ACK block"
     if isinstance(message, Ack):
         word = message.text.split(" ", 1)[0]
         return f"ACK {word}" if word else "ACK block"
@@ -491,7 +493,7 @@ def run_transfer(image: ModuleImage, wire: str, mode: str, window: int) -> WireR
             raise AssertionError(f"{wire} {mode}: the flash does not hold the relocated image")
     acks = [(at, decode(raw)) for at, raw in link.received]
     header_at = next(at for at, ack in acks if isinstance(ack, Ack) and ack.text == "header")
-    data_at = max(at for at, ack in acks if isinstance(ack, Ack) and ack.text == "")
+    data_at = max(at for at, ack in acks if _acknowledges_data(ack))
     return WireRun(
         wire,
         mode,
@@ -505,6 +507,11 @@ def run_transfer(image: ModuleImage, wire: str, mode: str, window: int) -> WireR
         host_port.stats,
         node_port.stats,
     )
+
+
+def _acknowledges_data(reply: object) -> bool:
+    """Whether `reply` acknowledges programmed blocks (binary `BlockAck`, hex ``ACK tid n``)."""
+    return isinstance(reply, BlockAck) or (isinstance(reply, Ack) and reply.text == "")
 
 
 # The stack without a bit-rate limit.
@@ -653,9 +660,7 @@ CAN_BLOCK_FRAMES = (
     ("host", "DATA", "FF"),
     ("host", "DATA", "CF"),
     ("node", "DATA", "FC"),
-    ("node", "ACK block", "FF"),
-    ("host", "ACK block", "FC"),
-    ("node", "ACK block", "CF"),
+    ("node", "ACK block", "SF"),
 )
 
 

@@ -59,6 +59,29 @@ def test_binary_only_messages_round_trip(message):
     assert m.decode(m.encode(message, False)) == message
 
 
+@given(st.integers(0, 0xFFFF), st.integers(0, 0xFFFF).map(lambda blocks: blocks * 256))
+def test_a_block_acknowledgement_fits_one_can_frame_and_round_trips(tag, value):
+    raw = m.encode(m.BlockAck(tag, value), False)
+    assert len(raw) == 7  # an ISO-TP single frame carries 7 bytes
+    assert m.decode(raw) == m.BlockAck(tag, value)
+
+
+def test_a_block_acknowledgement_names_its_transfer_by_the_low_16_bits():
+    ack = m.BlockAck.of(0x1234_ABCD, 512)
+    assert ack.names(0x1234_ABCD) and ack.names(0x9999_ABCD) and not ack.names(0x1234_ABCE)
+
+
+def test_a_block_acknowledgement_counts_whole_blocks_in_binary_mode_only():
+    with pytest.raises(ValueError, match="whole number of blocks"):
+        m.encode(m.BlockAck(1, 300), False)
+    with pytest.raises(m.MessageError, match="binary mode only"):
+        m.encode(m.BlockAck(1, 256), True)
+    raw = bytearray(m.encode(m.BlockAck(1, 256), False))
+    raw[3] ^= 0x01
+    with pytest.raises(m.MessageError, match="CRC-16"):
+        m.decode(bytes(raw))
+
+
 def test_a_corrupted_binary_message_is_refused():
     raw = bytearray(m.encode(m.Commit(5), False))
     raw[2] ^= 0x10

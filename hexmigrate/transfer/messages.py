@@ -6,13 +6,15 @@ The same conversation runs in two modes (docs/transfer.md):
   (``BEGIN 7 gain 1120 9 0x10000``), the module itself travels as its Intel HEX record lines,
   replies are ``ACK``/``NAK`` lines.
 * **binary mode**, compact: one message = a type byte (< 0x20), a fixed little-endian body and a
-  CRC-32 of both; the module's data travels as raw 256-byte blocks.
+  CRC-32 of both; the module's data travels as raw 256-byte blocks. The acknowledgement of a
+  programmed block, the one reply the node sends per block, is shorter (`BlockAck`, 7 bytes).
 
 Both decode to the dataclasses below, so the receiver and the sender have one state machine each.
 """
 
 from __future__ import annotations
 
+import binascii
 import struct
 import zlib
 from dataclasses import dataclass
@@ -20,6 +22,8 @@ from dataclasses import dataclass
 from hexmigrate.links.base import is_text
 
 NO_ADDRESS = 0xFFFF_FFFF
+TAG_MASK = 0xFFFF
+BLOCK = 256  # a BlockAck counts flash blocks
 
 
 class MessageError(ValueError):
@@ -135,6 +139,27 @@ class Ack:
 
 
 @dataclass(frozen=True)
+class BlockAck:
+    """Binary mode: data of a transfer programmed up to `value` bytes (a whole number of flash
+    blocks). It names the transfer by `tag`, the low 16 bits of its tid, and carries a CRC-16
+    instead of a CRC-32, so that it fits the 7 bytes of one ISO-TP single frame: a full `Ack`
+    takes three CAN frames (first, flow control, consecutive), and the node sends one per
+    block."""
+
+    tag: int
+    value: int
+
+    @classmethod
+    def of(cls, tid: int, programmed: int) -> BlockAck:
+        """The acknowledgement of `programmed` bytes of transfer `tid`."""
+        return cls(tid & TAG_MASK, programmed)
+
+    def names(self, tid: int) -> bool:
+        """Whether this acknowledges transfer `tid`."""
+        return self.tag == tid & TAG_MASK
+
+
+@dataclass(frozen=True)
 class Nak:
     """Failure. `value` is where the transfer stands (bytes programmed): a sender goes back
     there. A `fatal` one ends the transfer."""
@@ -160,6 +185,7 @@ Message = (
     | Pong
     | Listing
     | Ack
+    | BlockAck
     | Nak
 )
 
@@ -182,6 +208,10 @@ _BINARY: dict[int, tuple[type, struct.Struct | None, str | None]] = {
     0x14: (Nak, struct.Struct("<IIB"), "reason"),
 }
 _TYPE_OF = {cls: code for code, (cls, _, _) in _BINARY.items()}
+# BlockAck: type, tag, blocks programmed, CRC-16/CCITT (initial value 0xFFFF) of the five.
+_BLOCK_ACK = 0x15
+_BLOCK_ACK_BODY = struct.Struct("<BHH")
+_U16 = struct.Struct("<H")
 
 
 def encode(message: Message, text: bool) -> bytes:
@@ -209,6 +239,8 @@ def decode(raw: bytes) -> Message:
 
 
 def _encode_binary(message: Message) -> bytes:
+    if isinstance(message, BlockAck):
+        return _encode_block_ack(message)
     code = _TYPE_OF[type(message)]
     _, fixed, tail = _BINARY[code]
     body = b""
@@ -229,6 +261,22 @@ def _encode_binary(message: Message) -> bytes:
     return frame + _U32.pack(zlib.crc32(frame))
 
 
+def _encode_block_ack(message: BlockAck) -> bytes:
+    blocks, partial = divmod(message.value, BLOCK)
+    if partial or not 0 <= blocks <= 0xFFFF:
+        raise ValueError(f"expected a whole number of blocks below 16 MiB, got {message.value}")
+    frame = _BLOCK_ACK_BODY.pack(_BLOCK_ACK, message.tag, blocks)
+    return frame + _U16.pack(binascii.crc_hqx(frame, 0xFFFF))
+
+
+def _decode_block_ack(raw: bytes) -> BlockAck:
+    size = _BLOCK_ACK_BODY.size + _U16.size
+    if len(raw) != size or binascii.crc_hqx(raw[:-2], 0xFFFF) != _U16.unpack(raw[-2:])[0]:
+        raise MessageError(f"expected a {size}-byte block acknowledgement with a valid CRC-16")
+    _, tag, blocks = _BLOCK_ACK_BODY.unpack(raw[:-2])
+    return BlockAck(tag, blocks * BLOCK)
+
+
 def _binary_tail(message: Message, tail: str | None) -> bytes:
     if tail is None:
         return b""
@@ -241,6 +289,8 @@ def _binary_tail(message: Message, tail: str | None) -> bytes:
 
 
 def _decode_binary(raw: bytes) -> Message:
+    if raw[0] == _BLOCK_ACK:
+        return _decode_block_ack(raw)
     if len(raw) < 5 or zlib.crc32(raw[:-4]) != _U32.unpack(raw[-4:])[0]:
         raise MessageError("expected a binary message with a valid CRC-32")
     code, body = raw[0], raw[1:-4]
@@ -328,7 +378,7 @@ def _encode_text(message: Message) -> str:
         return f"RM {message.name}"
     if isinstance(message, End):
         return f"END {message.tid} 0x{message.crc:08X}"
-    if isinstance(message, Header | Data):
+    if isinstance(message, Header | Data | BlockAck):
         raise MessageError(f"{type(message).__name__} exists in binary mode only")
     word = {Ping: "PING", ListModules: "LS", Commit: "COMMIT", Abort: "ABORT", Resume: "RESUME"}[
         type(message)

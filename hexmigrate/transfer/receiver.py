@@ -23,6 +23,7 @@ from hexmigrate.transfer.messages import (
     Abort,
     Ack,
     Begin,
+    BlockAck,
     Commit,
     Data,
     End,
@@ -193,11 +194,14 @@ class Receiver:
 
     def _data(self, message: Data) -> list[Message]:
         transfer = self._transfer(message.tid)
-        return self._feed(transfer, message.address, message.payload)
+        return self._feed(transfer, message.address, message.payload, binary=True)
 
-    def _feed(self, transfer: Transfer, address: int, payload: bytes) -> list[Message]:
+    def _feed(
+        self, transfer: Transfer, address: int, payload: bytes, binary: bool = False
+    ) -> list[Message]:
         """Data at a link address: in order it is loaded, a repeat is acknowledged again, a
-        gap is refused with the position to go back to."""
+        gap is refused with the position to go back to. A programmed block is acknowledged
+        with the short `BlockAck` in binary mode, an ``ACK`` line in hex mode."""
         session = transfer.session
         if transfer.link_base is None:
             transfer.link_base = address
@@ -222,6 +226,8 @@ class Receiver:
             _guard(session.flush)
         if session.programmed > transfer.acked:
             transfer.acked = session.programmed
+            if binary:
+                return [BlockAck.of(transfer.tid, session.programmed)]
             return [Ack(transfer.tid, session.programmed)]
         return []
 
