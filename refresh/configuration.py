@@ -1,0 +1,128 @@
+"""A configuration C: the module (or combo module) filling each schema slot of the task, the robot
+each module runs on, and the port connections between them.
+
+Each slot holds a chain of placements: one for a plain module, several for a combo module built by
+the Generator (CamReader + Dehazer fills the camera slot). Connections follow the data flow: every
+input port is fed by the nearest module before it, in slot order and chain order, that has an
+output of the same type; an input nothing feeds is an external input of the configuration.
+
+Configurations are immutable and hashable, and `replace` makes the one-slot variants the Locator
+and Generator test without copying more than a tuple.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+from refresh.database import ModuleDatabase, Placement
+from refresh.errors import ConfigurationError
+from refresh.task import TaskSpec
+
+Chain = tuple[Placement, ...]
+"""What fills one slot: one placement, or the placements of a combo module in data-flow order."""
+
+Connection = tuple[str, str]
+"""(source, sink) as ``instance.port`` names, the form the kernel's `connect` takes."""
+
+
+@dataclass(frozen=True)
+class Configuration:
+    """The chains filling `schemas`, slot by slot."""
+
+    schemas: tuple[str, ...]
+    chains: tuple[Chain, ...]
+
+    def __post_init__(self) -> None:
+        if len(self.schemas) != len(self.chains):
+            raise ConfigurationError(
+                f"expected one chain per schema ({len(self.schemas)}), got {len(self.chains)}"
+            )
+        for schema, chain in zip(self.schemas, self.chains, strict=True):
+            if not chain:
+                raise ConfigurationError(f"slot {schema!r}: expected a module, got none")
+
+    def replace(self, slot: int, chain: Chain) -> Configuration:
+        """This configuration with slot `slot` filled by `chain`."""
+        chains = (*self.chains[:slot], chain, *self.chains[slot + 1 :])
+        return Configuration(self.schemas, chains)
+
+    @cached_property
+    def placements(self) -> tuple[Placement, ...]:
+        """Every placement in data-flow order."""
+        return tuple(p for chain in self.chains for p in chain)
+
+    @cached_property
+    def instances(self) -> tuple[str, ...]:
+        """A kernel name per placement: the module's name, with ``_2``, ``_3`` ... for repeats
+        (a combo may hold the same module twice, e.g. two Dehazers with K = 3)."""
+        seen: dict[str, int] = {}
+        names = []
+        for placement in self.placements:
+            seen[placement.module] = seen.get(placement.module, 0) + 1
+            count = seen[placement.module]
+            names.append(placement.module if count == 1 else f"{placement.module}_{count}")
+        return tuple(names)
+
+    def instance_of(self, schema: str) -> str:
+        """The kernel name of the module whose output leaves slot `schema` (its chain's last)."""
+        slot = self.schemas.index(schema)
+        return self.instances[sum(len(c) for c in self.chains[: slot + 1]) - 1]
+
+    def robot_of(self, instance: str) -> str:
+        """The robot the instance runs on."""
+        return self.placements[self.instances.index(instance)].robot
+
+    def connections(self, database: ModuleDatabase) -> tuple[Connection, ...]:
+        """Each input port wired to the nearest earlier output of the same type."""
+        producers: dict[str, str] = {}
+        wiring: list[Connection] = []
+        for placement, instance in zip(self.placements, self.instances, strict=True):
+            module = database.module(placement.module)
+            for port, kind in module.inputs.items():
+                if kind in producers:
+                    wiring.append((producers[kind], f"{instance}.{port}"))
+            for port, kind in module.outputs.items():
+                producers[kind] = f"{instance}.{port}"
+        return tuple(wiring)
+
+    def label(self) -> str:
+        """The paper's notation, ``{CamReader, Dehazer, SSD, TrajGen, HexMan}``."""
+        return "{" + ", ".join(p.module for p in self.placements) + "}"
+
+    def __str__(self) -> str:
+        return "{" + ", ".join(str(p) for p in self.placements) + "}"
+
+
+def initial_configuration(task: TaskSpec, database: ModuleDatabase) -> Configuration:
+    """The task's preprogrammed configuration (``Module`` runs on the task's robot when it can,
+    else on its first robot; ``Module@robot`` says where)."""
+    if len(task.initial) != len(task.schemas):
+        raise ConfigurationError(
+            f"task {task.name!r}: expected one initial module per schema "
+            f"({', '.join(task.schemas)}), got {len(task.initial)}"
+        )
+    chains = []
+    for schema, text in zip(task.schemas, task.initial, strict=True):
+        placement = parse_placement(text, task.robot, database)
+        if database.module(placement.module).schema != schema:
+            raise ConfigurationError(
+                f"task {task.name!r}: slot {schema!r} expected a module of schema {schema!r}, "
+                f"got {placement.module!r} of schema {database.module(placement.module).schema!r}"
+            )
+        chains.append((placement,))
+    return Configuration(task.schemas, tuple(chains))
+
+
+def parse_placement(text: str, home: str, database: ModuleDatabase) -> Placement:
+    """``Module`` or ``Module@robot`` as a placement the database allows."""
+    name, _, robot = text.partition("@")
+    module = database.module(name)
+    if not robot:
+        robot = home if home in module.robots else module.robots[0]
+    if robot not in module.robots:
+        raise ConfigurationError(
+            f"module {name!r} cannot run on robot {robot!r}: expected one of "
+            f"{', '.join(module.robots)}"
+        )
+    return Placement(name, robot)

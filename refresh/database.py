@@ -1,0 +1,158 @@
+"""The module database, as the paper's tree: schemas -> modules -> robots (section 4, Fig. 2).
+
+Modules under the same schema are alternatives: a configuration holds one of them per schema slot.
+A module under several robots can be instantiated on any of them; a module running on another robot
+than the task's makes the configuration a coalition. A `Placement` (module, robot) is a leaf of the
+tree, and the unit every algorithm of ReFrESH moves around.
+
+Each module declares typed ports (port name -> type name; the Generator builds combo modules by
+matching these types), the resources it needs (e.g. power, in the units of the robots' capacities),
+and where its code comes from: built into the node (native) or a module image to migrate.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from enum import Enum
+from pathlib import Path
+
+from refresh.errors import ConfigurationError
+
+
+class SchemaKind(Enum):
+    """The three kinds of schema of the paper's robot model R_i = {RE, SS, AS, CS}."""
+
+    SENSOR = "sensor"
+    ACTUATOR = "actuator"
+    COMPUTATION = "computation"
+
+
+@dataclass(frozen=True)
+class Resource:
+    """One resource of a robot: `capacity`, the `reserve` that must stay free (equation (7) keeps
+    20 of 100 power units), and the non-functional report index evaluators file its use under."""
+
+    capacity: float
+    reserve: float = 0.0
+    report: int | None = None
+
+    def satisfied(self, used: float) -> bool:
+        """Equation (1) for this resource: what is left after `used` exceeds the reserve."""
+        return self.capacity - used > self.reserve
+
+
+@dataclass(frozen=True)
+class Robot:
+    """A robot of R: its name and resources RE."""
+
+    name: str
+    resources: Mapping[str, Resource]
+
+
+@dataclass(frozen=True)
+class CodeSource:
+    """Where a module's code comes from: built into the node, or an image file to migrate."""
+
+    image: Path | None = None
+
+    @property
+    def native(self) -> bool:
+        """True when the code is in the node's firmware, so nothing migrates."""
+        return self.image is None
+
+    def __str__(self) -> str:
+        return "native" if self.image is None else f"image {self.image}"
+
+
+@dataclass(frozen=True)
+class Module:
+    """A module (E-PBO) of the database: one child of a schema."""
+
+    name: str
+    schema: str
+    robots: tuple[str, ...]
+    inputs: Mapping[str, str]
+    outputs: Mapping[str, str]
+    needs: Mapping[str, float]
+    source: CodeSource = field(default_factory=CodeSource)
+    frequency: float = 10.0
+    constants: Mapping[str, float] = field(default_factory=dict)
+
+    @property
+    def input_types(self) -> frozenset[str]:
+        """The types this module consumes."""
+        return frozenset(self.inputs.values())
+
+    @property
+    def output_types(self) -> frozenset[str]:
+        """The types this module produces."""
+        return frozenset(self.outputs.values())
+
+
+@dataclass(frozen=True, order=True)
+class Placement:
+    """A module instantiated on a robot: one leaf of the tree."""
+
+    module: str
+    robot: str
+
+    def __str__(self) -> str:
+        return f"{self.module}@{self.robot}"
+
+
+@dataclass(frozen=True)
+class Schema:
+    """A sensor, actuator or computation schema and its modules, which are alternatives."""
+
+    name: str
+    kind: SchemaKind
+    modules: tuple[Module, ...]
+
+
+class ModuleDatabase:
+    """The tree: robots, and schemas holding modules in file order (the order test cases and
+    candidates are generated in)."""
+
+    def __init__(self, robots: Mapping[str, Robot], schemas: Mapping[str, Schema]) -> None:
+        self.robots = dict(robots)
+        self.schemas = dict(schemas)
+        self._modules = {m.name: m for s in self.schemas.values() for m in s.modules}
+        self._placements = {
+            name: tuple(Placement(m.name, r) for m in schema.modules for r in m.robots)
+            for name, schema in self.schemas.items()
+        }
+
+    def module(self, name: str) -> Module:
+        """The module called `name`."""
+        try:
+            return self._modules[name]
+        except KeyError:
+            known = ", ".join(self._modules) or "(none)"
+            raise ConfigurationError(f"unknown module {name!r}: expected one of {known}") from None
+
+    def modules(self) -> Iterator[Module]:
+        """Every module, schema by schema, in file order."""
+        return iter(self._modules.values())
+
+    def schema(self, name: str) -> Schema:
+        """The schema called `name`."""
+        try:
+            return self.schemas[name]
+        except KeyError:
+            known = ", ".join(self.schemas) or "(none)"
+            raise ConfigurationError(f"unknown schema {name!r}: expected one of {known}") from None
+
+    def alternatives(self, module: str) -> tuple[Module, ...]:
+        """The other modules under the same schema: found through the common ancestor."""
+        found = self.module(module)
+        return tuple(m for m in self.schemas[found.schema].modules if m.name != module)
+
+    def placements(self, schema: str) -> tuple[Placement, ...]:
+        """Every (module, robot) leaf under `schema`: the options of one configuration slot."""
+        self.schema(schema)
+        return self._placements[schema]
+
+    def placements_of(self, module: str) -> tuple[Placement, ...]:
+        """The robots `module` can be instantiated on, as placements."""
+        return tuple(Placement(module, r) for r in self.module(module).robots)

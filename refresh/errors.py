@@ -1,0 +1,48 @@
+"""The exception tree of refresh.
+
+Every refusal of the ReFrESH layer raises a subclass of `RefreshError`, so a caller (a CLI, a demo)
+can catch one class; each class also inherits the builtin it refines. Messages say where (file and
+key path, module, robot), what was expected and what came.
+
+Tree::
+
+    RefreshError
+    ├── DatabaseError (ValueError)       a module database or task file that does not validate
+    ├── ConfigurationError (ValueError)  a configuration that does not fit the task or database
+    ├── EstimationError (RuntimeError)   an estimator that could not estimate a configuration
+    └── ApplyError (RuntimeError)        a plan step the applier could not carry out
+"""
+
+from __future__ import annotations
+
+
+class RefreshError(Exception):
+    """Base class of every error raised by refresh."""
+
+
+class DatabaseError(RefreshError, ValueError):
+    """A database file that is not what it should be, with where, what was expected and what came.
+
+    `file` is the path (or a name for text that came from elsewhere), `key` the dotted key path
+    inside it ("" for the whole file).
+    """
+
+    def __init__(self, file: str, key: str, expected: str, got: str) -> None:
+        self.file = file
+        self.key = key
+        self.expected = expected
+        self.got = got
+        where = f"{file}: {key}" if key else file
+        super().__init__(f"{where}: expected {expected}, got {got}")
+
+
+class ConfigurationError(RefreshError, ValueError):
+    """A configuration that names unknown modules, robots or schemas, or leaves a slot empty."""
+
+
+class EstimationError(RefreshError, RuntimeError):
+    """An estimator failed for a reason that is not evidence about the configuration."""
+
+
+class ApplyError(RefreshError, RuntimeError):
+    """A plan step the applier refused or could not complete."""

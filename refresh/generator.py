@@ -1,0 +1,157 @@
+"""Phase 3: synthesize candidates around the faulty module and choose one (section 4.4, Alg. 2).
+
+The faulty module found by the Locator is the seed: only its slot changes. The candidates are
+- its alternatives: every other placement under the seed's schema (another module, or the same
+  module on another robot, a coalition when that robot is not the task's);
+- combo modules: chains of 2..K modules of the whole database with the seed's interface, where the
+  first consumes exactly the seed's input types, each next one is fed only by its predecessor's
+  outputs, and the last produces exactly the seed's output types. CamReader + Dehazer replaces
+  CamReader because the Dehazer turns an image into an image. A module may appear more than once
+  (a Dehazer feeding a Dehazer), so K is what keeps the search finite;
+- each combo on every robot combination its modules allow.
+
+Each candidate is estimated; the choice is greedy, as in the paper: the least Util among those
+that satisfy P_T (equation (5)).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+from refresh.configuration import Chain, Configuration
+from refresh.database import Module, ModuleDatabase
+from refresh.errors import ConfigurationError
+from refresh.estimator import Estimator
+from refresh.events import EventLog
+from refresh.performance import Assessment, assess, best, usage, usage_replaced
+from refresh.task import TaskSpec
+
+DEFAULT_MAX_MODULES = 2
+"""K: the paper limits a combo module to two modules."""
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One configuration candidate: the seed's slot filled by `chain`; `kind` is
+    ``alternative``, ``placement`` (the seed's module elsewhere) or ``combo``."""
+
+    number: int
+    kind: str
+    chain: Chain
+    configuration: Configuration
+
+
+@dataclass(frozen=True)
+class Choice:
+    """The Generator's answer: every candidate with its assessment, and the chosen one (None when
+    no candidate satisfies P_T)."""
+
+    candidates: tuple[tuple[Candidate, Assessment], ...]
+    chosen: Candidate | None
+    assessment: Assessment | None
+
+
+def combos(seed: Module, database: ModuleDatabase, max_modules: int) -> list[tuple[Module, ...]]:
+    """Module chains of 2..`max_modules` with the seed's interface, shortest first, then in
+    database order of their modules."""
+    if max_modules < 1:
+        raise ConfigurationError(f"K: expected at least 1 module per combo, got {max_modules}")
+    modules = list(database.modules())
+    heads = [m for m in modules if m.input_types == seed.input_types]
+    found: list[tuple[Module, ...]] = []
+    layer: list[tuple[Module, ...]] = [(m,) for m in heads]
+    for _ in range(max_modules - 1):
+        layer = [
+            (*chain, follower)
+            for chain in layer
+            for follower in modules
+            if follower.input_types and follower.input_types <= chain[-1].output_types
+        ]
+        found.extend(c for c in layer if c[-1].output_types == seed.output_types)
+    return found
+
+
+def candidates(
+    configuration: Configuration, slot: int, database: ModuleDatabase, max_modules: int
+) -> list[Candidate]:
+    """Every candidate for slot `slot` (whose chain is the seed): alternatives and placements in
+    database order, then combos on each robot combination."""
+    seed_chain = configuration.chains[slot]
+    seed = database.module(seed_chain[-1].module)
+    seed_modules = {p.module for p in seed_chain}
+    found: list[Candidate] = []
+    for placement in database.placements(configuration.schemas[slot]):
+        if (placement,) == seed_chain:
+            continue
+        kind = "placement" if placement.module in seed_modules else "alternative"
+        found.append(_candidate(len(found) + 1, kind, (placement,), configuration, slot))
+    for combo in combos(seed, database, max_modules):
+        for chain in _placed(combo, database):
+            found.append(_candidate(len(found) + 1, "combo", chain, configuration, slot))
+    return found
+
+
+def _candidate(
+    number: int, kind: str, chain: Chain, configuration: Configuration, slot: int
+) -> Candidate:
+    return Candidate(number, kind, chain, configuration.replace(slot, chain))
+
+
+def _placed(combo: tuple[Module, ...], database: ModuleDatabase) -> Iterator[Chain]:
+    """The combo on every combination of robots its modules can run on."""
+    return itertools.product(*(database.placements_of(m.name) for m in combo))
+
+
+def synthesize(
+    configuration: Configuration,
+    slot: int,
+    database: ModuleDatabase,
+    task: TaskSpec,
+    estimator: Estimator,
+    log: EventLog,
+    max_modules: int = DEFAULT_MAX_MODULES,
+) -> Choice:
+    """Algorithm 2: generate, estimate and assess every candidate, then choose greedily."""
+    seed = configuration.chains[slot]
+    found = candidates(configuration, slot, database, max_modules)
+    seed_label = " + ".join(p.module for p in seed)
+    log.record(
+        "synthesize",
+        f"seed {seed_label}: {len(found)} candidate(s), K = {max_modules}",
+        seed=[str(p) for p in seed],
+        candidates=len(found),
+        max_modules=max_modules,
+    )
+    base_usage = usage(configuration, database)
+    assessed = []
+    for candidate in found:
+        used = usage_replaced(base_usage, seed, candidate.chain, database)
+        assessment = assess(used, estimator.estimate(candidate.configuration), task, database)
+        assessed.append((candidate, assessment))
+        log.record(
+            "candidate",
+            f"{candidate.number}. {candidate.configuration.label()} ({candidate.kind}): "
+            f"P_T = {assessment.p_t}, Util = {assessment.util:g}",
+            number=candidate.number,
+            kind=candidate.kind,
+            configuration=str(candidate.configuration),
+            values=dict(assessment.values),
+            p_t=assessment.p_t,
+            util=assessment.util,
+            failing=assessment.failing(),
+        )
+    chosen = best(assessed)
+    if chosen is None:
+        log.record("choice", "no candidate satisfies P_T", configuration=None)
+        return Choice(tuple(assessed), None, None)
+    candidate, assessment = chosen
+    log.record(
+        "choice",
+        f"chosen: {candidate.configuration.label()}, Util = {assessment.util:g}",
+        configuration=str(candidate.configuration),
+        util=assessment.util,
+        number=candidate.number,
+    )
+    return Choice(tuple(assessed), candidate, assessment)

@@ -1,0 +1,172 @@
+"""Reading a module database file (TOML) into a `ModuleDatabase` and, when present, a `TaskSpec`.
+
+The document is validated against `refresh.schema.DOCUMENT` first; then the references between its
+parts are checked (a module's robots exist and have the resources it needs, module names are
+unique, the task's schemas and metrics exist). Every failure is a `DatabaseError` naming the file,
+the key path, what was expected and what came. Image paths are relative to the file.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from refresh.configuration import initial_configuration
+from refresh.database import CodeSource, Module, ModuleDatabase, Resource, Robot, Schema, SchemaKind
+from refresh.errors import ConfigurationError, DatabaseError
+from refresh.schema import describe, validate
+from refresh.task import Direction, Metric, StateMachine, TaskSpec
+
+
+@dataclass(frozen=True)
+class Loaded:
+    """What a database file holds."""
+
+    database: ModuleDatabase
+    task: TaskSpec | None
+
+
+def load(path: str | Path) -> Loaded:
+    """Read, validate and build the database (and task) in the TOML file at `path`."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as error:
+        raise DatabaseError(
+            str(path), "", "a readable file", error.strerror or str(error)
+        ) from None
+    return loads(text, str(path), path.parent)
+
+
+def loads(text: str, file: str = "<text>", base: Path | None = None) -> Loaded:
+    """Build from TOML `text`; `file` names it in errors, `base` resolves image paths."""
+    try:
+        document = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise DatabaseError(file, "", "valid TOML", str(error)) from None
+    validate(document, file)
+    robots = {name: _robot(name, body) for name, body in document["robots"].items()}
+    schemas = {
+        name: _schema(name, body, robots, file, base or Path("."))
+        for name, body in document["schemas"].items()
+    }
+    _check_unique_modules(schemas, file)
+    database = ModuleDatabase(robots, schemas)
+    task = _task(document["task"], database, file) if "task" in document else None
+    return Loaded(database, task)
+
+
+def _robot(name: str, body: Mapping[str, Any]) -> Robot:
+    resources = {
+        key: Resource(float(r["capacity"]), float(r.get("reserve", 0.0)), r.get("report"))
+        for key, r in body.get("resources", {}).items()
+    }
+    return Robot(name, resources)
+
+
+def _schema(
+    name: str, body: Mapping[str, Any], robots: Mapping[str, Robot], file: str, base: Path
+) -> Schema:
+    modules = []
+    for module_name, entry in body["modules"].items():
+        where = f"schemas.{name}.modules.{module_name}"
+        for position, robot in enumerate(entry["robots"]):
+            if robot not in robots:
+                raise DatabaseError(
+                    file, f"{where}.robots[{position}]", f"one of {', '.join(robots)}", repr(robot)
+                )
+            for resource in entry.get("needs", {}):
+                if resource not in robots[robot].resources:
+                    raise DatabaseError(
+                        file,
+                        f"{where}.needs.{resource}",
+                        f"a resource robot {robot!r} has "
+                        f"({', '.join(robots[robot].resources) or 'none'})",
+                        repr(resource),
+                    )
+        source = entry["source"]
+        image = None if source == "native" else base / source["image"]
+        modules.append(
+            Module(
+                name=module_name,
+                schema=name,
+                robots=tuple(entry["robots"]),
+                inputs=dict(entry.get("inputs", {})),
+                outputs=dict(entry.get("outputs", {})),
+                needs={k: float(v) for k, v in entry.get("needs", {}).items()},
+                source=CodeSource(image),
+                frequency=float(entry.get("frequency", 10.0)),
+                constants=dict(entry.get("constants", {})),
+            )
+        )
+    return Schema(name, SchemaKind(body["kind"]), tuple(modules))
+
+
+def _check_unique_modules(schemas: Mapping[str, Schema], file: str) -> None:
+    """A module name is a kernel name: it may appear under one schema only."""
+    owner: dict[str, str] = {}
+    for schema in schemas.values():
+        for module in schema.modules:
+            if module.name in owner:
+                raise DatabaseError(
+                    file,
+                    f"schemas.{schema.name}.modules.{module.name}",
+                    f"a module name not used elsewhere (schema {owner[module.name]!r} has it)",
+                    repr(module.name),
+                )
+            owner[module.name] = schema.name
+
+
+def _task(body: Mapping[str, Any], database: ModuleDatabase, file: str) -> TaskSpec:
+    if body["robot"] not in database.robots:
+        raise DatabaseError(
+            file, "task.robot", f"one of {', '.join(database.robots)}", repr(body["robot"])
+        )
+    for position, schema in enumerate(body["schemas"]):
+        if schema not in database.schemas:
+            raise DatabaseError(
+                file,
+                f"task.schemas[{position}]",
+                f"one of {', '.join(database.schemas)}",
+                repr(schema),
+            )
+    metrics = {}
+    for name, entry in body.get("metrics", {}).items():
+        if entry["schema"] not in body["schemas"]:
+            raise DatabaseError(
+                file,
+                f"task.metrics.{name}.schema",
+                f"one of the task's schemas ({', '.join(body['schemas'])})",
+                repr(entry["schema"]),
+            )
+        metrics[name] = Metric(
+            name=name,
+            schema=entry["schema"],
+            threshold=float(entry["threshold"]),
+            direction=Direction(entry.get("direction", "at_most")),
+            index=entry.get("index", 0),
+            weight=float(entry.get("weight", 0.0)),
+        )
+    task = TaskSpec(
+        name=body["name"],
+        robot=body["robot"],
+        state_machine=StateMachine(tuple(body["states"])),
+        schemas=tuple(body["schemas"]),
+        metrics=metrics,
+        alpha=float(body.get("alpha", 0.5)),
+        initial=tuple(body.get("initial", ())),
+    )
+    if task.initial:
+        try:
+            initial_configuration(task, database)
+        except ConfigurationError as error:
+            raise DatabaseError(
+                file,
+                "task.initial",
+                "a module per schema the database allows",
+                f"{describe(list(task.initial))}: {error}",
+            ) from None
+    return task

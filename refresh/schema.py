@@ -1,0 +1,235 @@
+"""The JSON Schema of a module database file, and validation with errors that say where.
+
+A database file is TOML (read with `tomllib`); its document is checked against `DOCUMENT` with
+`jsonschema` before anything is built from it, so a typo in a key or a string where a number belongs
+is reported with the file, the dotted key path, what was expected and what came, instead of
+surfacing later as a KeyError deep in the Locator. Checks a JSON Schema cannot express (a module
+naming a robot that does not exist, say) are made by `refresh.load` with the same error type.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+from jsonschema import Draft202012Validator
+from jsonschema.exceptions import ValidationError, best_match
+
+from refresh.errors import DatabaseError
+
+NAME = r"^[A-Za-z_][A-Za-z0-9_]*$"
+"""Names of robots, schemas, modules, ports, resources and metrics: kernel-safe (no '.')."""
+
+_NUMBER = {"type": "number", "minimum": 0}
+_PORTS = {
+    "type": "object",
+    "propertyNames": {"pattern": NAME},
+    "additionalProperties": {"type": "string", "minLength": 1},
+}
+_SOURCE = {
+    "oneOf": [
+        {"const": "native"},
+        {
+            "type": "object",
+            "properties": {"image": {"type": "string", "minLength": 1}},
+            "required": ["image"],
+            "additionalProperties": False,
+        },
+    ]
+}
+_MODULE = {
+    "type": "object",
+    "properties": {
+        "robots": {
+            "type": "array",
+            "items": {"type": "string", "pattern": NAME},
+            "minItems": 1,
+            "uniqueItems": True,
+        },
+        "inputs": _PORTS,
+        "outputs": _PORTS,
+        "needs": {
+            "type": "object",
+            "propertyNames": {"pattern": NAME},
+            "additionalProperties": _NUMBER,
+        },
+        "source": _SOURCE,
+        "frequency": {"type": "number", "exclusiveMinimum": 0},
+        "constants": {"type": "object", "additionalProperties": {"type": ["number", "boolean"]}},
+    },
+    "required": ["robots", "source"],
+    "additionalProperties": False,
+}
+_SCHEMA = {
+    "type": "object",
+    "properties": {
+        "kind": {"enum": ["sensor", "actuator", "computation"]},
+        "modules": {
+            "type": "object",
+            "propertyNames": {"pattern": NAME},
+            "additionalProperties": _MODULE,
+            "minProperties": 1,
+        },
+    },
+    "required": ["kind", "modules"],
+    "additionalProperties": False,
+}
+_RESOURCE = {
+    "type": "object",
+    "properties": {
+        "capacity": _NUMBER,
+        "reserve": _NUMBER,
+        "report": {"type": "integer", "minimum": 0},
+    },
+    "required": ["capacity"],
+    "additionalProperties": False,
+}
+_ROBOT = {
+    "type": "object",
+    "properties": {
+        "resources": {
+            "type": "object",
+            "propertyNames": {"pattern": NAME},
+            "additionalProperties": _RESOURCE,
+        }
+    },
+    "additionalProperties": False,
+}
+_METRIC = {
+    "type": "object",
+    "properties": {
+        "schema": {"type": "string", "pattern": NAME},
+        "index": {"type": "integer", "minimum": 0},
+        "threshold": {"type": "number"},
+        "direction": {"enum": ["at_most", "at_least"]},
+        "weight": {"type": "number"},
+    },
+    "required": ["schema", "threshold"],
+    "additionalProperties": False,
+}
+_TASK = {
+    "type": "object",
+    "properties": {
+        "name": {"type": "string", "minLength": 1},
+        "robot": {"type": "string", "pattern": NAME},
+        "states": {
+            "type": "array",
+            "items": {"type": "string", "minLength": 1},
+            "minItems": 1,
+            "uniqueItems": True,
+        },
+        "schemas": {
+            "type": "array",
+            "items": {"type": "string", "pattern": NAME},
+            "minItems": 1,
+            "uniqueItems": True,
+        },
+        "alpha": {"type": "number", "minimum": 0, "maximum": 1},
+        "metrics": {
+            "type": "object",
+            "propertyNames": {"pattern": NAME},
+            "additionalProperties": _METRIC,
+        },
+        "initial": {"type": "array", "items": {"type": "string", "minLength": 1}},
+    },
+    "required": ["name", "robot", "states", "schemas"],
+    "additionalProperties": False,
+}
+
+DOCUMENT: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "type": "object",
+    "properties": {
+        "robots": {
+            "type": "object",
+            "propertyNames": {"pattern": NAME},
+            "additionalProperties": _ROBOT,
+            "minProperties": 1,
+        },
+        "schemas": {
+            "type": "object",
+            "propertyNames": {"pattern": NAME},
+            "additionalProperties": _SCHEMA,
+            "minProperties": 1,
+        },
+        "task": _TASK,
+    },
+    "required": ["robots", "schemas"],
+    "additionalProperties": False,
+}
+"""The whole file: robots, schemas (with their modules) and optionally the task."""
+
+_VALIDATOR = Draft202012Validator(DOCUMENT)
+
+
+def validate(document: Mapping[str, Any], file: str) -> None:
+    """Raise `DatabaseError` for the most relevant violation of `DOCUMENT`, if any."""
+    error = best_match(_VALIDATOR.iter_errors(document))
+    if error is not None:
+        raise _explain(_deepest(error), file)
+
+
+def _deepest(error: ValidationError) -> ValidationError:
+    """For `oneOf`, the alternative's error that got furthest into the document."""
+    while error.context:
+        error = max(error.context, key=lambda e: (len(e.absolute_path), -len(e.schema_path)))
+    return error
+
+
+def key_path(parts: Iterable[object]) -> str:
+    """Dotted key path with list indices in brackets: ``schemas.camera.modules.Cam.robots[0]``."""
+    text = ""
+    for part in parts:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+    return text
+
+
+def _explain(error: ValidationError, file: str) -> DatabaseError:
+    """Turn a jsonschema error into expected/got wording."""
+    path = list(error.absolute_path)
+    value = error.validator_value
+    got = describe(error.instance)
+    if error.validator == "required":
+        missing = [k for k in value if k not in error.instance]
+        return DatabaseError(file, key_path([*path, missing[0]]), "a value (required key)", "none")
+    if error.validator == "additionalProperties":
+        allowed = ", ".join(error.schema.get("properties", {}))
+        extra = [k for k in error.instance if k not in error.schema.get("properties", {})]
+        return DatabaseError(
+            file, key_path([*path, extra[0]]), f"one of the keys {allowed}", "an unknown key"
+        )
+    if error.validator == "propertyNames":
+        return DatabaseError(file, key_path(path), f"names matching {NAME}", got)
+    if error.validator == "pattern":
+        return DatabaseError(file, key_path(path), f"a name matching {value}", got)
+    expectations = {
+        "type": lambda: f"a {_plural(value)}",
+        "enum": lambda: "one of " + ", ".join(repr(v) for v in value),
+        "const": lambda: repr(value),
+        "minimum": lambda: f"a number >= {value}",
+        "maximum": lambda: f"a number <= {value}",
+        "exclusiveMinimum": lambda: f"a number > {value}",
+        "minItems": lambda: f"at least {value} item(s)",
+        "minProperties": lambda: f"at least {value} entr{'y' if value == 1 else 'ies'}",
+        "uniqueItems": lambda: "items without repeats",
+        "minLength": lambda: "a non-empty string",
+    }
+    expected = expectations.get(error.validator, lambda: error.message)()
+    return DatabaseError(file, key_path(path), expected, got)
+
+
+def _plural(value: str | Sequence[str]) -> str:
+    names = {"object": "table", "array": "list", "number": "number", "integer": "integer"}
+    types = [value] if isinstance(value, str) else list(value)
+    return " or ".join(names.get(t, t) for t in types)
+
+
+def describe(value: object) -> str:
+    """A short description of a value for an error message: its TOML type and the value."""
+    kinds = {dict: "a table", list: "a list", str: "the string", bool: "the boolean"}
+    kind = next((k for t, k in kinds.items() if isinstance(value, t)), "the number")
+    if isinstance(value, dict):
+        return f"a table with keys {', '.join(value) or '(none)'}"
+    if isinstance(value, list):
+        return f"a list of {len(value)} item(s)"
+    return f"{kind} {value!r}"
