@@ -1,0 +1,190 @@
+"""The Maintainer: from the running configuration to the chosen one, step by step (section 5).
+
+`plan` compares two configurations instance by instance. An instance whose placement is the same
+in both keeps running untouched; the others are stopped, and the new ones started, after their
+module image is migrated to the robot when the code is not native. Connections follow: those that
+change on a module that keeps running are taken down first (before the PBO feeding them goes
+away), and every connection of the new configuration that did not exist is made once all its
+modules run. The plan is applied through an `Applier`, a small protocol with one method per kind
+of step, so the same plan drives emulated nodes (`refresh.node_applier`) or an in-memory model
+(`refresh.memory_applier`); each step is timed and logged.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Protocol
+
+from refresh.configuration import Configuration
+from refresh.database import Module, ModuleDatabase, Placement
+from refresh.events import EventLog
+
+ORDER = ("disconnect", "stop", "migrate", "start", "connect")
+"""The order the kinds of step run in."""
+
+
+@dataclass(frozen=True)
+class Step:
+    """One step of a plan. `instance` is the PBO name (the sink's for connections); `source` and
+    `source_robot` are the feeding port and its robot for ``connect``."""
+
+    action: str
+    robot: str
+    instance: str
+    module: str = ""
+    source: str = ""
+    source_robot: str = ""
+
+    def __str__(self) -> str:
+        if self.action == "connect":
+            return f"connect {self.source}@{self.source_robot} -> {self.instance}@{self.robot}"
+        if self.action == "disconnect":
+            return f"disconnect {self.instance}@{self.robot}"
+        if self.action == "migrate":
+            return f"migrate {self.module} to {self.robot}"
+        return f"{self.action} {self.instance} ({self.module}) on {self.robot}"
+
+
+@dataclass(frozen=True)
+class Timing:
+    """How long one step took, in seconds of the host's monotonic clock."""
+
+    step: Step
+    seconds: float
+
+
+class Applier(Protocol):
+    """Carries out plan steps on the robots."""
+
+    def disconnect(self, robot: str, sink: str) -> None:
+        """Unbind input port `sink` (``instance.port``) on `robot`."""
+
+    def stop(self, robot: str, instance: str) -> None:
+        """Switch PBO `instance` off, kill it and remove it from `robot`'s kernel."""
+
+    def migrate(self, robot: str, module: Module) -> None:
+        """Make `module`'s image installed on `robot` (nothing to do if it already is)."""
+
+    def start(self, robot: str, instance: str, module: Module) -> None:
+        """Register `module` as PBO `instance` on `robot`, set its constants, init it, switch on."""
+
+    def connect(self, robot: str, source: str, sink: str, source_robot: str) -> None:
+        """Bind input `sink` on `robot` to output `source` on `source_robot`."""
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The steps from one configuration to another, in the order they run."""
+
+    steps: tuple[Step, ...]
+
+    def of(self, action: str) -> list[Step]:
+        """The steps of one kind."""
+        return [s for s in self.steps if s.action == action]
+
+    def __str__(self) -> str:
+        return "\n".join(f"{n}. {s}" for n, s in enumerate(self.steps, start=1)) or "(no change)"
+
+
+def plan(current: Configuration | None, target: Configuration, database: ModuleDatabase) -> Plan:
+    """The steps from `current` (None: nothing runs yet) to `target`."""
+    old = _instances(current)
+    new = _instances(target)
+    kept = {name for name, placement in new.items() if old.get(name) == placement}
+    old_wiring = set(current.connections(database)) if current is not None else set()
+    new_wiring = set(target.connections(database))
+    steps: list[Step] = []
+    for _source, sink in sorted(old_wiring - new_wiring):
+        if _owner(sink) in kept:
+            steps.append(Step("disconnect", new[_owner(sink)].robot, sink))
+    for name, placement in old.items():
+        if name not in kept:
+            steps.append(Step("stop", placement.robot, name, placement.module))
+    installed = {(p.module, p.robot) for p in old.values()}
+    for name, placement in new.items():
+        if name in kept:
+            continue
+        module = database.module(placement.module)
+        if not module.source.native and (placement.module, placement.robot) not in installed:
+            steps.append(Step("migrate", placement.robot, name, placement.module))
+            installed.add((placement.module, placement.robot))
+        steps.append(Step("start", placement.robot, name, placement.module))
+    for source, sink in target.connections(database):
+        if (source, sink) not in old_wiring or not {_owner(source), _owner(sink)} <= kept:
+            steps.append(
+                Step(
+                    "connect", new[_owner(sink)].robot, sink, "", source, new[_owner(source)].robot
+                )
+            )
+    return Plan(tuple(sorted(steps, key=lambda s: ORDER.index(s.action))))
+
+
+def _instances(configuration: Configuration | None) -> dict[str, Placement]:
+    if configuration is None:
+        return {}
+    return dict(zip(configuration.instances, configuration.placements, strict=True))
+
+
+def _owner(port: str) -> str:
+    return port.partition(".")[0]
+
+
+class Maintainer:
+    """Plans and applies reconfigurations through `applier`, logging every step and its time."""
+
+    def __init__(
+        self,
+        database: ModuleDatabase,
+        applier: Applier,
+        log: EventLog,
+        clock: Callable[[], float] = time.perf_counter,
+    ) -> None:
+        self.database = database
+        self.applier = applier
+        self.log = log
+        self.clock = clock
+
+    def plan(self, current: Configuration | None, target: Configuration) -> Plan:
+        """The plan from `current` to `target`, recorded in the log."""
+        result = plan(current, target, self.database)
+        self.log.record(
+            "plan",
+            f"{len(result.steps)} step(s) to {target.label()}",
+            steps=[str(s) for s in result.steps],
+            target=str(target),
+        )
+        return result
+
+    def apply(self, plan: Plan) -> list[Timing]:
+        """Run every step in order; stop at the first that fails (the error propagates)."""
+        timings = []
+        for step in plan.steps:
+            start = self.clock()
+            self._run(step)
+            timing = Timing(step, self.clock() - start)
+            timings.append(timing)
+            self.log.record(
+                "step",
+                f"{step} ({timing.seconds * 1e3:.3f} ms)",
+                step=str(step),
+                action=step.action,
+                seconds=timing.seconds,
+            )
+        total = sum(t.seconds for t in timings)
+        self.log.record("applied", f"{len(timings)} step(s) in {total * 1e3:.3f} ms", seconds=total)
+        return timings
+
+    def _run(self, step: Step) -> None:
+        applier = self.applier
+        if step.action == "disconnect":
+            applier.disconnect(step.robot, step.instance)
+        elif step.action == "stop":
+            applier.stop(step.robot, step.instance)
+        elif step.action == "migrate":
+            applier.migrate(step.robot, self.database.module(step.module))
+        elif step.action == "start":
+            applier.start(step.robot, step.instance, self.database.module(step.module))
+        else:
+            applier.connect(step.robot, step.source, step.instance, step.source_robot)
