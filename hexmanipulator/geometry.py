@@ -1,0 +1,159 @@
+"""The HexManipulator's geometry as configuration: a TOML file, defaults in hexman.toml.
+
+The file gives the few numbers a builder measures (radii, pair angles, crank and rod lengths,
+servo limits and wiring); everything the kinematics needs is derived from them here, once: the
+six shaft positions, the crank planes, the plate joints and the home height at which every crank
+is horizontal.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from functools import cached_property
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+LEGS = 6
+DEFAULT_FILE = "hexman.toml"
+_SECTIONS = {
+    "base": {"radius", "pair_half_angle"},
+    "platform": {"radius", "pair_half_angle"},
+    "links": {"crank", "rod"},
+    "servos": {"limit", "channels", "direction", "trim_us", "supply_volts"},
+    "workspace": {"translation", "heave", "tilt", "yaw"},
+}
+
+
+class GeometryError(ValueError):
+    """A geometry file that is malformed or describes a platform that cannot be built."""
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """The measured numbers (mm, degrees) and, derived from them, the legs' points."""
+
+    base_radius: float
+    base_half_angle: float
+    platform_radius: float
+    platform_half_angle: float
+    crank: float
+    rod: float
+    limit: float
+    channels: tuple[int, ...]
+    direction: tuple[int, ...]
+    trim_us: tuple[float, ...]
+    supply_volts: float
+    translation: float
+    heave: float
+    tilt: float
+    yaw: float
+
+    def __post_init__(self) -> None:
+        for name in ("base_radius", "platform_radius", "crank", "rod", "limit"):
+            if getattr(self, name) <= 0:
+                raise GeometryError(
+                    f"{name}: expected a positive number, got {getattr(self, name)}"
+                )
+        for name in ("channels", "direction", "trim_us"):
+            if len(getattr(self, name)) != LEGS:
+                raise GeometryError(
+                    f"servos.{name}: expected {LEGS} values, got {getattr(self, name)}"
+                )
+        if any(d not in (1, -1) for d in self.direction):
+            raise GeometryError(f"servos.direction: expected 1 or -1 each, got {self.direction}")
+        if len(set(self.channels)) != LEGS:
+            raise GeometryError(f"servos.channels: expected {LEGS} different, got {self.channels}")
+        if math.isnan(self.home_height):
+            raise GeometryError(
+                f"links.rod: a rod of {self.rod} mm cannot reach the plate with horizontal cranks"
+            )
+
+    @cached_property
+    def base_angles(self) -> np.ndarray:
+        """Each shaft's angle around the base centre (radians): pairs at 0, 120, 240 deg."""
+        return _paired(self.base_half_angle)
+
+    @cached_property
+    def base_points(self) -> np.ndarray:
+        """The six shaft centres (6 x 3, mm), in the base plane z = 0."""
+        return _circle(self.base_radius, self.base_angles)
+
+    @cached_property
+    def crank_directions(self) -> np.ndarray:
+        """Each crank's horizontal direction at 0 deg (6 x 3 unit vectors): tangent to the base
+        circle, pointing away from the pair's other crank."""
+        away = np.array([-1.0, 1.0] * 3)
+        heading = self.base_angles + away * math.pi / 2
+        return np.column_stack([np.cos(heading), np.sin(heading), np.zeros(LEGS)])
+
+    @cached_property
+    def platform_points(self) -> np.ndarray:
+        """The six plate joints in the plate's own frame (6 x 3, mm)."""
+        return _circle(self.platform_radius, _paired(self.platform_half_angle))
+
+    @cached_property
+    def home_height(self) -> float:
+        """The plate's height when every crank is horizontal (the same for all legs)."""
+        tips = self.base_points + self.crank * self.crank_directions
+        reach = np.linalg.norm(self.platform_points[0, :2] - tips[0, :2])
+        return float(math.sqrt(self.rod**2 - reach**2)) if reach < self.rod else math.nan
+
+
+def _paired(half_angle: float) -> np.ndarray:
+    centres = np.repeat(np.radians([0.0, 120.0, 240.0]), 2)
+    return centres + np.radians(half_angle) * np.array([-1.0, 1.0] * 3)
+
+
+def _circle(radius: float, angles: np.ndarray) -> np.ndarray:
+    return np.column_stack([radius * np.cos(angles), radius * np.sin(angles), np.zeros(LEGS)])
+
+
+def load(path: str | Path | None = None) -> Geometry:
+    """The geometry in the TOML file at `path`, or the default one shipped with the package."""
+    if path is None:
+        text = resources.files("hexmanipulator").joinpath(DEFAULT_FILE).read_text()
+        where = f"hexmanipulator/{DEFAULT_FILE}"
+    else:
+        text, where = Path(path).read_text(), str(path)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise GeometryError(f"{where}: {error}") from None
+    return _from_tables(data, where)
+
+
+def _from_tables(data: dict[str, Any], where: str) -> Geometry:
+    if set(data) != set(_SECTIONS):
+        raise GeometryError(f"{where}: expected sections {sorted(_SECTIONS)}, got {sorted(data)}")
+    for section, keys in _SECTIONS.items():
+        if set(data[section]) != keys:
+            raise GeometryError(
+                f"{where}: [{section}] expected keys {sorted(keys)}, got {sorted(data[section])}"
+            )
+    base, plate, links = data["base"], data["platform"], data["links"]
+    servos, space = data["servos"], data["workspace"]
+    try:
+        return Geometry(
+            base_radius=float(base["radius"]),
+            base_half_angle=float(base["pair_half_angle"]),
+            platform_radius=float(plate["radius"]),
+            platform_half_angle=float(plate["pair_half_angle"]),
+            crank=float(links["crank"]),
+            rod=float(links["rod"]),
+            limit=float(servos["limit"]),
+            channels=tuple(int(c) for c in servos["channels"]),
+            direction=tuple(int(d) for d in servos["direction"]),
+            trim_us=tuple(float(t) for t in servos["trim_us"]),
+            supply_volts=float(servos["supply_volts"]),
+            translation=float(space["translation"]),
+            heave=float(space["heave"]),
+            tilt=float(space["tilt"]),
+            yaw=float(space["yaw"]),
+        )
+    except (TypeError, ValueError) as error:
+        raise GeometryError(f"{where}: {error}") from None
