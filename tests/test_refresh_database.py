@@ -1,0 +1,171 @@
+"""Loading module database files: the tree, the task, and errors naming file, key, expected, got."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from refresh.database import SchemaKind
+from refresh.errors import ConfigurationError, DatabaseError
+from refresh.load import load, loads
+
+MINIMAL = """
+[robots.r1]
+resources.power = { capacity = 100, reserve = 20 }
+[robots.r2]
+resources.power = { capacity = 50 }
+
+[schemas.camera]
+kind = "sensor"
+[schemas.camera.modules.Cam]
+robots = ["r1", "r2"]
+outputs = { image = "rgb" }
+needs = { power = 5 }
+source = "native"
+[schemas.camera.modules.Cam2]
+robots = ["r2"]
+outputs = { image = "rgb" }
+source = { image = "images/cam2.hex" }
+
+[task]
+name = "t"
+robot = "r1"
+states = ["look"]
+schemas = ["camera"]
+initial = ["Cam"]
+[task.metrics.noise]
+schema = "camera"
+threshold = 3
+direction = "at_least"
+"""
+
+
+def test_the_tree_schemas_modules_robots(tmp_path: Path):
+    path = tmp_path / "db.toml"
+    path.write_text(MINIMAL)
+    loaded = load(path)
+    database = loaded.database
+    assert database.schema("camera").kind is SchemaKind.SENSOR
+    assert [m.name for m in database.alternatives("Cam")] == ["Cam2"]
+    assert [str(p) for p in database.placements("camera")] == ["Cam@r1", "Cam@r2", "Cam2@r2"]
+    assert database.module("Cam").source.native
+    assert database.module("Cam2").source.image == tmp_path / "images" / "cam2.hex"
+    assert database.robots["r1"].resources["power"].reserve == 20
+    assert loaded.task.metrics["noise"].direction.value == "at_least"
+
+
+def test_unknown_module_names_what_exists():
+    database = loads(MINIMAL).database
+    with pytest.raises(ConfigurationError, match="unknown module 'Cma': expected one of Cam, Cam2"):
+        database.module("Cma")
+
+
+def error_of(text: str) -> DatabaseError:
+    with pytest.raises(DatabaseError) as caught:
+        loads(text, "db.toml")
+    return caught.value
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        (
+            "needs = { power = 5 }",
+            'needs = { power = "lots" }',
+            "db.toml: schemas.camera.modules.Cam.needs.power: expected a number, "
+            "got the string 'lots'",
+        ),
+        (
+            'robots = ["r1", "r2"]',
+            'robots = ["r1", "r9"]',
+            "db.toml: schemas.camera.modules.Cam.robots[1]: expected one of r1, r2, got 'r9'",
+        ),
+        (
+            'kind = "sensor"',
+            'kind = "camera"',
+            "db.toml: schemas.camera.kind: expected one of 'sensor', 'actuator', 'computation', "
+            "got the string 'camera'",
+        ),
+        (
+            'direction = "at_least"',
+            'direction = "above"',
+            "db.toml: task.metrics.noise.direction: expected one of 'at_most', 'at_least', "
+            "got the string 'above'",
+        ),
+        (
+            "needs = { power = 5 }",
+            "needs = { cpu = 5 }",
+            "db.toml: schemas.camera.modules.Cam.needs.cpu: expected a resource robot 'r1' has "
+            "(power), got 'cpu'",
+        ),
+        (
+            'source = "native"',
+            'sorce = "native"',
+            "db.toml: schemas.camera.modules.Cam.source: expected a value (required key), got none",
+        ),
+        (
+            'initial = ["Cam"]',
+            'initial = ["Cam2@r1"]',
+            "db.toml: task.initial: expected a module per schema the database allows, got a list "
+            "of 1 item(s): module 'Cam2' cannot run on robot 'r1': expected one of r2",
+        ),
+        (
+            'schemas = ["camera"]',
+            'schemas = ["lidar"]',
+            "db.toml: task.schemas[0]: expected one of camera, got 'lidar'",
+        ),
+        (
+            "resources.power = { capacity = 50 }",
+            "resources.power = { capacity = -1 }",
+            "db.toml: robots.r2.resources.power.capacity: expected a number >= 0, "
+            "got the number -1",
+        ),
+    ],
+)
+def test_bad_input_says_where_what_was_expected_and_what_came(old, new, message):
+    assert old in MINIMAL
+    error = error_of(MINIMAL.replace(old, new, 1))
+    assert str(error) == message
+
+
+def test_an_unknown_key_is_named():
+    error = error_of(MINIMAL.replace('source = "native"', 'source = "native"\npower = 3', 1))
+    assert error.key == "schemas.camera.modules.Cam.power"
+    assert error.got == "an unknown key"
+    assert error.expected.startswith("one of the keys robots, inputs, outputs, needs, source")
+
+
+def test_a_module_name_may_live_under_one_schema_only():
+    text = (
+        MINIMAL
+        + """
+[schemas.other]
+kind = "computation"
+[schemas.other.modules.Cam]
+robots = ["r1"]
+source = "native"
+"""
+    )
+    error = error_of(text)
+    assert error.key == "schemas.other.modules.Cam"
+    assert "schema 'camera' has it" in error.expected
+
+
+def test_broken_toml_and_missing_files(tmp_path: Path):
+    error = error_of("[robots\n")
+    assert error.expected == "valid TOML"
+    with pytest.raises(DatabaseError, match="expected a readable file"):
+        load(tmp_path / "missing.toml")
+
+
+def test_the_shipped_scenario_loads():
+    loaded = load(Path(__file__).parents[1] / "refresh" / "data" / "visual_servoing.toml")
+    assert list(loaded.database.schemas) == [
+        "camera",
+        "enhancement",
+        "matching",
+        "trajectory",
+        "manipulator",
+    ]
+    assert loaded.task.schemas == ("camera", "matching", "trajectory", "manipulator")

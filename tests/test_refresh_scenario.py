@@ -1,0 +1,149 @@
+"""The paper's section 6 scenario, rebuilt from refresh/data/visual_servoing.toml: Base Choice
+names CamReader after the paper's three test cases, the Generator builds the paper's two combos and
+three candidates and chooses {CamReader, Dehazer, SSD, TrajGen, HexMan}."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from refresh.adaptation import decide
+from refresh.configuration import Configuration, initial_configuration
+from refresh.estimator import FunctionEstimator, Values
+from refresh.events import EventLog
+from refresh.generator import candidates, combos
+from refresh.load import Loaded, load
+from refresh.locator import (
+    base_choice_cases,
+    base_choice_count,
+    brute_force_count,
+    locate,
+    locate_brute_force,
+)
+from refresh.performance import assess, usage
+
+DATABASE = Path(__file__).parents[1] / "refresh" / "data" / "visual_servoing.toml"
+
+
+def noisy_camera(configuration: Configuration) -> Values:
+    """The injected fault: CamReader's noise puts the target 80 px off centre unless a Dehazer
+    cleans the image before SSD sees it."""
+    modules = [p.module for p in configuration.placements]
+    if "CamReader" in modules:
+        after = modules[modules.index("CamReader") + 1]
+        if after != "Dehazer":
+            return {"diff": 80.0}
+    return {"diff": 12.0}
+
+
+@pytest.fixture(scope="module")
+def scenario() -> Loaded:
+    return load(DATABASE)
+
+
+@pytest.fixture
+def current(scenario: Loaded) -> Configuration:
+    assert scenario.task is not None
+    return initial_configuration(scenario.task, scenario.database)
+
+
+def test_initial_configuration_leaves_the_papers_90_power_units(scenario, current):
+    estimator = FunctionEstimator(lambda c: {"diff": 5.0})
+    assessment = assess(
+        usage(current, scenario.database),
+        estimator.estimate(current),
+        scenario.task,
+        scenario.database,
+    )
+    assert current.label() == "{CamReader, SSD, TrajGen, HexMan}"
+    assert 100 - assessment.usage["hexmanipulator", "power"] == 90
+    assert assessment.p_t == 1
+
+
+def test_base_choice_generates_the_papers_three_test_cases_in_order(scenario, current):
+    cases = [c.configuration.label() for c in base_choice_cases(current, scenario.database)]
+    assert cases == [
+        "{CamReader_alt, SSD, TrajGen, HexMan}",
+        "{CamReader, SSD_alt, TrajGen, HexMan}",
+        "{CamReader, SSD, TrajGen_alt, HexMan}",
+    ]
+    assert base_choice_count(current, scenario.database) == 3
+    assert brute_force_count(current, scenario.database) == 8  # section 6.5
+
+
+def test_base_choice_names_camreader_after_the_first_case(scenario, current):
+    estimator = FunctionEstimator(noisy_camera)
+    location = locate(current, scenario.database, scenario.task, estimator, EventLog())
+    assert location.module == "CamReader"
+    assert location.tried == 1
+    assert estimator.calls == 1
+    assert location.case.configuration.label() == "{CamReader_alt, SSD, TrajGen, HexMan}"
+
+
+def test_brute_force_agrees_at_eight_estimates(scenario, current):
+    estimator = FunctionEstimator(noisy_camera)
+    location = locate_brute_force(current, scenario.database, scenario.task, estimator, EventLog())
+    assert location.module == "CamReader"
+    assert estimator.calls == 8
+
+
+def test_generator_builds_the_papers_two_combos(scenario):
+    built = combos(scenario.database.module("CamReader"), scenario.database, max_modules=2)
+    names = {" + ".join(m.name for m in combo) for combo in built}
+    assert names == {"CamReader_alt + Dehazer", "CamReader + Dehazer"}
+
+
+def test_generator_builds_the_papers_three_candidates(scenario, current):
+    found = candidates(current, 0, scenario.database, max_modules=2)
+    assert [c.configuration.label() for c in found] == [
+        "{CamReader_alt, SSD, TrajGen, HexMan}",
+        "{CamReader, Dehazer, SSD, TrajGen, HexMan}",
+        "{CamReader_alt, Dehazer, SSD, TrajGen, HexMan}",
+    ]
+    assert [c.kind for c in found] == ["alternative", "combo", "combo"]
+
+
+def test_decision_chooses_camreader_with_dehazer(scenario, current):
+    log = EventLog()
+    decision = decide(
+        current, scenario.database, scenario.task, FunctionEstimator(noisy_camera), log
+    )
+    assert decision.location.module == "CamReader"
+    assert decision.target.label() == "{CamReader, Dehazer, SSD, TrajGen, HexMan}"
+    # Equation (9): Util = 0.5 * total power; 13 units against 14 and 17.
+    utils = [a.util for _, a in decision.choice.candidates]
+    assert utils == [7.0, 6.5, 8.5]
+    connections = decision.target.connections(scenario.database)
+    assert ("CamReader.image", "Dehazer.image") in connections
+    assert ("Dehazer.image", "SSD.image") in connections
+
+
+def test_event_log_tells_the_whole_decision(scenario, current):
+    log = EventLog()
+    decide(current, scenario.database, scenario.task, FunctionEstimator(noisy_camera), log)
+    kinds = [e.kind for e in log]
+    assert kinds == [
+        "locate",
+        "test_case",
+        "location",
+        "synthesize",
+        "candidate",
+        "candidate",
+        "candidate",
+        "choice",
+    ]
+    text = log.format()
+    assert "1. {CamReader_alt, SSD, TrajGen, HexMan}: P_T = 1" in text
+    assert "chosen: {CamReader, Dehazer, SSD, TrajGen, HexMan}, Util = 6.5" in text
+    entries = json.loads(log.to_json())
+    assert entries[1]["data"]["values"] == {"diff": 12.0}
+    assert entries[2]["data"]["module"] == "CamReader"
+    assert entries[-1]["data"]["util"] == 6.5
+
+
+def test_state_machine_cycles_through_the_task_states(scenario):
+    machine = scenario.task.state_machine
+    assert machine.successor("detect_target") == "plan_trajectory"
+    assert machine.successor("move_to_target") == "detect_target"
