@@ -1,0 +1,26 @@
+"""The Python side of the Morphing Crossbar (the FPGA fabric of section 5.2 of the paper).
+
+Modules, from the bottom up:
+
+- ``errors``: the exception tree (bad bitstreams, bad parameters, bad routes).
+- ``crc``: CRC-8 of configuration frames and CRC-32 of full-slot bitstreams.
+- ``functions``: the functionality library (pass, gain/offset, threshold, FIR) in Python.
+- ``fabric``: the fabric's parameters and the sources each wrapper can select.
+- ``routing``: per-slot routes and whole-fabric configurations, with their checks.
+- ``bitstream``: the partial (wrapper-only) bitstream format and its packer.
+- ``netlist``: yosys synthesis, cell counts and the full-slot bitstream for comparison.
+- ``model``: the transaction-level model, the golden reference of the tests.
+- ``hex_image``: a partial bitstream as an extended Intel HEX module image (hexmigrate).
+- ``sim``: cocotb drivers, monitors, scoreboard and the runner helpers (needs cocotb).
+
+The Verilog lives in ``hdl/`` at the repository root; ``hdl_dir()`` finds it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def hdl_dir() -> Path:
+    """The folder of the crossbar's Verilog sources (``hdl/`` beside this package)."""
+    return Path(__file__).resolve().parent.parent / "hdl"

