@@ -116,7 +116,7 @@ def test_decision_chooses_camreader_with_dehazer(scenario, current):
     utils = [a.util for _, a in decision.choice.candidates]
     assert utils == [7.0, 6.5, 8.5]
     connections = decision.target.connections(scenario.database)
-    assert ("CamReader.image", "Dehazer.image") in connections
+    assert ("CamReader.image", "Dehazer.raw") in connections
     assert ("Dehazer.image", "SSD.image") in connections
 
 
