@@ -1,0 +1,174 @@
+"""The Maintainer's plans, applied to an in-memory model and to emulated nodes that receive real
+module images over hexmigrate's transfer protocol."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from firmware_sim.natives import Signal
+from firmware_sim.node import Node
+from hexmigrate.elf import image_from_elf
+from pbort import NativeModule, State
+from refresh.configuration import Configuration, initial_configuration, parse_placement
+from refresh.errors import ApplyError
+from refresh.events import EventLog
+from refresh.load import Loaded, loads
+from refresh.maintainer import Maintainer, plan
+from refresh.memory_applier import MemoryApplier
+from refresh.node_applier import NodeApplier
+
+DATABASE = """
+[robots.a]
+resources.power = { capacity = 100 }
+[robots.b]
+resources.power = { capacity = 100 }
+
+[schemas.source]
+kind = "sensor"
+[schemas.source.modules.signal]
+robots = ["a", "b"]
+outputs = { y = "q16" }
+needs = { power = 1 }
+source = "native"
+frequency = 100
+constants = { shape = 0, amplitude = 3 }
+
+[schemas.filter]
+kind = "computation"
+[schemas.filter.modules.gain]
+robots = ["a", "b"]
+inputs = { x = "q16" }
+outputs = { y = "q16" }
+needs = { power = 2 }
+source = { image = "gain.hex" }
+frequency = 100
+constants = { k = 131072 }
+[schemas.filter.modules.moving_average]
+robots = ["b"]
+inputs = { x = "q16" }
+outputs = { y = "q16" }
+needs = { power = 2 }
+source = { image = "moving_average.hex" }
+frequency = 100
+
+[task]
+name = "filtering"
+robot = "a"
+states = ["run"]
+schemas = ["source", "filter"]
+initial = ["signal", "gain"]
+"""
+
+
+@pytest.fixture
+def loaded(tmp_path: Path, example_builds) -> Loaded:
+    for name in ("gain", "moving_average"):
+        image_from_elf(example_builds[name].elf).write(tmp_path / f"{name}.hex")
+    return loads(DATABASE, "filtering.toml", tmp_path)
+
+
+def configuration(loaded: Loaded, *modules: str) -> Configuration:
+    chains = tuple((parse_placement(m, "a", loaded.database),) for m in modules)
+    return Configuration(loaded.task.schemas, chains)
+
+
+def test_a_deploy_plan_migrates_images_before_starting_them():
+    loaded = loads(DATABASE)
+    steps = plan(None, initial_configuration(loaded.task, loaded.database), loaded.database)
+    assert [str(s) for s in steps.steps] == [
+        "migrate gain to a",
+        "start signal (signal) on a",
+        "start gain (gain) on a",
+        "connect signal.y@a -> gain.x@a",
+    ]
+
+
+def test_an_unchanged_configuration_needs_no_step():
+    loaded = loads(DATABASE)
+    current = initial_configuration(loaded.task, loaded.database)
+    assert plan(current, current, loaded.database).steps == ()
+    assert str(plan(current, current, loaded.database)) == "(no change)"
+
+
+def test_replacing_a_module_keeps_the_rest_running():
+    loaded = loads(DATABASE)
+    current = configuration(loaded, "signal@b", "gain@b")
+    target = configuration(loaded, "signal@b", "moving_average@b")
+    applier = MemoryApplier()
+    maintainer = Maintainer(loaded.database, applier, EventLog())
+    maintainer.apply(maintainer.plan(None, current))
+    applier.applied.clear()
+    maintainer.apply(maintainer.plan(current, target))
+    assert applier.applied == [
+        "stop gain@b",
+        "migrate moving_average@b",
+        "start moving_average@b",
+        "connect signal.y@b -> moving_average.x@b",
+    ]
+    assert applier.robot("b").running == {"signal": "signal", "moving_average": "moving_average"}
+    assert applier.robot("b").wiring == {"moving_average.x": ("signal.y", "b")}
+
+
+def test_a_coalition_wires_across_robots_in_the_model():
+    loaded = loads(DATABASE)
+    target = configuration(loaded, "signal@a", "moving_average@b")
+    applier = MemoryApplier()
+    Maintainer(loaded.database, applier, EventLog()).apply(plan(None, target, loaded.database))
+    assert applier.robot("b").wiring == {"moving_average.x": ("signal.y", "a")}
+
+
+def test_the_memory_applier_refuses_what_a_node_would():
+    loaded = loads(DATABASE)
+    applier = MemoryApplier()
+    with pytest.raises(ApplyError, match="expected image 'gain' installed, got none"):
+        applier.start("a", "gain", loaded.database.module("gain"))
+    with pytest.raises(ApplyError, match="expected a running PBO, got none"):
+        applier.stop("a", "gain")
+
+
+def test_plans_migrate_real_images_to_emulated_nodes(loaded: Loaded):
+    database = loaded.database
+    current = initial_configuration(loaded.task, database)
+    moved = configuration(loaded, "signal@b", "moving_average@b")
+    log = EventLog()
+    with Node("a") as node_a, Node("b") as node_b:
+        applier = NodeApplier({"a": node_a, "b": node_b}, natives={"signal": NativeModule(Signal)})
+        maintainer = Maintainer(database, applier, log)
+        maintainer.apply(maintainer.plan(None, current))
+        assert set(node_a.modules) == {"gain"}
+        node_a.run(until=0.1)
+        assert node_a.kernel.value("gain.y") == 2 * node_a.kernel.value("gain.x") != 0
+
+        timings = maintainer.apply(maintainer.plan(current, moved))
+        assert [t.step.action for t in timings] == [
+            "stop",
+            "stop",
+            "migrate",
+            "start",
+            "start",
+            "connect",
+        ]
+        assert node_a.kernel.names == ()
+        assert set(node_b.modules) == {"moving_average"}
+        assert node_b.kernel.state("moving_average") is State.ON
+        node_b.run(until=0.1)
+        assert node_b.kernel.value("moving_average.y") != 0
+        assert node_b.kernel.connections() == [("signal.y", "moving_average.x")]
+    migrate = next(t for t in timings if t.step.action == "migrate")
+    assert migrate.seconds > 0
+    steps = log.of_kind("step")
+    assert steps[-4].data["step"] == "migrate moving_average to b"
+    assert log.of_kind("applied")[-1].data["seconds"] == pytest.approx(
+        sum(t.seconds for t in timings)
+    )
+
+
+def test_a_connection_between_nodes_is_refused_with_a_reason(loaded: Loaded):
+    coalition = configuration(loaded, "signal@a", "gain@b")
+    with Node("a") as node_a, Node("b") as node_b:
+        applier = NodeApplier({"a": node_a, "b": node_b}, natives={"signal": NativeModule(Signal)})
+        maintainer = Maintainer(loaded.database, applier, EventLog())
+        with pytest.raises(ApplyError, match="expected both ports on one node, got two"):
+            maintainer.apply(maintainer.plan(None, coalition))
