@@ -1,0 +1,120 @@
+"""The servo bus over CAN: six servo nodes, messages from firmware_sim/servos/servo_can.dbc.
+
+A move sends ``Command<n>`` to each node (node = channel + 1) with the same move time. A read
+sends ``Sync`` with a fresh counter and waits for every node's ``Feedback<n>`` and ``Status<n>``
+carrying that counter; a node that does not answer within the timeout is a `ServoSilentError`
+naming it. A send the controller refuses is a `BusOffError` when the controller reports
+`BusState.ERROR` (bus-off), else a `ServoBusError` with python-can's reason.
+
+`open_can_bus(url)` opens python-can from a ``can://`` URL of hexmigrate's grammar
+(``can://virtual/CH``, ``can://remote/127.0.0.1:PORT/CH``, ``can://slcan//dev/pts/N``).
+"""
+
+from __future__ import annotations
+
+import time
+
+import can
+import numpy as np
+from can.bus import BusState
+
+from firmware_sim.servos.can_servo import (
+    COMMAND_BASE,
+    FEEDBACK_BASE,
+    STATUS_BASE,
+    SYNC_ID,
+    database,
+)
+from hexmanipulator.geometry import Geometry
+from hexmanipulator.servo_bus import (
+    BusOffError,
+    Reading,
+    ServoBusError,
+    ServoSilentError,
+    crank_angles,
+    servo_angles,
+)
+from hexmigrate.links.can import parse_url
+
+REPLY_TIMEOUT = 0.2
+"""How long a read waits for every node's answer to a Sync."""
+
+
+def open_can_bus(url: str) -> can.BusABC:
+    """python-can's bus for a ``can://`` URL (the ISO-TP parameters of the URL do not apply)."""
+    settings = parse_url(url)
+    try:
+        return can.Bus(**settings.bus_config())
+    except (can.CanError, OSError, ValueError) as error:
+        raise ServoBusError(f"cannot open {url}: {error}") from error
+
+
+class CanServoBus:
+    """The six legs' servo nodes on `bus`; the bus stays the caller's to shut down."""
+
+    def __init__(self, bus: can.BusABC, geometry: Geometry) -> None:
+        self.bus = bus
+        self.geometry = geometry
+        self.db = database()
+        self._nodes = [channel + 1 for channel in geometry.channels]
+        self._counter = 0
+
+    def move(self, angles: np.ndarray, duration: float) -> None:
+        move_time = round(duration * 1000)
+        for node, angle in zip(self._nodes, servo_angles(self.geometry, angles), strict=True):
+            self._send(
+                COMMAND_BASE + node,
+                {"TargetAngle": round(angle, 2), "MoveTime": move_time, "Enable": 1},
+            )
+
+    def read(self) -> Reading:
+        self._counter = (self._counter + 1) % 256
+        self._send(SYNC_ID, {"Counter": self._counter})
+        feedback, status = self._collect()
+        missing = [n for n in self._nodes if n not in feedback or n not in status]
+        if missing:
+            raise ServoSilentError(
+                f"{self.bus.channel_info}: servo node(s) {missing} sent no feedback within "
+                f"{REPLY_TIMEOUT:g} s"
+            )
+        servos = np.array([feedback[n]["Position"] for n in self._nodes])
+        current = np.array([feedback[n]["Current"] for n in self._nodes])
+        faults = tuple(
+            "" if status[n]["Fault"] == "None" else str(status[n]["Fault"]) for n in self._nodes
+        )
+        volts = float(np.mean([status[n]["SupplyVoltage"] for n in self._nodes]))
+        return Reading(crank_angles(self.geometry, servos), current, volts, faults)
+
+    def close(self) -> None:
+        """Nothing to release: the bus belongs to whoever opened it."""
+
+    def _collect(self) -> tuple[dict[int, dict], dict[int, dict]]:
+        """The Feedback and Status signals per node that answer the current Sync."""
+        feedback: dict[int, dict] = {}
+        status: dict[int, dict] = {}
+        wanted = 2 * len(self._nodes)
+        deadline = time.monotonic() + REPLY_TIMEOUT
+        while len(feedback) + len(status) < wanted:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                break
+            frame = self.bus.recv(timeout=remaining)
+            if frame is None or frame.is_error_frame:
+                continue
+            base, node = frame.arbitration_id & ~0x7F, frame.arbitration_id & 0x7F
+            if base not in (FEEDBACK_BASE, STATUS_BASE) or node not in self._nodes:
+                continue
+            signals = self.db.decode_message(frame.arbitration_id, bytes(frame.data))
+            if signals["Counter"] == self._counter:
+                (feedback if base == FEEDBACK_BASE else status)[node] = signals
+        return feedback, status
+
+    def _send(self, identifier: int, signals: dict[str, float]) -> None:
+        data = self.db.get_message_by_frame_id(identifier).encode(signals)
+        frame = can.Message(arbitration_id=identifier, is_extended_id=False, data=data)
+        try:
+            self.bus.send(frame)
+        except can.CanError as error:
+            if self.bus.state is BusState.ERROR:
+                raise BusOffError(f"{self.bus.channel_info}: CAN {error}") from error
+            raise ServoBusError(f"{self.bus.channel_info}: CAN send failed: {error}") from error
