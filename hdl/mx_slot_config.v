@@ -33,7 +33,8 @@ module mx_slot_config #(
     output reg  [SEL_W-1:0] fsel,           // active source of the functionality input
     output reg  [SEL_W-1:0] osel,           // active source of the output port
     output wire             isolate,        // decouple the functionality input
-    output reg              commit,         // one-cycle pulse: new routing from the next cycle
+    output wire             clear,          // the commit edge: clear the functionality's history
+    output reg              commit,         // one-cycle pulse: the new routing is in force
     output reg              error,          // one-cycle pulse: frame refused
     output reg  [2:0]       error_code
 );
@@ -68,7 +69,11 @@ module mx_slot_config #(
         else                                                              verdict = 3'd0;
     end
 
+    // A settled, good frame and an empty functionality: switch at this clock edge.
+    wire accept = (state_reg == S_CHECK) && (verdict == 3'd0) && drained;
+
     assign isolate = (state_reg != S_IDLE);
+    assign clear = accept;
 
     always @(posedge clk) begin
         commit <= 1'b0;
@@ -94,7 +99,7 @@ module mx_slot_config #(
                         error <= 1'b1;
                         error_code <= verdict;
                         state_reg <= S_IDLE;
-                    end else if (drained) begin
+                    end else if (accept) begin
                         fsel <= new_fsel;
                         osel <= new_osel;
                         commit <= 1'b1;

@@ -59,11 +59,10 @@ module mx_wrapper #(
         .cfg_valid(cfg_valid), .cfg_data(cfg_data), .cfg_last(cfg_last),
         .drained(fn_empty),
         .fsel(fsel), .osel(osel), .isolate(isolate),
-        .commit(cfg_commit), .error(cfg_error), .error_code(cfg_error_code)
+        .clear(fn_clear), .commit(cfg_commit), .error(cfg_error), .error_code(cfg_error_code)
     );
 
     assign busy = isolate;
-    assign fn_clear = cfg_commit;
 
     // The sources padded to every value a selector can hold (the padding is never selected:
     // mx_slot_config refuses out-of-range selectors).

