@@ -61,11 +61,3 @@ class EventLog:
 
     def __len__(self) -> int:
         return len(self._events)
-
-
-class NullLog(EventLog):
-    """A log that keeps nothing: for benchmarks that time the decisions alone."""
-
-    def record(self, kind: str, message: str, /, **data: Any) -> Event:
-        """Drop the event."""
-        return Event(0.0, kind, message)

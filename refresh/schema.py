@@ -13,7 +13,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from jsonschema import Draft202012Validator
-from jsonschema.exceptions import ValidationError, best_match
+from jsonschema.exceptions import ValidationError
 
 from refresh.errors import DatabaseError
 
@@ -163,9 +163,11 @@ _VALIDATOR = Draft202012Validator(DOCUMENT)
 
 
 def validate(document: Mapping[str, Any], file: str) -> None:
-    """Raise `DatabaseError` for the most relevant violation of `DOCUMENT`, if any."""
-    error = best_match(_VALIDATOR.iter_errors(document))
-    if error is not None:
+    """Raise `DatabaseError` for the deepest violation of `DOCUMENT`, if any: the most specific
+    one (a wrong capacity rather than the whole file's missing schemas), the first on a tie."""
+    errors = list(_VALIDATOR.iter_errors(document))
+    if errors:
+        error = max(errors, key=lambda e: len(e.absolute_path))
         raise _explain(_deepest(error), file)
 
 
@@ -226,10 +228,12 @@ def _plural(value: str | Sequence[str]) -> str:
 
 def describe(value: object) -> str:
     """A short description of a value for an error message: its TOML type and the value."""
-    kinds = {dict: "a table", list: "a list", str: "the string", bool: "the boolean"}
-    kind = next((k for t, k in kinds.items() if isinstance(value, t)), "the number")
     if isinstance(value, dict):
         return f"a table with keys {', '.join(value) or '(none)'}"
     if isinstance(value, list):
         return f"a list of {len(value)} item(s)"
-    return f"{kind} {value!r}"
+    if isinstance(value, str):
+        return f"the string {value!r}"
+    if isinstance(value, bool):
+        return f"the boolean {str(value).lower()}"
+    return f"the number {value!r}"
