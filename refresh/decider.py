@@ -70,7 +70,7 @@ class Decider:
         values: dict[str, float | None] = {}
         for metric in self.task.metrics.values():
             instance = configuration.instance_of(metric.schema)
-            buffer = sources[configuration.robot_of(instance)].performance(instance)
+            buffer = _source(sources, configuration.robot_of(instance)).performance(instance)
             report = buffer.latest(PerformanceKind.FUNCTIONAL, metric.index)
             values[metric.name] = None if report is None else report.value
         used: Usage = {}
@@ -79,7 +79,7 @@ class Decider:
         ):
             robot = self.database.robots[placement.robot]
             needs = self.database.module(placement.module).needs
-            buffer = sources[placement.robot].performance(instance)
+            buffer = _source(sources, placement.robot).performance(instance)
             for name, resource in robot.resources.items():
                 amount = needs.get(name, 0.0)
                 if resource.report is not None:
@@ -114,3 +114,13 @@ class Decider:
             usage={f"{res}@{robot}": v for (robot, res), v in assessment.usage.items()},
         )
         return detection
+
+
+def _source(sources: Mapping[str, PerformanceSource], robot: str) -> PerformanceSource:
+    try:
+        return sources[robot]
+    except KeyError:
+        raise ConfigurationError(
+            f"robot {robot!r} runs part of the configuration: expected its performance source "
+            f"among {', '.join(sources) or '(none)'}"
+        ) from None

@@ -55,7 +55,11 @@ class KernelEstimator:
             code = self.codes.get(placement.module)
             if code is None:
                 raise EstimationError(f"no code for module {placement.module!r} to estimate with")
-            if instance != code.name:
+            if code.name != placement.module:
+                raise EstimationError(
+                    f"module {placement.module!r}: expected code of that name, got {code.name!r}"
+                )
+            if instance != placement.module:
                 raise EstimationError(
                     f"module {placement.module!r} appears twice in {configuration.label()}; "
                     "a shadow run names modules by their code"
