@@ -58,8 +58,10 @@ class ServoBank:
         return None if ramp is None else ramp.value(self.time if t is None else t)
 
     def set_ramp(self, channel: int, ramp: Ramp | None) -> None:
-        """Start a new ramp on `channel` (None turns its pulses off)."""
+        """Start a new ramp on `channel` (None turns its pulses off); the servo gets its first
+        pulse now, not at the next step."""
         self.ramps[channel] = ramp
+        self.servos[channel].command(None if ramp is None else ramp.value(self.time))
 
     def busy(self) -> bool:
         """True while a ramp is running or a servo is still moving."""

@@ -160,14 +160,12 @@ class CanServoNodes:
             return []
         index = node - 1
         servo = self.bank.servos[index]
-        target = servo.target
-        heading = 0.0 if target is None else (1.0 if target > servo.angle else -1.0)
-        moving = servo.moving and not servo.jammed
+        velocity = 0.0 if servo.jammed else self._velocity(index)
         feedback = {
             "Position": servo.angle,
-            "Velocity": heading * servo.speed if moving else 0.0,
+            "Velocity": velocity,
             "Current": servo.current_ma,
-            "Moving": int(moving),
+            "Moving": int(velocity != 0.0),
             "Counter": self._counter,
         }
         status = {
@@ -182,13 +180,26 @@ class CanServoNodes:
             self._frame(STATUS_BASE + node, status),
         ]
 
+    def _velocity(self, index: int) -> float:
+        """The shaft's speed (deg/s): the ramp's rate while the ramp runs slower than the servo
+        can turn, else the servo's full speed while it moves."""
+        servo, ramp = self.bank.servos[index], self.bank.ramps[index]
+        if ramp is not None and not ramp.done(self.bank.time):
+            rate = (ramp.end - ramp.start) / ramp.duration * S3003.degrees_per_us
+            if abs(rate) < servo.speed:
+                return rate
+        target = servo.target
+        if not servo.moving or target is None:
+            return 0.0
+        return servo.speed if target > servo.angle else -servo.speed
+
     def _state(self, index: int) -> int:
         servo = self.bank.servos[index]
         if self.faults[index] != FAULT_NONE:
             return STATE_FAULT
         if servo.pulse_us is None:
             return STATE_LIMP
-        return STATE_MOVING if servo.moving else STATE_HOLDING
+        return STATE_MOVING if self._velocity(index) else STATE_HOLDING
 
     def _frame(self, identifier: int, signals: dict[str, float]) -> can.Message:
         data = self.db.get_message_by_frame_id(identifier).encode(signals)
