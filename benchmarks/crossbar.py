@@ -26,8 +26,8 @@ from morphing_crossbar import hdl_dir
 from morphing_crossbar.bitstream import FRAME_BITS, pack
 from morphing_crossbar.fabric import Fabric, verilog_parameters
 from morphing_crossbar.netlist import full_slot_bitstream, functionality_netlist, synthesize
+from morphing_crossbar.routing import through_route
 from morphing_crossbar.sim.runner import RESULTS_ENV, rtl_sources, run_cocotb
-from morphing_crossbar.sim.stimulus import through_route
 
 ROOT = Path(__file__).resolve().parent.parent
 TB_DIR = ROOT / "tests" / "hdl"

@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .errors import RouteError
-from .fabric import INPUT_SEL, NO_SOURCE, Fabric, Source, SourceKind
+from .fabric import INPUT_SEL, NO_SOURCE, NONE_SEL, Fabric, Source, SourceKind
 
 
 @dataclass(frozen=True)
@@ -128,3 +128,18 @@ class Configuration:
                     )
                 seen.add(taker[1])
                 source = Source(SourceKind.FUNCTION, taker[1])
+
+
+def bypass_route() -> SlotRoute:
+    """The slot's functionality removed: its input goes straight to its output."""
+    return SlotRoute(NONE_SEL, INPUT_SEL)
+
+
+def through_route(fabric: Fabric, slot: int) -> SlotRoute:
+    """The slot's functionality inserted: input -> functionality -> output (the reset route)."""
+    return SlotRoute(INPUT_SEL, fabric.self_selector(slot))
+
+
+def empty_route() -> SlotRoute:
+    """The slot takes nothing and drives nothing."""
+    return SlotRoute(NONE_SEL, NONE_SEL)

@@ -63,18 +63,3 @@ def _reaches(fabric: Fabric, slot: int, source: Source, own: bool = False) -> bo
     except RouteError:
         return False
     return True
-
-
-def bypass_route() -> SlotRoute:
-    """The slot's functionality removed: its input goes straight to its output."""
-    return SlotRoute(NONE_SEL, INPUT_SEL)
-
-
-def through_route(fabric: Fabric, slot: int) -> SlotRoute:
-    """The slot's functionality inserted: input -> functionality -> output (the reset route)."""
-    return SlotRoute(INPUT_SEL, fabric.self_selector(slot))
-
-
-def empty_route() -> SlotRoute:
-    """The slot takes nothing and drives nothing."""
-    return SlotRoute(NONE_SEL, NONE_SEL)

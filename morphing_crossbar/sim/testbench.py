@@ -114,6 +114,16 @@ class CrossbarTB:
             await self.step()
         return self.cycle - start
 
+    async def wait_for(self, frame: Reconfiguration, limit: int = 1000) -> None:
+        """Run until ``frame`` has its result; fails after ``limit`` cycles (a hung wrapper)."""
+        start = self.cycle
+        while frame.end < 0:
+            if self.cycle - start >= limit:
+                raise AssertionError(
+                    f"slot {frame.slot}: no configuration result after {limit} cycles"
+                )
+            await self.step()
+
     async def run_cycles(self, count: int) -> float:
         """Run exactly ``count`` cycles; returns the wall-clock seconds they took."""
         began = time.perf_counter()

@@ -21,14 +21,9 @@ from morphing_crossbar.bitstream import (
 )
 from morphing_crossbar.crc import crc8_bits
 from morphing_crossbar.fabric import NONE_SEL, Fabric, fabric_from_json
-from morphing_crossbar.routing import Configuration
+from morphing_crossbar.routing import Configuration, bypass_route, empty_route, through_route
 from morphing_crossbar.sim.runner import FABRIC_ENV, RESULTS_ENV
-from morphing_crossbar.sim.stimulus import (
-    bypass_route,
-    empty_route,
-    random_configuration,
-    through_route,
-)
+from morphing_crossbar.sim.stimulus import random_configuration
 from morphing_crossbar.sim.stream import random_beats
 from morphing_crossbar.sim.testbench import CrossbarTB
 
@@ -94,8 +89,7 @@ async def reconfigure_while_streaming(dut: object) -> None:
         route = through_route(fabric, slot) if slot in bypassed else bypass_route()
         bypassed ^= {slot}
         frame = tb.send(pack(fabric, slot, route))
-        while frame.end < 0:
-            await tb.step()
+        await tb.wait_for(frame)
         assert frame.error_code == 0
         assert frame.cycles == reconfiguration_cycles(fabric)
         assert frame.cycles <= FRAME_BITS // fabric.cfg_w + 4
@@ -138,15 +132,13 @@ async def corrupt_bitstream_refused(dut: object) -> None:
     routing = tb.model.configuration.routes
     for code, beats in cases:
         frame = tb.send_frame(slot, beats)
-        while frame.end < 0:
-            await tb.step()
+        await tb.wait_for(frame)
         assert frame.error_code == code, f"expected refusal code {code}, got {frame.error_code}"
         assert tb.model.configuration.routes == routing
         assert int(dut.slot_busy.value) == 0
         await tb.run_cycles(10)
     frame = tb.send(good)
-    while frame.end < 0:
-        await tb.step()
+    await tb.wait_for(frame)
     assert frame.error_code == 0
     await tb.run_cycles(20)
     for source in tb.sources:

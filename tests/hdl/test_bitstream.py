@@ -1,0 +1,111 @@
+"""The partial-bitstream format: packing, the wrapper's refusals with exact messages, CRC."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from morphing_crossbar.bitstream import (
+    FRAME_BITS,
+    beats_to_word,
+    decode_bytes,
+    decode_frame,
+    pack,
+    reconfiguration_cycles,
+)
+from morphing_crossbar.crc import crc8_bits
+from morphing_crossbar.errors import (
+    CrcError,
+    FabricParameterError,
+    LengthError,
+    MagicError,
+    RefusedRouteError,
+    RouteError,
+    SelectorRangeError,
+    SlotMismatchError,
+)
+from morphing_crossbar.fabric import Fabric
+from morphing_crossbar.routing import SlotRoute, bypass_route, through_route
+
+FABRIC = Fabric(4)
+
+
+def test_frame_layout_is_magic_slot_selectors_crc() -> None:
+    word = pack(FABRIC, 2, SlotRoute(1, 5)).word()
+    assert word >> 8 == 0xA215
+    assert word & 0xFF == crc8_bits(0xA215, 16)
+    assert pack(FABRIC, 2, SlotRoute(1, 5)).to_bytes() == word.to_bytes(3, "big")
+
+
+def test_crc8_matches_the_check_value_of_crc8_atm() -> None:
+    assert crc8_bits(int.from_bytes(b"123456789", "big"), 72) == 0xF4
+
+
+@pytest.mark.parametrize("cfg_w", [1, 2, 3, 4, 6, 8, 12, 24])
+def test_beats_carry_the_frame_msb_first(cfg_w: int) -> None:
+    bitstream = pack(FABRIC, 1, bypass_route())
+    beats = bitstream.beats(cfg_w)
+    assert len(beats) == FRAME_BITS // cfg_w
+    assert beats_to_word(beats, cfg_w) == bitstream.word()
+
+
+def test_reconfiguration_takes_one_cycle_a_beat_plus_commit() -> None:
+    for cfg_w in (1, 4, 8):
+        fabric = Fabric(8, cfg_w=cfg_w)
+        assert reconfiguration_cycles(fabric) == FRAME_BITS // cfg_w + 1
+        assert reconfiguration_cycles(fabric) <= FRAME_BITS // cfg_w + 4
+
+
+@given(st.integers(0, FRAME_BITS - 1))
+def test_every_single_bit_flip_is_refused_as_corrupt(bit: int) -> None:
+    word = pack(FABRIC, 3, through_route(FABRIC, 3)).word() ^ (1 << bit)
+    with pytest.raises(CrcError, match="corrupt bitstream"):
+        decode_frame(FABRIC, 3, word, FRAME_BITS)
+
+
+def _framed(body: int) -> bytes:
+    return ((body << 8) | crc8_bits(body, 16)).to_bytes(3, "big")
+
+
+@pytest.mark.parametrize(
+    ("data", "error", "message"),
+    [
+        (b"\xa1\x01", LengthError, "expected a 24-bit frame, got 16 bits"),
+        (_framed(0xB101), MagicError, "expected magic A, got B"),
+        (_framed(0xA201), SlotMismatchError, "expected a frame for slot 1, got one for slot 2"),
+        (_framed(0xA1F0), SelectorRangeError, "expected FSEL below 7 for slot 1, got 15"),
+        (_framed(0xA111), RefusedRouteError, "got FSEL 1, OSEL 1"),
+        (_framed(0xA140), RefusedRouteError, "no self-feeding functionality in slot 1"),
+    ],
+)
+def test_refusals_name_the_reason(data: bytes, error: type, message: str) -> None:
+    with pytest.raises(error, match=message):
+        decode_bytes(FABRIC, 1, data)
+
+
+def test_refusal_codes_match_the_wrapper() -> None:
+    codes = [CrcError, LengthError, MagicError, SlotMismatchError, SelectorRangeError]
+    assert [cls.code for cls in codes] == [1, 2, 3, 4, 5]
+    assert RefusedRouteError.code == 6
+
+
+def test_packer_refuses_what_the_fabric_cannot_route() -> None:
+    with pytest.raises(RouteError, match=r"expected a slot in 0\.\.3, got 4"):
+        pack(FABRIC, 4, bypass_route())
+    with pytest.raises(RouteError, match="expected a selector below 7 for slot 0, got 9"):
+        pack(FABRIC, 0, SlotRoute(9, 0))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"n": 1}, "expected 2..16 slots, got n=1"),
+        ({"n": 4, "data_w": 0}, "expected a data width of 1..32 bits, got 0"),
+        ({"n": 6, "local": 4}, "expected a cluster size dividing n=6"),
+        ({"n": 4, "cfg_w": 5}, "expected a configuration width dividing the 24-bit frame, got 5"),
+    ],
+)
+def test_bad_fabric_parameters_are_refused(kwargs: dict, message: str) -> None:
+    with pytest.raises(FabricParameterError, match=message):
+        Fabric(**kwargs)

@@ -1,0 +1,76 @@
+"""Bitstream migration: a partial bitstream as an extended HEX module, loaded by the node's
+reconfiguration port into the crossbar's model."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from firmware_sim.fpga_port import FpgaReconfigurationPort
+from hexmigrate.errors import ChecksumError
+from hexmigrate.image import ModuleImage
+from morphing_crossbar.bitstream import pack
+from morphing_crossbar.errors import BitstreamImageError, CrcError
+from morphing_crossbar.fabric import Fabric
+from morphing_crossbar.hex_image import CONFIG_BASE, from_image, to_image
+from morphing_crossbar.model import Beat, CrossbarModel
+from morphing_crossbar.routing import bypass_route
+
+FABRIC = Fabric(4)
+
+
+def test_image_is_an_extended_hex_module_at_the_slot_window() -> None:
+    image = to_image(FABRIC, pack(FABRIC, 2, bypass_route()))
+    text = image.to_hex()
+    assert text.splitlines() == [
+        ":0400000840000208AA",  # 08: init pointer -> the frame at 0x40000208
+        ":020000044000BA",  # 04: upper address 0x4000
+        ":0B0200004D58504201040118A20135C6",  # "MXPB", v1, N=4, CFG_W=1, 24 bits, frame
+        ":00000001FF",
+    ]
+    assert from_image(FABRIC, ModuleImage.from_hex(text, "x")) == pack(FABRIC, 2, bypass_route())
+    assert image.link_base == CONFIG_BASE + 0x200
+
+
+def test_port_loads_a_hex_file_and_the_route_changes(tmp_path: Path) -> None:
+    model = CrossbarModel(FABRIC)
+    port = FpgaReconfigurationPort(model)
+    before = model.push(0, Beat(10))
+    path = tmp_path / "bypass0.hex"
+    to_image(FABRIC, pack(FABRIC, 0, bypass_route()), "bypass0").write(path)
+    record = port.load_file(path)
+    assert record.result.cycles == 25
+    assert port.installed == {0: "bypass0"}
+    assert before != (0, Beat(10))
+    assert model.push(0, Beat(10)) == (0, Beat(10))
+    port.unload(0)
+    assert port.installed == {}
+
+
+def test_a_corrupt_frame_in_a_valid_hex_file_is_refused(tmp_path: Path) -> None:
+    model = CrossbarModel(FABRIC)
+    image = to_image(FABRIC, pack(FABRIC, 1, bypass_route()))
+    data = bytearray(image.data)
+    data[-1] ^= 0x40
+    corrupt = ModuleImage(image.name, image.link_base, bytes(data), (), image.init)
+    with pytest.raises(CrcError, match="corrupt bitstream"):
+        FpgaReconfigurationPort(model).load(corrupt)
+    assert model.push(1, Beat(200)) == (1, Beat(200))
+
+
+def test_a_damaged_hex_line_is_refused_by_the_codec(tmp_path: Path) -> None:
+    path = tmp_path / "slot1.hex"
+    to_image(FABRIC, pack(FABRIC, 2, bypass_route())).write(path)
+    path.write_text(path.read_text().replace("A20135C6", "A20135C7"))
+    with pytest.raises(ChecksumError):
+        FpgaReconfigurationPort(CrossbarModel(FABRIC)).load_file(path)
+
+
+def test_images_for_another_fabric_or_address_are_refused() -> None:
+    image = to_image(Fabric(8), pack(Fabric(8), 1, bypass_route()))
+    with pytest.raises(BitstreamImageError, match="expected version 1 for N=4"):
+        from_image(FABRIC, image)
+    moved = ModuleImage("moved", 0x2000_0000, image.data, (), 0x2000_0008)
+    with pytest.raises(BitstreamImageError, match="expected a slot window 0x40000000"):
+        from_image(FABRIC, moved)
