@@ -9,7 +9,8 @@ import time
 import pytest
 
 from hexmigrate.links import LinkError, open_link
-from hexmigrate.links.faulty import FaultyLink
+from hexmigrate.links.base import LinkUrlError
+from hexmigrate.links.faulty import FaultInjector, Faults, FaultyLink
 
 COUNT = 2000
 RATES = {"corrupt": 0.05, "drop": 0.1, "duplicate": 0.05}
@@ -137,6 +138,9 @@ def test_keyword_options_set_faults_and_each_end_has_its_own() -> None:
             "sent": 1,
             "corrupted": 0,
             "dropped": 1,
+            "shortened": 0,
+            "bytes_corrupted": 0,
+            "bytes_dropped": 0,
             "duplicated": 0,
             "delayed": 0,
             "bytes_crossed": 5,
@@ -152,3 +156,35 @@ def test_closing_the_wrapper_closes_the_inner_link() -> None:
     assert link.closed
     with pytest.raises(LinkError, match="expected an open link, got a closed one"):
         link.inner.send(b"PING")
+
+
+def test_per_byte_faults_hit_long_messages_more_often_and_count_bytes() -> None:
+    inject = FaultInjector(Faults(corrupt=0.01, drop=0.01, per="byte", seed=3))
+    short = [inject(bytes([6]) * 8) for _ in range(2000)]
+    long = [inject(bytes([6]) * 264) for _ in range(2000)]
+    intact_short = sum(arrived == [bytes([6]) * 8] for arrived in short) / 2000
+    intact_long = sum(arrived == [bytes([6]) * 264] for arrived in long) / 2000
+    assert 0.80 < intact_short < 0.90  # 0.98 ** 8 = 0.85
+    assert 0.0 <= intact_long < 0.02  # 0.98 ** 264 = 0.005
+    counts = inject.counts
+    assert counts.sent == 4000
+    expected_bytes = 0.01 * 2000 * (8 + 264)
+    assert 0.8 * expected_bytes < counts.bytes_corrupted < 1.2 * expected_bytes
+    assert 0.8 * expected_bytes < counts.bytes_dropped < 1.2 * expected_bytes
+
+
+def test_per_byte_drops_shorten_the_message_by_the_lost_bytes() -> None:
+    inject = FaultInjector(Faults(drop=0.5, per="byte", seed=1))
+    message = bytes(range(1, 200))
+    arrived = inject(message)
+    assert arrived, "half the bytes lost leaves a shorter message"
+    kept = arrived[0]
+    assert len(kept) == len(message) - inject.counts.bytes_dropped
+    assert inject.counts.shortened == 1
+    iterator = iter(message)
+    assert all(byte in iterator for byte in kept)  # the bytes that stay keep their order
+
+
+def test_the_unit_of_the_rates_must_be_message_or_byte() -> None:
+    with pytest.raises(LinkUrlError, match="per"):
+        open_link("faulty+loop://#drop=0.1&per=bit")

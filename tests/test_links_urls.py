@@ -18,7 +18,7 @@ CAN = (
     "&stmin=N&blocksize=N&padding=off|N&settle=S"
 )
 REMOTE = "can://remote/HOST:PORT/CHANNEL such as can://remote/127.0.0.1:54701/node0"
-FAULTY = "faulty+INNER_URL#corrupt=P&drop=P&duplicate=P&delay=S&cut_after=N&seed=N"
+FAULTY = "faulty+INNER_URL#corrupt=P&drop=P&per=message|byte&duplicate=P&delay=S&cut_after=N&seed=N"
 CAN_PARAMETERS = "role, txid, rxid, bitrate, stmin, blocksize, padding, settle"
 SLCAN_RATES = "10000, 20000, 50000, 100000, 125000, 250000, 500000, 750000, 1000000, 83300"
 
@@ -110,7 +110,8 @@ BAD_URLS = [
     ("faulty+loop://#cut_after=-1", "parameter cut_after: expected 0 or more, got -1", FAULTY),
     (
         "faulty+loop://#loss=0.1",
-        "expected parameters among corrupt, drop, duplicate, delay, cut_after, seed, got 'loss'",
+        "expected parameters among corrupt, drop, per, duplicate, delay, cut_after, seed, "
+        "got 'loss'",
         FAULTY,
     ),
 ]

@@ -4,12 +4,12 @@ Two processes where the transport joins processes (a pty pair, TCP to a ``tcp-li
 CAN through a python-can-remote server, SLCAN on a pty): the node is ``hexmigrate node --listen
 URL`` or the host is ``hexmigrate send``/``ls``/``ping``/``rm``, each a subprocess, as a user
 would run them; the node's output (its "listening on" line first, registrations, ``--show``
-values) is read as it comes. The pty node is restarted on its flash file to boot what it got.
-In one process (``can://virtual``) the node is served by `firmware_sim.server.serve` in a thread
-of its own: the node (and its Unicorn CPU) is made, used and closed in that thread only, and the
-test thread holds nothing but the sender and its link. Then faults: 1 % corruption and drops in
-both directions, and a link cut mid-transfer that `Sender.resume` completes on a new link while
-the node keeps its `Receiver`.
+values) is read as it comes. The pty node is restarted on its flash file to boot what it got. In
+one process (``can://virtual``; ``loop://``, shared by both as two stations) the node is served by
+`firmware_sim.server.serve` in a thread of its own: the node (and its Unicorn CPU) is made, used
+and closed in that thread only, and the test thread holds nothing but the sender and its link. Then
+faults: 1 % corruption and drops in both directions, and a link cut mid-transfer that
+`Sender.resume` completes on a new link while the node keeps its `Receiver`.
 
 Every wait is bounded; every subprocess is terminated (and killed if need be) in a finally.
 Everything stays on 127.0.0.1.
@@ -27,7 +27,7 @@ import tempfile
 import threading
 import time
 import uuid
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -41,6 +41,7 @@ from hexmigrate.image import ModuleImage
 from hexmigrate.links import LinkBase, open_link
 from hexmigrate.links.faulty import FaultyLink
 from hexmigrate.links.remote_server import RemoteCanServer
+from hexmigrate.links.shared import SharedLine
 from hexmigrate.links.slcan_device import SlcanDevice
 from hexmigrate.links.tcp import TcpListenLink
 from hexmigrate.transfer.receiver import Receiver
@@ -185,14 +186,17 @@ def check_node_output(node: NodeProcess, names: Iterable[str]) -> dict[str, int]
 
 
 class NodeThread:
-    """A node served by `serve` in a thread of its own, on each of `urls` in turn with one
+    """A node served by `serve` in a thread of its own, on each of `urls` (a URL, or a function
+    that opens a link) in turn with one
     `Receiver` (`advance` moves it to the next link). Only that thread touches the node: it
     starts each module it installs (gain behind a native ramp signal), copies the values of the
     watched ports to `values` after every message, and fills `report` when it stops."""
 
     WATCHED = ("signal.y", "gain.y")
 
-    def __init__(self, urls: Iterable[str], images: dict[str, ModuleImage]) -> None:
+    def __init__(
+        self, urls: Iterable[str | Callable[[], LinkBase]], images: dict[str, ModuleImage]
+    ) -> None:
         self.urls = list(urls)
         self.images = images
         self.values: dict[str, int] = {}
@@ -259,7 +263,7 @@ class NodeThread:
             with Node("e2e") as node:
                 receiver = Receiver(NodeTarget(node, on_install=lambda n, a: self._start(node, n)))
                 for url in self.urls:
-                    with open_link(url) as link:
+                    with open_link(url) if isinstance(url, str) else url() as link:
                         self.link = link
                         self._next.clear()
                         self._opened.put(url)
@@ -465,6 +469,22 @@ def test_can_virtual_in_one_process(images, mode):
         node.wait_running()
         node.stop()
     assert_installed_and_ran(node, ["gain"])
+
+
+@pytest.mark.parametrize("mode", ["binary", "hex"])
+def test_loop_one_port_shared_by_the_host_and_the_node(images, mode):
+    """pyserial's loop:// is one port that hears itself: the host and the node are two
+    stations on it, each hearing both sides' messages (as on an RS-485 line)."""
+    line = SharedLine(open_link("loop://"))
+    with line, NodeThread([line.station], images) as node, line.station() as host:
+        sender = Sender(host, mode)
+        for name in ("gain", "moving_average"):
+            result = sender.send(images[name])
+            assert (result.name, result.retransmissions) == (name, 0)
+        assert [name for name, _, _ in sender.modules()] == ["gain", "moving_average"]
+        node.wait_running()
+        node.stop()
+    assert_installed_and_ran(node, ["gain", "moving_average"])
 
 
 @pytest.mark.skipif(

@@ -137,23 +137,30 @@ def test_ping_list_and_remove(node, images, mode):
 
 
 @pytest.mark.parametrize("mode", MODES)
-def test_two_hundred_transfers_through_one_percent_faults(node, images, mode):
-    outcomes = {"installed": 0, "refused": 0}
+def test_two_hundred_transfers_through_one_percent_byte_faults(node, images, mode):
+    """1% of the bytes corrupted and 1% lost, each way: a 2-block binary message would almost
+    never arrive (0.98 ** 523), so the sender shrinks its messages, and the node keeps the part
+    of a block it received in order. Every transfer ends installed with the right bytes in
+    flash, or refused with nothing left behind; when the answer to COMMIT is what got lost,
+    the module may be installed, and then it must be whole."""
+    outcomes = {"installed": 0, "installed, answer lost": 0, "refused": 0}
     image = images["moving_average"]
     for seed in range(100):  # per mode: 200 transfers in all
         link = link_to(node, outbound=noisy(0.01, seed), inbound=noisy(0.01, seed + 1000))
-        sender = Sender(link, mode, timeout=0.0, retries=20)
+        sender = Sender(link, mode, timeout=0.0, retries=30)
         try:
             sender.send(image)
+            outcome = "installed"
         except TransferError:
-            outcomes["refused"] += 1
+            outcome = "installed, answer lost" if "moving_average" in node.modules else "refused"
+        outcomes[outcome] += 1
+        if outcome == "refused":
             assert "moving_average" not in node.modules
         else:
-            outcomes["installed"] += 1
             assert_installed(node, image)
             node.unload("moving_average")
         assert node.space.owners.keys() <= {"directory"}  # nothing half-installed left behind
-    assert outcomes["installed"] >= 95
+    assert outcomes["installed"] >= 90, outcomes
 
 
 @pytest.mark.parametrize("mode", MODES)

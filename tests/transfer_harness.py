@@ -2,16 +2,16 @@
 
 `DirectLink.send` hands the message to the receiver at once and queues its replies;
 `receive` returns the next reply or None at once (which the sender takes as a timeout). A
-`mangle` function can drop, corrupt or duplicate messages in each direction.
+`mangle` function can drop, corrupt or duplicate messages or their bytes in each direction.
 """
 
 from __future__ import annotations
 
-import random
 from collections import deque
 from collections.abc import Callable
 
 from hexmigrate.links.base import LinkError
+from hexmigrate.links.faulty import FaultInjector, Faults
 from hexmigrate.transfer.receiver import Receiver
 
 Mangle = Callable[[bytes], list[bytes]]
@@ -22,22 +22,10 @@ def clean(message: bytes) -> list[bytes]:
     return [message]
 
 
-def noisy(rate: float, seed: int) -> Mangle:
-    """Drop or corrupt each message (one flipped bit) with probability `rate` each."""
-    rng = random.Random(seed)
-
-    def mangle(message: bytes) -> list[bytes]:
-        roll = rng.random()
-        if roll < rate:
-            return []
-        if roll < 2 * rate:
-            data = bytearray(message)
-            position = rng.randrange(len(data))
-            data[position] ^= 1 << rng.randrange(8)
-            return [bytes(data)]
-        return [message]
-
-    return mangle
+def noisy(rate: float, seed: int, per: str = "byte") -> Mangle:
+    """Corrupt (one flipped bit) and lose each byte with probability `rate` each, as the fault
+    wrapper's ``per=byte`` does (``per="message"``: whole messages instead)."""
+    return FaultInjector(Faults(corrupt=rate, drop=rate, per=per, seed=seed))
 
 
 class DirectLink:

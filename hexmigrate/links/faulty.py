@@ -9,8 +9,12 @@ for example ``faulty+loop://#corrupt=0.01&drop=0.01&duplicate=0.005&delay=0.002&
 because no inner scheme uses one, while the inner URL keeps its own query (``?baudrate=``,
 ``?role=``) untouched. FAULTS, joined by ``&``:
 
-    corrupt=P     probability that a sent message has one random bit of one random byte flipped
-    drop=P        probability that a sent message is lost whole
+    corrupt=P     probability that a sent message (per=message) or each of its bytes (per=byte)
+                  gets one random bit flipped
+    drop=P        probability that a sent message is lost whole (per=message), or that each of
+                  its bytes is lost (per=byte: the message arrives without them)
+    per=UNIT      what the two rates above count: message (default) or byte. A serial line
+                  corrupts and loses bytes, so a longer message is likelier to be hit
     duplicate=P   probability that a sent message is delivered twice
     delay=S       seconds each sent message is held before it goes out (the sender waits)
     cut_after=N   the link fails as a pulled cable (LinkError on every send and receive) once more
@@ -19,9 +23,10 @@ because no inner scheme uses one, while the inner URL keeps its own query (``?ba
     seed=N        seed of the fault generator (default 0): the same seed and the same messages
                   give the same faults
 
-Faults apply on send, so when both ends are wrapped, each direction gets its own. A corrupted
+Faults apply on send, so when both ends are wrapped, each direction gets its own. A damaged
 text message that would then hold a CR, LF or NUL is lost instead: on a byte stream the receiver
-would only see garbage lines. `counts` says what was injected, for reports.
+would only see garbage lines. `counts` says what was injected, for reports; `FaultInjector` is
+the same injection without a link, for tests that drive the protocol directly.
 """
 
 from __future__ import annotations
@@ -31,14 +36,15 @@ import time
 from dataclasses import asdict, dataclass
 
 from hexmigrate.links.base import Link, LinkBase, LinkError, message_problem
-from hexmigrate.links.url import integer, parse_parameters, real, url_error
+from hexmigrate.links.url import choice, integer, parse_parameters, real, url_error
 
 PREFIX = "faulty+"
-FORM = "faulty+INNER_URL#corrupt=P&drop=P&duplicate=P&delay=S&cut_after=N&seed=N"
+FORM = "faulty+INNER_URL#corrupt=P&drop=P&per=message|byte&duplicate=P&delay=S&cut_after=N&seed=N"
 
 _PARAMETERS = {
     "corrupt": real(0.0, 1.0),
     "drop": real(0.0, 1.0),
+    "per": choice("message", "byte"),
     "duplicate": real(0.0, 1.0),
     "delay": real(0.0, 60.0),
     "cut_after": integer(0),
@@ -48,10 +54,12 @@ _PARAMETERS = {
 
 @dataclass(frozen=True)
 class Faults:
-    """What to inject; every rate is per sent message."""
+    """What to inject: `corrupt` and `drop` count per message or per byte (`per`), the others
+    per sent message."""
 
     corrupt: float = 0.0
     drop: float = 0.0
+    per: str = "message"
     duplicate: float = 0.0
     delay: float = 0.0
     cut_after: int | None = None
@@ -60,12 +68,17 @@ class Faults:
 
 @dataclass
 class FaultCounts:
-    """What was injected so far, and how many message bytes crossed the link. `dropped` counts
-    the drop fault and the corrupted text messages that could no longer be framed."""
+    """What was injected so far, and how many message bytes crossed the link. `corrupted` counts
+    messages with at least one flipped bit, `dropped` messages lost whole (the drop fault, and
+    damaged text messages that could no longer be framed), `shortened` messages that lost bytes
+    (per=byte); `bytes_corrupted` and `bytes_dropped` count bytes."""
 
     sent: int = 0
     corrupted: int = 0
     dropped: int = 0
+    shortened: int = 0
+    bytes_corrupted: int = 0
+    bytes_dropped: int = 0
     duplicated: int = 0
     delayed: int = 0
     bytes_crossed: int = 0
@@ -94,6 +107,58 @@ def open_url(url: str, **options: object) -> FaultyLink:
     return FaultyLink(url, open_link(inner_url), faults)
 
 
+class FaultInjector:
+    """The message faults of `faults` (corrupt, drop, duplicate), seeded, counted in `counts`."""
+
+    def __init__(self, faults: Faults, counts: FaultCounts | None = None) -> None:
+        self.faults = faults
+        self.counts = counts or FaultCounts()
+        self._random = random.Random(faults.seed)
+
+    def __call__(self, message: bytes) -> list[bytes]:
+        """What arrives of `message`: nothing, one copy (perhaps damaged) or two copies."""
+        self.counts.sent += 1
+        if self.faults.per == "byte":
+            message = self._damage_bytes(message)
+        else:
+            message = self._damage_message(message)
+        if not message or message_problem(message) is not None:
+            self.counts.dropped += 1
+            return []
+        copies = 2 if self._random.random() < self.faults.duplicate else 1
+        self.counts.duplicated += copies - 1
+        return [message] * copies
+
+    def _damage_message(self, message: bytes) -> bytes:
+        drop, corrupt = self._random.random(), self._random.random()
+        if corrupt < self.faults.corrupt:
+            self.counts.corrupted += 1
+            self.counts.bytes_corrupted += 1
+            message = self._flip(message, self._random.randrange(len(message)))
+        return b"" if drop < self.faults.drop else message
+
+    def _damage_bytes(self, message: bytes) -> bytes:
+        """Each byte flipped with probability `corrupt`, then lost with probability `drop`."""
+        rng, corrupt, drop = self._random, self.faults.corrupt, self.faults.drop
+        flipped = [i for i in range(len(message)) if rng.random() < corrupt] if corrupt else []
+        for position in flipped:
+            message = self._flip(message, position)
+        lost = {i for i in range(len(message)) if rng.random() < drop} if drop else set()
+        self.counts.corrupted += bool(flipped)
+        self.counts.bytes_corrupted += len(flipped)
+        self.counts.shortened += bool(lost)
+        self.counts.bytes_dropped += len(lost)
+        if lost:
+            message = bytes(byte for i, byte in enumerate(message) if i not in lost)
+        return message
+
+    def _flip(self, message: bytes, position: int) -> bytes:
+        """`message` with one random bit of byte `position` flipped."""
+        flipped = bytearray(message)
+        flipped[position] ^= 1 << self._random.randrange(8)
+        return bytes(flipped)
+
+
 class FaultyLink(LinkBase):
     """Wraps `inner`, injecting `faults` into what it sends; closing it closes `inner`."""
 
@@ -102,23 +167,16 @@ class FaultyLink(LinkBase):
         self.inner = inner
         self.faults = faults
         self.counts = FaultCounts()
-        self._random = random.Random(faults.seed)
+        self._inject = FaultInjector(faults, self.counts)
 
     def _send(self, message: bytes) -> None:
         self._check_cable()
-        self.counts.sent += 1
-        drop, corrupt, duplicate = (self._random.random() for _ in range(3))
-        if corrupt < self.faults.corrupt:
-            message = self._corrupt(message)
-        if drop < self.faults.drop or message_problem(message) is not None:
-            self.counts.dropped += 1
-            return
-        self._hold()
-        copies = 2 if duplicate < self.faults.duplicate else 1
-        self.counts.duplicated += copies - 1
-        for _ in range(copies):
-            self._cross(len(message))
-            self.inner.send(message)
+        arriving = self._inject(message)
+        if arriving:
+            self._hold()
+        for copy in arriving:
+            self._cross(len(copy))
+            self.inner.send(copy)
 
     def _receive(self, timeout: float) -> bytes | None:
         self._check_cable()
@@ -129,14 +187,6 @@ class FaultyLink(LinkBase):
 
     def _close(self) -> None:
         self.inner.close()
-
-    def _corrupt(self, message: bytes) -> bytes:
-        """`message` with one bit flipped, chosen by the seeded generator."""
-        self.counts.corrupted += 1
-        bit = self._random.randrange(len(message) * 8)
-        flipped = bytearray(message)
-        flipped[bit // 8] ^= 1 << (bit % 8)
-        return bytes(flipped)
 
     def _hold(self) -> None:
         if self.faults.delay > 0:

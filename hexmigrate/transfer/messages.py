@@ -396,6 +396,9 @@ def _decode_text(raw: bytes) -> Message:
     line = _strip_checksum(line)
     word, *args = line.split()
     word = word.upper()
+    low, high = _ARITY.get(word, (0, None))
+    if len(args) < low or (high is not None and len(args) > high):
+        raise MessageError(f"expected {_USAGE.get(word, word)}, got {line[:60]!r}")
     try:
         return _TEXT_PARSERS[word](args, line)
     except KeyError:
@@ -408,8 +411,13 @@ def _decode_text(raw: bytes) -> Message:
 
 
 def _strip_checksum(line: str) -> str:
+    """The line without its ` *XX` checksum, checked. A line without one is taken as typed by a
+    person; a line with a damaged one (a ``*`` but no valid ` *XX` at the end) is refused: on
+    a noisy line, the damage to the checksum may come with damage to the command."""
     body, found, tail = line.rpartition(" *")
     if not found or len(tail) != 2 or not all(c in "0123456789abcdefABCDEF" for c in tail):
+        if "*" in line:
+            raise MessageError(f"expected a checksum ' *XX' at the end, got {line[-8:]!r}")
         return line
     if _line_sum(body) != int(tail, 16):
         raise MessageError(f"expected checksum {_line_sum(body):02X}, got {tail} in {line[:40]!r}")
@@ -448,7 +456,24 @@ _TEXT_PARSERS = {
         _number(args[0]), _number(args[1]), " ".join(args[3:]), args[2].upper() == "FATAL"
     ),
 }
+# How many words may follow each command word (None: any number, for free text).
+_ARITY: dict[str, tuple[int, int | None]] = {
+    "PING": (0, 0),
+    "LS": (0, 0),
+    "RM": (1, 1),
+    "BEGIN": (5, 6),
+    "END": (2, 2),
+    "COMMIT": (1, 1),
+    "ABORT": (1, 1),
+    "RESUME": (1, 1),
+    "PONG": (0, None),
+    "MODULES": (0, None),
+    "ACK": (2, None),
+    "NAK": (3, None),
+}
 _USAGE = {
+    "PING": "PING",
+    "LS": "LS",
     "RM": "RM NAME",
     "BEGIN": "BEGIN TID NAME SIZE RELOCATIONS LINK_BASE [LOAD_BASE]",
     "END": "END TID CRC32",

@@ -125,8 +125,8 @@ class Receiver:
     def dispatch(self, message: Message) -> list[Message]:
         """Replies to one decoded message."""
         handler = _HANDLERS.get(type(message))
-        if handler is None:
-            return [Nak(0, 0, f"unexpected {type(message).__name__} at a node", fatal=True)]
+        if handler is None:  # an answer: see ANSWERS
+            return []
         tid = getattr(message, "tid", IMPLICIT)
         try:
             return handler(self, message)
@@ -199,9 +199,11 @@ class Receiver:
     def _feed(
         self, transfer: Transfer, address: int, payload: bytes, binary: bool = False
     ) -> list[Message]:
-        """Data at a link address: in order it is loaded, a repeat is acknowledged again, a
-        gap is refused with the position to go back to. A programmed block is acknowledged
-        with the short `BlockAck` in binary mode, an ``ACK`` line in hex mode."""
+        """Data at a link address: in order it is loaded (the part not yet received of data
+        that overlaps), a repeat is acknowledged again, a gap is refused with the position to
+        go back to: the first byte not received, so the bytes of the block already in the SRAM
+        buffer stay (on a noisy line a whole block in one go may be rare). A programmed block
+        is acknowledged with the short `BlockAck` in binary mode, an ``ACK`` line in hex mode."""
         session = transfer.session
         if transfer.link_base is None:
             transfer.link_base = address
@@ -210,34 +212,38 @@ class Receiver:
             return [Nak(transfer.tid, session.programmed, "header incomplete: send it again")]
         expected = transfer.link_base + session.received
         if address + len(payload) <= expected:
-            return [Ack(transfer.tid, session.programmed, "repeat")]
-        if address != expected:
-            session.rewind()
+            if session.programmed >= session.received:  # all it holds is programmed: say so
+                return [self._progress(transfer, binary)]
+            return [Ack(transfer.tid, session.received, "repeat")]  # the sender skips ahead
+        if address > expected:
             return [
                 Nak(
                     transfer.tid,
-                    session.programmed,
-                    f"expected data at 0x{transfer.link_base + session.programmed:08X}, "
-                    f"got 0x{address:08X}",
+                    session.received,
+                    f"expected data at 0x{expected:08X}, got 0x{address:08X}",
                 )
             ]
-        _guard(session.feed_data, address, payload)
+        payload = payload[expected - address :]
+        _guard(session.feed_data, expected, payload)
         if transfer.size is not None and session.received >= transfer.size:
             _guard(session.flush)
         if session.programmed > transfer.acked:
             transfer.acked = session.programmed
-            if binary:
-                return [BlockAck.of(transfer.tid, session.programmed)]
-            return [Ack(transfer.tid, session.programmed)]
+            return [self._progress(transfer, binary)]
         return []
+
+    @staticmethod
+    def _progress(transfer: Transfer, binary: bool) -> Message:
+        """The acknowledgement of the blocks programmed so far."""
+        programmed = transfer.session.programmed
+        return BlockAck.of(transfer.tid, programmed) if binary else Ack(transfer.tid, programmed)
 
     def _line(self, message: HexLine) -> list[Message]:
         transfer = self._text_transfer()
         try:
             record = decode_record(message.text)
         except HexError as error:
-            transfer.session.rewind()
-            return [Nak(transfer.tid, transfer.session.programmed, f"bad record: {error}")]
+            return [Nak(transfer.tid, transfer.session.received, f"bad record: {error}")]
         kind = record.type
         if kind is RecordType.DATA:
             return self._feed(transfer, transfer.base + record.address, record.data)
@@ -274,14 +280,16 @@ class Receiver:
                 transfer.locations.add(value)
             return []
         if not transfer.header_done:
-            _guard(session.feed_init, value)
-            transfer.header_done = transfer.relocations is None or (
-                len(transfer.locations) == transfer.relocations
-            )
-            if not transfer.header_done:
-                _guard(session.reset_pointers)
-                transfer.locations.clear()
-                return [Nak(transfer.tid, 0, "header incomplete: send it again")]
+            if not session.has_init:
+                _guard(session.feed_init, value)
+            announced, got = transfer.relocations, len(transfer.locations)
+            if announced is not None and got > announced:
+                raise TransferFailed(f"expected {announced} pointer records (BEGIN), got {got}")
+            if announced is not None and got < announced:
+                # The records that came stay: the sender sends the header again, and the lost
+                # records fill in.
+                return [Nak(transfer.tid, 0, f"header incomplete: {announced - got} missing")]
+            transfer.header_done = True
         # Also when the header comes again because our acknowledgement was lost.
         return [Ack(transfer.tid, session.programmed, "header")]
 
@@ -340,6 +348,10 @@ def _guard(action: Callable[..., object], *args: object) -> None:
     except (HexError, ValueError, RuntimeError) as error:
         raise TransferFailed(str(error)) from None
 
+
+ANSWERS = (Pong, Listing, Ack, BlockAck, Nak)
+"""What a node hears but never answers: on a shared line (`hexmigrate.links.shared`) it hears
+its own answers and other nodes', and two nodes that answered answers would talk forever."""
 
 _HANDLERS = {
     Ping: Receiver._ping,

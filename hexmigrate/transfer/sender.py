@@ -47,10 +47,19 @@ MODES = ("binary", "hex")
 # first frame and flow control; measured with benchmarks/migration.py: one block per message
 # caps CAN at 85% of its payload rate, two at 91%); acknowledgements stay per programmed block.
 BLOCKS_PER_DATA = 2
+# The fewest image bytes a binary DATA message carries when the line is noisy. A message is lost
+# whole if any of its bytes is, so on a line that loses 2% of its bytes a 2-block message (523
+# bytes) almost never arrives, while one of 32 bytes (45) does more often than not.
+MIN_PAYLOAD = 32
+RECORD_SIZE = 16  # data bytes per record line in hex mode
 
 
 class TransferError(RuntimeError):
     """The node refused, or stopped answering: the transfer did not happen."""
+
+
+class NoAnswer(TransferError):
+    """A request went unanswered through every retry."""
 
 
 class TransferInterrupted(TransferError):
@@ -112,6 +121,7 @@ class Sender:
         self.wire_bytes = 0
         self.retransmissions = 0
         self.acknowledged = 0
+        self.flight = window * FLASH_BLOCK_SIZE
 
     # Plain requests.
 
@@ -173,7 +183,7 @@ class Sender:
             self._send_blocks(image, tid, programmed, start)
             crc = zlib.crc32(image.relocate(load_base))
             self._request(End(tid, crc), Ack, tid, what="verified")
-            committed = self._request(Commit(tid), Ack, tid, what="installed")
+            committed = self._commit(tid)
         except LinkError as error:
             raise TransferInterrupted(
                 f"link failed during transfer {tid} after {self.acknowledged} bytes: {error}",
@@ -189,6 +199,16 @@ class Sender:
             retransmissions=self.retransmissions,
             wire_bytes=self.wire_bytes,
         )
+
+    def _commit(self, tid: int) -> Message:
+        """COMMIT, whose answer may be lost after the node acted on it: then say so."""
+        try:
+            return self._request(Commit(tid), Ack, tid, what="installed")
+        except NoAnswer as error:
+            raise NoAnswer(
+                f"{error}; the image was verified, so the node may have installed it: "
+                "list its modules to know"
+            ) from None
 
     def _send_header(self, image: ModuleImage, tid: int) -> None:
         if not self.text:
@@ -210,13 +230,15 @@ class Sender:
         raise TransferError(f"transfer {tid}: the node did not take the header")
 
     def _send_blocks(self, image: ModuleImage, tid: int, programmed: int, start: float) -> None:
-        """Go-back-N over the blocks, from `programmed` bytes on."""
+        """Go-back-N over the image, from `programmed` bytes on, with up to `flight` bytes
+        beyond what the node is known to hold: its acknowledged blocks, or the position a
+        refusal named (the node keeps the part of a block it received in order)."""
         total = image.size
-        acked = next_offset = self.acknowledged = programmed
+        acked = known = next_offset = self.acknowledged = programmed
         stale_nak = -1
         silent = 0
         while acked < total:
-            while next_offset < total and next_offset - acked < self.window * FLASH_BLOCK_SIZE:
+            while next_offset < total and next_offset - known < self.flight:
                 step = self._step(next_offset, total)
                 for message in self._messages(image, tid, next_offset, step):
                     self._send(message)
@@ -229,28 +251,60 @@ class Sender:
                         f"transfer {tid}: the node stopped answering at {acked} of {total} bytes"
                     )
                 self.retransmissions += 1
-                next_offset = acked
+                self._shrink()
+                next_offset = acked  # what we send again makes the node say where it stands
                 continue
             silent = 0
             self._check_fatal(reply)
-            if reply.value > acked:
+            if _is_repeat(reply):  # data sent again that the node had: skip what it holds
+                known = max(known, reply.value)
+                next_offset = max(next_offset, known)
+            elif reply.value > acked and not isinstance(reply, Nak):
                 acked = self.acknowledged = reply.value
+                known = max(known, acked)
                 stale_nak = -1
+                self._grow()
                 self._report(acked, total, start)
             if isinstance(reply, Nak) and reply.value != stale_nak:
                 stale_nak = reply.value  # the messages in flight will be refused alike
                 self.retransmissions += 1
-                next_offset = max(acked, reply.value)
+                self._shrink()
+                known = max(known, reply.value)
+                next_offset = known
 
     def _step(self, offset: int, total: int) -> int:
-        """How many bytes the message at image offset `offset` carries: `BLOCKS_PER_DATA`
-        blocks in binary mode, but single blocks at the end. The node programs a message's
-        blocks after the whole message arrived, so the blocks of the last message are the
-        wait between the last byte sent and the last acknowledgement; one block is the
-        shortest wait (measured with benchmarks/migration.py: 4 KiB over CAN from 84.6% to
-        88% of the wire's limit)."""
-        step = FLASH_BLOCK_SIZE * (1 if self.text else BLOCKS_PER_DATA)
-        return FLASH_BLOCK_SIZE if offset + step >= total else step
+        """How many bytes the message(s) at image offset `offset` carry: up to `flight`, and
+        up to BLOCKS_PER_DATA blocks in binary mode or to the end of the block in hex mode
+        (record lines, after one 04 record).
+
+        Binary messages are cut at a block boundary when they cross one, so that after a
+        refusal in mid-block they fall back in step with the blocks; and they carry single
+        blocks at the end. The node programs a message's blocks after the whole message
+        arrived, so the blocks of the last message are the wait between the last byte sent
+        and the last acknowledgement, and one block is the shortest wait (measured with
+        benchmarks/migration.py: 4 KiB over CAN from 84.6% to 85.1% of the wire's limit).
+        """
+        block_end = offset - offset % FLASH_BLOCK_SIZE + FLASH_BLOCK_SIZE
+        if self.text:
+            end = min(block_end, offset + self.flight)
+        else:
+            end = offset + min(self.flight, FLASH_BLOCK_SIZE * BLOCKS_PER_DATA)
+            if end >= total:
+                end = min(end, block_end)
+            elif end > block_end:
+                end -= end % FLASH_BLOCK_SIZE
+        return min(end, total) - offset
+
+    def _shrink(self) -> None:
+        """Data was lost or refused: allow half as many bytes in flight, and so smaller
+        messages (down to one record line in hex mode, MIN_PAYLOAD bytes in binary mode)."""
+        least = RECORD_SIZE if self.text else MIN_PAYLOAD
+        self.flight = max(least, self.flight // 2)
+
+    def _grow(self) -> None:
+        """Data was acknowledged: allow twice as many bytes in flight, up to `window` blocks.
+        Halving on loss and doubling on success finds what the line lets through."""
+        self.flight = min(self.window * FLASH_BLOCK_SIZE, self.flight * 2)
 
     def _messages(self, image: ModuleImage, tid: int, offset: int, step: int) -> Iterator[Message]:
         """The messages carrying the `step` bytes at image offset `offset`."""
@@ -264,11 +318,10 @@ class Sender:
                 RecordType.EXTENDED_LINEAR_ADDRESS, 0, (address >> 16).to_bytes(2, "big")
             ).encode()
         )
-        for position in range(0, len(chunk), 16):
+        for position in range(0, len(chunk), RECORD_SIZE):
             here = address + position
-            yield HexLine(
-                Record(RecordType.DATA, here & 0xFFFF, chunk[position : position + 16]).encode()
-            )
+            piece = chunk[position : position + RECORD_SIZE]
+            yield HexLine(Record(RecordType.DATA, here & 0xFFFF, piece).encode())
 
     def _report(self, acked: int, total: int, start: float) -> None:
         if self.progress is not None:
@@ -297,7 +350,11 @@ class Sender:
 
         An Ack must also start with `what`, the word that says what it acknowledges: a late
         acknowledgement of a data block must not pass for the acknowledgement of a commit.
+        Answers still waiting from before are dropped first: after a noisy data phase they
+        are many (refusals of damaged messages, acknowledgements of repeats), and each refusal
+        would count as a failed attempt of this request.
         """
+        self._drain()
         for attempt in range(self.retries + 1):
             if attempt:
                 self.retransmissions += 1
@@ -307,10 +364,15 @@ class Sender:
                 return reply
             if reply is not None:
                 self._check_fatal(reply)
-        raise TransferError(
+        raise NoAnswer(
             f"no answer to {type(message).__name__} after "
             f"{self.retries + 1} tries ({self.timeout} s each)"
         )
+
+    def _drain(self) -> None:
+        """Drop the answers that have already arrived."""
+        while self.link.receive(0.0) is not None:
+            pass
 
     def _await(
         self,
@@ -342,6 +404,11 @@ class Sender:
     def _check_fatal(reply: Message) -> None:
         if isinstance(reply, Nak) and reply.fatal:
             raise TransferError(f"the node refused: {reply.reason}")
+
+
+def _is_repeat(reply: Message) -> bool:
+    """An acknowledgement of data the node already held; its value is what it holds."""
+    return isinstance(reply, Ack) and reply.text == "repeat"
 
 
 def _concerns(reply: Message, tid: int) -> bool:
