@@ -26,6 +26,7 @@ ICARUS_SETS = [
 ]
 VERILATOR_SETS = [
     Fabric(2, data_w=16, cfg_w=2),
+    Fabric(4, data_w=12, cfg_w=4),
     Fabric(8, data_w=8, cfg_w=1),
 ]
 
