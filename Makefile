@@ -36,6 +36,7 @@ bench: tools $(INSTALLED)
 	$(PY) benchmarks/hex_codec.py
 	$(PY) benchmarks/scheduler.py
 	$(PY) benchmarks/migration.py
+	$(PY) benchmarks/decision.py
 
 clean:
 	rm -rf $(BUILD) .pytest_cache .ruff_cache .hypothesis
