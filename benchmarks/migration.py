@@ -9,23 +9,9 @@ Prints, for a module of 4 KiB and one of 64 KiB, each against a limit or a basel
   flash model in one process), against copying the same bytes through the same link without
   the protocol.
 
-Wire timing comes from a small discrete-event simulation in virtual time that drives the real
-`Sender`, `Receiver` and `Node`: nothing waits in real time.
-
-* Serial is full duplex: each direction is a `WireClock`; a message occupies exactly its framed
-  bytes (``framing.frame``: a text line and ``\\n``, a binary message as 0x00 COBS 0x00) times 10
-  bits, and arrives when its last stop bit does.
-* CAN is one bus shared by both directions: every ISO-TP frame (single frame; first frame with 6
-  message bytes; consecutive frames with 7; the receiver's flow control frame, blocksize 0 and
-  STmin 0; all padded to 8 bytes with 0xCC, as `CanLink` sets can-isotp up) takes the exact
-  stuffed bit count `can_frame_bits` gives for its identifier and data. When the bus falls idle
-  the ready frame with the lowest identifier wins (the host's 0x7E0 before the node's 0x7E8);
-  each side sends its frames in the order they became ready and its messages one at a time;
-  flow control is answered at once, by the CAN driver, even while the node programs flash.
-* The node handles a message when it has arrived and the node is no longer busy; it is busy for
-  the flash time each message costs (`Flash.busy_time` deltas: 2 ms per block programmed, 4 ms
-  per erase, the flash directory write of COMMIT included) and replies when that time is over.
-  The host and the node CPU take no virtual time.
+Wire timing comes from `firmware_sim.wire_sim`, a small discrete-event simulation in virtual
+time that drives the real `Sender`, `Receiver` and `Node` (its docstring says exactly what it
+models: 8N1 serial, CAN frames with their stuffed bits and arbitration, the node's flash time).
 
 The modules are random data with the compiled `gain` example at their start, so that the node's
 COMMIT, which runs the module's init subroutine, succeeds: its descriptor's pointers and 4 more
@@ -37,56 +23,41 @@ words in the random part are the relocations, its init is the module's init.
 from __future__ import annotations
 
 import argparse
-import heapq
-import itertools
 import random
 import tempfile
 import time
-from collections import Counter, deque
+from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
-from functools import cache
 from pathlib import Path
 
 from firmware_sim.node import Node
 from firmware_sim.sdk.build import EXAMPLES_DIR, build_module
 from firmware_sim.server import NodeTarget
-from firmware_sim.wire import (
-    CAN_MAX_DATA,
-    UART_BITS_PER_BYTE,
-    WireClock,
-    can_frame_bits,
-    can_frame_bits_worst,
-    uart_byte_rate,
+from firmware_sim.wire import CAN_MAX_DATA, UART_BITS_PER_BYTE, can_frame_bits_worst, uart_byte_rate
+from firmware_sim.wire_sim.link import DEFAULT_BAUDRATE
+from firmware_sim.wire_sim.ports import ISOTP_CF_DATA
+from firmware_sim.wire_sim.transfer import (
+    DEFAULT_WINDOW,
+    HEX_LINE_CHARS,
+    HEX_PAYLOAD_PER_CHAR,
+    RECORD_SIZE,
+    WireRun,
+    can_limit,
+    run_transfer,
 )
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
 from hexmigrate.links.base import message_problem
-from hexmigrate.links.can import DEFAULT_BITRATE, DEFAULT_PADDING, HOST_IDS
+from hexmigrate.links.can import DEFAULT_BITRATE
 from hexmigrate.links.framing import Deframer, frame
-from hexmigrate.transfer.messages import Ack, BlockAck, HexLine, decode
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 
-BAUDRATE = 115_200
+BAUDRATE = DEFAULT_BAUDRATE  # 115200 8N1
 CAN_BITRATE = DEFAULT_BITRATE  # 500 kbit/s
-HOST_ID, NODE_ID = HOST_IDS  # 0x7E0 (host -> node) and 0x7E8 (node -> host)
-DEFAULT_WINDOW = 4
 TID = 0x2468_ACE1  # fixed, so that every run puts the same bytes on the wire
 SIZES = (4 * 1024, 64 * 1024)
 EXTRA_RELOCATIONS = 4
-
-RECORD_SIZE = 16
-# One 16-byte data record line: ':' count(2) address(4) type(2) data(32) checksum(2) '\n'.
-HEX_LINE_CHARS = 1 + 2 + 4 + 2 + 2 * RECORD_SIZE + 2 + 1
-HEX_PAYLOAD_PER_CHAR = RECORD_SIZE / HEX_LINE_CHARS  # 16/44 = 0.364
-
-ISOTP_SF_DATA = 7
-ISOTP_FF_DATA = 6
-ISOTP_CF_DATA = 7
-ISOTP_MAX_SHORT = 4095  # longer messages need the escape sequence, which no message here needs
-FLOW_CONTROL = bytes([0x30, 0x00, 0x00])  # clear to send, blocksize 0, STmin 0
-
 GOALS = {"serial binary": 0.85, "serial hex": 0.90, "CAN binary": 0.85}
 STACK_GOAL = 1e6  # bytes per second
 WIRES = (("serial", "binary"), ("serial", "hex"), ("CAN", "binary"))
@@ -112,406 +83,6 @@ def random_module(code: ModuleImage, size: int, seed: int = 1) -> ModuleImage:
     words = rng.sample(range(first_word, size // 4), EXTRA_RELOCATIONS)
     relocations = code.relocations + tuple(code.link_base + 4 * word for word in words)
     return ModuleImage(f"random{size // 1024}k", code.link_base, data, relocations, code.init)
-
-
-# The discrete-event simulation.
-
-
-@dataclass(order=True)
-class _Unit:
-    """What goes on a wire in one piece: a framed serial message or one CAN frame."""
-
-    ready: float
-    sequence: int
-    bits: int
-    arrive: Callable[[float], None]
-
-
-_SEQUENCE = itertools.count()
-
-
-class Transmitter:
-    """One side's transmit queue on a bus: its units go out in the order they became ready."""
-
-    def __init__(self, bus: Bus, priority: int) -> None:
-        self.priority = priority
-        self.queue: list[_Unit] = []
-        bus.transmitters.append(self)
-
-    def put(self, ready: float, bits: int, arrive: Callable[[float], None]) -> None:
-        """Queue `bits` from virtual time `ready`; `arrive(end)` runs when the last bit is in."""
-        heapq.heappush(self.queue, _Unit(ready, next(_SEQUENCE), bits, arrive))
-
-
-class Bus:
-    """A wire in virtual time with its transmitters: a serial direction (one transmitter) or a
-    CAN bus (one per side, the lowest identifier wins arbitration when the bus falls idle)."""
-
-    def __init__(self, bitrate: float) -> None:
-        self.clock = WireClock(bitrate)
-        self.transmitters: list[Transmitter] = []
-
-    def next_start(self) -> float | None:
-        """When the next unit starts, or None when nothing is queued."""
-        heads = [t.queue[0].ready for t in self.transmitters if t.queue]
-        return max(self.clock.free_at, min(heads)) if heads else None
-
-    def transmit(self) -> None:
-        """Put the next unit on the wire and deliver it at its end."""
-        start = self.next_start()
-        assert start is not None
-        ready = [t for t in self.transmitters if t.queue and t.queue[0].ready <= start]
-        unit = heapq.heappop(min(ready, key=lambda t: t.priority).queue)
-        unit.arrive(self.clock.deliver(unit.bits, start))
-
-
-class Simulation:
-    """Virtual time: the buses, and `now`, the host's clock.
-
-    Units are processed in the order they start; what a unit causes (a reply, a flow control
-    frame, the next consecutive frame) is ready no earlier than its end, so it cannot change
-    the arbitration of a unit that started before. The host acts at `now`, never before a unit
-    already processed started, so its sends keep the order too.
-    """
-
-    def __init__(self) -> None:
-        self.now = 0.0
-        self.buses: list[Bus] = []
-
-    def bus(self, bitrate: float) -> Bus:
-        """A new bus in this simulation."""
-        bus = Bus(bitrate)
-        self.buses.append(bus)
-        return bus
-
-    def step(self, limit: float) -> bool:
-        """Transmit the next unit that starts by `limit`; False when there is none."""
-        starts = [(start, bus) for bus in self.buses if (start := bus.next_start()) is not None]
-        if not starts:
-            return False
-        start, bus = min(starts, key=lambda pair: pair[0])
-        if start > limit:
-            return False
-        bus.transmit()
-        return True
-
-
-Deliver = Callable[[bytes, float], None]
-
-
-class WireStats:
-    """What one side put on the wire: units and bits per (message kind, frame kind)."""
-
-    def __init__(self) -> None:
-        self.units: Counter[tuple[str, str]] = Counter()
-        self.bits: Counter[tuple[str, str]] = Counter()
-
-    def add(self, message_kind: str, unit_kind: str, bits: int) -> None:
-        self.units[message_kind, unit_kind] += 1
-        self.bits[message_kind, unit_kind] += bits
-
-    def total_bits(self) -> int:
-        return sum(self.bits.values())
-
-
-def message_kind(raw: bytes) -> str:
-    """A short name for a protocol message, to account wire use by kind."""
-    message = decode(raw)
-    if isinstance(message, HexLine):
-        record_type = raw[7:9].decode("ascii")
-        return {"00": "data record", "04": "04 record"}.get(record_type, "pointer record")
-    if isinstance(message, BlockAck):
-        return "ACK block"
-    if isinstance(message, Ack):
-        word = message.text.split(" ", 1)[0]
-        return f"ACK {word}" if word else "ACK block"
-    return type(message).__name__.upper()
-
-
-class SerialPort:
-    """One side's transmit half of a UART: a message is its framed bytes, 10 bits each."""
-
-    def __init__(self, transmitter: Transmitter) -> None:
-        self.transmitter = transmitter
-        self.peer: SerialPort | None = None
-        self.on_receive: Deliver = lambda message, at: None
-        self.stats = WireStats()
-
-    def send(self, message: bytes, at: float) -> None:
-        wire = frame(message)
-        bits = len(wire) * UART_BITS_PER_BYTE
-        self.stats.add(message_kind(message), "bytes", bits)
-        self.transmitter.put(at, bits, lambda end: self._arrived(message, end))
-
-    def _arrived(self, message: bytes, end: float) -> None:
-        assert self.peer is not None
-        self.peer.on_receive(message, end)
-
-
-def _padded(data: bytes) -> bytes:
-    return data + bytes([DEFAULT_PADDING]) * (CAN_MAX_DATA - len(data))
-
-
-def isotp_frames(message: bytes) -> list[bytes]:
-    """The CAN data of the frames that carry `message` (normal 11-bit addressing, padded)."""
-    size = len(message)
-    if not 0 < size <= ISOTP_MAX_SHORT:
-        raise ValueError(f"expected 1 to {ISOTP_MAX_SHORT} bytes in a message, got {size}")
-    if size <= ISOTP_SF_DATA:
-        return [_padded(bytes([size]) + message)]
-    frames = [bytes([0x10 | size >> 8, size & 0xFF]) + message[:ISOTP_FF_DATA]]
-    positions = range(ISOTP_FF_DATA, size, ISOTP_CF_DATA)
-    for number, position in enumerate(positions, start=1):
-        chunk = message[position : position + ISOTP_CF_DATA]
-        frames.append(_padded(bytes([0x20 | number & 0x0F]) + chunk))
-    return frames
-
-
-@cache
-def frame_bits(arbitration_id: int, data: bytes) -> int:
-    """`can_frame_bits`, remembered: the same frames recur from one run to the next."""
-    return can_frame_bits(arbitration_id, data)
-
-
-class IsoTpPort:
-    """One side of an ISO-TP connection on a CAN bus: sends its messages one at a time, a first
-    frame waiting for the peer's flow control, then the consecutive frames back to back."""
-
-    def __init__(self, transmitter: Transmitter, arbitration_id: int) -> None:
-        self.transmitter = transmitter
-        self.arbitration_id = arbitration_id
-        self.peer: IsoTpPort | None = None
-        self.on_receive: Deliver = lambda message, at: None
-        self.stats = WireStats()
-        self._pending: deque[tuple[float, bytes]] = deque()
-        self._sending = False
-
-    def send(self, message: bytes, at: float) -> None:
-        self._pending.append((at, message))
-        if not self._sending:
-            self._next(at)
-
-    def _put(self, ready: float, data: bytes, kinds: tuple[str, str], arrive: Callable) -> None:
-        bits = frame_bits(self.arbitration_id, data)
-        self.stats.add(*kinds, bits)
-        self.transmitter.put(ready, bits, arrive)
-
-    def _next(self, at: float) -> None:
-        """Start the next pending message, not before `at`."""
-        if not self._pending:
-            self._sending = False
-            return
-        self._sending = True
-        ready, message = self._pending.popleft()
-        ready = max(ready, at)
-        frames = isotp_frames(message)
-        kind = message_kind(message)
-        if len(frames) == 1:
-            self._put(ready, frames[0], (kind, "SF"), lambda end: self._done(message, end))
-            return
-
-        def first_arrived(end: float) -> None:
-            assert self.peer is not None
-            self.peer.flow_control(
-                end, kind, lambda t: self._consecutive(message, kind, frames, 1, t)
-            )
-
-        self._put(ready, frames[0], (kind, "FF"), first_arrived)
-
-    def flow_control(self, at: float, kind: str, arrive: Callable[[float], None]) -> None:
-        """Answer the first frame of a `kind` message that arrived at `at` (the driver does, at
-        once)."""
-        self._put(at, _padded(FLOW_CONTROL), (kind, "FC"), arrive)
-
-    def _consecutive(
-        self, message: bytes, kind: str, frames: list[bytes], index: int, at: float
-    ) -> None:
-        last = index == len(frames) - 1
-
-        def arrived(end: float) -> None:
-            if last:
-                self._done(message, end)
-            else:
-                self._consecutive(message, kind, frames, index + 1, end)
-
-        self._put(at, frames[index], (kind, "CF"), arrived)
-
-    def _done(self, message: bytes, end: float) -> None:
-        assert self.peer is not None
-        self.peer.on_receive(message, end)
-        self._next(end)
-
-
-Port = SerialPort | IsoTpPort
-
-
-class SimulatedLink:
-    """The host's `Link` into the simulation: `send` queues at `now`, `receive(timeout)` moves
-    virtual time on to the next reply's arrival (or by `timeout` when none comes).
-
-    The Sender computes its deadlines with `time.monotonic`, so the timeout it passes is its full
-    timeout less the microseconds its own code took: a timeout in virtual time can only come
-    from the simulated wire, and would show as `timeouts` and retransmissions in the results.
-    """
-
-    url = "sim://"
-
-    def __init__(self, simulation: Simulation, port: Port) -> None:
-        self.simulation = simulation
-        self.port = port
-        self.inbox: deque[tuple[float, bytes]] = deque()
-        self.received: list[tuple[float, bytes]] = []
-        self.timeouts = 0
-        port.on_receive = self._arrive
-
-    def _arrive(self, message: bytes, at: float) -> None:
-        self.inbox.append((at, message))
-
-    def send(self, message: bytes) -> None:
-        problem = message_problem(message)
-        if problem is not None:
-            raise ValueError(problem)
-        self.port.send(message, self.simulation.now)
-
-    def receive(self, timeout: float) -> bytes | None:
-        simulation = self.simulation
-        deadline = simulation.now + timeout
-        while not self.inbox and simulation.step(deadline):
-            pass
-        if self.inbox and self.inbox[0][0] <= deadline:
-            at, message = self.inbox.popleft()
-            simulation.now = max(simulation.now, at)
-            self.received.append((simulation.now, message))
-            return message
-        simulation.now = deadline
-        self.timeouts += timeout > 0  # a look with no wait (the sender drains) is no timeout
-        return None
-
-    def close(self) -> None:
-        self.inbox.clear()
-
-
-class NodeEnd:
-    """The node's side: a message is handled once it arrived and the node is free; the replies
-    leave when the flash time the message cost is over."""
-
-    def __init__(self, node: Node, port: Port) -> None:
-        self.receiver = Receiver(NodeTarget(node))
-        self.flash = node.flash
-        self.port = port
-        self.busy_until = 0.0
-        port.on_receive = self.arrive
-
-    def arrive(self, message: bytes, at: float) -> None:
-        start = max(at, self.busy_until)
-        before = self.flash.busy_time
-        replies = self.receiver.handle(message)
-        self.busy_until = start + self.flash.busy_time - before
-        for reply in replies:
-            self.port.send(reply, self.busy_until)
-
-
-def connect(simulation: Simulation, wire: str) -> tuple[Port, Port]:
-    """The host's and the node's ports on a new wire: "serial" or "CAN"."""
-    if wire == "serial":
-        up, down = simulation.bus(BAUDRATE), simulation.bus(BAUDRATE)
-        host, node = SerialPort(Transmitter(up, 0)), SerialPort(Transmitter(down, 0))
-    elif wire == "CAN":
-        bus = simulation.bus(CAN_BITRATE)
-        host = IsoTpPort(Transmitter(bus, HOST_ID), HOST_ID)
-        node = IsoTpPort(Transmitter(bus, NODE_ID), NODE_ID)
-    else:
-        raise ValueError(f"expected a wire serial or CAN, got {wire!r}")
-    host.peer, node.peer = node, host
-    return host, node
-
-
-@dataclass(frozen=True)
-class WireRun:
-    """One committed transfer in virtual time."""
-
-    wire: str
-    mode: str
-    window: int
-    size: int
-    seconds: float
-    header_at: float  # when the ACK of the header arrived: BEGIN and header round trips
-    data_at: float  # when the ACK of the last block arrived
-    retransmissions: int
-    timeouts: int
-    host: WireStats
-    node: WireStats
-
-    @property
-    def name(self) -> str:
-        return f"{self.wire} {self.mode}"
-
-    @property
-    def blocks(self) -> int:
-        return -(-self.size // FLASH_BLOCK_SIZE)
-
-    @property
-    def throughput(self) -> float:
-        """Image bytes per second of virtual time, BEGIN to the ACK of COMMIT."""
-        return self.size / self.seconds
-
-    @property
-    def cf_bits(self) -> float:
-        """Mean exact bits of the host's consecutive frames (CAN only)."""
-        frames = sum(n for (_, unit), n in self.host.units.items() if unit == "CF")
-        bits = sum(b for (_, unit), b in self.host.bits.items() if unit == "CF")
-        return bits / frames
-
-    @property
-    def limit(self) -> float:
-        """Payload bytes per second the wire allows in this mode."""
-        if self.wire == "CAN":
-            return can_limit(self.cf_bits)
-        rate = uart_byte_rate(BAUDRATE)
-        return rate * HEX_PAYLOAD_PER_CHAR if self.mode == "hex" else rate
-
-    @property
-    def efficiency(self) -> float:
-        return self.throughput / self.limit
-
-
-def can_limit(bits_per_frame: float) -> float:
-    """ISO-TP payload bytes per second at `bits_per_frame` per consecutive frame."""
-    return ISOTP_CF_DATA * CAN_BITRATE / bits_per_frame
-
-
-def run_transfer(image: ModuleImage, wire: str, mode: str, window: int) -> WireRun:
-    """Send and commit `image` to a fresh node over a simulated `wire`, in virtual time."""
-    simulation = Simulation()
-    host_port, node_port = connect(simulation, wire)
-    with Node() as node:
-        NodeEnd(node, node_port)
-        link = SimulatedLink(simulation, host_port)
-        result = Sender(link, mode, window=window).send(image, tid=TID)
-        load = node.modules[result.name].load_address
-        if node.flash.read(load, image.size) != image.relocate(load):
-            raise AssertionError(f"{wire} {mode}: the flash does not hold the relocated image")
-    acks = [(at, decode(raw)) for at, raw in link.received]
-    header_at = next(at for at, ack in acks if isinstance(ack, Ack) and ack.text == "header")
-    data_at = max(at for at, ack in acks if _acknowledges_data(ack))
-    return WireRun(
-        wire,
-        mode,
-        window,
-        image.size,
-        simulation.now,
-        header_at,
-        data_at,
-        result.retransmissions,
-        link.timeouts,
-        host_port.stats,
-        node_port.stats,
-    )
-
-
-def _acknowledges_data(reply: object) -> bool:
-    """Whether `reply` acknowledges programmed blocks (binary `BlockAck`, hex ``ACK tid n``)."""
-    return isinstance(reply, BlockAck) or (isinstance(reply, Ack) and reply.text == "")
 
 
 # The stack without a bit-rate limit.
@@ -718,7 +289,9 @@ def main() -> None:
         "4 ms per erase; the real Sender, Receiver and Node"
     )
     runs = [
-        run_transfer(image, wire, mode, DEFAULT_WINDOW) for image in images for wire, mode in WIRES
+        run_transfer(image, wire, mode, DEFAULT_WINDOW, tid=TID)
+        for image in images
+        for wire, mode in WIRES
     ]
     print_limits(runs)
     print()
@@ -751,7 +324,7 @@ def main() -> None:
                 print_run(
                     run
                     if window == DEFAULT_WINDOW
-                    else run_transfer(image, run.wire, run.mode, window)
+                    else run_transfer(image, run.wire, run.mode, window, tid=TID)
                 )
 
     print()

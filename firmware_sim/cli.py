@@ -2,6 +2,7 @@
 
     firmware-sim run --module gain.hex[@0x08001000] --native signal --wire signal.y=gain.x
                      --set gain.k=0x20000 --rate gain=200 --seconds 1 [--json]
+    firmware-sim transfer gain.hex --wire serial|CAN [--rate N] [--mode binary|hex] [--json]
     firmware-sim info [--json]
 
 Errors print ``error: ...`` and exit 1; usage errors exit 2; ``--debug`` shows the traceback.
@@ -32,7 +33,11 @@ from firmware_sim.node import Node
 from firmware_sim.services import DESCRIPTIONS, Service
 from firmware_sim.settings import number
 from firmware_sim.sram import OutOfSramError
+from firmware_sim.wire_sim.link import WIRES
+from firmware_sim.wire_sim.transfer import DEFAULT_WINDOW, run_transfer
 from hexmigrate.errors import HexError
+from hexmigrate.image import ModuleImage
+from hexmigrate.transfer.sender import MODES, TransferError
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
 from pbort.native import NativeModule
@@ -46,6 +51,7 @@ FAILURES = (
     FlashError,
     FlashFullError,
     OutOfSramError,
+    TransferError,
     OSError,
     ValueError,
 )
@@ -250,6 +256,46 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_transfer(args: argparse.Namespace) -> int:
+    """Send a module to a fresh node over a wire simulated in virtual time (firmware_sim.wire_sim)
+    and report how long it took against what the wire allows."""
+    image = ModuleImage.read(args.file)
+    run = run_transfer(image, args.wire, args.mode, args.window, rate=args.rate)
+    report = {
+        "module": image.name,
+        "bytes": run.size,
+        "wire": run.wire,
+        "rate": run.rate,
+        "mode": run.mode,
+        "window": run.window,
+        "seconds": run.seconds,
+        "throughput": run.throughput,
+        "limit": run.limit,
+        "of_limit": run.efficiency,
+        "setup_seconds": run.header_at,
+        "data_seconds": run.data_at - run.header_at,
+        "finish_seconds": run.seconds - run.data_at,
+        "retransmissions": run.retransmissions,
+    }
+    if args.json:
+        print(json.dumps(report, indent=2))
+        return 0
+    unit = "baud 8N1" if run.wire == "serial" else "bit/s"
+    print(
+        f"{image.name}: {run.size} B over {run.wire} at {run.rate:g} {unit}, {run.mode} mode, "
+        f"window {run.window}"
+    )
+    print(
+        f"  {run.seconds:.3f} s of virtual time (setup {run.header_at * 1e3:.1f} ms, data "
+        f"{run.data_at - run.header_at:.3f} s, finish {(run.seconds - run.data_at) * 1e3:.1f} ms)"
+    )
+    print(
+        f"  {run.throughput:,.0f} B/s = {100 * run.efficiency:.1f}% of the {run.limit:,.0f} B/s "
+        f"the wire allows in this mode; {run.retransmissions} retransmissions"
+    )
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of `firmware-sim`."""
     parser = argparse.ArgumentParser(
@@ -307,6 +353,25 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("--json", action="store_true", help="print the report as JSON")
     run.set_defaults(func=cmd_run)
+
+    transfer = commands.add_parser(
+        "transfer",
+        help="send a module to a node over a serial or CAN wire simulated at its bit rate",
+    )
+    transfer.add_argument("file", type=Path, metavar="FILE.hex", help="the module file")
+    transfer.add_argument("--wire", choices=WIRES, default="serial", help="default serial")
+    transfer.add_argument(
+        "--rate",
+        type=float,
+        metavar="N",
+        help="baud (serial, 8N1; default 115200) or bit/s (CAN; default 500000)",
+    )
+    transfer.add_argument("--mode", choices=MODES, default="binary", help="default binary")
+    transfer.add_argument(
+        "--window", type=int, default=DEFAULT_WINDOW, help="blocks in flight (default 4)"
+    )
+    transfer.add_argument("--json", action="store_true", help="print the figures as JSON")
+    transfer.set_defaults(func=cmd_transfer)
 
     info = commands.add_parser("info", help="print the memory map and the service table")
     info.add_argument("--json", action="store_true")

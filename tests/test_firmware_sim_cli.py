@@ -132,3 +132,26 @@ def test_info_lists_the_memory_map_and_services():
     ]
     assert [s["number"] for s in info["services"]] == [1, 2, 3, 4, 5, 6]
     assert "PERF_REPORT" in run("info").stdout
+
+
+def test_transfer_reports_virtual_time_against_the_wire_limit(hex_files, example_builds):
+    serial = json.loads(run("transfer", hex_files["gain"], "--json").stdout)
+    slow = json.loads(run("transfer", hex_files["gain"], "--rate", 9600, "--json").stdout)
+    can = json.loads(run("transfer", hex_files["gain"], "--wire", "CAN", "--json").stdout)
+    size = image_from_elf(example_builds["gain"].elf).size
+    assert serial["bytes"] == slow["bytes"] == can["bytes"] == size
+    assert serial["limit"] == 11520 and slow["limit"] == 960
+    # Twelve times fewer bits per second, about twelve times longer (fixed flash time aside).
+    assert 10 < slow["seconds"] / serial["seconds"] < 12.5
+    for figures in (serial, slow, can):
+        assert 0.5 < figures["of_limit"] < 1 and figures["retransmissions"] == 0
+        parts = figures["setup_seconds"] + figures["data_seconds"] + figures["finish_seconds"]
+        assert parts == pytest.approx(figures["seconds"])
+    text = run("transfer", hex_files["gain"], "--wire", "CAN", "--mode", "binary").stdout
+    assert "over CAN at 500000 bit/s" in text and "% of the" in text
+
+
+def test_transfer_of_a_missing_file_is_one_error_line(tmp_path):
+    result = run("transfer", tmp_path / "none.hex")
+    assert result.returncode == 1
+    assert result.stderr.strip() == f"error: {tmp_path / 'none.hex'}: No such file or directory"

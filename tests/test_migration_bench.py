@@ -1,5 +1,5 @@
-"""benchmarks/migration.py's core on a small module: the virtual-time wires, the accounting of
-every byte and frame, and the invariants its figures rest on."""
+"""The virtual-time wires (firmware_sim.wire_sim) and benchmarks/migration.py on a small module:
+the accounting of every byte and frame, and the invariants the figures rest on."""
 
 from __future__ import annotations
 
@@ -11,6 +11,10 @@ from types import ModuleType
 import pytest
 
 from firmware_sim.wire import can_frame_bits, can_frame_bits_worst
+from firmware_sim.wire_sim.events import Simulation, Transmitter
+from firmware_sim.wire_sim.link import HOST_ID, SimulatedLink, connect
+from firmware_sim.wire_sim.ports import isotp_frames
+from firmware_sim.wire_sim.transfer import DEFAULT_WINDOW, HEX_LINE_CHARS, run_transfer
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
 from hexmigrate.links.framing import frame
@@ -41,7 +45,7 @@ def image(example_builds) -> ModuleImage:
 @pytest.fixture(scope="module")
 def runs(image) -> dict[str, object]:
     return {
-        f"{wire} {mode}": bench.run_transfer(image, wire, mode, bench.DEFAULT_WINDOW)
+        f"{wire} {mode}": run_transfer(image, wire, mode, DEFAULT_WINDOW, tid=bench.TID)
         for wire, mode in bench.WIRES
     }
 
@@ -75,7 +79,7 @@ def test_the_module_is_random_data_around_real_code(image, example_builds):
 def test_isotp_frames_carry_the_message(size):
     message = bytes(range(256)) * 16
     message = message[:size]
-    frames = bench.isotp_frames(message)
+    frames = isotp_frames(message)
     assert all(len(data) == 8 for data in frames)
     if size <= 7:
         assert len(frames) == 1 and frames[0][0] == size
@@ -91,9 +95,9 @@ def test_isotp_frames_carry_the_message(size):
 
 
 def test_the_idle_bus_goes_to_the_lowest_identifier():
-    simulation = bench.Simulation()
+    simulation = Simulation()
     bus = simulation.bus(500_000)
-    node, host = bench.Transmitter(bus, 0x7E8), bench.Transmitter(bus, 0x7E0)
+    node, host = Transmitter(bus, 0x7E8), Transmitter(bus, 0x7E0)
     order = []
     node.put(0.0, 100, lambda end: order.append(("node", end)))
     host.put(0.0, 100, lambda end: order.append(("host", end)))
@@ -104,9 +108,9 @@ def test_the_idle_bus_goes_to_the_lowest_identifier():
 
 
 def test_receive_waits_in_virtual_time():
-    simulation = bench.Simulation()
-    host, _ = bench.connect(simulation, "serial")
-    link = bench.SimulatedLink(simulation, host)
+    simulation = Simulation()
+    host, _ = connect(simulation, "serial")
+    link = SimulatedLink(simulation, host)
     assert link.receive(0.5) is None
     assert simulation.now == 0.5
     assert link.timeouts == 1
@@ -135,19 +139,17 @@ def test_the_serial_wire_carries_exactly_the_framed_bytes(image, runs):
     expected = sum(len(frame(raw)) for raw in data_messages(image))
     assert runs["serial binary"].host.bits["DATA", "bytes"] == 10 * expected
     hex_run = runs["serial hex"]
-    assert hex_run.host.bits["data record", "bytes"] == 10 * (SMALL // 16) * bench.HEX_LINE_CHARS
+    assert hex_run.host.bits["data record", "bytes"] == 10 * (SMALL // 16) * HEX_LINE_CHARS
     assert hex_run.host.bits["04 record", "bytes"] == 10 * hex_run.blocks * 16
 
 
 def test_the_can_bus_carries_exactly_the_isotp_frames(image, runs):
     run = runs["CAN binary"]
-    frames = [bench.isotp_frames(raw) for raw in data_messages(image)]
+    frames = [isotp_frames(raw) for raw in data_messages(image)]
     consecutive = [data for message in frames for data in message[1:]]
     assert run.host.units["DATA", "FF"] == len(frames) == run.node.units["DATA", "FC"]
     assert run.host.units["DATA", "CF"] == len(consecutive)
-    assert run.host.bits["DATA", "CF"] == sum(
-        can_frame_bits(bench.HOST_ID, data) for data in consecutive
-    )
+    assert run.host.bits["DATA", "CF"] == sum(can_frame_bits(HOST_ID, data) for data in consecutive)
     # One cumulative acknowledgement per DATA message, once its blocks are programmed: the
     # 7-byte BlockAck is a single frame, no flow control.
     assert run.node.units["ACK block", "SF"] == len(frames)
@@ -155,7 +157,7 @@ def test_the_can_bus_carries_exactly_the_isotp_frames(image, runs):
 
 
 def test_a_window_of_one_waits_for_each_acknowledgement(image, runs):
-    single = bench.run_transfer(image, "serial", "binary", 1)
+    single = run_transfer(image, "serial", "binary", 1, tid=bench.TID)
     assert single.seconds > runs["serial binary"].seconds
     assert single.efficiency < runs["serial binary"].efficiency
 
