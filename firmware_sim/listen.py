@@ -37,6 +37,17 @@ def _say(text: str) -> None:
     print(text, flush=True)
 
 
+def node_side(url: str) -> str:
+    """`url` with ``role=node`` on a CAN link (bare or inside ``faulty+``) that names no role:
+    a listening node takes the node's identifiers, as a user expects without saying so."""
+    prefix = "faulty+" if url.startswith("faulty+") else ""
+    inner, hash_, fragment = url[len(prefix) :].partition("#")
+    if not inner.startswith("can://") or "role=" in inner:
+        return url
+    joiner = "&" if "?" in inner else "?"
+    return f"{prefix}{inner}{joiner}role=node{hash_}{fragment}"
+
+
 def _open(url: str) -> Link:
     """The node's end of the link; `pty` opens a new pty pair and prints the far end's path."""
     if url == PTY:
@@ -45,7 +56,7 @@ def _open(url: str) -> Link:
         pair = PtyPair.open()
         _say(f"listening on {pair.path} (connect with: hexmigrate send FILE.hex --to {pair.path})")
         return pair.link
-    link = open_link(url, role="node") if url.startswith("can://") else open_link(url)
+    link = open_link(node_side(url))
     server = _tcp_server(link)
     if server is None:
         _say(f"listening on {url}")
