@@ -39,7 +39,7 @@ from pbort.errors import (
 from pbort.lifecycle import REMOVABLE, State, require
 from pbort.pbo import RegisteredPBO
 from pbort.performance import PerformanceBuffer
-from pbort.ports import PortValue
+from pbort.ports import PortSpec, PortValue
 from pbort.scheduler import Scheduler
 from pbort.shadow import ShadowRun
 from pbort.stats import Stats
@@ -215,6 +215,11 @@ class Kernel:
         """The live value of a port: an output's variable, what an input reads, or a constant."""
         pbo, name = self._port(port)
         return pbo.value(name)
+
+    def spec(self, port: str) -> PortSpec:
+        """The type and shape of a port (``"pbo.port"``): what another node needs to carry it."""
+        pbo, name = self._port(port)
+        return pbo.spec(name)
 
     def connections(self) -> list[tuple[str, str]]:
         """Every (source, sink) pair of the live wiring."""

@@ -15,7 +15,8 @@ from hexmigrate.transfer.messages import Ack, BlockAck, HexLine, decode
 ISOTP_SF_DATA = 7
 ISOTP_FF_DATA = 6
 ISOTP_CF_DATA = 7
-ISOTP_MAX_SHORT = 4095  # longer messages need the escape sequence, which no message here needs
+ISOTP_MAX_SHORT = 4095  # longer messages need the escape sequence of ISO 15765-2:2016
+ISOTP_MAX_LONG = 0xFFFF_FFFF
 FLOW_CONTROL = bytes([0x30, 0x00, 0x00])  # clear to send, blocksize 0, STmin 0
 
 Deliver = Callable[[bytes, float], None]
@@ -75,15 +76,27 @@ def _padded(data: bytes) -> bytes:
     return data + bytes([DEFAULT_PADDING]) * (CAN_MAX_DATA - len(data))
 
 
+FLOW_CONTROL_FRAME = _padded(FLOW_CONTROL)
+"""The CAN data of the receiver's flow control frame, as can-isotp pads it."""
+
+
 def isotp_frames(message: bytes) -> list[bytes]:
-    """The CAN data of the frames that carry `message` (normal 11-bit addressing, padded)."""
+    """The CAN data of the frames that carry `message` (normal 11-bit addressing, padded).
+
+    Up to 4095 bytes the first frame gives the length in 12 bits; longer messages (an image
+    frame carried between robots) use ISO 15765-2:2016's escape: a zero length, then 32 bits.
+    """
     size = len(message)
-    if not 0 < size <= ISOTP_MAX_SHORT:
-        raise ValueError(f"expected 1 to {ISOTP_MAX_SHORT} bytes in a message, got {size}")
+    if not 0 < size <= ISOTP_MAX_LONG:
+        raise ValueError(f"expected 1 to {ISOTP_MAX_LONG} bytes in a message, got {size}")
     if size <= ISOTP_SF_DATA:
         return [_padded(bytes([size]) + message)]
-    frames = [bytes([0x10 | size >> 8, size & 0xFF]) + message[:ISOTP_FF_DATA]]
-    positions = range(ISOTP_FF_DATA, size, ISOTP_CF_DATA)
+    if size <= ISOTP_MAX_SHORT:
+        header, first = bytes([0x10 | size >> 8, size & 0xFF]), ISOTP_FF_DATA
+    else:
+        header, first = bytes([0x10, 0x00]) + size.to_bytes(4, "big"), ISOTP_FF_DATA - 4
+    frames = [header + message[:first]]
+    positions = range(first, size, ISOTP_CF_DATA)
     for number, position in enumerate(positions, start=1):
         chunk = message[position : position + ISOTP_CF_DATA]
         frames.append(_padded(bytes([0x20 | number & 0x0F]) + chunk))
@@ -144,7 +157,7 @@ class IsoTpPort:
     def flow_control(self, at: float, kind: str, arrive: Callable[[float], None]) -> None:
         """Answer the first frame of a `kind` message that arrived at `at` (the driver does, at
         once)."""
-        self._put(at, _padded(FLOW_CONTROL), (kind, "FC"), arrive)
+        self._put(at, FLOW_CONTROL_FRAME, (kind, "FC"), arrive)
 
     def _consecutive(
         self, message: bytes, kind: str, frames: list[bytes], index: int, at: float
