@@ -3,14 +3,19 @@
 Each robot is a `firmware_sim.node.Node`. Migration sends the module image with hexmigrate's
 `Sender` to the node's `Receiver` (through `NodeTarget`, as `hexmigrate send` does over a serial or
 CAN link); the node writes it to flash block by block, fixes its pointers and registers it. Start
-and stop go through the node (which keeps its power model current) and its pbort kernel; wiring is
-the kernel's. A connection between two nodes is refused: the kernel wires ports within one node.
+and stop go through the node (which keeps its power model current) and its pbort kernel; wiring
+within a node is the kernel's. A connection between two robots (a coalition) goes through a
+`firmware_sim.bridge.PortBridge` on the link between them: an exporting PBO on the source node,
+an importing one on the sink node, each at its module's rate; the nodes must then be run in step.
 """
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 
+from firmware_sim.bridge import PortBridge
 from firmware_sim.node import Node
 from firmware_sim.server import NodeTarget
 from hexmigrate.image import ModuleImage
@@ -21,6 +26,9 @@ from pbort.code import ModuleCode
 from refresh.database import Module
 from refresh.errors import ApplyError
 from refresh.inprocess_link import InProcessLink
+
+IMPORTER_PRIORITY = -1
+"""A bridge's importer runs before the PBOs of priority 0 released at the same instant."""
 
 
 class NodeApplier:
@@ -38,13 +46,21 @@ class NodeApplier:
         images: Mapping[str, ModuleImage] | None = None,
         link: Callable[[Receiver], Link] = InProcessLink,
         mode: str = "binary",
+        wire: str = "serial",
+        rate: float | None = None,
     ) -> None:
         self.nodes = dict(nodes)
         self.natives = dict(natives or {})
         self.images = dict(images or {})
         self.link = link
         self.mode = mode
+        self.wire = wire
+        self.rate = rate
+        self.bridges: dict[tuple[str, str], Bridged] = {}
+        """The bridges by (sink robot, sink port)."""
         self._receivers = {name: Receiver(NodeTarget(node)) for name, node in self.nodes.items()}
+        self._frequencies: dict[tuple[str, str], float | None] = {}
+        self._numbers = itertools.count()
 
     def node(self, robot: str) -> Node:
         """The node of `robot`."""
@@ -56,14 +72,23 @@ class NodeApplier:
             ) from None
 
     def disconnect(self, robot: str, sink: str) -> None:
-        """Unbind the input on the node's kernel."""
+        """Unbind the input on the node's kernel, and take down the bridge that fed it."""
         self.node(robot).kernel.disconnect(sink)
+        bridged = self.bridges.pop((robot, sink), None)
+        if bridged is not None:
+            self._take_down(bridged)
 
     def stop(self, robot: str, instance: str) -> None:
-        """Switch off, kill and remove the PBO; its image stays installed for a later start."""
+        """Switch off, kill and remove the PBO, and the bridges to and from it; its image stays
+        installed for a later start."""
+        for key, bridged in list(self.bridges.items()):
+            if instance in (bridged.ends(robot)):
+                del self.bridges[key]
+                self._take_down(bridged)
         node = self.node(robot)
         node.stop(instance)
         node.kernel.remove(instance)
+        self._frequencies.pop((robot, instance), None)
 
     def migrate(self, robot: str, module: Module) -> None:
         """Transfer the module's image to the node unless it is installed there already."""
@@ -98,12 +123,59 @@ class NodeApplier:
         else:
             raise ApplyError(f"start {module.name} on {robot}: expected its image installed")
         node.start(code, module.frequency, name=instance, constants=dict(module.constants))
+        self._frequencies[robot, instance] = module.frequency
 
     def connect(self, robot: str, source: str, sink: str, source_robot: str) -> None:
-        """Bind the input to the output on the same node's kernel."""
-        if source_robot != robot:
-            raise ApplyError(
-                f"connect {source}@{source_robot} -> {sink}@{robot}: expected both ports on one "
-                "node, got two (the kernel wires ports within a node)"
-            )
-        self.node(robot).kernel.connect(source, sink)
+        """Bind the input to the output: on the node's kernel when both are on one robot, else
+        through a bridge on the link between the two robots."""
+        if source_robot == robot:
+            self.node(robot).kernel.connect(source, sink)
+            return
+        source_node, sink_node = self.node(source_robot), self.node(robot)
+        number = next(self._numbers)
+        bridge = PortBridge(
+            f"bridge{number}", source_node.kernel.spec(source), self.wire, self.rate, number
+        )
+        source_rate = self._frequencies.get((source_robot, _owner(source)))
+        sink_rate = self._frequencies.get((robot, _owner(sink)))
+        exporter = source_node.start(bridge.exporter, source_rate)
+        # Released with its consumer, the importer goes first (a lower priority number), so a
+        # value that arrived is read in the same period rather than the next.
+        importer = sink_node.start(bridge.importer, sink_rate, priority=IMPORTER_PRIORITY)
+        source_node.kernel.connect(source, f"{exporter}.x")
+        sink_node.kernel.connect(f"{importer}.y", sink)
+        self.bridges[robot, sink] = Bridged(bridge, source_robot, source, robot, sink)
+
+    def _take_down(self, bridged: Bridged) -> None:
+        """Stop a bridge's two PBOs."""
+        for robot, pbo in (
+            (bridged.source_robot, bridged.bridge.exporter.name),
+            (bridged.sink_robot, bridged.bridge.importer.name),
+        ):
+            node = self.node(robot)
+            if pbo in node.kernel.names:
+                node.stop(pbo)
+                node.kernel.remove(pbo)
+
+
+@dataclass(frozen=True)
+class Bridged:
+    """A bridge the applier put up: `source` on `source_robot` feeds `sink` on `sink_robot`."""
+
+    bridge: PortBridge
+    source_robot: str
+    source: str
+    sink_robot: str
+    sink: str
+
+    def ends(self, robot: str) -> tuple[str, ...]:
+        """The PBOs on `robot` the bridge connects."""
+        return tuple(
+            _owner(port)
+            for port_robot, port in ((self.source_robot, self.source), (self.sink_robot, self.sink))
+            if port_robot == robot
+        )
+
+
+def _owner(port: str) -> str:
+    return port.partition(".")[0]

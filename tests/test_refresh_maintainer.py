@@ -165,10 +165,31 @@ def test_plans_migrate_real_images_to_emulated_nodes(loaded: Loaded):
     )
 
 
-def test_a_connection_between_nodes_is_refused_with_a_reason(loaded: Loaded):
+def run_in_step(nodes: list[Node], seconds: float, step: float = 0.005) -> None:
+    t = nodes[0].kernel.now
+    while t < seconds - 1e-12:
+        t += step
+        for node in nodes:
+            node.run(until=t)
+
+
+def test_a_coalition_carries_the_port_between_nodes_over_a_bridge(loaded: Loaded):
     coalition = configuration(loaded, "signal@a", "gain@b")
     with Node("a") as node_a, Node("b") as node_b:
         applier = NodeApplier({"a": node_a, "b": node_b}, natives={"signal": NativeModule(Signal)})
         maintainer = Maintainer(loaded.database, applier, EventLog())
-        with pytest.raises(ApplyError, match="expected both ports on one node, got two"):
-            maintainer.apply(maintainer.plan(None, coalition))
+        maintainer.apply(maintainer.plan(None, coalition))
+        assert node_a.kernel.names == ("signal", "bridge0_tx")
+        assert node_b.kernel.names == ("gain", "bridge0_rx")
+        run_in_step([node_a, node_b], 0.2)
+        # The ramp's value read at one period reaches gain at the next (115200 baud: 0.9 ms).
+        sent, doubled = node_a.kernel.value("signal.y"), node_b.kernel.value("gain.y")
+        assert doubled == 2 * (sent - 3) > 0
+        bridge = applier.bridges["b", "gain.x"].bridge
+        assert bridge.stats.skipped == 0 and bridge.stats.latency == pytest.approx(100 / 115200)
+
+        back = configuration(loaded, "signal@a", "gain@a")
+        maintainer.apply(maintainer.plan(coalition, back))
+        assert node_a.kernel.names == ("signal", "gain")  # the bridge went with gain@b
+        assert node_b.kernel.names == ()
+        assert applier.bridges == {}
