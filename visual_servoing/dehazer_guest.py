@@ -5,10 +5,10 @@ this file only says where it is, how to build it, and the figures a node running
 for. The image migrates like any other: ``image.write(path)`` gives the extended HEX file that
 ``hexmigrate send`` ships and `Node.load` installs.
 
-A frame takes about 1.7 million guest instructions (benchmarks/dehazer.py prints the exact
+A frame takes about 1.6 million guest instructions (benchmarks/dehazer.py prints the exact
 count), far more than the node's default budget of 100,000 per method call: a node that runs the
 Dehazer needs ``NodeConfig(budget=INSTRUCTION_BUDGET)``. At the default 100 MHz that is about
-17 ms of virtual time per frame, within a 30 Hz period.
+16 ms of virtual time per frame, within a 30 Hz period.
 """
 
 from __future__ import annotations
