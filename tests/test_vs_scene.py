@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from visual_servoing.dehaze import dehaze
+from visual_servoing.figure import main as figure_main
 from visual_servoing.frames import FrameError
 from visual_servoing.image_faults import (
     FOG_GREY,
@@ -181,3 +182,12 @@ def test_bad_scenes_and_templates_are_refused(scene):
         scene.truth("star", 0.0)
     with pytest.raises(FrameError, match="template: expected at most the frame's shape"):
         match_template(scene.template("circle"), scene.render(0.0))
+
+
+def test_the_docs_figure_command_writes_a_png(tmp_path, capsys):
+    out = tmp_path / "frames.png"
+    assert figure_main([str(out)]) == 0
+    assert out.read_bytes().startswith(b"\x89PNG")
+    assert capsys.readouterr().out == f"wrote {out}\n"
+    assert figure_main([str(tmp_path / "missing" / "frames.png")]) == 1
+    assert capsys.readouterr().err.startswith("error: cannot write")
