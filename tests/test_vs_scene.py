@@ -178,8 +178,11 @@ def test_bad_scenes_and_templates_are_refused(scene):
         Scene(width=80, height=60)
     with pytest.raises(ValueError, match="distinct target names"):
         Scene([Target("a", Shape.CIRCLE, 0.0), Target("a", Shape.SQUARE, 10.0)])
+    for lookup in (scene.truth, scene.in_view):
+        with pytest.raises(KeyError, match="expected a target among"):
+            lookup("star", 0.0)
     with pytest.raises(KeyError, match="expected a target among"):
-        scene.truth("star", 0.0)
+        scene.template("star")
     with pytest.raises(FrameError, match="template: expected at most the frame's shape"):
         match_template(scene.template("circle"), scene.render(0.0))
 

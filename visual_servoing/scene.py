@@ -122,8 +122,9 @@ class Scene:
     def in_view(self, name: str, yaw: float) -> bool:
         """True when the whole target is inside the frame at `yaw`: a target cut by the frame's
         edge is drawn as far as it shows, but a template matcher cannot be expected to find it."""
+        centre = self.truth(name, yaw)
         size = self._sprites[name].size
-        top, left = self._corner(self.truth(name, yaw), size)
+        top, left = self._corner(centre, size)
         return 0 <= left <= self.width - size and 0 <= top <= self.height - size
 
     def bearing_of(self, x: float) -> float:
@@ -134,9 +135,10 @@ class Scene:
     def template(self, name: str) -> np.ndarray:
         """What target `name` looks like in a clean frame: the square of the frame around its
         centre when the camera looks straight at it (sprite and background), for SSD matching."""
+        azimuth = self._target(name).azimuth
         size = self._sprites[name].size
-        top, left = self._corner(self.truth(name, self._target(name).azimuth), size)
-        return self.render(self._target(name).azimuth)[top : top + size, left : left + size].copy()
+        top, left = self._corner(self.truth(name, azimuth), size)
+        return self.render(azimuth)[top : top + size, left : left + size].copy()
 
     def render(self, yaw: float) -> np.ndarray:
         """A clean frame (height x width uint8) of the scene at `yaw` degrees."""
