@@ -1,8 +1,9 @@
 """The Maintainer: from the running configuration to the chosen one, step by step (section 5).
 
 `plan` compares two configurations instance by instance. An instance whose placement is the same
-in both keeps running untouched; the others are stopped, and the new ones started, after their
-module image is migrated to the robot when the code is not native. Connections follow: those that
+in both keeps running untouched; the others are stopped, and the new ones started. Images go
+first: a new module whose code is not native is migrated to its robot while the old configuration
+still runs, so the switch that follows costs no transfer time. Connections follow: those that
 change on a module that keeps running are taken down first (before the PBO feeding them goes
 away), and every connection of the new configuration that did not exist is made once all its
 modules run. The plan is applied through an `Applier`, a small protocol with one method per kind
@@ -21,8 +22,8 @@ from refresh.configuration import Configuration
 from refresh.database import Module, ModuleDatabase, Placement
 from refresh.events import EventLog
 
-ORDER = ("disconnect", "stop", "migrate", "start", "connect")
-"""The order the kinds of step run in."""
+ORDER = ("migrate", "disconnect", "stop", "start", "connect")
+"""The order the kinds of step run in: images travel while the old configuration still runs."""
 
 
 @dataclass(frozen=True)

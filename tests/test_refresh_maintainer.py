@@ -102,8 +102,8 @@ def test_replacing_a_module_keeps_the_rest_running():
     applier.applied.clear()
     maintainer.apply(maintainer.plan(current, target))
     assert applier.applied == [
-        "stop gain@b",
         "migrate moving_average@b",
+        "stop gain@b",
         "start moving_average@b",
         "connect signal.y@b -> moving_average.x@b",
     ]
@@ -143,9 +143,9 @@ def test_plans_migrate_real_images_to_emulated_nodes(loaded: Loaded):
 
         timings = maintainer.apply(maintainer.plan(current, moved))
         assert [t.step.action for t in timings] == [
-            "stop",
-            "stop",
             "migrate",
+            "stop",
+            "stop",
             "start",
             "start",
             "connect",
@@ -159,7 +159,7 @@ def test_plans_migrate_real_images_to_emulated_nodes(loaded: Loaded):
     migrate = next(t for t in timings if t.step.action == "migrate")
     assert migrate.seconds > 0
     steps = log.of_kind("step")
-    assert steps[-4].data["step"] == "migrate moving_average to b"
+    assert steps[-6].data["step"] == "migrate moving_average to b"
     assert log.of_kind("applied")[-1].data["seconds"] == pytest.approx(
         sum(t.seconds for t in timings)
     )
