@@ -4,7 +4,9 @@ each module runs on, and the port connections between them.
 Each slot holds a chain of placements: one for a plain module, several for a combo module built by
 the Generator (CamReader + Dehazer fills the camera slot). Connections follow the data flow: every
 input port is fed by the nearest module before it, in slot order and chain order, that has an
-output of the same type; an input nothing feeds is an external input of the configuration.
+output of the same type. An input no earlier module feeds is fed back by the first later one that
+has such an output (a periodic task closes loops: TrajGen tells SSD which target to look for); an
+input nothing feeds is an external input of the configuration.
 
 Configurations are immutable and hashable, and `replace` makes the one-slot variants the Locator
 and Generator test without copying more than a tuple.
@@ -15,7 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cached_property
 
-from refresh.database import ModuleDatabase, Placement
+from refresh.database import Module, ModuleDatabase, Placement
 from refresh.errors import ConfigurationError
 from refresh.task import TaskSpec
 
@@ -74,17 +76,33 @@ class Configuration:
         return self.placements[self.instances.index(instance)].robot
 
     def connections(self, database: ModuleDatabase) -> tuple[Connection, ...]:
-        """Each input port wired to the nearest earlier output of the same type."""
+        """Each input port wired to the nearest earlier output of the same type, or else fed back
+        from the first later one; forward connections first, in data-flow order."""
+        modules = [database.module(p.module) for p in self.placements]
         producers: dict[str, str] = {}
         wiring: list[Connection] = []
-        for placement, instance in zip(self.placements, self.instances, strict=True):
-            module = database.module(placement.module)
+        unfed: list[tuple[int, str, str]] = []
+        for position, (module, instance) in enumerate(zip(modules, self.instances, strict=True)):
             for port, kind in module.inputs.items():
                 if kind in producers:
                     wiring.append((producers[kind], f"{instance}.{port}"))
+                else:
+                    unfed.append((position, f"{instance}.{port}", kind))
             for port, kind in module.outputs.items():
                 producers[kind] = f"{instance}.{port}"
+        for position, sink, kind in unfed:
+            source = self._later_output(modules, position, kind)
+            if source is not None:
+                wiring.append((source, sink))
         return tuple(wiring)
+
+    def _later_output(self, modules: list[Module], position: int, kind: str) -> str | None:
+        """The first output of type `kind` after placement `position`."""
+        for later in range(position + 1, len(modules)):
+            for port, output_kind in modules[later].outputs.items():
+                if output_kind == kind:
+                    return f"{self.instances[later]}.{port}"
+        return None
 
     def label(self) -> str:
         """The paper's notation, ``{CamReader, Dehazer, SSD, TrajGen, HexMan}``."""

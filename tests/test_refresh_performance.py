@@ -150,3 +150,44 @@ def test_repeated_modules_get_distinct_kernel_names(loaded):
         ("Dehazer.image", "Dehazer_2.raw"),
         ("Dehazer_2.image", "SSD.image"),
     )
+
+
+def test_an_input_no_earlier_module_feeds_is_fed_back_from_a_later_one():
+    loaded = loads(
+        """
+[robots.r]
+resources.power = { capacity = 100 }
+[schemas.camera]
+kind = "sensor"
+[schemas.camera.modules.Cam]
+robots = ["r"]
+source = "native"
+outputs = { image = "frame" }
+[schemas.matching]
+kind = "computation"
+[schemas.matching.modules.SSD]
+robots = ["r"]
+source = "native"
+inputs = { image = "frame", target = "target_index" }
+outputs = { deviation = "pixels" }
+[schemas.trajectory]
+kind = "computation"
+[schemas.trajectory.modules.TrajGen]
+robots = ["r"]
+source = "native"
+inputs = { deviation = "pixels" }
+outputs = { yaw = "degrees", target = "target_index" }
+[task]
+name = "servoing"
+robot = "r"
+states = ["run"]
+schemas = ["camera", "matching", "trajectory"]
+initial = ["Cam", "SSD", "TrajGen"]
+"""
+    )
+    configuration = initial_configuration(loaded.task, loaded.database)
+    assert configuration.connections(loaded.database) == (
+        ("Cam.image", "SSD.image"),
+        ("SSD.deviation", "TrajGen.deviation"),
+        ("TrajGen.target", "SSD.target"),  # the loop closes: TrajGen says what to look for
+    )
