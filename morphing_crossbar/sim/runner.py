@@ -12,7 +12,8 @@ from __future__ import annotations
 import os
 import shutil
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 from cocotb_tools.check_results import get_results
@@ -85,9 +86,41 @@ def run_cocotb(
     AssertionError if any failed or none ran. Returns the results XML."""
     if simulator not in SIMULATORS:
         raise FabricParameterError(f"expected a simulator in {SIMULATORS}, got {simulator!r}")
+    with _simulator_environment(simulator):
+        return _build_and_test(
+            simulator, fabric, test_module, test_dir, build_root, testcases, seed, extra_env
+        )
+
+
+@contextmanager
+def _simulator_environment(simulator: str) -> Iterator[None]:
+    """PATH (and for Verilator OBJCACHE and MAKEFLAGS) set for one run, then restored, so
+    nothing leaks into the rest of a pytest session."""
+    saved = {key: os.environ.get(key) for key in ("PATH", "OBJCACHE", "MAKEFLAGS")}
     os.environ["PATH"] = tool_path()
     if simulator == "verilator":
         _prepare_verilator_make()
+    try:
+        yield
+    finally:
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+
+
+def _build_and_test(
+    simulator: str,
+    fabric: Fabric,
+    test_module: str,
+    test_dir: Path,
+    build_root: Path,
+    testcases: Sequence[str] | None,
+    seed: int,
+    extra_env: dict[str, str] | None,
+) -> Path:
+    """Build once per folder, run the tests, check the results."""
     waves = waves_requested()
     build_dir = build_root / (build_name(simulator, fabric) + ("_waves" if waves else ""))
     runner = get_runner(simulator)
