@@ -86,23 +86,27 @@ def run_cocotb(
     AssertionError if any failed or none ran. Returns the results XML."""
     if simulator not in SIMULATORS:
         raise FabricParameterError(f"expected a simulator in {SIMULATORS}, got {simulator!r}")
-    with _simulator_environment(simulator):
+    with _simulator_environment(simulator, test_dir):
         return _build_and_test(
             simulator, fabric, test_module, test_dir, build_root, testcases, seed, extra_env
         )
 
 
 @contextmanager
-def _simulator_environment(simulator: str) -> Iterator[None]:
-    """PATH (and for Verilator OBJCACHE and MAKEFLAGS) set for one run, then restored, so
-    nothing leaks into the rest of a pytest session."""
+def _simulator_environment(simulator: str, test_dir: Path) -> Iterator[None]:
+    """PATH (and for Verilator OBJCACHE and MAKEFLAGS) set for one run, and the test module's
+    folder on sys.path (the runner hands sys.path to the simulator as PYTHONPATH); all restored
+    afterwards, so nothing leaks into the rest of a pytest session."""
     saved = {key: os.environ.get(key) for key in ("PATH", "OBJCACHE", "MAKEFLAGS")}
+    saved_path = list(sys.path)
+    sys.path.insert(0, str(test_dir))
     os.environ["PATH"] = tool_path()
     if simulator == "verilator":
         _prepare_verilator_make()
     try:
         yield
     finally:
+        sys.path[:] = saved_path
         for key, value in saved.items():
             if value is None:
                 os.environ.pop(key, None)
@@ -139,11 +143,12 @@ def _build_and_test(
         test_module=test_module,
         hdl_toplevel=TOPLEVEL,
         testcase=list(testcases) if testcases else None,
-        test_dir=test_dir,
+        test_dir=build_dir,
         build_dir=build_dir,
         seed=seed,
         waves=waves,
         timescale=TIMESCALE,
+        results_xml=str(build_dir / "results.xml"),
         extra_env={FABRIC_ENV: fabric_to_json(fabric), **(extra_env or {})},
     )
     total, failed = get_results(results)
