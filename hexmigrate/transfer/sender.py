@@ -52,6 +52,10 @@ BLOCKS_PER_DATA = 2
 # bytes) almost never arrives, while one of 32 bytes (45) does more often than not.
 MIN_PAYLOAD = 32
 RECORD_SIZE = 16  # data bytes per record line in hex mode
+REFUSALS_PER_RETRY = 20
+"""Refusals in a row without progress, per retry, after which a transfer gives up: on a noisy
+line each lost message costs a few refusals, but a line that lets nothing through, or a node
+and a sender that no longer agree, must not keep them talking forever."""
 
 
 class TransferError(RuntimeError):
@@ -236,7 +240,7 @@ class Sender:
         total = image.size
         acked = known = next_offset = self.acknowledged = programmed
         stale_nak = -1
-        silent = 0
+        silent = refusals = 0
         while acked < total:
             while next_offset < total and next_offset - known < self.flight:
                 step = self._step(next_offset, total)
@@ -263,13 +267,23 @@ class Sender:
                 acked = self.acknowledged = reply.value
                 known = max(known, acked)
                 stale_nak = -1
+                refusals = 0
                 self._grow()
                 self._report(acked, total, start)
+            if isinstance(reply, Nak):
+                refusals += 1
+                if refusals > REFUSALS_PER_RETRY * (self.retries + 1):
+                    raise TransferError(
+                        f"transfer {tid}: no progress at {acked} of {total} bytes after "
+                        f"{refusals} refusals (last: {reply.reason})"
+                    )
             if isinstance(reply, Nak) and reply.value != stale_nak:
                 stale_nak = reply.value  # the messages in flight will be refused alike
                 self.retransmissions += 1
                 self._shrink()
-                known = max(known, reply.value)
+                # The node says where it stands: believe it over what we thought, even when
+                # that is further back (a damaged answer may have misled us).
+                known = max(acked, reply.value)
                 next_offset = known
 
     def _step(self, offset: int, total: int) -> int:
@@ -389,7 +403,7 @@ class Sender:
             if raw is None:
                 return None
             try:
-                reply = decode(raw)
+                reply = decode(raw, checked=True)
             except MessageError:
                 continue  # corrupted on the way: the retry logic covers it
             if not isinstance(reply, kinds):
