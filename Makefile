@@ -37,6 +37,7 @@ bench: tools $(INSTALLED)
 	$(PY) benchmarks/scheduler.py
 	$(PY) benchmarks/migration.py
 	$(PY) benchmarks/decision.py
+	$(PY) benchmarks/crossbar.py
 
 clean:
 	rm -rf $(BUILD) .pytest_cache .ruff_cache .hypothesis

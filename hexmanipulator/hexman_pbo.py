@@ -24,6 +24,9 @@ The evaluator reports, after every successful cycle:
   else 0.0 (a performance violation, as the paper's P_F);
 * non-functional 0: the servos' power draw in mW (the ABI's convention for non-functional 0).
 
+The estimator (`estimate`) solves the inverse kinematics only, so a test configuration can be
+judged without moving the platform.
+
 A link failure or an unreachable target does not fail the cycle (the PBO would go to ERROR and
 the evaluator would not run): the cycle records the fault, logs its reason once, keeps the last
 command, and the evaluator reports the violation.
@@ -150,6 +153,21 @@ class HexMan(NativePBO):
         io.report(F, 0, error)
         io.report(F, 1, 1.0 if healthy else 0.0)
         io.report(NF, 0, 0.0 if self.reading is None else self.reading.power_mw)
+
+    def estimate(self, io: PortIO) -> None:
+        """What the platform would do with this target, without moving it: the estimator only
+        solves the inverse kinematics (the servos belong to the executor). It reports a tracking
+        error of 0 and health 1 when the target is reachable, `NO_FEEDBACK_ERROR` and 0 when not."""
+        pose = np.array(io["target"], dtype=float)
+        pose[5] += io["yaw"]
+        try:
+            io["angles"] = inverse(self.geometry, Pose(*pose))
+        except UnreachablePoseError:
+            io.report(F, 0, NO_FEEDBACK_ERROR)
+            io.report(F, 1, 0.0)
+            return
+        io.report(F, 0, 0.0)
+        io.report(F, 1, 1.0)
 
     def tracking_error(self, now: float) -> float:
         """The largest gap (deg) between the feedback and where the planned move is now."""
