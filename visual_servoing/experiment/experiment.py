@@ -1,0 +1,339 @@
+"""One run of a scenario: the task on the robots, ReFrESH watching it, deciding and repairing.
+
+The run deploys the task's preprogrammed configuration with the Maintainer (as any later
+configuration), then advances the world one camera frame at a time. Every frame it records the
+deviation the matcher reports and the true one (where the current target really is in the
+frame); every `DECIDER_PERIOD` the Decider reads the evaluators. On a detection, ReFrESH locates
+the fault and synthesizes the new configuration (`refresh.adaptation.decide`), estimating every
+test configuration and candidate in shadow runs on the module database's host node, which holds
+every module's code (the Dehazer's image included, loaded there from its HEX file); the
+Maintainer then migrates what must move (in the wire's virtual time, while the old configuration
+keeps running) and switches over. When nothing helps, the task is stopped safely: the modules
+are switched off and the platform holds its pose.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from firmware_sim.node import Node, NodeConfig
+from hexmanipulator.geometry import load as load_geometry
+from hexmanipulator.hexman_pbo import hexman_module
+from pbort import NativeModule
+from pbort.code import ModuleCode
+from refresh.adaptation import Decision, decide
+from refresh.configuration import Configuration, initial_configuration
+from refresh.decider import Decider
+from refresh.events import EventLog
+from refresh.kernel_estimator import KernelEstimator
+from refresh.load import Loaded, loads
+from refresh.locator import brute_force_count
+from refresh.maintainer import Maintainer
+from visual_servoing.dehazer_guest import INSTRUCTION_BUDGET, NAME, dehazer_image
+from visual_servoing.experiment.applier import VirtualTimeApplier
+from visual_servoing.experiment.scenarios import Scenario
+from visual_servoing.experiment.world import ROBOTS, World
+from visual_servoing.image_faults import FaultSchedule
+from visual_servoing.scene import Scene
+from visual_servoing.task.camera import CameraDevice, camera_module
+from visual_servoing.task.matcher import matcher_module
+from visual_servoing.task.trajectory import Law, trajectory_module
+
+FRAME = 1 / 30
+"""Seconds between two samples of the run: one camera frame."""
+DECIDER_PERIOD = 0.1
+"""Seconds between two looks of the Decider at the evaluators."""
+DEBOUNCE = 5
+"""Consecutive violating looks before the Decider declares a fault (0.5 s)."""
+RECOVERY_HOLD = 0.5
+"""Seconds P_T must stay 1 after a reconfiguration for the task to count as recovered."""
+SETTLE = 0.5
+"""Seconds after a switch during which a detection is not acted on: the new configuration's
+evaluators still hold frames of the old one."""
+ROBOT_LINK_BAUD = 12_000_000
+"""The serial link between the two robots (ports of a coalition cross it): 12 Mbaud 8N1 carries
+a 160 x 120 frame in 16 ms, within a camera period; 115200 baud would need 1.7 s."""
+ESTIMATE_STEPS = 10
+"""Estimator steps per shadow run: enough to fill the matcher's window of frames."""
+
+
+@dataclass
+class Sample:
+    """The task at one frame: the deviation reported and the true one (pixels), the target, the
+    plate's yaw and the yaw commanded (degrees)."""
+
+    time: float
+    target: int
+    reported: float
+    true: float
+    yaw: float
+    command: float
+
+
+@dataclass
+class Reconfiguration:
+    """One decision and what came of it (world seconds; `decision_seconds` is host CPU time)."""
+
+    detected_at: float
+    decision: Decision
+    decision_seconds: float
+    applied_at: float | None = None
+    target: Configuration | None = None
+    recovered_at: float | None = None
+    test_cases: int = 0
+    brute_force: int = 0
+
+
+@dataclass
+class Outcome:
+    """Everything a run produced, for the report."""
+
+    scenario: Scenario
+    samples: list[Sample] = field(default_factory=list)
+    reconfigurations: list[Reconfiguration] = field(default_factory=list)
+    configurations: list[tuple[float, str]] = field(default_factory=list)
+    stopped_at: float | None = None
+    log: EventLog | None = None
+    migrations: list = field(default_factory=list)
+
+
+class Experiment:
+    """A scenario set up on a new world; `run()` runs it once. `work` receives the Dehazer's
+    build and HEX file."""
+
+    def __init__(self, scenario: Scenario, work: Path) -> None:
+        self.scenario = scenario
+        self.scene = Scene()
+        self.world = World(load_geometry(None))
+        self.log = EventLog(clock=self.world.now)
+        self.image = dehazer_image(work / "build")
+        self.image.write(work / f"{NAME}.hex")
+        self.loaded: Loaded = loads(scenario.database.read_text(), scenario.database.name, work)
+        self.devices = {
+            name: CameraDevice(
+                self.scene,
+                self.world.plate_yaw,
+                self.world.now,
+                FaultSchedule(list(scenario.faults.get(name, ()))),
+            )
+            for name in self._camera_names()
+        }
+        self.natives = self._natives()
+        self.host = Node("refresh", NodeConfig(budget=INSTRUCTION_BUDGET))
+        self.host.load(self.image)
+        self.applier = VirtualTimeApplier(
+            self.world,
+            natives=self.natives,
+            images={NAME: self.image},
+            rate=ROBOT_LINK_BAUD,
+            wait=self._run_for,
+        )
+        self.maintainer = Maintainer(self.loaded.database, self.applier, self.log)
+        self.decider = Decider(self.loaded.task, self.loaded.database, self.log, DEBOUNCE)
+        self.outcome = Outcome(scenario, log=self.log, migrations=self.applier.migrations)
+        self.current: Configuration | None = None
+        self._good_since: float | None = None  # P_T = 1 since then, after a switch
+        self._repairing = False  # a decision is being carried out: no second one meanwhile
+        self._frames = 0
+
+    def _camera_names(self) -> list[str]:
+        schema = self.loaded.database.schemas["camera"]
+        return [module.name for module in schema.modules]
+
+    def _power(self, module: str) -> float:
+        return self.loaded.database.module(module).needs.get("power", 0.0)
+
+    def _natives(self) -> dict[str, NativeModule]:
+        """The robots' firmware: every native module of the database, bound to the world."""
+        database = self.loaded.database
+        natives: dict[str, NativeModule] = {}
+        for name, device in self.devices.items():
+            natives[name] = camera_module(name, device, self._power(name))
+        methods = {"SSD": "ssd", "SSD_alt": "ncc"}
+        laws = {"TrajGen": Law(), "TrajGen_alt": Law(rate=150.0, gain=0.2)}
+        for module in database.modules():
+            name = module.name
+            if name in methods:
+                natives[name] = matcher_module(name, self.scene, methods[name], self._power(name))
+            elif name in laws:
+                natives[name] = trajectory_module(name, self.scene, laws[name], self._power(name))
+        natives["HexMan"] = hexman_module(self.world.servo_bus, self.world.geometry, "HexMan")
+        return natives
+
+    def _codes(self) -> dict[str, ModuleCode]:
+        """What the host estimates with: the natives and the Dehazer's guest code."""
+        return {**self.natives, NAME: self.host.modules[NAME].code}
+
+    # The run.
+
+    def run(self) -> Outcome:
+        """Deploy, run the task to the scenario's end, decide and repair on the way."""
+        target = initial_configuration(self.loaded.task, self.loaded.database)
+        self.log.record("scenario", self.scenario.title, name=self.scenario.name)
+        self._switch(target)
+        self._run_for(self.scenario.duration - self.world.time)
+        return self.outcome
+
+    def _run_for(self, seconds: float) -> None:
+        """Advance the world frame by frame, sampling each and judging every DECIDER_PERIOD."""
+        end = self.world.time + seconds
+        decider_every = round(DECIDER_PERIOD / FRAME)
+        while self.world.time < end - 1e-9:
+            self.world.advance(min(FRAME, end - self.world.time))
+            self._frames += 1
+            if self.current is None:
+                continue
+            self._sample()
+            if self._frames % decider_every == 0:
+                self._judge()
+
+    def close(self) -> None:
+        """Release the nodes, the servos and the host."""
+        self.host.close()
+        self.world.close()
+
+    def __enter__(self) -> Experiment:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def _switch(self, target: Configuration) -> None:
+        """Apply the Maintainer's plan from the current configuration to `target`."""
+        self.maintainer.apply(self.maintainer.plan(self.current, target))
+        self.current = target
+        self.decider.violations = 0  # what it counted was about the old configuration
+        self.outcome.configurations.append((self.world.time, target.label()))
+
+    def _sample(self) -> None:
+        assert self.current is not None
+        kernel = self.world.nodes[ROBOTS[0]].kernel
+        matcher = self.current.instance_of("matching")
+        trajectory = self.current.instance_of("trajectory")
+        target = int(kernel.value(f"{trajectory}.target"))
+        name = list(self.scene.targets)[target % len(self.scene.targets)]
+        yaw = self.world.plate_yaw()
+        true = self.scene.truth(name, yaw).x - self.scene.centre.x
+        self.outcome.samples.append(
+            Sample(
+                self.world.time,
+                target,
+                float(kernel.value(f"{matcher}.deviation")),
+                float(true),
+                yaw,
+                float(kernel.value(f"{trajectory}.yaw")),
+            )
+        )
+
+    def _judge(self) -> None:
+        assert self.current is not None
+        sources = {robot: node.kernel for robot, node in self.world.nodes.items()}
+        detection = self.decider.step(self.current, sources)
+        pending = self._pending_recovery()
+        if pending is not None:
+            self._watch_recovery(pending)
+        if detection is not None and not self._repairing and not self._settling():
+            self._repairing = True
+            try:
+                self._repair()
+            finally:
+                self._repairing = False
+
+    def _settling(self) -> bool:
+        """True within SETTLE seconds of the last switch."""
+        last = self.outcome.configurations[-1][0] if self.outcome.configurations else None
+        return last is not None and self.world.time - last < SETTLE - 1e-9
+
+    def _pending_recovery(self) -> Reconfiguration | None:
+        """The last reconfiguration, while its recovery is not yet confirmed."""
+        if not self.outcome.reconfigurations:
+            return None
+        last = self.outcome.reconfigurations[-1]
+        if last.applied_at is None or last.recovered_at is not None:
+            return None
+        return last
+
+    def _watch_recovery(self, pending: Reconfiguration) -> None:
+        """Confirm recovery once P_T has held for RECOVERY_HOLD since it first came back."""
+        assert pending.applied_at is not None
+        if self.decider.violations:
+            self._good_since = None
+            return
+        if self._good_since is None:
+            self._good_since = self.world.time
+        since = self._good_since
+        if self.world.time - since >= RECOVERY_HOLD - 1e-9:
+            pending.recovered_at = since
+            self.log.record(
+                "recovered",
+                f"P_T = 1 again {1e3 * (since - pending.applied_at):.1f} ms after the switch",
+                seconds=since - pending.applied_at,
+            )
+            self._good_since = None
+
+    def _repair(self) -> None:
+        """Locate, synthesize, choose; migrate and switch, or stop the task safely."""
+        assert self.current is not None
+        detected_at = self.world.time
+        estimator = KernelEstimator(
+            self.host.kernel,
+            self._codes(),
+            self.loaded.database,
+            self.loaded.task,
+            inputs=self._live_inputs(),
+            steps=ESTIMATE_STEPS,
+        )
+        started = time.perf_counter()
+        decision = decide(self.current, self.loaded.database, self.loaded.task, estimator, self.log)
+        seconds = time.perf_counter() - started
+        record = Reconfiguration(
+            detected_at,
+            decision,
+            seconds,
+            test_cases=decision.location.total,
+            brute_force=brute_force_count(self.current, self.loaded.database),
+        )
+        self.outcome.reconfigurations.append(record)
+        if decision.target is None:
+            self._stop_safely(decision)
+            return
+        self._switch(decision.target)
+        record.applied_at = self.world.time
+        record.target = decision.target
+
+    def _live_inputs(self) -> dict[str, object]:
+        """What an estimator must start from to estimate now: the target the task looks for."""
+        assert self.current is not None
+        kernel = self.world.nodes[ROBOTS[0]].kernel
+        trajectory = self.current.instance_of("trajectory")
+        start = int(kernel.value(f"{trajectory}.target"))
+        schema = self.loaded.database.schemas["trajectory"]
+        return {f"{module.name}.start": start for module in schema.modules}
+
+    def _stop_safely(self, decision: Decision) -> None:
+        """No configuration satisfies P_T: switch the task's modules off; HexMan holds still."""
+        assert self.current is not None
+        reason = decision.location.module if decision.choice is None else "no candidate"
+        for placement, instance in zip(
+            self.current.placements, self.current.instances, strict=True
+        ):
+            node = self.world.nodes[placement.robot]
+            with contextlib.suppress(Exception):
+                node.stop(instance)
+        self.outcome.stopped_at = self.world.time
+        self.log.record("stopped", f"no repair ({reason}): the task is stopped", reason=reason)
+        self.current = None
+
+
+def deviation_series(samples: list[Sample]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Times, reported and true deviations of the samples, as arrays."""
+    if not samples:
+        empty = np.zeros(0)
+        return empty, empty, empty
+    table = np.array([(s.time, s.reported, s.true) for s in samples])
+    return table[:, 0], table[:, 1], table[:, 2]

@@ -1,0 +1,96 @@
+"""Two robots and what they act on, in one virtual time.
+
+The HexManipulator robot and the rotation robot are two emulated nodes (`firmware_sim.Node`),
+each with its kernel on a virtual clock; `advance` runs both in small steps to the same time, so
+ports bridged between them (`firmware_sim.bridge`) arrive when the link delivers them. The
+HexManipulator's six S3003 servos are CAN servo nodes (`firmware_sim.servos`) on an in-process
+virtual CAN bus, stepping on the same clock; the HexMan PBO reaches them through
+`hexmanipulator.can_bus`. The cameras on the travelling plate look along the plate's yaw, which
+the world recovers from the servos' feedback by the forward kinematics: what the platform did,
+not what it was told.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+
+import can
+import numpy as np
+
+from firmware_sim.node import Node, NodeConfig
+from firmware_sim.servos.can_servo import CanServoNodes
+from firmware_sim.servos.can_servo_server import CanServoServer
+from hexmanipulator.can_bus import CanServoBus
+from hexmanipulator.geometry import Geometry
+from hexmanipulator.kinematics import Pose, forward
+from pbort.errors import KernelError
+from visual_servoing.dehazer_guest import INSTRUCTION_BUDGET
+
+ROBOTS = ("hexman", "rotation")
+"""The robots' names: the task runs on the first."""
+STEP = 0.001
+"""Seconds of virtual time the two nodes advance together."""
+_CHANNELS = itertools.count()
+
+
+class World:
+    """The robots' nodes, the servos and the clock. `hexman` names the HexMan PBO whose
+    ``feedback`` port gives the plate's pose."""
+
+    def __init__(self, geometry: Geometry, hexman: str = "HexMan") -> None:
+        self.geometry = geometry
+        self.hexman = hexman
+        self.time = 0.0
+        config = NodeConfig(budget=INSTRUCTION_BUDGET)
+        self.nodes = {robot: Node(robot, config) for robot in ROBOTS}
+        self.servos = CanServoNodes(volts=geometry.supply_volts, now=self.now)
+        channel = f"vs-servos-{os.getpid()}-{next(_CHANNELS)}"
+        self._server = CanServoServer(self.servos, can.Bus(interface="virtual", channel=channel))
+        self._host = can.Bus(interface="virtual", channel=channel)
+        self.servo_bus = CanServoBus(self._host, geometry)
+        self._plate = Pose()
+        self._plate_from: np.ndarray | None = None
+
+    def now(self) -> float:
+        """The world's time in seconds."""
+        return self.time
+
+    def advance(self, seconds: float) -> None:
+        """Run both robots `seconds` further, together."""
+        end = self.time + seconds
+        while self.time < end - 1e-12:
+            self.time = min(end, self.time + STEP)
+            for node in self.nodes.values():
+                node.run(until=self.time)
+
+    def plate(self) -> Pose:
+        """The travelling plate's pose from the servos' latest feedback (home before any)."""
+        node = self.nodes[ROBOTS[0]]
+        try:
+            feedback = np.asarray(node.kernel.value(f"{self.hexman}.feedback"), dtype=float)
+        except KernelError:  # HexMan is not running: the plate stays where it was
+            return self._plate
+        if self._plate_from is None or not np.array_equal(feedback, self._plate_from):
+            if np.any(feedback):
+                self._plate = forward(self.geometry, feedback, guess=self._plate)
+            self._plate_from = feedback
+        return self._plate
+
+    def plate_yaw(self) -> float:
+        """Where the cameras on the plate look, in degrees."""
+        return float(self.plate().yaw)
+
+    def close(self) -> None:
+        """Stop the servos' server and the nodes."""
+        self.servo_bus.close()
+        self._host.shutdown()
+        self._server.close()
+        for node in self.nodes.values():
+            node.close()
+
+    def __enter__(self) -> World:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
