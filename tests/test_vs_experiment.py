@@ -1,0 +1,101 @@
+"""The paper's section 6 experiment on emulated robots, end to end, and what its report says."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from visual_servoing.experiment.cli import main
+from visual_servoing.experiment.experiment import Experiment, Outcome
+from visual_servoing.experiment.report import summary
+from visual_servoing.experiment.scenarios import PAPER
+
+PAPER_CASES = [
+    "{CamReader_alt, SSD, TrajGen, HexMan}",
+    "{CamReader, SSD_alt, TrajGen, HexMan}",
+    "{CamReader, SSD, TrajGen_alt, HexMan}",
+]
+PAPER_CANDIDATES = [
+    "{CamReader_alt, SSD, TrajGen, HexMan}",
+    "{CamReader, Dehazer, SSD, TrajGen, HexMan}",
+    "{CamReader_alt, Dehazer, SSD, TrajGen, HexMan}",
+]
+
+
+@pytest.fixture(scope="module")
+def paper(tmp_path_factory: pytest.TempPathFactory) -> Outcome:
+    with Experiment(PAPER, tmp_path_factory.mktemp("paper")) as experiment:
+        return experiment.run()
+
+
+def test_the_fault_is_detected_soon_after_it_strikes(paper):
+    detections = paper.log.of_kind("detection")
+    assert len(detections) == 1
+    assert PAPER.fault_at < detections[0].time < PAPER.fault_at + 1.5
+    assert detections[0].data["failing"] == ["diff"]
+
+
+def test_base_choice_names_camreader_after_the_paper_s_first_test_case(paper):
+    record = paper.reconfigurations[0]
+    assert record.test_cases == 3 and record.brute_force == 8
+    cases = paper.log.of_kind("test_case")
+    assert [c.message.split(": ")[0].split(". ")[1] for c in cases] == PAPER_CASES[:1]
+    assert cases[0].data["p_t"] == 1  # the other camera sees the targets: CamReader is at fault
+    assert record.decision.location.module == "CamReader"
+
+
+def test_the_generator_builds_the_paper_s_candidates_and_chooses_the_dehazer(paper):
+    choice = paper.reconfigurations[0].decision.choice
+    labels = [candidate.configuration.label() for candidate, _ in choice.candidates]
+    assert labels == PAPER_CANDIDATES
+    assert all(assessment.p_t for _, assessment in choice.candidates)  # all estimated good
+    assert choice.chosen.configuration.label() == PAPER_CANDIDATES[1]  # the least Util
+
+
+def test_the_dehazer_migrates_and_the_task_recovers(paper):
+    record = paper.reconfigurations[0]
+    (migration,) = paper.migrations
+    assert (migration.module, migration.robot) == ("Dehazer", "hexman")
+    assert migration.run.size > 1000 and migration.run.retransmissions == 0
+    # 115200 baud: at most what 10 bits a payload byte and the flash allow, at least the bits.
+    assert migration.run.size * 10 / 115200 < migration.run.seconds < 1.0
+    assert record.applied_at == pytest.approx(record.detected_at + migration.run.seconds)
+    assert record.recovered_at is not None and record.recovered_at - record.applied_at < 1.0
+    assert paper.stopped_at is None
+    assert paper.configurations[-1][1] == PAPER_CANDIDATES[1]
+    # As often within the threshold as before the fault (the turns between targets aside).
+    before = within([s for s in paper.samples if 0.5 < s.time < PAPER.fault_at])
+    during = within([s for s in paper.samples if PAPER.fault_at < s.time < record.detected_at])
+    after = within([s for s in paper.samples if s.time > record.recovered_at])
+    assert during < before - 0.2
+    assert after > before - 0.05
+
+
+def within(samples) -> float:
+    """The share of samples whose reported deviation is within the paper's 30 pixels."""
+    return sum(abs(s.reported) <= 30 for s in samples) / len(samples)
+
+
+def test_the_summary_gives_the_demo_s_figures(paper):
+    figures = summary(paper)
+    (r,) = figures["reconfigurations"]
+    assert r["located"] == "CamReader"
+    assert r["chosen"] == PAPER_CANDIDATES[1]
+    assert r["test_cases"] == 3 and r["test_cases_estimated"] == 1 and r["brute_force"] == 8
+    assert r["migrations"][0]["wire"] == "serial 115200"
+    assert 0 < r["recovery_seconds"] < 1.0
+    assert figures["final"] == PAPER_CANDIDATES[1]
+
+
+def test_the_command_writes_report_timeline_and_plot(tmp_path: Path, capsys):
+    assert main(["run", "--scenario", "paper", "--out", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    assert "3 by Base Choice (1 estimated) against 8 by brute force" in printed
+    assert f"plot: {tmp_path / 'deviation.png'}" in printed
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["summary"]["final"] == PAPER_CANDIDATES[1]
+    assert len(report["samples"]) > 250  # a sample per frame over 10 s
+    assert "detection" in (tmp_path / "timeline.txt").read_text()
+    assert (tmp_path / "deviation.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
