@@ -14,7 +14,7 @@ and Generator test without copying more than a tuple.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 from refresh.database import Module, ModuleDatabase, Placement
@@ -30,10 +30,12 @@ Connection = tuple[str, str]
 
 @dataclass(frozen=True)
 class Configuration:
-    """The chains filling `schemas`, slot by slot."""
+    """The chains filling `schemas`, slot by slot. `home` is the task's robot, for labels only
+    (it takes no part in equality)."""
 
     schemas: tuple[str, ...]
     chains: tuple[Chain, ...]
+    home: str | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         if len(self.schemas) != len(self.chains):
@@ -47,7 +49,7 @@ class Configuration:
     def replace(self, slot: int, chain: Chain) -> Configuration:
         """This configuration with slot `slot` filled by `chain`."""
         chains = (*self.chains[:slot], chain, *self.chains[slot + 1 :])
-        return Configuration(self.schemas, chains)
+        return Configuration(self.schemas, chains, self.home)
 
     @cached_property
     def placements(self) -> tuple[Placement, ...]:
@@ -105,8 +107,14 @@ class Configuration:
         return None
 
     def label(self) -> str:
-        """The paper's notation, ``{CamReader, Dehazer, SSD, TrajGen, HexMan}``."""
-        return "{" + ", ".join(p.module for p in self.placements) + "}"
+        """The paper's notation, ``{CamReader, Dehazer, SSD, TrajGen, HexMan}``; a module that
+        runs away from `home` (a coalition) shows its robot: ``CamReader@rotation``."""
+        return "{" + ", ".join(self._short(p) for p in self.placements) + "}"
+
+    def _short(self, placement: Placement) -> str:
+        if self.home is None or placement.robot == self.home:
+            return placement.module
+        return str(placement)
 
     def __str__(self) -> str:
         return "{" + ", ".join(str(p) for p in self.placements) + "}"
@@ -129,7 +137,7 @@ def initial_configuration(task: TaskSpec, database: ModuleDatabase) -> Configura
                 f"got {placement.module!r} of schema {database.module(placement.module).schema!r}"
             )
         chains.append((placement,))
-    return Configuration(task.schemas, tuple(chains))
+    return Configuration(task.schemas, tuple(chains), task.robot)
 
 
 def parse_placement(text: str, home: str, database: ModuleDatabase) -> Placement:

@@ -13,7 +13,7 @@ and where its code comes from: built into the node (native) or a module image to
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from pathlib import Path
 
@@ -122,6 +122,19 @@ class ModuleDatabase:
             name: tuple(Placement(m.name, r) for m in schema.modules for r in m.robots)
             for name, schema in self.schemas.items()
         }
+
+    def set_capacity(self, robot: str, resource: str, capacity: float) -> None:
+        """A robot's resource changed while it runs (a battery sagging): later assessments use
+        the new capacity."""
+        current = self.robots[robot]
+        if resource not in current.resources:
+            raise ConfigurationError(
+                f"robot {robot!r}: expected a resource among {', '.join(current.resources)}, "
+                f"got {resource!r}"
+            )
+        resources = dict(current.resources)
+        resources[resource] = replace(resources[resource], capacity=capacity)
+        self.robots[robot] = Robot(robot, resources)
 
     def module(self, name: str) -> Module:
         """The module called `name`."""

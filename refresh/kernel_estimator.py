@@ -24,9 +24,10 @@ class KernelEstimator:
     """Estimates configurations in shadow runs of `kernel` (see `pbort.shadow`).
 
     `codes` gives the code of every module of the database by name (native classes wrapped in
-    `NativeModule`, or guest modules); `inputs` fixes values of external inputs and constants
-    (``module.port``; those of modules outside a configuration, or fed inside it, are left out);
-    `steps` is how many estimate steps each run makes before its reports are read.
+    `NativeModule`, or guest modules), or by ``Module@robot`` where a robot's differs; `inputs`
+    fixes values of external inputs and constants (``module.port``; those of modules outside a
+    configuration, or fed inside it, are left out); `steps` is how many estimate steps each run
+    makes before its reports are read.
     """
 
     def __init__(
@@ -52,7 +53,7 @@ class KernelEstimator:
         for placement, instance in zip(
             configuration.placements, configuration.instances, strict=True
         ):
-            code = self.codes.get(placement.module)
+            code = self.codes.get(str(placement), self.codes.get(placement.module))
             if code is None:
                 raise EstimationError(f"no code for module {placement.module!r} to estimate with")
             if code.name != placement.module:

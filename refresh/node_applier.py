@@ -34,7 +34,8 @@ IMPORTER_PRIORITY = -1
 class NodeApplier:
     """Applies plan steps to `nodes` (robot name -> Node).
 
-    `natives` gives the code of native modules by name (what the node's firmware has built in);
+    `natives` gives the code of native modules by name (what the node's firmware has built in),
+    or by ``Module@robot`` where one robot's firmware differs (its own camera, say);
     `images` may give a module's image instead of reading the file the database names; `link`
     opens the link to a node's receiver (in-process by default).
     """
@@ -115,7 +116,7 @@ class NodeApplier:
         """Start the installed image (or the native code) as PBO `instance`."""
         node = self.node(robot)
         if module.source.native:
-            code = self.natives.get(module.name)
+            code = self.natives.get(f"{module.name}@{robot}", self.natives.get(module.name))
             if code is None:
                 raise ApplyError(f"start {module.name} on {robot}: no native code of that name")
         elif module.name in node.modules:

@@ -191,3 +191,31 @@ initial = ["Cam", "SSD", "TrajGen"]
         ("SSD.deviation", "TrajGen.deviation"),
         ("TrajGen.target", "SSD.target"),  # the loop closes: TrajGen says what to look for
     )
+
+
+def test_a_label_names_the_robot_of_a_module_away_from_the_task_s():
+    loaded = loads(
+        """
+[robots.home]
+resources.power = { capacity = 100 }
+[robots.other]
+resources.power = { capacity = 100 }
+[schemas.camera]
+kind = "sensor"
+[schemas.camera.modules.Cam]
+robots = ["home", "other"]
+outputs = { image = "frame" }
+source = "native"
+[task]
+name = "look"
+robot = "home"
+states = ["run"]
+schemas = ["camera"]
+initial = ["Cam"]
+"""
+    )
+    current = initial_configuration(loaded.task, loaded.database)
+    away = current.replace(0, (loaded.database.placements_of("Cam")[1],))
+    assert current.label() == "{Cam}"
+    assert away.label() == "{Cam@other}"
+    assert away != current and away.replace(0, current.chains[0]) == current

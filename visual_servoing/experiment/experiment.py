@@ -37,7 +37,7 @@ from refresh.maintainer import Maintainer
 from visual_servoing.dehazer_guest import INSTRUCTION_BUDGET, NAME, dehazer_image
 from visual_servoing.experiment.applier import VirtualTimeApplier
 from visual_servoing.experiment.scenarios import Scenario
-from visual_servoing.experiment.world import ROBOTS, World
+from visual_servoing.experiment.world import World
 from visual_servoing.image_faults import FaultSchedule
 from visual_servoing.scene import Scene
 from visual_servoing.task.camera import CameraDevice, camera_module
@@ -115,13 +115,14 @@ class Experiment:
         self.image.write(work / f"{NAME}.hex")
         self.loaded: Loaded = loads(scenario.database.read_text(), scenario.database.name, work)
         self.devices = {
-            name: CameraDevice(
+            f"{module}@{robot}": CameraDevice(
                 self.scene,
                 self.world.plate_yaw,
                 self.world.now,
-                FaultSchedule(list(scenario.faults.get(name, ()))),
+                FaultSchedule(list(self._camera_faults(module, robot))),
+                self._intent,
             )
-            for name in self._camera_names()
+            for module, robot in self._cameras()
         }
         self.natives = self._natives()
         self.host = Node("refresh", NodeConfig(budget=INSTRUCTION_BUDGET))
@@ -140,10 +141,23 @@ class Experiment:
         self._good_since: float | None = None  # P_T = 1 since then, after a switch
         self._repairing = False  # a decision is being carried out: no second one meanwhile
         self._frames = 0
+        self._dropped = False
 
-    def _camera_names(self) -> list[str]:
+    def _intent(self) -> float:
+        """The yaw the task commands now (where the plate is, before the task runs)."""
+        if self.current is None:
+            return self.world.plate_yaw()
+        return self._value("trajectory", "yaw")
+
+    def _cameras(self) -> list[tuple[str, str]]:
+        """(module, robot) for every camera: a camera module on each robot reads that robot's
+        camera (the rotation robot's turns with the plate, so it sees what the plate sees)."""
         schema = self.loaded.database.schemas["camera"]
-        return [module.name for module in schema.modules]
+        return [(module.name, robot) for module in schema.modules for robot in module.robots]
+
+    def _camera_faults(self, module: str, robot: str) -> tuple:
+        faults = self.scenario.faults
+        return faults.get(f"{module}@{robot}", faults.get(module, ()))
 
     def _power(self, module: str) -> float:
         return self.loaded.database.module(module).needs.get("power", 0.0)
@@ -152,8 +166,9 @@ class Experiment:
         """The robots' firmware: every native module of the database, bound to the world."""
         database = self.loaded.database
         natives: dict[str, NativeModule] = {}
-        for name, device in self.devices.items():
-            natives[name] = camera_module(name, device, self._power(name))
+        for key, device in self.devices.items():
+            name = key.partition("@")[0]
+            natives[key] = camera_module(name, device, self._power(name))
         methods = {"SSD": "ssd", "SSD_alt": "ncc"}
         laws = {"TrajGen": Law(), "TrajGen_alt": Law(rate=150.0, gain=0.2)}
         for module in database.modules():
@@ -184,6 +199,7 @@ class Experiment:
         end = self.world.time + seconds
         decider_every = round(DECIDER_PERIOD / FRAME)
         while self.world.time < end - 1e-9:
+            self._power_drop()
             self.world.advance(min(FRAME, end - self.world.time))
             self._frames += 1
             if self.current is None:
@@ -210,12 +226,15 @@ class Experiment:
         self.decider.violations = 0  # what it counted was about the old configuration
         self.outcome.configurations.append((self.world.time, target.label()))
 
-    def _sample(self) -> None:
+    def _value(self, schema: str, port: str) -> float:
+        """A port of the module filling `schema`, on whichever robot it runs."""
         assert self.current is not None
-        kernel = self.world.nodes[ROBOTS[0]].kernel
-        matcher = self.current.instance_of("matching")
-        trajectory = self.current.instance_of("trajectory")
-        target = int(kernel.value(f"{trajectory}.target"))
+        instance = self.current.instance_of(schema)
+        kernel = self.world.nodes[self.current.robot_of(instance)].kernel
+        return float(kernel.value(f"{instance}.{port}"))
+
+    def _sample(self) -> None:
+        target = int(self._value("trajectory", "target"))
         name = list(self.scene.targets)[target % len(self.scene.targets)]
         yaw = self.world.plate_yaw()
         true = self.scene.truth(name, yaw).x - self.scene.centre.x
@@ -223,11 +242,25 @@ class Experiment:
             Sample(
                 self.world.time,
                 target,
-                float(kernel.value(f"{matcher}.deviation")),
+                self._value("matching", "deviation"),
                 float(true),
                 yaw,
-                float(kernel.value(f"{trajectory}.yaw")),
+                self._value("trajectory", "yaw"),
             )
+        )
+
+    def _power_drop(self) -> None:
+        """The scenario's battery sag, once its time has come."""
+        drop = self.scenario.power_drop
+        if drop is None or self._dropped or self.world.time < drop.time - 1e-9:
+            return
+        self.loaded.database.set_capacity(drop.robot, "power", drop.capacity)
+        self._dropped = True
+        self.log.record(
+            "power_drop",
+            f"robot {drop.robot}: power capacity down to {drop.capacity:g}",
+            robot=drop.robot,
+            capacity=drop.capacity,
         )
 
     def _judge(self) -> None:
@@ -308,10 +341,7 @@ class Experiment:
 
     def _live_inputs(self) -> dict[str, object]:
         """What an estimator must start from to estimate now: the target the task looks for."""
-        assert self.current is not None
-        kernel = self.world.nodes[ROBOTS[0]].kernel
-        trajectory = self.current.instance_of("trajectory")
-        start = int(kernel.value(f"{trajectory}.target"))
+        start = int(self._value("trajectory", "target"))
         schema = self.loaded.database.schemas["trajectory"]
         return {f"{module.name}.start": start for module in schema.modules}
 

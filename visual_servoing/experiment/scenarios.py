@@ -18,14 +18,25 @@ FAULT_AT = 4.0
 
 
 @dataclass(frozen=True)
+class PowerDrop:
+    """A robot's power capacity falls to `capacity` at `time` (a battery sagging)."""
+
+    time: float
+    robot: str
+    capacity: float
+
+
+@dataclass(frozen=True)
 class Scenario:
-    """What to run: `database` (a TOML file), camera faults by device, `duration` seconds."""
+    """What to run: `database` (a TOML file), camera faults by camera (``Module@robot``, or
+    ``Module`` for all its robots), a power drop, `duration` seconds."""
 
     name: str
     title: str
     expected: str
     database: Path = DATA / "paper.toml"
     faults: dict[str, tuple[Fault, ...]] = field(default_factory=dict)
+    power_drop: PowerDrop | None = None
     duration: float = 10.0
     fault_at: float = FAULT_AT
 
@@ -38,4 +49,46 @@ PAPER = Scenario(
     faults={"CamReader": (Fault(FaultKind.SALT_PEPPER, 0.3, FAULT_AT),)},
 )
 
-SCENARIOS = {scenario.name: scenario for scenario in (PAPER,)}
+FOG = Scenario(
+    "fog",
+    "fog on CamReader's lens",
+    "CamReader located; the Dehazer restores the contrast: {CamReader, Dehazer, SSD, TrajGen, "
+    "HexMan}",
+    faults={"CamReader": (Fault(FaultKind.FOG, 0.6, FAULT_AT),)},
+)
+
+TWO_ROBOTS = DATA / "robots.toml"
+
+BLACKOUT = Scenario(
+    "blackout",
+    "blackout of both cameras on the HexManipulator",
+    "no camera of that robot helps (CamReader_alt fails its test case); a coalition with the "
+    "rotation robot's camera: {CamReader@rotation, SSD, TrajGen, HexMan}, frames over the link",
+    database=TWO_ROBOTS,
+    faults={
+        camera: (Fault(FaultKind.BLACKOUT, 1.0, FAULT_AT),)
+        for camera in ("CamReader@hexman", "CamReader_alt@hexman")
+    },
+)
+
+POWER_DROP = Scenario(
+    "power-drop",
+    "the HexManipulator's battery sags to 28 of 100 power units",
+    "leftover power 18 <= 20 violates equation (7); moving SSD to the rotation robot leaves 21: "
+    "{CamReader, SSD@rotation, TrajGen, HexMan}",
+    database=TWO_ROBOTS,
+    power_drop=PowerDrop(FAULT_AT, "hexman", 28.0),
+)
+
+NO_REPAIR = Scenario(
+    "no-repair",
+    "blackout of every camera on both robots",
+    "no single replacement helps: more than one fault suspected; the task is stopped safely",
+    database=TWO_ROBOTS,
+    faults={
+        "CamReader": (Fault(FaultKind.BLACKOUT, 1.0, FAULT_AT),),
+        "CamReader_alt": (Fault(FaultKind.BLACKOUT, 1.0, FAULT_AT),),
+    },
+)
+
+SCENARIOS = {scenario.name: scenario for scenario in (PAPER, FOG, BLACKOUT, POWER_DROP, NO_REPAIR)}

@@ -3,8 +3,9 @@
 A `CameraDevice` is the hardware: it sees the scene along the yaw of whatever carries it (the
 HexManipulator's travelling plate) at the world's time, through its own faults (a noisy sensor,
 fog on its lens, a blackout). A CamReader module reads one device: its executor puts the frame
-on its ``image`` output each period, its estimator does the same on its estimator port (the frame
-a test configuration would get now), and both report the module's power.
+on its ``image`` output each period, its estimator the frame the device would deliver looking
+where the task wants it (the frame a test configuration would get once there), and both report
+the module's power.
 
 Two modules on one robot read two devices (CamReader and CamReader_alt are two cameras on the
 plate), so a fault of one camera does not touch the other; a blackout of the plate's lens is a
@@ -36,12 +37,18 @@ def frame_port(name: str, output: bool) -> PortSpec:
 
 @dataclass
 class CameraDevice:
-    """A camera: `scene` seen along `yaw()` degrees at `clock()` seconds, through `faults`."""
+    """A camera: `scene` seen along `yaw()` degrees at `clock()` seconds, through `faults`.
+
+    `intent()` is where the task wants the camera to look (the yaw its trajectory commands):
+    an estimator asks what the camera would deliver there, since what a configuration would
+    achieve is judged once the platform points where it should, not halfway through a turn.
+    """
 
     scene: Scene
     yaw: Callable[[], float]
     clock: Callable[[], float]
     faults: FaultSchedule = field(default_factory=FaultSchedule)
+    intent: Callable[[], float] | None = None
 
     def __post_init__(self) -> None:
         if self.scene.shape != FRAME_SHAPE:
@@ -50,6 +57,11 @@ class CameraDevice:
     def frame(self) -> np.ndarray:
         """What the camera delivers now."""
         return self.faults.apply(self.scene.render(self.yaw()), self.clock())
+
+    def intended_frame(self) -> np.ndarray:
+        """What the camera would deliver now, looking where the task wants it to."""
+        yaw = self.intent() if self.intent is not None else self.yaw()
+        return self.faults.apply(self.scene.render(yaw), self.clock())
 
 
 class CamReader(NativePBO):
@@ -67,7 +79,7 @@ class CamReader(NativePBO):
         report_power(io, self.power)
 
     def estimate(self, io: PortIO) -> None:
-        io["image"] = self.device.frame()
+        io["image"] = self.device.intended_frame()
         report_power(io, self.power)
 
 
