@@ -1,0 +1,65 @@
+"""The scenarios beyond the paper: each runs on the emulated robots and ends as expected."""
+
+from __future__ import annotations
+
+import pytest
+
+from visual_servoing.experiment.experiment import Experiment, Outcome
+from visual_servoing.experiment.scenarios import SCENARIOS
+
+DEHAZED = "{CamReader, Dehazer, SSD, TrajGen, HexMan}"
+
+
+def run(name: str, tmp_path_factory: pytest.TempPathFactory) -> Outcome:
+    with Experiment(SCENARIOS[name], tmp_path_factory.mktemp(name)) as experiment:
+        return experiment.run()
+
+
+def recovered(outcome: Outcome) -> None:
+    """One reconfiguration, detected after the fault, confirmed recovered, nothing stopped."""
+    (record,) = outcome.reconfigurations
+    assert outcome.scenario.fault_at < record.detected_at < outcome.scenario.fault_at + 1.5
+    assert record.recovered_at is not None and outcome.stopped_at is None
+
+
+def test_fog_is_cleared_by_the_dehazer(tmp_path_factory):
+    outcome = run("fog", tmp_path_factory)
+    recovered(outcome)
+    assert outcome.reconfigurations[0].decision.location.module == "CamReader"
+    assert outcome.configurations[-1][1] == DEHAZED
+    assert [m.module for m in outcome.migrations] == ["Dehazer"]
+
+
+def test_a_blackout_is_repaired_by_a_coalition_with_the_other_robot_s_camera(tmp_path_factory):
+    outcome = run("blackout", tmp_path_factory)
+    recovered(outcome)
+    cases = outcome.log.of_kind("test_case")
+    # The other camera on the same robot is dark too: its test case fails, the other robot's
+    # camera passes, and CamReader is the module to replace.
+    assert [(c.data["replacement"], c.data["p_t"]) for c in cases] == [
+        ("CamReader_alt@hexman", 0),
+        ("CamReader@rotation", 1),
+    ]
+    assert outcome.configurations[-1][1] == "{CamReader@rotation, SSD, TrajGen, HexMan}"
+    assert outcome.migrations == []  # native code on both robots: nothing to send
+    after = [s for s in outcome.samples if s.time > outcome.reconfigurations[0].recovered_at]
+    assert sum(abs(s.reported) <= 30 for s in after) / len(after) > 0.85  # frames cross the link
+
+
+def test_a_battery_sag_moves_a_module_to_the_other_robot(tmp_path_factory):
+    outcome = run("power-drop", tmp_path_factory)
+    recovered(outcome)
+    detection = outcome.log.of_kind("detection")[0]
+    assert detection.data["failing"] == ["power@hexman"]
+    assert outcome.reconfigurations[0].decision.location.module == "SSD"
+    assert outcome.configurations[-1][1] == "{CamReader, SSD@rotation, TrajGen, HexMan}"
+
+
+def test_with_every_camera_dark_the_task_stops_safely(tmp_path_factory):
+    outcome = run("no-repair", tmp_path_factory)
+    (record,) = outcome.reconfigurations
+    assert record.decision.location.module == "more than one fault suspected"
+    assert record.decision.location.tried == record.test_cases == 6
+    assert record.target is None and outcome.stopped_at == pytest.approx(record.detected_at)
+    assert outcome.log.of_kind("stopped")[0].data["reason"] == "more than one fault suspected"
+    assert all(s.time <= outcome.stopped_at for s in outcome.samples)
