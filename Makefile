@@ -38,6 +38,7 @@ bench: tools $(INSTALLED)
 	$(PY) benchmarks/migration.py
 	$(PY) benchmarks/decision.py
 	$(PY) benchmarks/crossbar.py
+	$(PY) benchmarks/dehazer.py
 
 clean:
 	rm -rf $(BUILD) .pytest_cache .ruff_cache .hypothesis

@@ -24,8 +24,8 @@ The evaluator reports, after every successful cycle:
   else 0.0 (a performance violation, as the paper's P_F);
 * non-functional 0: the servos' power draw in mW (the ABI's convention for non-functional 0).
 
-The estimator (`estimate`) solves the inverse kinematics only, so a test configuration can be
-judged without moving the platform.
+The estimator (`estimate`) solves the inverse kinematics and reads the servos back, so a test
+configuration is judged without moving the platform, and a silent servo link shows.
 
 A link failure or an unreachable target does not fail the cycle (the PBO would go to ERROR and
 the evaluator would not run): the cycle records the fault, logs its reason once, keeps the last
@@ -155,14 +155,17 @@ class HexMan(NativePBO):
         io.report(NF, 0, 0.0 if self.reading is None else self.reading.power_mw)
 
     def estimate(self, io: PortIO) -> None:
-        """What the platform would do with this target, without moving it: the estimator only
-        solves the inverse kinematics (the servos belong to the executor). It reports a tracking
-        error of 0 and health 1 when the target is reachable, `NO_FEEDBACK_ERROR` and 0 when not."""
+        """What the platform would do with this target, without moving it: the estimator solves
+        the inverse kinematics and asks the servos where they are (a read moves nothing; the
+        moves belong to the executor). It reports a tracking error of 0 and health 1 when the
+        target is reachable and the servos answer, `NO_FEEDBACK_ERROR` and 0 when not."""
         pose = np.array(io["target"], dtype=float)
         pose[5] += io["yaw"]
         try:
             io["angles"] = inverse(self.geometry, Pose(*pose))
-        except UnreachablePoseError:
+            io["feedback"] = self.servo_bus.read().angles
+        except (UnreachablePoseError, ServoBusError) as error:
+            io.log(f"hexman (estimator): {error}")
             io.report(F, 0, NO_FEEDBACK_ERROR)
             io.report(F, 1, 0.0)
             return

@@ -63,3 +63,15 @@ def test_with_every_camera_dark_the_task_stops_safely(tmp_path_factory):
     assert record.target is None and outcome.stopped_at == pytest.approx(record.detected_at)
     assert outcome.log.of_kind("stopped")[0].data["reason"] == "more than one fault suspected"
     assert all(s.time <= outcome.stopped_at for s in outcome.samples)
+
+
+def test_a_cut_servo_bus_is_repaired_by_the_servos_second_bus(tmp_path_factory):
+    outcome = run("servo-cut", tmp_path_factory)
+    recovered(outcome)
+    detection = outcome.log.of_kind("detection")[0]
+    assert detection.data["failing"] == ["servos"]
+    # Every test case keeps HexMan on the cut bus but the last: its estimator reads the servos.
+    cases = outcome.log.of_kind("test_case")
+    assert [c.data["p_t"] for c in cases] == [0, 0, 0, 1]
+    assert cases[-1].data["replacement"] == "HexMan_alt@hexman"
+    assert outcome.configurations[-1][1] == "{CamReader, SSD, TrajGen, HexMan_alt}"

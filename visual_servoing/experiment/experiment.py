@@ -113,7 +113,8 @@ class Experiment:
         self.log = EventLog(clock=self.world.now)
         self.image = dehazer_image(work / "build")
         self.image.write(work / f"{NAME}.hex")
-        self.loaded: Loaded = loads(scenario.database.read_text(), scenario.database.name, work)
+        text = scenario.database.read_text() + scenario.extra
+        self.loaded: Loaded = loads(text, scenario.database.name, work)
         self.devices = {
             f"{module}@{robot}": CameraDevice(
                 self.scene,
@@ -142,6 +143,7 @@ class Experiment:
         self._repairing = False  # a decision is being carried out: no second one meanwhile
         self._frames = 0
         self._dropped = False
+        self._cut = False
 
     def _intent(self) -> float:
         """The yaw the task commands now (where the plate is, before the task runs)."""
@@ -177,7 +179,9 @@ class Experiment:
                 natives[name] = matcher_module(name, self.scene, methods[name], self._power(name))
             elif name in laws:
                 natives[name] = trajectory_module(name, self.scene, laws[name], self._power(name))
-        natives["HexMan"] = hexman_module(self.world.servo_bus, self.world.geometry, "HexMan")
+        for name, link in (("HexMan", "can1"), ("HexMan_alt", "can2")):
+            bus = self.world.servo_buses[link]
+            natives[name] = hexman_module(bus, self.world.geometry, name)
         return natives
 
     def _codes(self) -> dict[str, ModuleCode]:
@@ -200,6 +204,7 @@ class Experiment:
         decider_every = round(DECIDER_PERIOD / FRAME)
         while self.world.time < end - 1e-9:
             self._power_drop()
+            self._servo_link_cut()
             self.world.advance(min(FRAME, end - self.world.time))
             self._frames += 1
             if self.current is None:
@@ -223,6 +228,7 @@ class Experiment:
         """Apply the Maintainer's plan from the current configuration to `target`."""
         self.maintainer.apply(self.maintainer.plan(self.current, target))
         self.current = target
+        self.world.hexman = target.instance_of("manipulator")
         self.decider.violations = 0  # what it counted was about the old configuration
         self.outcome.configurations.append((self.world.time, target.label()))
 
@@ -248,6 +254,15 @@ class Experiment:
                 self._value("trajectory", "yaw"),
             )
         )
+
+    def _servo_link_cut(self) -> None:
+        """The scenario's servo link cut, once its time has come."""
+        cut = self.scenario.servo_link_cut
+        if cut is None or self._cut or self.world.time < cut - 1e-9:
+            return
+        self.world.cut_servo_link("can1")
+        self._cut = True
+        self.log.record("link_cut", "the first CAN bus to the servos is cut (bus-off)")
 
     def _power_drop(self) -> None:
         """The scenario's battery sag, once its time has come."""

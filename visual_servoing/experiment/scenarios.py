@@ -28,8 +28,9 @@ class PowerDrop:
 
 @dataclass(frozen=True)
 class Scenario:
-    """What to run: `database` (a TOML file), camera faults by camera (``Module@robot``, or
-    ``Module`` for all its robots), a power drop, `duration` seconds."""
+    """What to run: `database` (a TOML file, plus `extra`), camera faults by camera
+    (``Module@robot``, or ``Module`` for all its robots), a power drop, the time the first CAN
+    bus to the servos is cut, `duration` seconds."""
 
     name: str
     title: str
@@ -37,6 +38,9 @@ class Scenario:
     database: Path = DATA / "paper.toml"
     faults: dict[str, tuple[Fault, ...]] = field(default_factory=dict)
     power_drop: PowerDrop | None = None
+    servo_link_cut: float | None = None
+    extra: str = ""
+    """TOML appended to the database file: more modules, more metrics."""
     duration: float = 10.0
     fault_at: float = FAULT_AT
 
@@ -80,6 +84,32 @@ POWER_DROP = Scenario(
     power_drop=PowerDrop(FAULT_AT, "hexman", 28.0),
 )
 
+SECOND_SERVO_BUS = """
+[schemas.manipulator.modules.HexMan_alt]
+robots = ["hexman"]
+inputs = { yaw = "yaw_degrees" }
+outputs = { feedback = "crank_degrees", fault = "servo_fault" }
+needs = { power = 4 }
+source = "native"
+frequency = 30
+
+# HexMan's health (functional 1): 1 while its servos answer and follow.
+[task.metrics.servos]
+schema = "manipulator"
+index = 1
+threshold = 1
+direction = "at_least"
+"""
+
+SERVO_CUT = Scenario(
+    "servo-cut",
+    "the CAN bus from HexMan to its servos is cut",
+    "HexMan's evaluator and estimator see the servos silent; HexMan located; HexMan_alt, on the "
+    "servos' second CAN bus, takes over: {CamReader, SSD, TrajGen, HexMan_alt}",
+    servo_link_cut=FAULT_AT,
+    extra=SECOND_SERVO_BUS,
+)
+
 NO_REPAIR = Scenario(
     "no-repair",
     "blackout of every camera on both robots",
@@ -91,4 +121,6 @@ NO_REPAIR = Scenario(
     },
 )
 
-SCENARIOS = {scenario.name: scenario for scenario in (PAPER, FOG, BLACKOUT, POWER_DROP, NO_REPAIR)}
+SCENARIOS = {
+    scenario.name: scenario for scenario in (PAPER, FOG, BLACKOUT, POWER_DROP, SERVO_CUT, NO_REPAIR)
+}

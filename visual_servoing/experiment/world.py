@@ -3,9 +3,11 @@
 The HexManipulator robot and the rotation robot are two emulated nodes (`firmware_sim.Node`),
 each with its kernel on a virtual clock; `advance` runs both in small steps to the same time, so
 ports bridged between them (`firmware_sim.bridge`) arrive when the link delivers them. The
-HexManipulator's six S3003 servos are CAN servo nodes (`firmware_sim.servos`) on an in-process
-virtual CAN bus, stepping on the same clock; the HexMan PBO reaches them through
-`hexmanipulator.can_bus`. The cameras on the travelling plate look along the plate's yaw, which
+HexManipulator's six S3003 servos are CAN servo nodes (`firmware_sim.servos`) stepping on the
+same clock, each with two CAN interfaces on two in-process virtual buses, as redundant actuators
+have: the HexMan PBO reaches them through `hexmanipulator.can_bus` on the first, HexMan_alt on
+the second; the first bus's host controller can be cut off (`cut_servo_link`: it goes bus-off).
+The cameras on the travelling plate look along the plate's yaw, which
 the world recovers from the servos' feedback by the forward kinematics: what the platform did,
 not what it was told.
 """
@@ -14,11 +16,13 @@ from __future__ import annotations
 
 import itertools
 import os
+import threading
 
 import can
 import numpy as np
 
 from firmware_sim.node import Node, NodeConfig
+from firmware_sim.servos.bus_off import BusOffController
 from firmware_sim.servos.can_servo import CanServoNodes
 from firmware_sim.servos.can_servo_server import CanServoServer
 from hexmanipulator.can_bus import CanServoBus
@@ -31,7 +35,25 @@ ROBOTS = ("hexman", "rotation")
 """The robots' names: the task runs on the first."""
 STEP = 0.001
 """Seconds of virtual time the two nodes advance together."""
+SERVO_LINKS = ("can1", "can2")
+"""The two CAN buses to the servo nodes."""
 _CHANNELS = itertools.count()
+
+
+class SharedNodes:
+    """The servo nodes as two bus servers see them: one at a time (each server has a thread)."""
+
+    def __init__(self, nodes: CanServoNodes) -> None:
+        self.nodes = nodes
+        self._lock = threading.Lock()
+
+    def handle(self, frame: can.Message) -> list[can.Message]:
+        with self._lock:
+            return self.nodes.handle(frame)
+
+    def due(self) -> list[can.Message]:
+        with self._lock:
+            return self.nodes.due()
 
 
 class World:
@@ -45,10 +67,17 @@ class World:
         config = NodeConfig(budget=INSTRUCTION_BUDGET)
         self.nodes = {robot: Node(robot, config) for robot in ROBOTS}
         self.servos = CanServoNodes(volts=geometry.supply_volts, now=self.now)
-        channel = f"vs-servos-{os.getpid()}-{next(_CHANNELS)}"
-        self._server = CanServoServer(self.servos, can.Bus(interface="virtual", channel=channel))
-        self._host = can.Bus(interface="virtual", channel=channel)
-        self.servo_bus = CanServoBus(self._host, geometry)
+        shared = SharedNodes(self.servos)
+        self._servers: list[CanServoServer] = []
+        self._hosts: dict[str, BusOffController] = {}
+        self.servo_buses: dict[str, CanServoBus] = {}
+        for link in SERVO_LINKS:
+            channel = f"vs-{link}-{os.getpid()}-{next(_CHANNELS)}"
+            bus = can.Bus(interface="virtual", channel=channel)
+            self._servers.append(CanServoServer(shared, bus))  # type: ignore[arg-type]
+            host = BusOffController(can.Bus(interface="virtual", channel=channel))
+            self._hosts[link] = host
+            self.servo_buses[link] = CanServoBus(host, geometry)
         self._plate = Pose()
         self._plate_from: np.ndarray | None = None
 
@@ -77,15 +106,22 @@ class World:
             self._plate_from = feedback
         return self._plate
 
+    def cut_servo_link(self, link: str) -> None:
+        """The host's controller on `link` leaves the bus (a cut or shorted cable)."""
+        self._hosts[link].bus_off()
+
     def plate_yaw(self) -> float:
         """Where the cameras on the plate look, in degrees."""
         return float(self.plate().yaw)
 
     def close(self) -> None:
         """Stop the servos' server and the nodes."""
-        self.servo_bus.close()
-        self._host.shutdown()
-        self._server.close()
+        for bus in self.servo_buses.values():
+            bus.close()
+        for server in self._servers:
+            server.close()
+        for host in self._hosts.values():
+            host.shutdown()
         for node in self.nodes.values():
             node.close()
 
