@@ -39,6 +39,7 @@ bench: tools $(INSTALLED)
 	$(PY) benchmarks/decision.py
 	$(PY) benchmarks/crossbar.py
 	$(PY) benchmarks/dehazer.py
+	$(PY) benchmarks/servoing_task.py
 
 clean:
 	rm -rf $(BUILD) .pytest_cache .ruff_cache .hypothesis

@@ -133,7 +133,7 @@ class Experiment:
             natives=self.natives,
             images={NAME: self.image},
             rate=ROBOT_LINK_BAUD,
-            wait=self._run_for,
+            wait=self.run_for,
         )
         self.maintainer = Maintainer(self.loaded.database, self.applier, self.log)
         self.decider = Decider(self.loaded.task, self.loaded.database, self.log, DEBOUNCE)
@@ -194,11 +194,11 @@ class Experiment:
         """Deploy, run the task to the scenario's end, decide and repair on the way."""
         target = initial_configuration(self.loaded.task, self.loaded.database)
         self.log.record("scenario", self.scenario.title, name=self.scenario.name)
-        self._switch(target)
-        self._run_for(self.scenario.duration - self.world.time)
+        self.deploy(target)
+        self.run_for(self.scenario.duration - self.world.time)
         return self.outcome
 
-    def _run_for(self, seconds: float) -> None:
+    def run_for(self, seconds: float) -> None:
         """Advance the world frame by frame, sampling each and judging every DECIDER_PERIOD."""
         end = self.world.time + seconds
         decider_every = round(DECIDER_PERIOD / FRAME)
@@ -224,7 +224,7 @@ class Experiment:
     def __exit__(self, *exc_info: object) -> None:
         self.close()
 
-    def _switch(self, target: Configuration) -> None:
+    def deploy(self, target: Configuration) -> None:
         """Apply the Maintainer's plan from the current configuration to `target`."""
         self.maintainer.apply(self.maintainer.plan(self.current, target))
         self.current = target
@@ -350,7 +350,7 @@ class Experiment:
         if decision.target is None:
             self._stop_safely(decision)
             return
-        self._switch(decision.target)
+        self.deploy(decision.target)
         record.applied_at = self.world.time
         record.target = decision.target
 
