@@ -146,10 +146,12 @@ class Experiment:
         self._cut = False
 
     def _intent(self) -> float:
-        """The yaw the task commands now (where the plate is, before the task runs)."""
+        """Where the task wants the cameras to look: at the target it is after (its azimuth is
+        the task's own knowledge, which TrajGen turns by); where the plate is, before it runs."""
         if self.current is None:
             return self.world.plate_yaw()
-        return self._value("trajectory", "yaw")
+        targets = list(self.scene.targets.values())
+        return targets[int(self._value("trajectory", "target")) % len(targets)].azimuth
 
     def _cameras(self) -> list[tuple[str, str]]:
         """(module, robot) for every camera: a camera module on each robot reads that robot's

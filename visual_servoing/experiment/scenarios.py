@@ -13,7 +13,7 @@ from pathlib import Path
 from visual_servoing.image_faults import Fault, FaultKind
 
 DATA = Path(__file__).resolve().parent
-FAULT_AT = 4.0
+FAULT_AT = 4.3
 """When the fault strikes, seconds into the run (the paper injects noise at about 4 s)."""
 
 

@@ -39,9 +39,10 @@ def frame_port(name: str, output: bool) -> PortSpec:
 class CameraDevice:
     """A camera: `scene` seen along `yaw()` degrees at `clock()` seconds, through `faults`.
 
-    `intent()` is where the task wants the camera to look (the yaw its trajectory commands):
-    an estimator asks what the camera would deliver there, since what a configuration would
-    achieve is judged once the platform points where it should, not halfway through a turn.
+    `intent()` is where the task wants the camera to look (at the target it is after): an
+    estimator asks what the camera would deliver there, since what a configuration would
+    achieve is judged once the platform points where it should, not halfway through a turn or
+    wherever a faulty camera has led it.
     """
 
     scene: Scene
