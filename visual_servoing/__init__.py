@@ -1,6 +1,6 @@
 """The visual-servoing task's building blocks: a camera scene, camera faults, SSD matching and the
 Dehazer (a guest RV32 module in C with its numpy reference). docs/visual-servoing.md describes
-them; the task's E-PBOs and the experiment build on them.
+them; the task's E-PBOs and the experiment (docs/experiment.md) build on them.
 
 One concept per module:
 
@@ -14,5 +14,8 @@ One concept per module:
 ``dehazer_guest``   build the guest Dehazer (guest/dehazer.c) into a module image
 ``frame_player``    FramePlayer: a native PBO that plays frames into a kernel
 ``figure``          ``python -m visual_servoing.figure OUT.png``: the docs' frames figure
+``task``            the task's E-PBOs: cameras, SSD matchers, trajectory generators
+``experiment``      the two-robot world, the scenarios, the run and its report;
+                    ``python -m visual_servoing run`` (docs/experiment.md)
 ==================  =========================================================================
 """

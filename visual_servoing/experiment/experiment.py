@@ -35,10 +35,10 @@ from refresh.load import Loaded, loads
 from refresh.locator import brute_force_count
 from refresh.maintainer import Maintainer
 from visual_servoing.dehazer_guest import INSTRUCTION_BUDGET, NAME, dehazer_image
-from visual_servoing.experiment.applier import VirtualTimeApplier
+from visual_servoing.experiment.applier import Migration, VirtualTimeApplier
 from visual_servoing.experiment.scenarios import Scenario
 from visual_servoing.experiment.world import World
-from visual_servoing.image_faults import FaultSchedule
+from visual_servoing.image_faults import Fault, FaultSchedule
 from visual_servoing.scene import Scene
 from visual_servoing.task.camera import CameraDevice, camera_module
 from visual_servoing.task.matcher import matcher_module
@@ -99,7 +99,7 @@ class Outcome:
     configurations: list[tuple[float, str]] = field(default_factory=list)
     stopped_at: float | None = None
     log: EventLog | None = None
-    migrations: list = field(default_factory=list)
+    migrations: list[Migration] = field(default_factory=list)
 
 
 class Experiment:
@@ -159,7 +159,7 @@ class Experiment:
         schema = self.loaded.database.schemas["camera"]
         return [(module.name, robot) for module in schema.modules for robot in module.robots]
 
-    def _camera_faults(self, module: str, robot: str) -> tuple:
+    def _camera_faults(self, module: str, robot: str) -> tuple[Fault, ...]:
         faults = self.scenario.faults
         return faults.get(f"{module}@{robot}", faults.get(module, ()))
 
