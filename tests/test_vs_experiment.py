@@ -99,3 +99,18 @@ def test_the_command_writes_report_timeline_and_plot(tmp_path: Path, capsys):
     assert len(report["samples"]) > 250  # a sample per frame over 10 s
     assert "detection" in (tmp_path / "timeline.txt").read_text()
     assert (tmp_path / "deviation.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_an_output_folder_that_cannot_be_made_is_one_error_line(tmp_path: Path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    assert main(["run", "--out", str(blocker / "out")]) == 1
+    error = capsys.readouterr().err
+    assert error.startswith("error: ") and "file" in error and "Traceback" not in error
+
+
+def test_an_unknown_scenario_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["run", "--scenario", "earthquake"])
+    assert exit_.value.code == 2
+    assert "invalid choice: 'earthquake'" in capsys.readouterr().err

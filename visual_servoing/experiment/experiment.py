@@ -24,6 +24,7 @@ import numpy as np
 from firmware_sim.node import Node, NodeConfig
 from hexmanipulator.geometry import load as load_geometry
 from hexmanipulator.hexman_pbo import hexman_module
+from hexmigrate.image import ModuleImage
 from pbort import NativeModule
 from pbort.code import ModuleCode
 from refresh.adaptation import Decision, decide
@@ -110,9 +111,19 @@ class Experiment:
         self.scenario = scenario
         self.scene = Scene()
         self.world = World(load_geometry(None))
+        try:
+            self._set_up(work)
+        except BaseException:
+            self.world.close()
+            raise
+
+    def _set_up(self, work: Path) -> None:
+        """Build the Dehazer, load the database, bind the modules, make the host and ReFrESH."""
+        scenario = self.scenario
         self.log = EventLog(clock=self.world.now)
-        self.image = dehazer_image(work / "build")
-        self.image.write(work / f"{NAME}.hex")
+        hex_file = work / f"{NAME}.hex"
+        dehazer_image(work / "build").write(hex_file)
+        self.image = ModuleImage.read(hex_file)  # what migrates is what the HEX file says
         text = scenario.database.read_text() + scenario.extra
         self.loaded: Loaded = loads(text, scenario.database.name, work)
         self.devices = {
@@ -127,7 +138,7 @@ class Experiment:
         }
         self.natives = self._natives()
         self.host = Node("refresh", NodeConfig(budget=INSTRUCTION_BUDGET))
-        self.host.load(self.image)
+        self.host.load(self.image)  # the host holds every module's code, to estimate with
         self.applier = VirtualTimeApplier(
             self.world,
             natives=self.natives,
