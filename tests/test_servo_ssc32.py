@@ -132,3 +132,12 @@ def test_the_emulator_serves_a_pyserial_url_such_as_a_device_path() -> None:
 def test_a_bad_url_names_the_url() -> None:
     with pytest.raises(OSError, match="cannot open /dev/nonexistent-ssc32"):
         SerialPort("/dev/nonexistent-ssc32")
+
+
+def test_an_overlong_line_is_dropped_up_to_its_cr_even_if_its_tail_reads_as_a_command() -> None:
+    controller = Ssc32(now=lambda: 0.0)
+    assert controller.feed(b"X" * 300 + b"#5P1500\r") == b""
+    assert controller.bank.pulse(5) is None
+    assert controller.ignored == 1
+    assert controller.last_ignored == "line longer than 256 characters"
+    assert controller.feed(b"VER\r") == b"SSC32-V2.50USB\r"

@@ -41,7 +41,7 @@ PULSE_MIN, PULSE_MAX = 500, 2500
 OFFSET_LIMIT = 100
 TIME_MAX_MS = 65535
 MAX_LINE = 256
-"""Longer lines are dropped as garbage: no real command group is that long."""
+"""Longer lines are dropped as garbage, up to their CR: no real command group is that long."""
 CR, ESC = 0x0D, 0x1B
 _SKIPPED = b" \t\n"
 
@@ -78,6 +78,9 @@ class Ssc32:
         self.ignored = 0
         self.last_ignored = ""
         self._line = bytearray()
+        self._overlong = False
+        """True from a line's MAX_LINE + 1st character to its CR: the rest is dropped too, so a
+        tail that happens to read as a command is not executed."""
 
     def feed(self, data: bytes) -> bytes:
         """Take bytes from the host; return every reply the complete lines among them produce."""
@@ -85,14 +88,18 @@ class Ssc32:
         for byte in data:
             if byte == CR:
                 line, self._line = self._line.decode("ascii", "replace"), bytearray()
-                replies += self.execute(line)
+                if not self._overlong:
+                    replies += self.execute(line)
+                self._overlong = False
             elif byte == ESC:
                 self._line.clear()
-            elif byte not in _SKIPPED:
+                self._overlong = False
+            elif byte not in _SKIPPED and not self._overlong:
                 self._line.append(byte)
                 if len(self._line) > MAX_LINE:
                     self._ignore(f"line longer than {MAX_LINE} characters")
                     self._line.clear()
+                    self._overlong = True
         return bytes(replies)
 
     def execute(self, line: str) -> bytes:
