@@ -57,7 +57,7 @@ class TrajGen(NativePBO):
     def init(self, io: PortIO) -> None:
         self.azimuths = [target.azimuth for target in self.scene.targets.values()]
         self.index = io["start"] % len(self.azimuths)
-        self.command = self._clamp(self.azimuths[0])
+        self.command = self._clamp(self.azimuths[self.index])
         self.goal: float | None = None  # the end of the turn under way
         self.settled_since: float | None = None
         self.last = io.now
