@@ -174,3 +174,9 @@ def test_the_nodes_answer_through_an_slcan_adapter_on_a_pty() -> None:
             exercise(CanServoBus(bus, GEOMETRY))
         finally:
             bus.shutdown()
+
+
+@pytest.mark.parametrize("count", [0, 7])
+def test_only_the_nodes_the_dbc_describes_can_be_emulated(count: int) -> None:
+    with pytest.raises(ValueError, match=f"expected 1..6 servo nodes \\(the DBC's\\), got {count}"):
+        CanServoNodes(count)

@@ -48,7 +48,8 @@ def database() -> Database:
 
 
 class CanServoNodes:
-    """`count` servo nodes (ids 1..count) on one supply; `now` is their common clock."""
+    """`count` servo nodes (ids 1..count, at most the DBC's six) on one supply; `now` is their
+    common clock."""
 
     def __init__(
         self,
@@ -57,6 +58,8 @@ class CanServoNodes:
         now: Callable[[], float] | None = None,
         feedback_period: float = 0.0,
     ) -> None:
+        if not 1 <= count <= NODES:
+            raise ValueError(f"expected 1..{NODES} servo nodes (the DBC's), got {count}")
         self.db = database()
         self.bank = ServoBank(count, volts)
         start = time.monotonic()
