@@ -33,3 +33,13 @@ def test_bad_arguments_print_an_error_and_exit_non_zero() -> None:
     result = subprocess.run(command, capture_output=True, text=True, timeout=WAIT, check=False)
     assert result.returncode == 1
     assert result.stderr == "error: S3003 supply: expected 4.8-6.0 V, got 7.5 V\n"
+
+
+def test_an_argument_out_of_range_is_a_usage_error_naming_the_range() -> None:
+    command = [sys.executable, "-m", "firmware_sim.servos", "can", "--url", "can://virtual/x"]
+    result = subprocess.run(
+        [*command, "--nodes", "7"], capture_output=True, text=True, timeout=WAIT, check=False
+    )
+    assert result.returncode == 2
+    assert "argument --nodes: expected 1..6 (the DBC's nodes), got '7'" in result.stderr
+    assert "Traceback" not in result.stderr

@@ -17,7 +17,7 @@ import contextlib
 import math
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import can
 
@@ -27,6 +27,8 @@ from firmware_sim.servos.can_servo_server import CanServoServer
 from firmware_sim.servos.ports import BytePort, PtyPort, SerialPort
 from firmware_sim.servos.ssc32 import CHANNELS, Ssc32
 from firmware_sim.servos.ssc32_server import Ssc32Server
+
+PERIOD_MAX_MS = 65535
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -53,19 +55,51 @@ def _parser() -> argparse.ArgumentParser:
     where = ssc32.add_mutually_exclusive_group(required=True)
     where.add_argument("--url", help="a pyserial URL or device path to serve")
     where.add_argument("--pty", action="store_true", help="serve a new pty; prints its path")
-    ssc32.add_argument("--baudrate", type=int, default=115200)
+    ssc32.add_argument("--baudrate", type=_positive(int), default=115200)
     ssc32.set_defaults(func=_run_ssc32)
     nodes = commands.add_parser("can", help="CAN servo nodes with S3003 servos")
     where = nodes.add_mutually_exclusive_group(required=True)
     where.add_argument("--url", help="can://virtual/CH or can://remote/127.0.0.1:PORT/CH")
     where.add_argument("--slcan", metavar="CHANNEL", help="an SLCAN adapter on a new pty")
-    nodes.add_argument("--nodes", type=int, default=NODES, help="servo nodes 1..N (default 6)")
-    nodes.add_argument("--period-ms", type=int, default=0, help="periodic feedback (0: on Sync)")
+    nodes.add_argument(
+        "--nodes", type=_node_count, default=NODES, help=f"servo nodes 1..N (N <= {NODES})"
+    )
+    nodes.add_argument(
+        "--period-ms", type=_period_ms, default=0, help="periodic feedback (0: on Sync only)"
+    )
     nodes.set_defaults(func=_run_can)
     for command in (ssc32, nodes):
         command.add_argument("--volts", type=float, default=6.0, help="servo supply, 4.8-6.0 V")
-        command.add_argument("--seconds", type=float, help="stop after this long")
+        command.add_argument("--seconds", type=_positive(float), help="stop after this long")
     return parser
+
+
+def _positive(kind: type[int] | type[float]) -> Callable[[str], float]:
+    """An argparse type: a number of `kind` above 0 (usage error otherwise)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = kind(text)
+        except ValueError:
+            value = math.nan
+        if not value > 0 or math.isinf(value):
+            raise argparse.ArgumentTypeError(f"expected a positive {kind.__name__}, got {text!r}")
+        return value
+
+    return parse
+
+
+def _node_count(text: str) -> int:
+    if not text.isdigit() or not 1 <= int(text) <= NODES:
+        raise argparse.ArgumentTypeError(f"expected 1..{NODES} (the DBC's nodes), got {text!r}")
+    return int(text)
+
+
+def _period_ms(text: str) -> int:
+    """The DBC's FeedbackPeriod range: 0..65535 ms."""
+    if not text.isdigit() or int(text) > PERIOD_MAX_MS:
+        raise argparse.ArgumentTypeError(f"expected 0..{PERIOD_MAX_MS} ms, got {text!r}")
+    return int(text)
 
 
 @contextlib.contextmanager
