@@ -328,7 +328,12 @@ def _link_options(command: argparse.ArgumentParser) -> None:
         default="binary",
         help="binary framing (fast) or the paper's hex lines (default: binary)",
     )
-    command.add_argument("--window", type=int, default=4, help="blocks in flight (default 4)")
+    command.add_argument(
+        "--window",
+        type=int,
+        default=4,
+        help="blocks in flight at most (default 4; fewer while the line loses data)",
+    )
     command.add_argument(
         "--timeout", type=float, default=1.0, help="seconds to wait for an answer (default 1)"
     )
