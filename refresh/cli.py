@@ -15,10 +15,11 @@ import sys
 from collections.abc import Sequence
 
 from refresh.configuration import initial_configuration
-from refresh.errors import RefreshError
+from refresh.errors import DatabaseError, RefreshError
 from refresh.generator import DEFAULT_MAX_MODULES, candidates
 from refresh.load import Loaded, load
 from refresh.locator import base_choice_cases, brute_force_count
+from refresh.task import TaskSpec
 
 
 def check(options: argparse.Namespace) -> None:
@@ -51,9 +52,8 @@ def check(options: argparse.Namespace) -> None:
 
 def cases(options: argparse.Namespace) -> None:
     """Print the Base Choice cases and, per slot, the candidates a fault there would give."""
-    loaded = _with_initial(load(options.file))
-    database, task = loaded.database, loaded.task
-    assert task is not None
+    loaded = load(options.file)
+    database, task = loaded.database, _task_with_initial(loaded, options.file)
     current = initial_configuration(task, database)
     found = list(base_choice_cases(current, database))
     print(f"current {current.label()}")
@@ -68,10 +68,13 @@ def cases(options: argparse.Namespace) -> None:
             print(f"  {candidate.number}. {candidate.configuration} ({candidate.kind})")
 
 
-def _with_initial(loaded: Loaded) -> Loaded:
-    if loaded.task is None or not loaded.task.initial:
-        raise RefreshError("the file has no [task] with an initial configuration")
-    return loaded
+def _task_with_initial(loaded: Loaded, file: str) -> TaskSpec:
+    """The file's task; `cases` starts from its initial configuration, so both must be there."""
+    if loaded.task is None:
+        raise DatabaseError(file, "task", "a [task] table", "none")
+    if not loaded.task.initial:
+        raise DatabaseError(file, "task.initial", "one module per schema", "none")
+    return loaded.task
 
 
 def parser() -> argparse.ArgumentParser:

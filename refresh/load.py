@@ -38,6 +38,10 @@ def load(path: str | Path) -> Loaded:
         raise DatabaseError(
             str(path), "", "a readable file", error.strerror or str(error)
         ) from None
+    except UnicodeDecodeError as error:
+        raise DatabaseError(
+            str(path), "", "UTF-8 text", f"byte 0x{error.object[error.start]:02x} at {error.start}"
+        ) from None
     return loads(text, str(path), path.parent)
 
 

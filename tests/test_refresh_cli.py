@@ -39,3 +39,34 @@ def test_a_bad_file_is_one_error_line(tmp_path, capsys):
     )
     with pytest.raises(Exception, match="expected a number"):
         main(["--debug", "check", str(bad)])
+
+
+NO_TASK = """
+[robots.r]
+[schemas.camera]
+kind = "sensor"
+[schemas.camera.modules.Cam]
+robots = ["r"]
+source = "native"
+"""
+
+
+@pytest.mark.parametrize(
+    ("command", "content", "message"),
+    [
+        ("check", b"\xff[robots]\n", "expected UTF-8 text, got byte 0xff at 0"),
+        ("cases", NO_TASK.encode(), "task: expected a [task] table, got none"),
+        (
+            "cases",
+            (
+                NO_TASK + '[task]\nname = "t"\nrobot = "r"\nstates = ["s"]\nschemas = ["camera"]\n'
+            ).encode(),
+            "task.initial: expected one module per schema, got none",
+        ),
+    ],
+)
+def test_unusable_files_name_themselves(tmp_path, capsys, command, content, message):
+    path = tmp_path / "db.toml"
+    path.write_bytes(content)
+    assert main([command, str(path)]) == 1
+    assert capsys.readouterr().err == f"error: {path}: {message}\n"
