@@ -15,11 +15,13 @@ the emulator itself: the S3003 model refuses a supply it cannot run on). ``Clear
 the latched code. `mute(node)` makes a node stop answering, as a servo whose CAN transceiver died.
 
 This class is the nodes' logic only, driven by `handle(frame)` and `due()`; `CanServoServer`
-(can_servo_server.py) connects it to a python-can bus.
+(can_servo_server.py) connects it to a python-can bus. Its public methods hold one lock, so
+several servers (one per bus a node is wired to) and a test injecting faults may share it.
 """
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 from functools import cache
@@ -71,6 +73,7 @@ class CanServoNodes:
         self.ignored = 0
         self._next_due = [0.0] * count
         self._counter = 0
+        self._lock = threading.Lock()
 
     @property
     def count(self) -> int:
@@ -79,15 +82,26 @@ class CanServoNodes:
     def mute(self, node: int) -> None:
         """Node `node` stops answering (it still obeys commands: only its transmitter died)."""
         self._check(node)
-        self.muted.add(node)
+        with self._lock:
+            self.muted.add(node)
 
     def jam(self, node: int) -> None:
         """Node `node`'s gear train sticks: the shaft stops where it is."""
         self._check(node)
-        self.bank.servos[node - 1].jammed = True
+        with self._lock:
+            self.bank.servos[node - 1].jammed = True
 
     def handle(self, frame: can.Message) -> list[can.Message]:
         """The frames the nodes send in answer to one frame from the bus."""
+        with self._lock:
+            return self._handle(frame)
+
+    def due(self) -> list[can.Message]:
+        """The frames nodes with a feedback period send on their own by now."""
+        with self._lock:
+            return self._due()
+
+    def _handle(self, frame: can.Message) -> list[can.Message]:
         self.bank.advance_to(self.now())
         self._latch_jams()
         if frame.is_error_frame or frame.is_remote_frame or frame.is_extended_id:
@@ -114,8 +128,7 @@ class CanServoNodes:
             self.ignored += 1
         return []
 
-    def due(self) -> list[can.Message]:
-        """The frames nodes with a feedback period send on their own by now."""
+    def _due(self) -> list[can.Message]:
         now = self.now()
         self.bank.advance_to(now)
         self._latch_jams()

@@ -10,17 +10,14 @@ The server owns the bus: closing the server shuts it down.
 
 from __future__ import annotations
 
-import logging
-import threading
-
 import can
 
 from firmware_sim.servos.can_servo import CanServoNodes
+from firmware_sim.servos.serving import ServingThread
 
-logger = logging.getLogger(__name__)
 POLL_INTERVAL = 0.005
 """How long the thread waits for a frame before it checks for periodic feedback: the jitter of
-a feedback period and the bound on the time `close` takes."""
+a feedback period."""
 
 
 class CanServoServer:
@@ -29,19 +26,19 @@ class CanServoServer:
     def __init__(self, nodes: CanServoNodes, bus: can.BusABC) -> None:
         self.nodes = nodes
         self.bus = bus
-        self.error: can.CanError | None = None
+        self._thread = ServingThread(
+            f"CAN servo nodes on {bus.channel_info}", self._step, can.CanError, POLL_INTERVAL
+        )
+
+    @property
+    def error(self) -> Exception | None:
         """Why the server stopped sending, if it did."""
-        self._stopping = threading.Event()
-        self._thread = threading.Thread(target=self._serve, name="can servos", daemon=True)
-        self._thread.start()
+        return self._thread.error
 
     def close(self) -> None:
         """Stop the thread and shut the bus down; later calls do nothing."""
-        if self._stopping.is_set():
-            return
-        self._stopping.set()
-        self._thread.join(timeout=100 * POLL_INTERVAL + 1.0)
-        self.bus.shutdown()
+        if self._thread.stop():
+            self.bus.shutdown()
 
     def __enter__(self) -> CanServoServer:
         return self
@@ -49,14 +46,8 @@ class CanServoServer:
     def __exit__(self, *exc_info: object) -> None:
         self.close()
 
-    def _serve(self) -> None:
-        while not self._stopping.is_set():
-            try:
-                frame = self.bus.recv(timeout=POLL_INTERVAL)
-                answers = self.nodes.handle(frame) if frame is not None else []
-                for answer in answers + self.nodes.due():
-                    self.bus.send(answer)
-            except can.CanError as error:
-                self.error = error
-                logger.warning("CAN servo nodes stop: %s", error)
-                return
+    def _step(self) -> None:
+        frame = self.bus.recv(timeout=POLL_INTERVAL)
+        answers = self.nodes.handle(frame) if frame is not None else []
+        for answer in answers + self.nodes.due():
+            self.bus.send(answer)

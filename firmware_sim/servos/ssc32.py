@@ -29,6 +29,7 @@ its first position at once: the controller cannot know where the servo was.
 from __future__ import annotations
 
 import re
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -62,7 +63,8 @@ class Ssc32:
     """The controller: feed it the bytes a host sends, get the bytes it answers.
 
     `now` is the controller's clock in seconds (virtual time in tests, `time.monotonic` for a
-    live emulator); every call first steps the servos to it.
+    live emulator); every call first steps the servos to it. `feed` and `execute` hold one lock,
+    so a server thread and a test may both talk to the controller.
     """
 
     def __init__(self, bank: ServoBank | None = None, now: Callable[[], float] | None = None):
@@ -78,18 +80,28 @@ class Ssc32:
         self.ignored = 0
         self.last_ignored = ""
         self._line = bytearray()
+        self._lock = threading.Lock()
         self._overlong = False
         """True from a line's MAX_LINE + 1st character to its CR: the rest is dropped too, so a
         tail that happens to read as a command is not executed."""
 
     def feed(self, data: bytes) -> bytes:
         """Take bytes from the host; return every reply the complete lines among them produce."""
+        with self._lock:
+            return self._feed(data)
+
+    def execute(self, line: str) -> bytes:
+        """Run one command line (without its CR); the reply, or b"" (also for a bad line)."""
+        with self._lock:
+            return self._execute(line)
+
+    def _feed(self, data: bytes) -> bytes:
         replies = bytearray()
         for byte in data:
             if byte == CR:
                 line, self._line = self._line.decode("ascii", "replace"), bytearray()
                 if not self._overlong:
-                    replies += self.execute(line)
+                    replies += self._execute(line)
                 self._overlong = False
             elif byte == ESC:
                 self._line.clear()
@@ -102,8 +114,7 @@ class Ssc32:
                     self._overlong = True
         return bytes(replies)
 
-    def execute(self, line: str) -> bytes:
-        """Run one command line (without its CR); the reply, or b"" (also for a bad line)."""
+    def _execute(self, line: str) -> bytes:
         self.bank.advance_to(self.now())
         text = line.upper().translate({ord(c): None for c in " \t\n"})
         if not text:

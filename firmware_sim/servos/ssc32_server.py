@@ -10,13 +10,9 @@ next read or write fails).
 
 from __future__ import annotations
 
-import logging
-import threading
-
 from firmware_sim.servos.ports import POLL_INTERVAL, BytePort
+from firmware_sim.servos.serving import ServingThread
 from firmware_sim.servos.ssc32 import Ssc32
-
-logger = logging.getLogger(__name__)
 
 
 class Ssc32Server:
@@ -28,11 +24,14 @@ class Ssc32Server:
         self.muted = False
         self.received = 0
         """Bytes taken from the host and fed to the controller so far."""
-        self.error: OSError | None = None
+        self._thread = ServingThread(
+            f"SSC-32 emulator on {port.name}", self._step, OSError, POLL_INTERVAL
+        )
+
+    @property
+    def error(self) -> Exception | None:
         """Why the port failed, if it did."""
-        self._stopping = threading.Event()
-        self._thread = threading.Thread(target=self._serve, name=f"ssc32 {port.name}", daemon=True)
-        self._thread.start()
+        return self._thread.error
 
     def mute(self) -> None:
         """The controller stops answering; it still reads (and ignores) what arrives."""
@@ -44,11 +43,8 @@ class Ssc32Server:
 
     def close(self) -> None:
         """Stop the thread and close the port; later calls do nothing."""
-        if self._stopping.is_set():
-            return
-        self._stopping.set()
-        self._thread.join(timeout=10 * POLL_INTERVAL + 1.0)
-        self.port.close()
+        if self._thread.stop():
+            self.port.close()
 
     def __enter__(self) -> Ssc32Server:
         return self
@@ -56,18 +52,11 @@ class Ssc32Server:
     def __exit__(self, *exc_info: object) -> None:
         self.close()
 
-    def _serve(self) -> None:
-        while not self._stopping.is_set():
-            try:
-                data = self.port.read()
-                if not data:
-                    continue
-                reply = self.controller.feed(data)
-                self.received += len(data)
-                if reply and not self.muted:
-                    self.port.write(reply)
-            except OSError as error:
-                if not self._stopping.is_set():
-                    self.error = error
-                    logger.warning("SSC-32 emulator stops: %s", error)
-                return
+    def _step(self) -> None:
+        data = self.port.read()
+        if not data:
+            return
+        reply = self.controller.feed(data)
+        self.received += len(data)
+        if reply and not self.muted:
+            self.port.write(reply)
