@@ -1,9 +1,10 @@
 """Reading a module database file (TOML) into a `ModuleDatabase` and, when present, a `TaskSpec`.
 
 The document is validated against `refresh.schema.DOCUMENT` first; then the references between its
-parts are checked (a module's robots exist and have the resources it needs, module names are
-unique, the task's schemas and metrics exist). Every failure is a `DatabaseError` naming the file,
-the key path, what was expected and what came. Image paths are relative to the file.
+parts are checked (a module's robots exist and have the resources it needs, its input and output
+ports have distinct names, module names are unique, the task's schemas and metrics exist). Every
+failure is a `DatabaseError` naming the file, the key path, what was expected and what came.
+Image paths are relative to the file.
 """
 
 from __future__ import annotations
@@ -91,6 +92,14 @@ def _schema(
                         f"({', '.join(robots[robot].resources) or 'none'})",
                         repr(resource),
                     )
+        for port in entry.get("outputs", {}):
+            if port in entry.get("inputs", {}):
+                raise DatabaseError(
+                    file,
+                    f"{where}.outputs.{port}",
+                    "a port name its inputs do not use (a PBO's ports share one namespace)",
+                    repr(port),
+                )
         source = entry["source"]
         image = None if source == "native" else base / source["image"]
         modules.append(

@@ -171,10 +171,18 @@ def validate(document: Mapping[str, Any], file: str) -> None:
         raise _explain(_deepest(error), file)
 
 
+_MISMATCH = frozenset({"type", "const", "enum"})
+"""Validators that only say the value is of another alternative's kind."""
+
+
 def _deepest(error: ValidationError) -> ValidationError:
-    """For `oneOf`, the alternative's error that got furthest into the document."""
+    """For `oneOf`, the alternative's error that got furthest into the document; on a tie, one
+    from an alternative the value's kind matches (a `source` table with an unknown key is
+    reported as that key, not as "expected 'native'")."""
     while error.context:
-        error = max(error.context, key=lambda e: (len(e.absolute_path), -len(e.schema_path)))
+        error = max(
+            error.context, key=lambda e: (len(e.absolute_path), e.validator not in _MISMATCH)
+        )
     return error
 
 

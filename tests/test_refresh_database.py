@@ -116,6 +116,18 @@ def error_of(text: str) -> DatabaseError:
             "db.toml: task.schemas[0]: expected one of camera, got 'lidar'",
         ),
         (
+            'outputs = { image = "rgb" }',
+            'inputs = { image = "rgb" }\noutputs = { image = "rgb" }',
+            "db.toml: schemas.camera.modules.Cam.outputs.image: expected a port name its inputs do "
+            "not use (a PBO's ports share one namespace), got 'image'",
+        ),
+        (
+            'source = "native"',
+            'source = { image = "cam.hex", crc = 1 }',
+            "db.toml: schemas.camera.modules.Cam.source.crc: expected one of the keys image, "
+            "got an unknown key",
+        ),
+        (
             "resources.power = { capacity = 50 }",
             "resources.power = { capacity = -1 }",
             "db.toml: robots.r2.resources.power.capacity: expected a number >= 0, "
