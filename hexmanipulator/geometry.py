@@ -18,6 +18,9 @@ from typing import Any
 
 import numpy as np
 
+from firmware_sim.servos.s3003 import S3003
+from firmware_sim.servos.ssc32 import CHANNELS
+
 LEGS = 6
 DEFAULT_FILE = "hexman.toml"
 _SECTIONS = {
@@ -55,10 +58,13 @@ class Geometry:
 
     def __post_init__(self) -> None:
         for name in ("base_radius", "platform_radius", "crank", "rod", "limit"):
-            if getattr(self, name) <= 0:
+            if not getattr(self, name) > 0:
                 raise GeometryError(
                     f"{name}: expected a positive number, got {getattr(self, name)}"
                 )
+        for name in ("translation", "heave", "tilt", "yaw"):
+            if not getattr(self, name) >= 0:
+                raise GeometryError(f"workspace.{name}: expected >= 0, got {getattr(self, name)}")
         for name in ("channels", "direction", "trim_us"):
             if len(getattr(self, name)) != LEGS:
                 raise GeometryError(
@@ -66,8 +72,20 @@ class Geometry:
                 )
         if any(d not in (1, -1) for d in self.direction):
             raise GeometryError(f"servos.direction: expected 1 or -1 each, got {self.direction}")
-        if len(set(self.channels)) != LEGS:
-            raise GeometryError(f"servos.channels: expected {LEGS} different, got {self.channels}")
+        if len(set(self.channels)) != LEGS or not all(0 <= c < CHANNELS for c in self.channels):
+            raise GeometryError(
+                f"servos.channels: expected {LEGS} different channels 0-{CHANNELS - 1}, "
+                f"got {self.channels}"
+            )
+        if self.limit > S3003.travel_deg:
+            raise GeometryError(
+                f"servos.limit: expected at most the S3003's travel of {S3003.travel_deg:g} deg, "
+                f"got {self.limit:g}"
+            )
+        try:
+            S3003.check_voltage(self.supply_volts)
+        except ValueError as error:
+            raise GeometryError(f"servos.supply_volts: {error}") from None
         if math.isnan(self.home_height):
             raise GeometryError(
                 f"links.rod: a rod of {self.rod} mm cannot reach the plate with horizontal cranks"
@@ -131,29 +149,52 @@ def _from_tables(data: dict[str, Any], where: str) -> Geometry:
     if set(data) != set(_SECTIONS):
         raise GeometryError(f"{where}: expected sections {sorted(_SECTIONS)}, got {sorted(data)}")
     for section, keys in _SECTIONS.items():
+        if not isinstance(data[section], dict):
+            raise GeometryError(f"{where}: [{section}] expected a table, got {data[section]!r}")
         if set(data[section]) != keys:
             raise GeometryError(
                 f"{where}: [{section}] expected keys {sorted(keys)}, got {sorted(data[section])}"
             )
-    base, plate, links = data["base"], data["platform"], data["links"]
-    servos, space = data["servos"], data["workspace"]
+
+    def number(section: str, key: str) -> float:
+        value = data[section][key]
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not math.isfinite(value)
+        ):
+            raise GeometryError(f"{section}.{key}: expected a finite number, got {value!r}")
+        return float(value)
+
+    def numbers(section: str, key: str, kind: type[int] | type[float]) -> tuple[Any, ...]:
+        value = data[section][key]
+        allowed = int if kind is int else int | float
+        if not isinstance(value, list) or not all(
+            isinstance(v, allowed) and not isinstance(v, bool) for v in value
+        ):
+            raise GeometryError(
+                f"{section}.{key}: expected a list of {LEGS} "
+                f"{'integers' if kind is int else 'numbers'}, got {value!r}"
+            )
+        return tuple(kind(v) for v in value)
+
     try:
         return Geometry(
-            base_radius=float(base["radius"]),
-            base_half_angle=float(base["pair_half_angle"]),
-            platform_radius=float(plate["radius"]),
-            platform_half_angle=float(plate["pair_half_angle"]),
-            crank=float(links["crank"]),
-            rod=float(links["rod"]),
-            limit=float(servos["limit"]),
-            channels=tuple(int(c) for c in servos["channels"]),
-            direction=tuple(int(d) for d in servos["direction"]),
-            trim_us=tuple(float(t) for t in servos["trim_us"]),
-            supply_volts=float(servos["supply_volts"]),
-            translation=float(space["translation"]),
-            heave=float(space["heave"]),
-            tilt=float(space["tilt"]),
-            yaw=float(space["yaw"]),
+            base_radius=number("base", "radius"),
+            base_half_angle=number("base", "pair_half_angle"),
+            platform_radius=number("platform", "radius"),
+            platform_half_angle=number("platform", "pair_half_angle"),
+            crank=number("links", "crank"),
+            rod=number("links", "rod"),
+            limit=number("servos", "limit"),
+            channels=numbers("servos", "channels", int),
+            direction=numbers("servos", "direction", int),
+            trim_us=numbers("servos", "trim_us", float),
+            supply_volts=number("servos", "supply_volts"),
+            translation=number("workspace", "translation"),
+            heave=number("workspace", "heave"),
+            tilt=number("workspace", "tilt"),
+            yaw=number("workspace", "yaw"),
         )
-    except (TypeError, ValueError) as error:
+    except GeometryError as error:
         raise GeometryError(f"{where}: {error}") from None

@@ -107,8 +107,14 @@ def load_variant(old: str, new: str, folder: Path) -> Geometry:
         ("direction = [1, -1, 1, -1, 1, -1]", "direction = [1, 2, 1, -1, 1, -1]", "1 or -1"),
         ("channels = [0, 1, 2, 3, 4, 5]", "channels = [0, 1, 2]", "expected 6 values"),
         ("[workspace]", "[workspaces]", "expected sections"),
-        ("crank = 25.0", "crank = 'long'", "could not convert"),
+        ("crank = 25.0", "crank = 'long'", "links.crank: expected a finite number, got 'long'"),
+        ("crank = 25.0", "crank = nan", "links.crank: expected a finite number, got nan"),
         ("heave = 15.0", "heave = = 1", "hexman.toml"),
+        ("heave = 15.0", "heave = -1", "workspace.heave: expected >= 0, got -1.0"),
+        ("channels = [0, 1, 2, 3, 4, 5]", "channels = '012345'", "expected a list of 6 integers"),
+        ("channels = [0, 1, 2, 3, 4, 5]", "channels = [0, 1, 2, 3, 4, 32]", "channels 0-31"),
+        ("limit = 70.0", "limit = 95.0", "servos.limit: expected at most the S3003's travel"),
+        ("supply_volts = 6.0", "supply_volts = 7.2", "expected 4.8-6.0 V, got 7.2 V"),
     ],
 )
 def test_a_bad_geometry_file_says_what_is_wrong(
@@ -116,3 +122,11 @@ def test_a_bad_geometry_file_says_what_is_wrong(
 ) -> None:
     with pytest.raises(GeometryError, match=message):
         load_variant(old, new, tmp_path)
+
+
+def test_a_section_that_is_not_a_table_is_named(tmp_path: Path) -> None:
+    text = (Path(__file__).parents[1] / "hexmanipulator" / "hexman.toml").read_text()
+    path = tmp_path / "hexman.toml"
+    path.write_text("workspace = 3\n" + text[: text.index("[workspace]")])
+    with pytest.raises(GeometryError, match=r"hexman.toml: \[workspace\] expected a table, got 3"):
+        load(path)
