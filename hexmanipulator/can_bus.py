@@ -15,12 +15,14 @@ from __future__ import annotations
 import time
 
 import can
+import cantools
 import numpy as np
 from can.bus import BusState
 
 from firmware_sim.servos.can_servo import (
     COMMAND_BASE,
     FEEDBACK_BASE,
+    NODES,
     STATUS_BASE,
     SYNC_ID,
     database,
@@ -57,6 +59,11 @@ class CanServoBus:
         self.geometry = geometry
         self.db = database()
         self._nodes = [channel + 1 for channel in geometry.channels]
+        if not all(1 <= node <= NODES for node in self._nodes):
+            raise ValueError(
+                f"servos.channels: expected 0-{NODES - 1} for CAN servo nodes 1-{NODES}, "
+                f"got {geometry.channels}"
+            )
         self._counter = 0
 
     def move(self, angles: np.ndarray, duration: float) -> None:
@@ -104,7 +111,10 @@ class CanServoBus:
             base, node = frame.arbitration_id & ~0x7F, frame.arbitration_id & 0x7F
             if base not in (FEEDBACK_BASE, STATUS_BASE) or node not in self._nodes:
                 continue
-            signals = self.db.decode_message(frame.arbitration_id, bytes(frame.data))
+            try:
+                signals = self.db.decode_message(frame.arbitration_id, bytes(frame.data))
+            except (ValueError, cantools.database.DecodeError):
+                continue  # a damaged answer counts as none: the node is named if none follows
             if signals["Counter"] == self._counter:
                 (feedback if base == FEEDBACK_BASE else status)[node] = signals
         return feedback, status

@@ -8,6 +8,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from dataclasses import replace
 
 import can
 import numpy as np
@@ -18,6 +19,7 @@ from firmware_sim.servos.can_servo import FAULT_RANGE, CanServoNodes, database
 from firmware_sim.servos.can_servo_server import CanServoServer
 from hexmanipulator.can_bus import CanServoBus, open_can_bus
 from hexmanipulator.geometry import load
+from hexmanipulator.servo_bus import ServoSilentError
 from hexmigrate.links.remote_server import RemoteCanServer
 from hexmigrate.links.slcan_device import SlcanDevice
 
@@ -180,3 +182,23 @@ def test_the_nodes_answer_through_an_slcan_adapter_on_a_pty() -> None:
 def test_only_the_nodes_the_dbc_describes_can_be_emulated(count: int) -> None:
     with pytest.raises(ValueError, match=f"expected 1..6 servo nodes \\(the DBC's\\), got {count}"):
         CanServoNodes(count)
+
+
+def test_a_damaged_answer_counts_as_none_and_the_silent_nodes_are_named() -> None:
+    channel = f"servo-damaged-{next(_channels)}"
+    with (
+        can.Bus(interface="virtual", channel=channel) as host,
+        can.Bus(interface="virtual", channel=channel) as node,
+    ):
+        node.send(can.Message(arbitration_id=0x281, data=b"\x01", is_extended_id=False))
+        with pytest.raises(ServoSilentError, match=r"servo node\(s\) \[1, 2, 3, 4, 5, 6\]"):
+            CanServoBus(host, GEOMETRY).read()
+
+
+def test_a_leg_on_a_channel_no_can_node_has_is_refused() -> None:
+    far = replace(GEOMETRY, channels=(0, 1, 2, 3, 4, 9))
+    with (
+        can.Bus(interface="virtual", channel=f"servo-far-{next(_channels)}") as host,
+        pytest.raises(ValueError, match=r"expected 0-5 for CAN servo nodes 1-6, got \(0, 1"),
+    ):
+        CanServoBus(host, far)
