@@ -26,7 +26,7 @@ from firmware_sim.servos.can_servo_server import CanServoServer
 from hexmanipulator.can_bus import CanServoBus
 from hexmanipulator.geometry import Geometry, load
 from hexmanipulator.hexman_pbo import hexman_module
-from hexmanipulator.kinematics import Pose, forward
+from hexmanipulator.kinematics import ForwardKinematicsError, Pose, forward
 from pbort import Kernel, NativeModule, NativePBO, PortIO, PortSpec
 
 AMPLITUDE = 20.0
@@ -102,10 +102,13 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("out", type=Path, help="the PNG file to write")
     parser.add_argument("--geometry", type=Path, help="a geometry TOML (default: the shipped one)")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks")
     args = parser.parse_args(argv)
     try:
         plot(sweep(load(args.geometry)), args.out)
-    except (OSError, ValueError) as error:
+    except (OSError, ValueError, ForwardKinematicsError) as error:
+        if args.debug:
+            raise
         print(f"error: {error}", file=sys.stderr)
         return 1
     print(f"wrote {args.out}")
