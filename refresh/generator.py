@@ -5,9 +5,10 @@ The faulty module found by the Locator is the seed: only its slot changes. The c
   module on another robot, a coalition when that robot is not the task's);
 - combo modules: chains of 2..K modules of the whole database with the seed's interface, where the
   first consumes exactly the seed's input types, each next one is fed only by its predecessor's
-  outputs, and the last produces exactly the seed's output types. CamReader + Dehazer replaces
-  CamReader because the Dehazer turns an image into an image. A module may appear more than once
-  (a Dehazer feeding a Dehazer), so K is what keeps the search finite;
+  outputs, and the last produces exactly the seed's output types (a seed that is itself a combo,
+  chosen by an earlier decision, has its first module's inputs and its last module's outputs).
+  CamReader + Dehazer replaces CamReader because the Dehazer turns an image into an image. A
+  module may appear more than once (a Dehazer feeding a Dehazer), so K keeps the search finite;
 - each combo on every robot combination its modules allow.
 
 Each candidate is estimated; the choice is greedy, as in the paper: the least Util among those
@@ -17,7 +18,7 @@ that satisfy P_T (equation (5)).
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 from refresh.configuration import Chain, Configuration
@@ -53,13 +54,16 @@ class Choice:
     assessment: Assessment | None
 
 
-def combos(seed: Module, database: ModuleDatabase, max_modules: int) -> list[tuple[Module, ...]]:
-    """Module chains of 2..`max_modules` with the seed's interface, shortest first, then in
-    database order of their modules."""
+def combos(
+    seed: Sequence[Module], database: ModuleDatabase, max_modules: int
+) -> list[tuple[Module, ...]]:
+    """Module chains of 2..`max_modules` with the interface of the chain `seed` (its first
+    module's inputs, its last module's outputs), shortest first, then in database order of their
+    modules."""
     if max_modules < 1:
         raise ConfigurationError(f"K: expected at least 1 module per combo, got {max_modules}")
     modules = list(database.modules())
-    heads = [m for m in modules if m.input_types == seed.input_types]
+    heads = [m for m in modules if m.input_types == seed[0].input_types]
     found: list[tuple[Module, ...]] = []
     layer: list[tuple[Module, ...]] = [(m,) for m in heads]
     for _ in range(max_modules - 1):
@@ -69,7 +73,7 @@ def combos(seed: Module, database: ModuleDatabase, max_modules: int) -> list[tup
             for follower in modules
             if follower.input_types and follower.input_types <= chain[-1].output_types
         ]
-        found.extend(c for c in layer if c[-1].output_types == seed.output_types)
+        found.extend(c for c in layer if c[-1].output_types == seed[-1].output_types)
     return found
 
 
@@ -77,19 +81,20 @@ def candidates(
     configuration: Configuration, slot: int, database: ModuleDatabase, max_modules: int
 ) -> list[Candidate]:
     """Every candidate for slot `slot` (whose chain is the seed): alternatives and placements in
-    database order, then combos on each robot combination."""
+    database order, then combos on each robot combination; never the seed itself."""
     seed_chain = configuration.chains[slot]
-    seed = database.module(seed_chain[-1].module)
-    seed_modules = {p.module for p in seed_chain}
+    seed = [database.module(p.module) for p in seed_chain]
     found: list[Candidate] = []
     for placement in database.placements(configuration.schemas[slot]):
         if (placement,) == seed_chain:
             continue
-        kind = "placement" if placement.module in seed_modules else "alternative"
+        moved = len(seed_chain) == 1 and placement.module == seed_chain[0].module
+        kind = "placement" if moved else "alternative"
         found.append(_candidate(len(found) + 1, kind, (placement,), configuration, slot))
     for combo in combos(seed, database, max_modules):
         for chain in _placed(combo, database):
-            found.append(_candidate(len(found) + 1, "combo", chain, configuration, slot))
+            if chain != seed_chain:
+                found.append(_candidate(len(found) + 1, "combo", chain, configuration, slot))
     return found
 
 

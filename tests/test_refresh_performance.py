@@ -125,9 +125,25 @@ def test_placements_on_other_robots_are_candidates(loaded):
     ]
 
 
+def test_a_combo_seed_keeps_its_slot_s_interface(loaded):
+    # An earlier decision put Cam + Dehazer in the camera slot; now that combo is found faulty.
+    current = initial_configuration(loaded.task, loaded.database)
+    dehazed = current.replace(0, (*current.chains[0], *loaded.database.placements_of("Dehazer")))
+    found = candidates(dehazed, 0, loaded.database, max_modules=2)
+    # Combos still start with a camera (no Dehazer + Dehazer in a slot with no source), and the
+    # seed itself is no candidate.
+    assert [(c.kind, [str(p) for p in c.chain]) for c in found] == [
+        ("alternative", ["Cam@r1"]),
+        ("alternative", ["Cam@r2"]),
+        ("alternative", ["Cam_alt@r1"]),
+        ("combo", ["Cam@r2", "Dehazer@r1"]),
+        ("combo", ["Cam_alt@r1", "Dehazer@r1"]),
+    ]
+
+
 @pytest.mark.parametrize("k", [1, 2, 3, 4])
 def test_a_dehazer_feeding_itself_is_bounded_by_k(loaded, k):
-    built = combos(loaded.database.module("Cam"), loaded.database, max_modules=k)
+    built = combos([loaded.database.module("Cam")], loaded.database, max_modules=k)
     longest = max((len(c) for c in built), default=1)
     assert longest == k
     # Each of the two cameras followed by 1 .. k-1 Dehazers.
@@ -137,7 +153,7 @@ def test_a_dehazer_feeding_itself_is_bounded_by_k(loaded, k):
 
 def test_k_must_allow_a_module(loaded):
     with pytest.raises(ConfigurationError, match="expected at least 1 module per combo, got 0"):
-        combos(loaded.database.module("Cam"), loaded.database, max_modules=0)
+        combos([loaded.database.module("Cam")], loaded.database, max_modules=0)
 
 
 def test_repeated_modules_get_distinct_kernel_names(loaded):

@@ -90,7 +90,7 @@ def test_brute_force_agrees_at_eight_estimates(scenario, current):
 
 
 def test_generator_builds_the_papers_two_combos(scenario):
-    built = combos(scenario.database.module("CamReader"), scenario.database, max_modules=2)
+    built = combos([scenario.database.module("CamReader")], scenario.database, max_modules=2)
     names = {" + ".join(m.name for m in combo) for combo in built}
     assert names == {"CamReader_alt + Dehazer", "CamReader + Dehazer"}
 
