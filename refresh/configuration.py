@@ -70,11 +70,21 @@ class Configuration:
 
     def instance_of(self, schema: str) -> str:
         """The kernel name of the module whose output leaves slot `schema` (its chain's last)."""
+        if schema not in self.schemas:
+            raise ConfigurationError(
+                f"schema {schema!r}: expected one of the configuration's slots "
+                f"({', '.join(self.schemas)}), got no such slot"
+            )
         slot = self.schemas.index(schema)
         return self.instances[sum(len(c) for c in self.chains[: slot + 1]) - 1]
 
     def robot_of(self, instance: str) -> str:
         """The robot the instance runs on."""
+        if instance not in self.instances:
+            raise ConfigurationError(
+                f"instance {instance!r}: expected one of {', '.join(self.instances)}, "
+                "got no such instance"
+            )
         return self.placements[self.instances.index(instance)].robot
 
     def connections(self, database: ModuleDatabase) -> tuple[Connection, ...]:
@@ -144,6 +154,8 @@ def parse_placement(text: str, home: str, database: ModuleDatabase) -> Placement
     """``Module`` or ``Module@robot`` as a placement the database allows."""
     name, _, robot = text.partition("@")
     module = database.module(name)
+    if not module.robots:
+        raise ConfigurationError(f"module {name!r}: expected a robot it can run on, got none")
     if not robot:
         robot = home if home in module.robots else module.robots[0]
     if robot not in module.robots:

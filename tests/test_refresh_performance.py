@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
-from refresh.configuration import initial_configuration
+from refresh.configuration import initial_configuration, parse_placement
+from refresh.database import ModuleDatabase
 from refresh.errors import ConfigurationError
 from refresh.generator import candidates, combos
 from refresh.load import loads
@@ -235,3 +238,24 @@ initial = ["Cam"]
     assert current.label() == "{Cam}"
     assert away.label() == "{Cam@other}"
     assert away != current and away.replace(0, current.chains[0]) == current
+
+
+def test_a_metric_or_instance_outside_the_configuration_is_named(loaded):
+    current = initial_configuration(loaded.task, loaded.database)
+    with pytest.raises(ConfigurationError, match="schema 'filter': expected one of the config"):
+        current.instance_of("filter")
+    with pytest.raises(ConfigurationError, match="instance 'Dehazer': expected one of Cam, SSD"):
+        current.robot_of("Dehazer")
+
+
+def test_a_module_on_no_robot_cannot_be_placed(loaded):
+    database = loaded.database
+    stranded = replace(database.module("Cam"), robots=())
+    schemas = {
+        **database.schemas,
+        "camera": replace(database.schema("camera"), modules=(stranded,)),
+    }
+    bare = ModuleDatabase(database.robots, schemas)
+    with pytest.raises(ConfigurationError, match="module 'Cam': expected a robot it can run on"):
+        parse_placement("Cam", "r1", bare)
+    assert bare.placements("camera") == ()
