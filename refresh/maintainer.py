@@ -81,10 +81,6 @@ class Plan:
 
     steps: tuple[Step, ...]
 
-    def of(self, action: str) -> list[Step]:
-        """The steps of one kind."""
-        return [s for s in self.steps if s.action == action]
-
     def __str__(self) -> str:
         return "\n".join(f"{n}. {s}" for n, s in enumerate(self.steps, start=1)) or "(no change)"
 

@@ -83,7 +83,7 @@ class NodeApplier:
         """Switch off, kill and remove the PBO, and the bridges to and from it; its image stays
         installed for a later start."""
         for key, bridged in list(self.bridges.items()):
-            if instance in (bridged.ends(robot)):
+            if instance in bridged.ends(robot):
                 del self.bridges[key]
                 self._take_down(bridged)
         node = self.node(robot)

@@ -74,12 +74,9 @@ def usage_replaced(base: Usage, old: Chain, new: Chain, database: ModuleDatabase
 
 
 def _add(used: Usage, robot: str, needs: Mapping[str, float], sign: float) -> None:
-    if sign < 0:
-        for resource, amount in needs.items():
-            used[robot, resource] -= amount
-        return
+    """Add (`sign` 1) or take out (-1) one module's needs on `robot`."""
     for resource, amount in needs.items():
-        used[robot, resource] = used.get((robot, resource), 0.0) + amount
+        used[robot, resource] = used.get((robot, resource), 0.0) + sign * amount
 
 
 def assess(
