@@ -56,6 +56,7 @@ class Rig:
     bank: ServoBank
     emulator: Any
     bus: Any
+    bus_for_estimates: Any = None
 
     def aim(self, pose: Pose) -> None:
         Target.pose = pose
@@ -219,3 +220,23 @@ def test_a_jammed_can_servo_reports_its_fault_and_the_tracking_error_grows(
     assert can_rig.fault() is Fault.SERVO_FAULT
     assert "Jammed" in caplog.text
     assert can_rig.latest(F, 0) > 10.0
+
+
+def estimate(rig: Rig, pose: Pose) -> dict[int, float | None]:
+    """HexMan's estimator in a shadow run aimed at `pose`: its functional reports."""
+    with rig.kernel.shadow(
+        [hexman_module(rig.bus_for_estimates, GEOMETRY)], inputs={"hexman.target": list(pose)}
+    ) as run:
+        result = run.run(1)["hexman"]
+    return {index: result.latest(F, index) for index in (0, 1)}
+
+
+def test_the_estimator_judges_a_target_without_moving_the_servos(can_rig: Rig) -> None:
+    can_rig.kernel.run(until=0.5)
+    before = can_rig.crank_truth()
+    can_rig.bus_for_estimates = CanServoBus(can_rig.bus, GEOMETRY)
+    assert estimate(can_rig, POSE) == {0: 0.0, 1: 1.0}  # reachable, servos answer
+    assert estimate(can_rig, Pose(z=500.0)) == {0: 180.0, 1: 0.0}  # unreachable
+    can_rig.bus.bus_off()
+    assert estimate(can_rig, POSE) == {0: 180.0, 1: 0.0}  # the servos are out of reach
+    assert np.array_equal(can_rig.crank_truth(), before)  # nothing moved

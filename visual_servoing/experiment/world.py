@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import itertools
 import os
-import threading
 
 import can
 import numpy as np
@@ -40,22 +39,6 @@ SERVO_LINKS = ("can1", "can2")
 _CHANNELS = itertools.count()
 
 
-class SharedNodes:
-    """The servo nodes as two bus servers see them: one at a time (each server has a thread)."""
-
-    def __init__(self, nodes: CanServoNodes) -> None:
-        self.nodes = nodes
-        self._lock = threading.Lock()
-
-    def handle(self, frame: can.Message) -> list[can.Message]:
-        with self._lock:
-            return self.nodes.handle(frame)
-
-    def due(self) -> list[can.Message]:
-        with self._lock:
-            return self.nodes.due()
-
-
 class World:
     """The robots' nodes, the servos and the clock. `hexman` names the HexMan PBO whose
     ``feedback`` port gives the plate's pose."""
@@ -67,14 +50,13 @@ class World:
         config = NodeConfig(budget=INSTRUCTION_BUDGET)
         self.nodes = {robot: Node(robot, config) for robot in ROBOTS}
         self.servos = CanServoNodes(volts=geometry.supply_volts, now=self.now)
-        shared = SharedNodes(self.servos)
         self._servers: list[CanServoServer] = []
         self._hosts: dict[str, BusOffController] = {}
         self.servo_buses: dict[str, CanServoBus] = {}
         for link in SERVO_LINKS:
             channel = f"vs-{link}-{os.getpid()}-{next(_CHANNELS)}"
             bus = can.Bus(interface="virtual", channel=channel)
-            self._servers.append(CanServoServer(shared, bus))  # type: ignore[arg-type]
+            self._servers.append(CanServoServer(self.servos, bus))  # the nodes lock themselves
             host = BusOffController(can.Bus(interface="virtual", channel=channel))
             self._hosts[link] = host
             self.servo_buses[link] = CanServoBus(host, geometry)
