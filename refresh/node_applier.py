@@ -96,11 +96,7 @@ class NodeApplier:
         node = self.node(robot)
         if module.name in node.modules:
             return
-        image = self.images.get(module.name)
-        if image is None:
-            if module.source.image is None:
-                raise ApplyError(f"migrate {module.name}: expected an image, got native code")
-            image = ModuleImage.read(module.source.image)
+        image = self.image_of(module)
         link = self.link(self._receivers[robot])
         try:
             result = Sender(link, self.mode).send(image)
@@ -111,6 +107,15 @@ class NodeApplier:
                 f"migrate {module.name} to {robot}: expected the image to register "
                 f"{module.name!r}, got {result.name!r}"
             )
+
+    def image_of(self, module: Module) -> ModuleImage:
+        """The image to migrate: the one given for the module, else the file the database names."""
+        image = self.images.get(module.name)
+        if image is not None:
+            return image
+        if module.source.image is None:
+            raise ApplyError(f"migrate {module.name}: expected an image, got native code")
+        return ModuleImage.read(module.source.image)
 
     def start(self, robot: str, instance: str, module: Module) -> None:
         """Start the installed image (or the native code) as PBO `instance`."""

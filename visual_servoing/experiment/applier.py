@@ -14,7 +14,6 @@ from dataclasses import dataclass
 
 from firmware_sim.wire_sim.transfer import WireRun, run_transfer
 from refresh.database import Module
-from refresh.errors import ApplyError
 from refresh.node_applier import NodeApplier
 from visual_servoing.experiment.world import World
 
@@ -56,12 +55,13 @@ class VirtualTimeApplier(NodeApplier):
         node = self.node(robot)
         if module.name in node.modules:
             return
-        image = self.images.get(module.name)
-        if image is None:
-            raise ApplyError(f"migrate {module.name}: expected its image, got none")
         start = self.world.time
         run = run_transfer(
-            image, self.migration_wire, self.mode, rate=self.migration_rate, node=node
+            self.image_of(module),
+            self.migration_wire,
+            self.mode,
+            rate=self.migration_rate,
+            node=node,
         )
         self.migrations.append(Migration(module.name, robot, start, run))
         self.wait(run.seconds)
