@@ -1,11 +1,14 @@
 """The node's FPGA reconfiguration port: loads bitstream images into a Morphing Crossbar.
 
 A hardware component migrates like a software module: its partial bitstream travels as an
-extended Intel HEX module file (morphing_crossbar/hex_image.py), and the node hands the decoded
-image to this port instead of the flash loader. The port checks the image, shifts the frame
-into the addressed slot's wrapper (here: the crossbar's transaction-level model, which applies
-the wrapper's checks and refusals exactly) and reports the reconfiguration time in fabric
-cycles. A refused image leaves the slot's old routing in place, as the hardware does.
+extended Intel HEX module file (morphing_crossbar/hex_image.py), linked at its slot's window of
+the port (`owns`). A node with a port (`firmware_sim.server.NodeTarget(node, fpga=port)`, or
+``hexmigrate node --fpga N``) takes it over the transfer protocol like any module, writes it to
+flash, checks its CRC, and at COMMIT hands it to this port instead of calling an init: the port
+checks the image, shifts the frame into the addressed slot's wrapper (here: the crossbar's
+transaction-level model, which applies the wrapper's checks and refusals exactly) and reports
+the reconfiguration time in fabric cycles. A refused image leaves the slot's old routing in
+place, as the hardware does.
 """
 
 from __future__ import annotations
@@ -15,7 +18,7 @@ from pathlib import Path
 
 from hexmigrate.image import ModuleImage
 from morphing_crossbar.bitstream import pack
-from morphing_crossbar.hex_image import from_image
+from morphing_crossbar.hex_image import CONFIG_BASE, SLOT_WINDOW, from_image
 from morphing_crossbar.model import CrossbarModel, LoadResult
 from morphing_crossbar.routing import empty_route
 
@@ -36,6 +39,11 @@ class FpgaReconfigurationPort:
         self.fabric_hz = fabric_hz
         self.loads: list[PortLoad] = []
         self.installed: dict[int, str] = {}
+
+    def owns(self, link_base: int) -> bool:
+        """Whether an image linked at `link_base` is for this port: a slot window of its fabric."""
+        offset = link_base - CONFIG_BASE
+        return 0 <= offset < self.model.fabric.n * SLOT_WINDOW
 
     def load(self, image: ModuleImage) -> PortLoad:
         """Apply a bitstream image; raises BitstreamImageError or BitstreamError (refused)."""

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import time
 
+from firmware_sim.fpga_port import FpgaReconfigurationPort
 from firmware_sim.natives import NATIVES
 from firmware_sim.node import Node, NodeConfig
 from firmware_sim.server import NodeTarget, serve
@@ -25,6 +26,8 @@ from hexmigrate.links import open_link
 from hexmigrate.links.base import Link
 from hexmigrate.links.tcp import TcpListenLink
 from hexmigrate.transfer.receiver import Receiver
+from morphing_crossbar.fabric import Fabric
+from morphing_crossbar.model import CrossbarModel
 from pbort.clock import RealTimeClock
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
@@ -79,6 +82,19 @@ def _tcp_server(link: Link) -> TcpListenLink | None:
     return None
 
 
+def _fpga(slots: int | None) -> FpgaReconfigurationPort | None:
+    """The node's reconfiguration port onto an N-slot crossbar, when it has one."""
+    if slots is None:
+        return None
+    port = FpgaReconfigurationPort(CrossbarModel(Fabric(slots)))
+    _say(f"fpga: a {slots}-slot Morphing Crossbar on the reconfiguration port")
+    return port
+
+
+def _configured(name: str, slot: int, cycles: int) -> None:
+    _say(f"configured {name}: slot {slot} reconfigured in {cycles} fabric cycles")
+
+
 def listen(args: argparse.Namespace) -> int:
     """Run the node until interrupted or for `args.seconds`."""
     constants = constants_by_pbo(args.set)
@@ -130,7 +146,10 @@ def listen(args: argparse.Namespace) -> int:
             for module in list(node.modules.values()):
                 start(module.name, module.load_address)
             # One receiver for the node's life: a transfer survives a reconnect (RESUME).
-            receiver = Receiver(NodeTarget(node, on_install=start))
+            target = NodeTarget(
+                node, on_install=start, fpga=_fpga(args.fpga), on_configure=_configured
+            )
+            receiver = Receiver(target)
             try:
                 serve(node, link, receiver=receiver, stop=stop)
             except KeyboardInterrupt:

@@ -1,36 +1,78 @@
 """A node that listens on a link: the receiving end of `hexmigrate send`.
 
-`NodeTarget` lets the protocol's `Receiver` (hexmigrate.transfer) load modules into a `Node`;
-`serve` answers messages on a link while the node's PBOs keep running between them.
+`NodeTarget` lets the protocol's `Receiver` (hexmigrate.transfer) load modules into a `Node`,
+and, when the node has an FPGA reconfiguration port, partial bitstreams into its fabric (a
+hardware component sent, listed and removed like a software module); `serve` answers messages on
+a link while the node's PBOs keep running between them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from firmware_sim.loader import InstalledImage, LoadSession
 from firmware_sim.node import Node
+from hexmigrate.image import ModuleImage
 from hexmigrate.links.base import Link
 from hexmigrate.transfer.receiver import Receiver
 
+if TYPE_CHECKING:
+    from firmware_sim.fpga_port import FpgaReconfigurationPort
+
 
 class NodeTarget:
-    """The `hexmigrate.transfer.receiver.Target` of an emulated node."""
+    """The `hexmigrate.transfer.receiver.Target` of an emulated node; `fpga` is its FPGA
+    reconfiguration port, if it has one. `on_install(name, address)` hears of each module
+    committed, `on_configure(name, slot, cycles)` of each bitstream applied."""
 
-    def __init__(self, node: Node, on_install: Callable[[str, int], None] | None = None) -> None:
+    def __init__(
+        self,
+        node: Node,
+        on_install: Callable[[str, int], None] | None = None,
+        fpga: FpgaReconfigurationPort | None = None,
+        on_configure: Callable[[str, int, int], None] | None = None,
+    ) -> None:
         self.node = node
         self.on_install = on_install
+        self.fpga = fpga
+        self.on_configure = on_configure
+        self.components: dict[str, tuple[int, int, int]] = {}
+        """The hardware components the port took: name -> (slot, link address, size)."""
 
     def begin(self, owner: str, size: int | None, address: int | None) -> LoadSession:
         """Reserve flash and open a load session."""
         return self.node.begin_load(owner, size, address)
 
     def commit(self, owner: str, image: InstalledImage) -> tuple[str, int]:
-        """Register the verified image as the node's module (replacing one of the same name)."""
+        """Register the verified image as the node's module (replacing one of the same name),
+        or apply it to the fabric when it is a partial bitstream for the FPGA port."""
+        if self.fpga is not None and self.fpga.owns(image.link_base):
+            return self._configure(owner, image)
         module = self.node.commit(owner, image)
         if self.on_install is not None:
             self.on_install(module.name, module.load_address)
         return module.name, module.load_address
+
+    def _configure(self, owner: str, image: InstalledImage) -> tuple[str, int]:
+        """Shift a verified bitstream from flash into its slot; its flash copy is freed either
+        way (the port refuses a corrupt frame, and the slot keeps its old routing)."""
+        assert self.fpga is not None
+        data = self.node.flash.read(image.load_base, image.size)
+        try:
+            bitstream = ModuleImage(
+                "bitstream", image.link_base, data, image.relocations, image.init
+            )
+            record = self.fpga.load(bitstream)
+        finally:
+            self.node.discard(owner, image)
+        slot = record.result.slot
+        name = f"mx_slot{slot}"
+        self.components = {n: c for n, c in self.components.items() if c[0] != slot}
+        self.components[name] = (slot, image.link_base, image.size)
+        if self.on_configure is not None:
+            self.on_configure(name, slot, record.result.cycles)
+        return name, image.link_base
 
     def discard(self, owner: str, image: InstalledImage) -> None:
         """Erase a verified image that will not be committed."""
@@ -38,10 +80,16 @@ class NodeTarget:
 
     def modules(self) -> tuple[tuple[str, int, int], ...]:
         """(name, load address, size) of each installed module."""
-        return tuple((m.name, m.load_address, m.image.size) for m in self.node.modules.values())
+        software = [(m.name, m.load_address, m.image.size) for m in self.node.modules.values()]
+        hardware = [(name, address, size) for name, (_, address, size) in self.components.items()]
+        return tuple(software + hardware)
 
     def remove(self, name: str) -> None:
-        """Unload a module; KeyError when there is none of that name."""
+        """Unload a module, or take a hardware component out of its slot; KeyError when there
+        is none of that name."""
+        if name in self.components and self.fpga is not None:
+            self.fpga.unload(self.components.pop(name)[0])
+            return
         if name not in self.node.modules:
             raise KeyError(name)
         self.node.unload(name)

@@ -381,6 +381,13 @@ def _add_link_commands(commands: argparse._SubParsersAction) -> None:
     )
     node.add_argument("--name", default="node", help="the node's name (default: node)")
     node.add_argument(
+        "--fpga",
+        type=int,
+        metavar="N",
+        help="give the node an N-slot Morphing Crossbar on its reconfiguration port: partial "
+        "bitstreams sent to it configure the fabric (docs/crossbar.md)",
+    )
+    node.add_argument(
         "--rate",
         type=float,
         default=100.0,

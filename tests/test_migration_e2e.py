@@ -607,3 +607,21 @@ def test_a_listening_node_wires_a_native_source_to_a_module_it_receives(hex_file
         index, _ = node.wait_for(r"^registered gain at 0x")
         _, shown = node.wait_for(r"gain\.y=([1-9]\d*)", index)  # 0 until the first cycles
         assert int(shown[1]) % 6 == 0  # 2 x k=2.0 x a ramp of +3 per cycle
+
+
+def test_a_bitstream_configures_a_listening_node_s_fabric(tmp_path):
+    """A hardware component migrates like a module: packed as extended HEX, sent, listed,
+    removed; the node's reconfiguration port applies it to its crossbar."""
+    bitstream = tmp_path / "slot2.hex"
+    command = [sys.executable, "-m", "morphing_crossbar", "pack", "4", "2", "bypass"]
+    subprocess.run([*command, "-o", str(bitstream)], check=True, timeout=CLI_TIMEOUT)
+    with NodeProcess("tcp-listen://127.0.0.1:0", "--fpga", "4") as node:
+        _, listening = node.wait_for(r"--to (socket://127\.0\.0\.1:\d+)\)$")
+        node.wait_for(r"^fpga: a 4-slot Morphing Crossbar on the reconfiguration port$")
+        url = listening[1]
+        sent = hexmigrate("send", bitstream, "--to", url)
+        assert "module mx_slot2 installed at 0x40000200" in sent
+        node.wait_for(r"^configured mx_slot2: slot 2 reconfigured in 25 fabric cycles$")
+        assert "mx_slot2" in hexmigrate("ls", "--to", url)
+        hexmigrate("rm", "mx_slot2", "--to", url)
+        assert "mx_slot2" not in hexmigrate("ls", "--to", url)

@@ -8,14 +8,20 @@ from pathlib import Path
 import pytest
 
 from firmware_sim.fpga_port import FpgaReconfigurationPort
+from firmware_sim.node import Node
+from firmware_sim.server import NodeTarget
 from hexmigrate.errors import ChecksumError
 from hexmigrate.image import ModuleImage
+from hexmigrate.transfer.receiver import Receiver
+from hexmigrate.transfer.sender import Sender, TransferError
 from morphing_crossbar.bitstream import pack
-from morphing_crossbar.errors import BitstreamImageError, CrcError
+from morphing_crossbar.cli import main as pack_command
+from morphing_crossbar.errors import BitstreamImageError, CrcError, RouteError
 from morphing_crossbar.fabric import Fabric
 from morphing_crossbar.hex_image import CONFIG_BASE, from_image, to_image
 from morphing_crossbar.model import Beat, CrossbarModel
 from morphing_crossbar.routing import bypass_route
+from refresh.inprocess_link import InProcessLink
 
 FABRIC = Fabric(4)
 
@@ -74,3 +80,49 @@ def test_images_for_another_fabric_or_address_are_refused() -> None:
     moved = ModuleImage("moved", 0x2000_0000, image.data, (), 0x2000_0008)
     with pytest.raises(BitstreamImageError, match="expected a slot window 0x40000000"):
         from_image(FABRIC, moved)
+
+
+def fpga_node() -> tuple[Node, CrossbarModel, Receiver]:
+    node = Node("fpga")
+    model = CrossbarModel(FABRIC)
+    return node, model, Receiver(NodeTarget(node, fpga=FpgaReconfigurationPort(model)))
+
+
+@pytest.mark.parametrize("mode", ["binary", "hex"])
+def test_a_bitstream_sent_to_a_node_configures_its_fabric_like_a_module(mode: str) -> None:
+    node, model, receiver = fpga_node()
+    with node:
+        sender = Sender(InProcessLink(receiver), mode)
+        assert model.push(2, Beat(10)) != (2, Beat(10))  # slot 2 computes its function
+        result = sender.send(to_image(FABRIC, pack(FABRIC, 2, bypass_route())))
+        assert (result.name, result.load_address) == ("mx_slot2", CONFIG_BASE + 0x200)
+        assert model.push(2, Beat(10)) == (2, Beat(10))  # now it passes the beat through
+        assert sender.modules() == (("mx_slot2", CONFIG_BASE + 0x200, 11),)
+        assert node.modules == {} and node.space.owners.keys() <= {"directory"}  # flash freed
+        sender.remove("mx_slot2")
+        assert sender.modules() == ()
+        with pytest.raises(RouteError, match="expected a route from input 2"):
+            model.push(2, Beat(10))  # an empty wrapper takes nothing
+
+
+def test_a_corrupt_frame_sent_to_a_node_is_refused_and_the_routing_stays() -> None:
+    node, model, receiver = fpga_node()
+    with node:
+        before = model.push(0, Beat(10))
+        assert before != (0, Beat(10))  # slot 0 computes its function
+        image = to_image(FABRIC, pack(FABRIC, 0, bypass_route()))
+        data = bytearray(image.data)
+        data[-1] ^= 0x40  # the frame's CRC no longer matches: the HEX and the transfer are fine
+        corrupt = ModuleImage(image.name, image.link_base, bytes(data), (), image.init)
+        with pytest.raises(TransferError, match=r"commit refused: .*corrupt bitstream"):
+            Sender(InProcessLink(receiver), "binary").send(corrupt)
+        assert model.push(0, Beat(10)) == before  # the old routing, not the bypass
+        assert node.space.owners.keys() <= {"directory"}
+
+
+def test_the_pack_command_writes_the_image_and_names_a_bad_slot(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "slot2.hex"
+    assert pack_command(["pack", "4", "2", "bypass", "-o", str(path)]) == 0
+    assert path.read_text() == to_image(FABRIC, pack(FABRIC, 2, bypass_route())).to_hex()
+    assert pack_command(["pack", "4", "7", "through", "-o", str(path)]) == 1
+    assert capsys.readouterr().err == "error: expected a slot in 0..3, got 7\n"
