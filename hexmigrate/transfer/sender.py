@@ -235,56 +235,57 @@ class Sender:
 
     def _send_blocks(self, image: ModuleImage, tid: int, programmed: int, start: float) -> None:
         """Go-back-N over the image, from `programmed` bytes on, with up to `flight` bytes
-        beyond what the node is known to hold: its acknowledged blocks, or the position a
-        refusal named (the node keeps the part of a block it received in order)."""
+        beyond what the node is known to hold (see `_Window`)."""
         total = image.size
-        acked = known = next_offset = self.acknowledged = programmed
-        stale_nak = -1
-        silent = refusals = 0
-        while acked < total:
-            while next_offset < total and next_offset - known < self.flight:
-                step = self._step(next_offset, total)
-                for message in self._messages(image, tid, next_offset, step):
+        window = _Window(programmed)
+        self.acknowledged = programmed
+        while window.acked < total:
+            while window.next < total and window.next - window.known < self.flight:
+                step = self._step(window.next, total)
+                for message in self._messages(image, tid, window.next, step):
                     self._send(message)
-                next_offset += step
+                window.next += step
             reply = self._await(tid, (BlockAck, Ack, Nak), timeout=self.timeout)
             if reply is None:
-                silent += 1
-                if silent > self.retries:
-                    raise TransferError(
-                        f"transfer {tid}: the node stopped answering at {acked} of {total} bytes"
-                    )
-                self.retransmissions += 1
-                self._shrink()
-                next_offset = acked  # what we send again makes the node say where it stands
+                self._silence(window, tid, total)
                 continue
-            silent = 0
+            window.silent = 0
             self._check_fatal(reply)
-            if _is_repeat(reply):  # data sent again that the node had: skip what it holds
-                known = max(known, reply.value)
-                next_offset = max(next_offset, known)
-            elif reply.value > acked and not isinstance(reply, Nak):
-                acked = self.acknowledged = reply.value
-                known = max(known, acked)
-                stale_nak = -1
-                refusals = 0
+            if _is_repeat(reply):
+                window.skip_to(reply.value)
+            elif reply.value > window.acked and not isinstance(reply, Nak):
+                self.acknowledged = window.advance(reply.value)
                 self._grow()
-                self._report(acked, total, start)
+                self._report(window.acked, total, start)
             if isinstance(reply, Nak):
-                refusals += 1
-                if refusals > REFUSALS_PER_RETRY * (self.retries + 1):
-                    raise TransferError(
-                        f"transfer {tid}: no progress at {acked} of {total} bytes after "
-                        f"{refusals} refusals (last: {reply.reason})"
-                    )
-            if isinstance(reply, Nak) and reply.value != stale_nak:
-                stale_nak = reply.value  # the messages in flight will be refused alike
-                self.retransmissions += 1
-                self._shrink()
-                # The node says where it stands: believe it over what we thought, even when
-                # that is further back (a damaged answer may have misled us).
-                known = max(acked, reply.value)
-                next_offset = known
+                self._refused(window, reply, tid, total)
+
+    def _silence(self, window: _Window, tid: int, total: int) -> None:
+        """No answer within the timeout: send again from the last acknowledged block, whose
+        answer says where the node stands; give up after `retries` silences in a row."""
+        window.silent += 1
+        if window.silent > self.retries:
+            raise TransferError(
+                f"transfer {tid}: the node stopped answering at {window.acked} of {total} bytes"
+            )
+        self.retransmissions += 1
+        self._shrink()
+        window.next = window.acked
+
+    def _refused(self, window: _Window, reply: Nak, tid: int, total: int) -> None:
+        """A refusal: go back to where the node says it stands (once per position: the
+        messages in flight are refused alike); give up after too many without progress."""
+        window.refusals += 1
+        if window.refusals > REFUSALS_PER_RETRY * (self.retries + 1):
+            raise TransferError(
+                f"transfer {tid}: no progress at {window.acked} of {total} bytes after "
+                f"{window.refusals} refusals (last: {reply.reason})"
+            )
+        if reply.value != window.stale_nak:
+            window.stale_nak = reply.value
+            self.retransmissions += 1
+            self._shrink()
+            window.go_back_to(reply.value)
 
     def _step(self, offset: int, total: int) -> int:
         """How many bytes the message(s) at image offset `offset` carry: up to `flight`, and
@@ -418,6 +419,42 @@ class Sender:
     def _check_fatal(reply: Message) -> None:
         if isinstance(reply, Nak) and reply.fatal:
             raise TransferError(f"the node refused: {reply.reason}")
+
+
+@dataclass
+class _Window:
+    """Where a go-back-N transfer stands: `acked` bytes acknowledged as programmed, `known` the
+    bytes the node is known to hold (acknowledged, or named by a refusal or a repeat: the node
+    keeps the part of a block it received in order), `next` the offset to send next."""
+
+    acked: int
+    known: int = -1
+    next: int = -1
+    stale_nak: int = -1  # the position of the last refusal acted on
+    silent: int = 0  # timeouts in a row
+    refusals: int = 0  # refusals since the last progress
+
+    def __post_init__(self) -> None:
+        self.known = self.next = self.acked
+
+    def advance(self, programmed: int) -> int:
+        """Blocks up to `programmed` are acknowledged; returns it."""
+        self.acked = programmed
+        self.known = max(self.known, programmed)
+        self.stale_nak = -1
+        self.refusals = 0
+        return programmed
+
+    def skip_to(self, held: int) -> None:
+        """Data sent again that the node had: skip what it holds."""
+        self.known = max(self.known, held)
+        self.next = max(self.next, self.known)
+
+    def go_back_to(self, position: int) -> None:
+        """The node says where it stands: believe it over what we thought, even when that is
+        further back (a damaged answer may have misled us)."""
+        self.known = max(self.acked, position)
+        self.next = self.known
 
 
 def _is_repeat(reply: Message) -> bool:
