@@ -98,6 +98,11 @@ class InstalledImage:
         """The flash address of a link-time address of the image."""
         return (link_address + self.delta) % (1 << 32)
 
+    @property
+    def flash_blocks(self) -> list[int]:
+        """Start addresses of the flash blocks the image occupies (its extent)."""
+        return [self.load_base + BLOCK_SIZE * index for index in range(self.extent.count)]
+
 
 @dataclass
 class _Progress:

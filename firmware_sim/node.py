@@ -88,8 +88,7 @@ class InstalledModule:
     @property
     def flash_blocks(self) -> list[int]:
         """Start addresses of the flash blocks the module occupies."""
-        first = self.image.load_base
-        return [first + BLOCK_SIZE * index for index in range(self.image.extent.count)]
+        return self.image.flash_blocks
 
 
 class SramBlockBuffer:
@@ -373,8 +372,7 @@ class Node:
         self._erase(module.image)
 
     def _erase(self, image: InstalledImage) -> None:
-        end = image.load_base + image.extent.count * BLOCK_SIZE
-        for address in range(image.load_base, end, BLOCK_SIZE):
+        for address in image.flash_blocks:
             self.flash.erase(address)
 
     # Running PBOs.
