@@ -1,12 +1,12 @@
 """The node's side of the transfer protocol: one state machine for both modes.
 
-`Receiver.handle(raw)` takes one message and returns the replies, in the mode the message came
-in. The module goes to a `Target` (the emulated node implements it) through a `LoadSession`-like
-object that programs flash a block at a time; the receiver acknowledges each block once it is
-programmed, refuses what does not fit (``NAK`` with the position to go back to, the partial block
-dropped), keeps transfers across link cuts (``RESUME``), checks the final CRC (``END``) and only
-makes the module the node's on an explicit ``COMMIT``. Until then the node's modules are
-untouched; ``ABORT`` or any fatal error erases what the transfer wrote.
+`Receiver.handle(raw)` takes one message and returns the replies, in the mode the message came in.
+The module goes to a `Target` (the emulated node implements it) through a `LoadSession`-like object
+that programs flash a block at a time; the receiver acknowledges each block once it is programmed,
+refuses what does not fit (``NAK`` with the position to go back to: the first byte it lacks, the
+part of a block received in order kept), keeps transfers across link cuts (``RESUME``), checks the
+final CRC (``END``) and only makes the module the node's on an explicit ``COMMIT``. Until then the
+node's modules are untouched; ``ABORT`` or any fatal error erases what the transfer wrote.
 """
 
 from __future__ import annotations
@@ -52,6 +52,7 @@ class Session(Protocol):
     load_base: int
     programmed: int
     received: int
+    has_init: bool
 
     def feed_relocation(self, location: int, line: int = 0) -> None: ...
     def feed_init(self, target: int, line: int = 0) -> None: ...

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,6 +28,7 @@ from hexmanipulator.hexman_pbo import hexman_module
 from hexmigrate.image import ModuleImage
 from pbort import NativeModule
 from pbort.code import ModuleCode
+from pbort.errors import KernelError
 from refresh.adaptation import Decision, decide
 from refresh.configuration import Configuration, initial_configuration
 from refresh.decider import Decider
@@ -153,8 +155,7 @@ class Experiment:
         self._good_since: float | None = None  # P_T = 1 since then, after a switch
         self._repairing = False  # a decision is being carried out: no second one meanwhile
         self._frames = 0
-        self._dropped = False
-        self._cut = False
+        self._events = self._scheduled()
 
     def _intent(self) -> float:
         """Where the task wants the cameras to look: at the target it is after (its azimuth is
@@ -216,8 +217,8 @@ class Experiment:
         end = self.world.time + seconds
         decider_every = round(DECIDER_PERIOD / FRAME)
         while self.world.time < end - 1e-9:
-            self._power_drop()
-            self._servo_link_cut()
+            while self._events and self._events[0][0] <= self.world.time + 1e-9:
+                self._events.pop(0)[1]()
             self.world.advance(min(FRAME, end - self.world.time))
             self._frames += 1
             if self.current is None:
@@ -268,22 +269,24 @@ class Experiment:
             )
         )
 
-    def _servo_link_cut(self) -> None:
-        """The scenario's servo link cut, once its time has come."""
-        cut = self.scenario.servo_link_cut
-        if cut is None or self._cut or self.world.time < cut - 1e-9:
-            return
+    def _scheduled(self) -> list[tuple[float, Callable[[], None]]]:
+        """The scenario's events besides camera faults, by time: a servo link cut, a power
+        drop."""
+        events: list[tuple[float, Callable[[], None]]] = []
+        if self.scenario.servo_link_cut is not None:
+            events.append((self.scenario.servo_link_cut, self._cut_servo_link))
+        if self.scenario.power_drop is not None:
+            events.append((self.scenario.power_drop.time, self._drop_power))
+        return sorted(events, key=lambda event: event[0])
+
+    def _cut_servo_link(self) -> None:
         self.world.cut_servo_link("can1")
-        self._cut = True
         self.log.record("link_cut", "the first CAN bus to the servos is cut (bus-off)")
 
-    def _power_drop(self) -> None:
-        """The scenario's battery sag, once its time has come."""
+    def _drop_power(self) -> None:
         drop = self.scenario.power_drop
-        if drop is None or self._dropped or self.world.time < drop.time - 1e-9:
-            return
+        assert drop is not None
         self.loaded.database.set_capacity(drop.robot, "power", drop.capacity)
-        self._dropped = True
         self.log.record(
             "power_drop",
             f"robot {drop.robot}: power capacity down to {drop.capacity:g}",
@@ -381,7 +384,7 @@ class Experiment:
             self.current.placements, self.current.instances, strict=True
         ):
             node = self.world.nodes[placement.robot]
-            with contextlib.suppress(Exception):
+            with contextlib.suppress(KernelError):  # already off, or failed on its own
                 node.stop(instance)
         self.outcome.stopped_at = self.world.time
         self.log.record("stopped", f"no repair ({reason}): the task is stopped", reason=reason)

@@ -17,6 +17,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
+from visual_servoing.experiment.applier import Migration
 from visual_servoing.experiment.experiment import Outcome, Reconfiguration, deviation_series
 
 THRESHOLD = 30.0
@@ -46,9 +47,7 @@ def _reconfiguration(outcome: Outcome, record: Reconfiguration) -> dict[str, Any
     decision = record.decision
     location = decision.location
     choice = decision.choice
-    migrations = [
-        m for m in outcome.migrations if record.detected_at <= m.start <= (record.applied_at or 0)
-    ]
+    migrations = _migrations_of(outcome, record)
     first_good = _first_good_frame(outcome, record)
     return {
         "detected_at": record.detected_at,
@@ -87,6 +86,13 @@ def _reconfiguration(outcome: Outcome, record: Reconfiguration) -> dict[str, Any
         else first_good - record.applied_at,
         "confirmed_at": record.recovered_at,
     }
+
+
+def _migrations_of(outcome: Outcome, record: Reconfiguration) -> list[Migration]:
+    """The images a reconfiguration sent: between its detection and its switch."""
+    if record.applied_at is None:
+        return []
+    return [m for m in outcome.migrations if record.detected_at <= m.start <= record.applied_at]
 
 
 def _first_good_frame(outcome: Outcome, record: Reconfiguration) -> float | None:
@@ -188,8 +194,7 @@ def plot(outcome: Outcome, path: Path) -> None:
         marks.append((record.detected_at, "detection + decision", "tab:orange"))
         marks += [
             (m.start + m.run.seconds, "migrated", "tab:purple")
-            for m in outcome.migrations
-            if record.applied_at is not None and record.detected_at <= m.start <= record.applied_at
+            for m in _migrations_of(outcome, record)
         ]
         if record.recovered_at is not None:
             marks.append((record.recovered_at, "recovered", "tab:green"))
