@@ -246,6 +246,11 @@ class LoadSession:
             return
         self.feed_record(decode_record(line.strip(), self._lines), self._lines)
 
+    def feed_image(self, image: ModuleImage) -> None:
+        """Take a whole module image, line by line as its module file gives it."""
+        for line in image.to_hex().splitlines():
+            self.feed_line(line)
+
     def feed_record(self, record: Record, line: int) -> None:
         """Take one decoded record; `line` is its line number, for error messages."""
         kind = record.type
@@ -448,6 +453,5 @@ def load_image(
 ) -> InstalledImage:
     """Load a whole module image through the same streaming path a transfer takes."""
     with LoadSession(flash, space, owner, size=image.size, address=address) as session:
-        for line in image.to_hex().splitlines():
-            session.feed_line(line)
+        session.feed_image(image)
         return session.finish()

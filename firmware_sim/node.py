@@ -324,8 +324,7 @@ class Node:
         image = source if isinstance(source, ModuleImage) else ModuleImage.read(source)
         session = self.begin_load(f"loading:{image.name}", image.size, address)
         with session:
-            for line in image.to_hex().splitlines():
-                session.feed_line(line)
+            session.feed_image(image)
         return self.install(session)
 
     def _register(self, image: InstalledImage, taken: set[str]) -> GuestModule:
