@@ -57,11 +57,13 @@ class CameraDevice:
 
     def frame(self) -> np.ndarray:
         """What the camera delivers now."""
-        return self.faults.apply(self.scene.render(self.yaw()), self.clock())
+        return self._seen(self.yaw())
 
     def intended_frame(self) -> np.ndarray:
         """What the camera would deliver now, looking where the task wants it to."""
-        yaw = self.intent() if self.intent is not None else self.yaw()
+        return self._seen(self.intent() if self.intent is not None else self.yaw())
+
+    def _seen(self, yaw: float) -> np.ndarray:
         return self.faults.apply(self.scene.render(yaw), self.clock())
 
 

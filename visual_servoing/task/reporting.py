@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
+from firmware_sim.node import POWER_INDEX
 from pbort import PerformanceKind, PortIO
 
-POWER = 0
-"""Non-functional index of a module's power draw in mW (the ABI's convention, which the node's
-power model reads)."""
+POWER = POWER_INDEX
+"""Non-functional index of a module's power draw in mW: the one the node's power model reads."""
 MW_PER_UNIT = 100.0
 """Milliwatts per unit of the module database's normalized power (a robot's 100 units: 10 W)."""
 
