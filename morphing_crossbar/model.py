@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .bitstream import decode_bytes, decode_frame, reconfiguration_cycles
+from .bitstream import beats_to_word, decode_bytes, decode_frame, reconfiguration_cycles
 from .errors import RouteError
 from .fabric import Fabric, Source, SourceKind
 from .functions import FunctionState
@@ -70,10 +70,8 @@ class CrossbarModel:
 
     def load_beats(self, slot: int, beats: list[int]) -> LoadResult:
         """Apply a partial bitstream as the configuration port beats that carried it."""
-        word = 0
-        for beat in beats:
-            word = (word << self.fabric.cfg_w) | beat
-        route = decode_frame(self.fabric, slot, word, len(beats) * self.fabric.cfg_w)
+        cfg_w = self.fabric.cfg_w
+        route = decode_frame(self.fabric, slot, beats_to_word(beats, cfg_w), len(beats) * cfg_w)
         return self._commit(slot, route)
 
     def _commit(self, slot: int, route: SlotRoute) -> LoadResult:
