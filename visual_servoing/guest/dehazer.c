@@ -117,18 +117,20 @@ INLINE struct column sorted_column(uint32_t a, uint32_t b, uint32_t c)
  * of its three sorted columns (every level below that largest low, or above that smallest high,
  * has at least five levels on its other side). Neighbouring windows share two columns, so the
  * shared halves of those three are worked out once. */
-INLINE void median_pair(struct column c0, struct column c1,
-                                                              struct column c2, struct column c3,
-                                                              uint32_t *first, uint32_t *second)
+INLINE void median_pair(struct column c0, struct column c1, struct column c2, struct column c3,
+                        uint32_t *first, uint32_t *second)
 {
     const uint32_t lo = greater(c1.lo, c2.lo);
     const uint32_t hi = lesser(c1.hi, c2.hi);
     uint32_t mid_lo = c1.mid;
     uint32_t mid_hi = c2.mid;
 
-    sort2(&mid_lo, &mid_hi); /* then the median of mid_lo, mid_hi and m is max(mid_lo, min(mid_hi, m)) */
-    *first = median3(greater(c0.lo, lo), greater(mid_lo, lesser(mid_hi, c0.mid)), lesser(c0.hi, hi));
-    *second = median3(greater(lo, c3.lo), greater(mid_lo, lesser(mid_hi, c3.mid)), lesser(hi, c3.hi));
+    /* then the median of mid_lo, mid_hi and m is max(mid_lo, min(mid_hi, m)) */
+    sort2(&mid_lo, &mid_hi);
+    *first = median3(greater(c0.lo, lo), greater(mid_lo, lesser(mid_hi, c0.mid)),
+                     lesser(c0.hi, hi));
+    *second = median3(greater(lo, c3.lo), greater(mid_lo, lesser(mid_hi, c3.mid)),
+                      lesser(hi, c3.hi));
 }
 
 INLINE uint32_t abs_diff(uint32_t a, uint32_t b)
@@ -140,10 +142,8 @@ INLINE uint32_t abs_diff(uint32_t a, uint32_t b)
 
 /* Writes the median pixels at x and x + 1, counts them in the histogram, returns the noise they
  * removed. */
-INLINE uint32_t emit_pair(struct column c0, struct column c1,
-                                                                 struct column c2, struct column c3,
-                                                                 const uint8_t *at, uint8_t *out,
-                                                                 uint32_t *histogram)
+INLINE uint32_t emit_pair(struct column c0, struct column c1, struct column c2, struct column c3,
+                          const uint8_t *at, uint8_t *out, uint32_t *histogram)
 {
     uint32_t first;
     uint32_t second;
