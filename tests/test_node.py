@@ -277,8 +277,7 @@ def test_a_received_image_can_be_discarded_instead_of_committed(node, images):
     node.load(images["gain"])
     before = snapshot(node)
     session = node.begin_load("incoming", images["moving_average"].size)
-    for line in images["moving_average"].to_hex().splitlines():
-        session.feed_line(line)
+    session.feed_image(images["moving_average"])
     image = session.finish()
     assert node.space.owners["incoming"] == image.extent
     node.discard("incoming", image)
