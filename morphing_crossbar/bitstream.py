@@ -25,11 +25,10 @@ from .errors import (
     SelectorRangeError,
     SlotMismatchError,
 )
-from .fabric import SEL_W, Fabric
+from .fabric import FRAME_BITS, Fabric
 from .routing import SlotRoute
 
 MAGIC = 0xA
-FRAME_BITS = 16 + 2 * SEL_W
 FRAME_BYTES = FRAME_BITS // 8
 
 

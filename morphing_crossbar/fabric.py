@@ -19,6 +19,9 @@ from .functions import Function, Kind, default_library
 SEL_W = 4
 """Selector field width in the frame (sources per slot <= 16)."""
 
+FRAME_BITS = 16 + 2 * SEL_W
+"""Bits of a partial bitstream: magic, slot, two selectors, CRC-8."""
+
 NONE_SEL = 0
 INPUT_SEL = 1
 RING_SEL = 2
@@ -74,9 +77,9 @@ class Fabric:
             raise FabricParameterError(
                 f"expected a cluster size dividing n={self.n} and at most 13, got {self.local}"
             )
-        if self.cfg_w < 1 or self.frame_bits % self.cfg_w:
+        if self.cfg_w < 1 or FRAME_BITS % self.cfg_w:
             raise FabricParameterError(
-                f"expected a configuration width dividing the {self.frame_bits}-bit frame, "
+                f"expected a configuration width dividing the {FRAME_BITS}-bit frame, "
                 f"got {self.cfg_w}"
             )
         if not self.functions:
@@ -92,14 +95,9 @@ class Fabric:
         return LOCAL_SEL + self.local
 
     @property
-    def frame_bits(self) -> int:
-        """Bits of a partial bitstream: magic, slot, two selectors, CRC-8."""
-        return 16 + 2 * SEL_W
-
-    @property
     def frame_beats(self) -> int:
         """Configuration port beats of one partial bitstream."""
-        return self.frame_bits // self.cfg_w
+        return FRAME_BITS // self.cfg_w
 
     def cluster(self, slot: int) -> int:
         """The first slot of ``slot``'s local cluster."""
