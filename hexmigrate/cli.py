@@ -13,7 +13,7 @@ import json
 import sys
 import time
 import traceback
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 from hexmigrate.elf import DEFAULT_INIT_SYMBOL, image_from_elf
@@ -163,11 +163,7 @@ def _sender(args: argparse.Namespace, progress: bool = False) -> Sender:
 
 def cmd_send(args: argparse.Namespace) -> int:
     """Send a module to a node, show progress, commit it."""
-    image = ModuleImage.read(args.file)
-    try:
-        result = _send_resuming(args, image)
-    except TransferError as error:
-        raise CommandError(str(error)) from None
+    result = _send_resuming(args, ModuleImage.read(args.file))
     if not args.quiet:
         print(file=sys.stderr)
     rate = result.size / result.seconds if result.seconds else 0.0
@@ -204,19 +200,25 @@ def _send_resuming(args: argparse.Namespace, image: ModuleImage) -> TransferResu
     raise TransferError(f"{interrupted}; gave up after {args.reconnects} reconnections")
 
 
-def cmd_ping(args: argparse.Namespace) -> int:
-    """Ask a node who it is."""
+@contextlib.contextmanager
+def _connected(args: argparse.Namespace) -> Iterator[Sender]:
+    """A sender on the link `--to` names, closed afterwards."""
     sender = _sender(args)
     with contextlib.closing(sender.link):
-        print(_ask(sender.ping))
+        yield sender
+
+
+def cmd_ping(args: argparse.Namespace) -> int:
+    """Ask a node who it is."""
+    with _connected(args) as sender:
+        print(sender.ping())
     return 0
 
 
 def cmd_ls(args: argparse.Namespace) -> int:
     """List a node's modules."""
-    sender = _sender(args)
-    with contextlib.closing(sender.link):
-        modules = _ask(sender.modules)
+    with _connected(args) as sender:
+        modules = sender.modules()
     for name, address, size in modules:
         print(f"{name:<16} 0x{address:08X}  {size} bytes")
     return 0
@@ -224,18 +226,10 @@ def cmd_ls(args: argparse.Namespace) -> int:
 
 def cmd_rm(args: argparse.Namespace) -> int:
     """Unload a module from a node."""
-    sender = _sender(args)
-    with contextlib.closing(sender.link):
-        _ask(sender.remove, args.name)
+    with _connected(args) as sender:
+        sender.remove(args.name)
     print(f"removed {args.name} from {args.to}")
     return 0
-
-
-def _ask(request, *arguments):
-    try:
-        return request(*arguments)
-    except TransferError as error:
-        raise CommandError(str(error)) from None
 
 
 def _wire(text: str) -> tuple[str, str]:
@@ -438,7 +432,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(str(error))
     except KeyboardInterrupt:
         return 130
-    except (HexError, CommandError, LinkError, OSError, ValueError) as error:
+    except (HexError, CommandError, LinkError, TransferError, OSError, ValueError) as error:
         if args.debug:
             traceback.print_exc()
         print(f"error: {_describe(error)}", file=sys.stderr)

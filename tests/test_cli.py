@@ -154,3 +154,25 @@ def test_missing_file_is_one_error_line(tmp_path):
     result = run("inspect", missing)
     assert result.returncode == 1
     assert result.stderr == f"error: {missing}: No such file or directory\n"
+
+
+@pytest.mark.parametrize(
+    ("command", "request_name"),
+    [(["ping"], "Ping"), (["ls"], "ListModules"), (["rm", "gain"], "Remove")],
+)
+def test_a_node_that_never_answers_is_one_error_line(command, request_name):
+    result = run(*command, "--to", "faulty+loop://#drop=1", "--timeout", "0.02", "--retries", "1")
+    assert result.returncode == 1
+    assert result.stderr.startswith(f"error: no answer to {request_name} after ")
+    assert result.stderr.count("\n") == 1
+    assert result.stdout == ""
+
+
+def test_a_send_nobody_answers_is_one_error_line(packed):
+    result = run(
+        "send", packed, "--to", "faulty+loop://#drop=1", "--timeout", "0.02", "--retries", "1"
+    )
+    assert result.returncode == 1
+    assert result.stderr.splitlines()[-1].startswith("error: no answer to ")
+    assert "Traceback" not in result.stderr
+    assert result.stdout == ""
