@@ -63,16 +63,3 @@ class RefusedRouteError(BitstreamError):
 
 class BitstreamImageError(CrossbarError, ValueError):
     """A HEX image that does not hold a crossbar bitstream (wrong region, size or header)."""
-
-
-ERRORS_BY_CODE: dict[int, type[BitstreamError]] = {
-    cls.code: cls
-    for cls in (
-        CrcError,
-        LengthError,
-        MagicError,
-        SlotMismatchError,
-        SelectorRangeError,
-        RefusedRouteError,
-    )
-}
