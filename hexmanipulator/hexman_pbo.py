@@ -126,12 +126,9 @@ class HexMan(NativePBO):
         self.speed = S3003.speed_deg_per_s(self.geometry.supply_volts)
 
     def cycle(self, io: PortIO) -> None:
-        pose = np.array(io["target"], dtype=float)
-        pose[5] += io["yaw"]
-        now = io.now
         fault, reason = Fault.NONE, ""
         try:
-            self._command(io, inverse(self.geometry, Pose(*pose)), now)
+            self._command(io, inverse(self.geometry, _target_pose(io)), io.now)
         except UnreachablePoseError as error:
             fault, reason = Fault.UNREACHABLE, str(error)
         except ServoBusError as error:
@@ -159,10 +156,8 @@ class HexMan(NativePBO):
         the inverse kinematics and asks the servos where they are (a read moves nothing; the
         moves belong to the executor). It reports a tracking error of 0 and health 1 when the
         target is reachable and the servos answer, `NO_FEEDBACK_ERROR` and 0 when not."""
-        pose = np.array(io["target"], dtype=float)
-        pose[5] += io["yaw"]
         try:
-            io["angles"] = inverse(self.geometry, Pose(*pose))
+            io["angles"] = inverse(self.geometry, _target_pose(io))
             io["feedback"] = self.servo_bus.read().angles
         except (UnreachablePoseError, ServoBusError) as error:
             io.log(f"hexman (estimator): {error}")
@@ -203,6 +198,12 @@ class HexMan(NativePBO):
             io.log(f"hexman: {fault.name.lower()}: {reason}" if fault else "hexman: recovered")
         self.fault, self.reason = fault, reason
         io["fault"] = int(fault)
+
+
+def _target_pose(io: PortIO) -> Pose:
+    """The pose on ``target`` with the ``yaw`` input added to its yaw."""
+    pose = Pose(*(float(v) for v in io["target"]))
+    return pose._replace(yaw=pose.yaw + float(io["yaw"]))
 
 
 def _classify(error: ServoBusError) -> Fault:
