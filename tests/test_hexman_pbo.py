@@ -239,4 +239,6 @@ def test_the_estimator_judges_a_target_without_moving_the_servos(can_rig: Rig) -
     assert estimate(can_rig, Pose(z=500.0)) == {0: 180.0, 1: 0.0}  # unreachable
     can_rig.bus.bus_off()
     assert estimate(can_rig, POSE) == {0: 180.0, 1: 0.0}  # the servos are out of reach
+    can_rig.kernel.run(until=1.0)  # time for the servos to follow any move that was sent
+    can_rig.emulator.due()  # the nodes step their servos to the kernel's clock now
     assert np.array_equal(can_rig.crank_truth(), before)  # nothing moved
