@@ -155,28 +155,30 @@ class PtyLink(StreamLink):
             return b""
 
     def _write(self, data: bytes) -> None:
-        view = memoryview(data)
-        deadline = time.monotonic() + PTY_WRITE_TIMEOUT
-        while view:
-            _, writable, _ = select.select([], [self._master], [], POLL_INTERVAL)
-            if writable:
-                view = view[_write_some(self._master, view) :]
-            elif time.monotonic() > deadline:
-                raise LinkError(
-                    f"{self.url}: the far end took no bytes for {PTY_WRITE_TIMEOUT:g} s "
-                    "(is a process reading it?)"
-                )
+        if not write_within(self._master, data, PTY_WRITE_TIMEOUT):
+            raise LinkError(
+                f"{self.url}: the far end took no bytes for {PTY_WRITE_TIMEOUT:g} s "
+                "(is a process reading it?)"
+            )
 
     def _close_stream(self) -> None:
         os.close(self._master)
         os.close(self._slave)
 
 
-def _write_some(fd: int, data: memoryview) -> int:
-    try:
-        return os.write(fd, data)
-    except BlockingIOError:
-        return 0
+def write_within(fd: int, data: bytes, timeout: float) -> bool:
+    """Write all of `data` to the non-blocking `fd` (a pty's near end), waiting for room at most
+    `timeout` seconds from now; False if the far end did not take it all in time."""
+    view = memoryview(data)
+    deadline = time.monotonic() + timeout
+    while view:
+        try:
+            view = view[os.write(fd, view) :]
+        except BlockingIOError:
+            if time.monotonic() >= deadline:
+                return False
+            select.select([], [fd], [], POLL_INTERVAL)
+    return True
 
 
 class PtyPair:

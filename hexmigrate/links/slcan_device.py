@@ -33,11 +33,13 @@ from __future__ import annotations
 import os
 import select
 import threading
-import time
 import tty
 from collections.abc import Callable
 
 import can
+
+from hexmigrate.links.serial import write_within
+from hexmigrate.links.stream import POLL_INTERVAL
 
 BITRATE_CODES = frozenset("0123456789")
 DLC_DIGITS = frozenset("012345678")
@@ -48,7 +50,6 @@ SERIAL_NUMBER = b"NRFSH\r"
 OVERRUN_FLAG = 0x08
 MAX_COMMAND = 64
 """Longer than any command this device knows (an extended frame with 8 bytes is 27 chars)."""
-POLL_INTERVAL = 0.02
 WRITE_TIMEOUT = 1.0
 """How long a frame for the host waits for room in the pty before it is dropped as an overrun."""
 
@@ -187,18 +188,9 @@ class SlcanDevice:
         """Write `data` whole to the host; False if the pty stayed full. After one overrun the
         next frames do not wait, so a host that went away costs no time per frame."""
         with self._write_lock:
-            view = memoryview(data)
-            deadline = time.monotonic() + (0 if self._stalled else WRITE_TIMEOUT)
-            while view:
-                try:
-                    view = view[os.write(self._master, view) :]
-                except BlockingIOError:
-                    if time.monotonic() >= deadline:
-                        self._stalled = True
-                        return False
-                    select.select([], [self._master], [], POLL_INTERVAL)
-            self._stalled = False
-            return True
+            timeout = 0 if self._stalled else WRITE_TIMEOUT
+            self._stalled = not write_within(self._master, data, timeout)
+            return not self._stalled
 
 
 def parse_frame(command: str) -> can.Message:
