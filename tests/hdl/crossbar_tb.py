@@ -14,14 +14,19 @@ import cocotb
 
 from morphing_crossbar.bitstream import (
     FRAME_BITS,
-    MAGIC,
+    PartialBitstream,
     pack,
     reconfiguration_cycles,
     word_to_beats,
 )
-from morphing_crossbar.crc import crc8_bits
 from morphing_crossbar.fabric import NONE_SEL, Fabric, fabric_from_json
-from morphing_crossbar.routing import Configuration, bypass_route, empty_route, through_route
+from morphing_crossbar.routing import (
+    Configuration,
+    SlotRoute,
+    bypass_route,
+    empty_route,
+    through_route,
+)
 from morphing_crossbar.sim.runner import FABRIC_ENV, RESULTS_ENV
 from morphing_crossbar.sim.stimulus import random_configuration
 from morphing_crossbar.sim.stream import random_beats
@@ -179,7 +184,6 @@ def _record(**figures: float) -> None:
 
 
 def _with_crc(fabric: Fabric, slot: int, fsel: int, osel: int) -> list[int]:
-    """A well-formed frame (good CRC) with routing fields the wrapper must refuse."""
-    body = (MAGIC << 12) | (slot << 8) | (fsel << 4) | osel
-    word = (body << 8) | crc8_bits(body, FRAME_BITS - 8)
-    return word_to_beats(word, FRAME_BITS, fabric.cfg_w)
+    """A well-formed frame (good CRC) with routing fields the wrapper must refuse: packed
+    without ``pack``, which would refuse them first."""
+    return PartialBitstream(slot, SlotRoute(fsel, osel)).beats(fabric.cfg_w)
