@@ -26,8 +26,6 @@ import argparse
 import random
 import tempfile
 import time
-from collections import deque
-from collections.abc import Callable
 from pathlib import Path
 
 from firmware_sim.node import Node
@@ -47,9 +45,8 @@ from firmware_sim.wire_sim.transfer import (
 )
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
-from hexmigrate.links.base import message_problem
 from hexmigrate.links.can import DEFAULT_BITRATE
-from hexmigrate.links.framing import Deframer, frame
+from hexmigrate.links.direct import DirectLink
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 
@@ -88,44 +85,12 @@ def random_module(code: ModuleImage, size: int, seed: int = 1) -> ModuleImage:
 # The stack without a bit-rate limit.
 
 
-class InProcessLink:
-    """A link straight into `handle` in this process (as tests/transfer_harness.py's); with
-    `framed`, every message goes through the serial framing both ways (frame, then Deframer)."""
-
-    url = "inprocess://"
-
-    def __init__(self, handle: Callable[[bytes], list[bytes]], framed: bool = False) -> None:
-        self.handle = handle
-        self.framed = framed
-        self.inbox: deque[bytes] = deque()
-        self._node_side = Deframer()
-        self._host_side = Deframer()
-
-    def send(self, message: bytes) -> None:
-        problem = message_problem(message)
-        if problem is not None:
-            raise ValueError(problem)
-        arrived = self._node_side.feed(frame(message)) if self.framed else [message]
-        for raw in arrived:
-            for reply in self.handle(raw):
-                if self.framed:
-                    self.inbox.extend(self._host_side.feed(frame(reply)))
-                else:
-                    self.inbox.append(reply)
-
-    def receive(self, timeout: float) -> bytes | None:
-        return self.inbox.popleft() if self.inbox else None
-
-    def close(self) -> None:
-        self.inbox.clear()
-
-
 def stack_seconds(image: ModuleImage, mode: str, framed: bool, repeat: int) -> float:
     """Best real time of a whole transfer (BEGIN to the ACK of COMMIT) into a fresh node."""
     best = float("inf")
     for _ in range(repeat):
         with Node() as node:
-            link = InProcessLink(Receiver(NodeTarget(node)).handle, framed)
+            link = DirectLink(Receiver(NodeTarget(node)).handle, framed)
             sender = Sender(link, mode, window=DEFAULT_WINDOW)
             start = time.perf_counter()
             result = sender.send(image, tid=TID)
@@ -156,7 +121,7 @@ def copy_seconds(image: ModuleImage, framed: bool, repeat: int) -> float:
     best = float("inf")
     for _ in range(repeat):
         sink = CopySink(len(data))
-        link = InProcessLink(sink, framed)
+        link = DirectLink(sink, framed)
         start = time.perf_counter()
         for offset in range(0, len(data), FLASH_BLOCK_SIZE):
             link.send(b"\x06" + data[offset : offset + FLASH_BLOCK_SIZE])

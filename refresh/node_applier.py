@@ -20,12 +20,12 @@ from firmware_sim.node import Node
 from firmware_sim.server import NodeTarget
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.base import Link
+from hexmigrate.links.direct import DirectLink
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from pbort.code import ModuleCode
 from refresh.database import Module
 from refresh.errors import ApplyError
-from refresh.inprocess_link import InProcessLink
 
 IMPORTER_PRIORITY = -1
 """A bridge's importer runs before the PBOs of priority 0 released at the same instant."""
@@ -45,7 +45,7 @@ class NodeApplier:
         nodes: Mapping[str, Node],
         natives: Mapping[str, ModuleCode] | None = None,
         images: Mapping[str, ModuleImage] | None = None,
-        link: Callable[[Receiver], Link] = InProcessLink,
+        link: Callable[[Receiver], Link] = lambda receiver: DirectLink(receiver.handle),
         mode: str = "binary",
         wire: str = "serial",
         rate: float | None = None,

@@ -1,15 +1,16 @@
 """An in-memory link straight into a node's receiver: protocol tests without threads or time.
 
-`DirectLink.send` hands the message to the receiver at once and queues its replies;
-`receive` returns the next reply or None at once (which the sender takes as a timeout). A
-`mangle` function can drop, corrupt or duplicate messages or their bytes in each direction.
+hexmigrate's `DirectLink` hands each message to the receiver at once and queues its replies
+(`receive` returns None at once when there is none, which the sender takes as a timeout); this
+one also lets a `mangle` function drop, corrupt or duplicate messages or their bytes in each
+direction, and can cut the link after a number of messages.
 """
 
 from __future__ import annotations
 
-from collections import deque
 from collections.abc import Callable
 
+from hexmigrate.links import direct
 from hexmigrate.links.base import LinkError
 from hexmigrate.links.faulty import FaultInjector, Faults
 from hexmigrate.transfer.receiver import Receiver
@@ -28,10 +29,9 @@ def noisy(rate: float, seed: int, per: str = "byte") -> Mangle:
     return FaultInjector(Faults(corrupt=rate, drop=rate, per=per, seed=seed))
 
 
-class DirectLink:
-    """The sender's end of an in-memory link to `receiver`."""
-
-    url = "direct://"
+class DirectLink(direct.DirectLink):
+    """The sender's end of an in-memory link to `receiver`, mangling each direction, cut after
+    `cut_after` messages sent."""
 
     def __init__(
         self,
@@ -40,10 +40,10 @@ class DirectLink:
         inbound: Mangle = clean,
         cut_after: int | None = None,
     ) -> None:
+        super().__init__(receiver.handle)
         self.receiver = receiver
         self.outbound = outbound
         self.inbound = inbound
-        self.inbox: deque[bytes] = deque()
         self.cut_after = cut_after
         self.sent = 0
 
@@ -51,12 +51,10 @@ class DirectLink:
         self.sent += 1
         if self.cut_after is not None and self.sent > self.cut_after:
             raise LinkError("link cut")
-        for delivered in self.outbound(message):
-            for reply in self.receiver.handle(delivered):
-                self.inbox.extend(self.inbound(reply))
+        super().send(message)
 
-    def receive(self, timeout: float) -> bytes | None:
-        return self.inbox.popleft() if self.inbox else None
+    def _outbound(self, message: bytes) -> list[bytes]:
+        return self.outbound(message)
 
-    def close(self) -> None:
-        self.inbox.clear()
+    def _inbound(self, reply: bytes) -> list[bytes]:
+        return self.inbound(reply)

@@ -12,6 +12,7 @@ from firmware_sim.node import Node
 from firmware_sim.server import NodeTarget
 from hexmigrate.errors import ChecksumError
 from hexmigrate.image import ModuleImage
+from hexmigrate.links.direct import DirectLink
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender, TransferError
 from morphing_crossbar.bitstream import pack
@@ -21,7 +22,6 @@ from morphing_crossbar.fabric import Fabric
 from morphing_crossbar.hex_image import CONFIG_BASE, from_image, to_image
 from morphing_crossbar.model import Beat, CrossbarModel
 from morphing_crossbar.routing import bypass_route
-from refresh.inprocess_link import InProcessLink
 
 FABRIC = Fabric(4)
 
@@ -92,7 +92,7 @@ def fpga_node() -> tuple[Node, CrossbarModel, Receiver]:
 def test_a_bitstream_sent_to_a_node_configures_its_fabric_like_a_module(mode: str) -> None:
     node, model, receiver = fpga_node()
     with node:
-        sender = Sender(InProcessLink(receiver), mode)
+        sender = Sender(DirectLink(receiver.handle), mode)
         assert model.push(2, Beat(10)) != (2, Beat(10))  # slot 2 computes its function
         result = sender.send(to_image(FABRIC, pack(FABRIC, 2, bypass_route())))
         assert (result.name, result.load_address) == ("mx_slot2", CONFIG_BASE + 0x200)
@@ -115,7 +115,7 @@ def test_a_corrupt_frame_sent_to_a_node_is_refused_and_the_routing_stays() -> No
         data[-1] ^= 0x40  # the frame's CRC no longer matches: the HEX and the transfer are fine
         corrupt = ModuleImage(image.name, image.link_base, bytes(data), (), image.init)
         with pytest.raises(TransferError, match=r"commit refused: .*corrupt bitstream"):
-            Sender(InProcessLink(receiver), "binary").send(corrupt)
+            Sender(DirectLink(receiver.handle), "binary").send(corrupt)
         assert model.push(0, Beat(10)) == before  # the old routing, not the bypass
         assert node.space.owners.keys() <= {"directory"}
 
