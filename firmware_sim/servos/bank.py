@@ -73,24 +73,23 @@ class ServoBank:
         """Step every servo to time `t`; a quiet bank (no ramp, no motion) jumps ahead at once."""
         if t < self.time:
             raise ValueError(f"expected time to move forward from {self.time} s, got {t} s")
+        self._command()
         while self.time < t:
-            self._command()
             if not self.busy():
-                self._idle(t - self.time)
+                self._advance_servos(t - self.time)
                 self.time = t
                 return
             dt = min(STEP, t - self.time)
             self.time += dt
             self._command()
-            for servo in self.servos:
-                servo.advance(dt)
+            self._advance_servos(dt)
 
     def _command(self) -> None:
         """Give every servo the pulse its ramp outputs now."""
         for servo, ramp in zip(self.servos, self.ramps, strict=True):
             servo.command(None if ramp is None else ramp.value(self.time))
 
-    def _idle(self, dt: float) -> None:
+    def _advance_servos(self, dt: float) -> None:
         for servo in self.servos:
             servo.advance(dt)
 
