@@ -392,9 +392,7 @@ def decode(text: str) -> HexContent:
     Well-formed files take the vectorised path of `hexmigrate.bulk`; anything it cannot prove
     well formed goes line by line, which reports the first error exactly.
     """
-    lines = text.splitlines()
-    while lines and not lines[-1].strip():
-        lines.pop()
+    lines = _record_lines(text)
     parsed = parse_well_formed(lines)
     if parsed is not None:
         try:
@@ -405,6 +403,14 @@ def decode(text: str) -> HexContent:
         except HexError:
             pass  # the line-by-line decoder below raises the first error in file order
     return _decode_lines(lines)
+
+
+def _record_lines(text: str) -> list[str]:
+    """The lines of `text` without the blank lines that may follow the end-of-file record."""
+    lines = text.splitlines()
+    while lines and not lines[-1].strip():
+        lines.pop()
+    return lines
 
 
 def _decode_lines(lines: list[str]) -> HexContent:

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from hexmigrate.errors import HexError
 from hexmigrate.image import ModuleImage
-from hexmigrate.records import HexContent, _decode_lines, decode, encode
+from hexmigrate.records import HexContent, _decode_lines, _record_lines, decode, encode
 
 HEX_ALPHABET = "0123456789ABCDEFabcdef:\r\n \tG"
 FUZZ = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -122,10 +122,7 @@ def outcome(decoder, text: str):
 
 
 def line_by_line(text: str) -> HexContent:
-    lines = text.splitlines()
-    while lines and not lines[-1].strip():
-        lines.pop()
-    return _decode_lines(lines)
+    return _decode_lines(_record_lines(text))
 
 
 @st.composite
