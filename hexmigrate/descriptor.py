@@ -111,32 +111,24 @@ def _decode_port(data: bytes, index: int) -> PortSpec:
     port = PortSpec(
         _c_string(name), PORT_DIRECTIONS[direction], PORT_TYPES[kind], element_size, rows, columns
     )
-    _check_shape(index, port)
+    problem = _shape_problem(port)
+    if problem is not None:
+        raise DescriptorError(f"port {index} ({port.name!r}): {problem}")
     return port
 
 
-def _check_shape(index: int, port: PortSpec) -> None:
-    """Refuse shapes no back end can hold: the kernel sizes buffers and values from them."""
+def _shape_problem(port: PortSpec) -> str | None:
+    """Why no back end can hold `port` (the kernel sizes buffers and values from its shape)."""
+    shape = f"{port.rows}x{port.columns}"
     if port.element_size not in ELEMENT_SIZES:
-        raise DescriptorError(
-            f"port {index} ({port.name!r}): expected an element size in {ELEMENT_SIZES}, "
-            f"got {port.element_size}"
-        )
+        return f"expected an element size in {ELEMENT_SIZES}, got {port.element_size}"
     if port.rows < 1 or port.columns < 1:
-        raise DescriptorError(
-            f"port {index} ({port.name!r}): expected at least 1 row and 1 column, "
-            f"got {port.rows}x{port.columns}"
-        )
+        return f"expected at least 1 row and 1 column, got {shape}"
     if port.type == "scalar" and (port.rows, port.columns) != (1, 1):
-        raise DescriptorError(
-            f"port {index} ({port.name!r}): expected a scalar of 1x1, "
-            f"got {port.rows}x{port.columns}"
-        )
+        return f"expected a scalar of 1x1, got {shape}"
     if port.type == "vector" and port.rows != 1:
-        raise DescriptorError(
-            f"port {index} ({port.name!r}): expected a vector of 1xN (one row), "
-            f"got {port.rows}x{port.columns}"
-        )
+        return f"expected a vector of 1xN (one row), got {shape}"
+    return None
 
 
 def _c_string(raw: bytes) -> str:
