@@ -45,6 +45,7 @@ MAX_LINE = 256
 """Longer lines are dropped as garbage, up to their CR: no real command group is that long."""
 CR, ESC = 0x0D, 0x1B
 _SKIPPED = b" \t\n"
+_DROP_SKIPPED = str.maketrans("", "", _SKIPPED.decode("ascii"))
 
 _SERVO = re.compile(r"#(\d+)P(\d+)(?:S(\d+))?")
 _OFFSET = re.compile(r"#(\d+)PO(-?\d+)")
@@ -116,7 +117,7 @@ class Ssc32:
 
     def _execute(self, line: str) -> bytes:
         self.bank.advance_to(self.now())
-        text = line.upper().translate({ord(c): None for c in " \t\n"})
+        text = line.upper().translate(_DROP_SKIPPED)
         if not text:
             return b""
         try:
