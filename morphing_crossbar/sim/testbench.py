@@ -58,7 +58,6 @@ class CrossbarTB:
         self._frames: list[Reconfiguration] = []
         self._sending: Reconfiguration | None = None
         self._beat_index = 0
-        self._offered: list[Beat | None] = [None] * fabric.n
         self._ready = 0
 
     async def reset(self) -> None:
@@ -165,7 +164,7 @@ class CrossbarTB:
         self.scoreboard.expect(out_port, Expected(out_beat, port, number))
 
     def _finish_frame(self, done: int, code: int) -> None:
-        frame = self._sending if self._sending is not None else None
+        frame = self._sending
         if frame is None or self._beat_index < len(frame.beats):
             raise AssertionError(f"cycle {self.cycle}: configuration result with no frame sent")
         frame.end = self.cycle
