@@ -22,7 +22,6 @@ import os
 import tempfile
 from pathlib import Path
 
-from morphing_crossbar import hdl_dir
 from morphing_crossbar.bitstream import FRAME_BITS, pack
 from morphing_crossbar.fabric import Fabric, verilog_parameters
 from morphing_crossbar.netlist import full_slot_bitstream, functionality_netlist, synthesize
@@ -40,13 +39,9 @@ def area_table() -> list[str]:
         "| N | design | cells | flip-flop bits | cells / full crossbar |",
         "|---|---|---|---|---|",
     ]
-    sources = rtl_sources() + sorted((hdl_dir() / "reference").glob("*.v"))
+    sources = rtl_sources(reference=True)
     for n in (4, 8):
-        parameters = verilog_parameters(Fabric(n))
-        areas = {}
-        for design in DESIGNS:
-            wanted = {k: v for k, v in parameters.items() if k != "LOCAL" or design == DESIGNS[0]}
-            areas[design] = synthesize(design, wanted, sources)
+        areas = {d: synthesize(d, verilog_parameters(Fabric(n), d), sources) for d in DESIGNS}
         full = areas["full_crossbar"].cells
         for design, area in areas.items():
             ratio = area.cells / full

@@ -144,17 +144,19 @@ class Fabric:
             raise RouteError(f"expected a slot in 0..{self.n - 1}, got {slot}")
 
 
-def verilog_parameters(fabric: Fabric) -> dict[str, object]:
-    """The parameters of ``hdl/morphing_crossbar.v`` for ``fabric``, as sized literals."""
+def verilog_parameters(fabric: Fabric, design: str = "morphing_crossbar") -> dict[str, object]:
+    """The parameters of ``design`` for ``fabric``, as sized literals: ``morphing_crossbar`` or a
+    reference design (``full_crossbar``, ``shared_bus``), which has no cluster size ``LOCAL``."""
     kinds = sum(int(f.kind) << (4 * i) for i, f in enumerate(fabric.functions))
     p0 = sum(f.p0 << (16 * i) for i, f in enumerate(fabric.functions))
     p1 = sum(f.p1 << (16 * i) for i, f in enumerate(fabric.functions))
     n = fabric.n
+    local = {"LOCAL": fabric.local} if design == "morphing_crossbar" else {}
     return {
         "N": n,
         "DATA_W": fabric.data_w,
         "CFG_W": fabric.cfg_w,
-        "LOCAL": fabric.local,
+        **local,
         "FUNC_KIND": f"{4 * n}'h{kinds:0{n}x}",
         "FUNC_P0": f"{16 * n}'h{p0:0{4 * n}x}",
         "FUNC_P1": f"{16 * n}'h{p1:0{4 * n}x}",

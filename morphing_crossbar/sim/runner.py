@@ -62,9 +62,10 @@ def _prepare_verilator_make() -> None:
         os.environ["MAKEFLAGS"] = f"{flags} {PCH_OVERRIDE}".strip()
 
 
-def rtl_sources() -> list[Path]:
-    """The crossbar's Verilog files (not the reference designs)."""
-    return sorted(hdl_dir().glob("*.v"))
+def rtl_sources(reference: bool = False) -> list[Path]:
+    """The crossbar's Verilog files, and with ``reference`` the comparison designs' too."""
+    sources = sorted(hdl_dir().glob("*.v"))
+    return sources + sorted((hdl_dir() / "reference").glob("*.v")) if reference else sources
 
 
 def build_name(simulator: str, fabric: Fabric) -> str:

@@ -8,20 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from morphing_crossbar import hdl_dir
 from morphing_crossbar.fabric import Fabric, verilog_parameters
 from morphing_crossbar.netlist import run_yosys, yosys_script
 from morphing_crossbar.sim.runner import rtl_sources, verilator_bin_dir
 
-SOURCES = rtl_sources() + sorted((hdl_dir() / "reference").glob("*.v"))
+SOURCES = rtl_sources(reference=True)
 DESIGNS = ["morphing_crossbar", "full_crossbar", "shared_bus"]
-
-
-def _parameters(design: str, fabric: Fabric) -> dict[str, object]:
-    params = verilog_parameters(fabric)
-    if design != "morphing_crossbar":
-        params.pop("LOCAL")
-    return params
 
 
 def _lint(design: str, parameters: dict[str, object]) -> subprocess.CompletedProcess[str]:
@@ -44,7 +36,7 @@ LINTED = [
 
 @pytest.mark.parametrize(("design", "fabric"), LINTED)
 def test_verilator_lint_is_clean(design: str, fabric: Fabric) -> None:
-    result = _lint(design, _parameters(design, fabric))
+    result = _lint(design, verilog_parameters(fabric, design))
     assert result.returncode == 0, result.stderr
     assert "%Warning" not in result.stderr
 
@@ -53,7 +45,7 @@ def test_verilator_lint_is_clean(design: str, fabric: Fabric) -> None:
 def test_yosys_elaborates_without_problems(design: str) -> None:
     script = yosys_script(
         design,
-        _parameters(design, Fabric(4)),
+        verilog_parameters(Fabric(4), design),
         SOURCES,
         f"hierarchy -check -top {design}\nproc\nopt_clean\ncheck -assert",
     )
