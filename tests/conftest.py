@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from firmware_sim.sdk.build import ModuleBuild, build_examples
@@ -20,9 +18,3 @@ def example_builds(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Module
 def example(request: pytest.FixtureRequest, example_builds: dict[str, ModuleBuild]) -> ModuleBuild:
     """Each example module in turn."""
     return example_builds[request.param]
-
-
-@pytest.fixture
-def data_dir() -> Path:
-    """The folder of HEX fixtures."""
-    return Path(__file__).parent / "data"

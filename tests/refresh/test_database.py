@@ -172,7 +172,7 @@ def test_broken_toml_and_missing_files(tmp_path: Path):
 
 
 def test_the_shipped_scenario_loads():
-    loaded = load(Path(__file__).parents[1] / "refresh" / "data" / "visual_servoing.toml")
+    loaded = load(Path(__file__).parents[2] / "refresh" / "data" / "visual_servoing.toml")
     assert list(loaded.database.schemas) == [
         "camera",
         "enhancement",

@@ -21,7 +21,7 @@ from refresh.maintainer import Maintainer
 from refresh.node_applier import NodeApplier
 from refresh.performance import assess, usage
 
-DATABASE = Path(__file__).parents[1] / "refresh" / "data" / "visual_servoing.toml"
+DATABASE = Path(__file__).parents[2] / "refresh" / "data" / "visual_servoing.toml"
 F, NF = PerformanceKind.FUNCTIONAL, PerformanceKind.NON_FUNCTIONAL
 TARGET_OFFSET = 10.0  # pixels between the target and the image centre, seen without noise
 

@@ -19,7 +19,7 @@ from pbort import (
     Role,
     Services,
 )
-from pbort.errors import ClosedError, ConfigurationError, DuplicateNameError, UnknownPortError
+from pbort.errors import ClosedError, DuplicateNameError, SetupError, UnknownPortError
 
 
 class Accumulate(NativePBO):
@@ -193,11 +193,11 @@ def test_badly_declared_classes_are_refused_with_the_reason() -> None:
         name = "slow"
         duration: ClassVar = {Method.CYCLE: -1.0}
 
-    with pytest.raises(ConfigurationError, match=r"NoName.name: expected a non-empty string"):
+    with pytest.raises(SetupError, match=r"NoName.name: expected a non-empty string"):
         NativeModule(NoName)
     with pytest.raises(DuplicateNameError, match="module 'twice': port 'x' declared twice"):
         NativeModule(Twice)
-    with pytest.raises(ConfigurationError, match=r"slow.duration: expected seconds >= 0"):
+    with pytest.raises(SetupError, match=r"slow.duration: expected seconds >= 0"):
         NativeModule(NegativeTime)
-    with pytest.raises(ConfigurationError, match="expected a subclass of NativePBO"):
+    with pytest.raises(SetupError, match="expected a subclass of NativePBO"):
         NativeModule(object)  # type: ignore[arg-type]

@@ -8,11 +8,11 @@ import pytest
 from pbort import Kernel, NativeModule, NativePBO, PortKind, PortSpec
 from pbort.errors import (
     AlreadyConnectedError,
-    ConfigurationError,
     DuplicateNameError,
     NotConnectedError,
     PortDirectionError,
     PortTypeMismatchError,
+    SetupError,
     StateError,
     UnknownPBOError,
     UnknownPortError,
@@ -183,7 +183,7 @@ def test_names_are_unique_and_without_dots() -> None:
         with pytest.raises(DuplicateNameError, match="a PBO named 'six' is already registered"):
             kernel.add(NativeModule(Six))
         kernel.add(NativeModule(Six), name="six2")
-        with pytest.raises(ConfigurationError, match=r"PBO name 'a\.b': expected a non-empty"):
+        with pytest.raises(SetupError, match=r"PBO name 'a\.b': expected a non-empty"):
             kernel.add(NativeModule(Six), name="a.b")
 
 
@@ -219,7 +219,7 @@ def test_configure_sets_only_constants_and_resources_with_values_that_fit() -> N
         assert str(caught.value) == (
             "cannot configure port 'frame.x': expected direction const or resource, got in"
         )
-        with pytest.raises(ConfigurationError, match=r"cannot configure 'frame.k' \(<f4, shape"):
+        with pytest.raises(SetupError, match=r"cannot configure 'frame.k' \(<f4, shape"):
             kernel.configure("frame.k", [1.0, 2.0])
         with pytest.raises(UnknownPortError, match=r"unknown port 'frame.q'; expected one of"):
             kernel.configure("frame.q", 1)

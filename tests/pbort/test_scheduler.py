@@ -11,7 +11,7 @@ from __future__ import annotations
 import pytest
 
 from pbort import Kernel, NativeModule, NativePBO, PerformanceKind, PortSpec, State
-from pbort.errors import ConfigurationError, StateError
+from pbort.errors import SetupError, StateError
 
 F = PerformanceKind.FUNCTIONAL
 
@@ -251,24 +251,24 @@ def test_trigger_misuse_is_refused_with_the_reason() -> None:
         kernel.add(NativeModule(Relay), "d", triggers=("a.z",))
         kernel.spawn("a")
         kernel.spawn("d")
-        with pytest.raises(ConfigurationError, match=r"only aperiodic PBOs are triggered"):
+        with pytest.raises(SetupError, match=r"only aperiodic PBOs are triggered"):
             kernel.trigger("a")
         with pytest.raises(StateError) as caught:
             kernel.trigger("d")
         assert str(caught.value) == "PBO 'd': cannot trigger in state OFF; allowed in ON"
-        with pytest.raises(ConfigurationError) as caught:
+        with pytest.raises(SetupError) as caught:
             kernel.on("d")
         assert str(caught.value) == "PBO 'd': trigger 'a.z' is not an output port of any PBO"
         assert kernel.state("d") is State.OFF
-        with pytest.raises(ConfigurationError, match=r"cannot be triggered by its own output"):
+        with pytest.raises(SetupError, match=r"cannot be triggered by its own output"):
             kernel.add(NativeModule(Relay), "e", triggers=("e.y",))
-        with pytest.raises(ConfigurationError, match=r"triggers are for aperiodic PBOs"):
+        with pytest.raises(SetupError, match=r"triggers are for aperiodic PBOs"):
             kernel.add(NativeModule(Relay), "f", frequency=5, triggers=("a.y",))
 
 
 @pytest.mark.parametrize("frequency", [0, -5, float("inf"), float("nan")])
 def test_a_frequency_must_be_positive_and_finite(frequency: float) -> None:
-    with Kernel() as kernel, pytest.raises(ConfigurationError, match=r"expected a frequency > 0"):
+    with Kernel() as kernel, pytest.raises(SetupError, match=r"expected a frequency > 0"):
         kernel.add(NativeModule(Count), frequency=frequency)
 
 
@@ -286,7 +286,7 @@ def test_run_stops_at_until_or_after_a_number_of_jobs() -> None:
         assert kernel.now == 5.0
         assert kernel.run(cycles=10) == 0  # nothing left: returns without moving the clock
         assert kernel.now == 5.0
-        with pytest.raises(ConfigurationError, match=r"expected until=<seconds> or cycles="):
+        with pytest.raises(SetupError, match=r"expected until=<seconds> or cycles="):
             kernel.run()
 
 

@@ -93,7 +93,7 @@ def test_forward_refuses_angles_that_are_not_six_finite_numbers() -> None:
 
 def load_variant(old: str, new: str, folder: Path) -> Geometry:
     """The default geometry with one line changed, loaded from a file."""
-    text = (Path(__file__).parents[1] / "hexmanipulator" / "hexman.toml").read_text()
+    text = (Path(__file__).parents[2] / "hexmanipulator" / "hexman.toml").read_text()
     assert old in text
     path = folder / "hexman.toml"
     path.write_text(text.replace(old, new))
@@ -125,7 +125,7 @@ def test_a_bad_geometry_file_says_what_is_wrong(
 
 
 def test_a_section_that_is_not_a_table_is_named(tmp_path: Path) -> None:
-    text = (Path(__file__).parents[1] / "hexmanipulator" / "hexman.toml").read_text()
+    text = (Path(__file__).parents[2] / "hexmanipulator" / "hexman.toml").read_text()
     path = tmp_path / "hexman.toml"
     path.write_text("workspace = 3\n" + text[: text.index("[workspace]")])
     with pytest.raises(GeometryError, match=r"hexman.toml: \[workspace\] expected a table, got 3"):

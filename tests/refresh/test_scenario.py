@@ -24,7 +24,7 @@ from refresh.locator import (
 )
 from refresh.performance import assess, usage
 
-DATABASE = Path(__file__).parents[1] / "refresh" / "data" / "visual_servoing.toml"
+DATABASE = Path(__file__).parents[2] / "refresh" / "data" / "visual_servoing.toml"
 
 
 def noisy_camera(configuration: Configuration) -> Values:

@@ -7,7 +7,6 @@ from collections.abc import Iterator
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-from transfer_harness import DirectLink, noisy
 
 from firmware_sim.natives import Signal
 from firmware_sim.node import Node
@@ -18,6 +17,7 @@ from hexmigrate.transfer import messages as m
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender, TransferError, TransferInterrupted
 from pbort.native import NativeModule
+from tests.hexmigrate.transfer_harness import DirectLink, noisy
 
 MODES = ["binary", "hex"]
 u32 = st.integers(0, 0xFFFF_FFFF)

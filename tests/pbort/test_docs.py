@@ -11,7 +11,7 @@ import pytest
 from pbort import Kernel, NativeModule, State
 from pbort.errors import MethodFailedError
 
-DOC = Path(__file__).parent.parent / "docs" / "pbort.md"
+DOC = Path(__file__).parents[2] / "docs" / "pbort.md"
 
 
 def example_source() -> str:

@@ -25,7 +25,7 @@ SMALL = 2000  # 8 blocks, the last one partial
 
 
 def _load_benchmark() -> ModuleType:
-    path = Path(__file__).parents[1] / "benchmarks" / "migration.py"
+    path = Path(__file__).parents[2] / "benchmarks" / "migration.py"
     spec = importlib.util.spec_from_file_location("migration_bench", path)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)

@@ -21,9 +21,9 @@ from pbort import (
 from pbort.errors import (
     AlreadyConnectedError,
     ClosedError,
-    ConfigurationError,
     DuplicateNameError,
     PortTypeMismatchError,
+    SetupError,
 )
 
 F, NF = PerformanceKind.FUNCTIONAL, PerformanceKind.NON_FUNCTIONAL
@@ -250,7 +250,7 @@ def test_bad_candidates_are_refused_before_any_instance_is_made() -> None:
             io["y"] = 1
 
     code = Recording(NativeModule(Gain))
-    with pytest.raises(ConfigurationError, match="module 'plain' has no estimate method"):
+    with pytest.raises(SetupError, match="module 'plain' has no estimate method"):
         ShadowRun({"g": code, "plain": NativeModule(Plain)})
     with pytest.raises(PortTypeMismatchError, match=r"cannot connect 'e.y' \(<i4 scalar\)"):
         ShadowRun({"g": code, "e": NativeModule(Estimating)}, [("e.y", "g.x")])

@@ -8,7 +8,7 @@ import pytest
 
 from refresh.cli import main
 
-DATABASE = str(Path(__file__).parents[1] / "refresh" / "data" / "visual_servoing.toml")
+DATABASE = str(Path(__file__).parents[2] / "refresh" / "data" / "visual_servoing.toml")
 
 
 def test_cases_lists_the_papers_test_cases_and_candidates(capsys):
