@@ -22,7 +22,7 @@ Tree::
     │   ├── PortTypeMismatchError
     │   ├── AlreadyConnectedError
     │   └── NotConnectedError
-    ├── ConfigurationError (ValueError)    a bad frequency, trigger, argument or module
+    ├── SetupError (ValueError)            a bad frequency, trigger, argument or module
     ├── StateError (RuntimeError)          an operation not allowed in the PBO's state
     │   └── IllegalTransitionError         a lifecycle method not allowed in the PBO's state
     ├── MethodFailedError (RuntimeError)   a method asked for by the caller returned < 0 or faulted
@@ -94,7 +94,7 @@ class NotConnectedError(WiringError):
     """An input port to disconnect is not bound to any variable."""
 
 
-class ConfigurationError(KernelError, ValueError):
+class SetupError(KernelError, ValueError):
     """An argument the kernel cannot use: a frequency, a trigger, a module without a method."""
 
 

@@ -31,8 +31,8 @@ from pbort.clock import Clock, VirtualClock
 from pbort.code import Method, ModuleCode
 from pbort.errors import (
     ClosedError,
-    ConfigurationError,
     DuplicateNameError,
+    SetupError,
     UnknownPBOError,
     UnknownPortError,
 )
@@ -146,7 +146,7 @@ class Kernel:
         """
         for variable in self._pbo(name).triggers:
             if not self._svt.has_variable(variable):
-                raise ConfigurationError(
+                raise SetupError(
                     f"PBO {name!r}: trigger {variable!r} is not an output port of any PBO"
                 )
         self._control(name, Method.ON)
@@ -178,7 +178,7 @@ class Kernel:
         self._check_open()
         pbo = self._pbo(name)
         if pbo.frequency is not None:
-            raise ConfigurationError(
+            raise SetupError(
                 f"PBO {name!r} is periodic ({pbo.frequency} Hz); only aperiodic PBOs are triggered"
             )
         require(name, pbo.state, "trigger", _RUNNING)
@@ -191,11 +191,11 @@ class Kernel:
         """
         self._check_open()
         if until is None and cycles is None:
-            raise ConfigurationError("run: expected until=<seconds> or cycles=<count>")
+            raise SetupError("run: expected until=<seconds> or cycles=<count>")
         if until is not None and not math.isfinite(until):
-            raise ConfigurationError(f"run: expected a finite time for until, got {until}")
+            raise SetupError(f"run: expected a finite time for until, got {until}")
         if cycles is not None and cycles < 0:
-            raise ConfigurationError(f"run: expected cycles >= 0, got {cycles}")
+            raise SetupError(f"run: expected cycles >= 0, got {cycles}")
         with self.clock.running():
             return self._scheduler.run(until, cycles)
 
@@ -335,17 +335,15 @@ def _owner(port: str) -> str:
 
 def _check_registration(name: str, frequency: float | None, triggers: tuple[str, ...]) -> None:
     if not name or "." in name:
-        raise ConfigurationError(f"PBO name {name!r}: expected a non-empty name without '.'")
+        raise SetupError(f"PBO name {name!r}: expected a non-empty name without '.'")
     if frequency is not None and not (math.isfinite(frequency) and frequency > 0):
-        raise ConfigurationError(f"PBO {name!r}: expected a frequency > 0 Hz, got {frequency}")
+        raise SetupError(f"PBO {name!r}: expected a frequency > 0 Hz, got {frequency}")
     if frequency is not None and triggers:
-        raise ConfigurationError(
+        raise SetupError(
             f"PBO {name!r}: triggers are for aperiodic PBOs; a periodic PBO runs at its frequency"
         )
     for variable in triggers:
         if _owner(variable) == name:
-            raise ConfigurationError(
-                f"PBO {name!r}: cannot be triggered by its own output {variable!r}"
-            )
+            raise SetupError(f"PBO {name!r}: cannot be triggered by its own output {variable!r}")
         if variable.count(".") != 1:
-            raise ConfigurationError(f"PBO {name!r}: trigger {variable!r} is not 'pbo.port'")
+            raise SetupError(f"PBO {name!r}: trigger {variable!r} is not 'pbo.port'")

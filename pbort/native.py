@@ -24,10 +24,10 @@ import numpy as np
 from pbort.code import CallResult, Method, PerformanceKind, Role, Services
 from pbort.errors import (
     ClosedError,
-    ConfigurationError,
     DuplicateNameError,
     KernelError,
     PortDirectionError,
+    SetupError,
     UnknownPortError,
 )
 from pbort.ports import Direction, PortKind, PortSpec, PortValue
@@ -241,7 +241,7 @@ class NativeModule:
 
     def __init__(self, pbo_class: type[NativePBO]) -> None:
         if not (isinstance(pbo_class, type) and issubclass(pbo_class, NativePBO)):
-            raise ConfigurationError(f"expected a subclass of NativePBO, got {pbo_class!r}")
+            raise SetupError(f"expected a subclass of NativePBO, got {pbo_class!r}")
         self.pbo_class = pbo_class
         self._name = _checked_name(pbo_class)
         self._ports = _checked_ports(self._name, pbo_class.ports)
@@ -279,7 +279,7 @@ class NativeModule:
 def _checked_name(pbo_class: type[NativePBO]) -> str:
     name = getattr(pbo_class, "name", None)
     if not isinstance(name, str) or not name or "." in name:
-        raise ConfigurationError(
+        raise SetupError(
             f"{pbo_class.__qualname__}.name: expected a non-empty string without '.', got {name!r}"
         )
     return name
@@ -287,7 +287,7 @@ def _checked_name(pbo_class: type[NativePBO]) -> str:
 
 def _checked_ports(module: str, ports: object) -> tuple[PortSpec, ...]:
     if not isinstance(ports, tuple) or not all(isinstance(p, PortSpec) for p in ports):
-        raise ConfigurationError(f"{module}.ports: expected a tuple of PortSpec, got {ports!r}")
+        raise SetupError(f"{module}.ports: expected a tuple of PortSpec, got {ports!r}")
     seen: set[str] = set()
     for port in ports:
         if port.name in seen:
@@ -300,7 +300,7 @@ def _checked_durations(module: str, duration: object) -> dict[Method, float]:
     per_method = duration if isinstance(duration, Mapping) else dict.fromkeys(Method, duration)
     for method, seconds in per_method.items():
         if not isinstance(method, Method) or not isinstance(seconds, int | float) or seconds < 0:
-            raise ConfigurationError(
+            raise SetupError(
                 f"{module}.duration: expected seconds >= 0 per Method, got {method!r}: {seconds!r}"
             )
     return {method: float(seconds) for method, seconds in per_method.items()}

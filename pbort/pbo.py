@@ -17,10 +17,10 @@ from functools import partial
 
 from pbort.code import CallResult, Instance, Method, ModuleCode, Role, Services
 from pbort.errors import (
-    ConfigurationError,
     DuplicateNameError,
     MethodFailedError,
     PortDirectionError,
+    SetupError,
     UnknownPortError,
     describe_failure,
 )
@@ -152,7 +152,7 @@ class RegisteredPBO:
         try:
             coerced = spec.coerce(value)
         except (TypeError, ValueError, OverflowError) as exc:
-            raise ConfigurationError(
+            raise SetupError(
                 f"cannot configure '{self.name}.{port}' ({spec.dtype}, shape {spec.shape}) "
                 f"with {value!r}: {exc}"
             ) from exc

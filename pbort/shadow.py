@@ -31,8 +31,8 @@ from pbort.code import CallResult, Instance, Method, ModuleCode, PerformanceKind
 from pbort.errors import (
     AlreadyConnectedError,
     ClosedError,
-    ConfigurationError,
     PortDirectionError,
+    SetupError,
     UnknownPortError,
     describe_failure,
 )
@@ -203,7 +203,7 @@ class ShadowRun:
         if self._closed:
             raise ClosedError("shadow run is closed")
         if steps < 0:
-            raise ConfigurationError(f"steps: expected a number >= 0, got {steps}")
+            raise SetupError(f"steps: expected a number >= 0, got {steps}")
         for _ in range(steps):
             for name in self.order:
                 self._estimators[name].step()
@@ -236,9 +236,9 @@ class ShadowRun:
 
 def _estimating(name: str, code: ModuleCode) -> ModuleCode:
     if "." in name:
-        raise ConfigurationError(f"module name {name!r}: expected a name without '.'")
+        raise SetupError(f"module name {name!r}: expected a name without '.'")
     if not code.implements(Method.ESTIMATE):
-        raise ConfigurationError(
+        raise SetupError(
             f"module {name!r} has no estimate method; only E-PBOs can run in a shadow run"
         )
     return code
