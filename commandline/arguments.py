@@ -1,0 +1,149 @@
+"""Argument types shared by every command, so that one kind of value is checked one way.
+
+Each is an argparse ``type=``: it returns the value or raises `argparse.ArgumentTypeError` with
+what was expected and what came, which argparse turns into a usage error (exit status 2). Numbers
+refuse NaN, infinities and values outside their range; files refuse directories, devices, pipes
+and files larger than the command can sensibly read, so that no option leads to a hang or an
+unbounded read.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import stat
+from collections.abc import Callable
+from pathlib import Path
+
+ADDRESS_LIMIT = 1 << 32
+DEFAULT_MAX_FILE_BYTES = 64 << 20  # far above any module, database or ELF this toolchain reads
+
+
+def real(
+    minimum: float | None = None,
+    maximum: float | None = None,
+    *,
+    above: float | None = None,
+    unit: str = "",
+) -> Callable[[str], float]:
+    """A finite number within ``[minimum, maximum]`` (and greater than `above`, if given)."""
+    wanted = _range_text("a number", minimum, maximum, above, unit)
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise _expected(wanted, text) from None
+        if not math.isfinite(value) or not _within(value, minimum, maximum, above):
+            raise _expected(wanted, text)
+        return value
+
+    parse.__name__ = "number"  # argparse names the type in its messages
+    return parse
+
+
+def integer(
+    minimum: int | None = None, maximum: int | None = None, *, unit: str = ""
+) -> Callable[[str], int]:
+    """A whole number (decimal or 0x...) within ``[minimum, maximum]``."""
+    wanted = _range_text("a whole number", minimum, maximum, None, unit)
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text, 0)
+        except ValueError:
+            raise _expected(wanted, text) from None
+        if not _within(value, minimum, maximum, None):
+            raise _expected(wanted, text)
+        return value
+
+    parse.__name__ = "integer"
+    return parse
+
+
+def address(text: str) -> int:
+    """A 32-bit address, decimal or 0x-prefixed hexadecimal."""
+    try:
+        value = int(text, 0)
+    except ValueError:
+        raise _expected("an address like 0x20000", text) from None
+    if not 0 <= value < ADDRESS_LIMIT:
+        raise _expected("an address from 0 to 0xFFFFFFFF", text)
+    return value
+
+
+def input_file(max_bytes: int = DEFAULT_MAX_FILE_BYTES) -> Callable[[str], Path]:
+    """An existing regular file of at most `max_bytes`."""
+
+    def parse(text: str) -> Path:
+        path = Path(text)
+        try:
+            info = path.stat()
+        except OSError as error:
+            raise argparse.ArgumentTypeError(f"{text}: {error.strerror}") from None
+        if not stat.S_ISREG(info.st_mode):
+            raise _expected("a regular file", f"{text} ({_kind(info.st_mode)})", quote=False)
+        if info.st_size > max_bytes:
+            raise _expected(
+                f"a file of at most {max_bytes:,} bytes",
+                f"{text} ({info.st_size:,} bytes)",
+                quote=False,
+            )
+        return path
+
+    parse.__name__ = "file"
+    return parse
+
+
+def output_file(text: str) -> Path:
+    """A file to write: not a directory, in a folder that exists."""
+    path = Path(text)
+    if path.is_dir():
+        raise _expected("a file to write", f"{text} (a directory)", quote=False)
+    if not path.parent.is_dir():
+        raise _expected("a file in an existing folder", text)
+    return path
+
+
+def _within(
+    value: float, minimum: float | None, maximum: float | None, above: float | None
+) -> bool:
+    return (
+        (minimum is None or value >= minimum)
+        and (maximum is None or value <= maximum)
+        and (above is None or value > above)
+    )
+
+
+def _range_text(
+    kind: str, minimum: float | None, maximum: float | None, above: float | None, unit: str
+) -> str:
+    suffix = f" {unit}" if unit else ""
+    low = f"above {above:g}" if above is not None else None
+    if minimum is not None:
+        low = f"from {minimum:g}"
+    if low and maximum is not None:
+        return f"{kind} {low} to {maximum:g}{suffix}"
+    if low:
+        return f"{kind} {low}{suffix}"
+    if maximum is not None:
+        return f"{kind} up to {maximum:g}{suffix}"
+    return f"a finite {kind.removeprefix('a ')}{suffix}"
+
+
+def _kind(mode: int) -> str:
+    if stat.S_ISDIR(mode):
+        return "a directory"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    if stat.S_ISFIFO(mode):
+        return "a pipe"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "not a regular file"
+
+
+def _expected(wanted: str, got: str, quote: bool = True) -> argparse.ArgumentTypeError:
+    return argparse.ArgumentTypeError(
+        f"expected {wanted}, got {got!r}" if quote else f"expected {wanted}, got {got}"
+    )

@@ -1,0 +1,120 @@
+"""`run`: parse, dispatch to the command, and turn what happened into an exit status.
+
+Exit statuses (the same for every entry point):
+
+    0    success
+    1    an error the user can fix: one line ``error: ...`` on standard error
+    2    a usage error: argparse's usage line and ``PROG: error: ...``
+    130  interrupted (Ctrl-C): one line ``interrupted``
+    141  standard output closed by its reader (``... | head -1``): nothing more is printed
+
+``--debug`` (added by `command_parser`) prints the traceback before the ``error:`` line. An
+exception outside the package's error root and `OSError` is a bug, not bad input: it is not
+caught, so its traceback shows where to look.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import traceback
+from collections.abc import Callable, Sequence
+
+EXIT_OK = 0
+EXIT_ERROR = 1
+EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
+EXIT_PIPE_CLOSED = 141  # 128 + SIGPIPE, what a shell reports for a C tool in the same place
+
+Command = Callable[[argparse.Namespace], int | None]
+
+
+class CommandLineError(Exception):
+    """A failure the user can fix that no package's error tree names (arguments that only fail
+    together, a file of the wrong kind): one ``error:`` line, exit status 1."""
+
+
+class UsageError(CommandLineError):
+    """Arguments that do not go together: reported as argparse reports its own, exit status 2."""
+
+
+def command_parser(
+    prog: str, description: str, epilog: str | None = None
+) -> argparse.ArgumentParser:
+    """A parser with ``--debug`` whose description and epilog keep their own line breaks, so
+    that examples stay one per line."""
+    parser = argparse.ArgumentParser(
+        prog=prog,
+        description=description,
+        epilog=epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "--debug", action="store_true", help="show the traceback of an error, then the error"
+    )
+    return parser
+
+
+def add_command(
+    commands: argparse._SubParsersAction,
+    name: str,
+    func: Command,
+    help: str,
+    description: str | None = None,
+) -> argparse.ArgumentParser:
+    """A sub-command that runs `func(args)`; its ``--help`` starts with `description` (default:
+    the one-line `help`), line breaks kept."""
+    command = commands.add_parser(
+        name,
+        help=help,
+        description=description or help,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    command.set_defaults(func=func)
+    return command
+
+
+def run(
+    parser: argparse.ArgumentParser,
+    errors: type[BaseException] | tuple[type[BaseException], ...],
+    argv: Sequence[str] | None = None,
+) -> int:
+    """Parse `argv`, run the command the parser chose (its ``func`` default) and return the exit
+    status. `errors` is the package's error root (or roots): those, `CommandLineError` and
+    `OSError` become one ``error:`` line."""
+    args = parser.parse_args(argv)
+    debug = getattr(args, "debug", False)
+    caught = (errors if isinstance(errors, tuple) else (errors,)) + (CommandLineError, OSError)
+    try:
+        status = args.func(args)
+        sys.stdout.flush()  # a closed pipe shows here, not at interpreter exit
+    except BrokenPipeError:
+        return _pipe_closed()
+    except UsageError as error:
+        parser.error(str(error))
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except caught as error:
+        if debug:
+            traceback.print_exc()
+        print(f"error: {describe(error)}", file=sys.stderr)
+        return EXIT_ERROR
+    return EXIT_OK if status is None else status
+
+
+def describe(error: BaseException) -> str:
+    """An error as its one line: an `OSError` names the file and the system's reason."""
+    if isinstance(error, OSError) and error.filename is not None and error.strerror:
+        return f"{error.filename}: {error.strerror}"
+    return str(error) or type(error).__name__
+
+
+def _pipe_closed() -> int:
+    """Standard output's reader went away: point it at /dev/null so that the interpreter's
+    final flush does not print "Broken pipe", and stop."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    os.close(devnull)
+    return EXIT_PIPE_CLOSED

@@ -1,0 +1,83 @@
+"""The shared argument types refuse NaN, infinities, out-of-range numbers and files of the
+wrong kind with a message that says what was expected and what came."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from commandline.arguments import address, input_file, integer, output_file, real
+
+
+@pytest.mark.parametrize("text", ["nan", "NaN", "inf", "-inf", "1e400", "", "one", "0x10"])
+def test_a_real_refuses_what_is_not_a_finite_number(text):
+    with pytest.raises(argparse.ArgumentTypeError, match=f"expected a finite number, got {text!r}"):
+        real()(text)
+
+
+def test_a_real_keeps_to_its_range():
+    seconds = real(0, 3600, unit="s")
+    assert seconds("12.5") == 12.5
+    with pytest.raises(argparse.ArgumentTypeError, match=r"from 0 to 3600 s, got '-1'"):
+        seconds("-1")
+    with pytest.raises(argparse.ArgumentTypeError, match=r"above 0 Hz, got '0'"):
+        real(above=0, unit="Hz")("0")
+
+
+@given(st.floats(allow_nan=True, allow_infinity=True))
+def test_a_real_takes_exactly_the_finite_values_in_range(value):
+    parse = real(-10, 10)
+    if math.isfinite(value) and -10 <= value <= 10:
+        assert parse(repr(value)) == value
+    else:
+        with pytest.raises(argparse.ArgumentTypeError):
+            parse(repr(value))
+
+
+@given(st.text(max_size=30))
+def test_integer_and_address_parse_or_refuse_any_text(text):
+    for parse in (integer(0, 100), address):
+        try:
+            value = parse(text)
+        except argparse.ArgumentTypeError as error:
+            assert "expected" in str(error)
+        else:
+            assert isinstance(value, int) and value >= 0
+
+
+def test_address_is_32_bits():
+    assert address("0x20000") == 0x20000
+    with pytest.raises(argparse.ArgumentTypeError, match="0xFFFFFFFF"):
+        address("0x100000000")
+
+
+def test_input_file_refuses_a_directory_a_device_a_missing_file_and_a_huge_one(tmp_path):
+    parse = input_file(max_bytes=10)
+    with pytest.raises(
+        argparse.ArgumentTypeError, match=r"expected a regular file, got .* \(a directory\)"
+    ):
+        parse(str(tmp_path))
+    with pytest.raises(argparse.ArgumentTypeError, match=r"\(a device\)"):
+        parse(os.devnull)
+    with pytest.raises(argparse.ArgumentTypeError, match="No such file"):
+        parse(str(tmp_path / "missing.hex"))
+    big = tmp_path / "big.hex"
+    big.write_bytes(b"x" * 11)
+    with pytest.raises(argparse.ArgumentTypeError, match=r"at most 10 bytes, got .* \(11 bytes\)"):
+        parse(str(big))
+    small = tmp_path / "small.hex"
+    small.write_bytes(b"x")
+    assert parse(str(small)) == small
+
+
+def test_output_file_refuses_a_directory_and_a_missing_folder(tmp_path):
+    with pytest.raises(argparse.ArgumentTypeError, match="a directory"):
+        output_file(str(tmp_path))
+    with pytest.raises(argparse.ArgumentTypeError, match="existing folder"):
+        output_file(str(tmp_path / "no" / "such.hex"))
+    assert output_file(str(tmp_path / "out.hex")) == tmp_path / "out.hex"
