@@ -8,33 +8,34 @@ so editors can jump to the place.
 
 Tree::
 
-    HexError (ValueError)
-    ├── HexSyntaxError                 one line cannot be decoded as a record
-    │   ├── BadStartCodeError
-    │   ├── OddLengthError
-    │   ├── NonHexDigitError
-    │   ├── ByteCountError
-    │   └── ChecksumError
-    ├── HexRecordError                 the record decodes but its content is not allowed
-    │   ├── UnknownRecordTypeError
-    │   ├── RecordSizeError
-    │   ├── AddressFieldError
-    │   └── DuplicateStartAddressError
-    ├── HexStructureError              the records do not form a valid file
-    │   ├── MissingEofError
-    │   ├── RecordAfterEofError
-    │   ├── TextAfterEofError
-    │   ├── AddressOverflowError
-    │   ├── OverlapError
-    │   └── OrderError
-    └── ModuleError                    the file is not a valid relocatable module
-        ├── MultipleInitError
-        ├── MissingInitError
-        ├── GapError
-        ├── DuplicateRelocationError
-        ├── RelocationOutsideImageError
-        ├── InitOutsideImageError
-        └── ModuleSourceError          an ELF, map or binary the image is built from is unusable
+    HexmigrateError                    the root: every error hexmigrate raises
+    └── HexError (ValueError)          a HEX file or module image that cannot be used
+        ├── HexSyntaxError                 one line cannot be decoded as a record
+        │   ├── BadStartCodeError
+        │   ├── OddLengthError
+        │   ├── NonHexDigitError
+        │   ├── ByteCountError
+        │   └── ChecksumError
+        ├── HexRecordError                 the record decodes but its content is not allowed
+        │   ├── UnknownRecordTypeError
+        │   ├── RecordSizeError
+        │   ├── AddressFieldError
+        │   └── DuplicateStartAddressError
+        ├── HexStructureError              the records do not form a valid file
+        │   ├── MissingEofError
+        │   ├── RecordAfterEofError
+        │   ├── TextAfterEofError
+        │   ├── AddressOverflowError
+        │   ├── OverlapError
+        │   └── OrderError
+        └── ModuleError                    the file is not a valid relocatable module
+            ├── MultipleInitError
+            ├── MissingInitError
+            ├── GapError
+            ├── DuplicateRelocationError
+            ├── RelocationOutsideImageError
+            ├── InitOutsideImageError
+            └── ModuleSourceError          an ELF, map or binary the image is built from is unusable
 """
 
 from __future__ import annotations
@@ -42,7 +43,11 @@ from __future__ import annotations
 from pathlib import Path
 
 
-class HexError(ValueError):
+class HexmigrateError(Exception):
+    """Base class of every error hexmigrate raises: a command catches this one class."""
+
+
+class HexError(HexmigrateError, ValueError):
     """Base class of every hexmigrate format error; carries the file and line it concerns."""
 
     def __init__(self, message: str, *, line: int | None = None, path: str | Path | None = None):
