@@ -116,7 +116,6 @@ def test_type_or_size_mismatches_are_refused_naming_both_ports(
     with pair() as kernel, pytest.raises(PortTypeMismatchError) as caught:
         kernel.connect(source, sink)
     assert str(caught.value) == message
-    assert isinstance(caught.value, ValueError)
 
 
 def test_a_dtype_mismatch_with_equal_sizes_is_refused() -> None:
