@@ -16,7 +16,7 @@ tools:
 $(INSTALLED): pyproject.toml | tools
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[dev]'
+	$(PY) -m pip install --quiet -e '.[all,dev]'
 	touch $@
 
 modules: tools $(INSTALLED)
