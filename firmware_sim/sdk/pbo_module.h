@@ -324,6 +324,8 @@ struct pbo_timing {
     uint8_t timed;          /* last_cycle_us is valid */
 };
 
+_Static_assert(sizeof(struct pbo_timing) == 12, "struct pbo_timing is 12 bytes");
+
 /* The non-functional value an evaluator reports its power draw under, in thousandths of a mW. */
 #define PBO_POWER_INDEX 0u
 
