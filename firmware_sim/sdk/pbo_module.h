@@ -234,4 +234,131 @@ static inline int32_t pbo_sys_perf_report(struct pbo_context *ctx, enum pbo_perf
         (void)pbo_sys_register(&(descriptor_variable));                                            \
     }
 
+/*
+ * Q16.16 fixed point: an int32_t holding value * 2^16, the format of the examples' ports. A
+ * module has no floating point (it would call libgcc, which no module links), so it computes in
+ * fixed point with these helpers. The rule for the Q16.16 ones: a result is rounded to nearest
+ * with halves towards +infinity, floor(v + 1/2), and saturates to INT32_MIN or INT32_MAX outside
+ * the int32 range; pbo_milli_from_fixed, for reports, rounds down. (Right shifts of negative
+ * values are arithmetic in GCC.)
+ */
+#define PBO_Q16_FRACTION_BITS 16
+#define PBO_Q16_ONE ((int32_t)1 << PBO_Q16_FRACTION_BITS) /* 1.0 */
+#define PBO_Q16_HALF (PBO_Q16_ONE / 2)                      /* 0.5 */
+
+/* Always inlined: the helpers are meant to cost what the arithmetic they stand for costs, and
+ * pbo_milli_from_fixed needs its constant arguments folded to avoid a 64-bit division. */
+#define PBO_INLINE static inline __attribute__((always_inline))
+
+/*
+ * A constant in Q16.16, e.g. PBO_Q16(2.5) or PBO_Q16(-0.1): x * 2^16 by the rule above, folded
+ * by the compiler. Only for constants: a variable x would need floating point at run time.
+ */
+#define PBO_Q16(x)                                                                                 \
+    (PBO_Q16_SCALED_(x) >= 2147483648.0    ? INT32_MAX                                             \
+     : PBO_Q16_SCALED_(x) < -2147483648.0 ? INT32_MIN                                              \
+                                          : (int32_t)PBO_FLOOR_(PBO_Q16_SCALED_(x)))
+/* Its parts: x * 2^16 + 1/2, and floor(v) from the conversion to int64, which truncates. */
+#define PBO_Q16_SCALED_(x) ((x) * 65536.0 + 0.5)
+#define PBO_FLOOR_(v) ((int64_t)(v) - ((v) < (double)(int64_t)(v)))
+
+/* A 64-bit result clamped to the int32 range. */
+PBO_INLINE int32_t pbo_saturate_int32(int64_t value)
+{
+    if (value > INT32_MAX) {
+        return INT32_MAX;
+    }
+    if (value < INT32_MIN) {
+        return INT32_MIN;
+    }
+    return (int32_t)value;
+}
+
+/* n in Q16.16, saturated outside -32768..32767. */
+PBO_INLINE int32_t pbo_q16_from_int(int32_t n)
+{
+    return pbo_saturate_int32((int64_t)n * PBO_Q16_ONE);
+}
+
+/* q rounded to an integer, floor(q / 2^16 + 1/2): bit 15 is the half to round up. */
+PBO_INLINE int32_t pbo_q16_to_int(int32_t q)
+{
+    return (q >> PBO_Q16_FRACTION_BITS) + ((q >> (PBO_Q16_FRACTION_BITS - 1)) & 1);
+}
+
+/* a * b in Q16.16: the exact 64-bit product, rounded to nearest (halves up), saturated. */
+PBO_INLINE int32_t pbo_q16_mul(int32_t a, int32_t b)
+{
+    return pbo_saturate_int32(((int64_t)a * b + PBO_Q16_HALF) >> PBO_Q16_FRACTION_BITS);
+}
+
+/*
+ * A non-negative fixed-point magnitude with `fraction_bits` fraction bits (16 for Q16.16, 32 for
+ * the exact product of two Q16.16 values), in thousandths for pbo_sys_perf_report: rounded down,
+ * floor(magnitude * 1000 / 2^fraction_bits), and INT32_MAX from magnitude >= floor(INT32_MAX *
+ * 2^fraction_bits / 1000) on (so INT32_MAX also stands for the one value just below it).
+ * fraction_bits is a constant of at most 32; magnitude * 1000 is computed in 64 bits only below
+ * that threshold, where it cannot overflow.
+ */
+PBO_INLINE int32_t pbo_milli_from_fixed(uint64_t magnitude, uint32_t fraction_bits)
+{
+    if (magnitude >= ((uint64_t)INT32_MAX << fraction_bits) / 1000u) {
+        return INT32_MAX;
+    }
+    return (int32_t)((magnitude * 1000u) >> fraction_bits);
+}
+
+/*
+ * The evaluator's cycle period and power draw. The evaluator runs right after every cycle, at the
+ * cycle's rate, so the time between two evaluations is the cycle period; measuring it there
+ * keeps the cycle free of service calls. A module embeds a struct pbo_timing in its state
+ * (ctx->state: no static variables), calls pbo_timing_reset in init, off and clear (a pause must
+ * not count as a period), and starts evaluate with pbo_measure_power:
+ *
+ *     const int32_t power = pbo_measure_power(&s->timing, IDLE_MILLI_MW, ENERGY_PER_CYCLE_NJ);
+ *     pbo_sys_perf_report(ctx, PBO_PERF_FUNCTIONAL, 0, ...);
+ *     pbo_sys_perf_report(ctx, PBO_PERF_NON_FUNCTIONAL, PBO_POWER_INDEX, power);
+ */
+struct pbo_timing {
+    uint32_t last_cycle_us; /* node time of the latest evaluation */
+    uint32_t period_us;     /* time between the two latest evaluations; 0 until two were timed */
+    uint8_t timed;          /* last_cycle_us is valid */
+};
+
+_Static_assert(sizeof(struct pbo_timing) == 12, "struct pbo_timing is 12 bytes");
+
+/* The non-functional value an evaluator reports its power draw under, in thousandths of a mW. */
+#define PBO_POWER_INDEX 0u
+
+static inline void pbo_timing_reset(struct pbo_timing *timing)
+{
+    timing->last_cycle_us = 0;
+    timing->period_us = 0;
+    timing->timed = 0;
+}
+
+/*
+ * Reads the node's time, measures the period since the previous evaluation, and returns the power
+ * draw in thousandths of a mW: the idle power plus energy_per_cycle_nj nJ every period_us us, i.e.
+ * idle + 1000 * nJ / us, rounded down; the idle power alone until a period was measured (and for
+ * a period of 0 us). First in evaluate, so the time is read at the same point of every evaluation
+ * whatever the reports cost. 1000 * energy_per_cycle_nj must fit 32 bits: at most 4,294,967 nJ.
+ */
+PBO_INLINE int32_t pbo_measure_power(struct pbo_timing *timing, uint32_t idle_milli_mw,
+                                     uint32_t energy_per_cycle_nj)
+{
+    const uint32_t now = pbo_sys_time_us();
+    uint32_t power = idle_milli_mw;
+
+    if (timing->timed) {
+        timing->period_us = now - timing->last_cycle_us; /* unsigned: right across the wrap */
+    }
+    timing->last_cycle_us = now;
+    timing->timed = 1;
+    if (timing->period_us != 0) {
+        power += 1000u * energy_per_cycle_nj / timing->period_us;
+    }
+    return (int32_t)power;
+}
+
 #endif /* PBO_MODULE_H */

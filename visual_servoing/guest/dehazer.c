@@ -54,7 +54,7 @@ _Static_assert(COLUMNS % 2u == 0u, "the median works on pairs of pixels");
 
 #define IDLE_POWER_MILLI_MW 500u /* 0.5 mW while the module is loaded */
 /* Energy of one frame: about 1.6 M instructions at 0.1 nJ each (a 100 MHz core drawing 10 mW). */
-#define ENERGY_PER_FRAME_UJ 160u
+#define ENERGY_PER_FRAME_NJ 160000u
 
 enum { PERF_OUTPUT_CONTRAST, PERF_INPUT_CONTRAST, PERF_NOISE_REMOVED };
 
@@ -65,10 +65,8 @@ struct dehazer_state {
     uint32_t high;              /* its high percentile */
     uint32_t output_low;        /* where the stretch mapped low and high */
     uint32_t output_high;
-    uint32_t last_cycle_us; /* node time of the latest evaluation */
-    uint32_t period_us;     /* time between the two latest evaluations (the period) */
-    uint8_t timed;          /* last_cycle_us is valid */
-    uint8_t lut[LEVELS];    /* the latest stretch: median level -> output level */
+    struct pbo_timing timing;   /* the evaluator's cycle period */
+    uint8_t lut[LEVELS];        /* the latest stretch: median level -> output level */
 };
 
 /* One sorted column of a 3x3 window. */
@@ -247,16 +245,10 @@ static void apply_lut(const struct dehazer_state *s, uint8_t *image)
     }
 }
 
-static void reset_timing(struct dehazer_state *s)
-{
-    s->last_cycle_us = 0;
-    s->period_us = 0;
-    s->timed = 0;
-}
-
 static int32_t dehazer_init(struct pbo_context *ctx)
 {
-    reset_timing(ctx->state);
+    struct dehazer_state *s = ctx->state;
+    pbo_timing_reset(&s->timing);
     return PBO_OK;
 }
 
@@ -275,7 +267,8 @@ static int32_t dehazer_cycle(struct pbo_context *ctx)
 /* Switched off: the next on must not count the pause as a cycle period. */
 static int32_t dehazer_off(struct pbo_context *ctx)
 {
-    reset_timing(ctx->state);
+    struct dehazer_state *s = ctx->state;
+    pbo_timing_reset(&s->timing);
     return PBO_OK;
 }
 
@@ -308,7 +301,8 @@ static int32_t dehazer_error(struct pbo_context *ctx)
 /* Back to off: error already emptied the histogram; restart the period measurement like off. */
 static int32_t dehazer_clear(struct pbo_context *ctx)
 {
-    reset_timing(ctx->state);
+    struct dehazer_state *s = ctx->state;
+    pbo_timing_reset(&s->timing);
     return PBO_OK;
 }
 
@@ -328,27 +322,14 @@ static void report_functional(struct pbo_context *ctx)
     pbo_sys_perf_report(ctx, PBO_PERF_FUNCTIONAL, PERF_NOISE_REMOVED, (int32_t)noise_milli);
 }
 
-/*
- * Evaluator: observes the executor's state right after its cycle; only its own timing changes.
- * Power in thousandths of a mW: idle power plus ENERGY_PER_FRAME_UJ uJ every period_us us, i.e.
- * 1e6 * uJ / us thousandths of a mW.
- */
+/* Evaluator: observes the executor's state right after its cycle; only its own timing changes. */
 static int32_t dehazer_evaluate(struct pbo_context *ctx)
 {
     struct dehazer_state *s = ctx->state;
-    uint32_t power = IDLE_POWER_MILLI_MW;
-    const uint32_t now = pbo_sys_time_us();
+    const int32_t power = pbo_measure_power(&s->timing, IDLE_POWER_MILLI_MW, ENERGY_PER_FRAME_NJ);
 
-    if (s->timed) {
-        s->period_us = now - s->last_cycle_us; /* unsigned: correct across the 32-bit wrap */
-    }
-    s->last_cycle_us = now;
-    s->timed = 1;
-    if (s->period_us != 0) {
-        power += 1000000u * ENERGY_PER_FRAME_UJ / s->period_us;
-    }
     report_functional(ctx);
-    pbo_sys_perf_report(ctx, PBO_PERF_NON_FUNCTIONAL, 0, (int32_t)power);
+    pbo_sys_perf_report(ctx, PBO_PERF_NON_FUNCTIONAL, PBO_POWER_INDEX, power);
     return PBO_OK;
 }
 

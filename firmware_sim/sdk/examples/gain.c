@@ -15,34 +15,13 @@ enum { PORT_X, PORT_Y, PORT_K, PORT_COUNT };
 #define ENERGY_PER_CYCLE_NJ 60u  /* energy of one cycle: port copies and a multiply */
 
 struct gain_state {
-    uint32_t last_cycle_us; /* node time of the latest evaluation */
-    uint32_t period_us;     /* time between the two latest evaluations (the period) */
-    uint8_t timed;          /* last_cycle_us is valid */
+    struct pbo_timing timing; /* the evaluator's cycle period */
 };
-
-/* k * x in Q16.16, rounded to nearest, saturated. */
-static int32_t q16_mul_sat(int32_t k, int32_t x)
-{
-    int64_t product = ((int64_t)k * x + (1 << 15)) >> 16;
-    if (product > INT32_MAX) {
-        return INT32_MAX;
-    }
-    if (product < INT32_MIN) {
-        return INT32_MIN;
-    }
-    return (int32_t)product;
-}
-
-static void reset_timing(struct gain_state *s)
-{
-    s->last_cycle_us = 0;
-    s->period_us = 0;
-    s->timed = 0;
-}
 
 static int32_t gain_init(struct pbo_context *ctx)
 {
-    reset_timing(ctx->state);
+    struct gain_state *s = ctx->state;
+    pbo_timing_reset(&s->timing);
     return PBO_OK;
 }
 
@@ -62,7 +41,7 @@ static int32_t gain_cycle(struct pbo_context *ctx)
     /* Port buffers are plain memory: the kernel copied the inputs in before this call and
        copies the outputs out after it, so direct access is safe and costs no service call. */
     *(int32_t *)ctx->ports[PORT_Y] =
-        q16_mul_sat(*(const int32_t *)ctx->ports[PORT_K], *(const int32_t *)ctx->ports[PORT_X]);
+        pbo_q16_mul(*(const int32_t *)ctx->ports[PORT_K], *(const int32_t *)ctx->ports[PORT_X]);
 
     return PBO_OK;
 }
@@ -70,7 +49,8 @@ static int32_t gain_cycle(struct pbo_context *ctx)
 /* Switched off: the next on must not count the pause as a cycle period. */
 static int32_t gain_off(struct pbo_context *ctx)
 {
-    reset_timing(ctx->state);
+    struct gain_state *s = ctx->state;
+    pbo_timing_reset(&s->timing);
     return PBO_OK;
 }
 
@@ -94,7 +74,8 @@ static int32_t gain_error(struct pbo_context *ctx)
 /* Back to off: restart the period measurement, as off does. */
 static int32_t gain_clear(struct pbo_context *ctx)
 {
-    reset_timing(ctx->state);
+    struct gain_state *s = ctx->state;
+    pbo_timing_reset(&s->timing);
     return PBO_OK;
 }
 
@@ -104,39 +85,19 @@ static int32_t output_error_milli(const struct pbo_context *ctx)
     int64_t x = *(const int32_t *)ctx->ports[PORT_X];
     int64_t k = *(const int32_t *)ctx->ports[PORT_K];
     int64_t y = *(const int32_t *)ctx->ports[PORT_Y];
-    int64_t diff = y * 65536 - k * x; /* Q32.32: exact */
-    uint64_t error = (uint64_t)(diff < 0 ? -diff : diff);
+    int64_t diff = y * PBO_Q16_ONE - k * x; /* Q32.32: exact */
 
-    if (error >= ((uint64_t)INT32_MAX << 32) / 1000u) {
-        return INT32_MAX;
-    }
-    return (int32_t)((error * 1000u) >> 32);
+    return pbo_milli_from_fixed((uint64_t)(diff < 0 ? -diff : diff), 2 * PBO_Q16_FRACTION_BITS);
 }
 
-/*
- * Evaluator: observes the executor's context right after its cycle and writes nothing.
- * Power in thousandths of a mW: idle power plus ENERGY_PER_CYCLE_NJ nJ every period_us us,
- * i.e. 1000 * nJ / us thousandths of a mW.
- */
+/* Evaluator: observes the executor's context right after its cycle; only its timing changes. */
 static int32_t gain_evaluate(struct pbo_context *ctx)
 {
     struct gain_state *s = ctx->state;
-    uint32_t power = IDLE_POWER_MILLI_MW;
-    /* The evaluator runs right after every cycle, at its rate: the time between two
-       evaluations is the cycle period. Measuring it here keeps the cycle free of service calls. */
-    const uint32_t now = pbo_sys_time_us();
+    const int32_t power = pbo_measure_power(&s->timing, IDLE_POWER_MILLI_MW, ENERGY_PER_CYCLE_NJ);
 
-    if (s->timed) {
-        s->period_us = now - s->last_cycle_us; /* unsigned: correct across the 32-bit wrap */
-    }
-    s->last_cycle_us = now;
-    s->timed = 1;
-
-    if (s->period_us != 0) {
-        power += 1000u * ENERGY_PER_CYCLE_NJ / s->period_us;
-    }
     pbo_sys_perf_report(ctx, PBO_PERF_FUNCTIONAL, 0, output_error_milli(ctx));
-    pbo_sys_perf_report(ctx, PBO_PERF_NON_FUNCTIONAL, 0, (int32_t)power);
+    pbo_sys_perf_report(ctx, PBO_PERF_NON_FUNCTIONAL, PBO_POWER_INDEX, power);
     return PBO_OK;
 }
 

@@ -19,12 +19,10 @@ enum { PORT_X, PORT_Y, PORT_COUNT };
 #define ENERGY_PER_CYCLE_NJ 90u    /* energy of one cycle: port copies and a sum of 8 samples */
 
 struct ma_state {
-    int32_t window[WINDOW]; /* the latest samples; meaningless until primed */
-    uint32_t next;          /* ring index the next sample goes to */
-    uint32_t last_cycle_us; /* node time of the latest evaluation */
-    uint32_t period_us;     /* time between the two latest evaluations (the period) */
-    uint8_t primed;         /* the window holds samples */
-    uint8_t timed;          /* last_cycle_us is valid */
+    int32_t window[WINDOW];   /* the latest samples; meaningless until primed */
+    struct pbo_timing timing; /* the evaluator's cycle period */
+    uint8_t next;             /* ring index the next sample goes to */
+    uint8_t primed;           /* the window holds samples */
 };
 
 /* Forget the samples: the next one fills the window. */
@@ -32,13 +30,6 @@ static void reset_window(struct ma_state *s)
 {
     s->next = 0;
     s->primed = 0;
-}
-
-static void reset_timing(struct ma_state *s)
-{
-    s->last_cycle_us = 0;
-    s->period_us = 0;
-    s->timed = 0;
 }
 
 static int32_t window_mean(const struct ma_state *s)
@@ -53,8 +44,9 @@ static int32_t window_mean(const struct ma_state *s)
 
 static int32_t ma_init(struct pbo_context *ctx)
 {
-    reset_window(ctx->state);
-    reset_timing(ctx->state);
+    struct ma_state *s = ctx->state;
+    reset_window(s);
+    pbo_timing_reset(&s->timing);
     return PBO_OK;
 }
 
@@ -90,7 +82,8 @@ static int32_t ma_cycle(struct pbo_context *ctx)
 /* Switched off: the next on must not count the pause as a cycle period. */
 static int32_t ma_off(struct pbo_context *ctx)
 {
-    reset_timing(ctx->state);
+    struct ma_state *s = ctx->state;
+    pbo_timing_reset(&s->timing);
     return PBO_OK;
 }
 
@@ -112,7 +105,8 @@ static int32_t ma_error(struct pbo_context *ctx)
 /* Back to off: error already dropped the window; restart the period measurement like off. */
 static int32_t ma_clear(struct pbo_context *ctx)
 {
-    reset_timing(ctx->state);
+    struct ma_state *s = ctx->state;
+    pbo_timing_reset(&s->timing);
     return PBO_OK;
 }
 
@@ -130,34 +124,18 @@ static int32_t deviation_milli(const struct pbo_context *ctx)
         int64_t diff = s->window[i] - y;
         total += (uint64_t)(diff < 0 ? -diff : diff);
     }
-    /* total < WINDOW * 2^32, so total * 1000 fits; the shift is / WINDOW and leaves Q16.16 */
-    return (int32_t)((total * 1000u) >> (WINDOW_LOG2 + 16u));
+    /* the total in Q16.16 with WINDOW_LOG2 more fraction bits is the mean */
+    return pbo_milli_from_fixed(total, PBO_Q16_FRACTION_BITS + WINDOW_LOG2);
 }
 
-/*
- * Evaluator: observes the executor's context right after its cycle and writes nothing.
- * Power in thousandths of a mW: idle power plus ENERGY_PER_CYCLE_NJ nJ every period_us us,
- * i.e. 1000 * nJ / us thousandths of a mW.
- */
+/* Evaluator: observes the executor's context right after its cycle; only its timing changes. */
 static int32_t ma_evaluate(struct pbo_context *ctx)
 {
     struct ma_state *s = ctx->state;
-    uint32_t power = IDLE_POWER_MILLI_MW;
-    /* The evaluator runs right after every cycle, at its rate: the time between two
-       evaluations is the cycle period. Measuring it here keeps the cycle free of service calls. */
-    const uint32_t now = pbo_sys_time_us();
+    const int32_t power = pbo_measure_power(&s->timing, IDLE_POWER_MILLI_MW, ENERGY_PER_CYCLE_NJ);
 
-    if (s->timed) {
-        s->period_us = now - s->last_cycle_us; /* unsigned: correct across the 32-bit wrap */
-    }
-    s->last_cycle_us = now;
-    s->timed = 1;
-
-    if (s->period_us != 0) {
-        power += 1000u * ENERGY_PER_CYCLE_NJ / s->period_us;
-    }
     pbo_sys_perf_report(ctx, PBO_PERF_FUNCTIONAL, 0, deviation_milli(ctx));
-    pbo_sys_perf_report(ctx, PBO_PERF_NON_FUNCTIONAL, 0, (int32_t)power);
+    pbo_sys_perf_report(ctx, PBO_PERF_NON_FUNCTIONAL, PBO_POWER_INDEX, power);
     return PBO_OK;
 }
 
