@@ -76,7 +76,7 @@ def input_file(max_bytes: int = DEFAULT_MAX_FILE_BYTES) -> Callable[[str], Path]
     """An existing regular file of at most `max_bytes`."""
 
     def parse(text: str) -> Path:
-        path = Path(text)
+        path = _path(text)
         try:
             info = path.stat()
         except OSError as error:
@@ -96,13 +96,24 @@ def input_file(max_bytes: int = DEFAULT_MAX_FILE_BYTES) -> Callable[[str], Path]
 
 
 def output_file(text: str) -> Path:
-    """A file to write: not a directory, in a folder that exists."""
-    path = Path(text)
+    """A file to write, in a folder that exists: a new file or a regular one to replace (a
+    command writes beside it and renames, which would replace a device or a pipe)."""
+    path = _path(text)
     if path.is_dir():
         raise _expected("a file to write", f"{text} (a directory)", quote=False)
+    if path.exists() and not path.is_file():
+        info = path.stat()
+        raise _expected("a regular file to write", f"{text} ({_kind(info.st_mode)})", quote=False)
     if not path.parent.is_dir():
         raise _expected("a file in an existing folder", text)
     return path
+
+
+def _path(text: str) -> Path:
+    """`text` as a path; the system takes no NUL byte in one."""
+    if "\0" in text:
+        raise _expected("a file name", f"{text!r} (a NUL byte)", quote=False)
+    return Path(text)
 
 
 def _within(

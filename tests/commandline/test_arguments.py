@@ -81,3 +81,18 @@ def test_output_file_refuses_a_directory_and_a_missing_folder(tmp_path):
     with pytest.raises(argparse.ArgumentTypeError, match="existing folder"):
         output_file(str(tmp_path / "no" / "such.hex"))
     assert output_file(str(tmp_path / "out.hex")) == tmp_path / "out.hex"
+
+
+def test_a_special_file_or_a_nul_byte_is_no_file_to_write_or_read(tmp_path):
+    with pytest.raises(
+        argparse.ArgumentTypeError, match=r"regular file to write, got /dev/null \(a device\)"
+    ):
+        output_file(os.devnull)
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    with pytest.raises(argparse.ArgumentTypeError, match=r"\(a pipe\)"):
+        output_file(str(fifo))
+    with pytest.raises(argparse.ArgumentTypeError, match="a NUL byte"):
+        output_file("a\0b.hex")
+    with pytest.raises(argparse.ArgumentTypeError, match="a NUL byte"):
+        input_file()("a\0b.hex")
