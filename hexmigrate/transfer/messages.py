@@ -19,15 +19,12 @@ import struct
 import zlib
 from dataclasses import dataclass
 
+from hexmigrate.errors import MessageError
 from hexmigrate.links.base import is_text
 
 NO_ADDRESS = 0xFFFF_FFFF
 TAG_MASK = 0xFFFF
 BLOCK = 256  # a BlockAck counts flash blocks
-
-
-class MessageError(ValueError):
-    """Bytes that are not a valid protocol message."""
 
 
 @dataclass(frozen=True)

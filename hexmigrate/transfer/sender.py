@@ -16,8 +16,9 @@ import zlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
+from hexmigrate.errors import LinkError, MessageError, NoAnswer, TransferError, TransferInterrupted
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
-from hexmigrate.links.base import Link, LinkError
+from hexmigrate.links.base import Link
 from hexmigrate.records import Record, RecordType
 from hexmigrate.transfer.messages import (
     Abort,
@@ -32,7 +33,6 @@ from hexmigrate.transfer.messages import (
     Listing,
     ListModules,
     Message,
-    MessageError,
     Nak,
     Ping,
     Pong,
@@ -56,23 +56,6 @@ REFUSALS_PER_RETRY = 20
 """Refusals in a row without progress, per retry, after which a transfer gives up: on a noisy
 line each lost message costs a few refusals, but a line that lets nothing through, or a node
 and a sender that no longer agree, must not keep them talking forever."""
-
-
-class TransferError(RuntimeError):
-    """The node refused, or stopped answering: the transfer did not happen."""
-
-
-class NoAnswer(TransferError):
-    """A request went unanswered through every retry."""
-
-
-class TransferInterrupted(TransferError):
-    """The link failed mid-transfer; `resume(image, tid)` on a new link continues it."""
-
-    def __init__(self, message: str, tid: int, programmed: int) -> None:
-        super().__init__(message)
-        self.tid = tid
-        self.programmed = programmed
 
 
 @dataclass(frozen=True)

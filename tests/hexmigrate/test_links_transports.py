@@ -20,7 +20,8 @@ from pathlib import Path
 
 import pytest
 
-from hexmigrate.links import LinkBase, LinkError, open_link
+from hexmigrate.errors import LinkError
+from hexmigrate.links import LinkBase, open_link
 from hexmigrate.links.remote_server import RemoteCanServer
 from hexmigrate.links.serial import PtyPair
 from hexmigrate.links.slcan_device import SlcanDevice

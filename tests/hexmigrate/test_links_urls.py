@@ -7,7 +7,8 @@ import sys
 
 import pytest
 
-from hexmigrate.links import LinkError, LinkUrlError, open_link
+from hexmigrate.errors import LinkError, LinkUrlError
+from hexmigrate.links import open_link
 
 ANY = "serial:///dev/DEVICE, /dev/DEVICE, loop://, socket://HOST:PORT, can://... or faulty+URL"
 DEVICE = "serial:///dev/ttyUSB0?baudrate=115200 or a bare device path such as /dev/pts/5"

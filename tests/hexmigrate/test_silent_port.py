@@ -31,9 +31,9 @@ def test_a_send_to_a_port_nobody_answers_fails_within_its_bound_and_says_why(cap
     with PtyPair.open() as pty:  # this end never reads nor answers
         start = time.monotonic()
         status = main(
-            ["send", str(MODULE), "--to", pty.path, "--quiet", "--timeout", str(TIMEOUT)]
-            + ["--retries", str(RETRIES), "--reconnects", str(reconnects)]
-        )
+            ["send", str(MODULE), "--to", pty.path, "--quiet", "--timeout", str(TIMEOUT),
+             "--retries", str(RETRIES), "--reconnects", str(reconnects)]
+        )  # fmt: skip
         elapsed = time.monotonic() - start
     assert status == 1
     error = capsys.readouterr().err.strip().splitlines()[-1]

@@ -12,10 +12,11 @@ from firmware_sim.natives import Signal
 from firmware_sim.node import Node
 from firmware_sim.server import NodeTarget
 from hexmigrate.elf import image_from_elf
+from hexmigrate.errors import MessageError, TransferError, TransferInterrupted
 from hexmigrate.image import ModuleImage
 from hexmigrate.transfer import messages as m
 from hexmigrate.transfer.receiver import Receiver
-from hexmigrate.transfer.sender import Sender, TransferError, TransferInterrupted
+from hexmigrate.transfer.sender import Sender
 from pbort.native import NativeModule
 from tests.hexmigrate.transfer_harness import DirectLink, noisy
 
@@ -74,18 +75,18 @@ def test_a_block_acknowledgement_names_its_transfer_by_the_low_16_bits():
 def test_a_block_acknowledgement_counts_whole_blocks_in_binary_mode_only():
     with pytest.raises(ValueError, match="whole number of blocks"):
         m.encode(m.BlockAck(1, 300), False)
-    with pytest.raises(m.MessageError, match="binary mode only"):
+    with pytest.raises(MessageError, match="binary mode only"):
         m.encode(m.BlockAck(1, 256), True)
     raw = bytearray(m.encode(m.BlockAck(1, 256), False))
     raw[3] ^= 0x01
-    with pytest.raises(m.MessageError, match="CRC-16"):
+    with pytest.raises(MessageError, match="CRC-16"):
         m.decode(bytes(raw))
 
 
 def test_a_corrupted_binary_message_is_refused():
     raw = bytearray(m.encode(m.Commit(5), False))
     raw[2] ^= 0x10
-    with pytest.raises(m.MessageError, match="CRC-32"):
+    with pytest.raises(MessageError, match="CRC-32"):
         m.decode(bytes(raw))
 
 

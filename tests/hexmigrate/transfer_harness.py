@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from hexmigrate.errors import LinkError
 from hexmigrate.links import direct
-from hexmigrate.links.base import LinkError
 from hexmigrate.links.faulty import FaultInjector, Faults
 from hexmigrate.transfer.receiver import Receiver
 
