@@ -116,13 +116,16 @@ class Receiver:
         self.committed: OrderedDict[int, Ack] = OrderedDict()
 
     def handle(self, raw: bytes) -> list[bytes]:
-        """Replies to one received message (encoded in the mode it came in)."""
+        """Replies to one received message, encoded in the mode it came in. A node never exits
+        on a message: one that does not decode is refused with the reason, and a reply that
+        cannot be written in the mode asked (a module whose name has a blank, listed in hex
+        mode) becomes a refusal that says why."""
         text = is_text(raw)
         try:
             message = decode(raw)
         except MessageError as error:
-            return [encode(Nak(0, 0, f"bad message: {error}"), text)]
-        return [encode(reply, text) for reply in self.dispatch(message)]
+            return [_encoded(Nak(0, 0, f"bad message: {error}"), text)]
+        return [_encoded(reply, text) for reply in self.dispatch(message)]
 
     def dispatch(self, message: Message) -> list[Message]:
         """Replies to one decoded message."""
@@ -341,6 +344,15 @@ class Receiver:
             else ("header" if transfer.header_done else "begun")
         )
         return [Ack(message.tid, transfer.session.programmed, state)]
+
+
+def _encoded(reply: Message, text: bool) -> bytes:
+    """`reply` in hex mode (`text`) or binary mode, or a refusal when it cannot be."""
+    try:
+        return encode(reply, text)
+    except MessageError as error:
+        reason = f"cannot answer: {error}".encode("ascii", "backslashreplace").decode("ascii")
+        return encode(Nak(getattr(reply, "tid", 0), 0, reason), text)
 
 
 def _guard(action: Callable[..., object], *args: object) -> None:
