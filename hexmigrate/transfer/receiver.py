@@ -130,7 +130,7 @@ class Receiver:
     def dispatch(self, message: Message) -> list[Message]:
         """Replies to one decoded message."""
         handler = _HANDLERS.get(type(message))
-        if handler is None:  # an answer: see ANSWERS
+        if handler is None:  # an answer: see _HANDLERS
             return []
         tid = getattr(message, "tid", IMPLICIT)
         try:
@@ -363,10 +363,6 @@ def _guard(action: Callable[..., object], *args: object) -> None:
         raise _FatalRefusal(str(error)) from None
 
 
-ANSWERS = (Pong, Listing, Ack, BlockAck, Nak)
-"""What a node hears but never answers: on a shared line (`hexmigrate.links.shared`) it hears
-its own answers and other nodes', and two nodes that answered answers would talk forever."""
-
 _HANDLERS = {
     Ping: Receiver._ping,
     ListModules: Receiver._list,
@@ -380,3 +376,7 @@ _HANDLERS = {
     Abort: Receiver._abort,
     Resume: Receiver._resume,
 }
+"""The requests a node answers. Any other message is an answer (`Pong`, `Listing`, `Ack`,
+`BlockAck`, `Nak`), which a node hears but never answers: on a shared line
+(`hexmigrate.links.shared`) it hears its own answers and other nodes', and two nodes that
+answered answers would talk forever."""
