@@ -21,9 +21,11 @@ MODULE = Path(__file__).parent / "data" / "good_module.hex"
 TIMEOUT = 0.5
 RETRIES = 1
 TRIES = RETRIES + 1
-MARGIN = 0.5
-"""Seconds allowed beyond TRIES x TIMEOUT: opening the pty, reading the module, the answers that
-a try waits for a little past its timeout."""
+MARGIN = 0.8
+"""Seconds allowed beyond TRIES x TIMEOUT: opening the pty, reading the module, a busy machine.
+Less than one more round of tries (what an ABORT retried after silence cost)."""
+EARLY = 0.05
+"""How much earlier than asked a wait may end (timer granularity)."""
 
 
 @pytest.mark.parametrize("reconnects", [0, 3])
@@ -43,5 +45,5 @@ def test_a_send_to_a_port_nobody_answers_fails_within_its_bound_and_says_why(cap
         error,
     )
     assert said, error
-    assert TRIES * TIMEOUT <= float(said[1]) <= elapsed
-    assert TRIES * TIMEOUT <= elapsed < TRIES * TIMEOUT + MARGIN
+    assert TRIES * TIMEOUT - EARLY <= float(said[1]) <= elapsed
+    assert TRIES * TIMEOUT - EARLY <= elapsed < TRIES * TIMEOUT + MARGIN
