@@ -11,11 +11,13 @@ Prints, for a module of 4 KiB and one of 64 KiB, each against a limit or a basel
 
 Wire timing comes from `firmware_sim.wire_sim`, a small discrete-event simulation in virtual
 time that drives the real `Sender`, `Receiver` and `Node` (its docstring says exactly what it
-models: 8N1 serial, CAN frames with their stuffed bits and arbitration, the node's flash time).
+models: 8N1 serial, CAN frames with their stuffed bits and arbitration, the node's flash time);
+the stack and the copy it is compared with are `firmware_sim.wire_sim.in_process`, timed here.
 
-The modules are random data with the compiled `gain` example at their start, so that the node's
-COMMIT, which runs the module's init subroutine, succeeds: its descriptor's pointers and 4 more
-words in the random part are the relocations, its init is the module's init.
+The modules are random data with the compiled `gain` example at their start
+(`firmware_sim.wire_sim.workload`), so that the node's COMMIT, which runs the module's init
+subroutine, succeeds: its descriptor's pointers and 4 more words in the random part are the
+relocations, its init is the module's init.
 
     python benchmarks/migration.py [--repeat N] [--windows 1,2,4,8,16]
 """
@@ -23,15 +25,14 @@ words in the random part are the relocations, its init is the module's init.
 from __future__ import annotations
 
 import argparse
-import random
 import tempfile
 import time
 from pathlib import Path
 
 from firmware_sim.node import Node
 from firmware_sim.sdk.build import EXAMPLES_DIR, build_module
-from firmware_sim.server import NodeTarget
 from firmware_sim.wire import CAN_MAX_DATA, UART_BITS_PER_BYTE, can_frame_bits_worst, uart_byte_rate
+from firmware_sim.wire_sim.in_process import copy_transfer, stack_transfer
 from firmware_sim.wire_sim.link import DEFAULT_BAUDRATE
 from firmware_sim.wire_sim.ports import ISOTP_CF_DATA
 from firmware_sim.wire_sim.transfer import (
@@ -43,18 +44,14 @@ from firmware_sim.wire_sim.transfer import (
     can_limit,
     run_transfer,
 )
+from firmware_sim.wire_sim.workload import TID, random_module
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
 from hexmigrate.links.can import DEFAULT_BITRATE
-from hexmigrate.links.direct import DirectLink
-from hexmigrate.transfer.receiver import Receiver
-from hexmigrate.transfer.sender import Sender
 
 BAUDRATE = DEFAULT_BAUDRATE  # 115200 8N1
 CAN_BITRATE = DEFAULT_BITRATE  # 500 kbit/s
-TID = 0x2468_ACE1  # fixed, so that every run puts the same bytes on the wire
 SIZES = (4 * 1024, 64 * 1024)
-EXTRA_RELOCATIONS = 4
 GOALS = {"serial binary": 0.85, "serial hex": 0.90, "CAN binary": 0.85}
 STACK_GOAL = 1e6  # bytes per second
 WIRES = (("serial", "binary"), ("serial", "hex"), ("CAN", "binary"))
@@ -68,20 +65,6 @@ def module_code(out_dir: Path) -> ModuleImage:
     return image_from_elf(build_module(EXAMPLES_DIR / "gain.c", out_dir).elf)
 
 
-def random_module(code: ModuleImage, size: int, seed: int = 1) -> ModuleImage:
-    """A module of `size` bytes: `code` at the start, then random bytes, with `code`'s pointers
-    and init and `EXTRA_RELOCATIONS` more pointer words (4-byte aligned) in the random part."""
-    smallest = code.size + 4 * EXTRA_RELOCATIONS
-    if size < smallest:
-        raise ValueError(f"expected a module size of at least {smallest} bytes, got {size}")
-    rng = random.Random(seed)
-    data = code.data + rng.randbytes(size - code.size)
-    first_word = -(-code.size // 4)
-    words = rng.sample(range(first_word, size // 4), EXTRA_RELOCATIONS)
-    relocations = code.relocations + tuple(code.link_base + 4 * word for word in words)
-    return ModuleImage(f"random{size // 1024}k", code.link_base, data, relocations, code.init)
-
-
 # The stack without a bit-rate limit.
 
 
@@ -90,44 +73,23 @@ def stack_seconds(image: ModuleImage, mode: str, framed: bool, repeat: int) -> f
     best = float("inf")
     for _ in range(repeat):
         with Node() as node:
-            link = DirectLink(Receiver(NodeTarget(node)).handle, framed)
-            sender = Sender(link, mode, window=DEFAULT_WINDOW)
             start = time.perf_counter()
-            result = sender.send(image, tid=TID)
+            result = stack_transfer(node, image, mode, framed, tid=TID)
             best = min(best, time.perf_counter() - start)
-            if result.retransmissions or result.name not in node.modules:
-                raise AssertionError(f"stack {mode}: the transfer did not go through cleanly")
+        if result.retransmissions:
+            raise SystemExit(f"stack {mode}: {result.retransmissions} retransmissions in process")
     return best
 
 
-class CopySink:
-    """The far end of the copy baseline: puts each message's bytes after its type byte in place."""
-
-    def __init__(self, size: int) -> None:
-        self.data = bytearray(size)
-        self.position = 0
-
-    def __call__(self, raw: bytes) -> list[bytes]:
-        end = self.position + len(raw) - 1
-        self.data[self.position : end] = raw[1:]
-        self.position = end
-        return []
-
-
 def copy_seconds(image: ModuleImage, framed: bool, repeat: int) -> float:
-    """Best real time of copying the image through the same link without the protocol: one
-    message per 256-byte block (a type byte < 0x20, then the bytes), copied into place."""
-    data = image.data
+    """Best real time of copying the image through the same link without the protocol."""
     best = float("inf")
     for _ in range(repeat):
-        sink = CopySink(len(data))
-        link = DirectLink(sink, framed)
         start = time.perf_counter()
-        for offset in range(0, len(data), FLASH_BLOCK_SIZE):
-            link.send(b"\x06" + data[offset : offset + FLASH_BLOCK_SIZE])
+        sink = copy_transfer(image, framed)
         best = min(best, time.perf_counter() - start)
-        if sink.data != data:
-            raise AssertionError("the copy baseline lost bytes")
+        if sink.data != image.data:
+            raise SystemExit("the copy baseline lost bytes")
     return best
 
 

@@ -35,9 +35,9 @@ from firmware_sim.settings import number
 from firmware_sim.sram import OutOfSramError
 from firmware_sim.wire_sim.link import WIRES
 from firmware_sim.wire_sim.transfer import DEFAULT_WINDOW, run_transfer
-from hexmigrate.errors import HexError
+from hexmigrate.errors import HexError, TransferError
 from hexmigrate.image import ModuleImage
-from hexmigrate.transfer.sender import MODES, TransferError
+from hexmigrate.transfer.sender import MODES
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
 from pbort.native import NativeModule

@@ -32,6 +32,7 @@ from firmware_sim.services import (
 )
 from firmware_sim.sram import SramAllocator, align_up
 from hexmigrate import descriptor as abi
+from hexmigrate.errors import AbiMismatchError, DescriptorError
 from pbort.code import CallResult, Method, PerformanceKind, Role, Services
 from pbort.ports import Direction, PortKind, PortSpec, PortValue
 
@@ -175,9 +176,9 @@ class Registrar(_KernelServices):
             )
         try:
             descriptor = abi.Descriptor.decode(self._cpu.read(address, abi.SIZE))
-        except abi.AbiMismatchError as error:
+        except AbiMismatchError as error:
             raise _Refused(Status.ERR_ABI, str(error)) from None
-        except abi.DescriptorError as error:
+        except DescriptorError as error:
             raise _Refused(Status.ERR_INVALID, str(error)) from None
         self._check_names(descriptor)
         self._check_methods(descriptor)

@@ -17,20 +17,12 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 from hexmigrate.elf import DEFAULT_INIT_SYMBOL, image_from_elf
-from hexmigrate.errors import HexError
+from hexmigrate.errors import HexError, LinkError, TransferError, TransferInterrupted
 from hexmigrate.image import ModuleImage
 from hexmigrate.links import open_link
-from hexmigrate.links.base import LinkError
 from hexmigrate.mapfile import image_from_map
 from hexmigrate.report import build_report, render_text
-from hexmigrate.transfer.sender import (
-    MODES,
-    Progress,
-    Sender,
-    TransferError,
-    TransferInterrupted,
-    TransferResult,
-)
+from hexmigrate.transfer.sender import MODES, Progress, Sender, TransferResult
 
 EXIT_ERROR = 1
 EXIT_USAGE = 2

@@ -12,6 +12,8 @@ from __future__ import annotations
 import struct
 from dataclasses import dataclass
 
+from hexmigrate.errors import AbiMismatchError, DescriptorError
+
 DESCRIPTOR_SECTION = ".pbo_descriptor"
 MAGIC = 0x314F4250  # "PBO1" as a little-endian word
 ABI_VERSION = 1
@@ -30,18 +32,6 @@ SIZE = METHODS_OFFSET + _METHODS.size
 PORT_DIRECTIONS = ("in", "out", "const", "resource")
 PORT_TYPES = ("scalar", "vector", "frame")
 ELEMENT_SIZES = (1, 2, 4)  # uint8_t, int16_t, int32_t
-
-
-class DescriptorError(ValueError):
-    """The bytes are not a valid descriptor of a supported ABI version."""
-
-
-class AbiMismatchError(DescriptorError):
-    """The bytes are not a descriptor of this ABI: a wrong magic or ABI version.
-
-    Kept apart from other descriptor errors because the kernel answers it with its own status
-    (PBO_ERR_ABI) rather than PBO_ERR_INVALID.
-    """
 
 
 @dataclass(frozen=True)

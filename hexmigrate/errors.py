@@ -1,41 +1,53 @@
-"""The exception tree of hexmigrate.
+"""The exception tree of hexmigrate: one root, `HexmigrateError`, so that a command catches one
+class and reports the rest uniformly. Each class also inherits the builtin exception it refines
+(python-can style), so code that knows nothing of hexmigrate still catches it as a `ValueError`,
+an `OSError` or a `TimeoutError`.
 
-Every failure to read a HEX file or to build a module image raises a subclass of `HexError`, so a
-caller (the CLI, the loader of a node) can catch one class and report the rest uniformly. Each
-exception carries where the problem is (`path`, `line`) and a message that says what was expected
-and what came instead; `str(error)` renders them as ``FILE:LINE: message``, the form compilers use,
-so editors can jump to the place.
+Every failure to read a HEX file or to build a module image raises a subclass of `HexError`. Each
+carries where the problem is (`path`, `line`) and a message that says what was expected and what
+came instead; `str(error)` renders them as ``FILE:LINE: message``, the form compilers use, so
+editors can jump to the place. The other classes say what failed in their message (the link's
+URL, the request that went unanswered, the field of a message).
 
 Tree::
 
     HexmigrateError                    the root: every error hexmigrate raises
-    └── HexError (ValueError)          a HEX file or module image that cannot be used
-        ├── HexSyntaxError                 one line cannot be decoded as a record
-        │   ├── BadStartCodeError
-        │   ├── OddLengthError
-        │   ├── NonHexDigitError
-        │   ├── ByteCountError
-        │   └── ChecksumError
-        ├── HexRecordError                 the record decodes but its content is not allowed
-        │   ├── UnknownRecordTypeError
-        │   ├── RecordSizeError
-        │   ├── AddressFieldError
-        │   └── DuplicateStartAddressError
-        ├── HexStructureError              the records do not form a valid file
-        │   ├── MissingEofError
-        │   ├── RecordAfterEofError
-        │   ├── TextAfterEofError
-        │   ├── AddressOverflowError
-        │   ├── OverlapError
-        │   └── OrderError
-        └── ModuleError                    the file is not a valid relocatable module
-            ├── MultipleInitError
-            ├── MissingInitError
-            ├── GapError
-            ├── DuplicateRelocationError
-            ├── RelocationOutsideImageError
-            ├── InitOutsideImageError
-            └── ModuleSourceError          an ELF, map or binary the image is built from is unusable
+    ├── HexError (ValueError)          a HEX file or module image that cannot be used
+    │   ├── HexSyntaxError                 one line cannot be decoded as a record
+    │   │   ├── BadStartCodeError
+    │   │   ├── OddLengthError
+    │   │   ├── NonHexDigitError
+    │   │   ├── ByteCountError
+    │   │   └── ChecksumError
+    │   ├── HexRecordError                 the record decodes but its content is not allowed
+    │   │   ├── UnknownRecordTypeError
+    │   │   ├── RecordSizeError
+    │   │   ├── AddressFieldError
+    │   │   └── DuplicateStartAddressError
+    │   ├── HexStructureError              the records do not form a valid file
+    │   │   ├── MissingEofError
+    │   │   ├── RecordAfterEofError
+    │   │   ├── TextAfterEofError
+    │   │   ├── AddressOverflowError
+    │   │   ├── OverlapError
+    │   │   └── OrderError
+    │   └── ModuleError                    the file is not a valid relocatable module
+    │       ├── MultipleInitError
+    │       ├── MissingInitError
+    │       ├── GapError
+    │       ├── DuplicateRelocationError
+    │       ├── RelocationOutsideImageError
+    │       ├── InitOutsideImageError
+    │       └── ModuleSourceError          an ELF, map or binary the image is built from is unusable
+    ├── DescriptorError (ValueError)   bytes that are not a PBO module descriptor
+    │   └── AbiMismatchError               a wrong magic or ABI version
+    ├── MessageError (ValueError)      bytes that are not a transfer protocol message, or a
+    │                                  message that cannot be written in the mode asked for
+    ├── LinkError (OSError)            a link cannot be opened or has failed
+    │   └── LinkUrlError (ValueError)      a malformed link URL
+    └── TransferError (RuntimeError)   the node refused, or a transfer could not go on
+        ├── NoAnswer (TimeoutError)        a request went unanswered through every try
+        └── TransferInterrupted (ConnectionError)   the link failed mid-transfer: resume it
 """
 
 from __future__ import annotations
@@ -178,3 +190,46 @@ class InitOutsideImageError(ModuleError):
 
 class ModuleSourceError(ModuleError):
     """An ELF file, a map file or a raw binary cannot give a module image."""
+
+
+class DescriptorError(HexmigrateError, ValueError):
+    """The bytes are not a valid descriptor of a supported ABI version."""
+
+
+class AbiMismatchError(DescriptorError):
+    """The bytes are not a descriptor of this ABI: a wrong magic or ABI version.
+
+    Kept apart from other descriptor errors because the kernel answers it with its own status
+    (PBO_ERR_ABI) rather than PBO_ERR_INVALID.
+    """
+
+
+class MessageError(HexmigrateError, ValueError):
+    """Bytes that are not a valid protocol message, or a message that cannot be encoded in the
+    mode asked for (a binary-only message in hex mode, a value too large for its field)."""
+
+
+class LinkError(HexmigrateError, OSError):
+    """A link cannot be opened or has failed (closed, cut, device gone)."""
+
+
+class LinkUrlError(LinkError, ValueError):
+    """A link URL is malformed; the message shows the expected form."""
+
+
+class TransferError(HexmigrateError, RuntimeError):
+    """The node refused, or stopped answering: the transfer did not happen."""
+
+
+class NoAnswer(TransferError, TimeoutError):
+    """A request went unanswered through every try; the message says how many tries, how long
+    each waited and what was heard."""
+
+
+class TransferInterrupted(TransferError, ConnectionError):
+    """The link failed mid-transfer; `Sender.resume(image, tid)` on a new link continues it."""
+
+    def __init__(self, message: str, tid: int, programmed: int) -> None:
+        super().__init__(message)
+        self.tid = tid
+        self.programmed = programmed

@@ -11,6 +11,7 @@ from collections import Counter
 from typing import Any
 
 from hexmigrate import descriptor as abi
+from hexmigrate.errors import DescriptorError
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
 from hexmigrate.records import RecordType, decode_record
 
@@ -24,7 +25,7 @@ def find_descriptor(image: ModuleImage) -> tuple[int, abi.Descriptor] | None:
         if address % 4 == 0:
             try:
                 return address, abi.Descriptor.decode(image.data[position:])
-            except abi.DescriptorError:
+            except DescriptorError:
                 pass
         position = image.data.find(magic, position + 1)
     return None

@@ -20,6 +20,8 @@ in real time, and the virtual time a transfer takes is what the wire and the nod
 
 `events` is the simulation core, `ports` the two kinds of wire end, `link` the host's `Link` into
 the simulation and the node's end, `transfer` a whole transfer and its figures
-(`run_transfer`). benchmarks/migration.py measures with it, and an application that migrates a
+(`run_transfer`). `in_process` is the same transfer with no wire at all (the software stack
+alone, and a plain copy of the bytes to compare it with), `workload` the modules measured
+transfers carry. benchmarks/migration.py measures with it, and an application that migrates a
 module during a run in virtual time (the visual-servoing demo) takes the time it costs from it.
 """

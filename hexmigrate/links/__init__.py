@@ -27,9 +27,10 @@ from __future__ import annotations
 
 import importlib
 
-from hexmigrate.links.base import Link, LinkBase, LinkError, LinkUrlError, is_text
+from hexmigrate.errors import LinkError, LinkUrlError
+from hexmigrate.links.base import Link, LinkBase, is_text
 
-__all__ = ["Link", "LinkBase", "LinkError", "LinkUrlError", "is_text", "open_link"]
+__all__ = ["Link", "LinkBase", "is_text", "open_link"]
 
 _SCHEMES: dict[str, tuple[str, str]] = {
     "": ("serial", "pyserial"),

@@ -19,15 +19,9 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from typing import Protocol, Self
 
+from hexmigrate.errors import LinkError
+
 TEXT_FIRST_BYTE = 0x20
-
-
-class LinkError(OSError):
-    """A link cannot be opened or has failed (closed, cut, device gone)."""
-
-
-class LinkUrlError(LinkError, ValueError):
-    """A link URL is malformed; the message shows the expected form."""
 
 
 def is_text(message: bytes) -> bool:

@@ -47,7 +47,8 @@ from urllib.parse import urlsplit
 import can
 import isotp
 
-from hexmigrate.links.base import MAX_MESSAGE_SIZE, LinkBase, LinkError
+from hexmigrate.errors import LinkError
+from hexmigrate.links.base import MAX_MESSAGE_SIZE, LinkBase
 from hexmigrate.links.url import choice, integer, parse_parameters, real, url_error
 
 logger = logging.getLogger(__name__)

@@ -6,6 +6,9 @@ emulated robots, tests, benchmarks), this joins hexmigrate's real `Sender` to th
 `Receiver` without threads or waiting: `receive` returns the next reply, or None at once, which
 a sender takes as its timeout. With `framed`, every message crosses the serial framing both ways
 (`framing.frame`, then a `Deframer`), as it would over a cable.
+
+It is a link like the others (`LinkBase`): the same message rules on `send`, a closed link that
+refuses further use, a context manager.
 """
 
 from __future__ import annotations
@@ -13,44 +16,43 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Callable
 
-from hexmigrate.links.base import message_problem
+from hexmigrate.links.base import LinkBase
 from hexmigrate.links.framing import Deframer, frame
 
+URL = "direct://"
 Handle = Callable[[bytes], list[bytes]]
 """The far end: takes one message, returns its replies (`Receiver.handle`)."""
 
 
-class DirectLink:
-    """The sender's end of a link straight into `handle`."""
-
-    url = "direct://"
+class DirectLink(LinkBase):
+    """The sender's end of a link straight into `handle`. A subclass may change what crosses
+    each way by overriding `_outbound` and `_inbound` (a test double loses or damages
+    messages)."""
 
     def __init__(self, handle: Handle, framed: bool = False) -> None:
+        super().__init__(URL)
         self.handle = handle
         self.framed = framed
         self.inbox: deque[bytes] = deque()
         self._to_far_end = Deframer()
         self._to_near_end = Deframer()
 
-    def send(self, message: bytes) -> None:
-        """Deliver the message (the message rules of every link apply) and queue the replies."""
-        problem = message_problem(message)
-        if problem is not None:
-            raise ValueError(problem)
+    def _send(self, message: bytes) -> None:
+        """Deliver the message and queue the replies."""
         for arrived in self._outbound(message):
             for reply in self.handle(arrived):
                 self.inbox.extend(self._inbound(reply))
 
-    def receive(self, timeout: float) -> bytes | None:
-        """The next reply, or None at once when there is none."""
+    def _receive(self, timeout: float) -> bytes | None:
+        """The next reply, or None at once when there is none (the far end has answered
+        already: waiting would bring nothing)."""
         return self.inbox.popleft() if self.inbox else None
 
-    def close(self) -> None:
-        """Drop pending replies; may be called more than once."""
+    def _close(self) -> None:
         self.inbox.clear()
 
     def _outbound(self, message: bytes) -> list[bytes]:
-        """What reaches the far end of a message sent (a test double may lose or damage it)."""
+        """What reaches the far end of a message sent."""
         return self._carry(message, self._to_far_end)
 
     def _inbound(self, reply: bytes) -> list[bytes]:

@@ -35,7 +35,8 @@ import random
 import time
 from dataclasses import asdict, dataclass
 
-from hexmigrate.links.base import Link, LinkBase, LinkError, message_problem
+from hexmigrate.errors import LinkError
+from hexmigrate.links.base import Link, LinkBase, message_problem
 from hexmigrate.links.url import choice, integer, parse_parameters, real, url_error
 
 PREFIX = "faulty+"

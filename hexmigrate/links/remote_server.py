@@ -24,7 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from hexmigrate.links.base import LinkError
+from hexmigrate.errors import LinkError
 
 HOST = "127.0.0.1"
 START_TIMEOUT = 10.0

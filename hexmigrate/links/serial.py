@@ -26,7 +26,7 @@ import tty
 from typing import TYPE_CHECKING
 from urllib.parse import urlsplit
 
-from hexmigrate.links.base import LinkError
+from hexmigrate.errors import LinkError
 from hexmigrate.links.stream import POLL_INTERVAL, StreamLink
 from hexmigrate.links.url import integer, parse_parameters, url_error
 

@@ -21,7 +21,8 @@ import queue
 import threading
 from typing import Self
 
-from hexmigrate.links.base import Link, LinkBase, LinkError
+from hexmigrate.errors import LinkError
+from hexmigrate.links.base import Link, LinkBase
 from hexmigrate.links.stream import POLL_INTERVAL
 
 

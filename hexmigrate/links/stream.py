@@ -12,7 +12,8 @@ import queue
 import threading
 from abc import abstractmethod
 
-from hexmigrate.links.base import LinkBase, LinkError
+from hexmigrate.errors import LinkError
+from hexmigrate.links.base import LinkBase
 from hexmigrate.links.framing import Deframer, frame
 
 POLL_INTERVAL = 0.02

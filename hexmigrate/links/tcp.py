@@ -27,7 +27,7 @@ import threading
 from contextlib import suppress
 from urllib.parse import urlsplit
 
-from hexmigrate.links.base import LinkError
+from hexmigrate.errors import LinkError
 from hexmigrate.links.framing import Deframer
 from hexmigrate.links.stream import POLL_INTERVAL, StreamLink
 from hexmigrate.links.url import integer, url_error

@@ -12,7 +12,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 from urllib.parse import parse_qsl
 
-from hexmigrate.links.base import LinkUrlError
+from hexmigrate.errors import LinkUrlError
 
 Parser = Callable[[str], Any]
 

@@ -1,4 +1,4 @@
-"""The messages of the transfer protocol, and their two encodings.
+"""The messages of the transfer protocol, each declared once, and their two encodings.
 
 The same conversation runs in two modes (docs/transfer.md):
 
@@ -9,145 +9,210 @@ The same conversation runs in two modes (docs/transfer.md):
   CRC-32 of both; the module's data travels as raw 256-byte blocks. The acknowledgement of a
   programmed block, the one reply the node sends per block, is shorter (`BlockAck`, 7 bytes).
 
-Both decode to the dataclasses below, so the receiver and the sender have one state machine each.
+Each message type below is a frozen dataclass declared with its binary type `code`, its hex-mode
+`verb` and the `check` ending its binary form, and fields declared with how they travel
+(fields.py); `encode` and `decode` read those declarations (layout.py), so adding a message type
+is adding its class here. Both modes decode to these classes, so the receiver and the sender have
+one state machine each.
 """
 
 from __future__ import annotations
 
-import binascii
-import struct
-import zlib
 from dataclasses import dataclass
+from typing import Any, ClassVar, dataclass_transform
 
+from hexmigrate.errors import MessageError
 from hexmigrate.links.base import is_text
+from hexmigrate.transfer.fields import (
+    address,
+    flag,
+    free_text,
+    listing,
+    payload,
+    u8,
+    u16,
+    u32,
+    u32_array,
+    word,
+)
+from hexmigrate.transfer.layout import CRC16, CRC32, Check, Layout, line_sum
 
-NO_ADDRESS = 0xFFFF_FFFF
 TAG_MASK = 0xFFFF
 BLOCK = 256  # a BlockAck counts flash blocks
+RECORD_START = ":"
+"""A text line that starts with it is an Intel HEX record (`HexLine`), not a command."""
+
+_BY_CODE: dict[int, Layout] = {}
+_BY_VERB: dict[str, Layout] = {}
 
 
-class MessageError(ValueError):
-    """Bytes that are not a valid protocol message."""
+@dataclass_transform(
+    frozen_default=True,
+    field_specifiers=(u8, u16, u32, address, flag, word, free_text, listing, u32_array, payload),
+)
+class Message:
+    """A protocol message. Each subclass is one message type, a frozen dataclass, declared as
+
+        class Commit(Message, code=0x08, verb="COMMIT"):
+            tid: int = u32()
+
+    `code` is its binary type byte (None: hex mode only), `verb` its command word in hex mode
+    (None: binary mode only), `check` what ends its binary form (CRC-32 unless given); every
+    field is declared with a specifier of fields.py. `layout` is what the codec reads.
+    """
+
+    layout: ClassVar[Layout]
+
+    def __init_subclass__(
+        cls,
+        *,
+        code: int | None = None,
+        verb: str | None = None,
+        check: Check = CRC32,
+        **options: Any,
+    ) -> None:
+        super().__init_subclass__(**options)
+        dataclass(frozen=True)(cls)
+        cls.layout = Layout(cls, code, verb, check)
+        _register(cls.layout)
 
 
-@dataclass(frozen=True)
-class Ping:
+def _register(layout: Layout) -> None:
+    """Make a declared type known to `decode`."""
+    if layout.code is not None:
+        _claim(_BY_CODE, layout.code, layout)
+    if layout.verb is not None:
+        _claim(_BY_VERB, layout.verb, layout)
+
+
+def _claim(table: dict[Any, Layout], key: int | str, layout: Layout) -> None:
+    """Two message types may not share a type code or a verb."""
+    if key in table:
+        what = f"type code 0x{key:02X}" if isinstance(key, int) else f"verb {key!r}"
+        raise TypeError(f"{layout.cls.__name__}: {what} is already {table[key].cls.__name__}'s")
+    table[key] = layout
+
+
+# Requests.
+
+
+class Ping(Message, code=0x01, verb="PING"):
     """Is anybody there? Answered by `Pong`."""
 
 
-@dataclass(frozen=True)
-class ListModules:
+class ListModules(Message, code=0x02, verb="LS"):
     """Which modules does the node hold? Answered by `Listing`."""
 
 
-@dataclass(frozen=True)
-class Remove:
+class Remove(Message, code=0x03, verb="RM"):
     """Unload a module and free its flash."""
 
-    name: str
+    name: str = word()
 
 
-@dataclass(frozen=True)
-class Begin:
+class Begin(Message, code=0x04, verb="BEGIN"):
     """Open transfer `tid` of an image of `size` bytes linked at `link_base`, with
     `relocations` pointer records to come; `base` asks for a load address (None: any)."""
 
-    tid: int
-    name: str
-    size: int
-    relocations: int
-    link_base: int
-    base: int | None = None
+    tid: int = u32()
+    name: str = word()
+    size: int = u32()
+    relocations: int = u16()
+    link_base: int = u32(shown="0x{:X}")
+    base: int | None = address(default=None)
 
 
-@dataclass(frozen=True)
-class Header:
+class Header(Message, code=0x05):
     """Binary mode: the pointer records of transfer `tid` (hex mode sends 07/08 lines)."""
 
-    tid: int
-    init: int
-    relocations: tuple[int, ...]
+    tid: int = u32()
+    init: int = u32()
+    relocations: tuple[int, ...] = u32_array()
 
 
-@dataclass(frozen=True)
-class Data:
+class Data(Message, code=0x06):
     """Binary mode: image bytes at a link address (one flash block)."""
 
-    tid: int
-    address: int
-    payload: bytes
+    tid: int = u32()
+    address: int = u32()
+    payload: bytes = payload()
 
 
-@dataclass(frozen=True)
-class HexLine:
-    """Hex mode: one Intel HEX record line of the module file."""
+class HexLine(Message):
+    """Hex mode: one Intel HEX record line of the module file, passed as it is (a record
+    carries its own checksum); any line that starts with ':' is one."""
 
-    text: str
+    text: str = free_text()
 
 
-@dataclass(frozen=True)
-class End:
+class End(Message, code=0x07, verb="END"):
     """All data sent; `crc` is the CRC-32 of the image as it must sit in flash (relocated)."""
 
-    tid: int
-    crc: int
+    tid: int = u32()
+    crc: int = u32(shown="0x{:08X}")
 
 
-@dataclass(frozen=True)
-class Commit:
+class Commit(Message, code=0x08, verb="COMMIT"):
     """Make a verified transfer the node's module (register it, replace the old one)."""
 
-    tid: int
+    tid: int = u32()
 
 
-@dataclass(frozen=True)
-class Abort:
+class Abort(Message, code=0x09, verb="ABORT"):
     """Forget a transfer and erase what it wrote."""
 
-    tid: int
+    tid: int = u32()
 
 
-@dataclass(frozen=True)
-class Resume:
+class Resume(Message, code=0x0A, verb="RESUME"):
     """After a cut link: how far did transfer `tid` get? Answered by `Ack` (bytes programmed)."""
 
-    tid: int
+    tid: int = u32()
 
 
-@dataclass(frozen=True)
-class Pong:
+# Answers.
+
+
+class Pong(Message, code=0x11, verb="PONG"):
     """The answer to `Ping`: a line about the node."""
 
-    text: str
+    text: str = free_text()
 
 
-@dataclass(frozen=True)
-class Listing:
+class Listing(Message, code=0x12, verb="MODULES"):
     """The modules of a node: (name, load address, size) each."""
 
-    modules: tuple[tuple[str, int, int], ...]
+    modules: tuple[tuple[str, int, int], ...] = listing()
 
 
-@dataclass(frozen=True)
-class Ack:
+class Ack(Message, code=0x13, verb="ACK"):
     """Success. `value` depends on the request: the load address for Begin and Commit, the
     bytes programmed so far for data, Header and Resume, the image size for End."""
 
-    tid: int
-    value: int
-    text: str = ""
+    tid: int = u32()
+    value: int = u32()
+    text: str = free_text(default="")
 
 
-@dataclass(frozen=True)
-class BlockAck:
+class Nak(Message, code=0x14, verb="NAK"):
+    """Failure. `value` is where the transfer stands (bytes programmed): a sender goes back
+    there. A `fatal` one ends the transfer."""
+
+    tid: int = u32()
+    value: int = u32()
+    reason: str = free_text()
+    fatal: bool = flag("RETRY", "FATAL", default=False)
+
+
+class BlockAck(Message, code=0x15, check=CRC16):
     """Binary mode: data of a transfer programmed up to `value` bytes (a whole number of flash
-    blocks). It names the transfer by `tag`, the low 16 bits of its tid, and carries a CRC-16
-    instead of a CRC-32, so that it fits the 7 bytes of one ISO-TP single frame: a full `Ack`
-    takes three CAN frames (first, flow control, consecutive), and the node sends one per
-    block."""
+    blocks, counted in blocks on the wire). It names the transfer by `tag`, the low 16 bits of
+    its tid, and ends in a CRC-16 instead of a CRC-32, so that it fits the 7 bytes of one ISO-TP
+    single frame: a full `Ack` takes three CAN frames (first, flow control, consecutive), and
+    the node sends one per block."""
 
-    tag: int
-    value: int
+    tag: int = u16()
+    value: int = u16(unit=BLOCK)
 
     @classmethod
     def of(cls, tid: int, programmed: int) -> BlockAck:
@@ -159,275 +224,55 @@ class BlockAck:
         return self.tag == tid & TAG_MASK
 
 
-@dataclass(frozen=True)
-class Nak:
-    """Failure. `value` is where the transfer stands (bytes programmed): a sender goes back
-    there. A `fatal` one ends the transfer."""
-
-    tid: int
-    value: int
-    reason: str
-    fatal: bool = False
-
-
-Message = (
-    Ping
-    | ListModules
-    | Remove
-    | Begin
-    | Header
-    | Data
-    | HexLine
-    | End
-    | Commit
-    | Abort
-    | Resume
-    | Pong
-    | Listing
-    | Ack
-    | BlockAck
-    | Nak
-)
-
-# Binary encoding: type byte -> (class, struct of the fixed part, name of the variable tail).
-_U32 = struct.Struct("<I")
-_BINARY: dict[int, tuple[type, struct.Struct | None, str | None]] = {
-    0x01: (Ping, None, None),
-    0x02: (ListModules, None, None),
-    0x03: (Remove, None, "name"),
-    0x04: (Begin, struct.Struct("<IIHII"), "name"),
-    0x05: (Header, struct.Struct("<II"), "relocations"),
-    0x06: (Data, struct.Struct("<II"), "payload"),
-    0x07: (End, struct.Struct("<II"), None),
-    0x08: (Commit, struct.Struct("<I"), None),
-    0x09: (Abort, struct.Struct("<I"), None),
-    0x0A: (Resume, struct.Struct("<I"), None),
-    0x11: (Pong, None, "text"),
-    0x12: (Listing, None, "modules"),
-    0x13: (Ack, struct.Struct("<II"), "text"),
-    0x14: (Nak, struct.Struct("<IIB"), "reason"),
-}
-_TYPE_OF = {cls: code for code, (cls, _, _) in _BINARY.items()}
-# BlockAck: type, tag, blocks programmed, CRC-16/CCITT (initial value 0xFFFF) of the five.
-_BLOCK_ACK = 0x15
-_BLOCK_ACK_BODY = struct.Struct("<BHH")
-_U16 = struct.Struct("<H")
+# The codec.
 
 
 def encode(message: Message, text: bool) -> bytes:
-    """The message in hex mode (`text`) or binary mode."""
+    """The message in hex mode (`text`) or binary mode; MessageError if it has no form in that
+    mode or a field holds what its form cannot carry."""
     if not text:
-        return _encode_binary(message)
-    line = _encode_text(message)
+        return message.layout.encode_binary(message)
     if isinstance(message, HexLine):
-        return line.encode("ascii")  # a record carries its own checksum
-    return f"{line} *{_line_sum(line):02X}".encode("ascii")
-
-
-def _crc8_table() -> tuple[int, ...]:
-    table = []
-    for byte in range(256):
-        crc = byte
-        for _ in range(8):
-            crc = (crc << 1 ^ 0x07) & 0xFF if crc & 0x80 else crc << 1
-        table.append(crc)
-    return tuple(table)
-
-
-_CRC8 = _crc8_table()
-
-
-def _line_sum(line: str) -> int:
-    """The checksum of a text command: CRC-8 (polynomial 0x07, initial 0) of the line. Optional
-    on input (a person at a terminal need not type it), always written by the protocol, so that
-    a damaged command or answer is refused instead of obeyed. A CRC rather than a byte sum: two
-    flips of one bit in two bytes cancel in a sum, a frequent double fault on a noisy line."""
-    crc = 0
-    for byte in line.encode("ascii"):
-        crc = _CRC8[crc ^ byte]
-    return crc
+        return _ascii(message.text)
+    line = message.layout.encode_text(message)
+    return _ascii(line) + b" *%02X" % line_sum(line)
 
 
 def decode(raw: bytes, checked: bool = False) -> Message:
-    """A message from a text line or a binary frame (told apart by the first byte). With
-    `checked`, a text command or answer must carry its ` *XX`: a program reading what another
-    program wrote should not take a line whose checksum a damaged ``*`` hid for one a person
-    typed."""
+    """A message from a text line or a binary frame (told apart by the first byte); every
+    malformed one is a MessageError. With `checked`, a text command or answer must carry its
+    ` *XX`: a program reading what another program wrote should not take a line whose checksum
+    a damaged ``*`` hid for one a person typed."""
     if not raw:
         raise MessageError("expected a message, got nothing")
-    return _decode_text(raw, checked) if is_text(raw) else _decode_binary(raw)
+    if is_text(raw):
+        return _decode_line(raw, checked)
+    layout = _BY_CODE.get(raw[0])
+    if layout is None:
+        codes = ", ".join(f"0x{code:02X}" for code in sorted(_BY_CODE))
+        raise MessageError(f"expected a binary message type among {codes}, got 0x{raw[0]:02X}")
+    message: Message = layout.decode_binary(raw)
+    return message
 
 
-def _encode_binary(message: Message) -> bytes:
-    if isinstance(message, BlockAck):
-        return _encode_block_ack(message)
-    code = _TYPE_OF[type(message)]
-    _, fixed, tail = _BINARY[code]
-    body = b""
-    if isinstance(message, Begin):
-        base = NO_ADDRESS if message.base is None else message.base
-        body = fixed.pack(message.tid, message.size, message.relocations, message.link_base, base)
-    elif isinstance(message, Header):
-        body = fixed.pack(message.tid, message.init)
-    elif isinstance(message, Data | End | Ack):
-        first = {Data: "address", End: "crc", Ack: "value"}[type(message)]
-        body = fixed.pack(message.tid, getattr(message, first))
-    elif isinstance(message, Nak):
-        body = fixed.pack(message.tid, message.value, int(message.fatal))
-    elif fixed is not None:
-        body = fixed.pack(message.tid)
-    body += _binary_tail(message, tail)
-    frame = bytes([code]) + body
-    return frame + _U32.pack(zlib.crc32(frame))
-
-
-def _encode_block_ack(message: BlockAck) -> bytes:
-    blocks, partial = divmod(message.value, BLOCK)
-    if partial or not 0 <= blocks <= 0xFFFF:
-        raise ValueError(f"expected a whole number of blocks below 16 MiB, got {message.value}")
-    frame = _BLOCK_ACK_BODY.pack(_BLOCK_ACK, message.tag, blocks)
-    return frame + _U16.pack(binascii.crc_hqx(frame, 0xFFFF))
-
-
-def _decode_block_ack(raw: bytes) -> BlockAck:
-    size = _BLOCK_ACK_BODY.size + _U16.size
-    if len(raw) != size or binascii.crc_hqx(raw[:-2], 0xFFFF) != _U16.unpack(raw[-2:])[0]:
-        raise MessageError(f"expected a {size}-byte block acknowledgement with a valid CRC-16")
-    _, tag, blocks = _BLOCK_ACK_BODY.unpack(raw[:-2])
-    return BlockAck(tag, blocks * BLOCK)
-
-
-def _binary_tail(message: Message, tail: str | None) -> bytes:
-    if tail is None:
-        return b""
-    value = getattr(message, tail)
-    if tail == "relocations":
-        return b"".join(_U32.pack(location) for location in value)
-    if tail == "modules":
-        return _listing_text(value).encode("utf-8")
-    return value if isinstance(value, bytes) else value.encode("utf-8")
-
-
-def _decode_binary(raw: bytes) -> Message:
-    if raw[0] == _BLOCK_ACK:
-        return _decode_block_ack(raw)
-    if len(raw) < 5 or zlib.crc32(raw[:-4]) != _U32.unpack(raw[-4:])[0]:
-        raise MessageError("expected a binary message with a valid CRC-32")
-    code, body = raw[0], raw[1:-4]
-    if code not in _BINARY:
-        raise MessageError(f"expected a binary message type, got 0x{code:02X}")
-    cls, fixed, _ = _BINARY[code]
-    size = 0 if fixed is None else fixed.size
-    if len(body) < size:
-        raise MessageError(f"expected at least {size} bytes after type 0x{code:02X}")
-    fields = () if fixed is None else fixed.unpack(body[:size])
-    rest = body[size:]
-    try:
-        return _build_binary(cls, fields, rest)
-    except (UnicodeDecodeError, struct.error) as error:
-        raise MessageError(f"bad {cls.__name__} message: {error}") from None
-
-
-def _build_binary(cls: type, fields: tuple, rest: bytes) -> Message:
-    if cls is Begin:
-        tid, size, relocations, link_base, base = fields
-        return Begin(
-            tid,
-            rest.decode("utf-8"),
-            size,
-            relocations,
-            link_base,
-            None if base == NO_ADDRESS else base,
-        )
-    if cls is Header:
-        if len(rest) % 4:
-            raise MessageError("expected 4-byte pointer locations in a Header message")
-        locations = tuple(value for (value,) in _U32.iter_unpack(rest))
-        return Header(fields[0], fields[1], locations)
-    if cls is Data:
-        return Data(fields[0], fields[1], rest)
-    if cls is Nak:
-        return Nak(fields[0], fields[1], rest.decode("utf-8"), bool(fields[2]))
-    if cls is Ack:
-        return Ack(fields[0], fields[1], rest.decode("utf-8"))
-    if cls is Listing:
-        return Listing(_parse_listing(rest.decode("utf-8").split()))
-    if cls in (Pong, Remove):
-        return cls(rest.decode("utf-8"))
-    return cls(*fields)
-
-
-def _listing_text(modules: tuple[tuple[str, int, int], ...]) -> str:
-    return " ".join(f"{name}@0x{address:08X}:{size}" for name, address, size in modules)
-
-
-def _parse_listing(words: list[str]) -> tuple[tuple[str, int, int], ...]:
-    modules = []
-    for word in words:
-        name, _, rest = word.partition("@")
-        address, _, size = rest.partition(":")
-        modules.append((name, _number(address), _number(size)))
-    return tuple(modules)
-
-
-def _encode_text(message: Message) -> str:
-    if isinstance(message, HexLine):
-        return message.text
-    if isinstance(message, Begin):
-        words = [
-            "BEGIN",
-            message.tid,
-            message.name,
-            message.size,
-            message.relocations,
-            f"0x{message.link_base:X}",
-        ]
-        return " ".join(map(str, words + ([] if message.base is None else [f"0x{message.base:X}"])))
-    if isinstance(message, Nak):
-        return (
-            f"NAK {message.tid} {message.value} {'FATAL' if message.fatal else 'RETRY'} "
-            f"{message.reason}"
-        )
-    if isinstance(message, Ack):
-        return f"ACK {message.tid} {message.value} {message.text}".rstrip()
-    if isinstance(message, Listing):
-        return f"MODULES {_listing_text(message.modules)}".rstrip()
-    if isinstance(message, Pong):
-        return f"PONG {message.text}"
-    if isinstance(message, Remove):
-        return f"RM {message.name}"
-    if isinstance(message, End):
-        return f"END {message.tid} 0x{message.crc:08X}"
-    if isinstance(message, Header | Data | BlockAck):
-        raise MessageError(f"{type(message).__name__} exists in binary mode only")
-    word = {Ping: "PING", ListModules: "LS", Commit: "COMMIT", Abort: "ABORT", Resume: "RESUME"}[
-        type(message)
-    ]
-    return word if isinstance(message, Ping | ListModules) else f"{word} {message.tid}"
-
-
-def _decode_text(raw: bytes, checked: bool) -> Message:
+def _decode_line(raw: bytes, checked: bool) -> Message:
     try:
         line = raw.decode("ascii").strip()
     except UnicodeDecodeError:
         raise MessageError("expected an ASCII line") from None
-    if line.startswith(":"):
+    if line.startswith(RECORD_START):
         return HexLine(line)
-    line = _strip_checksum(line, checked)
-    word, *args = line.split()
-    word = word.upper()
-    low, high = _ARITY.get(word, (0, None))
-    if len(args) < low or (high is not None and len(args) > high):
-        raise MessageError(f"expected {_USAGE.get(word, word)}, got {line[:60]!r}")
-    try:
-        return _TEXT_PARSERS[word](args, line)
-    except KeyError:
+    words = _strip_checksum(line, checked).split(None, 1)
+    if not words:
+        raise MessageError(f"expected a command or a record line, got {line[:30]!r}")
+    layout = _BY_VERB.get(words[0].upper())
+    if layout is None:
         raise MessageError(
-            f"expected a command ({', '.join(sorted(_TEXT_PARSERS))}) or a record line, "
+            f"expected a command ({', '.join(sorted(_BY_VERB))}) or a record line, "
             f"got {line[:30]!r}"
-        ) from None
-    except (ValueError, IndexError):
-        raise MessageError(f"expected {_USAGE.get(word, word)}, got {line[:60]!r}") from None
+        )
+    message: Message = layout.decode_text(words[1] if len(words) > 1 else "", line)
+    return message
 
 
 def _strip_checksum(line: str, checked: bool) -> str:
@@ -440,67 +285,14 @@ def _strip_checksum(line: str, checked: bool) -> str:
         if checked or "*" in line:
             raise MessageError(f"expected a checksum ' *XX' at the end, got {line[-8:]!r}")
         return line
-    if _line_sum(body) != int(tail, 16):
-        raise MessageError(f"expected checksum {_line_sum(body):02X}, got {tail} in {line[:40]!r}")
+    if line_sum(body) != int(tail, 16):
+        raise MessageError(f"expected checksum {line_sum(body):02X}, got {tail} in {line[:40]!r}")
     return body
 
 
-def _number(text: str) -> int:
-    return int(text, 0)
-
-
-def _begin(args: list[str], line: str) -> Begin:
-    tid, name, size, relocations, link_base, *base = args
-    return Begin(
-        _number(tid),
-        name,
-        _number(size),
-        _number(relocations),
-        _number(link_base),
-        _number(base[0]) if base else None,
-    )
-
-
-_TEXT_PARSERS = {
-    "PING": lambda args, line: Ping(),
-    "LS": lambda args, line: ListModules(),
-    "RM": lambda args, line: Remove(args[0]),
-    "BEGIN": _begin,
-    "END": lambda args, line: End(_number(args[0]), _number(args[1])),
-    "COMMIT": lambda args, line: Commit(_number(args[0])),
-    "ABORT": lambda args, line: Abort(_number(args[0])),
-    "RESUME": lambda args, line: Resume(_number(args[0])),
-    "PONG": lambda args, line: Pong(line.partition(" ")[2]),
-    "MODULES": lambda args, line: Listing(_parse_listing(args)),
-    "ACK": lambda args, line: Ack(_number(args[0]), _number(args[1]), " ".join(args[2:])),
-    "NAK": lambda args, line: Nak(
-        _number(args[0]), _number(args[1]), " ".join(args[3:]), args[2].upper() == "FATAL"
-    ),
-}
-# How many words may follow each command word (None: any number, for free text).
-_ARITY: dict[str, tuple[int, int | None]] = {
-    "PING": (0, 0),
-    "LS": (0, 0),
-    "RM": (1, 1),
-    "BEGIN": (5, 6),
-    "END": (2, 2),
-    "COMMIT": (1, 1),
-    "ABORT": (1, 1),
-    "RESUME": (1, 1),
-    "PONG": (0, None),
-    "MODULES": (0, None),
-    "ACK": (2, None),
-    "NAK": (3, None),
-}
-_USAGE = {
-    "PING": "PING",
-    "LS": "LS",
-    "RM": "RM NAME",
-    "BEGIN": "BEGIN TID NAME SIZE RELOCATIONS LINK_BASE [LOAD_BASE]",
-    "END": "END TID CRC32",
-    "COMMIT": "COMMIT TID",
-    "ABORT": "ABORT TID",
-    "RESUME": "RESUME TID",
-    "ACK": "ACK TID VALUE [TEXT]",
-    "NAK": "NAK TID VALUE RETRY|FATAL REASON",
-}
+def _ascii(line: str) -> bytes:
+    """A text message's bytes; a line is ASCII, whatever a name or a reason holds."""
+    try:
+        return line.encode("ascii")
+    except UnicodeEncodeError:
+        raise MessageError(f"expected ASCII text in hex mode, got {line[:60]!r}") from None

@@ -16,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
-from hexmigrate.errors import HexError
+from hexmigrate.errors import HexError, MessageError
 from hexmigrate.links.base import is_text
 from hexmigrate.records import RecordType, decode_record
 from hexmigrate.transfer.messages import (
@@ -32,7 +32,6 @@ from hexmigrate.transfer.messages import (
     Listing,
     ListModules,
     Message,
-    MessageError,
     Nak,
     Ping,
     Pong,
@@ -83,8 +82,10 @@ class Target(Protocol):
     def describe(self) -> str: ...
 
 
-class TransferFailed(Exception):
-    """Ends a transfer: replied as a fatal NAK, everything the transfer wrote is erased."""
+class _FatalRefusal(Exception):
+    """Control flow, not an error of hexmigrate: a handler raises it to end the transfer, and
+    `Receiver.dispatch` turns it into a fatal NAK and erases what the transfer wrote. It never
+    leaves the receiver."""
 
 
 @dataclass
@@ -115,30 +116,33 @@ class Receiver:
         self.committed: OrderedDict[int, Ack] = OrderedDict()
 
     def handle(self, raw: bytes) -> list[bytes]:
-        """Replies to one received message (encoded in the mode it came in)."""
+        """Replies to one received message, encoded in the mode it came in. A node never exits
+        on a message: one that does not decode is refused with the reason, and a reply that
+        cannot be written in the mode asked (a module whose name has a blank, listed in hex
+        mode) becomes a refusal that says why."""
         text = is_text(raw)
         try:
             message = decode(raw)
         except MessageError as error:
-            return [encode(Nak(0, 0, f"bad message: {error}"), text)]
-        return [encode(reply, text) for reply in self.dispatch(message)]
+            return [_encoded(Nak(0, 0, f"bad message: {error}"), text)]
+        return [_encoded(reply, text) for reply in self.dispatch(message)]
 
     def dispatch(self, message: Message) -> list[Message]:
         """Replies to one decoded message."""
         handler = _HANDLERS.get(type(message))
-        if handler is None:  # an answer: see ANSWERS
+        if handler is None:  # an answer: see _HANDLERS
             return []
         tid = getattr(message, "tid", IMPLICIT)
         try:
             return handler(self, message)
-        except TransferFailed as error:
+        except _FatalRefusal as error:
             self._drop(tid)
             return [Nak(tid, 0, str(error), fatal=True)]
 
     def _transfer(self, tid: int) -> Transfer:
         transfer = self.transfers.get(tid)
         if transfer is None:
-            raise TransferFailed(f"unknown transfer {tid}: send BEGIN first")
+            raise _FatalRefusal(f"unknown transfer {tid}: send BEGIN first")
         return transfer
 
     def _drop(self, tid: int) -> None:
@@ -268,7 +272,7 @@ class Receiver:
         try:
             session = self.target.begin(owner, None, None)
         except Exception as error:
-            raise TransferFailed(f"cannot begin: {error}") from None
+            raise _FatalRefusal(f"cannot begin: {error}") from None
         transfer = Transfer(IMPLICIT, owner, session, None, None)
         self.transfers[IMPLICIT] = transfer
         return transfer
@@ -285,7 +289,7 @@ class Receiver:
                 _guard(session.feed_init, value)
             announced, got = transfer.relocations, len(transfer.locations)
             if announced is not None and got > announced:
-                raise TransferFailed(f"expected {announced} pointer records (BEGIN), got {got}")
+                raise _FatalRefusal(f"expected {announced} pointer records (BEGIN), got {got}")
             if announced is not None and got < announced:
                 # The records that came stay: the sender sends the header again, and the lost
                 # records fill in.
@@ -301,10 +305,10 @@ class Receiver:
             try:
                 transfer.image = transfer.session.finish()
             except Exception as error:
-                raise TransferFailed(f"not a valid module: {error}") from None
+                raise _FatalRefusal(f"not a valid module: {error}") from None
         image = transfer.image
         if check_crc and image.crc32 != message.crc:
-            raise TransferFailed(
+            raise _FatalRefusal(
                 f"CRC-32 of the programmed image is 0x{image.crc32:08X}, expected "
                 f"0x{message.crc:08X}"
             )
@@ -342,17 +346,22 @@ class Receiver:
         return [Ack(message.tid, transfer.session.programmed, state)]
 
 
+def _encoded(reply: Message, text: bool) -> bytes:
+    """`reply` in hex mode (`text`) or binary mode, or a refusal when it cannot be."""
+    try:
+        return encode(reply, text)
+    except MessageError as error:
+        reason = f"cannot answer: {error}".encode("ascii", "backslashreplace").decode("ascii")
+        return encode(Nak(getattr(reply, "tid", 0), 0, reason), text)
+
+
 def _guard(action: Callable[..., object], *args: object) -> None:
     """Run a session step; a refusal (format error, no room) ends the transfer."""
     try:
         action(*args)
     except (HexError, ValueError, RuntimeError) as error:
-        raise TransferFailed(str(error)) from None
+        raise _FatalRefusal(str(error)) from None
 
-
-ANSWERS = (Pong, Listing, Ack, BlockAck, Nak)
-"""What a node hears but never answers: on a shared line (`hexmigrate.links.shared`) it hears
-its own answers and other nodes', and two nodes that answered answers would talk forever."""
 
 _HANDLERS = {
     Ping: Receiver._ping,
@@ -367,3 +376,7 @@ _HANDLERS = {
     Abort: Receiver._abort,
     Resume: Receiver._resume,
 }
+"""The requests a node answers. Any other message is an answer (`Pong`, `Listing`, `Ack`,
+`BlockAck`, `Nak`), which a node hears but never answers: on a shared line
+(`hexmigrate.links.shared`) it hears its own answers and other nodes', and two nodes that
+answered answers would talk forever."""

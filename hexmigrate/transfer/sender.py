@@ -16,8 +16,9 @@ import zlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
+from hexmigrate.errors import LinkError, MessageError, NoAnswer, TransferError, TransferInterrupted
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
-from hexmigrate.links.base import Link, LinkError
+from hexmigrate.links.base import Link
 from hexmigrate.records import Record, RecordType
 from hexmigrate.transfer.messages import (
     Abort,
@@ -32,7 +33,6 @@ from hexmigrate.transfer.messages import (
     Listing,
     ListModules,
     Message,
-    MessageError,
     Nak,
     Ping,
     Pong,
@@ -56,23 +56,6 @@ REFUSALS_PER_RETRY = 20
 """Refusals in a row without progress, per retry, after which a transfer gives up: on a noisy
 line each lost message costs a few refusals, but a line that lets nothing through, or a node
 and a sender that no longer agree, must not keep them talking forever."""
-
-
-class TransferError(RuntimeError):
-    """The node refused, or stopped answering: the transfer did not happen."""
-
-
-class NoAnswer(TransferError):
-    """A request went unanswered through every retry."""
-
-
-class TransferInterrupted(TransferError):
-    """The link failed mid-transfer; `resume(image, tid)` on a new link continues it."""
-
-    def __init__(self, message: str, tid: int, programmed: int) -> None:
-        super().__init__(message)
-        self.tid = tid
-        self.programmed = programmed
 
 
 @dataclass(frozen=True)
@@ -125,7 +108,12 @@ class Sender:
         self.wire_bytes = 0
         self.retransmissions = 0
         self.acknowledged = 0
+        self.heard = 0
+        """Messages received from the link, but for echoes of our own (see `_Tries`)."""
+        self.quiet = False
+        """Whether the last wait for an answer heard nothing at all."""
         self.flight = window * FLASH_BLOCK_SIZE
+        self._sent_last = b""
 
     # Plain requests.
 
@@ -160,9 +148,18 @@ class Sender:
 
     def _abandon(self, tid: int) -> None:
         """Ask the node to erase what a failed transfer wrote (best effort: the link may be
-        too bad even for that, then the node keeps it until ABORT or a restart)."""
+        too bad even for that, then the node keeps it until ABORT or a restart).
+
+        When the node answered last, the ABORT is a request like any other. When the last
+        wait heard nothing (`quiet`), it is sent once and not waited for: a node that did not
+        answer the last tries would not answer this one either, and waiting for it would
+        double the time the options allow a failure to take.
+        """
         with contextlib.suppress(TransferError, LinkError):
-            self._request(Abort(tid), Ack, tid, what="aborted")
+            if self.quiet:
+                self._send(Abort(tid))
+            else:
+                self._request(Abort(tid), Ack, tid, what="aborted")
 
     def resume(self, image: ModuleImage, tid: int) -> TransferResult:
         """Continue transfer `tid` of `image` after a cut link."""
@@ -223,15 +220,16 @@ class Sender:
             for location in image.relocations
         ]
         lines.append(Record.pointer(RecordType.MODULE_INIT_POINTER, image.init).encode())
+        tries = _Tries(self)
         for _ in range(self.retries + 1):
             for line in lines:
                 self._send(HexLine(line))
             reply = self._await(tid, (Ack, Nak), what="header")
             if isinstance(reply, Ack):
                 return
-            self._check_fatal(reply)
+            tries.count(reply)
             self.retransmissions += 1
-        raise TransferError(f"transfer {tid}: the node did not take the header")
+        raise tries.failure(f"the header of transfer {tid}")
 
     def _send_blocks(self, image: ModuleImage, tid: int, programmed: int, start: float) -> None:
         """Go-back-N over the image, from `programmed` bytes on, with up to `flight` bytes
@@ -250,7 +248,7 @@ class Sender:
                 self._silence(window, tid, total)
                 continue
             window.silent = 0
-            self._check_fatal(reply)
+            _check_fatal(reply)
             if _is_repeat(reply):
                 window.skip_to(reply.value)
             elif reply.value > window.acked and not isinstance(reply, Nak):
@@ -265,8 +263,10 @@ class Sender:
         answer says where the node stands; give up after `retries` silences in a row."""
         window.silent += 1
         if window.silent > self.retries:
-            raise TransferError(
-                f"transfer {tid}: the node stopped answering at {window.acked} of {total} bytes"
+            raise NoAnswer(
+                f"transfer {tid}: the node stopped answering at {window.acked} of {total} "
+                f"bytes: nothing came in {window.silent} waits of {self.timeout:g} s on "
+                f"{self.link.url}"
             )
         self.retransmissions += 1
         self._shrink()
@@ -356,6 +356,7 @@ class Sender:
     def _send(self, message: Message) -> None:
         raw = encode(message, self.text)
         self.wire_bytes += len(raw)
+        self._sent_last = raw
         self.link.send(raw)
 
     def _request(
@@ -370,6 +371,7 @@ class Sender:
         would count as a failed attempt of this request.
         """
         self._drain()
+        tries = _Tries(self)
         for attempt in range(self.retries + 1):
             if attempt:
                 self.retransmissions += 1
@@ -377,12 +379,8 @@ class Sender:
             reply = self._await(tid, (expected, Nak), what=what)
             if isinstance(reply, expected):
                 return reply
-            if reply is not None:
-                self._check_fatal(reply)
-        raise NoAnswer(
-            f"no answer to {type(message).__name__} after "
-            f"{self.retries + 1} tries ({self.timeout} s each)"
-        )
+            tries.count(reply)
+        raise tries.failure(type(message).__name__)
 
     def _drain(self) -> None:
         """Drop the answers that have already arrived."""
@@ -399,10 +397,14 @@ class Sender:
         """The next reply of one of `kinds` for `tid` within the timeout; an Ack must start
         with `what`. Anything else is stale (a late answer to an earlier message) and skipped."""
         deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
+        heard = self.heard
         while True:  # at least one look, even with a zero timeout
             raw = self.link.receive(max(0.0, deadline - time.monotonic()))
             if raw is None:
+                self.quiet = self.heard == heard
                 return None
+            if raw != self._sent_last:  # not our own echo on a shared line
+                self.heard += 1
             try:
                 reply = decode(raw, checked=True)
             except MessageError:
@@ -413,12 +415,50 @@ class Sender:
                 continue
             if isinstance(reply, Ack) and not reply.text.startswith(what):
                 continue
+            self.quiet = False
             return reply
 
-    @staticmethod
-    def _check_fatal(reply: Message) -> None:
-        if isinstance(reply, Nak) and reply.fatal:
-            raise TransferError(f"the node refused: {reply.reason}")
+
+class _Tries:
+    """What the tries of one request heard, to say why they failed: nothing at all (nobody
+    answered), refusals (the node is there and says no), or only messages that answered
+    something else (late answers, damaged messages)."""
+
+    def __init__(self, sender: Sender) -> None:
+        self.sender = sender
+        self.start = time.monotonic()
+        self.heard_before = sender.heard
+        self.tries = 0
+        self.refusals: list[Nak] = []
+
+    def count(self, reply: Message | None) -> None:
+        """One try failed with `reply` (None: nothing acceptable within the timeout); a fatal
+        refusal ends the request at once."""
+        self.tries += 1
+        if reply is not None:
+            _check_fatal(reply)
+            if isinstance(reply, Nak):
+                self.refusals.append(reply)
+
+    def failure(self, what: str) -> NoAnswer:
+        """The error after the last try: how many tries, how long each waited, how long in
+        all, and what was heard."""
+        sender = self.sender
+        tries = _plural(self.tries, "try", "tries")
+        elapsed = time.monotonic() - self.start
+        heard = sender.heard - self.heard_before
+        if self.refusals:
+            times = _plural(len(self.refusals), "time", "times")
+            outcome = f"the node refused it {times} (last: {self.refusals[-1].reason})"
+        elif heard:
+            messages = _plural(heard, "message", "messages")
+            outcome = f"heard {messages}, none an answer to it (late or damaged)"
+        else:
+            outcome = "nobody answered"
+        return NoAnswer(
+            f"no answer to {what} after {tries} on {sender.link.url}, waiting "
+            f"{sender.timeout:g} s after each ({elapsed:.1f} s in all): {outcome}"
+        )
 
 
 @dataclass
@@ -455,6 +495,16 @@ class _Window:
         further back (a damaged answer may have misled us)."""
         self.known = max(self.acked, position)
         self.next = self.known
+
+
+def _plural(count: int, one: str, many: str) -> str:
+    return f"{count} {one if count == 1 else many}"
+
+
+def _check_fatal(reply: Message) -> None:
+    """A fatal refusal ends the transfer: the node said why."""
+    if isinstance(reply, Nak) and reply.fatal:
+        raise TransferError(f"the node refused: {reply.reason}")
 
 
 def _is_repeat(reply: Message) -> bool:

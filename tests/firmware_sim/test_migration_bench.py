@@ -1,52 +1,44 @@
-"""The virtual-time wires (firmware_sim.wire_sim) and benchmarks/migration.py on a small module:
-the accounting of every byte and frame, and the invariants the figures rest on."""
+"""The virtual-time wires (firmware_sim.wire_sim) and the in-process transfer on a small module:
+the accounting of every byte and frame, and the invariants the figures of
+benchmarks/migration.py rest on. Those figures (speeds, ratios) are the benchmark's to print;
+what is checked here is what each measured run moves."""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-from types import ModuleType
+import zlib
 
 import pytest
 
+from firmware_sim.node import Node
 from firmware_sim.wire import can_frame_bits, can_frame_bits_worst
 from firmware_sim.wire_sim.events import Simulation, Transmitter
-from firmware_sim.wire_sim.link import HOST_ID, SimulatedLink, connect
+from firmware_sim.wire_sim.in_process import copy_transfer, stack_transfer
+from firmware_sim.wire_sim.link import DEFAULT_BAUDRATE, HOST_ID, SimulatedLink, connect
 from firmware_sim.wire_sim.ports import isotp_frames
 from firmware_sim.wire_sim.transfer import DEFAULT_WINDOW, HEX_LINE_CHARS, run_transfer
+from firmware_sim.wire_sim.workload import EXTRA_RELOCATIONS, TID, random_module
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
+from hexmigrate.links.can import DEFAULT_BITRATE
 from hexmigrate.links.framing import frame
-from hexmigrate.transfer.messages import Data, encode
-from hexmigrate.transfer.sender import BLOCKS_PER_DATA
+from hexmigrate.records import Record, RecordType
+from hexmigrate.transfer.messages import Begin, Commit, Data, End, Header, HexLine, encode
+from hexmigrate.transfer.sender import BLOCKS_PER_DATA, RECORD_SIZE
 
 SMALL = 2000  # 8 blocks, the last one partial
-
-
-def _load_benchmark() -> ModuleType:
-    path = Path(__file__).parents[2] / "benchmarks" / "migration.py"
-    spec = importlib.util.spec_from_file_location("migration_bench", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up while the class is built
-    spec.loader.exec_module(module)
-    return module
-
-
-bench = _load_benchmark()
+WIRES = (("serial", "binary"), ("serial", "hex"), ("CAN", "binary"))
 
 
 @pytest.fixture(scope="module")
 def image(example_builds) -> ModuleImage:
-    return bench.random_module(image_from_elf(example_builds["gain"].elf), SMALL)
+    return random_module(image_from_elf(example_builds["gain"].elf), SMALL)
 
 
 @pytest.fixture(scope="module")
 def runs(image) -> dict[str, object]:
     return {
-        f"{wire} {mode}": run_transfer(image, wire, mode, DEFAULT_WINDOW, tid=bench.TID)
-        for wire, mode in bench.WIRES
+        f"{wire} {mode}": run_transfer(image, wire, mode, DEFAULT_WINDOW, tid=TID)
+        for wire, mode in WIRES
     }
 
 
@@ -60,7 +52,7 @@ def data_messages(image: ModuleImage) -> list[bytes]:
         pieces.append((offset, step if offset + step < image.size else FLASH_BLOCK_SIZE))
         offset += pieces[-1][1]
     return [
-        encode(Data(bench.TID, image.link_base + offset, image.data[offset : offset + n]), False)
+        encode(Data(TID, image.link_base + offset, image.data[offset : offset + n]), False)
         for offset, n in pieces
     ]
 
@@ -71,7 +63,7 @@ def test_the_module_is_random_data_around_real_code(image, example_builds):
     assert image.data.startswith(code.data)
     assert image.init == code.init
     extra = set(image.relocations) - set(code.relocations)
-    assert len(extra) == bench.EXTRA_RELOCATIONS
+    assert len(extra) == EXTRA_RELOCATIONS
     assert all(location % 4 == 0 and location >= code.link_base + code.size for location in extra)
 
 
@@ -123,10 +115,10 @@ def test_a_transfer_is_clean_and_within_its_wire(runs, name):
     assert 0 < run.header_at < run.data_at < run.seconds
     assert 0 < run.efficiency <= 1
     if run.wire == "CAN":  # one bus for both directions
-        busy = (run.host.total_bits() + run.node.total_bits()) / bench.CAN_BITRATE
+        busy = (run.host.total_bits() + run.node.total_bits()) / DEFAULT_BITRATE
         assert can_frame_bits_worst(8) > run.cf_bits > 100
     else:
-        busy = max(run.host.total_bits(), run.node.total_bits()) / bench.BAUDRATE
+        busy = max(run.host.total_bits(), run.node.total_bits()) / DEFAULT_BAUDRATE
     assert run.seconds >= busy
 
 
@@ -157,13 +149,49 @@ def test_the_can_bus_carries_exactly_the_isotp_frames(image, runs):
 
 
 def test_a_window_of_one_waits_for_each_acknowledgement(image, runs):
-    single = run_transfer(image, "serial", "binary", 1, tid=bench.TID)
+    single = run_transfer(image, "serial", "binary", 1, tid=TID)
     assert single.seconds > runs["serial binary"].seconds
     assert single.efficiency < runs["serial binary"].efficiency
 
 
-@pytest.mark.parametrize("framed", [False, True])
-def test_the_stack_is_measured_against_a_copy_through_the_same_link(image, framed):
-    for mode in ("binary", "hex"):
-        stack = bench.stack_seconds(image, mode, framed, repeat=1)
-        assert 0 < bench.copy_seconds(image, framed, repeat=1) < stack
+def request_bytes(image: ModuleImage, load_base: int, mode: str) -> int:
+    """The bytes a clean transfer of `image` to `load_base` sends, request by request."""
+    text = mode == "hex"
+    begin = Begin(TID, image.name, image.size, len(image.relocations), image.link_base)
+    end = End(TID, zlib.crc32(image.relocate(load_base)))
+    total = sum(len(encode(m, text)) for m in (begin, end, Commit(TID)))
+    if not text:
+        header = Header(TID, image.init, image.relocations)
+        return total + len(encode(header, False)) + sum(map(len, data_messages(image)))
+    pointers = [Record.pointer(RecordType.OFFSET_FUNCTION_POINTER, at) for at in image.relocations]
+    pointers.append(Record.pointer(RecordType.MODULE_INIT_POINTER, image.init))
+    lines = [record.encode() for record in pointers]
+    for offset in range(0, image.size, FLASH_BLOCK_SIZE):
+        address = image.link_base + offset
+        upper = (address >> 16).to_bytes(2, "big")
+        lines.append(Record(RecordType.EXTENDED_LINEAR_ADDRESS, 0, upper).encode())
+        for at in range(offset, min(offset + FLASH_BLOCK_SIZE, image.size), RECORD_SIZE):
+            chunk = image.data[at : at + RECORD_SIZE]
+            lines.append(Record(RecordType.DATA, (image.link_base + at) & 0xFFFF, chunk).encode())
+    return total + sum(len(encode(HexLine(line), True)) for line in lines)
+
+
+@pytest.mark.parametrize("framed", [False, True], ids=["plain", "framed"])
+@pytest.mark.parametrize("mode", ["binary", "hex"])
+def test_the_in_process_stack_installs_the_module_sending_each_byte_once(image, mode, framed):
+    with Node() as node:
+        result = stack_transfer(node, image, mode, framed, tid=TID)
+        module = node.modules["gain"]  # the name its descriptor registers
+        assert node.flash.read(module.load_address, image.size) == image.relocate(
+            module.load_address
+        )
+    assert (result.name, result.size, result.retransmissions) == ("gain", SMALL, 0)
+    assert result.wire_bytes == request_bytes(image, module.load_address, mode)
+
+
+@pytest.mark.parametrize("framed", [False, True], ids=["plain", "framed"])
+def test_the_copy_baseline_moves_the_image_one_block_a_message(image, framed):
+    sink = copy_transfer(image, framed)
+    assert bytes(sink.data) == image.data
+    assert sink.messages == -(-SMALL // FLASH_BLOCK_SIZE) == 8
+    assert sink.position == SMALL

@@ -37,6 +37,7 @@ from firmware_sim.natives import Signal
 from firmware_sim.node import Node
 from firmware_sim.server import NodeTarget, serve
 from hexmigrate.elf import image_from_elf
+from hexmigrate.errors import TransferInterrupted
 from hexmigrate.image import ModuleImage
 from hexmigrate.links import LinkBase, open_link
 from hexmigrate.links.faulty import FaultyLink
@@ -45,7 +46,7 @@ from hexmigrate.links.shared import SharedLine
 from hexmigrate.links.slcan_device import SlcanDevice
 from hexmigrate.links.tcp import TcpListenLink
 from hexmigrate.transfer.receiver import Receiver
-from hexmigrate.transfer.sender import Sender, TransferInterrupted
+from hexmigrate.transfer.sender import Sender
 from pbort.errors import KernelError
 from pbort.native import NativeModule
 

@@ -19,11 +19,10 @@ from hexmigrate.descriptor import (
     METHODS_OFFSET,
     PORT_SIZE,
     SIZE,
-    AbiMismatchError,
     Descriptor,
-    DescriptorError,
     PortSpec,
 )
+from hexmigrate.errors import AbiMismatchError, DescriptorError
 
 LINK_BASE = 0x00010000
 R_RISCV_32 = 1

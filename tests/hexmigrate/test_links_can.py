@@ -8,7 +8,8 @@ from pathlib import Path
 import can
 import pytest
 
-from hexmigrate.links import LinkError, open_link, remote_server
+from hexmigrate.errors import LinkError
+from hexmigrate.links import open_link, remote_server
 from hexmigrate.links.can import CanLink, parse_url
 from hexmigrate.links.remote_server import RemoteCanServer
 

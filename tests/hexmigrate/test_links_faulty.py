@@ -8,8 +8,8 @@ import time
 
 import pytest
 
-from hexmigrate.links import LinkError, open_link
-from hexmigrate.links.base import LinkUrlError
+from hexmigrate.errors import LinkError, LinkUrlError
+from hexmigrate.links import open_link
 from hexmigrate.links.faulty import FaultInjector, Faults, FaultyLink
 
 COUNT = 2000

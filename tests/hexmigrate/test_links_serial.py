@@ -9,7 +9,8 @@ import time
 
 import pytest
 
-from hexmigrate.links import LinkError, open_link, serial
+from hexmigrate.errors import LinkError
+from hexmigrate.links import open_link, serial
 from hexmigrate.links.serial import PtyPair, SerialLink
 
 

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import pytest
 
+from hexmigrate.errors import LinkError
 from hexmigrate.links import open_link
-from hexmigrate.links.base import LinkBase, LinkError
+from hexmigrate.links.base import LinkBase
 from hexmigrate.links.shared import SharedLine
 from hexmigrate.transfer import messages as m
 from hexmigrate.transfer.receiver import Receiver

@@ -1,8 +1,9 @@
 """The same round trips on every transport, as pyserial's suite runs on loop:// or hardware.
 
 Each transport is set up once as a link whose messages come back: loop:// by itself, socket://
-through a byte echo server on 127.0.0.1, and the pty, remote CAN and SLCAN set-ups through an
-echo peer in another process, as a node and a host would run.
+through a byte echo server on 127.0.0.1, the in-process `DirectLink` into a function that echoes
+(through the serial framing or not), and the pty, remote CAN and SLCAN set-ups through an echo
+peer in another process, as a node and a host would run.
 """
 
 from __future__ import annotations
@@ -20,7 +21,9 @@ from pathlib import Path
 
 import pytest
 
-from hexmigrate.links import LinkBase, LinkError, open_link
+from hexmigrate.errors import LinkError
+from hexmigrate.links import LinkBase, open_link
+from hexmigrate.links.direct import DirectLink
 from hexmigrate.links.remote_server import RemoteCanServer
 from hexmigrate.links.serial import PtyPair
 from hexmigrate.links.slcan_device import SlcanDevice
@@ -169,8 +172,18 @@ def slcan(stack: ExitStack, log: Path) -> LinkBase:
     return node
 
 
+def direct(stack: ExitStack, log: Path) -> LinkBase:
+    return stack.enter_context(DirectLink(lambda message: [message]))
+
+
+def direct_framed(stack: ExitStack, log: Path) -> LinkBase:
+    return stack.enter_context(DirectLink(lambda message: [message], framed=True))
+
+
 TRANSPORTS: dict[str, Callable[[ExitStack, Path], LinkBase]] = {
     "loop": loop,
+    "direct": direct,
+    "direct-framed": direct_framed,
     "socket": tcp_socket,
     "pty-2-processes": pty,
     "can-virtual": can_virtual,

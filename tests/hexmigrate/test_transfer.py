@@ -5,88 +5,20 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import pytest
-from hypothesis import given
-from hypothesis import strategies as st
 
 from firmware_sim.natives import Signal
 from firmware_sim.node import Node
 from firmware_sim.server import NodeTarget
 from hexmigrate.elf import image_from_elf
+from hexmigrate.errors import TransferError, TransferInterrupted
 from hexmigrate.image import ModuleImage
 from hexmigrate.transfer import messages as m
 from hexmigrate.transfer.receiver import Receiver
-from hexmigrate.transfer.sender import Sender, TransferError, TransferInterrupted
+from hexmigrate.transfer.sender import Sender
 from pbort.native import NativeModule
 from tests.hexmigrate.transfer_harness import DirectLink, noisy
 
 MODES = ["binary", "hex"]
-u32 = st.integers(0, 0xFFFF_FFFF)
-name = st.text("abcdefghijklmnopqrstuvwxyz_0123456789", min_size=1, max_size=15)
-MESSAGES = st.one_of(
-    st.builds(m.Ping),
-    st.builds(m.ListModules),
-    st.builds(m.Remove, name),
-    st.builds(
-        m.Begin,
-        u32,
-        name,
-        u32,
-        st.integers(0, 0xFFFF),
-        u32,
-        st.none() | u32.map(lambda address: address & ~0xFF),
-    ),  # load bases are aligned
-    st.builds(m.End, u32, u32),
-    st.builds(m.Commit, u32),
-    st.builds(m.Abort, u32),
-    st.builds(m.Resume, u32),
-    st.builds(m.Ack, u32, u32, st.just("")),
-    st.builds(m.Ack, u32, u32, name),
-    st.builds(m.Nak, u32, u32, name, st.booleans()),
-    st.builds(m.Listing, st.lists(st.tuples(name, u32, u32), max_size=4).map(tuple)),
-)
-
-
-@given(MESSAGES, st.booleans())
-def test_every_message_round_trips_in_both_modes(message, text):
-    assert m.decode(m.encode(message, text)) == message
-
-
-@given(
-    st.builds(m.Header, u32, u32, st.lists(u32, max_size=20).map(tuple))
-    | st.builds(m.Data, u32, u32, st.binary(max_size=300))
-)
-def test_binary_only_messages_round_trip(message):
-    assert m.decode(m.encode(message, False)) == message
-
-
-@given(st.integers(0, 0xFFFF), st.integers(0, 0xFFFF).map(lambda blocks: blocks * 256))
-def test_a_block_acknowledgement_fits_one_can_frame_and_round_trips(tag, value):
-    raw = m.encode(m.BlockAck(tag, value), False)
-    assert len(raw) == 7  # an ISO-TP single frame carries 7 bytes
-    assert m.decode(raw) == m.BlockAck(tag, value)
-
-
-def test_a_block_acknowledgement_names_its_transfer_by_the_low_16_bits():
-    ack = m.BlockAck.of(0x1234_ABCD, 512)
-    assert ack.names(0x1234_ABCD) and ack.names(0x9999_ABCD) and not ack.names(0x1234_ABCE)
-
-
-def test_a_block_acknowledgement_counts_whole_blocks_in_binary_mode_only():
-    with pytest.raises(ValueError, match="whole number of blocks"):
-        m.encode(m.BlockAck(1, 300), False)
-    with pytest.raises(m.MessageError, match="binary mode only"):
-        m.encode(m.BlockAck(1, 256), True)
-    raw = bytearray(m.encode(m.BlockAck(1, 256), False))
-    raw[3] ^= 0x01
-    with pytest.raises(m.MessageError, match="CRC-16"):
-        m.decode(bytes(raw))
-
-
-def test_a_corrupted_binary_message_is_refused():
-    raw = bytearray(m.encode(m.Commit(5), False))
-    raw[2] ^= 0x10
-    with pytest.raises(m.MessageError, match="CRC-32"):
-        m.decode(bytes(raw))
 
 
 @pytest.fixture

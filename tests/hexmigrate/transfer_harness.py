@@ -2,16 +2,17 @@
 
 hexmigrate's `DirectLink` hands each message to the receiver at once and queues its replies
 (`receive` returns None at once when there is none, which the sender takes as a timeout); this
-one also lets a `mangle` function drop, corrupt or duplicate messages or their bytes in each
-direction, and can cut the link after a number of messages.
+subclass also lets a `mangle` function drop, corrupt or duplicate messages or their bytes in each
+direction (its `_outbound` and `_inbound` hooks), and can cut the link after a number of messages
+(its `_send` hook: the message checks of every link still come first).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 
+from hexmigrate.errors import LinkError
 from hexmigrate.links import direct
-from hexmigrate.links.base import LinkError
 from hexmigrate.links.faulty import FaultInjector, Faults
 from hexmigrate.transfer.receiver import Receiver
 
@@ -47,11 +48,11 @@ class DirectLink(direct.DirectLink):
         self.cut_after = cut_after
         self.sent = 0
 
-    def send(self, message: bytes) -> None:
+    def _send(self, message: bytes) -> None:
         self.sent += 1
         if self.cut_after is not None and self.sent > self.cut_after:
-            raise LinkError("link cut")
-        super().send(message)
+            raise LinkError(f"{self.url}: cut after {self.cut_after} messages (a test fault)")
+        super()._send(message)
 
     def _outbound(self, message: bytes) -> list[bytes]:
         return self.outbound(message)

@@ -10,11 +10,11 @@ import pytest
 from firmware_sim.fpga_port import FpgaReconfigurationPort
 from firmware_sim.node import Node
 from firmware_sim.server import NodeTarget
-from hexmigrate.errors import ChecksumError
+from hexmigrate.errors import ChecksumError, TransferError
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.direct import DirectLink
 from hexmigrate.transfer.receiver import Receiver
-from hexmigrate.transfer.sender import Sender, TransferError
+from hexmigrate.transfer.sender import Sender
 from morphing_crossbar.bitstream import pack
 from morphing_crossbar.cli import main as pack_command
 from morphing_crossbar.errors import BitstreamImageError, CrcError, RouteError

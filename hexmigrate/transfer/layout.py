@@ -1,0 +1,228 @@
+"""One message type's two encodings, read from its declaration, and the checks that guard them.
+
+A `Layout` is built once per message type when the type is declared (messages.py): it reads the
+type's fields (fields.py) and checks the declaration, so a message type that could not be encoded
+or decoded is refused at import, not on the wire. Then:
+
+* **binary**: the type byte, the fixed fields packed little-endian in declaration order, the tail
+  field (if any), and the type's `Check` (CRC-32 unless it declares another) of all of these;
+* **text**: the verb, one word per field in declaration order (a free-text field last, whatever
+  its place in the declaration, since it runs to the end of the line), then `` *XX``, the line's
+  CRC-8 (`line_sum`).
+
+Every malformed body becomes a `MessageError` that names the message type and the field.
+"""
+
+from __future__ import annotations
+
+import binascii
+import dataclasses
+import re
+import struct
+import zlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from hexmigrate.errors import MessageError
+from hexmigrate.links.base import TEXT_FIRST_BYTE
+from hexmigrate.transfer.fields import KEY, Field, Words
+
+VERB = re.compile(r"[A-Z][A-Z0-9_]*")
+"""A command word: binary type codes are below TEXT_FIRST_BYTE, and a line that starts with ':'
+is an Intel HEX record, so a message's first byte tells what it is."""
+
+
+@dataclass(frozen=True)
+class Check:
+    """The integrity check that ends a binary message: `size` little-endian bytes of
+    `compute` over everything before them."""
+
+    name: str
+    size: int
+    compute: Callable[[bytes], int]
+
+    def append(self, frame: bytes) -> bytes:
+        """`frame` followed by its check."""
+        return frame + self.compute(frame).to_bytes(self.size, "little")
+
+    def strip(self, raw: bytes) -> bytes:
+        """`raw` without its check, once the check is verified; MessageError if it is not."""
+        frame, check = raw[: -self.size], raw[-self.size :]
+        if len(raw) <= self.size or self.compute(frame) != int.from_bytes(check, "little"):
+            raise MessageError(
+                f"expected a binary message of type 0x{raw[0]:02X} ending in a valid "
+                f"{self.name}, got {len(raw)} bytes that do not"
+            )
+        return frame
+
+
+CRC32 = Check("CRC-32", 4, zlib.crc32)
+CRC16 = Check("CRC-16/CCITT (initial value 0xFFFF)", 2, lambda data: binascii.crc_hqx(data, 0xFFFF))
+
+
+def _crc8_table() -> tuple[int, ...]:
+    table = []
+    for byte in range(256):
+        crc = byte
+        for _ in range(8):
+            crc = (crc << 1 ^ 0x07) & 0xFF if crc & 0x80 else crc << 1
+        table.append(crc)
+    return tuple(table)
+
+
+_CRC8 = _crc8_table()
+
+
+def line_sum(line: str) -> int:
+    """The checksum of a text command: CRC-8 (polynomial 0x07, initial 0) of the line. Optional
+    on input (a person at a terminal need not type it), always written by the protocol, so that
+    a damaged command or answer is refused instead of obeyed. A CRC rather than a byte sum: two
+    flips of one bit in two bytes cancel in a sum, a frequent double fault on a noisy line."""
+    crc = 0
+    for byte in line.encode("ascii"):
+        crc = _CRC8[crc ^ byte]
+    return crc
+
+
+class Layout:
+    """The encodings of message type `cls`: binary with type byte `code` ending in `check`
+    (None: hex mode only), text with command word `verb` (None: binary mode only)."""
+
+    def __init__(self, cls: type, code: int | None, verb: str | None, check: Check) -> None:
+        self.cls = cls
+        self.code = code
+        self.verb = verb
+        self.check = check
+        self.fields = _fields(cls)
+        self.fixed = [field for field in self.fields if field.format is not None]
+        tails = [field for field in self.fields if field.format is None]
+        self.tail = tails[0] if tails else None
+        self.struct = struct.Struct("<" + "".join(field.format or "" for field in self.fixed))
+        self.text_order = [field for field in self.fields if field.words is not Words.REST]
+        self.text_order += [field for field in self.fields if field.words is Words.REST]
+        self.usage = " ".join([verb or "", *(field.usage for field in self.text_order)])
+        self._check_declaration(tails)
+
+    @property
+    def title(self) -> str:
+        """How errors name this type: its class, its verb or type byte."""
+        tags = [f"type 0x{self.code:02X}"] if self.code is not None else []
+        tags += [self.verb] if self.verb is not None else []
+        return f"{self.cls.__name__} ({', '.join(tags)})" if tags else self.cls.__name__
+
+    def _check_declaration(self, tails: list[Field]) -> None:
+        """Refuse, at import, a type whose messages could not be encoded or decoded."""
+        name = self.cls.__name__
+        if self.code is not None and not 0 < self.code < TEXT_FIRST_BYTE:
+            raise TypeError(f"{name}: expected a type code 0x01..0x1F, got 0x{self.code:02X}")
+        if len(tails) > 1:
+            raise TypeError(f"{name}: expected at most one tail field, got {_names(tails)}")
+        if self.verb is None:
+            return
+        if not VERB.fullmatch(self.verb):
+            raise TypeError(f"{name}: expected an upper-case word as verb, got {self.verb!r}")
+        forms = [field.words for field in self.text_order]
+        if Words.NONE in forms:
+            raise TypeError(f"{name}: every field of a message with a verb needs a text form")
+        if forms.count(Words.REST) > 1 or forms.count(Words.OPTIONAL) > 1:
+            raise TypeError(f"{name}: expected at most one free-text and one optional field")
+        if Words.OPTIONAL in forms and Words.WORD in forms[forms.index(Words.OPTIONAL) :]:
+            raise TypeError(f"{name}: expected the optional field after every word")
+
+    # Binary mode.
+
+    def encode_binary(self, message: object) -> bytes:
+        """The binary form of `message`: type byte, fixed fields, tail, check."""
+        if self.code is None:
+            raise MessageError(f"{self.cls.__name__} exists in hex mode only")
+        numbers = [self._convert(field, field.to_number, message) for field in self.fixed]
+        frame = bytes([self.code]) + self.struct.pack(*numbers)
+        if self.tail is not None:
+            frame += self._convert(self.tail, self.tail.to_tail, message)
+        return self.check.append(frame)
+
+    def decode_binary(self, raw: bytes) -> Any:
+        """The message in `raw`, a binary frame whose first byte is this type's code."""
+        body = self.check.strip(raw)[1:]
+        size = self.struct.size
+        if len(body) < size or (self.tail is None and len(body) > size):
+            expected = f"{size} bytes" if self.tail is None else f"at least {size} bytes"
+            raise MessageError(f"expected {expected} in the body of {self.title}, got {len(body)}")
+        values = {
+            field.name: self._parse(field, field.from_number, number)
+            for field, number in zip(self.fixed, self.struct.unpack_from(body), strict=True)
+        }
+        if self.tail is not None:
+            values[self.tail.name] = self._parse(self.tail, self.tail.from_tail, body[size:])
+        return self.cls(**values)
+
+    # Text mode.
+
+    def encode_text(self, message: object) -> str:
+        """The command line of `message`, without its checksum."""
+        if self.verb is None:
+            raise MessageError(f"{self.cls.__name__} exists in binary mode only")
+        words = [self.verb]
+        for field in self.text_order:
+            word = self._convert(field, field.to_text, message)
+            if word:
+                words.append(word)
+        return " ".join(words)
+
+    def decode_text(self, rest: str, line: str) -> Any:
+        """The message whose words after the verb are `rest` (`line` is the whole line, for
+        errors): one word per field, a free-text field takes what is left."""
+        values = {}
+        for field in self.text_order:
+            if field.words is Words.REST:
+                text, rest = rest.strip(), ""
+            else:
+                parts = rest.split(None, 1)
+                if not parts and field.words is Words.OPTIONAL:
+                    continue  # its default
+                if not parts:
+                    raise MessageError(f"expected {self.usage}, got {line[:60]!r}")
+                text, rest = parts[0], parts[1] if len(parts) > 1 else ""
+            values[field.name] = self._parse(field, field.from_text, text, line)
+        if rest.strip():
+            raise MessageError(f"expected {self.usage}, got {line[:60]!r}")
+        return self.cls(**values)
+
+    # Fields.
+
+    def _convert(self, field: Field, convert: Callable[[Any], Any], message: object) -> Any:
+        """`convert` applied to `field` of `message`, its errors naming the field."""
+        try:
+            return convert(getattr(message, field.name))
+        except MessageError as error:
+            raise MessageError(f"{self.cls.__name__}.{field.name}: {error}") from None
+
+    def _parse(
+        self, field: Field, parse: Callable[[Any], Any], raw: Any, line: str | None = None
+    ) -> Any:
+        """`parse` applied to what carries `field`, its errors naming the message and field."""
+        try:
+            return parse(raw)
+        except MessageError as error:
+            where = self.title if line is None else f"{line[:60]!r} (the form: {self.usage})"
+            raise MessageError(f"{field.name} of {where}: {error}") from None
+
+
+def _fields(cls: type) -> list[Field]:
+    """The `Field` of each dataclass field of `cls`, named."""
+    found = []
+    for declared in dataclasses.fields(cls):
+        field = declared.metadata.get(KEY)
+        if not isinstance(field, Field):
+            raise TypeError(
+                f"{cls.__name__}.{declared.name}: expected a field declared with a specifier "
+                "of hexmigrate.transfer.fields (u32(), word(), ...)"
+            )
+        field.name = declared.name
+        found.append(field)
+    return found
+
+
+def _names(fields: list[Field]) -> str:
+    return ", ".join(field.name for field in fields)

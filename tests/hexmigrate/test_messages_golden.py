@@ -1,0 +1,202 @@
+"""The transfer protocol's bytes on the wire, pinned: every message type in both modes, as the
+codec wrote them before its redesign (declared messages, one generic codec). A node or a sender of
+either version must understand the other, so the encoder must write these exact bytes, and the
+decoder must read them back to the same message.
+
+The literals were produced by the table-driven codec (commit f94eeee) and must not be edited to
+follow a change of the codec: a change here is a change of the protocol.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from hexmigrate.transfer.messages import (
+    Abort,
+    Ack,
+    Begin,
+    BlockAck,
+    Commit,
+    Data,
+    End,
+    Header,
+    HexLine,
+    Listing,
+    ListModules,
+    Message,
+    Nak,
+    Ping,
+    Pong,
+    Remove,
+    Resume,
+    decode,
+    encode,
+)
+
+TEXT, BINARY = True, False
+
+GOLDEN: list[tuple[Message, bool, str]] = [
+    (Ping(), TEXT, "50494e47202a3146"),
+    (Ping(), BINARY, "011bdf05a5"),
+    (ListModules(), TEXT, "4c53202a3139"),
+    (ListModules(), BINARY, "02a18e0c3c"),
+    (Remove("moving_average"), TEXT, "524d206d6f76696e675f61766572616765202a3231"),
+    (Remove("moving_average"), BINARY, "036d6f76696e675f61766572616765eddce171"),
+    (
+        Begin(7, "gain", 1120, 9, 0x10000),
+        TEXT,
+        "424547494e2037206761696e203131323020392030783130303030202a3135",
+    ),
+    (
+        Begin(7, "gain", 1120, 9, 0x10000),
+        BINARY,
+        "040700000060040000090000000100ffffffff6761696efc127ea9",
+    ),
+    (
+        Begin(0x2468ACE1, "gain", 1120, 9, 0x10000, 0x20000),
+        TEXT,
+        "424547494e20363130383339373737206761696e2031313230203920307831303030302030783230"
+        "303030202a3739",
+    ),
+    (
+        Begin(0x2468ACE1, "gain", 1120, 9, 0x10000, 0x20000),
+        BINARY,
+        "04e1ac682460040000090000000100000002006761696ec5d1e5ee",
+    ),
+    (Header(7, 0x10010, ()), BINARY, "050700000010000100263e59ef"),
+    (
+        Header(7, 0x10010, (0x10000, 0x10004, 0x10100)),
+        BINARY,
+        "050700000010000100000001000400010000010100c2d646ee",
+    ),
+    (Data(7, 0x10000, b""), BINARY, "0607000000000001007c55cd86"),
+    (
+        Data(7, 0x10100, bytes(range(40))),
+        BINARY,
+        "060700000000010100000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e"
+        "1f20212223242526279109d275",
+    ),
+    (
+        Data(0xFFFFFFFF, 0xFFFFFF00, b"\x00\x00\x00\x01\xff"),
+        BINARY,
+        "06ffffffff00ffffff00000001ffdab252bd",
+    ),
+    (HexLine(":020000040001F9"), TEXT, "3a3032303030303034303030314639"),
+    (End(7, 0xDEADBEEF), TEXT, "454e4420372030784445414442454546202a3144"),
+    (End(7, 0xDEADBEEF), BINARY, "0707000000efbeadde7dcfb3b3"),
+    (Commit(7), TEXT, "434f4d4d49542037202a3434"),
+    (Commit(7), BINARY, "08070000006584856b"),
+    (Abort(0xFFFFFFFF), TEXT, "41424f52542034323934393637323935202a3830"),
+    (Abort(0xFFFFFFFF), BINARY, "09ffffffff8fb58915"),
+    (Resume(7), TEXT, "524553554d452037202a4145"),
+    (Resume(7), BINARY, "0a0700000005d74511"),
+    (
+        Pong("node: 0 module(s), 512 of 512 flash blocks free"),
+        TEXT,
+        "504f4e47206e6f64653a2030206d6f64756c652873292c20353132206f662035313220666c617368"
+        "20626c6f636b732066726565202a3536",
+    ),
+    (
+        Pong("node: 0 module(s), 512 of 512 flash blocks free"),
+        BINARY,
+        "116e6f64653a2030206d6f64756c652873292c20353132206f662035313220666c61736820626c6f"
+        "636b73206672656510775721",
+    ),
+    (Listing(()), TEXT, "4d4f44554c4553202a4345"),
+    (Listing(()), BINARY, "12c59ebb21"),
+    (
+        Listing((("gain", 0x20000, 1120), ("moving_average", 0x20500, 900))),
+        TEXT,
+        "4d4f44554c4553206761696e40307830303032303030303a31313230206d6f76696e675f61766572"
+        "61676540307830303032303530303a393030202a3634",
+    ),
+    (
+        Listing((("gain", 0x20000, 1120), ("moving_average", 0x20500, 900))),
+        BINARY,
+        "126761696e40307830303032303030303a31313230206d6f76696e675f6176657261676540307830"
+        "303032303530303a393030a4824941",
+    ),
+    (Ack(7, 0x20000, "begun"), TEXT, "41434b20372031333130373220626567756e202a3631"),
+    (Ack(7, 0x20000, "begun"), BINARY, "130700000000000200626567756e5448547b"),
+    (Ack(7, 512), TEXT, "41434b203720353132202a3941"),
+    (Ack(7, 512), BINARY, "1307000000000200006db7057a"),
+    (
+        Ack(7, 0x20000, "installed gain"),
+        TEXT,
+        "41434b20372031333130373220696e7374616c6c6564206761696e202a4331",
+    ),
+    (
+        Ack(7, 0x20000, "installed gain"),
+        BINARY,
+        "130700000000000200696e7374616c6c6564206761696ef80f3255",
+    ),
+    (BlockAck(0xACE1, 512), BINARY, "15e1ac0200c06a"),
+    (BlockAck(0, 0), BINARY, "15000000000136"),
+    (BlockAck(0xFFFF, 0xFFFF * 256), BINARY, "15ffffffffceaf"),
+    (
+        Nak(7, 256, "expected data at 0x00010100, got 0x00010200"),
+        TEXT,
+        "4e414b20372032353620524554525920657870656374656420646174612061742030783030303130"
+        "3130302c20676f742030783030303130323030202a3342",
+    ),
+    (
+        Nak(7, 256, "expected data at 0x00010100, got 0x00010200"),
+        BINARY,
+        "140700000000010000006578706563746564206461746120617420307830303031303130302c2067"
+        "6f74203078303030313032303015edf084",
+    ),
+    (
+        Nak(0, 0, "no module named 'gain'", fatal=True),
+        TEXT,
+        "4e414b2030203020464154414c206e6f206d6f64756c65206e616d656420276761696e27202a4338",
+    ),
+    (
+        Nak(0, 0, "no module named 'gain'", fatal=True),
+        BINARY,
+        "140000000000000000016e6f206d6f64756c65206e616d656420276761696e2731a89854",
+    ),
+]
+
+TYPED: list[tuple[bytes, Message]] = [
+    # What a person types on a terminal: no checksum, any case, extra spaces.
+    (b"ping", Ping()),
+    (b"ls", ListModules()),
+    (b"  COMMIT   7  ", Commit(7)),
+    (b"begin 7 gain 1120 9 0x10000", Begin(7, "gain", 1120, 9, 0x10000)),
+    (b"begin 7 gain 0x460 9 65536 0x20000", Begin(7, "gain", 1120, 9, 0x10000, 0x20000)),
+    (b"end 7 0xdeadbeef", End(7, 0xDEADBEEF)),
+    (b"rm gain", Remove("gain")),
+    (b"nak 7 0 fatal no room", Nak(7, 0, "no room", fatal=True)),
+    (b"NAK 7 0 retry", Nak(7, 0, "")),
+    (b"MODULES", Listing(())),
+    (b"PONG", Pong("")),
+    (b":00000001FF", HexLine(":00000001FF")),
+]
+
+
+@pytest.mark.parametrize(
+    ("message", "text", "wire"),
+    GOLDEN,
+    ids=[f"{m!r}-{'text' if t else 'binary'}" for m, t, _ in GOLDEN],
+)
+def test_the_codec_writes_the_pinned_bytes_and_reads_them_back(message, text, wire):
+    raw = bytes.fromhex(wire)
+    assert encode(message, text) == raw
+    assert decode(raw, checked=True) == message
+
+
+def test_every_declared_message_type_is_pinned_in_every_mode_it_has():
+    pinned = {(type(message), text) for message, text, _ in GOLDEN}
+    declared = Message.__subclasses__()
+    assert len(declared) >= 16
+    for cls in declared:
+        layout = cls.layout
+        modes = {text for text, form in ((TEXT, layout.verb), (BINARY, layout.code)) if form}
+        if cls is HexLine:  # a record line: hex mode, with no verb of its own
+            modes = {TEXT}
+        assert {text for kind, text in pinned if kind is cls} == modes, cls.__name__
+
+
+@pytest.mark.parametrize(("line", "message"), TYPED, ids=[line.decode() for line, _ in TYPED])
+def test_a_line_typed_without_checksum_reads_as_before(line, message):
+    assert decode(line) == message
