@@ -3,7 +3,7 @@
 An image is linked at a link base (the lowest address of its data) and can be placed anywhere:
 only the 32-bit little-endian words listed as relocations (07 records) hold absolute addresses,
 and `relocate` adds ``load_base - link_base`` to each of them. Everything else is
-position-independent code and constant data (ARCHITECTURE.md, "Module images").
+position-independent code and constant data (docs/module-abi.md, "Why the image can move").
 """
 
 from __future__ import annotations
@@ -34,7 +34,12 @@ from hexmigrate.records import (
 )
 
 FLASH_BLOCK_SIZE = 256
-ERASED_BYTE = 0xFF
+GAP_FILL = 0x00
+"""What fills the gaps between linker sections: ``objcopy -O binary`` writes zeros there, so the
+ELF route and the map route (whose raw binary objcopy wrote) give the same bytes."""
+MAX_SPAN = 16 << 20
+"""The most bytes joined sections may span: far above any node's flash, and low enough that two
+sections 4 GiB apart in a hostile ELF are refused instead of filling memory."""
 
 
 @dataclass(frozen=True)
@@ -42,7 +47,7 @@ class ModuleImage:
     """A module: one contiguous run of bytes at its link base, the pointer words to fix, its init.
 
     A module is written to consecutive flash blocks, so it is one run of bytes; `from_segments`
-    fills gaps between linker segments with erased flash (0xFF), as the loader would find them.
+    fills gaps between linker sections with zeros, as ``objcopy -O binary`` does.
     `symbols` maps function start addresses to names when the image was built from linker output;
     it is not part of the HEX file, so it takes no part in equality.
     """
@@ -95,7 +100,7 @@ class ModuleImage:
         init: int,
         symbols: Mapping[int, str] | None = None,
     ) -> ModuleImage:
-        """Join linker segments into one run, filling the gaps with erased flash bytes."""
+        """Join linker sections into one run, filling the gaps with `GAP_FILL`."""
         ordered = sorted(segments, key=lambda s: s.address)
         if not ordered:
             raise ModuleSourceError(f"module {name!r}: expected image data, got none")
@@ -106,7 +111,13 @@ class ModuleImage:
                     f"0x{after.address:08X} starts before 0x{before.end:08X}"
                 )
         link_base = ordered[0].address
-        flat = bytearray([ERASED_BYTE]) * (ordered[-1].end - link_base)
+        span = ordered[-1].end - link_base
+        if span > MAX_SPAN:
+            raise ModuleSourceError(
+                f"module {name!r}: expected sections spanning at most {MAX_SPAN:,} bytes, got "
+                f"{span:,} (0x{link_base:08X}..0x{ordered[-1].end - 1:08X})"
+            )
+        flat = bytearray([GAP_FILL]) * span
         for segment in ordered:
             offset = segment.address - link_base
             flat[offset : offset + len(segment.data)] = segment.data
