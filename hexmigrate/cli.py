@@ -73,7 +73,7 @@ def cmd_pack(args: argparse.Namespace) -> int:
     image = images[-1]
     image.write(args.output, args.record_size)
     print(
-        f"{args.output}: module {args.output.stem}, {image.size} bytes at 0x{image.link_base:08X}, "
+        f"{args.output}: module {image.name}, {image.size} bytes at 0x{image.link_base:08X}, "
         f"{len(image.relocations)} relocations, init 0x{image.init:08X}"
     )
     return 0

@@ -28,10 +28,9 @@ R_RISCV_32 = 1
 DEFAULT_INIT_SYMBOL = "module_init"
 
 
-def image_from_elf(
-    path: str | Path, init_symbol: str = DEFAULT_INIT_SYMBOL, name: str | None = None
-) -> ModuleImage:
-    """Build the module image of an RV32 ELF executable."""
+def image_from_elf(path: str | Path, init_symbol: str = DEFAULT_INIT_SYMBOL) -> ModuleImage:
+    """Build the module image of an RV32 ELF executable; one without a descriptor is named
+    after the file."""
     path = Path(path)
     try:
         with path.open("rb") as stream:
@@ -52,7 +51,7 @@ def image_from_elf(
         )
     try:
         return ModuleImage.from_segments(
-            name or path.stem, segments, relocations, symbols[init_symbol], functions
+            path.stem, segments, relocations, symbols[init_symbol], functions
         )
     except HexError as error:
         raise error.with_path(path) from None

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from itertools import pairwise
 from pathlib import Path
 
+from hexmigrate import descriptor as abi
 from hexmigrate.errors import (
     AddressOverflowError,
     DuplicateRelocationError,
@@ -46,6 +47,12 @@ sections 4 GiB apart in a hostile ELF are refused instead of filling memory."""
 class ModuleImage:
     """A module: one contiguous run of bytes at its link base, the pointer words to fix, its init.
 
+    `name` is the name the node registers the module under: the name in its PBO descriptor (the
+    first valid one in the data, see `find_descriptor`), which replaces the name given; the name
+    given (a file's stem, when read from a file) only for an image without a descriptor, such as
+    a partial bitstream. So a file copied under another name still shows, sends and is removed
+    as the module it holds.
+
     A module is written to consecutive flash blocks, so it is one run of bytes; `from_segments`
     fills gaps between linker sections with zeros, as ``objcopy -O binary`` does.
     `symbols` maps function start addresses to names when the image was built from linker output;
@@ -62,6 +69,9 @@ class ModuleImage:
     def __post_init__(self) -> None:
         if not self.data:
             raise ModuleSourceError(f"module {self.name!r}: expected image data, got none")
+        registered = descriptor_name(self)
+        if registered is not None:
+            object.__setattr__(self, "name", registered)
         if self.link_base + len(self.data) > ADDRESS_SPACE:
             raise AddressOverflowError(
                 f"module {self.name!r}: expected the image to end at or before 0x100000000, got "
@@ -162,7 +172,8 @@ class ModuleImage:
 
     @classmethod
     def read(cls, path: str | Path) -> ModuleImage:
-        """Read a module file; errors carry the file name. The module is named after the file."""
+        """Read a module file; errors carry the file name. A module without a descriptor is
+        named after the file."""
         path = Path(path)
         try:
             return cls.from_hex(path.read_text(encoding="latin-1"), path.stem)
@@ -209,6 +220,31 @@ class ModuleImage:
         first = start // FLASH_BLOCK_SIZE
         last = (start + self.size - 1) // FLASH_BLOCK_SIZE
         return [block * FLASH_BLOCK_SIZE for block in range(first, last + 1)]
+
+
+def find_descriptor(image: ModuleImage) -> tuple[int, abi.Descriptor] | None:
+    """The address and content of the first valid PBO descriptor in the image (magic ``PBO1``
+    at a 4-byte aligned address, then a layout that decodes), if any.
+
+    A HEX file does not say where the descriptor is; a module built with the SDK holds exactly
+    one, the one its init subroutine registers."""
+    magic = abi.MAGIC.to_bytes(4, "little")
+    position = image.data.find(magic)
+    while position >= 0:
+        address = image.link_base + position
+        if address % 4 == 0:
+            try:
+                return address, abi.Descriptor.decode(image.data[position:])
+            except abi.DescriptorError:
+                pass
+        position = image.data.find(magic, position + 1)
+    return None
+
+
+def descriptor_name(image: ModuleImage) -> str | None:
+    """The name in the image's descriptor, if it has one with a name."""
+    found = find_descriptor(image)
+    return found[1].name if found is not None and found[1].name else None
 
 
 def _span(segment: Segment) -> str:

@@ -116,7 +116,6 @@ def image_from_map(
     binary_path: str | Path,
     map_path: str | Path,
     init_symbol: str = DEFAULT_INIT_SYMBOL,
-    name: str | None = None,
 ) -> ModuleImage:
     """Build the module image of a raw binary, with the pointer slots and init from its map."""
     binary_path, map_path = Path(binary_path), Path(map_path)
@@ -132,7 +131,7 @@ def image_from_map(
     relocations = _descriptor_pointers(linker_map, data, link_base, map_path)
     try:
         return ModuleImage(
-            name or binary_path.stem,
+            binary_path.stem,
             link_base,
             data,
             tuple(relocations),

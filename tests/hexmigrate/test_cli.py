@@ -49,7 +49,7 @@ def test_pack_from_elf_and_from_map_agree(example_builds, tmp_path, packed):
     both = run("pack", gain.elf, "--map", gain.map, "--bin", gain.bin, "-o", tmp_path / "b.hex")
     assert both.returncode == 0, both.stderr
     size = ModuleImage.read(packed).size
-    assert f"module from-map, {size} bytes at 0x00010000, 9 relocations" in result.stdout
+    assert f"module gain, {size} bytes at 0x00010000, 9 relocations" in result.stdout
 
 
 def test_pack_refuses_routes_that_disagree(example_builds, tmp_path):
