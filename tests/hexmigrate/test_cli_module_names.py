@@ -10,12 +10,9 @@ from pathlib import Path
 import pytest
 
 from firmware_sim.node import Node
-from firmware_sim.server import NodeTarget
 from hexmigrate import cli
 from hexmigrate.image import ModuleImage
-from hexmigrate.links.direct import DirectLink
-from hexmigrate.transfer import messages as m
-from hexmigrate.transfer.receiver import Receiver
+from tests.hexmigrate.cli_node import route_to
 
 
 @pytest.fixture
@@ -36,18 +33,8 @@ def node() -> Iterator[Node]:
 
 @pytest.fixture
 def begun(node, monkeypatch) -> list[str]:
-    """Route ``--to`` to `node` in this process; the list collects the name of every BEGIN."""
-    receiver = Receiver(NodeTarget(node))
-    names: list[str] = []
-
-    def handle(raw: bytes) -> list[bytes]:
-        message = m.decode(raw)
-        if isinstance(message, m.Begin):
-            names.append(message.name)
-        return receiver.handle(raw)
-
-    monkeypatch.setattr(cli, "open_link", lambda url: DirectLink(handle))
-    return names
+    """Route ``--to`` to `node`; the names of the BEGIN messages it got."""
+    return route_to(node, monkeypatch)
 
 
 def test_pack_prints_the_name_the_node_registers(example_builds, tmp_path, capsys):
