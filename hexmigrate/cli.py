@@ -283,6 +283,8 @@ def module_name(text: str) -> str:
 def output(text: str) -> Path:
     """A file to write, which a rename will replace: not a device, pipe or other special file
     (argparse type)."""
+    if "\0" in text:
+        raise argparse.ArgumentTypeError(f"expected a file name, got {text!r} (a NUL byte)")
     path = output_file(text)
     if path.exists() and not path.is_file():
         raise argparse.ArgumentTypeError(

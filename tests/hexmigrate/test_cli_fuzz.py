@@ -110,7 +110,7 @@ class Files:
 
     def outputs(self) -> list[str]:
         """Paths where a command writes: never a device (a rename would replace it)."""
-        return [str(self.out), str(self.folder), str(self.fifo), str(self.missing / "x.hex")]
+        return [*map(str, (self.out, self.folder, self.fifo, self.missing / "x.hex")), "a\0b"]
 
 
 @pytest.fixture(scope="module")
