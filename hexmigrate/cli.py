@@ -23,7 +23,7 @@ from commandline.progress import progress_bar
 from hexmigrate.descriptor import NAME_LEN
 from hexmigrate.elf import DEFAULT_INIT_SYMBOL, image_from_elf
 from hexmigrate.errors import HexmigrateError
-from hexmigrate.image import ModuleImage
+from hexmigrate.image import ModuleImage, descriptor_name
 from hexmigrate.links import open_link
 from hexmigrate.links.base import LinkError
 from hexmigrate.mapfile import image_from_map
@@ -185,11 +185,15 @@ def _sender(args: argparse.Namespace, progress: Callable[[Progress], None] | Non
 def cmd_send(args: argparse.Namespace) -> int:
     """Send a module to a node, show progress, commit it."""
     image = ModuleImage.read(args.file)
-    problem = _name_problem(image.name)
-    if problem is not None:
+    if not _is_word(image.name):
+        where = (
+            "the name in its descriptor"
+            if descriptor_name(image) is not None
+            else "the file's name, as the image has no descriptor: rename the file"
+        )
         raise CommandLineError(
-            f"{args.file}: module name {problem}; a module without a descriptor is named after "
-            "its file: rename the file"
+            f"{args.file}: expected a module name of printable ASCII characters without "
+            f"spaces (the protocol carries it as one word), got {image.name!r} ({where})"
         )
     with contextlib.ExitStack() as stack:
         bar = None if args.quiet else stack.enter_context(progress_bar(image.size, image.name))
@@ -264,19 +268,17 @@ def cmd_rm(args: argparse.Namespace) -> int:
     return 0
 
 
-def _name_problem(name: str) -> str | None:
-    """Why `name` cannot name a module on a node, or None: the descriptor holds 1 to 16 ASCII
-    characters, and the hex-mode protocol separates words by spaces."""
-    if 1 <= len(name) <= NAME_LEN and name.isascii() and name.isprintable() and " " not in name:
-        return None
-    return f"expected 1 to {NAME_LEN} printable ASCII characters without spaces, got {name!r}"
+def _is_word(name: str) -> bool:
+    """True for a name the hex-mode protocol carries as one word: printable ASCII, no spaces."""
+    return bool(name) and name.isascii() and name.isprintable() and " " not in name
 
 
 def module_name(text: str) -> str:
-    """A module's name on a node (argparse type)."""
-    problem = _name_problem(text)
-    if problem is not None:
-        raise argparse.ArgumentTypeError(problem)
+    """A module's name on a node, as its descriptor holds it (argparse type)."""
+    if not (_is_word(text) and len(text) <= NAME_LEN):
+        raise argparse.ArgumentTypeError(
+            f"expected 1 to {NAME_LEN} printable ASCII characters without spaces, got {text!r}"
+        )
     return text
 
 

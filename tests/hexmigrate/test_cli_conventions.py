@@ -150,3 +150,13 @@ def test_send_draws_a_progress_bar_on_a_terminal(node, packed, monkeypatch):
     finally:
         os.close(controller)
     assert b"\rgain:   0%|" in drawn
+
+
+def test_the_docs_show_the_commands_there_are():
+    root = Path(hexmigrate.__file__).parent.parent
+    section = (root / "docs" / "cli.md").read_text().split("## `firmware-sim`")[0]
+    for command in COMMANDS:
+        assert f"| `{command} " in section or f" `{command} " in section, command
+    for text in (section, (root / "README.md").read_text()):
+        assert "hexmigrate node" not in text
+        assert "firmware-sim listen --listen " in text

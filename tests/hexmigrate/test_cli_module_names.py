@@ -71,3 +71,23 @@ def test_an_image_without_a_descriptor_is_named_after_its_file(tmp_path, capsys)
     first = capsys.readouterr().out.splitlines()[0]
     assert first == f"module blob  ({path}; no descriptor: the file's name)"
     assert ModuleImage.read(path).name == "blob"
+
+
+def test_send_refuses_a_name_the_protocol_cannot_carry(tmp_path, capsys):
+    path = tmp_path / "my blob.hex"
+    ModuleImage("ignored", 0x4000_0200, bytes(range(64)), (), 0x4000_0208).write(path)
+    assert cli.main(["send", str(path), "--to", "nope"]) == 1
+    assert capsys.readouterr().err == (
+        f"error: {path}: expected a module name of printable ASCII characters without spaces "
+        "(the protocol carries it as one word), got 'my blob' (the file's name, as the image "
+        "has no descriptor: rename the file)\n"
+    )
+
+
+def test_a_long_file_name_still_names_an_image_without_a_descriptor(tmp_path, node, begun, capsys):
+    path = tmp_path / "bypass_slot0_for_a_fabric_of_4.hex"
+    ModuleImage("ignored", 0x4000_0200, bytes(range(64)), (), 0x4000_0208).write(path)
+    # Not code: this node (no crossbar) runs its init and refuses it, after BEGIN named it.
+    assert cli.main(["send", str(path), "--to", "direct://", "--quiet"]) == 1
+    assert "commit refused" in capsys.readouterr().err
+    assert begun == ["bypass_slot0_for_a_fabric_of_4"]
