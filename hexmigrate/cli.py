@@ -151,16 +151,19 @@ class SendProgress:
     def __init__(self, bar: tqdm | None) -> None:
         self.bar = bar
 
-    def update(self, progress: Progress) -> None:
-        """Move the bar to the bytes the node acknowledged (back, after a resume from less)."""
-        assert self.bar is not None
-        self.bar.update(progress.acknowledged - self.bar.n)
-        self.bar.set_postfix(blocks=progress.blocks, resent=progress.retransmissions, refresh=False)
-
     @property
     def callback(self) -> Callable[[Progress], None] | None:
-        """What the sender reports to: nothing without a bar."""
-        return None if self.bar is None else self.update
+        """What the sender reports to (nothing without a bar): it moves the bar to the bytes
+        the node acknowledged, back too, after a resume from fewer."""
+        bar = self.bar
+        if bar is None:
+            return None
+
+        def advance(progress: Progress) -> None:
+            bar.update(progress.acknowledged - bar.n)
+            bar.set_postfix(blocks=progress.blocks, resent=progress.retransmissions, refresh=False)
+
+        return advance
 
     def note(self, text: str) -> None:
         """A line on standard error, above the bar."""
