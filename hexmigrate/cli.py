@@ -1,8 +1,9 @@
-"""The `hexmigrate` command: pack, inspect, verify and relocate module files; send them to
-nodes (send, ls, rm, ping) and run a listening node (node).
+"""The `hexmigrate` command: what a host does with module files (pack, inspect, verify,
+relocate) and to nodes (send, ls, rm, ping).
 
-Errors print ``error: FILE:LINE: message`` and exit 1; usage errors exit 2 (argparse);
-``--debug`` shows the traceback instead.
+A node to send to is another program's business (``firmware-sim listen``, or real firmware):
+this module imports nothing above hexmigrate. `commandline.run` owns the exit statuses, the
+``error:`` line and ``--debug``.
 """
 
 from __future__ import annotations
@@ -12,41 +13,46 @@ import contextlib
 import json
 import sys
 import time
-import traceback
-from collections.abc import Iterator, Sequence
-from pathlib import Path
+from collections.abc import Callable, Iterator, Sequence
+from typing import TYPE_CHECKING
 
+from commandline import CommandLineError, UsageError, add_command, command_parser, run
+from commandline.arguments import address, input_file, integer, output_file, real
+from commandline.progress import progress_bar
+from hexmigrate.descriptor import NAME_LEN
 from hexmigrate.elf import DEFAULT_INIT_SYMBOL, image_from_elf
-from hexmigrate.errors import HexError, LinkError, TransferError, TransferInterrupted
-from hexmigrate.image import ModuleImage
+from hexmigrate.errors import HexmigrateError, LinkError, TransferError, TransferInterrupted
+from hexmigrate.image import ModuleImage, descriptor_name
 from hexmigrate.links import open_link
 from hexmigrate.mapfile import image_from_map
 from hexmigrate.report import build_report, render_text
 from hexmigrate.transfer.sender import MODES, Progress, Sender, TransferResult
 
-EXIT_ERROR = 1
-EXIT_USAGE = 2
+if TYPE_CHECKING:
+    from tqdm import tqdm
 
+DESCRIPTION = """\
+ReFrESH modules as extended Intel HEX files (record 07: offset function pointer, record 08:
+module initialization pointer), and the host's side of moving them to nodes.
 
-class CommandError(Exception):
-    """A failure the user can fix, reported as one ``error:`` line (exit status 1)."""
+A module's name is the one in its PBO descriptor, the name the node registers, whatever the
+file is called; an image without a descriptor is named after its file.
 
+examples:
+  hexmigrate pack build/modules/gain.elf -o gain.hex
+  hexmigrate inspect gain.hex
+  hexmigrate relocate gain.hex --base 0x20000 -o gain.bin
+  firmware-sim listen --listen tcp-listen://127.0.0.1:7777   (a node, in another terminal)
+  hexmigrate send gain.hex --to socket://127.0.0.1:7777
+  hexmigrate ls --to socket://127.0.0.1:7777
+  hexmigrate rm gain --to socket://127.0.0.1:7777
+"""
 
-class UsageError(CommandError):
-    """Arguments that do not go together, reported like argparse's own (exit status 2)."""
-
-
-def address(text: str) -> int:
-    """Parse an address given as decimal or 0x-prefixed hexadecimal (argparse type)."""
-    try:
-        value = int(text, 0)
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected an address like 0x20000, got {text!r}"
-        ) from None
-    if not 0 <= value < 1 << 32:
-        raise argparse.ArgumentTypeError(f"expected an address below 0x100000000, got {text!r}")
-    return value
+MAX_TIMEOUT = 600.0
+MAX_RETRIES = 1000
+MAX_WINDOW = 256  # blocks in flight: 64 KiB, more than any node buffers
+MAX_RECONNECTS = 100
+MODULE_FILE = input_file()
 
 
 def cmd_pack(args: argparse.Namespace) -> int:
@@ -61,11 +67,11 @@ def cmd_pack(args: argparse.Namespace) -> int:
     if args.map is not None:
         images.append(image_from_map(args.bin, args.map, args.init))
     if len(images) == 2 and images[0] != images[1]:
-        raise CommandError(_route_difference(images[0], images[1]))
+        raise CommandLineError(_route_difference(images[0], images[1]))
     image = images[-1]
     image.write(args.output, args.record_size)
     print(
-        f"{args.output}: module {args.output.stem}, {image.size} bytes at 0x{image.link_base:08X}, "
+        f"{args.output}: module {image.name}, {image.size} bytes at 0x{image.link_base:08X}, "
         f"{len(image.relocations)} relocations, init 0x{image.init:08X}"
     )
     return 0
@@ -96,7 +102,7 @@ def _route_difference(from_elf: ModuleImage, from_map: ModuleImage) -> str:
 def cmd_inspect(args: argparse.Namespace) -> int:
     """Show what a module file holds."""
     image = ModuleImage.read(args.file)
-    text = Path(args.file).read_text(encoding="latin-1")
+    text = args.file.read_text(encoding="latin-1")
     report = build_report(image, text, str(args.file))
     print(json.dumps(report, indent=2) if args.json else render_text(report))
     return 0
@@ -118,7 +124,7 @@ def cmd_relocate(args: argparse.Namespace) -> int:
     try:
         flat = image.relocate(args.base)
     except ValueError as error:
-        raise CommandError(str(error)) from None
+        raise CommandLineError(str(error)) from None
     partial = args.output.with_name(args.output.name + ".partial")
     partial.write_bytes(flat)
     partial.replace(args.output)
@@ -129,19 +135,36 @@ def cmd_relocate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _progress_bar(progress: Progress) -> None:
-    rate = progress.acknowledged / progress.elapsed if progress.elapsed > 0 else 0.0
-    left = (progress.total - progress.acknowledged) / rate if rate > 0 else 0.0
-    print(
-        f"\r{progress.acknowledged}/{progress.total} bytes, {progress.blocks} blocks, "
-        f"{rate / 1000:.1f} kB/s, ETA {left:.1f} s, {progress.retransmissions} resent  ",
-        end="",
-        file=sys.stderr,
-        flush=True,
-    )
+class SendProgress:
+    """The progress of `send` on a tqdm bar, which draws only when standard error is a terminal
+    (`bar` None: ``--quiet``, no bar at all); `note` prints a line without breaking the bar."""
+
+    def __init__(self, bar: tqdm | None) -> None:
+        self.bar = bar
+
+    @property
+    def callback(self) -> Callable[[Progress], None] | None:
+        """What the sender reports to (nothing without a bar): it moves the bar to the bytes
+        the node acknowledged, back too, after a resume from fewer."""
+        bar = self.bar
+        if bar is None:
+            return None
+
+        def advance(progress: Progress) -> None:
+            bar.update(progress.acknowledged - bar.n)
+            bar.set_postfix(blocks=progress.blocks, resent=progress.retransmissions, refresh=False)
+
+        return advance
+
+    def note(self, text: str) -> None:
+        """A line on standard error, above the bar."""
+        if self.bar is None:
+            print(text, file=sys.stderr)
+        else:
+            self.bar.write(text, file=sys.stderr)
 
 
-def _sender(args: argparse.Namespace, progress: bool = False) -> Sender:
+def _sender(args: argparse.Namespace, progress: Callable[[Progress], None] | None = None) -> Sender:
     link = open_link(args.to)
     return Sender(
         link,
@@ -149,15 +172,26 @@ def _sender(args: argparse.Namespace, progress: bool = False) -> Sender:
         window=args.window,
         timeout=args.timeout,
         retries=args.retries,
-        progress=_progress_bar if progress else None,
+        progress=progress,
     )
 
 
 def cmd_send(args: argparse.Namespace) -> int:
     """Send a module to a node, show progress, commit it."""
-    result = _send_resuming(args, ModuleImage.read(args.file))
-    if not args.quiet:
-        print(file=sys.stderr)
+    image = ModuleImage.read(args.file)
+    if not _is_word(image.name):
+        where = (
+            "the name in its descriptor"
+            if descriptor_name(image) is not None
+            else "the file's name, as the image has no descriptor: rename the file"
+        )
+        raise CommandLineError(
+            f"{args.file}: expected a module name of printable ASCII characters without "
+            f"spaces (the protocol carries it as one word), got {image.name!r} ({where})"
+        )
+    with contextlib.ExitStack() as stack:
+        bar = None if args.quiet else stack.enter_context(progress_bar(image.size, image.name))
+        result = _send_resuming(args, image, SendProgress(bar))
     rate = result.size / result.seconds if result.seconds else 0.0
     print(
         f"{args.file}: module {result.name} installed at 0x{result.load_address:08X} on "
@@ -168,20 +202,22 @@ def cmd_send(args: argparse.Namespace) -> int:
     return 0
 
 
-def _send_resuming(args: argparse.Namespace, image: ModuleImage) -> TransferResult:
+def _send_resuming(
+    args: argparse.Namespace, image: ModuleImage, progress: SendProgress
+) -> TransferResult:
     """Send `image`; when the link fails midway, open it again and resume the transfer where
     the node got to (`--reconnects` times, a second apart), as after a cable was re-plugged."""
-    sender = _sender(args, progress=not args.quiet)
+    sender = _sender(args, progress.callback)
     try:
         with contextlib.closing(sender.link):
             return sender.send(image, args.base)
     except TransferInterrupted as error:
         interrupted = error
     for attempt in range(1, args.reconnects + 1):
-        print(f"\n{interrupted}; reconnecting ({attempt}/{args.reconnects})", file=sys.stderr)
+        progress.note(f"{interrupted}; reconnecting ({attempt}/{args.reconnects})")
         time.sleep(1.0)
         try:
-            sender = _sender(args, progress=not args.quiet)
+            sender = _sender(args, progress.callback)
         except LinkError:
             continue
         try:
@@ -211,8 +247,10 @@ def cmd_ls(args: argparse.Namespace) -> int:
     """List a node's modules."""
     with _connected(args) as sender:
         modules = sender.modules()
-    for name, address, size in modules:
-        print(f"{name:<16} 0x{address:08X}  {size} bytes")
+    if not modules:
+        print(f"no modules on {args.to}")
+    for name, location, size in modules:
+        print(f"{name:<16} 0x{location:08X}  {size} bytes")
     return 0
 
 
@@ -224,43 +262,56 @@ def cmd_rm(args: argparse.Namespace) -> int:
     return 0
 
 
-def _wire(text: str) -> tuple[str, str]:
-    """``OUT_PBO.port=IN_PBO.port`` (argparse type)."""
-    source, found, sink = text.partition("=")
-    if not (found and "." in source and "." in sink):
-        raise argparse.ArgumentTypeError(f"expected OUT_PBO.port=IN_PBO.port, got {text!r}")
-    return source, sink
+def _is_word(name: str) -> bool:
+    """True for a name the hex-mode protocol carries as one word: printable ASCII, no spaces."""
+    return bool(name) and name.isascii() and name.isprintable() and " " not in name
 
 
-def cmd_node(args: argparse.Namespace) -> int:
-    """Run an emulated node that accepts modules on a link and runs them."""
-    from firmware_sim.listen import listen  # the application layer, imported only here
-
-    return listen(args)
+def module_name(text: str) -> str:
+    """A module's name on a node, as its descriptor holds it (argparse type)."""
+    if not (_is_word(text) and len(text) <= NAME_LEN):
+        raise argparse.ArgumentTypeError(
+            f"expected 1 to {NAME_LEN} printable ASCII characters without spaces, got {text!r}"
+        )
+    return text
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of `hexmigrate` with one sub-parser per command."""
-    parser = argparse.ArgumentParser(
-        prog="hexmigrate",
-        description="ReFrESH modules as extended Intel HEX (record 07: offset function pointer, "
-        "record 08: module initialization pointer).",
-    )
-    parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    parser = command_parser("hexmigrate", DESCRIPTION)
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _add_file_commands(commands)
+    _add_node_commands(commands)
+    return parser
 
-    pack = commands.add_parser("pack", help="build a module file from an ELF or a binary + map")
+
+def _add_file_commands(commands: argparse._SubParsersAction) -> None:
+    pack = add_command(
+        commands,
+        "pack",
+        cmd_pack,
+        "build a module file from an ELF or a binary + map",
+        "Build a module file from an RV32 ELF linked with --emit-relocs, or from a raw binary\n"
+        "and its GNU ld map (the paper's route). Given both, the two routes must agree.\n\n"
+        "examples:\n"
+        "  hexmigrate pack build/modules/gain.elf -o gain.hex\n"
+        "  hexmigrate pack --map build/modules/gain.map --bin build/modules/gain.bin -o gain.hex",
+    )
     pack.add_argument(
-        "elf", nargs="?", type=Path, metavar="MODULE.elf", help="RV32 ELF linked with --emit-relocs"
+        "elf",
+        nargs="?",
+        type=MODULE_FILE,
+        metavar="MODULE.elf",
+        help="RV32 ELF linked with --emit-relocs",
     )
     pack.add_argument(
         "--map",
-        type=Path,
+        type=MODULE_FILE,
         metavar="MODULE.map",
         help="GNU ld map file (with --bin; with MODULE.elf too, both routes must agree)",
     )
     pack.add_argument(
-        "--bin", type=Path, metavar="MODULE.bin", help="raw binary from the link base"
+        "--bin", type=MODULE_FILE, metavar="MODULE.bin", help="raw binary from the link base"
     )
     pack.add_argument(
         "--init",
@@ -275,29 +326,40 @@ def build_parser() -> argparse.ArgumentParser:
         default=16,
         help="data bytes per record (default: 16)",
     )
-    pack.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.hex")
-    pack.set_defaults(func=cmd_pack)
-
-    inspect = commands.add_parser(
-        "inspect", help="show size, flash blocks, descriptor, relocations, init"
+    pack.add_argument(
+        "-o", "--output", type=output_file, required=True, metavar="OUT.hex", help="file to write"
     )
-    inspect.add_argument("file", type=Path, metavar="FILE.hex")
+
+    inspect = add_command(
+        commands,
+        "inspect",
+        cmd_inspect,
+        "show name, size, flash blocks, descriptor, relocations, init",
+    )
+    inspect.add_argument("file", type=MODULE_FILE, metavar="FILE.hex")
     inspect.add_argument("--json", action="store_true", help="print the report as JSON")
-    inspect.set_defaults(func=cmd_inspect)
 
-    verify = commands.add_parser("verify", help="exit 0 if the file is a valid module, 1 if not")
-    verify.add_argument("file", type=Path, metavar="FILE.hex")
-    verify.set_defaults(func=cmd_verify)
+    verify = add_command(
+        commands, "verify", cmd_verify, "exit 0 if the file is a valid module, 1 if not"
+    )
+    verify.add_argument("file", type=MODULE_FILE, metavar="FILE.hex")
 
-    relocate = commands.add_parser("relocate", help="write the flash bytes for a load address")
-    relocate.add_argument("file", type=Path, metavar="FILE.hex")
+    relocate = add_command(
+        commands,
+        "relocate",
+        cmd_relocate,
+        "write the flash bytes for a load address",
+        "Write the bytes as they sit in flash when the module is placed at --base.\n\n"
+        "example:\n"
+        "  hexmigrate relocate gain.hex --base 0x20000 -o gain.bin",
+    )
+    relocate.add_argument("file", type=MODULE_FILE, metavar="FILE.hex")
     relocate.add_argument(
         "--base", type=address, required=True, metavar="ADDR", help="load address, e.g. 0x20000"
     )
-    relocate.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.bin")
-    relocate.set_defaults(func=cmd_relocate)
-    _add_link_commands(commands)
-    return parser
+    relocate.add_argument(
+        "-o", "--output", type=output_file, required=True, metavar="OUT.bin", help="file to write"
+    )
 
 
 def _link_options(command: argparse.ArgumentParser) -> None:
@@ -316,125 +378,61 @@ def _link_options(command: argparse.ArgumentParser) -> None:
     )
     command.add_argument(
         "--window",
-        type=int,
+        type=integer(1, MAX_WINDOW, unit="blocks"),
         default=4,
+        metavar="N",
         help="blocks in flight at most (default 4; fewer while the line loses data)",
     )
     command.add_argument(
-        "--timeout", type=float, default=1.0, help="seconds to wait for an answer (default 1)"
+        "--timeout",
+        type=real(above=0, maximum=MAX_TIMEOUT, unit="s"),
+        default=1.0,
+        metavar="S",
+        help="seconds to wait for an answer (default 1)",
     )
-    command.add_argument("--retries", type=int, default=10, help="tries per step (default 10)")
+    command.add_argument(
+        "--retries",
+        type=integer(1, MAX_RETRIES),
+        default=10,
+        metavar="N",
+        help="tries per step (default 10)",
+    )
 
 
-def _add_link_commands(commands: argparse._SubParsersAction) -> None:
-    send = commands.add_parser("send", help="send a module to a node and commit it")
-    send.add_argument("file", type=Path, metavar="FILE.hex")
+def _add_node_commands(commands: argparse._SubParsersAction) -> None:
+    send = add_command(
+        commands,
+        "send",
+        cmd_send,
+        "send a module to a node and commit it",
+        "Send a module to a node, show a progress bar on a terminal, commit it and print a\n"
+        "summary. When the link fails midway, open it again and resume where the node got to.\n\n"
+        "example:\n"
+        "  hexmigrate send gain.hex --to socket://127.0.0.1:7777",
+    )
+    send.add_argument("file", type=MODULE_FILE, metavar="FILE.hex")
     send.add_argument("--base", type=address, metavar="ADDR", help="ask for a load address")
     send.add_argument("--quiet", action="store_true", help="no progress bar")
     send.add_argument(
         "--reconnects",
-        type=int,
+        type=integer(0, MAX_RECONNECTS),
         default=3,
+        metavar="N",
         help="times to reopen a failed link and resume (default 3)",
     )
     _link_options(send)
-    send.set_defaults(func=cmd_send)
-    for name, func, text in (
-        ("ping", cmd_ping, "ask a node who it is"),
-        ("ls", cmd_ls, "list a node's modules"),
-    ):
-        command = commands.add_parser(name, help=text)
-        _link_options(command)
-        command.set_defaults(func=func)
-    remove = commands.add_parser("rm", help="unload a module from a node")
-    remove.add_argument("name")
+    ping = add_command(commands, "ping", cmd_ping, "ask a node who it is")
+    _link_options(ping)
+    listing = add_command(commands, "ls", cmd_ls, "list a node's modules")
+    _link_options(listing)
+    remove = add_command(commands, "rm", cmd_rm, "unload a module from a node")
+    remove.add_argument("name", type=module_name, metavar="NAME", help="the module's name")
     _link_options(remove)
-    remove.set_defaults(func=cmd_rm)
-    node = commands.add_parser("node", help="run an emulated node that accepts modules")
-    node.add_argument(
-        "--listen",
-        required=True,
-        metavar="URL",
-        help="where to listen: pty (a new pty pair; its path is printed), a device, "
-        "tcp-listen://127.0.0.1:PORT (senders use socket://127.0.0.1:PORT), can://... "
-        "(docs/links.md)",
-    )
-    node.add_argument(
-        "--flash",
-        type=Path,
-        metavar="FILE",
-        help="keep the flash in FILE and boot the modules it holds",
-    )
-    node.add_argument("--name", default="node", help="the node's name (default: node)")
-    node.add_argument(
-        "--fpga",
-        type=int,
-        metavar="N",
-        help="give the node an N-slot Morphing Crossbar on its reconfiguration port: partial "
-        "bitstreams sent to it configure the fabric (docs/crossbar.md)",
-    )
-    node.add_argument(
-        "--rate",
-        type=float,
-        default=100.0,
-        help="frequency of the PBOs the node starts (default 100 Hz)",
-    )
-    node.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="PBO.port=VALUE",
-        help="a constant set when that PBO starts (decimal or 0x...)",
-    )
-    node.add_argument(
-        "--native",
-        action="append",
-        default=[],
-        metavar="NAME",
-        help="start a native PBO of the node's firmware (signal: docs/node.md)",
-    )
-    node.add_argument(
-        "--wire",
-        action="append",
-        default=[],
-        type=_wire,
-        metavar="OUT_PBO.port=IN_PBO.port",
-        help="connect an output to an input as soon as both PBOs run",
-    )
-    node.add_argument(
-        "--show",
-        action="append",
-        default=[],
-        metavar="PBO.port",
-        help="print this port's value every second",
-    )
-    node.add_argument(
-        "--seconds", type=float, help="stop after this long (default: run until interrupted)"
-    )
-    node.set_defaults(func=cmd_node)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    try:
-        return args.func(args)
-    except UsageError as error:
-        parser.error(str(error))
-    except KeyboardInterrupt:
-        return 130
-    except (HexError, CommandError, LinkError, TransferError, OSError, ValueError) as error:
-        if args.debug:
-            traceback.print_exc()
-        print(f"error: {_describe(error)}", file=sys.stderr)
-        return EXIT_ERROR
-
-
-def _describe(error: Exception) -> str:
-    if isinstance(error, OSError) and error.filename is not None:
-        return f"{error.filename}: {error.strerror}"
-    return str(error)
+    return run(build_parser(), HexmigrateError, argv)
 
 
 if __name__ == "__main__":

@@ -1,9 +1,13 @@
 """Module images from RV32 ELF files linked with ``--emit-relocs``.
 
-The data comes from the loadable segments, at their load addresses (as ``objcopy -O ihex`` puts
-it). With ``-mcmodel=medany`` the code is position-independent, so the only words that hold
-absolute addresses are the ``R_RISCV_32`` relocations that ``--emit-relocs`` keeps; each becomes a
-07 record. The 08 record targets the init symbol.
+The data is what ``objcopy -O binary`` writes: the contents of the allocated sections (not
+``NOBITS``) at their load addresses, the gaps between them zero. It is not the bytes of the
+loadable segments: code linked at an address that is not page aligned gets a first segment that
+also maps the ELF and program headers, which are no part of the module.
+
+With ``-mcmodel=medany`` the code is position-independent, so the only words that hold absolute
+addresses are the ``R_RISCV_32`` relocations that ``--emit-relocs`` keeps; each becomes a 07
+record. The 08 record targets the init symbol.
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ from elftools.common.exceptions import ELFError
 from elftools.elf.constants import SH_FLAGS
 from elftools.elf.elffile import ELFFile
 from elftools.elf.relocation import RelocationSection
-from elftools.elf.sections import SymbolTableSection
+from elftools.elf.sections import Section, SymbolTableSection
 
 from hexmigrate.errors import HexError, ModuleSourceError
 from hexmigrate.image import ModuleImage
@@ -24,16 +28,15 @@ R_RISCV_32 = 1
 DEFAULT_INIT_SYMBOL = "module_init"
 
 
-def image_from_elf(
-    path: str | Path, init_symbol: str = DEFAULT_INIT_SYMBOL, name: str | None = None
-) -> ModuleImage:
-    """Build the module image of an RV32 ELF executable."""
+def image_from_elf(path: str | Path, init_symbol: str = DEFAULT_INIT_SYMBOL) -> ModuleImage:
+    """Build the module image of an RV32 ELF executable; one without a descriptor is named
+    after the file."""
     path = Path(path)
     try:
         with path.open("rb") as stream:
             elf = ELFFile(stream)
             _check_machine(elf, path)
-            segments = _load_segments(elf, path)
+            segments = _allocated_sections(elf, path)
             relocations = _pointer_relocations(elf)
             functions, symbols = _symbols(elf)
     except ELFError as error:
@@ -48,7 +51,7 @@ def image_from_elf(
         )
     try:
         return ModuleImage.from_segments(
-            name or path.stem, segments, relocations, symbols[init_symbol], functions
+            path.stem, segments, relocations, symbols[init_symbol], functions
         )
     except HexError as error:
         raise error.with_path(path) from None
@@ -64,15 +67,42 @@ def _check_machine(elf: ELFFile, path: Path) -> None:
         )
 
 
-def _load_segments(elf: ELFFile, path: Path) -> list[Segment]:
-    segments = [
-        Segment(segment["p_paddr"], segment.data()[: segment["p_filesz"]])
-        for segment in elf.iter_segments()
-        if segment["p_type"] == "PT_LOAD" and segment["p_filesz"] > 0
-    ]
+def _allocated_sections(elf: ELFFile, path: Path) -> list[Segment]:
+    """The contents of the allocated sections at their load addresses, as objcopy places them:
+    a section's load address is its address moved as its loadable segment is
+    (``p_paddr - p_vaddr``)."""
+    loads = [segment for segment in elf.iter_segments() if segment["p_type"] == "PT_LOAD"]
+    segments = []
+    for section in elf.iter_sections():
+        if not _has_image_bytes(section):
+            continue
+        load = next((segment for segment in loads if segment.section_in_segment(section)), None)
+        if load is None:
+            raise ModuleSourceError(
+                f"expected the allocated section {section.name} inside a loadable segment, "
+                "got it outside every one",
+                path=path,
+            )
+        data = section.data()
+        if len(data) != section["sh_size"]:
+            raise ModuleSourceError(
+                f"expected {section['sh_size']} bytes of section {section.name}, got "
+                f"{len(data)}: the file is cut short",
+                path=path,
+            )
+        segments.append(Segment(section["sh_addr"] + load["p_paddr"] - load["p_vaddr"], data))
     if not segments:
-        raise ModuleSourceError("expected at least one loadable segment, got none", path=path)
+        raise ModuleSourceError("expected at least one allocated section, got none", path=path)
     return segments
+
+
+def _has_image_bytes(section: Section) -> bool:
+    """True for a section whose bytes reach flash: allocated, with contents in the file."""
+    return (
+        bool(section["sh_flags"] & SH_FLAGS.SHF_ALLOC)
+        and section["sh_type"] != "SHT_NOBITS"
+        and section["sh_size"] > 0
+    )
 
 
 def _pointer_relocations(elf: ELFFile) -> list[int]:

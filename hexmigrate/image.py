@@ -3,7 +3,7 @@
 An image is linked at a link base (the lowest address of its data) and can be placed anywhere:
 only the 32-bit little-endian words listed as relocations (07 records) hold absolute addresses,
 and `relocate` adds ``load_base - link_base`` to each of them. Everything else is
-position-independent code and constant data (ARCHITECTURE.md, "Module images").
+position-independent code and constant data (docs/module-abi.md, "Why the image can move").
 """
 
 from __future__ import annotations
@@ -13,8 +13,10 @@ from dataclasses import dataclass, field
 from itertools import pairwise
 from pathlib import Path
 
+from hexmigrate import descriptor as abi
 from hexmigrate.errors import (
     AddressOverflowError,
+    DescriptorError,
     DuplicateRelocationError,
     GapError,
     HexError,
@@ -34,15 +36,26 @@ from hexmigrate.records import (
 )
 
 FLASH_BLOCK_SIZE = 256
-ERASED_BYTE = 0xFF
+GAP_FILL = 0x00
+"""What fills the gaps between linker sections: ``objcopy -O binary`` writes zeros there, so the
+ELF route and the map route (whose raw binary objcopy wrote) give the same bytes."""
+MAX_SPAN = 16 << 20
+"""The most bytes joined sections may span: far above any node's flash, and low enough that two
+sections 4 GiB apart in a hostile ELF are refused instead of filling memory."""
 
 
 @dataclass(frozen=True)
 class ModuleImage:
     """A module: one contiguous run of bytes at its link base, the pointer words to fix, its init.
 
+    `name` is the name the node registers the module under: the name in its PBO descriptor (the
+    first valid one in the data, see `find_descriptor`), which replaces the name given; the name
+    given (a file's stem, when read from a file) only for an image without a descriptor, such as
+    a partial bitstream. So a file copied under another name still shows, sends and is removed
+    as the module it holds.
+
     A module is written to consecutive flash blocks, so it is one run of bytes; `from_segments`
-    fills gaps between linker segments with erased flash (0xFF), as the loader would find them.
+    fills gaps between linker sections with zeros, as ``objcopy -O binary`` does.
     `symbols` maps function start addresses to names when the image was built from linker output;
     it is not part of the HEX file, so it takes no part in equality.
     """
@@ -57,6 +70,9 @@ class ModuleImage:
     def __post_init__(self) -> None:
         if not self.data:
             raise ModuleSourceError(f"module {self.name!r}: expected image data, got none")
+        registered = descriptor_name(self)
+        if registered is not None:
+            object.__setattr__(self, "name", registered)
         if self.link_base + len(self.data) > ADDRESS_SPACE:
             raise AddressOverflowError(
                 f"module {self.name!r}: expected the image to end at or before 0x100000000, got "
@@ -95,7 +111,7 @@ class ModuleImage:
         init: int,
         symbols: Mapping[int, str] | None = None,
     ) -> ModuleImage:
-        """Join linker segments into one run, filling the gaps with erased flash bytes."""
+        """Join linker sections into one run, filling the gaps with `GAP_FILL`."""
         ordered = sorted(segments, key=lambda s: s.address)
         if not ordered:
             raise ModuleSourceError(f"module {name!r}: expected image data, got none")
@@ -106,7 +122,13 @@ class ModuleImage:
                     f"0x{after.address:08X} starts before 0x{before.end:08X}"
                 )
         link_base = ordered[0].address
-        flat = bytearray([ERASED_BYTE]) * (ordered[-1].end - link_base)
+        span = ordered[-1].end - link_base
+        if span > MAX_SPAN:
+            raise ModuleSourceError(
+                f"module {name!r}: expected sections spanning at most {MAX_SPAN:,} bytes, got "
+                f"{span:,} (0x{link_base:08X}..0x{ordered[-1].end - 1:08X})"
+            )
+        flat = bytearray([GAP_FILL]) * span
         for segment in ordered:
             offset = segment.address - link_base
             flat[offset : offset + len(segment.data)] = segment.data
@@ -151,7 +173,8 @@ class ModuleImage:
 
     @classmethod
     def read(cls, path: str | Path) -> ModuleImage:
-        """Read a module file; errors carry the file name. The module is named after the file."""
+        """Read a module file; errors carry the file name. A module without a descriptor is
+        named after the file."""
         path = Path(path)
         try:
             return cls.from_hex(path.read_text(encoding="latin-1"), path.stem)
@@ -198,6 +221,31 @@ class ModuleImage:
         first = start // FLASH_BLOCK_SIZE
         last = (start + self.size - 1) // FLASH_BLOCK_SIZE
         return [block * FLASH_BLOCK_SIZE for block in range(first, last + 1)]
+
+
+def find_descriptor(image: ModuleImage) -> tuple[int, abi.Descriptor] | None:
+    """The address and content of the first valid PBO descriptor in the image (magic ``PBO1``
+    at a 4-byte aligned address, then a layout that decodes), if any.
+
+    A HEX file does not say where the descriptor is; a module built with the SDK holds exactly
+    one, the one its init subroutine registers."""
+    magic = abi.MAGIC.to_bytes(4, "little")
+    position = image.data.find(magic)
+    while position >= 0:
+        address = image.link_base + position
+        if address % 4 == 0:
+            try:
+                return address, abi.Descriptor.decode(image.data[position:])
+            except DescriptorError:
+                pass
+        position = image.data.find(magic, position + 1)
+    return None
+
+
+def descriptor_name(image: ModuleImage) -> str | None:
+    """The name in the image's descriptor, if it has one with a name."""
+    found = find_descriptor(image)
+    return found[1].name if found is not None and found[1].name else None
 
 
 def _span(segment: Segment) -> str:

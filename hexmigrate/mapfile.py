@@ -67,32 +67,56 @@ def parse_map(text: str) -> LinkerMap:
     """Parse the ``Linker script and memory map`` part of a GNU ld map file.
 
     ld writes a section whose name is longer than its column on one line and its address, size
-    and file on the next; `pending` carries the name across.
+    and file on the next; `pending` carries the name across. A number that is not hexadecimal
+    raises a ModuleSourceError with its line.
     """
     linker_map = LinkerMap()
-    _, found, body = text.partition(MEMORY_MAP_HEADING)
+    head, found, body = text.partition(MEMORY_MAP_HEADING)
     if not found:
         raise ModuleSourceError(f"expected a GNU ld map file with a '{MEMORY_MAP_HEADING}' part")
+    first_line = head.count("\n") + 1
     pending: tuple[str, bool] | None = None
-    for line in body.splitlines():
+    for number, line in enumerate(body.splitlines(), start=first_line):
         tokens = line.split()
         if not tokens:
             continue
-        if not line[0].isspace():
-            pending = _section_line(linker_map, tokens, output=True)
-        elif line[1] != " " and not tokens[0].startswith("*"):
-            pending = _section_line(linker_map, tokens, output=False)
-        elif tokens[0].startswith("0x") and pending is not None:
-            _section_line(linker_map, [pending[0], *tokens], output=pending[1])
-            pending = None
-        elif len(tokens) >= 2 and tokens[0].startswith("0x") and _is_symbol(tokens[1]):
-            linker_map.symbols[tokens[1]] = int(tokens[0], 16)
+        try:
+            pending = _map_line(linker_map, line, tokens, pending)
+        except ModuleSourceError as error:
+            error.line = number
+            raise
     return linker_map
+
+
+def _map_line(
+    linker_map: LinkerMap, line: str, tokens: list[str], pending: tuple[str, bool] | None
+) -> tuple[str, bool] | None:
+    """Take one line of the memory map; return the section name whose numbers are still to
+    come."""
+    if not line[0].isspace():
+        return _section_line(linker_map, tokens, output=True)
+    if line[1] != " " and not tokens[0].startswith("*"):
+        return _section_line(linker_map, tokens, output=False)
+    if tokens[0].startswith("0x") and pending is not None:
+        _section_line(linker_map, [pending[0], *tokens], output=pending[1])
+        return None
+    if len(tokens) >= 2 and tokens[0].startswith("0x") and _is_symbol(tokens[1]):
+        linker_map.symbols[tokens[1]] = _hexadecimal(tokens[0])
+    return pending
 
 
 def _is_symbol(token: str) -> bool:
     """True for a C or assembler symbol name (ld also prints expressions and file names)."""
     return SYMBOL_NAME.fullmatch(token) is not None
+
+
+def _hexadecimal(token: str) -> int:
+    try:
+        return int(token, 16)
+    except ValueError:
+        raise ModuleSourceError(
+            f"expected a hexadecimal number like 0x00010000, got {token!r}"
+        ) from None
 
 
 def _section_line(
@@ -104,7 +128,7 @@ def _section_line(
         return None
     if len(tokens) < 3 or not tokens[1].startswith("0x"):
         return (name, output)
-    section = Section(name, int(tokens[1], 16), int(tokens[2], 16))
+    section = Section(name, _hexadecimal(tokens[1]), _hexadecimal(tokens[2]))
     if output:
         linker_map.output_sections[name] = section
     else:
@@ -116,7 +140,6 @@ def image_from_map(
     binary_path: str | Path,
     map_path: str | Path,
     init_symbol: str = DEFAULT_INIT_SYMBOL,
-    name: str | None = None,
 ) -> ModuleImage:
     """Build the module image of a raw binary, with the pointer slots and init from its map."""
     binary_path, map_path = Path(binary_path), Path(map_path)
@@ -132,7 +155,7 @@ def image_from_map(
     relocations = _descriptor_pointers(linker_map, data, link_base, map_path)
     try:
         return ModuleImage(
-            name or binary_path.stem,
+            binary_path.stem,
             link_base,
             data,
             tuple(relocations),

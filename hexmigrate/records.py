@@ -1,6 +1,6 @@
 """The extended Intel HEX codec: one record, and a whole file.
 
-Standard records 00-05 keep their Intel meaning. ReFrESH adds two (see ARCHITECTURE.md):
+Standard records 00-05 keep their Intel meaning. ReFrESH adds two (docs/hex-format.md):
 
 * 07, offset function pointer: data = big-endian link-time address of a 32-bit little-endian
   pointer word inside the image; the loader adds ``load_base - link_base`` to that word.

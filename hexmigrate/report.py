@@ -11,24 +11,8 @@ from collections import Counter
 from typing import Any
 
 from hexmigrate import descriptor as abi
-from hexmigrate.errors import DescriptorError
-from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
+from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage, descriptor_name, find_descriptor
 from hexmigrate.records import RecordType, decode_record
-
-
-def find_descriptor(image: ModuleImage) -> tuple[int, abi.Descriptor] | None:
-    """The address and content of the first valid PBO descriptor in the image, if any."""
-    magic = abi.MAGIC.to_bytes(4, "little")
-    position = image.data.find(magic)
-    while position >= 0:
-        address = image.link_base + position
-        if address % 4 == 0:
-            try:
-                return address, abi.Descriptor.decode(image.data[position:])
-            except DescriptorError:
-                pass
-        position = image.data.find(magic, position + 1)
-    return None
 
 
 def build_report(image: ModuleImage, text: str, path: str) -> dict[str, Any]:
@@ -37,6 +21,7 @@ def build_report(image: ModuleImage, text: str, path: str) -> dict[str, Any]:
     return {
         "file": path,
         "name": image.name,
+        "name_from": "file" if descriptor_name(image) is None else "descriptor",
         "link_base": image.link_base,
         "size": image.size,
         "init": image.init,
@@ -85,10 +70,16 @@ def _relocation(
     }
 
 
+_NAME_FROM = {
+    "descriptor": "the name in its descriptor",
+    "file": "no descriptor: the file's name",
+}
+
+
 def render_text(report: dict[str, Any]) -> str:
     """The report as the aligned text a person reads in a terminal."""
     lines = [
-        f"module {report['name']}  ({report['file']})",
+        f"module {report['name']}  ({report['file']}; {_NAME_FROM[report['name_from']]})",
         f"  link base   0x{report['link_base']:08X}",
         f"  size        {report['size']} bytes "
         f"(0x{report['link_base']:08X}..0x{report['link_base'] + report['size'] - 1:08X}), "

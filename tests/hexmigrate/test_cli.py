@@ -16,12 +16,13 @@ from hexmigrate.image import ModuleImage
 HEXMIGRATE = Path(sys.executable).with_name("hexmigrate")
 
 
-def run(*args: object) -> subprocess.CompletedProcess[str]:
+def run(*args: object, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
         [sys.executable, "-m", "hexmigrate", *map(str, args)],
         capture_output=True,
         text=True,
         check=False,
+        cwd=cwd,
     )
 
 
@@ -49,7 +50,7 @@ def test_pack_from_elf_and_from_map_agree(example_builds, tmp_path, packed):
     both = run("pack", gain.elf, "--map", gain.map, "--bin", gain.bin, "-o", tmp_path / "b.hex")
     assert both.returncode == 0, both.stderr
     size = ModuleImage.read(packed).size
-    assert f"module from-map, {size} bytes at 0x00010000, 9 relocations" in result.stdout
+    assert f"module gain, {size} bytes at 0x00010000, 9 relocations" in result.stdout
 
 
 def test_pack_refuses_routes_that_disagree(example_builds, tmp_path):
@@ -134,26 +135,28 @@ def test_relocate_refuses_a_base_past_4_gib(packed, tmp_path):
     ("args", "message"),
     [
         (
-            ["relocate", "m.hex", "--base", "twelve", "-o", "x.bin"],
+            ["relocate", "{good}", "--base", "twelve", "-o", "x.bin"],
             "expected an address like 0x20000, got 'twelve'",
         ),
-        (["pack", "--map", "m.map", "-o", "x.hex"], "--map and --bin go together"),
+        (["pack", "--map", "{good}", "-o", "x.hex"], "--map and --bin go together"),
         (["pack", "-o", "x.hex"], "expected MODULE.elf, or --map MODULE.map --bin MODULE.bin"),
-        (["pack", "m.elf"], "the following arguments are required: -o/--output"),
+        (["pack", "{good}"], "the following arguments are required: -o/--output"),
+        (["inspect", "{missing}"], "argument FILE.hex: {missing}: No such file or directory"),
+        (["verify", "{folder}"], "argument FILE.hex: expected a regular file, got {folder}"),
     ],
 )
-def test_usage_errors_exit_2(args, message):
-    result = run(*args)
+def test_usage_errors_exit_2(args, message, data_dir, tmp_path):
+    names = {
+        "good": data_dir / "good_module.hex",
+        "missing": tmp_path / "m.hex",
+        "folder": tmp_path,
+    }
+    result = run(*(arg.format(**names) for arg in args), cwd=tmp_path)
     assert result.returncode == 2
-    assert message in result.stderr
+    assert result.stderr.startswith("usage: hexmigrate ")
+    assert message.format(**names) in result.stderr
     assert "Traceback" not in result.stderr
-
-
-def test_missing_file_is_one_error_line(tmp_path):
-    missing = tmp_path / "missing.hex"
-    result = run("inspect", missing)
-    assert result.returncode == 1
-    assert result.stderr == f"error: {missing}: No such file or directory\n"
+    assert not list(tmp_path.iterdir())
 
 
 @pytest.mark.parametrize(

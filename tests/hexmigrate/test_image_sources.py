@@ -166,3 +166,8 @@ def test_every_swap_of_two_lines_in_a_real_module_is_caught_or_harmless(example_
         harmless.append({lines[first][7:9], lines[second][7:9]})
     # Only records that carry absolute addresses (07, 08) or precede all data (04) trade places.
     assert all(kinds <= {"07", "08", "04"} for kinds in harmless)
+
+
+def test_the_elf_route_holds_the_bytes_objcopy_writes_padding_included(example):
+    """The gap before the 4-byte aligned descriptor is zero, as in objcopy's raw binary."""
+    assert image_from_elf(example.elf).data == example.bin.read_bytes()

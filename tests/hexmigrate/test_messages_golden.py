@@ -187,7 +187,8 @@ def test_the_codec_writes_the_pinned_bytes_and_reads_them_back(message, text, wi
 
 def test_every_declared_message_type_is_pinned_in_every_mode_it_has():
     pinned = {(type(message), text) for message, text, _ in GOLDEN}
-    declared = Message.__subclasses__()
+    # the protocol's own types (a test may declare a refused probe, which lingers until collected)
+    declared = [cls for cls in Message.__subclasses__() if cls.__module__ == Message.__module__]
     assert len(declared) >= 16
     for cls in declared:
         layout = cls.layout
