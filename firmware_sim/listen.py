@@ -70,10 +70,10 @@ def listen(config: ListenConfig, say: Callable[[str], None]) -> int:
             say(f"registered {name} at 0x{address:08X}")
             pbos.start(name, name)
 
-        for native in config.natives:
-            pbos.start(NativeModule(NATIVES[native]), native)
-        # The link first: its "listening on" line is the first line out, before the boot.
+        # The link first: its "listening on" line is the first line out, before any other.
         with open_listening(config.listen, say) as link:
+            for native in config.natives:
+                pbos.start(NativeModule(NATIVES[native]), native)
             for module in list(node.modules.values()):
                 installed(module.name, module.load_address)
             if port is not None:

@@ -1,6 +1,6 @@
 """An emulated node: CPU, flash, SRAM, the loader, the PBO/RT kernel and a power budget.
 
-This is where `hexmigrate` and `pbort` meet (ARCHITECTURE.md): a module file arrives, the loader
+This is where `hexmigrate` and `pbort` meet (docs/node.md): a module file arrives, the loader
 writes it to flash block by block and fixes its pointers, its init subroutine registers it, and the
 kernel runs it as a port-based object next to the node's native PBOs. A module is installed only
 when every step succeeded; on any failure the node is as it was before (flash content, flash

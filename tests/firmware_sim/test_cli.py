@@ -95,7 +95,9 @@ def test_run_text_output(hex_files):
         (["transfer", "--bit-rate", "0", "x.hex"], 2, "expected a number from 300 to 1e+07"),
         (["listen", "--listen", "pty", "--fpga", "-1"], 2, "expected a whole number from 1"),
         (["listen", "--listen", "pty", "--show", "gain"], 2, "expected PBO.port, got 'gain'"),
-        (["listen", "--listen", "nowhere://x", "--seconds", "0.1"], 1, "error: "),
+        (["listen", "--listen", "nowhere://x", "--seconds", "0.1"], 1, "error: bad link URL"),
+        (["listen", "--listen", "loop://", "--fpga", "1"], 1, "cannot build 1 slot(s)"),
+        (["listen", "--listen", "loop://", "--flash", "."], 2, "expected a file to write"),
     ],
 )
 def test_errors(args, status, message):
@@ -113,6 +115,17 @@ def test_a_module_that_refuses_to_start_shows_what_it_logged(hex_files):
         "gain: k is not configured"
     )
     assert result.stderr.count("\n") == 1
+
+
+def test_a_listening_node_says_where_first_then_why_a_pbo_did_not_start():
+    result = run("listen", "--listen", "loop://", "--native", "signal", "--set", "signal.shape=7",
+                 "--seconds", "0.1")  # fmt: skip
+    assert (result.returncode, result.stderr) == (0, "")
+    assert result.stdout.splitlines() == [
+        "listening on loop://",
+        "signal did not start: PBO 'signal': on returned -1; now ERROR; it logged: signal: "
+        "expected shape 0 (ramp), 1 (sine) or 2 (square), got 7",
+    ]
 
 
 @pytest.mark.parametrize(
