@@ -94,10 +94,9 @@ def exact(spec: PortSpec, where: str, value: Number) -> Number:
             f"scalar port, got {value!r}"
         )
     if dtype.kind == "f":
-        converted = float(np.asarray(value, dtype=dtype))
-        if not math.isfinite(converted):
+        if abs(value) > float(np.finfo(dtype).max):
             raise PortValueError(f"{where} is {dtype.name}, which cannot hold {value!r}")
-        return converted
+        return float(np.asarray(value, dtype=dtype))
     if dtype.kind not in "iub":
         raise PortValueError(f"{where} is {dtype.name}, which a number cannot set")
     low, high = (0, 1) if dtype.kind == "b" else (np.iinfo(dtype).min, np.iinfo(dtype).max)
