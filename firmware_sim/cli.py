@@ -33,7 +33,9 @@ from pbort.errors import KernelError
 from pbort.native import NativeModule
 
 ERRORS = (FirmwareSimError, HexmigrateError, TransferError, KernelError)
-"""The error roots a command of the node meets: its own, and those of the packages below."""
+"""What a command of the node reports as one error line: firmware_sim's root, the roots of the
+packages below it (hexmigrate, pbort), and a transfer's TransferError, which hexmigrate's root does
+not hold yet."""
 DEFAULT_RATE = 100.0
 DEFAULT_SECONDS = 1.0
 MEDIA = {"serial": "serial", "can": "CAN"}
