@@ -1,133 +1,100 @@
-"""The `firmware-sim` command: run emulated nodes and load modules into them.
+"""The `firmware-sim` command: run emulated nodes, load modules into them, listen for modules.
 
-    firmware-sim run --module gain.hex[@0x08001000] --native signal --wire signal.y=gain.x
-                     --set gain.k=0x20000 --rate gain=200 --seconds 1 [--json]
-    firmware-sim transfer gain.hex --wire serial|CAN [--rate N] [--mode binary|hex] [--json]
-    firmware-sim info [--json]
-
-Errors print ``error: ...`` and exit 1; usage errors exit 2; ``--debug`` shows the traceback.
+Errors print one ``error: ...`` line and exit 1; usage errors exit 2; ``--debug`` shows the
+traceback (`commandline.run`).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import logging
 import sys
-import traceback
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
-from dataclasses import asdict
-from pathlib import Path
-from typing import Any
+from collections.abc import Sequence
 
-import numpy as np
-
-from firmware_sim.flash import FlashError
-from firmware_sim.flash_space import FlashFullError
-from firmware_sim.guest import RegistrationError
-from firmware_sim.loader import LoadError
+from commandline import UsageError, add_command, command_parser, run
+from firmware_sim import arguments
+from firmware_sim.errors import FirmwareSimError
+from firmware_sim.kernel_log import into_node_log
+from firmware_sim.listen import ListenConfig, listen
+from firmware_sim.listen_link import PTY
 from firmware_sim.memory_map import MemoryMap
 from firmware_sim.natives import NATIVES
 from firmware_sim.node import Node
+from firmware_sim.run_report import render, run_report
 from firmware_sim.services import DESCRIPTIONS, Service
-from firmware_sim.settings import number
-from firmware_sim.sram import OutOfSramError
-from firmware_sim.wire_sim.link import WIRES
+from firmware_sim.settings import by_pbo
+from firmware_sim.starting import start_pbo
 from firmware_sim.wire_sim.transfer import DEFAULT_WINDOW, run_transfer
-from hexmigrate.errors import HexError, TransferError
+from hexmigrate.errors import HexmigrateError
 from hexmigrate.image import ModuleImage
 from hexmigrate.transfer.sender import MODES
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
 from pbort.native import NativeModule
 
+ERRORS = (FirmwareSimError, HexmigrateError, KernelError)
+"""What a command of the node reports as one error line: firmware_sim's root and the roots of the
+packages below it (hexmigrate, pbort)."""
 DEFAULT_RATE = 100.0
-FAILURES = (
-    HexError,
-    LoadError,
-    RegistrationError,
-    KernelError,
-    FlashError,
-    FlashFullError,
-    OutOfSramError,
-    TransferError,
-    OSError,
-    ValueError,
-)
+DEFAULT_SECONDS = 1.0
+MEDIA = {"serial": "serial", "can": "CAN"}
+"""--medium: the option's word -> the wire simulation's (firmware_sim.wire_sim.link.WIRES)."""
 
+DESCRIPTION = """\
+Run emulated ReFrESH nodes (RV32IM on Unicorn): load modules into one and run it, let one listen
+for modules on a link, time a transfer over a simulated wire.
 
-def module_argument(text: str) -> tuple[Path, int | None]:
-    """``FILE.hex`` or ``FILE.hex@ADDR`` (argparse type)."""
-    path, _, where = text.partition("@")
-    if not where:
-        return Path(path), None
-    try:
-        return Path(path), int(where, 0)
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected FILE.hex or FILE.hex@ADDR with ADDR like 0x08001000, got {text!r}"
-        ) from None
-
-
-def pair(text: str, separator: str = "=") -> tuple[str, str]:
-    """``LEFT=RIGHT`` (argparse type)."""
-    left, found, right = text.partition(separator)
-    if not found or not left or not right:
-        raise argparse.ArgumentTypeError(f"expected NAME{separator}VALUE, got {text!r}")
-    return left, right
-
-
-def rate(text: str) -> tuple[str, float]:
-    """``PBO=HZ`` (argparse type)."""
-    name, value = pair(text)
-    try:
-        hertz = float(value)
-    except ValueError:
-        hertz = 0.0
-    if hertz <= 0:
-        raise argparse.ArgumentTypeError(f"expected PBO=HZ with HZ > 0, got {text!r}")
-    return name, hertz
+examples:
+  firmware-sim run --module gain.hex --native signal --wire signal.y=gain.x \\
+      --set gain.k=0x20000 --seconds 0.5
+  firmware-sim listen --listen tcp-listen://127.0.0.1:0 --native signal \\
+      --wire signal.y=gain.x --set gain.k=0x20000 --show gain.y
+  firmware-sim transfer gain.hex --medium can --bit-rate 250000
+  firmware-sim info --json"""
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    """Load modules into one node, wire and configure them, run, and report."""
-    with Node() as node, _collect_log(node, echo=args.debug):
+    """Load modules into one node, start and wire its PBOs, run it, and report."""
+    if not args.module and not args.native:
+        raise UsageError("run: expected at least one --module or --native")
+    with Node() as node, into_node_log(node, echo=args.debug):
         codes: dict[str, ModuleCode] = {}
-        for path, address in args.module:
-            module = node.load(path, address)
+        for argument in args.module:
+            module = node.load(argument.path, argument.address)
             codes[module.name] = module.code
         for native in args.native:
             codes[native] = NativeModule(NATIVES[native])
-        _start(node, codes, dict(args.rate), args)
-        jobs = node.run(until=args.seconds, cycles=args.cycles)
-        report = _report(node, codes, jobs)
-    print(json.dumps(report, indent=2) if args.json else _render(report))
+        _start(node, codes, args)
+        seconds = DEFAULT_SECONDS if args.cycles is None and args.seconds is None else args.seconds
+        jobs = node.run(until=seconds, cycles=args.cycles)
+        report = run_report(node, codes, jobs)
+    print(json.dumps(report, indent=2) if args.json else render(report))
     return 0
 
 
-def _start(
-    node: Node, codes: dict[str, ModuleCode], rates: dict[str, float], args: argparse.Namespace
-) -> None:
-    """Register every PBO at its rate, set constants, wire, then init and switch all on."""
-    unknown = set(rates) - set(codes)
+def _start(node: Node, codes: dict[str, ModuleCode], args: argparse.Namespace) -> None:
+    """Start every PBO at its rate with its constants, in data-flow order, then wire them."""
+    rates = dict(args.rate)
+    unknown = sorted(set(rates) - set(codes))
     if unknown:
-        raise ValueError(f"--rate names {sorted(unknown)}, expected one of {sorted(codes)}")
+        raise UsageError(f"--rate names {unknown}, expected PBOs among {sorted(codes)}")
+    constants = by_pbo(args.set)
     for name in data_flow_order(list(codes), args.wire):
-        node.kernel.add(codes[name], name, rates.get(name, args.default_rate))
-    for port, value in args.set:
-        node.kernel.configure(port, number(value))
+        start_pbo(
+            node,
+            codes[name],
+            rates.get(name, args.default_rate),
+            name=name,
+            constants=constants.get(name),
+        )
     for source, sink in args.wire:
         node.kernel.connect(source, sink)
-    for name in codes:
-        node.kernel.spawn(name)
-        node.kernel.on(name)
 
 
 def data_flow_order(names: list[str], wires: list[tuple[str, str]]) -> list[str]:
     """`names` with every wire's source PBO before its sink PBO where the wires allow it (ties
     and cycles keep the command-line order), so a value crosses a chain within one period."""
-    feeds = {name: set() for name in names}
+    feeds: dict[str, set[str]] = {name: set() for name in names}
     for source, sink in wires:
         feeds.setdefault(sink.split(".")[0], set()).add(source.split(".")[0])
     ordered: list[str] = []
@@ -140,90 +107,22 @@ def data_flow_order(names: list[str], wires: list[tuple[str, str]]) -> list[str]
     return ordered
 
 
-@contextmanager
-def _collect_log(node: Node, echo: bool) -> Iterator[None]:
-    """Put the kernel's and the modules' log lines into the node's log, with virtual time,
-    instead of on standard error (where they still go with --debug)."""
-
-    class Collect(logging.Handler):
-        def emit(self, record: logging.LogRecord) -> None:
-            node.log.append((node.kernel.now, record.getMessage()))
-
-    logger = logging.getLogger("pbort")
-    handler = Collect()
-    logger.addHandler(handler)
-    logger.setLevel(logging.INFO)
-    logger.propagate = echo
-    try:
-        yield
-    finally:
-        logger.removeHandler(handler)
-        logger.propagate = True
-
-
-def _plain(value: object) -> Any:
-    return value.tolist() if isinstance(value, np.ndarray) else value
-
-
-def _report(node: Node, codes: dict[str, ModuleCode], jobs: int) -> dict[str, Any]:
-    kernel = node.kernel
-    return {
-        "time": kernel.now,
-        "jobs": jobs,
-        "modules": [
-            {
-                "name": m.name,
-                "load_address": m.load_address,
-                "size": m.image.size,
-                "flash_blocks": m.flash_blocks,
-            }
-            for m in node.modules.values()
-        ],
-        "ports": {
-            f"{name}.{port.name}": _plain(kernel.value(f"{name}.{port.name}"))
-            for name, code in codes.items()
-            for port in code.ports
-        },
-        "stats": {
-            name: {**asdict(kernel.stats(name)), "state": kernel.state(name).name}
-            for name in kernel.names
-        },
-        "power": {
-            "draw_mw": node.power.draw,
-            "used_j": node.power.used,
-            "leftover": node.power.leftover,
-            "draws_mw": dict(node.power.draws),
-        },
-        "log": [{"time": time, "text": text} for time, text in node.log],
-    }
-
-
-def _render(report: dict[str, Any]) -> str:
-    lines = [f"ran {report['time']:.3f} s of virtual time, {report['jobs']} jobs", "modules"]
-    lines += [
-        f"  {m['name']:<16} 0x{m['load_address']:08X}  {m['size']} bytes in "
-        f"{len(m['flash_blocks'])} flash block(s)"
-        for m in report["modules"]
-    ]
-    lines.append("PBOs")
-    lines.append(
-        f"  {'PBO':<16} {'state':<10}{'cycles':>8}{'missed':>8}{'overruns':>10}"
-        f"{'faults':>8}{'instructions':>14}{'busy ms':>10}"
+def cmd_listen(args: argparse.Namespace) -> int:
+    """Run a node that accepts modules on a link, until interrupted or for --seconds."""
+    config = ListenConfig(
+        listen=args.listen,
+        name=args.name,
+        flash=args.flash,
+        fpga=args.fpga,
+        rates=tuple(args.rate),
+        default_rate=args.default_rate,
+        settings=tuple(args.set),
+        natives=tuple(args.native),
+        wires=tuple(args.wire),
+        show=tuple(args.show),
+        seconds=args.seconds,
     )
-    lines += [
-        f"  {name:<16} {s['state']:<10}{s['cycles']:>8}{s['missed_deadlines']:>8}"
-        f"{s['overruns']:>10}{s['faults']:>8}{s['instructions']:>14}{s['busy_time'] * 1e3:>10.3f}"
-        for name, s in report["stats"].items()
-    ]
-    lines.append("ports")
-    lines += [f"  {port} = {value}" for port, value in report["ports"].items()]
-    power = report["power"]
-    lines.append(
-        f"power: draw {power['draw_mw']:.1f} mW, used {power['used_j']:.4f} J, "
-        f"leftover {power['leftover']:.2f} / 100"
-    )
-    lines += [f"log {entry['time']:.4f} s: {entry['text']}" for entry in report["log"]]
-    return "\n".join(lines)
+    return listen(config, lambda line: print(line, flush=True))
 
 
 def cmd_info(args: argparse.Namespace) -> int:
@@ -231,18 +130,10 @@ def cmd_info(args: argparse.Namespace) -> int:
     regions = MemoryMap().regions
     services = [{"number": s.value, "name": s.name, "call": DESCRIPTIONS[s]} for s in Service]
     if args.json:
-        print(
-            json.dumps(
-                {
-                    "memory_map": [
-                        {"name": r.name, "base": r.base, "size": r.size, "guest": str(r.guest)}
-                        for r in regions
-                    ],
-                    "services": services,
-                },
-                indent=2,
-            )
-        )
+        memory_map = [
+            {"name": r.name, "base": r.base, "size": r.size, "guest": str(r.guest)} for r in regions
+        ]
+        print(json.dumps({"memory_map": memory_map, "services": services}, indent=2))
         return 0
     print("memory map (default sizes)")
     for region in regions:
@@ -260,12 +151,12 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     """Send a module to a fresh node over a wire simulated in virtual time (firmware_sim.wire_sim)
     and report how long it took against what the wire allows."""
     image = ModuleImage.read(args.file)
-    run = run_transfer(image, args.wire, args.mode, args.window, rate=args.rate)
+    run = run_transfer(image, MEDIA[args.medium], args.mode, args.window, rate=args.bit_rate)
     report = {
         "module": image.name,
         "bytes": run.size,
-        "wire": run.wire,
-        "rate": run.rate,
+        "medium": args.medium,
+        "bit_rate": run.rate,
         "mode": run.mode,
         "window": run.window,
         "seconds": run.seconds,
@@ -298,107 +189,190 @@ def cmd_transfer(args: argparse.Namespace) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of `firmware-sim`."""
-    parser = argparse.ArgumentParser(
-        prog="firmware-sim", description="Run emulated ReFrESH nodes (RV32IM on Unicorn)."
-    )
-    parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    parser = command_parser("firmware-sim", DESCRIPTION)
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _add_run(commands)
+    _add_listen(commands)
+    _add_transfer(commands)
+    info = add_command(commands, "info", cmd_info, "print the memory map and the service table")
+    info.add_argument("--json", action="store_true", help="print them as JSON")
+    return parser
 
-    run = commands.add_parser("run", help="load modules into a node, wire them and run")
-    run.add_argument(
-        "--module",
-        action="append",
-        type=module_argument,
-        default=[],
-        metavar="FILE.hex[@ADDR]",
-        help="a module file, optionally at a flash address",
-    )
-    run.add_argument(
+
+def _add_pbo_options(command: argparse.ArgumentParser, wire_help: str, set_help: str) -> None:
+    """The options of run and listen that say which PBOs run and how."""
+    command.add_argument(
         "--native",
         action="append",
         choices=sorted(NATIVES),
         default=[],
         help="add a native PBO of the node's firmware",
     )
-    run.add_argument(
+    command.add_argument(
         "--wire",
         action="append",
-        type=pair,
+        type=arguments.wire,
         default=[],
         metavar="OUT_PBO.port=IN_PBO.port",
-        help="connect an output to an input",
+        help=wire_help,
     )
-    run.add_argument(
+    command.add_argument(
         "--set",
         action="append",
-        type=pair,
+        type=arguments.port_setting,
         default=[],
         metavar="PBO.port=VALUE",
-        help="set a configuration constant (decimal, 0x..., or float)",
+        help=set_help,
     )
-    run.add_argument(
-        "--rate", action="append", type=rate, default=[], metavar="PBO=HZ", help="a PBO's frequency"
+    command.add_argument(
+        "--rate",
+        action="append",
+        type=arguments.pbo_rate,
+        default=[],
+        metavar="PBO=HZ",
+        help=f"a PBO's frequency ({arguments.RATE_MIN:g} to {arguments.RATE_MAX:g} Hz)",
     )
-    run.add_argument(
+    command.add_argument(
         "--default-rate",
-        type=float,
+        type=arguments.hertz,
         default=DEFAULT_RATE,
         metavar="HZ",
-        help=f"frequency of PBOs without --rate (default {DEFAULT_RATE:g})",
+        help=f"the frequency of PBOs without --rate (default {DEFAULT_RATE:g})",
     )
-    length = run.add_mutually_exclusive_group()
-    length.add_argument("--cycles", type=int, help="run this many jobs")
-    length.add_argument(
-        "--seconds", type=float, help="run this long in virtual time (default: 1, unless --cycles)"
-    )
-    run.add_argument("--json", action="store_true", help="print the report as JSON")
-    run.set_defaults(func=cmd_run)
 
-    transfer = commands.add_parser(
-        "transfer",
-        help="send a module to a node over a serial or CAN wire simulated at its bit rate",
+
+def _add_run(commands: argparse._SubParsersAction) -> None:
+    command = add_command(
+        commands,
+        "run",
+        cmd_run,
+        "load modules into a node, wire them and run",
+        "Load modules into one emulated node, start its PBOs, wire them, run it in virtual time\n"
+        "and print a report.\n\n"
+        "example:\n"
+        "  firmware-sim run --module gain.hex --native signal --wire signal.y=gain.x \\\n"
+        "      --set gain.k=0x20000 --rate gain=200 --seconds 0.5",
     )
-    transfer.add_argument("file", type=Path, metavar="FILE.hex", help="the module file")
-    transfer.add_argument("--wire", choices=WIRES, default="serial", help="default serial")
-    transfer.add_argument(
-        "--rate",
-        type=float,
+    command.add_argument(
+        "--module",
+        action="append",
+        type=arguments.module,
+        default=[],
+        metavar="FILE.hex[@ADDR]",
+        help="a module file, optionally at a flash address",
+    )
+    _add_pbo_options(
+        command,
+        "connect an output to an input",
+        "set a configuration constant: a whole number (decimal or 0x...) for an integer port, "
+        "any number for a floating-point one",
+    )
+    length = command.add_mutually_exclusive_group()
+    length.add_argument("--cycles", type=arguments.cycles, help="run this many jobs")
+    length.add_argument(
+        "--seconds",
+        type=arguments.seconds,
+        help=f"run this long in virtual time (default: {DEFAULT_SECONDS:g}, unless --cycles)",
+    )
+    command.add_argument("--json", action="store_true", help="print the report as JSON")
+
+
+def _add_listen(commands: argparse._SubParsersAction) -> None:
+    command = add_command(
+        commands,
+        "listen",
+        cmd_listen,
+        "run a node that accepts modules on a link",
+        "Run an emulated node on the real-time clock that accepts modules sent with hexmigrate\n"
+        "send, starts each one it installs and wires it, and prints the --show ports every\n"
+        "second. Its first line says where it listens.\n\n"
+        "examples:\n"
+        "  firmware-sim listen --listen pty --set gain.k=0x20000 --show gain.y\n"
+        "  firmware-sim listen --listen tcp-listen://127.0.0.1:0 --native signal \\\n"
+        "      --wire signal.y=gain.x --set gain.k=0x20000 --show gain.y\n"
+        "  firmware-sim listen --listen tcp-listen://127.0.0.1:7777 --fpga 4",
+    )
+    command.add_argument(
+        "--listen",
+        required=True,
+        metavar="URL",
+        help=f"where to listen: {PTY} (a new pty pair; its path is printed), a device, "
+        "tcp-listen://127.0.0.1:PORT (senders use socket://127.0.0.1:PORT), can://... "
+        "(docs/links.md)",
+    )
+    command.add_argument(
+        "--flash",
+        type=arguments.flash_file,
+        metavar="FILE",
+        help="keep the flash in FILE and boot the modules it holds",
+    )
+    command.add_argument("--name", default="node", help="the node's name (default: node)")
+    command.add_argument(
+        "--fpga",
+        type=arguments.slots,
+        metavar="N",
+        help="give the node an N-slot FPGA fabric on its reconfiguration port: partial "
+        "bitstreams sent to it configure the fabric (docs/crossbar.md)",
+    )
+    _add_pbo_options(
+        command,
+        "connect an output to an input whenever both PBOs run",
+        "a constant set when that PBO starts: a whole number (decimal or 0x...) for an "
+        "integer port, any number for a floating-point one",
+    )
+    command.add_argument(
+        "--show",
+        action="append",
+        type=arguments.port,
+        default=[],
+        metavar="PBO.port",
+        help="print this port's value every second",
+    )
+    command.add_argument(
+        "--seconds",
+        type=arguments.seconds,
+        help="stop after this long (default: run until interrupted)",
+    )
+
+
+def _add_transfer(commands: argparse._SubParsersAction) -> None:
+    command = add_command(
+        commands,
+        "transfer",
+        cmd_transfer,
+        "time a module's transfer over a simulated serial or CAN wire",
+        "Send a module to a fresh node over a serial or CAN wire simulated in virtual time at\n"
+        "its bit rate, and print how long it took against what the wire allows.\n\n"
+        "example:\n"
+        "  firmware-sim transfer gain.hex --medium can --bit-rate 250000 --mode binary",
+    )
+    command.add_argument(
+        "file", type=arguments.module_file, metavar="FILE.hex", help="the module file"
+    )
+    command.add_argument(
+        "--medium", choices=sorted(MEDIA), default="serial", help="the wire (default serial)"
+    )
+    command.add_argument(
+        "--bit-rate",
+        type=arguments.bit_rate,
         metavar="N",
         help="baud (serial, 8N1; default 115200) or bit/s (CAN; default 500000)",
     )
-    transfer.add_argument("--mode", choices=MODES, default="binary", help="default binary")
-    transfer.add_argument(
-        "--window", type=int, default=DEFAULT_WINDOW, help="blocks in flight (default 4)"
+    command.add_argument(
+        "--mode", choices=MODES, default="binary", help="the transfer's framing (default binary)"
     )
-    transfer.add_argument("--json", action="store_true", help="print the figures as JSON")
-    transfer.set_defaults(func=cmd_transfer)
-
-    info = commands.add_parser("info", help="print the memory map and the service table")
-    info.add_argument("--json", action="store_true")
-    info.set_defaults(func=cmd_info)
-    return parser
+    command.add_argument(
+        "--window",
+        type=arguments.window,
+        default=DEFAULT_WINDOW,
+        help=f"blocks in flight (default {DEFAULT_WINDOW})",
+    )
+    command.add_argument("--json", action="store_true", help="print the figures as JSON")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if args.command == "run" and not args.module and not args.native:
-        parser.error("run: expected at least one --module or --native")
-    if args.command == "run" and args.cycles is None and args.seconds is None:
-        args.seconds = 1.0
-    try:
-        return args.func(args)
-    except FAILURES as error:
-        if args.debug:
-            traceback.print_exc()
-        message = (
-            f"{error.filename}: {error.strerror}"
-            if isinstance(error, OSError) and error.filename
-            else str(error)
-        )
-        print(f"error: {message}", file=sys.stderr)
-        return 1
+    return run(build_parser(), ERRORS, argv)
 
 
 if __name__ == "__main__":

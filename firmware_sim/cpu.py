@@ -52,8 +52,9 @@ from unicorn.riscv_const import (
 )
 from unicorn.unicorn_py3 import unicorn as _binding
 
+from firmware_sim.errors import CpuClosedError, KernelAccessError, ServiceFault
 from firmware_sim.memory_map import TRAMPOLINE, MemoryMap, Permission, Region
-from firmware_sim.services import GuestServices, ServiceFault, dispatch, signed32
+from firmware_sim.services import GuestServices, dispatch, signed32
 
 DEFAULT_FREQUENCY_HZ = 100e6
 INSTRUCTION_SIZE = 4  # RV32IM without the C extension
@@ -83,14 +84,6 @@ _MEMORY_HOOK = ctypes.CFUNCTYPE(
     ctypes.c_int64,
     ctypes.c_void_p,
 )
-
-
-class CpuClosedError(RuntimeError):
-    """The CPU was closed; its memory and code are gone."""
-
-
-class KernelAccessError(ValueError):
-    """A kernel read or write outside the memory map (a kernel bug, not a guest fault)."""
 
 
 @dataclass(frozen=True)

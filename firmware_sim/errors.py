@@ -1,12 +1,42 @@
 """The exception tree of firmware_sim.
 
-Every failure of an emulated node (its flash, loader, guest CPU, kernel services, links to the
-wires and servos) raises a subclass of `FirmwareSimError`, so the node's command catches one
-class. Each class also inherits the builtin it refines where one fits.
+Every failure of an emulated node (its flash, loader, guest CPU, kernel services, the values its
+command sets, its reconfiguration port) raises a subclass of `FirmwareSimError`, so the node's
+commands catch one class. Each class also inherits the builtin it refines, so code that catches
+``RuntimeError`` or ``ValueError`` (the transfer protocol's receiver does) still sees them.
 
 Tree::
 
-    FirmwareSimError                   the root: every error firmware_sim raises
+    FirmwareSimError                    the root: every error firmware_sim raises
+    ├── FlashError (RuntimeError)       a flash operation the hardware refuses, a flash file that
+    │                                   does not fit the flash
+    ├── FlashFullError (RuntimeError)   no run of free flash blocks is long enough
+    ├── DirectoryError (ValueError)     a module directory that cannot hold or describe the modules
+    ├── LoadError (RuntimeError)        the loader cannot install an image (misplaced pointer,
+    │                                   read-back mismatch)
+    ├── BootError (RuntimeError)        a directory entry that is not a whole module in flash
+    ├── RegistrationError (RuntimeError) a loaded module's init subroutine did not register it
+    ├── OutOfSramError (MemoryError)    no free SRAM block is large enough
+    ├── CpuClosedError (RuntimeError)   the CPU was used after it was closed
+    ├── KernelAccessError (ValueError)  a kernel read or write outside the memory map (a bug)
+    ├── ServiceFault (ValueError)       a kernel service refuses a guest's arguments: the guest
+    │                                   call ends with a fault, the module goes to ERROR
+    ├── PortValueError (ValueError)     a value (``--set PBO.port=VALUE``) the port's declared
+    │                                   type cannot hold exactly
+    ├── StartError (RuntimeError)       a PBO that did not start, with what its module logged
+    ├── PowerReportError (ValueError)   a module reported a power draw the budget cannot take
+    └── ReconfigurationPortError (LookupError)
+                                        no FPGA reconfiguration port is installed, or the one
+                                        installed cannot build the fabric asked for
+
+Two exceptions of firmware_sim stand outside the tree on purpose, because they are control flow
+and not failures a caller should report:
+
+- `firmware_sim.flash.PowerCut` is a ``BaseException`` (like ``KeyboardInterrupt``): it emulates
+  the power failing mid-erase or mid-program, so no ``except Exception`` on the way out may undo
+  anything; after it nothing runs, as on a node without power.
+- `firmware_sim.guest._Refused` carries the negative status the REGISTER service returns to a
+  guest; it never leaves the registrar.
 """
 
 from __future__ import annotations
@@ -14,3 +44,66 @@ from __future__ import annotations
 
 class FirmwareSimError(Exception):
     """Base class of every error firmware_sim raises."""
+
+
+class FlashError(FirmwareSimError, RuntimeError):
+    """A flash operation the hardware would refuse (bad address, program without erase), or a
+    backing file that does not fit the flash."""
+
+
+class FlashFullError(FirmwareSimError, RuntimeError):
+    """No run of free flash blocks is long enough (or the blocks asked for are taken)."""
+
+
+class DirectoryError(FirmwareSimError, ValueError):
+    """A module directory record that cannot be written (too many modules, a name too long) or
+    read (a slot that is neither erased nor valid)."""
+
+
+class LoadError(FirmwareSimError, RuntimeError):
+    """The node cannot install the module (no room, read-back mismatch, misplaced pointer)."""
+
+
+class BootError(FirmwareSimError, RuntimeError):
+    """A directory entry that does not describe a whole module in flash (checked at boot)."""
+
+
+class RegistrationError(FirmwareSimError, RuntimeError):
+    """A loaded module did not register: its init subroutine faulted or its descriptor is bad."""
+
+
+class OutOfSramError(FirmwareSimError, MemoryError):
+    """No free block of SRAM is large enough for an allocation."""
+
+
+class CpuClosedError(FirmwareSimError, RuntimeError):
+    """The CPU was closed; its memory and code are gone."""
+
+
+class KernelAccessError(FirmwareSimError, ValueError):
+    """A kernel read or write outside the memory map (a kernel bug, not a guest fault)."""
+
+
+class ServiceFault(FirmwareSimError, ValueError):
+    """Raised by a kernel service to end the running guest call with a fault; the text says what
+    was wrong with the guest's arguments."""
+
+
+class PortValueError(FirmwareSimError, ValueError):
+    """A value for a port that the port's declared type cannot hold exactly (a fraction for an
+    integer port, a number out of its range, infinity or NaN)."""
+
+
+class StartError(FirmwareSimError, RuntimeError):
+    """A PBO did not start (registration, constants, init or on failed); the text carries the
+    kernel's reason and the lines the module logged while it tried."""
+
+
+class PowerReportError(FirmwareSimError, ValueError):
+    """A module's evaluator reported a power draw the node's budget cannot take (negative or not
+    a finite number)."""
+
+
+class ReconfigurationPortError(FirmwareSimError, LookupError):
+    """``--fpga``: no FPGA reconfiguration port is installed (or more than one), or the one
+    installed cannot build a fabric of the size asked for."""

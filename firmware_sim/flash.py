@@ -27,14 +27,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 
+from firmware_sim.errors import FlashError
+
 BLOCK_SIZE = 256
 ERASED = 0xFF
 STATE_SUFFIX = ".blocks"
-
-
-class FlashError(RuntimeError):
-    """A flash operation the hardware would refuse (bad address, program without erase), or a
-    backing file that does not fit the flash."""
 
 
 class PowerCut(BaseException):

@@ -18,6 +18,7 @@ import zlib
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+from firmware_sim.errors import DirectoryError
 from firmware_sim.flash import BLOCK_SIZE, ERASED, Flash
 from hexmigrate.descriptor import NAME_LEN
 
@@ -29,11 +30,6 @@ _HEADER = struct.Struct("<4sHHI")  # magic, version, entry count, sequence
 _ENTRY = struct.Struct(f"<{NAME_LEN}s7I")  # name, then the seven words of DirectoryEntry
 _CRC = struct.Struct("<I")
 MAX_ENTRIES = (BLOCK_SIZE - _HEADER.size - _CRC.size) // _ENTRY.size
-
-
-class DirectoryError(ValueError):
-    """A directory record cannot be written (too many entries, a name that does not fit) or a
-    slot does not hold a valid one."""
 
 
 @dataclass(frozen=True)

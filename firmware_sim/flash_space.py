@@ -9,9 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-
-class FlashFullError(RuntimeError):
-    """No run of free blocks is long enough."""
+from firmware_sim.errors import FlashFullError
 
 
 @dataclass(frozen=True)

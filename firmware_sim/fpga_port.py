@@ -1,71 +1,98 @@
-"""The node's FPGA reconfiguration port: loads bitstream images into a Morphing Crossbar.
+"""The node's FPGA reconfiguration port: what the node needs of one, and where it finds one.
 
 A hardware component migrates like a software module: its partial bitstream travels as an
-extended Intel HEX module file (morphing_crossbar/hex_image.py), linked at its slot's window of
-the port (`owns`). A node with a port (`firmware_sim.server.NodeTarget(node, fpga=port)`, or
-``hexmigrate node --fpga N``) takes it over the transfer protocol like any module, writes it to
-flash, checks its CRC, and at COMMIT hands it to this port instead of calling an init: the port
-checks the image, shifts the frame into the addressed slot's wrapper (here: the crossbar's
-transaction-level model, which applies the wrapper's checks and refusals exactly) and reports
-the reconfiguration time in fabric cycles. A refused image leaves the slot's old routing in
-place, as the hardware does.
+extended Intel HEX module file linked at the port's window for its slot (`owns`). A node with a
+port (`firmware_sim.server.NodeTarget(node, fpga=port)`, or ``firmware-sim listen --fpga N``)
+takes it over the transfer protocol like any module, writes it to flash, checks its CRC, and at
+COMMIT hands it to the port instead of calling an init: the port checks the image, applies it to
+the addressed slot and reports what it did. A refused image leaves the slot as it was, as the
+hardware does.
+
+The node knows a port only through `ReconfigurationPort`. The implementation (morphing_crossbar's
+crossbar, one layer with firmware_sim) registers a factory under the entry-point group
+`ENTRY_POINT_GROUP`, which `open_port` loads, so that firmware_sim imports nothing of it.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from pathlib import Path
+from collections.abc import Callable
+from importlib.metadata import entry_points
+from typing import Protocol
 
+from firmware_sim.errors import ReconfigurationPortError
 from hexmigrate.image import ModuleImage
-from morphing_crossbar.bitstream import pack
-from morphing_crossbar.hex_image import CONFIG_BASE, SLOT_WINDOW, from_image
-from morphing_crossbar.model import CrossbarModel, LoadResult
-from morphing_crossbar.routing import empty_route
+
+ENTRY_POINT_GROUP = "firmware_sim.reconfiguration_ports"
+"""Where an installed package registers its `PortFactory` (pyproject.toml's entry points)."""
 
 
-@dataclass(frozen=True)
-class PortLoad:
-    """One image the port applied: its name and what the fabric did."""
+class Reconfiguration(Protocol):
+    """What a port reports of one reconfiguration."""
 
-    name: str
-    result: LoadResult
+    @property
+    def component(self) -> str:
+        """The name the node lists the hardware component under (``hexmigrate ls``, ``rm``)."""
+        ...
+
+    @property
+    def slot(self) -> int:
+        """The slot that was reconfigured."""
+        ...
+
+    @property
+    def cycles(self) -> int:
+        """How many fabric clock cycles the reconfiguration took."""
+        ...
 
 
-class FpgaReconfigurationPort:
-    """The reconfiguration port of one crossbar, with a log of what it loaded."""
+class ReconfigurationPort(Protocol):
+    """The FPGA reconfiguration port of a node, as the node uses it."""
 
-    def __init__(self, model: CrossbarModel, fabric_hz: float = 100e6) -> None:
-        self.model = model
-        self.fabric_hz = fabric_hz
-        self.loads: list[PortLoad] = []
-        self.installed: dict[int, str] = {}
+    @property
+    def description(self) -> str:
+        """What the port drives, for the node's output (``a 4-slot Morphing Crossbar``)."""
+        ...
 
     def owns(self, link_base: int) -> bool:
-        """Whether an image linked at `link_base` is for this port: a slot window of its fabric."""
-        offset = link_base - CONFIG_BASE
-        return 0 <= offset < self.model.fabric.n * SLOT_WINDOW
+        """Whether an image linked at `link_base` is a bitstream for this port."""
+        ...
 
-    def load(self, image: ModuleImage) -> PortLoad:
-        """Apply a bitstream image; raises BitstreamImageError or BitstreamError (refused)."""
-        bitstream = from_image(self.model.fabric, image)
-        result = self.model.load(bitstream.slot, bitstream.to_bytes())
-        record = PortLoad(image.name, result)
-        self.loads.append(record)
-        self.installed[bitstream.slot] = image.name
-        return record
+    def load(self, image: ModuleImage) -> Reconfiguration:
+        """Apply a bitstream image; raises ValueError (the port's own subclass) when the image
+        is refused, and the slot keeps what it had."""
+        ...
 
-    def load_file(self, path: str | Path) -> PortLoad:
-        """Read a HEX module file and apply it."""
-        return self.load(ModuleImage.read(path))
+    def unload(self, slot: int) -> Reconfiguration:
+        """Take the component out of `slot`: the slot then takes and drives nothing."""
+        ...
 
-    def unload(self, slot: int) -> PortLoad:
-        """Remove the component in ``slot``: its wrapper takes and drives nothing."""
-        bitstream = pack(self.model.fabric, slot, empty_route())
-        record = PortLoad(f"unload slot {slot}", self.model.load(slot, bitstream.to_bytes()))
-        self.loads.append(record)
-        self.installed.pop(slot, None)
-        return record
 
-    def seconds(self, record: PortLoad) -> float:
-        """Wall time of a reconfiguration at the fabric's clock."""
-        return record.result.cycles / self.fabric_hz
+PortFactory = Callable[[int], ReconfigurationPort]
+"""What an entry point names: the port of a fabric of N slots (ValueError when it cannot)."""
+
+
+def open_port(slots: int, group: str = ENTRY_POINT_GROUP) -> ReconfigurationPort:
+    """The port of a `slots`-slot fabric, from the one implementation installed under `group`.
+
+    Raises ReconfigurationPortError when none or several are installed, or when the one installed
+    cannot build that many slots.
+    """
+    found = sorted(entry_points(group=group), key=lambda point: point.name)
+    if not found:
+        raise ReconfigurationPortError(
+            f"no FPGA reconfiguration port is installed: expected a package that registers one "
+            f"under the entry-point group {group!r} (morphing_crossbar does, once the project "
+            f"is installed with pip install -e .)"
+        )
+    if len(found) > 1:
+        names = ", ".join(point.name for point in found)
+        raise ReconfigurationPortError(
+            f"expected one FPGA reconfiguration port installed under {group!r}, got {names}"
+        )
+    factory: PortFactory = found[0].load()
+    try:
+        return factory(slots)
+    except ValueError as error:
+        raise ReconfigurationPortError(
+            f"the {found[0].name!r} reconfiguration port cannot build {slots} slot(s): {error}"
+        ) from None

@@ -21,10 +21,10 @@ from collections.abc import Container
 from dataclasses import dataclass
 
 from firmware_sim.cpu import Cpu
+from firmware_sim.errors import RegistrationError, ServiceFault
 from firmware_sim.services import (
     MILLI,
     Service,
-    ServiceFault,
     Status,
     check_guest_readable,
     check_guest_writable,
@@ -41,10 +41,6 @@ CONTEXT_SIZE = _CONTEXT.size  # 36 bytes
 DEFAULT_BUDGET = 100_000  # instructions per method call: 1 ms at 100 MHz
 _DTYPES = {1: "u1", 2: "<i2", 4: "<i4"}  # element_size -> numpy dtype, per the ABI's port table
 _WRITABLE_PORTS = frozenset({Direction.OUT, Direction.RESOURCE})
-
-
-class RegistrationError(RuntimeError):
-    """A loaded module did not register: its init subroutine faulted or its descriptor is bad."""
 
 
 def port_spec(port: abi.PortSpec) -> PortSpec:

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from types import TracebackType
 from typing import Protocol
 
+from firmware_sim.errors import LoadError
 from firmware_sim.flash import BLOCK_SIZE, Flash
 from firmware_sim.flash_space import Extent, FlashSpace
 from hexmigrate.errors import (
@@ -34,10 +35,6 @@ from hexmigrate.errors import (
 )
 from hexmigrate.image import ModuleImage
 from hexmigrate.records import POINTER_SIZE, Record, RecordType, decode_record
-
-
-class LoadError(RuntimeError):
-    """The node cannot install the module (no room, read-back mismatch, misplaced pointer)."""
 
 
 class BlockBuffer(Protocol):

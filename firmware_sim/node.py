@@ -1,6 +1,6 @@
 """An emulated node: CPU, flash, SRAM, the loader, the PBO/RT kernel and a power budget.
 
-This is where `hexmigrate` and `pbort` meet (ARCHITECTURE.md): a module file arrives, the loader
+This is where `hexmigrate` and `pbort` meet (docs/node.md): a module file arrives, the loader
 writes it to flash block by block and fixes its pointers, its init subroutine registers it, and the
 kernel runs it as a port-based object next to the node's native PBOs. A module is installed only
 when every step succeeded; on any failure the node is as it was before (flash content, flash
@@ -20,11 +20,18 @@ from pathlib import Path
 from types import TracebackType
 
 from firmware_sim.cpu import Cpu
-from firmware_sim.flash import BLOCK_SIZE, Flash, FlashError, FlashTiming
+from firmware_sim.errors import (
+    BootError,
+    FlashError,
+    FlashFullError,
+    PowerReportError,
+    RegistrationError,
+)
+from firmware_sim.flash import BLOCK_SIZE, Flash, FlashTiming
 from firmware_sim.flash_directory import OWNER as DIRECTORY_OWNER
 from firmware_sim.flash_directory import SLOT_COUNT, DirectoryEntry, ModuleDirectory
-from firmware_sim.flash_space import Extent, FlashFullError, FlashSpace
-from firmware_sim.guest import DEFAULT_BUDGET, GuestModule, RegistrationError, register_module
+from firmware_sim.flash_space import Extent, FlashSpace
+from firmware_sim.guest import DEFAULT_BUDGET, GuestModule, register_module
 from firmware_sim.loader import InstalledImage, LoadSession
 from firmware_sim.memory_map import (
     DEFAULT_FLASH_SIZE,
@@ -116,10 +123,6 @@ class SramBlockBuffer:
             self.address = None
 
 
-class BootError(RuntimeError):
-    """A directory entry that does not describe a whole module in flash (checked at boot)."""
-
-
 class Node:
     """One emulated node. A context manager; `close` may be called twice.
 
@@ -155,6 +158,7 @@ class Node:
         self.power = PowerModel(self.config.energy, self.config.base_draw)
         self.modules: dict[str, InstalledModule] = {}
         self.log: list[tuple[float, str]] = []
+        self._refused_draws: set[str] = set()  # PBOs whose latest draw report was refused
         self._closed = False
         try:
             self.boot()
@@ -435,8 +439,16 @@ class Node:
             latest = self.kernel.performance(name).latest(
                 PerformanceKind.NON_FUNCTIONAL, POWER_INDEX
             )
-            if latest is not None:
+            if latest is None:
+                continue
+            try:
                 self.power.set_draw(name, latest.value)
+                self._refused_draws.discard(name)
+            except PowerReportError as error:  # a module's bad report must not stop the node
+                self.power.stop(name)
+                if name not in self._refused_draws:
+                    self._refused_draws.add(name)
+                    self._note(f"power: {error}; its draw is not counted until it reports one")
 
     def _note(self, text: str) -> None:
         self.log.append((self.kernel.now, text))

@@ -8,7 +8,10 @@ equations (6)-(8) of the paper compare with a threshold (20 in its experiment).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+
+from firmware_sim.errors import PowerReportError
 
 
 @dataclass
@@ -38,9 +41,12 @@ class PowerModel:
         return self.base_draw + sum(self.draws.values())
 
     def set_draw(self, module: str, milliwatts: float) -> None:
-        """Record a module's draw (its evaluator's latest non-functional report)."""
-        if milliwatts < 0:
-            raise ValueError(f"module {module!r}: expected a draw >= 0 mW, got {milliwatts}")
+        """Record a module's draw (its evaluator's latest non-functional report); a draw that is
+        negative or not a finite number is refused (PowerReportError) and not recorded."""
+        if not (math.isfinite(milliwatts) and milliwatts >= 0):
+            raise PowerReportError(
+                f"module {module!r}: expected a power draw >= 0 mW, got {milliwatts}"
+            )
         self.draws[module] = milliwatts
 
     def stop(self, module: str) -> None:

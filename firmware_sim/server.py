@@ -9,16 +9,13 @@ a link while the node's PBOs keep running between them.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING
 
+from firmware_sim.fpga_port import ReconfigurationPort
 from firmware_sim.loader import InstalledImage, LoadSession
 from firmware_sim.node import Node
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.base import Link
 from hexmigrate.transfer.receiver import Receiver
-
-if TYPE_CHECKING:
-    from firmware_sim.fpga_port import FpgaReconfigurationPort
 
 
 class NodeTarget:
@@ -30,7 +27,7 @@ class NodeTarget:
         self,
         node: Node,
         on_install: Callable[[str, int], None] | None = None,
-        fpga: FpgaReconfigurationPort | None = None,
+        fpga: ReconfigurationPort | None = None,
         on_configure: Callable[[str, int, int], None] | None = None,
     ) -> None:
         self.node = node
@@ -66,12 +63,11 @@ class NodeTarget:
             record = self.fpga.load(bitstream)
         finally:
             self.node.discard(owner, image)
-        slot = record.result.slot
-        name = f"mx_slot{slot}"
+        slot, name = record.slot, record.component
         self.components = {n: c for n, c in self.components.items() if c[0] != slot}
         self.components[name] = (slot, image.link_base, image.size)
         if self.on_configure is not None:
-            self.on_configure(name, slot, record.result.cycles)
+            self.on_configure(name, slot, record.cycles)
         return name, image.link_base
 
     def discard(self, owner: str, image: InstalledImage) -> None:

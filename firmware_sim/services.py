@@ -17,6 +17,7 @@ from __future__ import annotations
 from enum import IntEnum
 from typing import Protocol
 
+from firmware_sim.errors import ServiceFault
 from firmware_sim.memory_map import MemoryMap, Permission
 
 LOG_LIMIT = 256  # bytes a single LOG call may pass: a bad length must not flood the kernel
@@ -65,10 +66,6 @@ class Status(IntEnum):
     """REGISTER: the module's area does not fit in the task window or in free SRAM."""
     ERR_EXISTS = -4
     """REGISTER: a module of this name is already registered (or this one registered twice)."""
-
-
-class ServiceFault(Exception):
-    """Raised by a service to end the running call with a fault; the text says what was wrong."""
 
 
 class GuestServices(Protocol):

@@ -11,11 +11,9 @@ from __future__ import annotations
 from bisect import insort
 from dataclasses import dataclass
 
+from firmware_sim.errors import OutOfSramError
+
 ALIGNMENT = 8  # the ABI promises 8-byte aligned buffers
-
-
-class OutOfSramError(MemoryError):
-    """No free block of SRAM is large enough for an allocation."""
 
 
 @dataclass(frozen=True)

@@ -3,8 +3,8 @@
 A module transfer is limited by its wire long before the flash or the CPU: 115200 baud carries at
 most 11,520 payload bytes per second, and a CAN frame needs 111 to 135 bits on the wire for
 its 8 data bytes. These functions give the exact time on the wire, so a transfer's measured
-throughput can be compared with what the wire allows (TOOLCHAIN_NOTES.md: Optiboot reaches
-3,430 B/s at 115200).
+throughput can be compared with what the wire allows (for scale: the Optiboot bootloader reaches
+3,430 B/s at 115200 baud).
 
 UART 8N1: one start bit, 8 data bits, no parity, one stop bit: 10 bits per byte.
 

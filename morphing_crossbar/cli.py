@@ -3,8 +3,8 @@
     python -m morphing_crossbar pack N SLOT bypass|through|empty -o FILE.hex [--cfg-w W]
 
 The file is what ``hexmigrate send FILE.hex --to URL`` sends to a node listening with
-``hexmigrate node --fpga N`` (docs/crossbar.md): ``bypass`` takes the slot's functionality out of
-its route, ``through`` puts it back (the reset route), ``empty`` leaves the slot taking and
+``firmware-sim listen --fpga N`` (docs/crossbar.md): ``bypass`` takes the slot's functionality
+out of its route, ``through`` puts it back (the reset route), ``empty`` leaves the slot taking and
 driving nothing. Errors print ``error: ...`` and exit 1; usage errors exit 2.
 """
 

@@ -68,7 +68,7 @@ stop_node() {
 }
 trap stop_node EXIT
 trap 'stop_node; exit 130' INT TERM
-node_command=(hexmigrate node --listen pty --seconds 6 --show gain.y --show moving_average.y
+node_command=(firmware-sim listen --listen pty --seconds 6 --show gain.y --show moving_average.y
     --native signal --set signal.shape=1 --set signal.amplitude=1000 --set signal.period_ms=3000
     --set gain.k=0x28000 --wire signal.y=gain.x --wire gain.y=moving_average.x)
 echo "\$ ${node_command[*]} > $node_log 2>&1 &"

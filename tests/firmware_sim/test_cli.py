@@ -79,16 +79,25 @@ def test_run_text_output(hex_files):
 @pytest.mark.parametrize(
     ("args", "status", "message"),
     [
-        (["run", "--module", "missing.hex"], 1, "error: missing.hex: No such file or directory"),
+        (["run", "--module", "missing.hex"], 2, "missing.hex: No such file or directory"),
+        (["run", "--module", "."], 2, "expected a regular file, got . (a directory)"),
         (["run", "--native", "signal", "--wire", "signal.y=nobody.x"], 1, "error: "),
-        (["run", "--native", "signal", "--rate", "signal=fast"], 2, "expected PBO=HZ"),
+        (["run", "--native", "signal", "--wire", "signal.y"], 2, "expected OUT_PBO.port="),
+        (["run", "--native", "signal", "--rate", "signal=fast"], 2, "expected PBO=HZ with HZ"),
+        (["run", "--native", "signal", "--rate", "other=5"], 2, "--rate names ['other']"),
+        (["run", "--native", "signal", "--default-rate", "nan"], 2, "got 'nan'"),
+        (["run", "--native", "signal", "--seconds", "inf"], 2, "got 'inf'"),
+        (["run", "--native", "signal", "--cycles", "0"], 2, "expected a whole number from 1"),
         (["run", "--module", "x.hex@here"], 2, "expected FILE.hex or FILE.hex@ADDR"),
         (["run"], 2, "expected at least one --module or --native"),
-        (
-            ["run", "--native", "signal", "--set", "signal.amplitude=lots"],
-            1,
-            "expected a number like 3",
-        ),
+        (["run", "--native", "signal", "--set", "signal.amplitude=lots"], 2, "like 3, 0x20000"),
+        (["transfer", "--medium", "CAN", "x.hex"], 2, "invalid choice: 'CAN'"),
+        (["transfer", "--bit-rate", "0", "x.hex"], 2, "expected a number from 300 to 1e+07"),
+        (["listen", "--listen", "pty", "--fpga", "-1"], 2, "expected a whole number from 1"),
+        (["listen", "--listen", "pty", "--show", "gain"], 2, "expected PBO.port, got 'gain'"),
+        (["listen", "--listen", "nowhere://x", "--seconds", "0.1"], 1, "error: bad link URL"),
+        (["listen", "--listen", "loop://", "--fpga", "1"], 1, "cannot build 1 slot(s)"),
+        (["listen", "--listen", "loop://", "--flash", "."], 2, "expected a file to write"),
     ],
 )
 def test_errors(args, status, message):
@@ -98,10 +107,63 @@ def test_errors(args, status, message):
     assert "Traceback" not in result.stderr
 
 
-def test_a_module_that_refuses_to_start_is_one_error_line(hex_files):
-    result = run("run", "--module", hex_files["gain"])  # gain refuses k = 0
+def test_a_module_that_refuses_to_start_shows_what_it_logged(hex_files):
+    result = run("run", "--module", hex_files["gain"])  # gain refuses k = 0, and says so
     assert result.returncode == 1
-    assert result.stderr == "error: PBO 'gain': on returned -1; now ERROR\n"
+    assert result.stderr.startswith(
+        "error: gain did not start: PBO 'gain': on returned -1; now ERROR; it logged: "
+        "gain: k is not configured"
+    )
+    assert result.stderr.count("\n") == 1
+
+
+def test_a_listening_node_says_where_first_then_why_a_pbo_did_not_start():
+    result = run("listen", "--listen", "loop://", "--native", "signal", "--set", "signal.shape=7",
+                 "--seconds", "0.1")  # fmt: skip
+    assert (result.returncode, result.stderr) == (0, "")
+    assert result.stdout.splitlines() == [
+        "listening on loop://",
+        "signal did not start: PBO 'signal': on returned -1; now ERROR; it logged: signal: "
+        "expected shape 0 (ramp), 1 (sine) or 2 (square), got 7",
+    ]
+
+
+@pytest.mark.parametrize(
+    ("setting", "message"),
+    [
+        (
+            "gain.k=0.5",
+            "error: gain did not start: gain.k is int32 (a whole number from -2147483648 to "
+            "2147483647), got 0.5: give a fixed-point constant as its raw integer (0x8000 is 0.5 "
+            "in Q16.16)\n",
+        ),
+        (
+            "gain.k=0x80000000",
+            "error: gain did not start: gain.k is int32 (a whole number from -2147483648 to "
+            "2147483647), got 2147483648\n",
+        ),
+    ],
+)
+def test_a_value_its_port_cannot_hold_exactly_is_refused(hex_files, setting, message):
+    result = run("run", "--module", hex_files["gain"], "--set", setting, "--cycles", "1")
+    assert (result.returncode, result.stderr) == (1, message)
+
+
+def test_a_whole_number_written_with_a_fraction_sets_an_integer_port(hex_files):
+    result = run(
+        "run", "--native", "signal", "--set", "signal.amplitude=3.0", "--cycles", "2", "--json"
+    )
+    assert result.returncode == 0, result.stderr
+    assert json.loads(result.stdout)["ports"]["signal.y"] == 6
+
+
+def test_a_fraction_for_a_native_integer_port_is_not_truncated():
+    result = run("run", "--native", "signal", "--set", "signal.amplitude=0.5", "--cycles", "2")
+    assert result.returncode == 1
+    assert result.stderr.startswith(
+        "error: signal did not start: signal.amplitude is int32 (a whole number from "
+    )
+    assert "got 0.5" in result.stderr
 
 
 def test_pbos_are_registered_in_data_flow_order():
@@ -136,22 +198,33 @@ def test_info_lists_the_memory_map_and_services():
 
 def test_transfer_reports_virtual_time_against_the_wire_limit(hex_files, example_builds):
     serial = json.loads(run("transfer", hex_files["gain"], "--json").stdout)
-    slow = json.loads(run("transfer", hex_files["gain"], "--rate", 9600, "--json").stdout)
-    can = json.loads(run("transfer", hex_files["gain"], "--wire", "CAN", "--json").stdout)
+    slow = json.loads(run("transfer", hex_files["gain"], "--bit-rate", 9600, "--json").stdout)
+    can = json.loads(run("transfer", hex_files["gain"], "--medium", "can", "--json").stdout)
     size = image_from_elf(example_builds["gain"].elf).size
     assert serial["bytes"] == slow["bytes"] == can["bytes"] == size
     assert serial["limit"] == 11520 and slow["limit"] == 960
+    assert (serial["medium"], slow["bit_rate"], can["medium"]) == ("serial", 9600, "can")
     # Twelve times fewer bits per second, about twelve times longer (fixed flash time aside).
     assert 10 < slow["seconds"] / serial["seconds"] < 12.5
     for figures in (serial, slow, can):
         assert 0.5 < figures["of_limit"] < 1 and figures["retransmissions"] == 0
         parts = figures["setup_seconds"] + figures["data_seconds"] + figures["finish_seconds"]
         assert parts == pytest.approx(figures["seconds"])
-    text = run("transfer", hex_files["gain"], "--wire", "CAN", "--mode", "binary").stdout
+    text = run("transfer", hex_files["gain"], "--medium", "can", "--mode", "binary").stdout
     assert "over CAN at 500000 bit/s" in text and "% of the" in text
 
 
-def test_transfer_of_a_missing_file_is_one_error_line(tmp_path):
+def test_transfer_of_a_missing_file_is_a_usage_error_naming_it(tmp_path):
     result = run("transfer", tmp_path / "none.hex")
+    assert result.returncode == 2
+    assert result.stderr.splitlines()[-1] == (
+        f"firmware-sim transfer: error: argument FILE.hex: {tmp_path / 'none.hex'}: "
+        "No such file or directory"
+    )
+
+
+def test_a_transfer_the_wire_is_too_slow_for_is_one_error_line(hex_files):
+    result = run("transfer", hex_files["gain"], "--bit-rate", 300)
     assert result.returncode == 1
-    assert result.stderr.strip() == f"error: {tmp_path / 'none.hex'}: No such file or directory"
+    assert result.stderr.startswith("error: transfer ")
+    assert "the node stopped answering" in result.stderr

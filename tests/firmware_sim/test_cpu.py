@@ -15,7 +15,8 @@ from pathlib import Path
 import pytest
 from elftools.elf.elffile import ELFFile
 
-from firmware_sim.cpu import Cpu, CpuClosedError, KernelAccessError
+from firmware_sim.cpu import Cpu
+from firmware_sim.errors import CpuClosedError, KernelAccessError, ServiceFault
 from firmware_sim.memory_map import (
     FLASH_BASE,
     KERNEL_BASE,
@@ -27,7 +28,7 @@ from firmware_sim.memory_map import (
     MemoryMap,
 )
 from firmware_sim.sdk.build import COMPILE_FLAGS, GCC, OBJCOPY, SDK_DIR, TARGET
-from firmware_sim.services import LOG_LIMIT, Service, ServiceFault, Status
+from firmware_sim.services import LOG_LIMIT, Service, Status
 
 GUEST = r"""
 #include "pbo_module.h"

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from firmware_sim.flash import BLOCK_SIZE, Flash, FlashError, FlashTiming
-from firmware_sim.flash_space import FlashFullError, FlashSpace
+from firmware_sim.errors import FlashError, FlashFullError
+from firmware_sim.flash import BLOCK_SIZE, Flash, FlashTiming
+from firmware_sim.flash_space import FlashSpace
 
 BASE = 0x0800_0000
 

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from firmware_sim.cpu import Cpu
+from firmware_sim.errors import OutOfSramError
 from firmware_sim.guest import (
     CONTEXT_SIZE,
     AreaLayout,
@@ -26,7 +27,7 @@ from firmware_sim.guest import (
 from firmware_sim.memory_map import FLASH_BASE, SRAM_BASE, WINDOW_BASE, MemoryMap
 from firmware_sim.sdk.build import ModuleBuild, build_module
 from firmware_sim.services import Status
-from firmware_sim.sram import OutOfSramError, SramAllocator
+from firmware_sim.sram import SramAllocator
 from hexmigrate import descriptor as abi
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage

@@ -1,10 +1,10 @@
-"""`hexmigrate node --listen URL`: a CAN URL gets the node's side unless it names one."""
+"""`firmware-sim listen --listen URL`: a CAN URL gets the node's side unless it names one."""
 
 from __future__ import annotations
 
 import pytest
 
-from firmware_sim.listen import node_side
+from firmware_sim.listen_link import node_side
 
 
 @pytest.mark.parametrize(

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import pytest
 
+from firmware_sim.errors import FlashFullError, LoadError
 from firmware_sim.flash import BLOCK_SIZE, Flash
-from firmware_sim.flash_space import FlashFullError, FlashSpace
-from firmware_sim.loader import InstalledImage, LoadError, LoadSession, load_image
+from firmware_sim.flash_space import FlashSpace
+from firmware_sim.loader import InstalledImage, LoadSession, load_image
 from hexmigrate.elf import image_from_elf
 from hexmigrate.errors import ChecksumError, MissingEofError, RelocationOutsideImageError
 from hexmigrate.image import ModuleImage

@@ -1,15 +1,16 @@
 """End to end: a module crosses a real transport to a node, is installed there, and runs.
 
 Two processes where the transport joins processes (a pty pair, TCP to a ``tcp-listen://`` node,
-CAN through a python-can-remote server, SLCAN on a pty): the node is ``hexmigrate node --listen
-URL`` or the host is ``hexmigrate send``/``ls``/``ping``/``rm``, each a subprocess, as a user
-would run them; the node's output (its "listening on" line first, registrations, ``--show``
-values) is read as it comes. The pty node is restarted on its flash file to boot what it got. In
-one process (``can://virtual``; ``loop://``, shared by both as two stations) the node is served by
-`firmware_sim.server.serve` in a thread of its own: the node (and its Unicorn CPU) is made, used
-and closed in that thread only, and the test thread holds nothing but the sender and its link. Then
-faults: 1 % corruption and drops in both directions, and a link cut mid-transfer that
-`Sender.resume` completes on a new link while the node keeps its `Receiver`.
+CAN through a python-can-remote server, SLCAN on a pty): the node is ``firmware-sim listen
+--listen URL`` (started by tests/firmware_sim/node_process.py) or the host is ``hexmigrate
+send``/``ls``/``ping``/``rm``, each a subprocess, as a user would run them; the node's output
+(its "listening on" line first, registrations, ``--show`` values) is read as it comes. The pty
+node is restarted on its flash file to boot what it got. In one process (``can://virtual``;
+``loop://``, shared by both as two stations) the node is served by `firmware_sim.server.serve`
+in a thread of its own: the node (and its Unicorn CPU) is made, used and closed in that thread
+only, and the test thread holds nothing but the sender and its link. Then faults: 1 % corruption
+and drops in both directions, and a link cut mid-transfer that `Sender.resume` completes on a new
+link while the node keeps its `Receiver`.
 
 Every wait is bounded; every subprocess is terminated (and killed if need be) in a finally.
 Everything stays on 127.0.0.1.
@@ -23,7 +24,6 @@ import re
 import socket
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 import uuid
@@ -49,12 +49,14 @@ from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from pbort.errors import KernelError
 from pbort.native import NativeModule
+from tests.firmware_sim.node_process import (
+    CLI_TIMEOUT,
+    GAIN_SHOWN,
+    NodeProcess,
+    check_node_output,
+    hexmigrate,
+)
 
-NODE_SECONDS = 20
-"""How long a node subprocess lives at most; each test ends it much sooner."""
-LINE_TIMEOUT = 15.0
-"""How long to wait for a line of a node subprocess (its start imports Unicorn and python-can)."""
-CLI_TIMEOUT = 30.0
 THREAD_TIMEOUT = 10.0
 RUN_TIMEOUT = 10.0
 """How long to wait for an installed module's output to show that it runs."""
@@ -63,7 +65,7 @@ RAMP_STEP = 21  # the native signal's ramp: 21, 42, 63, ...
 RATE = 100.0
 FAULTS = "corrupt=0.01&drop=0.01"
 MAX_FAULTY_ROUNDS = 20
-GAIN_SHOWN = re.compile(r"\bgain\.y=(-?\d+)\b")
+GAIN_SET = ("--set", f"gain.k={GAIN_K:#x}")
 
 
 def unique(prefix: str) -> str:
@@ -84,106 +86,6 @@ def hex_files(images, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Pat
         files[name] = folder / f"{name}.hex"
         image.write(files[name])
     return files
-
-
-def hexmigrate(*arguments: object) -> str:
-    """Run ``python -m hexmigrate ARGUMENTS`` to the end (at most CLI_TIMEOUT s); its stdout."""
-    command = [sys.executable, "-m", "hexmigrate", *map(str, arguments)]
-    done = subprocess.run(command, capture_output=True, text=True, timeout=CLI_TIMEOUT)
-    shown = " ".join(command[3:])
-    assert done.returncode == 0, f"hexmigrate {shown}: exit {done.returncode}\n{done.stderr}"
-    return done.stdout
-
-
-class NodeProcess:
-    """``python -m hexmigrate node --listen URL OPTIONS`` in a subprocess, its stdout read line by
-    line by a thread, its stderr kept in a file for failure messages."""
-
-    def __init__(self, listen: str, *options: str) -> None:
-        command = [sys.executable, "-m", "hexmigrate", "node", "--listen", listen]
-        command += ["--seconds", str(NODE_SECONDS), "--set", f"gain.k={GAIN_K:#x}", *options]
-        self._stderr = tempfile.TemporaryFile(mode="w+")  # noqa: SIM115 (closed by stop)
-        self.lines: list[str] = []
-        self._changed = threading.Condition()
-        self._ended = False
-        self.process = subprocess.Popen(
-            command, stdout=subprocess.PIPE, stderr=self._stderr, text=True, bufsize=1
-        )
-        self._reader = threading.Thread(target=self._read, name="node stdout", daemon=True)
-        self._reader.start()
-
-    def _read(self) -> None:
-        assert self.process.stdout is not None
-        for line in self.process.stdout:
-            with self._changed:
-                self.lines.append(line.rstrip("\n"))
-                self._changed.notify_all()
-        with self._changed:
-            self._ended = True
-            self._changed.notify_all()
-
-    def wait_for(self, pattern: re.Pattern[str] | str, start: int = 0) -> tuple[int, re.Match[str]]:
-        """The index and match of the first line from `start` on that `pattern` finds."""
-        pattern = re.compile(pattern)
-        deadline = time.monotonic() + LINE_TIMEOUT
-        with self._changed:
-            while True:
-                for index in range(start, len(self.lines)):
-                    found = pattern.search(self.lines[index])
-                    if found:
-                        return index, found
-                start = max(start, len(self.lines))
-                left = deadline - time.monotonic()
-                if self._ended or left <= 0:
-                    break
-                self._changed.wait(left)
-        raise AssertionError(
-            f"no line matching {pattern.pattern!r} from the node:\n{self.output()}"
-        )
-
-    def output(self) -> str:
-        """What the node printed so far, stdout then stderr."""
-        self._stderr.seek(0)
-        return "\n".join(self.lines) + "\n--- stderr ---\n" + self._stderr.read()
-
-    def stop(self) -> None:
-        """Terminate the node (kill it if it does not end) and collect its output."""
-        try:
-            if self.process.poll() is None:
-                self.process.terminate()
-                try:
-                    self.process.wait(timeout=5)
-                except subprocess.TimeoutExpired:
-                    self.process.kill()
-                    self.process.wait(timeout=5)
-        finally:
-            self._reader.join(timeout=5)
-            if self.process.stdout is not None:
-                self.process.stdout.close()
-            self._stderr.close()
-
-    def __enter__(self) -> NodeProcess:
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.stop()
-
-
-def check_node_output(node: NodeProcess, names: Iterable[str]) -> dict[str, int]:
-    """The node printed its listening line first, registered each of `names`, started them (no
-    "did not start") and then showed a number for gain.y; the load address of each module."""
-    assert node.lines[0].startswith("listening on "), node.output()
-    assert sum(line.startswith("listening on ") for line in node.lines) == 1, node.output()
-    addresses = {}
-    last = 0
-    for name in names:
-        index, found = node.wait_for(rf"^registered {name} at 0x([0-9A-F]{{8}})$")
-        addresses[name] = int(found[1], 16)
-        last = max(last, index)
-    if "gain" in addresses:
-        node.wait_for(GAIN_SHOWN, start=last + 1)
-    assert not any("did not start" in line for line in node.lines), node.output()
-    return addresses
 
 
 class NodeThread:
@@ -276,7 +178,8 @@ class NodeThread:
             self.error = error
 
     def _start(self, node: Node, name: str) -> None:
-        """What `hexmigrate node` does on a registration, with gain's input wired to a ramp."""
+        """What `firmware-sim listen` does on a registration, with gain's input wired to a
+        ramp."""
         self.installed.append((name, node.modules[name].load_address))
         if name != "gain":
             node.start(name, RATE)
@@ -339,7 +242,9 @@ def test_tcp_listen_serves_one_client_after_another():
 
 def test_a_pty_pair_between_two_processes(hex_files, tmp_path):
     flash = ("--flash", str(tmp_path / "flash.bin"))
-    with NodeProcess("pty", "--show", "gain.y", "--show", "moving_average.y", *flash) as node:
+    with NodeProcess(
+        "pty", *GAIN_SET, "--show", "gain.y", "--show", "moving_average.y", *flash
+    ) as node:
         index, listening = node.wait_for(r"^listening on (/dev/pts/\d+) ")
         pty = listening[1]
         assert index == 0
@@ -363,7 +268,7 @@ def test_a_pty_pair_between_two_processes(hex_files, tmp_path):
         node.wait_for(GAIN_SHOWN, start=index)  # gain still runs once moving_average is gone
 
     # The node again on the same flash: it says where it listens first, then boots gain.
-    with NodeProcess("pty", "--show", "gain.y", *flash) as node:
+    with NodeProcess("pty", *GAIN_SET, "--show", "gain.y", *flash) as node:
         node.wait_for(GAIN_SHOWN)
         assert re.fullmatch(r"listening on /dev/pts/\d+ \(connect with: .*\)", node.lines[0])
         assert node.lines[1] == f"registered gain at 0x{addresses['gain']:08X}"
@@ -371,7 +276,7 @@ def test_a_pty_pair_between_two_processes(hex_files, tmp_path):
 
 
 def test_tcp_listen_between_two_processes_and_resume_after_a_cut(hex_files, images):
-    with NodeProcess("tcp-listen://127.0.0.1:0", "--show", "gain.y") as node:
+    with NodeProcess("tcp-listen://127.0.0.1:0", *GAIN_SET, "--show", "gain.y") as node:
         _, listening = node.wait_for(
             r"^listening on tcp-listen://127\.0\.0\.1:(\d+) \(connect with: hexmigrate send "
             r"FILE\.hex --to (socket://127\.0\.0\.1:(\d+))\)$"
@@ -402,7 +307,7 @@ def test_tcp_listen_between_two_processes_and_resume_after_a_cut(hex_files, imag
 
 def test_faults_on_both_ends_of_a_tcp_link_between_processes(hex_files):
     with NodeProcess(
-        f"faulty+tcp-listen://127.0.0.1:0#{FAULTS}&seed=5", "--show", "gain.y"
+        f"faulty+tcp-listen://127.0.0.1:0#{FAULTS}&seed=5", *GAIN_SET, "--show", "gain.y"
     ) as node:
         _, listening = node.wait_for(
             rf"^listening on faulty\+tcp-listen://127\.0\.0\.1:(\d+)#{FAULTS}&seed=5 "
@@ -421,7 +326,7 @@ def test_faults_on_both_ends_of_a_tcp_link_between_processes(hex_files):
 def test_can_through_a_remote_server_between_two_processes(hex_files, images):
     with (
         RemoteCanServer(unique("e2e-remote")) as server,
-        NodeProcess(server.url(role="node"), "--show", "gain.y") as node,
+        NodeProcess(server.url(role="node"), *GAIN_SET, "--show", "gain.y") as node,
     ):
         node.wait_for(r"^listening on can://remote/127\.0\.0\.1:\d+/e2e-remote-\w+\?role=node$")
         hexmigrate("send", hex_files["gain"], "--to", server.url(), "--quiet")
@@ -560,9 +465,9 @@ def test_a_cut_link_resumes_on_a_new_link_with_the_same_receiver(images, mode, c
 def test_send_reconnects_and_resumes_by_itself(hex_files, images):
     """`hexmigrate send` over a link that dies after 700 bytes each time it is opened: it opens
     the link again and resumes where the node got to, until the module is installed."""
-    with NodeProcess("tcp-listen://127.0.0.1:0", "--show", "gain.y") as node:
-        _, listening = node.wait_for(r"--to (socket://127\.0\.0\.1:\d+)\)$")
-        flaky = f"faulty+{listening[1]}#cut_after=700"
+    with NodeProcess("tcp-listen://127.0.0.1:0", *GAIN_SET, "--show", "gain.y") as node:
+        to = node.connect_url()
+        flaky = f"faulty+{to}#cut_after=700"
         result = subprocess.run(
             [
                 sys.executable,
@@ -583,31 +488,32 @@ def test_send_reconnects_and_resumes_by_itself(hex_files, images):
         assert "reconnecting (1/3)" in result.stderr
         assert "module moving_average installed" in result.stdout
         check_node_output(node, ["moving_average"])
-        listing = hexmigrate("ls", "--to", listening[1])
+        listing = hexmigrate("ls", "--to", to)
         assert f"{images['moving_average'].size} bytes" in listing
 
 
-def test_a_listening_node_wires_a_native_source_to_a_module_it_receives(hex_files):
+def test_a_listening_node_wires_a_module_each_time_it_arrives(hex_files):
     """`--native signal --wire signal.y=gain.x`: the wire is made once gain arrives, and gain
-    then computes 2 x the ramp (the --show lines), not 0."""
-    with NodeProcess(
-        "tcp-listen://127.0.0.1:0",
-        "--native",
-        "signal",
-        "--set",
-        "signal.amplitude=3",
-        "--set",
-        "gain.k=0x20000",
-        "--wire",
-        "signal.y=gain.x",
-        "--show",
-        "gain.y",
-    ) as node:
-        _, listening = node.wait_for(r"--to (socket://127\.0\.0\.1:\d+)\)$")
-        hexmigrate("send", hex_files["gain"], "--to", listening[1], "--quiet")
-        index, _ = node.wait_for(r"^registered gain at 0x")
-        _, shown = node.wait_for(r"gain\.y=([1-9]\d*)", index)  # 0 until the first cycles
-        assert int(shown[1]) % 6 == 0  # 2 x k=2.0 x a ramp of +3 per cycle
+    then computes 2 x the ramp (the --show lines), not 0; made again when gain is sent again
+    (the new gain replaces the old one and its connections), and when it is removed and sent
+    once more."""
+    wired = ("--native", "signal", "--set", "signal.amplitude=3", "--wire", "signal.y=gain.x")
+    with NodeProcess("tcp-listen://127.0.0.1:0", *GAIN_SET, *wired, "--show", "gain.y") as node:
+        to = node.connect_url()
+
+        def send_and_see_gain_run() -> None:
+            start = len(node.lines)
+            hexmigrate("send", hex_files["gain"], "--to", to, "--quiet")
+            index, _ = node.wait_for(r"^registered gain at 0x", start)
+            _, shown = node.wait_for(r"gain\.y=([1-9]\d*)", index)  # 0 until the first cycles
+            assert int(shown[1]) % 6 == 0  # 2 x k=2.0 x a ramp of +3 per cycle
+
+        send_and_see_gain_run()
+        send_and_see_gain_run()  # gain replaced
+        hexmigrate("rm", "gain", "--to", to)
+        node.wait_for(r"gain\.y=\?$", len(node.lines))
+        send_and_see_gain_run()  # gain back after it was removed
+        assert not any("cannot wire" in line for line in node.lines), node.output()
 
 
 def test_a_bitstream_configures_a_listening_node_s_fabric(tmp_path):
@@ -617,9 +523,8 @@ def test_a_bitstream_configures_a_listening_node_s_fabric(tmp_path):
     command = [sys.executable, "-m", "morphing_crossbar", "pack", "4", "2", "bypass"]
     subprocess.run([*command, "-o", str(bitstream)], check=True, timeout=CLI_TIMEOUT)
     with NodeProcess("tcp-listen://127.0.0.1:0", "--fpga", "4") as node:
-        _, listening = node.wait_for(r"--to (socket://127\.0\.0\.1:\d+)\)$")
+        url = node.connect_url()
         node.wait_for(r"^fpga: a 4-slot Morphing Crossbar on the reconfiguration port$")
-        url = listening[1]
         sent = hexmigrate("send", bitstream, "--to", url)
         assert "module mx_slot2 installed at 0x40000200" in sent
         node.wait_for(r"^configured mx_slot2: slot 2 reconfigured in 25 fabric cycles$")

@@ -7,8 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from firmware_sim.flash_directory import DirectoryError
-from firmware_sim.guest import RegistrationError
+from firmware_sim.errors import DirectoryError, RegistrationError
 from firmware_sim.natives import Signal
 from firmware_sim.node import Node
 from firmware_sim.sdk.build import ModuleBuild, build_module

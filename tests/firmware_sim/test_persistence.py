@@ -8,7 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from firmware_sim.flash import BLOCK_SIZE, STATE_SUFFIX, Flash, FlashError, PowerCut
+from firmware_sim.errors import FlashError
+from firmware_sim.flash import BLOCK_SIZE, STATE_SUFFIX, Flash, PowerCut
 from firmware_sim.flash_directory import (
     MAX_ENTRIES,
     DirectoryEntry,

@@ -1,5 +1,6 @@
 """Bitstream migration: a partial bitstream as an extended HEX module, loaded by the node's
-reconfiguration port into the crossbar's model."""
+reconfiguration port into the crossbar's model; the node finds the port through its entry
+point."""
 
 from __future__ import annotations
 
@@ -7,7 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from firmware_sim.fpga_port import FpgaReconfigurationPort
+from firmware_sim.errors import ReconfigurationPortError
+from firmware_sim.fpga_port import open_port
 from firmware_sim.node import Node
 from firmware_sim.server import NodeTarget
 from hexmigrate.errors import ChecksumError, TransferError
@@ -21,6 +23,7 @@ from morphing_crossbar.errors import BitstreamImageError, CrcError, RouteError
 from morphing_crossbar.fabric import Fabric
 from morphing_crossbar.hex_image import CONFIG_BASE, from_image, to_image
 from morphing_crossbar.model import Beat, CrossbarModel
+from morphing_crossbar.reconfiguration_port import CrossbarReconfigurationPort
 from morphing_crossbar.routing import bypass_route
 
 FABRIC = Fabric(4)
@@ -41,7 +44,7 @@ def test_image_is_an_extended_hex_module_at_the_slot_window() -> None:
 
 def test_port_loads_a_hex_file_and_the_route_changes(tmp_path: Path) -> None:
     model = CrossbarModel(FABRIC)
-    port = FpgaReconfigurationPort(model)
+    port = CrossbarReconfigurationPort(model)
     before = model.push(0, Beat(10))
     path = tmp_path / "bypass0.hex"
     to_image(FABRIC, pack(FABRIC, 0, bypass_route()), "bypass0").write(path)
@@ -61,7 +64,7 @@ def test_a_corrupt_frame_in_a_valid_hex_file_is_refused(tmp_path: Path) -> None:
     data[-1] ^= 0x40
     corrupt = ModuleImage(image.name, image.link_base, bytes(data), (), image.init)
     with pytest.raises(CrcError, match="corrupt bitstream"):
-        FpgaReconfigurationPort(model).load(corrupt)
+        CrossbarReconfigurationPort(model).load(corrupt)
     assert model.push(1, Beat(200)) == (1, Beat(200))
 
 
@@ -70,7 +73,7 @@ def test_a_damaged_hex_line_is_refused_by_the_codec(tmp_path: Path) -> None:
     to_image(FABRIC, pack(FABRIC, 2, bypass_route())).write(path)
     path.write_text(path.read_text().replace("A20135C6", "A20135C7"))
     with pytest.raises(ChecksumError):
-        FpgaReconfigurationPort(CrossbarModel(FABRIC)).load_file(path)
+        CrossbarReconfigurationPort(CrossbarModel(FABRIC)).load_file(path)
 
 
 def test_images_for_another_fabric_or_address_are_refused() -> None:
@@ -85,7 +88,7 @@ def test_images_for_another_fabric_or_address_are_refused() -> None:
 def fpga_node() -> tuple[Node, CrossbarModel, Receiver]:
     node = Node("fpga")
     model = CrossbarModel(FABRIC)
-    return node, model, Receiver(NodeTarget(node, fpga=FpgaReconfigurationPort(model)))
+    return node, model, Receiver(NodeTarget(node, fpga=CrossbarReconfigurationPort(model)))
 
 
 @pytest.mark.parametrize("mode", ["binary", "hex"])
@@ -126,3 +129,25 @@ def test_the_pack_command_writes_the_image_and_names_a_bad_slot(tmp_path: Path, 
     assert path.read_text() == to_image(FABRIC, pack(FABRIC, 2, bypass_route())).to_hex()
     assert pack_command(["pack", "4", "7", "through", "-o", str(path)]) == 1
     assert capsys.readouterr().err == "error: expected a slot in 0..3, got 7\n"
+
+
+def test_the_node_finds_the_crossbar_port_through_its_entry_point() -> None:
+    port = open_port(4)
+    assert isinstance(port, CrossbarReconfigurationPort)
+    assert port.description == "a 4-slot Morphing Crossbar"
+    assert port.owns(CONFIG_BASE + 0x200) and not port.owns(0x0800_0000)
+    record = port.load(to_image(FABRIC, pack(FABRIC, 2, bypass_route())))
+    assert (record.component, record.slot, record.cycles) == ("mx_slot2", 2, 25)
+
+
+def test_a_fabric_the_crossbar_cannot_build_is_one_clear_error() -> None:
+    with pytest.raises(
+        ReconfigurationPortError,
+        match=r"the 'crossbar' reconfiguration port cannot build 1 slot\(s\): expected 2\.\.16",
+    ):
+        open_port(1)
+
+
+def test_no_port_installed_is_one_clear_error() -> None:
+    with pytest.raises(ReconfigurationPortError, match="no FPGA reconfiguration port is installed"):
+        open_port(4, group="firmware_sim.no_such_ports")

@@ -14,7 +14,7 @@ from hexmigrate.elf import image_from_elf
 from hexmigrate.links import open_link
 from hexmigrate.transfer.messages import Nak, decode
 from hexmigrate.transfer.sender import Sender
-from tests.firmware_sim.test_migration_e2e import NodeProcess, check_node_output
+from tests.firmware_sim.node_process import NodeProcess, check_node_output
 
 ANSWER_TIMEOUT = 10.0
 CONNECT_LINE = r"\(connect with: hexmigrate send FILE\.hex --to (socket://127\.0\.0\.1:\d+)\)$"
