@@ -105,7 +105,7 @@ def plot(data: dict[str, np.ndarray], out: Path) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; the exit status."""
     parser = command_parser("python -m hexmanipulator.plot_sweep", __doc__)
-    parser.add_argument("out", type=output_file, metavar="OUT.png", help="the PNG file to write")
+    parser.add_argument("out", type=png_file, metavar="OUT.png", help="the PNG file to write")
     parser.add_argument(
         "--geometry",
         type=input_file(GEOMETRY_MAX_BYTES),
@@ -114,6 +114,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.set_defaults(func=_draw)
     return run(parser, HexmanipulatorError, argv)
+
+
+def png_file(text: str) -> Path:
+    """An output file whose name says PNG: matplotlib picks the format by the suffix."""
+    path = output_file(text)
+    if path.suffix.lower() != ".png":
+        raise argparse.ArgumentTypeError(f"expected a file name ending in .png, got {text!r}")
+    return path
 
 
 def _draw(args: argparse.Namespace) -> None:

@@ -12,6 +12,7 @@ from matplotlib.image import imread
 from hexmanipulator.geometry import load
 from hexmanipulator.plot_sweep import AMPLITUDE, main, sweep
 from tests.commandline.hostile_input import hostile_numbers, run_main
+from tests.visual_servoing.pixels import TAB, pixels_of
 
 
 def test_the_plate_yaw_follows_the_sweep_within_a_cycle_of_lag() -> None:
@@ -31,30 +32,14 @@ def test_the_command_writes_the_figure_with_its_curves(tmp_path: Path, capsys) -
 
 def check_sweep_figure(image: np.ndarray) -> None:
     """An 800 x 600 figure whose two panels hold their curves, each a long run of pixels, not
-    the few specks of a legend: the crank angles (the last two drawn, legs 4 and 5, cover the
-    others: a pure yaw moves the even legs alike and the odd legs alike), and the commanded and
-    achieved yaw."""
+    the few specks of a legend: the crank angles (the last two drawn, legs 4 and 5 in C4 and C5,
+    cover the others: a pure yaw moves the even legs alike and the odd legs alike), and the
+    commanded (C0, dashed) and achieved (C1) yaw."""
     assert image.shape[:2] == (600, 800)
-    rgb = image[..., :3]
-    top, bottom = rgb[60:280], rgb[320:560]  # inside the two panels, clear of titles and labels
-    assert pixels_of(top, PURPLE) > 400 and pixels_of(top, BROWN) > 400
-    assert pixels_of(bottom, BLUE) > 300  # dashed
-    assert pixels_of(bottom, ORANGE) > 400
-
-
-BLUE, ORANGE, PURPLE, BROWN = (
-    (0x1F, 0x77, 0xB4),
-    (0xFF, 0x7F, 0x0E),
-    (0x94, 0x67, 0xBD),
-    (0x8C, 0x56, 0x4B),
-)
-"""matplotlib's default colours C0, C1, C4 and C5: servo 0 or the commanded yaw, servo 1 or the
-plate's yaw, servos 4 and 5."""
-
-
-def pixels_of(rgb: np.ndarray, colour: tuple[int, int, int]) -> int:
-    """How many pixels are within 30 levels of `colour` in every channel."""
-    return int(np.sum(np.all(np.abs(rgb * 255 - np.array(colour)) <= 30, axis=-1)))
+    top, bottom = image[60:280], image[320:560]  # inside the panels, clear of titles and labels
+    assert pixels_of(top, TAB["purple"]) > 400 and pixels_of(top, TAB["brown"]) > 400
+    assert pixels_of(bottom, TAB["blue"]) > 300  # dashed
+    assert pixels_of(bottom, TAB["orange"]) > 400
 
 
 def test_a_blank_figure_of_the_same_size_fails_the_check() -> None:
@@ -66,6 +51,8 @@ def test_bad_arguments_are_usage_errors_and_a_bad_geometry_one_error_line(tmp_pa
     out = str(tmp_path / "sweep.png")
     for argv in (
         [str(tmp_path)],
+        [str(tmp_path / "sweep")],  # matplotlib would write sweep.png
+        [str(tmp_path / "sweep.xyz")],  # matplotlib would refuse the format
         [out, "--geometry", str(tmp_path)],
         [out, "--geometry", "/dev/zero"],
     ):
