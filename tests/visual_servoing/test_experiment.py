@@ -2,16 +2,9 @@
 
 from __future__ import annotations
 
-import contextlib
-import fcntl
 import json
-import os
-import pty
 import re
-import struct
 import sys
-import termios
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +13,7 @@ from hypothesis import given, settings
 from matplotlib.image import imread
 
 from tests.commandline.hostile_input import hostile_numbers, run_main
+from tests.commandline.terminal import stderr_on_a_terminal
 from tests.visual_servoing.pixels import TAB, pixels_of
 from visual_servoing.experiment.cli import main
 from visual_servoing.experiment.experiment import Experiment, Outcome
@@ -151,31 +145,11 @@ QUICKEST = "no-repair"
 
 
 def test_a_terminal_sees_the_run_s_progress_in_virtual_seconds(tmp_path: Path, monkeypatch):
-    master, slave = pty.openpty()
-    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))
-    terminal = os.fdopen(slave, "w")
-    monkeypatch.setattr(sys, "stderr", terminal)
-    with ThreadPoolExecutor(1) as reader:
-        drawn = reader.submit(read_until_closed, master)
-        try:
-            assert main(["run", "--scenario", QUICKEST, "--out", str(tmp_path)]) == 0
-        finally:
-            terminal.close()
-        bar = drawn.result(timeout=10)
-    assert b"\r" in bar
-    duration = SCENARIOS[QUICKEST].duration
-    total = re.escape(f"{duration:g}".encode()) + rb"(\.0)?"
-    assert re.search(rb"no-repair: +[1-9]\d*%\|.*\| [\d.]+/" + total + rb" \[", bar), bar
-
-
-def read_until_closed(fd: int) -> bytes:
-    """Everything written to a pty's far end until its last writer closes it."""
-    data = b""
-    with contextlib.suppress(OSError):  # EIO once the other end is closed
-        while chunk := os.read(fd, 4096):
-            data += chunk
-    os.close(fd)
-    return data
+    with stderr_on_a_terminal(monkeypatch) as screen:
+        assert main(["run", "--scenario", QUICKEST, "--out", str(tmp_path)]) == 0
+    total = re.escape(f"{SCENARIOS[QUICKEST].duration:g}".encode()) + rb"(\.0)?"
+    drawn = rb"\rno-repair: +[1-9]\d*%\|.*\| [\d.]+/" + total + rb" \["
+    assert re.search(drawn, screen.data), screen.data
 
 
 def test_a_log_gets_no_progress_bar(tmp_path: Path, monkeypatch):
