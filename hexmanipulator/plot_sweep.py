@@ -104,16 +104,21 @@ def plot(data: dict[str, np.ndarray], out: Path) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; the exit status."""
-    parser = command_parser("python -m hexmanipulator.plot_sweep", __doc__)
-    parser.add_argument("out", type=png_file, metavar="OUT.png", help="the PNG file to write")
-    parser.add_argument(
+    return run(parser(), HexmanipulatorError, argv)
+
+
+def parser() -> argparse.ArgumentParser:
+    """The argument parser: one PNG file to write."""
+    top = command_parser("python -m hexmanipulator.plot_sweep", __doc__)
+    top.add_argument("out", type=png_file, metavar="OUT.png", help="the PNG file to write")
+    top.add_argument(
         "--geometry",
         type=input_file(GEOMETRY_MAX_BYTES),
         metavar="FILE.toml",
         help="a geometry file (default: the shipped hexmanipulator/hexman.toml)",
     )
-    parser.set_defaults(func=_draw)
-    return run(parser, HexmanipulatorError, argv)
+    top.set_defaults(func=_draw)
+    return top
 
 
 def png_file(text: str) -> Path:

@@ -60,10 +60,15 @@ def draw(out: Path) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; the exit status."""
-    parser = command_parser("python -m visual_servoing.figure", __doc__)
-    parser.add_argument("out", type=png_file, metavar="OUT.png", help="the PNG file to write")
-    parser.set_defaults(func=_draw)
-    return run(parser, ServoingError, argv)
+    return run(parser(), ServoingError, argv)
+
+
+def parser() -> argparse.ArgumentParser:
+    """The argument parser: one PNG file to write."""
+    top = command_parser("python -m visual_servoing.figure", __doc__)
+    top.add_argument("out", type=png_file, metavar="OUT.png", help="the PNG file to write")
+    top.set_defaults(func=_draw)
+    return top
 
 
 def png_file(text: str) -> Path:

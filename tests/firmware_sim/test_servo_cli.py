@@ -11,7 +11,8 @@ import serial
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from firmware_sim.servos.cli import main
+from firmware_sim.servos.cli import main, parser
+from tests.commandline.documented import undocumented
 from tests.commandline.hostile_input import hostile_numbers, run_main
 
 WAIT = 10.0
@@ -113,3 +114,7 @@ def _runs_long(text: str) -> bool:
         return float(text) > 0.01
     except ValueError:
         return False
+
+
+def test_docs_cli_md_names_every_command_and_option() -> None:
+    assert undocumented(parser(), "## `python -m firmware_sim.servos`") == []

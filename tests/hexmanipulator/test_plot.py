@@ -10,7 +10,8 @@ from hypothesis import given, settings
 from matplotlib.image import imread
 
 from hexmanipulator.geometry import load
-from hexmanipulator.plot_sweep import AMPLITUDE, main, sweep
+from hexmanipulator.plot_sweep import AMPLITUDE, main, parser, sweep
+from tests.commandline.documented import undocumented
 from tests.commandline.hostile_input import hostile_numbers, run_main
 from tests.visual_servoing.pixels import TAB, pixels_of
 
@@ -78,3 +79,7 @@ def test_hostile_geometry_values_end_in_a_status_not_a_traceback(tmp_path_factor
     assert status in (1, 2)
     assert "Traceback" not in err
     assert not out.exists()
+
+
+def test_docs_cli_md_names_every_option() -> None:
+    assert undocumented(parser(), "## The figure commands") == []

@@ -16,7 +16,7 @@ from morphing_crossbar.bitstream import (
     pack,
     reconfiguration_cycles,
 )
-from morphing_crossbar.cli import main
+from morphing_crossbar.cli import main, parser
 from morphing_crossbar.crc import crc8_bits
 from morphing_crossbar.errors import (
     CrcError,
@@ -30,6 +30,7 @@ from morphing_crossbar.errors import (
 )
 from morphing_crossbar.fabric import Fabric
 from morphing_crossbar.routing import SlotRoute, bypass_route, through_route
+from tests.commandline.documented import undocumented
 from tests.commandline.hostile_input import hostile_numbers, run_main
 
 FABRIC = Fabric(4)
@@ -170,3 +171,7 @@ def test_hostile_numbers_end_in_a_status_not_a_traceback(tmp_path_factory, value
     status, err = run_main(main, argv)
     assert status in (0, 1, 2)
     assert "Traceback" not in err
+
+
+def test_docs_cli_md_names_every_command_and_option() -> None:
+    assert undocumented(parser(), "## `python -m morphing_crossbar`") == []

@@ -8,8 +8,9 @@ import pytest
 from hypothesis import given, settings
 
 from hexmigrate.elf import image_from_elf
-from refresh.cli import main
+from refresh.cli import main, parser
 from refresh.load import MAX_FILE_BYTES
+from tests.commandline.documented import undocumented
 from tests.commandline.hostile_input import hostile_numbers, run_main
 
 DATABASE = str(Path(__file__).parents[2] / "refresh" / "data" / "visual_servoing.toml")
@@ -204,3 +205,7 @@ def test_hostile_values_end_in_a_status_not_a_traceback(value):
         status, err = run_main(main, argv)
         assert status in (0, 1, 2)
         assert "Traceback" not in err
+
+
+def test_docs_cli_md_names_every_command_and_option() -> None:
+    assert undocumented(parser(), "## `python -m refresh`") == []

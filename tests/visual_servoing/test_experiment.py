@@ -12,10 +12,11 @@ import pytest
 from hypothesis import given, settings
 from matplotlib.image import imread
 
+from tests.commandline.documented import undocumented
 from tests.commandline.hostile_input import hostile_numbers, run_main
 from tests.commandline.terminal import stderr_on_a_terminal
 from tests.visual_servoing.pixels import TAB, pixels_of
-from visual_servoing.experiment.cli import main
+from visual_servoing.experiment.cli import main, parser
 from visual_servoing.experiment.experiment import Experiment, Outcome
 from visual_servoing.experiment.report import summary
 from visual_servoing.experiment.scenarios import PAPER, SCENARIOS
@@ -182,3 +183,7 @@ def test_a_machine_without_the_cross_compiler_gets_one_error_line(tmp_path, monk
     err = capsys.readouterr().err
     assert err.startswith("error: scenario no-repair: cannot build the Dehazer: ")
     assert "not found on PATH" in err and err.count("\n") == 1
+
+
+def test_docs_cli_md_names_every_command_and_option() -> None:
+    assert undocumented(parser(), "## `python -m visual_servoing`") == []

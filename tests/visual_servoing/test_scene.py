@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from matplotlib.image import imread
 
+from tests.commandline.documented import undocumented
 from tests.commandline.hostile_input import hostile_numbers, run_main
 from tests.visual_servoing.pixels import pixels_of
 from visual_servoing.dehaze import dehaze
@@ -20,6 +21,7 @@ from visual_servoing.errors import (
     UnknownTargetError,
 )
 from visual_servoing.figure import main as figure_main
+from visual_servoing.figure import parser as figure_parser
 from visual_servoing.image_faults import FOG_GREY, Fault, FaultKind, FaultSchedule
 from visual_servoing.scene import Scene, Target, relative_bearing
 from visual_servoing.shapes import Shape
@@ -233,3 +235,7 @@ def test_hostile_names_end_in_a_status_not_a_traceback(tmp_path_factory, value):
     status, err = run_main(figure_main, [str(missing / value)])
     assert status == 2
     assert "Traceback" not in err
+
+
+def test_docs_cli_md_names_every_option() -> None:
+    assert undocumented(figure_parser(), "## The figure commands") == []

@@ -73,7 +73,8 @@ def parser() -> argparse.ArgumentParser:
         "--scenario",
         choices=sorted(SCENARIOS),
         default="paper",
-        help="the scenario to run (default: paper)",
+        metavar="NAME",
+        help=f"the scenario to run: {', '.join(sorted(SCENARIOS))} (default: paper)",
     )
     running.add_argument(
         "--out", type=Path, metavar="DIR", help=f"output folder (default {DEFAULT_OUT}/NAME)"
