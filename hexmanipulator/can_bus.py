@@ -27,15 +27,9 @@ from firmware_sim.servos.can_servo import (
     SYNC_ID,
     database,
 )
+from hexmanipulator.errors import BusOffError, GeometryError, ServoBusError, ServoSilentError
 from hexmanipulator.geometry import Geometry
-from hexmanipulator.servo_bus import (
-    BusOffError,
-    Reading,
-    ServoBusError,
-    ServoSilentError,
-    crank_angles,
-    servo_angles,
-)
+from hexmanipulator.servo_bus import Reading, crank_angles, servo_angles
 from hexmigrate.links.can import parse_url
 
 REPLY_TIMEOUT = 0.2
@@ -60,7 +54,7 @@ class CanServoBus:
         self.db = database()
         self._nodes = [channel + 1 for channel in geometry.channels]
         if not all(1 <= node <= NODES for node in self._nodes):
-            raise ValueError(
+            raise GeometryError(
                 f"servos.channels: expected 0-{NODES - 1} for CAN servo nodes 1-{NODES}, "
                 f"got {geometry.channels}"
             )

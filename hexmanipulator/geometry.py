@@ -18,8 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from firmware_sim.servos.s3003 import S3003
-from firmware_sim.servos.ssc32 import CHANNELS
+from firmware_sim.servos.datasheet import S3003, SSC32_CHANNELS
+from firmware_sim.servos.errors import ServoSpecError
+from hexmanipulator.errors import GeometryError
 
 LEGS = 6
 DEFAULT_FILE = "hexman.toml"
@@ -30,10 +31,6 @@ _SECTIONS = {
     "servos": {"limit", "channels", "direction", "trim_us", "supply_volts"},
     "workspace": {"translation", "heave", "tilt", "yaw"},
 }
-
-
-class GeometryError(ValueError):
-    """A geometry file that is malformed or describes a platform that cannot be built."""
 
 
 @dataclass(frozen=True)
@@ -72,9 +69,11 @@ class Geometry:
                 )
         if any(d not in (1, -1) for d in self.direction):
             raise GeometryError(f"servos.direction: expected 1 or -1 each, got {self.direction}")
-        if len(set(self.channels)) != LEGS or not all(0 <= c < CHANNELS for c in self.channels):
+        if len(set(self.channels)) != LEGS or not all(
+            0 <= c < SSC32_CHANNELS for c in self.channels
+        ):
             raise GeometryError(
-                f"servos.channels: expected {LEGS} different channels 0-{CHANNELS - 1}, "
+                f"servos.channels: expected {LEGS} different channels 0-{SSC32_CHANNELS - 1}, "
                 f"got {self.channels}"
             )
         if self.limit > S3003.travel_deg:
@@ -84,7 +83,7 @@ class Geometry:
             )
         try:
             S3003.check_voltage(self.supply_volts)
-        except ValueError as error:
+        except ServoSpecError as error:
             raise GeometryError(f"servos.supply_volts: {error}") from None
         if math.isnan(self.home_height):
             raise GeometryError(
@@ -137,11 +136,22 @@ def load(path: str | Path | None = None) -> Geometry:
         text = resources.files("hexmanipulator").joinpath(DEFAULT_FILE).read_text()
         where = f"hexmanipulator/{DEFAULT_FILE}"
     else:
-        text, where = Path(path).read_text(), str(path)
+        where = str(path)
+        try:
+            text = Path(path).read_text(encoding="utf-8")
+        except UnicodeDecodeError as error:
+            raise GeometryError(
+                f"{where}: expected UTF-8 text, got byte 0x{error.object[error.start]:02x} "
+                f"at {error.start}"
+            ) from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise GeometryError(f"{where}: {error}") from None
+    except RecursionError:
+        raise GeometryError(
+            f"{where}: expected TOML tables of numbers, got nesting too deep to read"
+        ) from None
     return _from_tables(data, where)
 
 

@@ -40,17 +40,17 @@ from typing import ClassVar
 
 import numpy as np
 
-from firmware_sim.servos.s3003 import S3003
-from hexmanipulator.geometry import LEGS, Geometry
-from hexmanipulator.kinematics import Pose, UnreachablePoseError, inverse
-from hexmanipulator.servo_bus import (
+from firmware_sim.servos.datasheet import S3003
+from hexmanipulator.errors import (
     BusOffError,
     CableCutError,
-    Reading,
-    ServoBus,
     ServoBusError,
     ServoSilentError,
+    UnreachablePoseError,
 )
+from hexmanipulator.geometry import LEGS, Geometry
+from hexmanipulator.kinematics import Pose, inverse
+from hexmanipulator.servo_bus import Reading, ServoBus
 from pbort import NativeModule, NativePBO, PerformanceKind, PortIO, PortKind, PortSpec
 
 DEFAULT_TOLERANCE = 3.0

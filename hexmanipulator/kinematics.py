@@ -25,6 +25,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from hexmanipulator.errors import CrankAnglesError, ForwardKinematicsError, UnreachablePoseError
 from hexmanipulator.geometry import LEGS, Geometry
 
 NEWTON_TOLERANCE = 1e-12
@@ -42,14 +43,6 @@ class Pose(NamedTuple):
     roll: float = 0.0
     pitch: float = 0.0
     yaw: float = 0.0
-
-
-class UnreachablePoseError(ValueError):
-    """The pose is outside the workspace or a leg cannot reach it."""
-
-
-class ForwardKinematicsError(ArithmeticError):
-    """Newton's method found no pose for these crank angles."""
 
 
 def rotation(roll: float, pitch: float, yaw: float) -> np.ndarray:
@@ -140,7 +133,7 @@ def forward(geometry: Geometry, angles: np.ndarray, guess: Pose | None = None) -
     (home by default); ForwardKinematicsError if it does not converge."""
     angles = np.asarray(angles, dtype=float)
     if angles.shape != (LEGS,) or not np.all(np.isfinite(angles)):
-        raise ValueError(f"expected {LEGS} finite crank angles in degrees, got {angles}")
+        raise CrankAnglesError(f"expected {LEGS} finite crank angles in degrees, got {angles}")
     tips = crank_tips(geometry, angles)
     start = Pose() if guess is None else guess
     q = np.array([*start[:3], *np.radians(start[3:])], dtype=float)

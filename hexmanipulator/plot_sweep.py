@@ -1,17 +1,19 @@
-"""``python -m hexmanipulator.plot_sweep OUT.png``: the six servo angles and the platform yaw
-over a yaw sweep, run through the whole stack, for docs/servos.md.
+"""Plot the six servo angles and the platform yaw over a yaw sweep, run through the whole stack.
 
-A sweep PBO feeds a yaw of `AMPLITUDE` degrees at `FREQUENCY` Hz into the HexMan PBO's ``yaw``
-input; HexMan drives six CAN servo nodes on an in-process virtual bus, all in virtual time on a
-pbort kernel. Each cycle records the servo feedback, and the plate's yaw is recovered from it by
-the forward kinematics, so the plot shows what the platform did, not what it was told.
+Example (the figure of docs/servos.md):
+  python -m hexmanipulator.plot_sweep docs/img/hexman_sweep.png
+
+A sweep PBO feeds a yaw of 20 degrees at 0.5 Hz into the HexMan PBO's yaw input; HexMan drives
+six CAN servo nodes on an in-process virtual bus, all in virtual time on a pbort kernel. Each
+cycle records the servo feedback, and the plate's yaw is recovered from it by the forward
+kinematics, so the plot shows what the platform did, not what it was told.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import can
@@ -21,18 +23,23 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from commandline import command_parser, run
+from commandline.arguments import input_file, output_file
 from firmware_sim.servos.can_servo import CanServoNodes
 from firmware_sim.servos.can_servo_server import CanServoServer
 from hexmanipulator.can_bus import CanServoBus
+from hexmanipulator.errors import HexmanipulatorError
 from hexmanipulator.geometry import Geometry, load
 from hexmanipulator.hexman_pbo import hexman_module
-from hexmanipulator.kinematics import ForwardKinematicsError, Pose, forward
+from hexmanipulator.kinematics import Pose, forward
 from pbort import Kernel, NativeModule, NativePBO, PortIO, PortSpec
 
 AMPLITUDE = 20.0
 FREQUENCY = 0.5
 SECONDS = 4.0
 RATE = 50.0
+GEOMETRY_MAX_BYTES = 1 << 20
+"""A geometry file is a few hundred bytes: anything above a mebibyte is not one."""
 
 
 class YawSweep(NativePBO):
@@ -91,28 +98,40 @@ def plot(data: dict[str, np.ndarray], out: Path) -> None:
         f"HexManipulator yaw sweep: +-{AMPLITUDE:g} deg at {FREQUENCY:g} Hz, CAN servos"
     )
     figure.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
     figure.savefig(out, metadata={"Software": None})
     plt.close(figure)
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m hexmanipulator.plot_sweep", description=__doc__
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; the exit status."""
+    return run(parser(), HexmanipulatorError, argv)
+
+
+def parser() -> argparse.ArgumentParser:
+    """The argument parser: one PNG file to write."""
+    top = command_parser("python -m hexmanipulator.plot_sweep", __doc__)
+    top.add_argument("out", type=png_file, metavar="OUT.png", help="the PNG file to write")
+    top.add_argument(
+        "--geometry",
+        type=input_file(GEOMETRY_MAX_BYTES),
+        metavar="FILE.toml",
+        help="a geometry file (default: the shipped hexmanipulator/hexman.toml)",
     )
-    parser.add_argument("out", type=Path, help="the PNG file to write")
-    parser.add_argument("--geometry", type=Path, help="a geometry TOML (default: the shipped one)")
-    parser.add_argument("--debug", action="store_true", help="show tracebacks")
-    args = parser.parse_args(argv)
-    try:
-        plot(sweep(load(args.geometry)), args.out)
-    except (OSError, ValueError, ForwardKinematicsError) as error:
-        if args.debug:
-            raise
-        print(f"error: {error}", file=sys.stderr)
-        return 1
+    top.set_defaults(func=_draw)
+    return top
+
+
+def png_file(text: str) -> Path:
+    """An output file whose name says PNG: matplotlib picks the format by the suffix."""
+    path = output_file(text)
+    if path.suffix.lower() != ".png":
+        raise argparse.ArgumentTypeError(f"expected a file name ending in .png, got {text!r}")
+    return path
+
+
+def _draw(args: argparse.Namespace) -> None:
+    plot(sweep(load(args.geometry)), args.out)
     print(f"wrote {args.out}")
-    return 0
 
 
 if __name__ == "__main__":

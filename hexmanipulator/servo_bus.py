@@ -3,8 +3,8 @@
 A servo bus moves the six cranks to angles over a time and reads back where they are. Angles
 here are crank angles (degrees, 0 = horizontal, + lifts the crank); each implementation maps them
 to its servos with the geometry's channel, direction and trim, so the PBO never sees pulses or
-CAN signals. Failures are `ServoBusError`s (an `OSError`) whose message is the reason, naming
-the link: the PBO reports them as a performance violation instead of crashing.
+CAN signals. Failures are `ServoBusError`s (hexmanipulator.errors; an `OSError`) whose message is
+the reason, naming the link: the PBO reports them as a performance violation instead of crashing.
 """
 
 from __future__ import annotations
@@ -14,24 +14,8 @@ from typing import Protocol
 
 import numpy as np
 
-from firmware_sim.servos.s3003 import S3003
+from firmware_sim.servos.datasheet import S3003
 from hexmanipulator.geometry import Geometry
-
-
-class ServoBusError(OSError):
-    """The servo link failed; the message says why and where."""
-
-
-class ServoSilentError(ServoBusError, TimeoutError):
-    """A servo (or the controller) did not answer in time."""
-
-
-class BusOffError(ServoBusError):
-    """The host's CAN controller left the bus."""
-
-
-class CableCutError(ServoBusError):
-    """The serial line is gone (cable pulled, device unplugged, emulator closed)."""
 
 
 @dataclass(frozen=True)

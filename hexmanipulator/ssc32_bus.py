@@ -4,7 +4,7 @@ A move is one group command, ``#<ch>P<pw>...T<ms>``, so the six servos start and
 A read is ``QP<ch>...``: one byte per channel, the pulse / 10 (a 1.1 degree step on an S3003).
 The SSC-32 has no wire back from the servos: what it reports is the pulse it outputs, which the
 servos follow at their own speed, and no current at all. The bus therefore estimates each servo's
-current with the S3003 model: running current while its pulse changes, idle current otherwise.
+current from the S3003's data sheet: running current while its pulse changes, idle otherwise.
 """
 
 from __future__ import annotations
@@ -16,15 +16,10 @@ import time
 import numpy as np
 import serial  # type: ignore[import-untyped]
 
-from firmware_sim.servos.s3003 import S3003
+from firmware_sim.servos.datasheet import S3003
+from hexmanipulator.errors import CableCutError, ServoSilentError
 from hexmanipulator.geometry import Geometry
-from hexmanipulator.servo_bus import (
-    CableCutError,
-    Reading,
-    ServoSilentError,
-    crank_angles,
-    servo_angles,
-)
+from hexmanipulator.servo_bus import Reading, crank_angles, servo_angles
 
 _PORT_ERRORS = (OSError, serial.SerialException, termios.error)
 """What a port whose far end vanished raises: pyserial's error, the OS's, or termios' (a tty
@@ -34,16 +29,16 @@ REPLY_TIMEOUT = 0.1
 
 
 class Ssc32Bus:
-    """An SSC-32 at `url`, driving the legs on the geometry's channels."""
+    """An SSC-32 at `url` (8N1 at `bit_rate` baud), driving the legs on the geometry's channels."""
 
-    def __init__(self, url: str, geometry: Geometry, baudrate: int = 115200) -> None:
+    def __init__(self, url: str, geometry: Geometry, bit_rate: int = 115200) -> None:
         self.url = url
         self.geometry = geometry
         self._channels = geometry.channels
         self._volts = geometry.supply_volts
         self._last_pulses: np.ndarray | None = None
         try:
-            self._port = serial.serial_for_url(url, baudrate=baudrate, timeout=REPLY_TIMEOUT)
+            self._port = serial.serial_for_url(url, baudrate=bit_rate, timeout=REPLY_TIMEOUT)
         except (OSError, ValueError) as error:
             raise CableCutError(f"{url}: cannot open the SSC-32's port: {error}") from error
 
@@ -67,7 +62,7 @@ class Ssc32Bus:
         self._port.close()
 
     def _currents(self, pulses: np.ndarray) -> np.ndarray:
-        """The S3003 model's current for each servo: running while its pulse moved."""
+        """The S3003's data-sheet current for each servo: running while its pulse moved."""
         last = self._last_pulses
         moved = np.ones(len(pulses), bool) if last is None else pulses != last
         self._last_pulses = pulses

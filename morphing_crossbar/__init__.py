@@ -2,7 +2,8 @@
 
 Modules, from the bottom up:
 
-- ``errors``: the exception tree (bad bitstreams, bad parameters, bad routes).
+- ``errors``: the exception tree under CrossbarError (bad bitstreams, parameters, routes,
+  synthesis).
 - ``crc``: CRC-8 of configuration frames and CRC-32 of full-slot bitstreams.
 - ``functions``: the functionality library (pass, gain/offset, threshold, FIR) in Python.
 - ``fabric``: the fabric's parameters and the sources each wrapper can select.
@@ -12,6 +13,7 @@ Modules, from the bottom up:
 - ``model``: the transaction-level model, the golden reference of the tests.
 - ``hex_image``: a partial bitstream as an extended Intel HEX module image (hexmigrate).
 - ``sim``: cocotb drivers, monitors, scoreboard and the runner helpers (needs cocotb).
+- ``cli``: ``python -m morphing_crossbar pack``, a partial bitstream as a HEX module file.
 
 The Verilog lives in ``hdl/`` at the repository root; ``hdl_dir()`` finds it.
 """

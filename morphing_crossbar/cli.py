@@ -1,27 +1,32 @@
-"""``python -m morphing_crossbar pack``: a partial bitstream as an extended Intel HEX module file.
+"""Write a Morphing Crossbar's partial bitstream as an extended Intel HEX module file.
 
-    python -m morphing_crossbar pack N SLOT bypass|through|empty -o FILE.hex [--cfg-w W]
+Examples:
+  python -m morphing_crossbar pack 4 2 bypass -o slot2.hex
+  python -m morphing_crossbar pack 8 0 through -o slot0.hex --cfg-w 4
 
-The file is what ``hexmigrate send FILE.hex --to URL`` sends to a node listening with
-``firmware-sim listen --fpga N`` (docs/crossbar.md): ``bypass`` takes the slot's functionality
-out of its route, ``through`` puts it back (the reset route), ``empty`` leaves the slot taking and
-driving nothing. Errors print ``error: ...`` and exit 1; usage errors exit 2.
+pack N SLOT ROUTE packs the new route of slot SLOT of an N-slot fabric: bypass takes the slot's
+functionality out of its route, through puts it back (the reset route), empty leaves the slot
+taking and driving nothing. The file is what "hexmigrate send FILE.hex --to URL" sends to a node
+started with "firmware-sim listen --fpga N" (docs/crossbar.md). Errors print one line
+"error: ..." and exit 1; usage errors exit 2; --debug shows the traceback.
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 from collections.abc import Sequence
-from pathlib import Path
 
+from commandline import add_command, command_parser, run
+from commandline.arguments import integer, output_file
 from morphing_crossbar.bitstream import pack
 from morphing_crossbar.errors import CrossbarError
-from morphing_crossbar.fabric import Fabric
+from morphing_crossbar.fabric import FRAME_BITS, Fabric
 from morphing_crossbar.hex_image import to_image
 from morphing_crossbar.routing import SlotRoute, bypass_route, empty_route, through_route
 
 ROUTES = ("bypass", "through", "empty")
+MAX_SLOTS = 16
+"""The fabric's largest N (a selector field addresses 16 sources)."""
 
 
 def route(name: str, fabric: Fabric, slot: int) -> SlotRoute:
@@ -33,7 +38,7 @@ def route(name: str, fabric: Fabric, slot: int) -> SlotRoute:
     return empty_route()
 
 
-def cmd_pack(args: argparse.Namespace) -> int:
+def cmd_pack(args: argparse.Namespace) -> None:
     """Pack the route as a partial bitstream and write it as an extended HEX module file."""
     fabric = Fabric(args.n, cfg_w=args.cfg_w)
     bitstream = pack(fabric, args.slot, route(args.route, fabric, args.slot))
@@ -43,24 +48,35 @@ def cmd_pack(args: argparse.Namespace) -> int:
         f"{args.output}: {image.name}, {args.route} route for slot {args.slot} of {args.n}, "
         f"{len(image.data)} bytes at 0x{image.link_base:08X}"
     )
-    return 0
+
+
+def parser() -> argparse.ArgumentParser:
+    """The argument parser, subcommands dispatched through `func`."""
+    top = command_parser("python -m morphing_crossbar", __doc__)
+    commands = top.add_subparsers(required=True, metavar="COMMAND")
+    packing = add_command(
+        commands, "pack", cmd_pack, "write a partial bitstream as a HEX module file"
+    )
+    packing.add_argument(
+        "n", type=integer(2, MAX_SLOTS), metavar="N", help=f"slots of the fabric, 2 to {MAX_SLOTS}"
+    )
+    packing.add_argument(
+        "slot", type=integer(0, MAX_SLOTS - 1), metavar="SLOT", help="the slot to reconfigure"
+    )
+    packing.add_argument("route", choices=ROUTES, help="the slot's new route")
+    packing.add_argument(
+        "-o", "--output", type=output_file, required=True, metavar="FILE.hex", help="the file"
+    )
+    packing.add_argument(
+        "--cfg-w",
+        type=integer(1, FRAME_BITS),
+        default=1,
+        metavar="W",
+        help=f"configuration port bits a beat, dividing {FRAME_BITS} (default 1)",
+    )
+    return top
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m morphing_crossbar", description=__doc__.splitlines()[0]
-    )
-    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    packing = commands.add_parser("pack", help="write a partial bitstream as a HEX module file")
-    packing.add_argument("n", type=int, metavar="N", help="slots of the fabric")
-    packing.add_argument("slot", type=int, metavar="SLOT", help="the slot to reconfigure")
-    packing.add_argument("route", choices=ROUTES, help="the slot's new route")
-    packing.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.hex")
-    packing.add_argument("--cfg-w", type=int, default=1, help="configuration width (default 1)")
-    packing.set_defaults(func=cmd_pack)
-    args = parser.parse_args(argv)
-    try:
-        return args.func(args)
-    except (CrossbarError, ValueError, OSError) as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 1
+    """Run the command line; the exit status."""
+    return run(parser(), CrossbarError, argv)

@@ -1,7 +1,26 @@
 """The exception tree of the Morphing Crossbar package.
 
-Bitstream errors carry the same numeric ``code`` the wrapper reports on ``cfg_error_code`` when it
-refuses a frame, so a test can check that the hardware and the model refuse for the same reason.
+Every refusal of this package raises a subclass of `CrossbarError`, so a caller (the pack command,
+a node's reconfiguration port) can catch one class; each class also inherits the builtin it
+refines. Bitstream errors carry the same numeric ``code`` the wrapper reports on
+``cfg_error_code`` when it refuses a frame, so a test can check that the hardware and the model
+refuse for the same reason.
+
+Tree::
+
+    CrossbarError
+    ├── FabricParameterError (ValueError)   parameters the hardware cannot be built with
+    ├── RouteError (ValueError)             a routing the fabric cannot carry
+    ├── DataWidthError (ValueError)         a beat's data wider than the fabric's data width
+    ├── BitstreamError (ValueError)         a partial bitstream the wrapper refuses (``code``)
+    │   ├── CrcError                            1: the CRC-8 does not match
+    │   ├── LengthError                         2: the wrong number of bits
+    │   ├── MagicError                          3: no magic nibble 0xA
+    │   ├── SlotMismatchError                   4: packed for another slot
+    │   ├── SelectorRangeError                  5: a source the slot does not have
+    │   └── RefusedRouteError                   6: one source twice, or a loop on itself
+    ├── BitstreamImageError (ValueError)    a HEX image that holds no crossbar bitstream
+    └── SynthesisError (RuntimeError)       yosys is missing or refused the design
 """
 
 from __future__ import annotations
@@ -17,6 +36,10 @@ class FabricParameterError(CrossbarError, ValueError):
 
 class RouteError(CrossbarError, ValueError):
     """A routing the fabric cannot carry: unreachable source, two consumers, or a cycle."""
+
+
+class DataWidthError(CrossbarError, ValueError):
+    """A beat whose data does not fit the fabric's data width."""
 
 
 class BitstreamError(CrossbarError, ValueError):
@@ -63,3 +86,7 @@ class RefusedRouteError(BitstreamError):
 
 class BitstreamImageError(CrossbarError, ValueError):
     """A HEX image that does not hold a crossbar bitstream (wrong region, size or header)."""
+
+
+class SynthesisError(CrossbarError, RuntimeError):
+    """Yosys is missing or refused the design."""

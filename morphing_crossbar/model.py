@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .bitstream import beats_to_word, decode_bytes, decode_frame, reconfiguration_cycles
-from .errors import RouteError
+from .errors import DataWidthError, RouteError
 from .fabric import Fabric, Source, SourceKind
 from .functions import FunctionState
 from .routing import Configuration, SlotRoute
@@ -51,7 +51,7 @@ class CrossbarModel:
         """Send ``beat`` into external input ``port``; returns (output port, beat out)."""
         self.fabric.check_slot(port)
         if beat.data >> self.fabric.data_w or beat.data < 0:
-            raise ValueError(f"expected data below 2**{self.fabric.data_w}, got {beat.data}")
+            raise DataWidthError(f"expected data below 2**{self.fabric.data_w}, got {beat.data}")
         source = Source(SourceKind.INPUT, port)
         data = beat.data
         while True:

@@ -21,15 +21,11 @@ from pathlib import Path
 from . import hdl_dir
 from .bitstream import PartialBitstream
 from .crc import crc32
-from .errors import CrossbarError
+from .errors import SynthesisError
 from .functions import Function
 
 FULL_MAGIC = b"MXFS"
 """First bytes of a full-slot bitstream (the partial one is a bare 3-byte frame)."""
-
-
-class SynthesisError(CrossbarError, RuntimeError):
-    """Yosys is missing or refused the design."""
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ One concept per module:
 ``schema``            the JSON Schema of a database file and its error wording
 ``task``              the task specification T: state machine, schemas, metrics, alpha
 ``load``              reading a TOML database (and task) file with full validation
+``images``            the module images a database names, checked against its modules
 ``configuration``     a configuration C: chains per slot, robots, port connections
 ``performance``       equations (1)-(5): P_NF, P_F, P_T, Util, the best configuration
 ``estimator``         the Estimator protocol and its plain-function back end

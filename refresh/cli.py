@@ -1,30 +1,41 @@
-"""The `refresh` command: inspect a module database and the decisions it allows.
+"""Inspect a ReFrESH module database and the decisions it allows.
 
-    python -m refresh check FILE     validate; print the tree and the task
-    python -m refresh cases FILE     the Base Choice test cases of the task's initial configuration,
-                                     against the brute-force count, and the generator's candidates
-                                     for each slot (--k for the combo bound)
+Examples:
+  python -m refresh check refresh/data/visual_servoing.toml
+  python -m refresh cases refresh/data/visual_servoing.toml --k 2
 
-Errors print ``error: message`` and exit 1 (usage errors exit 2); ``--debug`` shows the traceback.
+check validates a database file and the module images it names (each must exist and its
+descriptor must declare the module's name and ports), then prints the tree and the task. cases
+prints the Base Choice test cases of the task's initial configuration, against the brute-force
+count, and the Generator's candidates for each slot (--k: modules per combo). Errors print one
+line "error: FILE: KEY: expected ..., got ..." and exit 1; usage errors exit 2; --debug shows
+the traceback.
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 from collections.abc import Sequence
 
+from commandline import add_command, command_parser, run
+from commandline.arguments import input_file, integer
 from refresh.configuration import initial_configuration
 from refresh.errors import DatabaseError, RefreshError
 from refresh.generator import DEFAULT_MAX_MODULES, candidates
-from refresh.load import Loaded, load
+from refresh.images import check_images
+from refresh.load import MAX_FILE_BYTES, Loaded, load
 from refresh.locator import base_choice_cases, brute_force_count
 from refresh.task import TaskSpec
+
+MAX_COMBO_MODULES = 4
+"""The largest --k: each more module per combo multiplies the combos by the number of modules
+(the paper uses 2)."""
 
 
 def check(options: argparse.Namespace) -> None:
     """Print the tree: schemas, their modules and where each can run, then the task."""
     loaded = load(options.file)
+    check_images(loaded.database, str(options.file))
     database = loaded.database
     for robot in database.robots.values():
         resources = ", ".join(
@@ -53,7 +64,7 @@ def check(options: argparse.Namespace) -> None:
 def cases(options: argparse.Namespace) -> None:
     """Print the Base Choice cases and, per slot, the candidates a fault there would give."""
     loaded = load(options.file)
-    database, task = loaded.database, _task_with_initial(loaded, options.file)
+    database, task = loaded.database, _task_with_initial(loaded, str(options.file))
     current = initial_configuration(task, database)
     found = list(base_choice_cases(current, database))
     print(f"current {current.label()}")
@@ -79,27 +90,25 @@ def _task_with_initial(loaded: Loaded, file: str) -> TaskSpec:
 
 def parser() -> argparse.ArgumentParser:
     """The argument parser, subcommands dispatched through `func`."""
-    top = argparse.ArgumentParser(prog="refresh", description="ReFrESH module databases")
-    top.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    top = command_parser("python -m refresh", __doc__)
     commands = top.add_subparsers(required=True, metavar="COMMAND")
-    checking = commands.add_parser("check", help="validate a database and print its tree")
-    checking.add_argument("file")
-    checking.set_defaults(func=check)
-    listing = commands.add_parser("cases", help="Base Choice test cases and candidates")
-    listing.add_argument("file")
-    listing.add_argument("--k", type=int, default=DEFAULT_MAX_MODULES, help="modules per combo")
-    listing.set_defaults(func=cases)
+    database = input_file(MAX_FILE_BYTES)
+    checking = add_command(
+        commands, "check", check, "validate a database and its images, print its tree"
+    )
+    checking.add_argument("file", type=database, metavar="FILE", help="the database (TOML)")
+    listing = add_command(commands, "cases", cases, "Base Choice test cases and candidates")
+    listing.add_argument("file", type=database, metavar="FILE", help="the database (TOML)")
+    listing.add_argument(
+        "--k",
+        type=integer(1, MAX_COMBO_MODULES),
+        default=DEFAULT_MAX_MODULES,
+        metavar="K",
+        help=f"modules per combo, 1 to {MAX_COMBO_MODULES} (default {DEFAULT_MAX_MODULES})",
+    )
     return top
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command; 0 on success, 1 on an error the user can fix."""
-    options = parser().parse_args(argv)
-    try:
-        options.func(options)
-    except RefreshError as error:
-        if options.debug:
-            raise
-        print(f"error: {error}", file=sys.stderr)
-        return 1
-    return 0
+    """Run the command line; the exit status."""
+    return run(parser(), RefreshError, argv)

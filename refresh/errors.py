@@ -8,6 +8,8 @@ Tree::
 
     RefreshError
     ├── DatabaseError (ValueError)       a module database or task file that does not validate
+    │   └── DatabaseImageError           a module image it names is missing, unreadable or
+    │                                    declares another name or other ports
     ├── ConfigurationError (ValueError)  a configuration that does not fit the task or database
     ├── EstimationError (RuntimeError)   an estimator that could not estimate a configuration
     └── ApplyError (RuntimeError)        a plan step the applier could not carry out
@@ -34,6 +36,15 @@ class DatabaseError(RefreshError, ValueError):
         self.got = got
         where = f"{file}: {key}" if key else file
         super().__init__(f"{where}: expected {expected}, got {got}")
+
+
+class DatabaseImageError(DatabaseError):
+    """A module's image file that is missing, is no module image, or whose descriptor disagrees
+    with the database; the key path is the module's ``source.image``, `module` its name."""
+
+    def __init__(self, file: str, schema: str, module: str, expected: str, got: str) -> None:
+        self.module = module
+        super().__init__(file, f"schemas.{schema}.modules.{module}.source.image", expected, got)
 
 
 class ConfigurationError(RefreshError, ValueError):

@@ -4,11 +4,14 @@ The document is validated against `refresh.schema.DOCUMENT` first; then the refe
 parts are checked (a module's robots exist and have the resources it needs, its input and output
 ports have distinct names, module names are unique, the task's schemas and metrics exist). Every
 failure is a `DatabaseError` naming the file, the key path, what was expected and what came.
-Image paths are relative to the file.
+Image paths are relative to the file; the images themselves are checked by `refresh.images`. A
+file is read only if it is a regular file of at most `MAX_FILE_BYTES`, and a document nested
+deeper than `MAX_DEPTH` is refused before validation walks it.
 """
 
 from __future__ import annotations
 
+import stat
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -20,6 +23,11 @@ from refresh.database import CodeSource, Module, ModuleDatabase, Resource, Robot
 from refresh.errors import ConfigurationError, DatabaseError
 from refresh.schema import describe, validate
 from refresh.task import Direction, Metric, StateMachine, TaskSpec
+
+MAX_FILE_BYTES = 4 << 20
+"""A database of thousands of modules is a few hundred KiB: a bigger file is not one."""
+MAX_DEPTH = 32
+"""Tables and lists nest at most five deep in a database: deeper is not one."""
 
 
 @dataclass(frozen=True)
@@ -33,17 +41,7 @@ class Loaded:
 def load(path: str | Path) -> Loaded:
     """Read, validate and build the database (and task) in the TOML file at `path`."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as error:
-        raise DatabaseError(
-            str(path), "", "a readable file", error.strerror or str(error)
-        ) from None
-    except UnicodeDecodeError as error:
-        raise DatabaseError(
-            str(path), "", "UTF-8 text", f"byte 0x{error.object[error.start]:02x} at {error.start}"
-        ) from None
-    return loads(text, str(path), path.parent)
+    return loads(_read_text(path), str(path), path.parent)
 
 
 def loads(text: str, file: str = "<text>", base: Path | None = None) -> Loaded:
@@ -52,6 +50,9 @@ def loads(text: str, file: str = "<text>", base: Path | None = None) -> Loaded:
         document = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise DatabaseError(file, "", "valid TOML", str(error)) from None
+    except RecursionError:
+        raise DatabaseError(file, "", "valid TOML", "nesting too deep to read") from None
+    _check_depth(document, file)
     validate(document, file)
     robots = {name: _robot(name, body) for name, body in document["robots"].items()}
     schemas = {
@@ -62,6 +63,45 @@ def loads(text: str, file: str = "<text>", base: Path | None = None) -> Loaded:
     database = ModuleDatabase(robots, schemas)
     task = _task(document["task"], database, file) if "task" in document else None
     return Loaded(database, task)
+
+
+def _read_text(path: Path) -> str:
+    """The file's text: a regular file of at most MAX_FILE_BYTES, in UTF-8. The kind is checked
+    before opening (a pipe would block the open) and the read is bounded (a file may grow)."""
+    file = str(path)
+    try:
+        mode = path.stat().st_mode
+        if not stat.S_ISREG(mode):
+            kind = "a directory" if stat.S_ISDIR(mode) else "a device, pipe or socket"
+            raise DatabaseError(file, "", "a regular file", kind)
+        with path.open("rb") as stream:
+            data = stream.read(MAX_FILE_BYTES + 1)
+    except OSError as error:
+        raise DatabaseError(file, "", "a readable file", error.strerror or str(error)) from None
+    if len(data) > MAX_FILE_BYTES:
+        raise DatabaseError(file, "", f"a file of at most {MAX_FILE_BYTES:,} bytes", "a larger one")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise DatabaseError(
+            file, "", "UTF-8 text", f"byte 0x{data[error.start]:02x} at {error.start}"
+        ) from None
+
+
+def _check_depth(document: Mapping[str, Any], file: str) -> None:
+    """Refuse tables and lists nested deeper than MAX_DEPTH before validation walks them (it
+    recurses per level); walked with a stack, so the check itself cannot overflow."""
+    stack: list[tuple[object, int]] = [(document, 1)]
+    while stack:
+        value, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            raise DatabaseError(
+                file, "", f"tables and lists nested at most {MAX_DEPTH} deep", "deeper ones"
+            )
+        if isinstance(value, dict):
+            stack.extend((child, depth + 1) for child in value.values())
+        elif isinstance(value, list):
+            stack.extend((child, depth + 1) for child in value)
 
 
 def _robot(name: str, body: Mapping[str, Any]) -> Robot:

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from firmware_sim.bridge import PortBridge
 from firmware_sim.node import Node
 from firmware_sim.server import NodeTarget
+from hexmigrate.errors import HexmigrateError
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.base import Link
 from hexmigrate.links.direct import DirectLink
@@ -115,7 +116,10 @@ class NodeApplier:
             return image
         if module.source.image is None:
             raise ApplyError(f"migrate {module.name}: expected an image, got native code")
-        return ModuleImage.read(module.source.image)
+        try:
+            return ModuleImage.read(module.source.image)
+        except (HexmigrateError, OSError) as error:
+            raise ApplyError(f"migrate {module.name}: {error}") from error
 
     def start(self, robot: str, instance: str, module: Module) -> None:
         """Start the installed image (or the native code) as PBO `instance`."""

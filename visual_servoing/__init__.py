@@ -5,7 +5,8 @@ them; the task's E-PBOs and the experiment (docs/experiment.md) build on them.
 One concept per module:
 
 ==================  =========================================================================
-``frames``          check_frame / FrameError: what a grey frame is (2-D uint8)
+``errors``          the exception tree under ServoingError
+``frames``          check_frame: what a grey frame is (2-D uint8)
 ``shapes``          the targets' sprites: circle, square, triangle
 ``scene``           Scene: targets around the platform, render(yaw), templates, ground truth
 ``image_faults``    Gaussian and salt-and-pepper noise, fog, blackout; FaultSchedule

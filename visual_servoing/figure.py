@@ -1,4 +1,7 @@
-"""``python -m visual_servoing.figure OUT.png``: the frames figure of docs/visual-servoing.md.
+"""Draw the frames figure of docs/visual-servoing.md.
+
+Example:
+  python -m visual_servoing.figure docs/img/visual_servoing_frames.png
 
 Three panels of the same view: the clean frame, the frame through the faults of the paper's
 experiment (salt-and-pepper noise on top of fog), and that frame after the Dehazer (its numpy
@@ -19,7 +22,10 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
+from commandline import command_parser, run
+from commandline.arguments import output_file
 from visual_servoing.dehaze import dehaze
+from visual_servoing.errors import ServoingError
 from visual_servoing.image_faults import FaultSchedule
 from visual_servoing.scene import Scene
 from visual_servoing.ssd import match_template
@@ -53,17 +59,29 @@ def draw(out: Path) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Command line: write the figure; ``error: ...`` and status 1 when it cannot be written."""
-    parser = argparse.ArgumentParser(prog="python -m visual_servoing.figure", description=__doc__)
-    parser.add_argument("out", type=Path, metavar="OUT.png")
-    args = parser.parse_args(argv)
-    try:
-        draw(args.out)
-    except OSError as error:
-        print(f"error: cannot write {args.out}: {error.strerror}", file=sys.stderr)
-        return 1
+    """Run the command line; the exit status."""
+    return run(parser(), ServoingError, argv)
+
+
+def parser() -> argparse.ArgumentParser:
+    """The argument parser: one PNG file to write."""
+    top = command_parser("python -m visual_servoing.figure", __doc__)
+    top.add_argument("out", type=png_file, metavar="OUT.png", help="the PNG file to write")
+    top.set_defaults(func=_draw)
+    return top
+
+
+def png_file(text: str) -> Path:
+    """An output file whose name says PNG: matplotlib picks the format by the suffix."""
+    path = output_file(text)
+    if path.suffix.lower() != ".png":
+        raise argparse.ArgumentTypeError(f"expected a file name ending in .png, got {text!r}")
+    return path
+
+
+def _draw(args: argparse.Namespace) -> None:
+    draw(args.out)
     print(f"wrote {args.out}")
-    return 0
 
 
 if __name__ == "__main__":

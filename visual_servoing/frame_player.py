@@ -13,13 +13,14 @@ import numpy as np
 
 from pbort.native import NativeModule, NativePBO, PortIO
 from pbort.ports import PortKind, PortSpec
+from visual_servoing.errors import TaskSetupError
 from visual_servoing.frames import check_frame
 
 
 def frame_player(frames: Sequence[np.ndarray], name: str = "player") -> NativeModule:
     """A module named `name` that plays `frames` (all of one shape) in a loop on ``image``."""
     if not frames:
-        raise ValueError("expected at least one frame to play")
+        raise TaskSetupError("expected at least one frame to play")
     first = check_frame(frames[0], what="frame 0")
     played = tuple(
         check_frame(frame, first.shape, what=f"frame {index}") for index, frame in enumerate(frames)

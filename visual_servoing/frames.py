@@ -9,9 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-
-class FrameError(ValueError):
-    """A frame that is not a 2-D uint8 array, or not of the shape expected."""
+from visual_servoing.errors import FrameError
 
 
 def check_frame(

@@ -26,6 +26,7 @@ from enum import Enum
 
 import numpy as np
 
+from visual_servoing.errors import FaultError, UnknownFaultError
 from visual_servoing.frames import check_frame
 
 FOG_GREY = 200  # the level fog pulls towards: a bright haze
@@ -38,10 +39,6 @@ class FaultKind(Enum):
     SALT_PEPPER = "salt_pepper"
     FOG = "fog"
     BLACKOUT = "blackout"
-
-
-class UnknownFaultError(ValueError):
-    """A fault kind that is not one of FaultKind's."""
 
 
 def gaussian_noise(frame: np.ndarray, sigma: float, rng: np.random.Generator) -> np.ndarray:
@@ -102,12 +99,12 @@ class Fault:
         object.__setattr__(self, "kind", fault_kind(self.kind))
         limit = math.inf if self.kind is FaultKind.GAUSSIAN else 1.0
         if not 0.0 <= self.strength <= limit:
-            raise ValueError(
+            raise FaultError(
                 f"{self.kind.value} fault: expected a strength from 0 to {limit}, "
                 f"got {self.strength}"
             )
         if not self.start < self.end:
-            raise ValueError(
+            raise FaultError(
                 f"{self.kind.value} fault: expected start < end, got {self.start} and {self.end}"
             )
 
@@ -143,7 +140,7 @@ class FaultSchedule:
         """The frame taken at `time` seconds as the faulty camera delivers it (a new array)."""
         frame = check_frame(frame)
         if time < 0:
-            raise ValueError(f"expected a frame time >= 0 seconds, got {time}")
+            raise FaultError(f"expected a frame time >= 0 seconds, got {time}")
         faults = self.active(time)
         if not faults:
             return frame.copy()

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from visual_servoing.errors import SceneError, UnknownTargetError
 from visual_servoing.shapes import Shape, Sprite, draw
 
 SKY = 245  # the top row's grey level
@@ -80,24 +81,24 @@ class Scene:
         contrast: int = 40,
     ) -> None:
         if width < 160 or height < 120 or width % 2 or height % 2:
-            raise ValueError(
+            raise SceneError(
                 f"expected an even frame size of at least 160 x 120 pixels, got {width} x {height}"
             )
         if not 0.0 < fov < 180.0:
-            raise ValueError(f"expected a field of view between 0 and 180 degrees, got {fov}")
+            raise SceneError(f"expected a field of view between 0 and 180 degrees, got {fov}")
         if not 12 <= target_size <= height:
-            raise ValueError(
+            raise SceneError(
                 f"expected a target size from 12 to the frame height {height}, got {target_size}"
             )
         listed = tuple(targets)
         self.targets = {target.name: target for target in listed}
         if not listed or len(self.targets) != len(listed):
-            raise ValueError("expected at least one target and distinct target names")
+            raise SceneError("expected at least one target and distinct target names")
         self.width, self.height, self.fov = width, height, fov
         self._background = _gradient(height, width)
         horizon = int(self._background[height // 2, 0])
         if not 0 < contrast <= min(horizon, 255 - horizon):
-            raise ValueError(
+            raise SceneError(
                 f"expected a contrast from 1 to {min(horizon, 255 - horizon)} grey levels "
                 f"around the horizon's {horizon}, got {contrast}"
             )
@@ -171,7 +172,7 @@ class Scene:
         try:
             return self.targets[name]
         except KeyError:
-            raise KeyError(
+            raise UnknownTargetError(
                 f"expected a target among {sorted(self.targets)}, got {name!r}"
             ) from None
 

@@ -16,6 +16,8 @@ from enum import Enum
 import cv2
 import numpy as np
 
+from visual_servoing.errors import SceneError
+
 RIM_WIDTH = 3  # pixels
 
 
@@ -60,7 +62,7 @@ def draw(shape: Shape, size: int, fill: int, rim: int) -> Sprite:
     """The sprite of `shape` in a `size` x `size` square (size >= 12, even so that it centres on
     an even-sized frame's centre exactly): grey level `fill` inside a `rim` outline."""
     if size < 12 or size % 2:
-        raise ValueError(f"expected an even sprite size of at least 12 pixels, got {size}")
+        raise SceneError(f"expected an even sprite size of at least 12 pixels, got {size}")
     mask = _outline(shape, size)
     inside = cv2.erode(mask, np.ones((3, 3), np.uint8), iterations=RIM_WIDTH)
     patch = np.where(inside.astype(bool), fill, rim).astype(np.uint8)

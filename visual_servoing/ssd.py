@@ -15,7 +15,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from visual_servoing.frames import FrameError, check_frame
+from visual_servoing.errors import FrameError
+from visual_servoing.frames import check_frame
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,10 @@
 """Servo emulators: the Futaba S3003 and the controllers a node reaches it through.
 
 ====================  ==========================================================================
-``s3003``             the S3003 model: pulse to angle, speed, dead band, power (virtual time)
+``errors``            the exception tree under ServoEmulatorError (a FirmwareSimError)
+``datasheet``         the S3003's and the SSC-32's published figures, data only: what the
+                      emulators and the HexManipulator's servo bus clients both read
+``s3003``             the S3003 model: a shaft following its pulse, power (virtual time)
 ``bank``              servos fed by pulse ramps, stepped together
 ``ssc32``             the Lynxmotion SSC-32 ASCII protocol over 32 emulated channels
 ``ports``             byte ports an emulator serves: a pyserial URL or a new pty

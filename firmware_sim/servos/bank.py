@@ -11,7 +11,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from firmware_sim.servos.s3003 import S3003, S3003Spec, Servo
+from firmware_sim.servos.datasheet import S3003, S3003Spec
+from firmware_sim.servos.errors import ServoSetupError
+from firmware_sim.servos.s3003 import Servo
 
 STEP = 0.001
 """Seconds per simulation step: finer than the 20 ms servo frame, so ramps look smooth."""
@@ -44,7 +46,7 @@ class ServoBank:
 
     def __init__(self, count: int, volts: float = 6.0, spec: S3003Spec = S3003) -> None:
         if count <= 0:
-            raise ValueError(f"expected at least one servo channel, got {count}")
+            raise ServoSetupError(f"expected at least one servo channel, got {count}")
         self.servos = [Servo(volts, spec=spec) for _ in range(count)]
         self.ramps: list[Ramp | None] = [None] * count
         self.time = 0.0
@@ -72,7 +74,7 @@ class ServoBank:
     def advance_to(self, t: float) -> None:
         """Step every servo to time `t`; a quiet bank (no ramp, no motion) jumps ahead at once."""
         if t < self.time:
-            raise ValueError(f"expected time to move forward from {self.time} s, got {t} s")
+            raise ServoSetupError(f"expected time to move forward from {self.time} s, got {t} s")
         self._command()
         while self.time < t:
             if not self.busy():

@@ -32,7 +32,8 @@ import cantools
 from cantools.database.can import Database
 
 from firmware_sim.servos.bank import Ramp, ServoBank
-from firmware_sim.servos.s3003 import S3003
+from firmware_sim.servos.datasheet import S3003
+from firmware_sim.servos.errors import ServoSetupError
 
 DBC_FILE = "servo_can.dbc"
 NODES = 6
@@ -61,7 +62,7 @@ class CanServoNodes:
         feedback_period: float = 0.0,
     ) -> None:
         if not 1 <= count <= NODES:
-            raise ValueError(f"expected 1..{NODES} servo nodes (the DBC's), got {count}")
+            raise ServoSetupError(f"expected 1..{NODES} servo nodes (the DBC's), got {count}")
         self.db = database()
         self.bank = ServoBank(count, volts)
         start = time.monotonic()
@@ -141,7 +142,7 @@ class CanServoNodes:
 
     def _check(self, node: int) -> None:
         if not 1 <= node <= self.count:
-            raise ValueError(f"expected a node 1..{self.count}, got {node}")
+            raise ServoSetupError(f"expected a node 1..{self.count}, got {node}")
 
     def _command(self, node: int, signals: dict[str, float]) -> None:
         index = node - 1

@@ -1,13 +1,14 @@
-"""``python -m firmware_sim.servos``: run a servo emulator for a terminal or a host program.
+"""Run a servo emulator for a terminal or a host program.
 
-    python -m firmware_sim.servos ssc32 --pty                      # prints the pty to open
-    python -m firmware_sim.servos ssc32 --url /dev/ttyUSB1         # any pyserial URL
-    python -m firmware_sim.servos can --url can://virtual/hexman   # or can://remote/...
-    python -m firmware_sim.servos can --slcan hexman               # an SLCAN adapter on a pty
+Examples:
+  python -m firmware_sim.servos ssc32 --pty                      # prints the pty to open
+  python -m firmware_sim.servos ssc32 --url /dev/ttyUSB1         # any pyserial URL
+  python -m firmware_sim.servos can --url can://virtual/hexman   # or can://remote/...
+  python -m firmware_sim.servos can --slcan hexman               # an SLCAN adapter on a pty
 
-The emulator runs in real time until interrupted (Ctrl-C) or for ``--seconds``. It prints one
-line saying where it listens, then nothing until it stops. Errors print ``error: ...`` and exit
-with status 1; ``--debug`` shows the traceback.
+The emulator runs in real time until interrupted (Ctrl-C, exit status 130) or for --seconds. It
+prints one line saying where it listens, then nothing until it stops. Errors print one line
+"error: ..." and exit with status 1, usage errors exit 2; --debug shows the traceback.
 """
 
 from __future__ import annotations
@@ -15,120 +16,129 @@ from __future__ import annotations
 import argparse
 import contextlib
 import math
-import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Sequence
 
 import can
 
+from commandline import add_command, command_parser, run
+from commandline.arguments import integer, real
 from firmware_sim.servos.bank import ServoBank
 from firmware_sim.servos.can_servo import NODES, CanServoNodes
 from firmware_sim.servos.can_servo_server import CanServoServer
+from firmware_sim.servos.datasheet import S3003, SSC32_CHANNELS
+from firmware_sim.servos.errors import ServoEmulatorError, ServoPortError
 from firmware_sim.servos.ports import BytePort, PtyPort, SerialPort
-from firmware_sim.servos.ssc32 import CHANNELS, Ssc32
+from firmware_sim.servos.ssc32 import Ssc32
 from firmware_sim.servos.ssc32_server import Ssc32Server
+from hexmigrate.errors import HexmigrateError
+from hexmigrate.links.can import parse_url
+from hexmigrate.links.slcan_device import SlcanDevice
 
 PERIOD_MAX_MS = 65535
+"""The DBC's FeedbackPeriod range: 0..65535 ms."""
+BIT_RATE_MAX = 20_000_000
+"""The fastest serial line a pyserial URL may ask for (the same bound as hexmigrate's links)."""
+ERRORS = (ServoEmulatorError, HexmigrateError)
+"""What a command can fail with that the user can fix: the emulators' refusals and a bad
+``can://`` URL (hexmigrate parses those)."""
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
-    try:
-        with args.func(args) as where:
-            print(where, flush=True)
-            _wait(args.seconds)
-    except KeyboardInterrupt:
-        return 0
-    except (OSError, ValueError, can.CanError) as error:
-        if args.debug:
-            raise
-        print(f"error: {error}", file=sys.stderr)
-        return 1
-    return 0
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; the exit status."""
+    return run(parser(), ERRORS, argv)
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m firmware_sim.servos", description=__doc__)
-    parser.add_argument("--debug", action="store_true", help="show tracebacks")
-    commands = parser.add_subparsers(required=True, metavar="COMMAND")
-    ssc32 = commands.add_parser("ssc32", help="an SSC-32 with 32 S3003 servos on a serial port")
+def parser() -> argparse.ArgumentParser:
+    """The argument parser, one sub-command per emulator."""
+    top = command_parser("python -m firmware_sim.servos", __doc__)
+    commands = top.add_subparsers(required=True, metavar="COMMAND")
+    ssc32 = add_command(
+        commands,
+        "ssc32",
+        _run_ssc32,
+        f"an SSC-32 with {SSC32_CHANNELS} S3003 servos on a serial port",
+    )
     where = ssc32.add_mutually_exclusive_group(required=True)
     where.add_argument("--url", help="a pyserial URL or device path to serve")
     where.add_argument("--pty", action="store_true", help="serve a new pty; prints its path")
-    ssc32.add_argument("--baudrate", type=_positive(int), default=115200)
-    ssc32.set_defaults(func=_run_ssc32)
-    nodes = commands.add_parser("can", help="CAN servo nodes with S3003 servos")
+    ssc32.add_argument(
+        "--bit-rate",
+        type=integer(1, BIT_RATE_MAX, unit="baud"),
+        default=115200,
+        metavar="N",
+        help="the serial line's baud rate, 8N1 (default 115200; a pty ignores it)",
+    )
+    nodes = add_command(commands, "can", _run_can, "CAN servo nodes with S3003 servos")
     where = nodes.add_mutually_exclusive_group(required=True)
     where.add_argument("--url", help="can://virtual/CH or can://remote/127.0.0.1:PORT/CH")
     where.add_argument("--slcan", metavar="CHANNEL", help="an SLCAN adapter on a new pty")
     nodes.add_argument(
-        "--nodes", type=_node_count, default=NODES, help=f"servo nodes 1..N (N <= {NODES})"
+        "--nodes",
+        type=integer(1, NODES),
+        default=NODES,
+        metavar="N",
+        help=f"servo nodes 1..N (N from 1 to the DBC's {NODES}; default {NODES})",
     )
     nodes.add_argument(
-        "--period-ms", type=_period_ms, default=0, help="periodic feedback (0: on Sync only)"
+        "--period-ms",
+        type=integer(0, PERIOD_MAX_MS, unit="ms"),
+        default=0,
+        metavar="MS",
+        help="periodic feedback every MS ms (default 0: on Sync only)",
     )
-    nodes.set_defaults(func=_run_can)
     for command in (ssc32, nodes):
-        command.add_argument("--volts", type=float, default=6.0, help="servo supply, 4.8-6.0 V")
-        command.add_argument("--seconds", type=_positive(float), help="stop after this long")
-    return parser
+        command.add_argument(
+            "--volts",
+            type=real(S3003.voltage_low, S3003.voltage_high, unit="V"),
+            default=S3003.voltage_high,
+            metavar="V",
+            help=f"servo supply, {S3003.voltage_low:g}-{S3003.voltage_high:g} V "
+            f"(default {S3003.voltage_high:g})",
+        )
+        command.add_argument(
+            "--seconds",
+            type=real(above=0, unit="s"),
+            metavar="S",
+            help="stop after S seconds (default: run until interrupted)",
+        )
+    return top
 
 
-def _positive(kind: type[int] | type[float]) -> Callable[[str], float]:
-    """An argparse type: a number of `kind` above 0 (usage error otherwise)."""
-
-    def parse(text: str) -> float:
-        try:
-            value = kind(text)
-        except ValueError:
-            value = math.nan
-        if not value > 0 or math.isinf(value):
-            raise argparse.ArgumentTypeError(f"expected a positive {kind.__name__}, got {text!r}")
-        return value
-
-    return parse
-
-
-def _node_count(text: str) -> int:
-    if not text.isdigit() or not 1 <= int(text) <= NODES:
-        raise argparse.ArgumentTypeError(f"expected 1..{NODES} (the DBC's nodes), got {text!r}")
-    return int(text)
-
-
-def _period_ms(text: str) -> int:
-    """The DBC's FeedbackPeriod range: 0..65535 ms."""
-    if not text.isdigit() or int(text) > PERIOD_MAX_MS:
-        raise argparse.ArgumentTypeError(f"expected 0..{PERIOD_MAX_MS} ms, got {text!r}")
-    return int(text)
-
-
-@contextlib.contextmanager
-def _run_ssc32(args: argparse.Namespace) -> Iterator[str]:
-    port: BytePort = PtyPort() if args.pty else SerialPort(args.url, args.baudrate)
-    controller = Ssc32(ServoBank(CHANNELS, args.volts))
+def _run_ssc32(args: argparse.Namespace) -> None:
+    """Serve an SSC-32 on the port until the time is up."""
+    port: BytePort = PtyPort() if args.pty else SerialPort(args.url, args.bit_rate)
+    controller = Ssc32(ServoBank(SSC32_CHANNELS, args.volts))
     with Ssc32Server(controller, port):
-        yield f"SSC-32 listening on {getattr(port, 'path', port.name)}"
+        _announce(f"SSC-32 listening on {getattr(port, 'path', port.name)}", args.seconds)
 
 
-@contextlib.contextmanager
-def _run_can(args: argparse.Namespace) -> Iterator[str]:
-    from hexmigrate.links.can import parse_url
-    from hexmigrate.links.slcan_device import SlcanDevice
-
+def _run_can(args: argparse.Namespace) -> None:
+    """Serve the CAN servo nodes on the bus until the time is up."""
     nodes = CanServoNodes(args.nodes, args.volts, feedback_period=args.period_ms / 1000)
     with contextlib.ExitStack() as stack:
         if args.slcan:
             device = stack.enter_context(SlcanDevice(args.slcan))
-            bus = can.Bus(interface="virtual", channel=args.slcan, ignore_config=True)
+            bus = _open_bus(device.url, interface="virtual", channel=args.slcan, ignore_config=True)
             where = device.url
         else:
-            bus = can.Bus(**parse_url(args.url).bus_config())
+            bus = _open_bus(args.url, **parse_url(args.url).bus_config())
             where = args.url
         stack.enter_context(CanServoServer(nodes, bus))
-        yield f"{args.nodes} CAN servo nodes on {where}"
+        _announce(f"{args.nodes} CAN servo nodes on {where}", args.seconds)
 
 
-def _wait(seconds: float | None) -> None:
+def _open_bus(url: str, **config: object) -> can.BusABC:
+    """python-can's bus; a refusal names the URL (`ServoPortError`)."""
+    try:
+        return can.Bus(**config)
+    except (can.CanError, ValueError) as error:
+        raise ServoPortError(f"cannot open {url}: {error}") from error
+
+
+def _announce(where: str, seconds: float | None) -> None:
+    """Say where the emulator listens, then serve for `seconds` (None: until interrupted)."""
+    print(where, flush=True)
     deadline = math.inf if seconds is None else time.monotonic() + seconds
     while (remaining := deadline - time.monotonic()) > 0:
         time.sleep(min(0.05, remaining))

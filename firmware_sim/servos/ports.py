@@ -16,6 +16,8 @@ from typing import Protocol
 
 import serial  # type: ignore[import-untyped]
 
+from firmware_sim.servos.errors import ServoPortError
+
 POLL_INTERVAL = 0.02
 """How long a read waits for bytes: the bound on the time a server takes to notice `close`."""
 READ_SIZE = 4096
@@ -37,14 +39,14 @@ class BytePort(Protocol):
 
 
 class SerialPort:
-    """A pyserial port by URL, 8N1 at `baudrate`."""
+    """A pyserial port by URL, 8N1 at `bit_rate` baud."""
 
-    def __init__(self, url: str, baudrate: int = 115200) -> None:
+    def __init__(self, url: str, bit_rate: int = 115200) -> None:
         self.name = url
         try:
-            self._port = serial.serial_for_url(url, baudrate=baudrate, timeout=POLL_INTERVAL)
+            self._port = serial.serial_for_url(url, baudrate=bit_rate, timeout=POLL_INTERVAL)
         except (OSError, ValueError) as error:
-            raise OSError(f"cannot open {url}: {error}") from error
+            raise ServoPortError(f"cannot open {url}: {error}") from error
 
     def read(self) -> bytes:
         try:
@@ -53,14 +55,14 @@ class SerialPort:
                 return b""
             return bytes(first + self._port.read(self._port.in_waiting))
         except serial.SerialException as error:
-            raise OSError(f"{self.name}: {error}") from error
+            raise ServoPortError(f"{self.name}: {error}") from error
 
     def write(self, data: bytes) -> None:
         try:
             self._port.write(data)
             self._port.flush()
         except serial.SerialException as error:
-            raise OSError(f"{self.name}: {error}") from error
+            raise ServoPortError(f"{self.name}: {error}") from error
 
     def close(self) -> None:
         self._port.close()

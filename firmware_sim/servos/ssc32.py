@@ -35,11 +35,15 @@ from collections.abc import Callable
 from dataclasses import replace
 
 from firmware_sim.servos.bank import Ramp, ServoBank
+from firmware_sim.servos.datasheet import (
+    SSC32_CHANNELS,
+    SSC32_OFFSET_LIMIT_US,
+    SSC32_PULSE_MAX_US,
+    SSC32_PULSE_MIN_US,
+)
+from firmware_sim.servos.errors import ServoSetupError, Ssc32CommandError
 
-CHANNELS = 32
 VERSION = b"SSC32-V2.50USB\r"
-PULSE_MIN, PULSE_MAX = 500, 2500
-OFFSET_LIMIT = 100
 TIME_MAX_MS = 65535
 MAX_LINE = 256
 """Longer lines are dropped as garbage, up to their CR: no real command group is that long."""
@@ -56,10 +60,6 @@ _QUERY_PULSE = re.compile(r"(?:QP(\d+))+")
 _INPUTS = re.compile(r"(?:[A-F]L?)+")
 
 
-class CommandError(ValueError):
-    """A line the SSC-32 would not execute; the emulator ignores it and keeps the reason."""
-
-
 class Ssc32:
     """The controller: feed it the bytes a host sends, get the bytes it answers.
 
@@ -69,12 +69,14 @@ class Ssc32:
     """
 
     def __init__(self, bank: ServoBank | None = None, now: Callable[[], float] | None = None):
-        self.bank = bank if bank is not None else ServoBank(CHANNELS)
-        if len(self.bank) != CHANNELS:
-            raise ValueError(f"expected a bank of {CHANNELS} channels, got {len(self.bank)}")
+        self.bank = bank if bank is not None else ServoBank(SSC32_CHANNELS)
+        if len(self.bank) != SSC32_CHANNELS:
+            raise ServoSetupError(
+                f"expected a bank of {SSC32_CHANNELS} channels, got {len(self.bank)}"
+            )
         self.now = now if now is not None else _monotonic_since(time.monotonic())
-        self.offsets = [0] * CHANNELS
-        self.levels: list[bool | None] = [None] * CHANNELS
+        self.offsets = [0] * SSC32_CHANNELS
+        self.levels: list[bool | None] = [None] * SSC32_CHANNELS
         """Each channel's discrete output level, or None while it is a servo channel."""
         self.move_end = 0.0
         """When the last group move ends (its full time, even if channels were stopped)."""
@@ -122,7 +124,7 @@ class Ssc32:
             return b""
         try:
             return self._dispatch(text)
-        except CommandError as error:
+        except Ssc32CommandError as error:
             self._ignore(f"{line!r}: {error}")
             return b""
 
@@ -145,7 +147,7 @@ class Ssc32:
             return b""
         if _INPUTS.fullmatch(text):
             return b"1" * len(re.findall(r"[A-F]L?", text))
-        raise CommandError("expected a documented SSC-32 command")
+        raise Ssc32CommandError("expected a documented SSC-32 command")
 
     def _group(self, text: str) -> None:
         """A command group: all of one type, executed after the CR."""
@@ -155,7 +157,7 @@ class Ssc32:
             self._move(moves, move_time)
             return
         if move_time is not None:
-            raise CommandError("expected T only at the end of a servo move group")
+            raise Ssc32CommandError("expected T only at the end of a servo move group")
         for pattern, handler in (
             (_OFFSET, self._offsets),
             (_LEVEL, self._levels),
@@ -165,7 +167,7 @@ class Ssc32:
             if items is not None:
                 handler(items)
                 return
-        raise CommandError("expected a group of one command type (P, PO, H/L or :)")
+        raise Ssc32CommandError("expected a group of one command type (P, PO, H/L or :)")
 
     def _move(self, items: list[tuple[str, ...]], move_time_ms: int | None) -> None:
         """Ramp every channel of the group over the one duration the guide's rules give."""
@@ -174,7 +176,9 @@ class Ssc32:
         duration = (move_time_ms or 0) / 1000
         for channel, pulse, speed in items:
             ch = _channel(channel)
-            end = float(min(PULSE_MAX, max(PULSE_MIN, int(pulse))) + self.offsets[ch])
+            end = float(
+                min(SSC32_PULSE_MAX_US, max(SSC32_PULSE_MIN_US, int(pulse))) + self.offsets[ch]
+            )
             current = self.bank.pulse(ch)
             start = end if current is None else current
             targets[ch] = (start, end)
@@ -188,8 +192,11 @@ class Ssc32:
     def _offsets(self, items: list[tuple[str, ...]]) -> None:
         for channel, value in items:
             offset = int(value)
-            if abs(offset) > OFFSET_LIMIT:
-                raise CommandError(f"expected an offset of -100..100 us, got {offset}")
+            if abs(offset) > SSC32_OFFSET_LIMIT_US:
+                raise Ssc32CommandError(
+                    f"expected an offset of -{SSC32_OFFSET_LIMIT_US}..{SSC32_OFFSET_LIMIT_US} us, "
+                    f"got {offset}"
+                )
             ch = _channel(channel)
             shift, self.offsets[ch] = offset - self.offsets[ch], offset
             ramp = self.bank.ramps[ch]
@@ -205,7 +212,7 @@ class Ssc32:
         for bank, value in items:
             number, byte = int(bank), int(value)
             if number > 3 or byte > 255:
-                raise CommandError(f"expected bank 0-3 and value 0-255, got {number}:{byte}")
+                raise Ssc32CommandError(f"expected bank 0-3 and value 0-255, got {number}:{byte}")
             for bit in range(8):
                 self._set_level(8 * number + bit, bool(byte >> bit & 1))
 
@@ -224,8 +231,8 @@ class Ssc32:
 
 
 def _channel(text: str) -> int:
-    if not text.isdigit() or int(text) >= CHANNELS:
-        raise CommandError(f"expected a channel 0-{CHANNELS - 1}, got {text!r}")
+    if not text.isdigit() or int(text) >= SSC32_CHANNELS:
+        raise Ssc32CommandError(f"expected a channel 0-{SSC32_CHANNELS - 1}, got {text!r}")
     return int(text)
 
 
@@ -236,7 +243,7 @@ def _split_time(text: str) -> tuple[str, int | None]:
         return text, None
     milliseconds = int(match.group(1))
     if milliseconds > TIME_MAX_MS:
-        raise CommandError(f"expected T of at most {TIME_MAX_MS} ms, got {milliseconds}")
+        raise Ssc32CommandError(f"expected T of at most {TIME_MAX_MS} ms, got {milliseconds}")
     return text[: match.start()], milliseconds
 
 

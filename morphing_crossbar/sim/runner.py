@@ -19,6 +19,8 @@ from pathlib import Path
 from cocotb_tools.check_results import get_results
 from cocotb_tools.runner import get_runner
 
+from commandline.progress import progress_bar
+
 from .. import hdl_dir
 from ..errors import FabricParameterError
 from ..fabric import Fabric, fabric_to_json, verilog_parameters
@@ -127,37 +129,43 @@ def _build_and_test(
 ) -> Path:
     """Build in the parameter set's own folder, run the tests, check the results. The build is
     forced every time (`always`): Icarus takes 0.02 s, Verilator's make sees nothing to redo,
-    and a folder named by the parameters alone must not keep a build of other functions."""
+    and a folder named by the parameters alone must not keep a build of other functions. On a
+    terminal, a bar of two steps (build, test) names the parameter set while it runs."""
     waves = waves_requested()
-    build_dir = build_root / (build_name(simulator, fabric) + ("_waves" if waves else ""))
+    name = build_name(simulator, fabric)
+    build_dir = build_root / (name + ("_waves" if waves else ""))
     runner = get_runner(simulator)
     build_args = ["--trace-fst", "--trace-structs"] if waves and simulator == "verilator" else []
-    runner.build(
-        sources=rtl_sources(),
-        hdl_toplevel=TOPLEVEL,
-        parameters=verilog_parameters(fabric),
-        build_dir=build_dir,
-        build_args=build_args,
-        waves=waves,
-        always=True,
-        timescale=TIMESCALE,
-    )
-    results = runner.test(
-        test_module=test_module,
-        hdl_toplevel=TOPLEVEL,
-        testcase=list(testcases) if testcases else None,
-        test_dir=build_dir,
-        build_dir=build_dir,
-        seed=seed,
-        waves=waves,
-        timescale=TIMESCALE,
-        results_xml=str(build_dir / "results.xml"),
-        extra_env={FABRIC_ENV: fabric_to_json(fabric), **(extra_env or {})},
-    )
+    with progress_bar(2, f"{name}: build", unit="step") as bar:
+        runner.build(
+            sources=rtl_sources(),
+            hdl_toplevel=TOPLEVEL,
+            parameters=verilog_parameters(fabric),
+            build_dir=build_dir,
+            build_args=build_args,
+            waves=waves,
+            always=True,
+            timescale=TIMESCALE,
+        )
+        bar.update()
+        bar.set_description(f"{name}: test")  # redraws at once: the build may take no time
+        results = runner.test(
+            test_module=test_module,
+            hdl_toplevel=TOPLEVEL,
+            testcase=list(testcases) if testcases else None,
+            test_dir=build_dir,
+            build_dir=build_dir,
+            seed=seed,
+            waves=waves,
+            timescale=TIMESCALE,
+            results_xml=str(build_dir / "results.xml"),
+            extra_env={FABRIC_ENV: fabric_to_json(fabric), **(extra_env or {})},
+        )
+        bar.update()
     total, failed = get_results(results)
     if total == 0 or failed:
         raise AssertionError(
-            f"{simulator} {build_name(simulator, fabric)}: {failed} of {total} "
+            f"{simulator} {name}: {failed} of {total} "
             f"cocotb tests failed (log above, results in {results})"
         )
     return results

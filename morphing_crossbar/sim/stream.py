@@ -39,7 +39,7 @@ class StreamSource:
     def take(self) -> Beat:
         """The offered beat was accepted at this clock edge."""
         if self.current is None:
-            raise RuntimeError(f"input {self.port}: ready and valid without an offered beat")
+            raise AssertionError(f"input {self.port}: ready and valid without an offered beat")
         beat, self.current = self.current, None
         self.sent += 1
         return beat

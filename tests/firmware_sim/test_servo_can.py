@@ -17,9 +17,10 @@ from cantools.database.can import Message
 
 from firmware_sim.servos.can_servo import FAULT_RANGE, CanServoNodes, database
 from firmware_sim.servos.can_servo_server import CanServoServer
+from firmware_sim.servos.errors import ServoSetupError
 from hexmanipulator.can_bus import CanServoBus, open_can_bus
+from hexmanipulator.errors import GeometryError, ServoSilentError
 from hexmanipulator.geometry import load
-from hexmanipulator.servo_bus import ServoSilentError
 from hexmigrate.links.remote_server import RemoteCanServer
 from hexmigrate.links.slcan_device import SlcanDevice
 
@@ -180,7 +181,9 @@ def test_the_nodes_answer_through_an_slcan_adapter_on_a_pty() -> None:
 
 @pytest.mark.parametrize("count", [0, 7])
 def test_only_the_nodes_the_dbc_describes_can_be_emulated(count: int) -> None:
-    with pytest.raises(ValueError, match=f"expected 1..6 servo nodes \\(the DBC's\\), got {count}"):
+    with pytest.raises(
+        ServoSetupError, match=f"expected 1..6 servo nodes \\(the DBC's\\), got {count}"
+    ):
         CanServoNodes(count)
 
 
@@ -199,6 +202,6 @@ def test_a_leg_on_a_channel_no_can_node_has_is_refused() -> None:
     far = replace(GEOMETRY, channels=(0, 1, 2, 3, 4, 9))
     with (
         can.Bus(interface="virtual", channel=f"servo-far-{next(_channels)}") as host,
-        pytest.raises(ValueError, match=r"expected 0-5 for CAN servo nodes 1-6, got \(0, 1"),
+        pytest.raises(GeometryError, match=r"expected 0-5 for CAN servo nodes 1-6, got \(0, 1"),
     ):
         CanServoBus(host, far)

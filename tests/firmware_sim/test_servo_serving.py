@@ -10,7 +10,10 @@ POLL = 0.01
 
 
 def test_a_failure_ends_the_thread_and_is_kept() -> None:
+    steps = []
+
     def step() -> None:
+        steps.append(time.monotonic())
         raise OSError("port vanished")
 
     thread = ServingThread("test server", step, OSError, POLL)
@@ -18,7 +21,9 @@ def test_a_failure_ends_the_thread_and_is_kept() -> None:
     while thread.error is None and time.monotonic() < deadline:
         time.sleep(POLL)
     assert str(thread.error) == "port vanished"
-    assert thread.stop()
+    time.sleep(3 * POLL)
+    assert len(steps) == 1  # no step after the failure
+    thread.stop()
 
 
 def test_stop_returns_within_a_poll_and_a_second_stop_does_nothing() -> None:

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 import serial
 
+from firmware_sim.servos.errors import ServoPortError
 from firmware_sim.servos.ports import PtyPort, SerialPort
 from firmware_sim.servos.ssc32 import Ssc32
 from firmware_sim.servos.ssc32_server import Ssc32Server
@@ -130,7 +131,7 @@ def test_the_emulator_serves_a_pyserial_url_such_as_a_device_path() -> None:
 
 
 def test_a_bad_url_names_the_url() -> None:
-    with pytest.raises(OSError, match="cannot open /dev/nonexistent-ssc32"):
+    with pytest.raises(ServoPortError, match="cannot open /dev/nonexistent-ssc32"):
         SerialPort("/dev/nonexistent-ssc32")
 
 

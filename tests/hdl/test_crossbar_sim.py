@@ -13,7 +13,8 @@ from pathlib import Path
 import pytest
 
 from morphing_crossbar.fabric import Fabric
-from morphing_crossbar.sim.runner import run_cocotb
+from morphing_crossbar.sim.runner import build_name, run_cocotb
+from tests.commandline.terminal import stderr_on_a_terminal
 
 HERE = Path(__file__).resolve().parent
 
@@ -41,3 +42,13 @@ CASES += [
 def test_crossbar(simulator: str, fabric: Fabric, build_root: Path) -> None:
     """Every cocotb test passes on this simulator and parameter set."""
     run_cocotb(simulator, fabric, "crossbar_tb", HERE, build_root)
+
+
+def test_a_terminal_sees_which_parameter_set_builds(build_root: Path, monkeypatch) -> None:
+    """The runner's bar (on standard error, only on a terminal) names the build it runs."""
+    fabric = ICARUS_SETS[0]
+    with stderr_on_a_terminal(monkeypatch) as screen:
+        run_cocotb("icarus", fabric, "crossbar_tb", HERE, build_root, ["full_load"])
+    name = build_name("icarus", fabric)
+    assert f"\r{name}: build:   0%|" in screen.data.decode()
+    assert f"\r{name}: test:  50%|" in screen.data.decode()

@@ -9,10 +9,10 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from hexmanipulator.geometry import Geometry, GeometryError, load
+from hexmanipulator.errors import CrankAnglesError, GeometryError, UnreachablePoseError
+from hexmanipulator.geometry import Geometry, load
 from hexmanipulator.kinematics import (
     Pose,
-    UnreachablePoseError,
     crank_tips,
     forward,
     inverse,
@@ -87,7 +87,7 @@ def test_forward_from_a_distant_guess_still_converges() -> None:
 
 
 def test_forward_refuses_angles_that_are_not_six_finite_numbers() -> None:
-    with pytest.raises(ValueError, match=r"expected 6 finite crank angles"):
+    with pytest.raises(CrankAnglesError, match=r"expected 6 finite crank angles"):
         forward(GEOMETRY, np.array([0.0, 1.0, np.nan, 0.0, 0.0, 0.0]))
 
 

@@ -18,9 +18,9 @@ from firmware_sim.servos.bank import ServoBank
 from firmware_sim.servos.bus_off import BusOffController
 from firmware_sim.servos.can_servo import CanServoNodes
 from firmware_sim.servos.can_servo_server import CanServoServer
+from firmware_sim.servos.datasheet import S3003, SSC32_CHANNELS
 from firmware_sim.servos.ports import PtyPort
-from firmware_sim.servos.s3003 import S3003
-from firmware_sim.servos.ssc32 import CHANNELS, Ssc32
+from firmware_sim.servos.ssc32 import Ssc32
 from firmware_sim.servos.ssc32_server import Ssc32Server
 from hexmanipulator.can_bus import CanServoBus
 from hexmanipulator.geometry import load
@@ -88,7 +88,7 @@ def start(kernel: Kernel, bus: Any) -> None:
 def serial_rig() -> Iterator[Rig]:
     Target.pose = Pose()
     kernel = Kernel()
-    controller = Ssc32(ServoBank(CHANNELS, GEOMETRY.supply_volts), now=kernel.clock.now)
+    controller = Ssc32(ServoBank(SSC32_CHANNELS, GEOMETRY.supply_volts), now=kernel.clock.now)
     server = Ssc32Server(controller, PtyPort())
     bus = Ssc32Bus(server.port.path, GEOMETRY)
     start(kernel, bus)

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from morphing_crossbar.bitstream import (
@@ -14,6 +16,7 @@ from morphing_crossbar.bitstream import (
     pack,
     reconfiguration_cycles,
 )
+from morphing_crossbar.cli import main, parser
 from morphing_crossbar.crc import crc8_bits
 from morphing_crossbar.errors import (
     CrcError,
@@ -27,6 +30,8 @@ from morphing_crossbar.errors import (
 )
 from morphing_crossbar.fabric import Fabric
 from morphing_crossbar.routing import SlotRoute, bypass_route, through_route
+from tests.commandline.documented import undocumented
+from tests.commandline.hostile_input import hostile_numbers, run_main
 
 FABRIC = Fabric(4)
 
@@ -109,3 +114,64 @@ def test_packer_refuses_what_the_fabric_cannot_route() -> None:
 def test_bad_fabric_parameters_are_refused(kwargs: dict, message: str) -> None:
     with pytest.raises(FabricParameterError, match=message):
         Fabric(**kwargs)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["1", "0", "bypass"], "argument N: expected a whole number from 2 to 16, got '1'"),
+        (["17", "0", "bypass"], "argument N: expected a whole number from 2 to 16, got '17'"),
+        (["4", "-1", "bypass"], "argument SLOT: expected a whole number from 0 to 15, got '-1'"),
+        (["4", "nan", "bypass"], "argument SLOT: expected a whole number from 0 to 15, got 'nan'"),
+        (
+            ["4", "0", "bypass", "--cfg-w", "25"],
+            "argument --cfg-w: expected a whole number from 1 to 24, got '25'",
+        ),
+    ],
+)
+def test_the_pack_command_refuses_numbers_out_of_range_as_usage_errors(
+    tmp_path: Path, capsys, argv, message
+) -> None:
+    with pytest.raises(SystemExit) as usage:
+        main(["pack", *argv, "-o", str(tmp_path / "slot.hex")])
+    assert usage.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith(message)
+    assert not (tmp_path / "slot.hex").exists()
+
+
+def test_the_pack_command_names_a_width_the_frame_cannot_carry(tmp_path: Path, capsys) -> None:
+    assert main(["pack", "4", "0", "bypass", "-o", str(tmp_path / "s.hex"), "--cfg-w", "5"]) == 1
+    assert capsys.readouterr().err == (
+        "error: expected a configuration width dividing the 24-bit frame, got 5\n"
+    )
+
+
+def test_the_pack_command_refuses_a_folder_as_its_output(tmp_path: Path) -> None:
+    with pytest.raises(SystemExit) as usage:
+        main(["pack", "4", "0", "bypass", "-o", str(tmp_path)])
+    assert usage.value.code == 2
+
+
+def test_the_help_shows_no_markup_and_names_the_node_command(capsys) -> None:
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    out = capsys.readouterr().out
+    assert "``" not in out
+    assert "\n  python -m morphing_crossbar pack 4 2 bypass -o slot2.hex\n" in out
+    assert "firmware-sim listen --fpga N" in out
+
+
+@settings(max_examples=100, deadline=None)
+@given(value=hostile_numbers(), position=st.integers(0, 2))
+def test_hostile_numbers_end_in_a_status_not_a_traceback(tmp_path_factory, value, position):
+    out = str(tmp_path_factory.mktemp("pack") / "slot.hex")
+    numbers = ["4", "0", "1"]
+    numbers[position] = value
+    argv = ["pack", numbers[0], numbers[1], "bypass", "-o", out, "--cfg-w", numbers[2]]
+    status, err = run_main(main, argv)
+    assert status in (0, 1, 2)
+    assert "Traceback" not in err
+
+
+def test_docs_cli_md_names_every_command_and_option() -> None:
+    assert undocumented(parser(), "## `python -m morphing_crossbar`") == []

@@ -7,7 +7,7 @@ import random
 import pytest
 
 from morphing_crossbar.bitstream import pack
-from morphing_crossbar.errors import CrcError, RouteError
+from morphing_crossbar.errors import CrcError, DataWidthError, RouteError
 from morphing_crossbar.fabric import INPUT_SEL, NONE_SEL, RING_SEL, Fabric
 from morphing_crossbar.functions import Function, Kind
 from morphing_crossbar.model import Beat, CrossbarModel
@@ -77,6 +77,12 @@ def test_an_unrouted_input_is_an_error() -> None:
     model = CrossbarModel(FABRIC, Configuration(FABRIC, (empty_route(),) * 4))
     with pytest.raises(RouteError, match="expected a route from input 0"):
         model.push(0, Beat(1))
+
+
+@pytest.mark.parametrize("data", [-1, 256])
+def test_a_beat_wider_than_the_fabric_is_refused(data: int) -> None:
+    with pytest.raises(DataWidthError, match=f"expected data below 2\\*\\*8, got {data}"):
+        CrossbarModel(FABRIC).push(0, Beat(data))
 
 
 @pytest.mark.parametrize("n", [2, 4, 8, 16])

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
 
 from refresh.database import SchemaKind
 from refresh.errors import ConfigurationError, DatabaseError
-from refresh.load import load, loads
+from refresh.load import MAX_FILE_BYTES, load, loads
 
 MINIMAL = """
 [robots.r1]
@@ -169,6 +170,21 @@ def test_broken_toml_and_missing_files(tmp_path: Path):
     assert error.expected == "valid TOML"
     with pytest.raises(DatabaseError, match="expected a readable file"):
         load(tmp_path / "missing.toml")
+
+
+def test_only_a_regular_file_of_a_bounded_size_is_read(tmp_path: Path):
+    """A pipe would block the open, a device or a growing file would never end the read."""
+    fifo = tmp_path / "fifo.toml"
+    os.mkfifo(fifo)
+    for path in (fifo, Path("/dev/zero")):
+        with pytest.raises(DatabaseError, match="expected a regular file, got a device, pipe"):
+            load(path)
+    with pytest.raises(DatabaseError, match="expected a regular file, got a directory"):
+        load(tmp_path)
+    big = tmp_path / "big.toml"
+    big.write_text("# padding\n" * (MAX_FILE_BYTES // 10 + 1))
+    with pytest.raises(DatabaseError, match=f"expected a file of at most {MAX_FILE_BYTES:,} bytes"):
+        load(big)
 
 
 def test_the_shipped_scenario_loads():

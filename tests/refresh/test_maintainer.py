@@ -193,3 +193,12 @@ def test_a_coalition_carries_the_port_between_nodes_over_a_bridge(loaded: Loaded
         assert node_a.kernel.names == ("signal", "gain")  # the bridge went with gain@b
         assert node_b.kernel.names == ()
         assert applier.bridges == {}
+
+
+def test_an_image_that_went_missing_fails_its_migration_naming_the_module(tmp_path: Path):
+    loaded = loads(DATABASE, "filtering.toml", tmp_path)  # no HEX file written
+    with Node("a") as node_a, Node("b") as node_b:
+        applier = NodeApplier({"a": node_a, "b": node_b}, natives={"signal": NativeModule(Signal)})
+        gain = loaded.database.module("gain")
+        with pytest.raises(ApplyError, match=f"migrate gain: .*{tmp_path / 'gain.hex'}"):
+            applier.migrate("a", gain)

@@ -3,14 +3,23 @@
 from __future__ import annotations
 
 import json
+import re
+import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+from hypothesis import given, settings
+from matplotlib.image import imread
 
-from visual_servoing.experiment.cli import main
+from tests.commandline.documented import undocumented
+from tests.commandline.hostile_input import hostile_numbers, run_main
+from tests.commandline.terminal import stderr_on_a_terminal
+from tests.visual_servoing.pixels import TAB, pixels_of
+from visual_servoing.experiment.cli import main, parser
 from visual_servoing.experiment.experiment import Experiment, Outcome
 from visual_servoing.experiment.report import summary
-from visual_servoing.experiment.scenarios import PAPER
+from visual_servoing.experiment.scenarios import PAPER, SCENARIOS
 
 PAPER_CASES = [
     "{CamReader_alt, SSD, TrajGen, HexMan}",
@@ -98,7 +107,23 @@ def test_the_command_writes_report_timeline_and_plot(tmp_path: Path, capsys):
     assert report["summary"]["final"] == PAPER_CANDIDATES[1]
     assert len(report["samples"]) > 250  # a sample per frame over 10 s
     assert "detection" in (tmp_path / "timeline.txt").read_text()
-    assert (tmp_path / "deviation.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    check_deviation_plot(imread(tmp_path / "deviation.png"))
+
+
+def check_deviation_plot(image: np.ndarray) -> None:
+    """A 900 x 450 figure: the reported deviation as a long blue curve inside the axes, the
+    +-30 px thresholds and the fault in red, the detection in orange, the recovery in green."""
+    assert image.shape[:2] == (450, 900)
+    axes = image[40:390, 90:880]  # inside the axes, clear of the title and the tick labels
+    assert pixels_of(axes, TAB["blue"]) > 1000
+    assert pixels_of(axes, TAB["red"]) > 500
+    assert pixels_of(axes, TAB["orange"]) > 100
+    assert pixels_of(axes, TAB["green"]) > 100
+
+
+def test_a_blank_figure_of_the_same_size_fails_the_check():
+    with pytest.raises(AssertionError):
+        check_deviation_plot(np.ones((450, 900, 4)))
 
 
 def test_an_output_folder_that_cannot_be_made_is_one_error_line(tmp_path: Path, capsys):
@@ -114,3 +139,51 @@ def test_an_unknown_scenario_is_a_usage_error(capsys):
         main(["run", "--scenario", "earthquake"])
     assert exit_.value.code == 2
     assert "invalid choice: 'earthquake'" in capsys.readouterr().err
+
+
+QUICKEST = "no-repair"
+"""The scenario that runs fastest: the task stops at the fault, the world runs on idle."""
+
+
+def test_a_terminal_sees_the_run_s_progress_in_virtual_seconds(tmp_path: Path, monkeypatch):
+    with stderr_on_a_terminal(monkeypatch) as screen:
+        assert main(["run", "--scenario", QUICKEST, "--out", str(tmp_path)]) == 0
+    total = re.escape(f"{SCENARIOS[QUICKEST].duration:g}".encode()) + rb"(\.0)?"
+    drawn = rb"\rno-repair: +[1-9]\d*%\|.*\| [\d.]+/" + total + rb" \["
+    assert re.search(drawn, screen.data), screen.data
+
+
+def test_a_log_gets_no_progress_bar(tmp_path: Path, monkeypatch):
+    with (tmp_path / "stderr.log").open("w") as log:
+        monkeypatch.setattr(sys, "stderr", log)
+        assert main(["run", "--scenario", QUICKEST, "--out", str(tmp_path / "out")]) == 0
+    assert (tmp_path / "stderr.log").read_bytes() == b""
+
+
+def test_the_help_shows_no_markup_and_keeps_the_examples_on_their_own_lines(capsys):
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    out = capsys.readouterr().out
+    assert "``" not in out
+    assert "\n  python -m visual_servoing scenarios " in out
+
+
+@settings(max_examples=60, deadline=None)
+@given(value=hostile_numbers())
+def test_hostile_values_end_in_a_status_not_a_traceback(value):
+    for argv in (["run", "--scenario", value], ["scenarios", value], [value]):
+        status, err = run_main(main, argv)
+        assert status in (1, 2)
+        assert "Traceback" not in err
+
+
+def test_a_machine_without_the_cross_compiler_gets_one_error_line(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("PATH", str(tmp_path / "empty"))
+    assert main(["run", "--scenario", QUICKEST, "--out", str(tmp_path)]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("error: scenario no-repair: cannot build the Dehazer: ")
+    assert "not found on PATH" in err and err.count("\n") == 1
+
+
+def test_docs_cli_md_names_every_command_and_option() -> None:
+    assert undocumented(parser(), "## `python -m visual_servoing`") == []

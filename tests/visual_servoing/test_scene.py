@@ -6,17 +6,23 @@ import time
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from matplotlib.image import imread
 
+from tests.commandline.documented import undocumented
+from tests.commandline.hostile_input import hostile_numbers, run_main
+from tests.visual_servoing.pixels import pixels_of
 from visual_servoing.dehaze import dehaze
-from visual_servoing.figure import main as figure_main
-from visual_servoing.frames import FrameError
-from visual_servoing.image_faults import (
-    FOG_GREY,
-    Fault,
-    FaultKind,
-    FaultSchedule,
+from visual_servoing.errors import (
+    FaultError,
+    FrameError,
+    SceneError,
     UnknownFaultError,
+    UnknownTargetError,
 )
+from visual_servoing.figure import main as figure_main
+from visual_servoing.figure import parser as figure_parser
+from visual_servoing.image_faults import FOG_GREY, Fault, FaultKind, FaultSchedule
 from visual_servoing.scene import Scene, Target, relative_bearing
 from visual_servoing.shapes import Shape
 from visual_servoing.ssd import match_template
@@ -165,32 +171,71 @@ def test_a_schedule_applies_faults_in_their_time_windows(scene):
 def test_bad_faults_are_refused_with_what_was_expected(scene):
     with pytest.raises(UnknownFaultError, match="among gaussian, salt_pepper, fog, blackout"):
         FaultSchedule().add("rain", 0.5)
-    with pytest.raises(ValueError, match=r"fog fault: expected a strength from 0 to 1\.0"):
+    with pytest.raises(FaultError, match=r"fog fault: expected a strength from 0 to 1\.0"):
         Fault(FaultKind.FOG, 1.5)
-    with pytest.raises(ValueError, match="expected start < end"):
+    with pytest.raises(FaultError, match="expected start < end"):
         Fault(FaultKind.BLACKOUT, 1.0, start=2.0, end=1.0)
     with pytest.raises(FrameError, match=r"expected dtype uint8"):
         FaultSchedule().apply(scene.render(0.0).astype(np.int16), 0.0)
 
 
 def test_bad_scenes_and_templates_are_refused(scene):
-    with pytest.raises(ValueError, match="at least 160 x 120"):
+    with pytest.raises(SceneError, match="at least 160 x 120"):
         Scene(width=80, height=60)
-    with pytest.raises(ValueError, match="distinct target names"):
+    with pytest.raises(SceneError, match="distinct target names"):
         Scene([Target("a", Shape.CIRCLE, 0.0), Target("a", Shape.SQUARE, 10.0)])
     for lookup in (scene.truth, scene.in_view):
-        with pytest.raises(KeyError, match="expected a target among"):
+        with pytest.raises(UnknownTargetError, match=r"^expected a target among"):
             lookup("star", 0.0)
-    with pytest.raises(KeyError, match="expected a target among"):
+    with pytest.raises(UnknownTargetError, match=r"^expected a target among"):
         scene.template("star")
     with pytest.raises(FrameError, match="template: expected at most the frame's shape"):
         match_template(scene.template("circle"), scene.render(0.0))
 
 
-def test_the_docs_figure_command_writes_a_png(tmp_path, capsys):
+def test_the_docs_figure_command_draws_three_panels_with_their_marks(tmp_path, capsys):
     out = tmp_path / "frames.png"
     assert figure_main([str(out)]) == 0
-    assert out.read_bytes().startswith(b"\x89PNG")
     assert capsys.readouterr().out == f"wrote {out}\n"
-    assert figure_main([str(tmp_path / "missing" / "frames.png")]) == 1
-    assert capsys.readouterr().err.startswith("error: cannot write")
+    check_frames_figure(imread(out))
+
+
+def check_frames_figure(image: np.ndarray) -> None:
+    """Three frames side by side, 712 x 212 pixels: in each third, a grey frame of many levels,
+    the target's true place (a lime circle) and the SSD match (a red cross)."""
+    assert image.shape[:2] == (212, 712)
+    for panel in np.array_split(image[30:], 3, axis=1):  # below the titles
+        greys = np.unique(np.round(panel[..., 0] * 255)[panel[..., 0] == panel[..., 1]])
+        assert len(greys) > 40
+        assert pixels_of(panel, (0, 255, 0), tolerance=40) > 20
+        assert pixels_of(panel, (255, 0, 0), tolerance=40) > 20
+
+
+def test_a_blank_or_grey_figure_of_the_same_size_fails_the_check():
+    for fill in (1.0, 0.5):
+        with pytest.raises(AssertionError):
+            check_frames_figure(np.full((212, 712, 4), fill))
+
+
+def test_the_figure_command_refuses_what_it_cannot_write(tmp_path, capsys):
+    for out in (tmp_path / "missing" / "frames.png", tmp_path / "frames.pdf", tmp_path):
+        with pytest.raises(SystemExit) as usage:
+            figure_main([str(out)])
+        assert usage.value.code == 2
+    assert capsys.readouterr().out == ""
+    assert figure_main(["/sys/frames.png"]) == 1  # refused by the kernel, even to root
+    err = capsys.readouterr().err
+    assert err.startswith("error: /sys/frames.png: ") and err.count("\n") == 1
+
+
+@settings(max_examples=60, deadline=None)
+@given(value=hostile_numbers())
+def test_hostile_names_end_in_a_status_not_a_traceback(tmp_path_factory, value):
+    missing = tmp_path_factory.mktemp("fuzz") / "missing"
+    status, err = run_main(figure_main, [str(missing / value)])
+    assert status == 2
+    assert "Traceback" not in err
+
+
+def test_docs_cli_md_names_every_option() -> None:
+    assert undocumented(figure_parser(), "## The figure commands") == []

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from pbort import Kernel, NativeModule, PerformanceKind
+from visual_servoing.errors import TaskSetupError
 from visual_servoing.frame_player import frame_player
 from visual_servoing.image_faults import FaultSchedule
 from visual_servoing.scene import Scene
@@ -31,7 +32,7 @@ def test_a_camera_sees_along_the_plate_and_its_estimator_where_the_task_looks():
     device = CameraDevice(SCENE, lambda: yaw["now"], lambda: 0.0, intent=lambda: -20.0)
     assert np.array_equal(device.frame(), SCENE.render(7.0))
     assert np.array_equal(device.intended_frame(), SCENE.render(-20.0))
-    with pytest.raises(ValueError, match=r"expected a scene of \(120, 160\) pixels"):
+    with pytest.raises(TaskSetupError, match=r"expected a scene of \(120, 160\) pixels"):
         CameraDevice(Scene(width=320, height=240), lambda: 0.0, lambda: 0.0)
 
 
@@ -69,7 +70,7 @@ def test_the_matcher_finds_the_target_and_reports_the_75th_percentile_of_nine_fr
 
 
 def test_the_matcher_names_the_methods_it_knows():
-    with pytest.raises(ValueError, match=r"expected a method among \('ssd', 'ncc'\)"):
+    with pytest.raises(TaskSetupError, match=r"expected a method among \('ssd', 'ncc'\)"):
         matcher_module("SSD", SCENE, "sad", power=3)
 
 

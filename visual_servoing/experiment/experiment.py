@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from firmware_sim.node import Node, NodeConfig
+from firmware_sim.sdk.build import BuildError
 from hexmanipulator.geometry import load as load_geometry
 from hexmanipulator.hexman_pbo import hexman_module
 from hexmigrate.image import ModuleImage
@@ -38,6 +39,7 @@ from refresh.load import Loaded, loads
 from refresh.locator import brute_force_count
 from refresh.maintainer import Maintainer
 from visual_servoing.dehazer_guest import INSTRUCTION_BUDGET, NAME, dehazer_image
+from visual_servoing.errors import ExperimentError
 from visual_servoing.experiment.applier import Migration, VirtualTimeApplier
 from visual_servoing.experiment.scenarios import Scenario
 from visual_servoing.experiment.world import World
@@ -107,7 +109,7 @@ class Outcome:
 
 class Experiment:
     """A scenario set up on a new world; `run()` runs it once. `work` receives the Dehazer's
-    build and HEX file."""
+    build and HEX file; a Dehazer that cannot be built here is an `ExperimentError`."""
 
     def __init__(self, scenario: Scenario, work: Path) -> None:
         self.scenario = scenario
@@ -124,7 +126,12 @@ class Experiment:
         scenario = self.scenario
         self.log = EventLog(clock=self.world.now)
         hex_file = work / f"{NAME}.hex"
-        dehazer_image(work / "build").write(hex_file)
+        try:
+            dehazer_image(work / "build").write(hex_file)
+        except BuildError as error:
+            raise ExperimentError(
+                f"scenario {scenario.name}: cannot build the Dehazer: {error}"
+            ) from error
         self.image = ModuleImage.read(hex_file)  # what migrates is what the HEX file says
         text = scenario.database.read_text() + scenario.extra
         self.loaded: Loaded = loads(text, scenario.database.name, work)
@@ -156,6 +163,7 @@ class Experiment:
         self._repairing = False  # a decision is being carried out: no second one meanwhile
         self._frames = 0
         self._events = self._scheduled()
+        self._progress: Callable[[float], None] | None = None
 
     def _intent(self) -> float:
         """Where the task wants the cameras to look: at the target it is after (its azimuth is
@@ -204,8 +212,10 @@ class Experiment:
 
     # The run.
 
-    def run(self) -> Outcome:
-        """Deploy, run the task to the scenario's end, decide and repair on the way."""
+    def run(self, progress: Callable[[float], None] | None = None) -> Outcome:
+        """Deploy, run the task to the scenario's end, decide and repair on the way.
+        `progress` is told the world's time after every frame (a command's progress bar)."""
+        self._progress = progress
         target = initial_configuration(self.loaded.task, self.loaded.database)
         self.log.record("scenario", self.scenario.title, name=self.scenario.name)
         self.deploy(target)
@@ -221,6 +231,8 @@ class Experiment:
                 self._events.pop(0)[1]()
             self.world.advance(min(FRAME, end - self.world.time))
             self._frames += 1
+            if self._progress is not None:
+                self._progress(self.world.time)
             if self.current is None:
                 continue
             self._sample()

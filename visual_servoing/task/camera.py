@@ -21,6 +21,7 @@ from typing import ClassVar
 import numpy as np
 
 from pbort import NativeModule, NativePBO, PortIO, PortKind, PortSpec
+from visual_servoing.errors import TaskSetupError
 from visual_servoing.image_faults import FaultSchedule
 from visual_servoing.scene import Scene
 from visual_servoing.task.reporting import report_power
@@ -53,7 +54,9 @@ class CameraDevice:
 
     def __post_init__(self) -> None:
         if self.scene.shape != FRAME_SHAPE:
-            raise ValueError(f"expected a scene of {FRAME_SHAPE} pixels, got {self.scene.shape}")
+            raise TaskSetupError(
+                f"expected a scene of {FRAME_SHAPE} pixels, got {self.scene.shape}"
+            )
 
     def frame(self) -> np.ndarray:
         """What the camera delivers now."""

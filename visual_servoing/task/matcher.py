@@ -25,6 +25,7 @@ import cv2
 import numpy as np
 
 from pbort import NativeModule, NativePBO, PerformanceKind, PortIO, PortSpec
+from visual_servoing.errors import TaskSetupError
 from visual_servoing.scene import Scene
 from visual_servoing.ssd import match_template
 from visual_servoing.task.camera import frame_port
@@ -97,6 +98,6 @@ def _locate(frame: np.ndarray, template: np.ndarray, method: str) -> float:
 def matcher_module(name: str, scene: Scene, method: str, power: float) -> NativeModule:
     """A matcher module named `name` for `scene`'s targets, by `method` ("ssd" or "ncc")."""
     if method not in METHODS:
-        raise ValueError(f"matcher {name}: expected a method among {METHODS}, got {method!r}")
+        raise TaskSetupError(f"matcher {name}: expected a method among {METHODS}, got {method!r}")
     attributes = {"name": name, "scene": scene, "method": method, "power": power}
     return NativeModule(type(name, (Matcher,), attributes))

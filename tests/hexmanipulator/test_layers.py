@@ -1,0 +1,29 @@
+"""The HexManipulator reads the servos' figures from their data sheet, not from an emulator."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).parents[2] / "hexmanipulator"
+DATA_SHEET = {"firmware_sim.servos.datasheet", "firmware_sim.servos.errors"}
+"""What a servo bus client may import of the servo package: the figures and their errors."""
+
+
+@pytest.mark.parametrize(
+    "module", ["geometry", "kinematics", "servo_bus", "ssc32_bus", "hexman_pbo"]
+)
+def test_the_platform_s_code_imports_no_emulator(module: str) -> None:
+    tree = ast.parse((PACKAGE / f"{module}.py").read_text())
+    imported = {
+        node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.module
+    } | {
+        alias.name
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Import)
+        for alias in node.names
+    }
+    emulators = {name for name in imported if name.startswith("firmware_sim")} - DATA_SHEET
+    assert not emulators
