@@ -99,11 +99,15 @@ def output_file(text: str) -> Path:
     """A file to write, in a folder that exists: a new file or a regular one to replace (a
     command writes beside it and renames, which would replace a device or a pipe)."""
     path = _path(text)
-    if path.is_dir():
-        raise _expected("a file to write", f"{text} (a directory)", quote=False)
-    if path.exists() and not path.is_file():
+    try:
         info = path.stat()
-        raise _expected("a regular file to write", f"{text} ({_kind(info.st_mode)})", quote=False)
+    except FileNotFoundError:
+        info = None
+    except OSError as error:  # a name too long, a loop of links, a folder that is a file
+        raise argparse.ArgumentTypeError(f"{text}: {error.strerror}") from None
+    if info is not None and not stat.S_ISREG(info.st_mode):
+        wanted = "a file to write" if stat.S_ISDIR(info.st_mode) else "a regular file to write"
+        raise _expected(wanted, f"{text} ({_kind(info.st_mode)})", quote=False)
     if not path.parent.is_dir():
         raise _expected("a file in an existing folder", text)
     return path

@@ -96,3 +96,11 @@ def test_a_special_file_or_a_nul_byte_is_no_file_to_write_or_read(tmp_path):
         output_file("a\0b.hex")
     with pytest.raises(argparse.ArgumentTypeError, match="a NUL byte"):
         input_file()("a\0b.hex")
+
+
+def test_a_name_the_system_refuses_is_an_argument_error_not_a_traceback(tmp_path):
+    too_long = str(tmp_path / ("f" * 300 + ".png"))
+    with pytest.raises(argparse.ArgumentTypeError, match="File name too long"):
+        output_file(too_long)
+    with pytest.raises(argparse.ArgumentTypeError, match="File name too long"):
+        input_file()(too_long)
