@@ -25,7 +25,9 @@ def test_a_listening_node_refuses_a_blank_line_and_a_garbage_listing_and_keeps_s
     example_builds,
 ):
     image = image_from_elf(example_builds["gain"].elf)
-    with NodeProcess("tcp-listen://127.0.0.1:0", "--show", "gain.y") as node:
+    with NodeProcess(
+        "tcp-listen://127.0.0.1:0", "--set", "gain.k=0x20000", "--show", "gain.y"
+    ) as node:
         _, listening = node.wait_for(CONNECT_LINE)
         with open_link(listening[1]) as link:
             for raw in (b"   ", GARBAGE_LISTING + struct.pack("<I", zlib.crc32(GARBAGE_LISTING))):
