@@ -47,7 +47,7 @@ from firmware_sim.wire_sim.transfer import (
 from firmware_sim.wire_sim.workload import TID, random_module
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
-from hexmigrate.links.can import DEFAULT_BITRATE
+from hexmigrate.links.can_defaults import DEFAULT_BITRATE
 
 BAUDRATE = DEFAULT_BAUDRATE  # 115200 8N1
 CAN_BITRATE = DEFAULT_BITRATE  # 500 kbit/s

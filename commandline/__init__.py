@@ -19,6 +19,7 @@ from commandline.main import (
     UsageError,
     add_command,
     command_parser,
+    importing_command,
     run,
 )
 
@@ -32,5 +33,6 @@ __all__ = [
     "UsageError",
     "add_command",
     "command_parser",
+    "importing_command",
     "run",
 ]

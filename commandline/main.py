@@ -8,9 +8,10 @@ Exit statuses (the same for every entry point):
     130  interrupted (Ctrl-C): one line ``interrupted``
     141  standard output closed by its reader (``... | head -1``): nothing more is printed
 
-``--debug`` (added by `command_parser`) prints the traceback before the ``error:`` line. An
-exception outside the package's error root and `OSError` is a bug, not bad input: it is not
-caught, so its traceback shows where to look.
+``--debug`` (added by `command_parser`) prints the traceback before the ``error:`` line. A module
+of an optional extra that is not installed is an error line that says what to install
+(`commandline.extras`). Any other exception outside the package's error root and `OSError` is a
+bug, not bad input: it is not caught, so its traceback shows where to look.
 """
 
 from __future__ import annotations
@@ -19,7 +20,10 @@ import argparse
 import os
 import sys
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+
+from commandline.extras import missing_extra
 
 EXIT_OK = 0
 EXIT_ERROR = 1
@@ -97,11 +101,34 @@ def run(
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except caught as error:
-        if debug:
-            traceback.print_exc()
-        print(f"error: {describe(error)}", file=sys.stderr)
-        return EXIT_ERROR
+        return _error_line(describe(error), debug)
+    except ModuleNotFoundError as error:
+        problem = missing_extra(error)
+        if problem is None:
+            raise
+        return _error_line(problem, debug)
     return EXIT_OK if status is None else status
+
+
+@contextmanager
+def importing_command() -> Iterator[None]:
+    """Around the imports of a ``__main__``: a module of a missing extra ends the program with
+    one ``error:`` line and exit status 1 before any command runs."""
+    try:
+        yield
+    except ModuleNotFoundError as error:
+        problem = missing_extra(error)
+        if problem is None:
+            raise
+        raise SystemExit(_error_line(problem, debug=False)) from None
+
+
+def _error_line(text: str, debug: bool) -> int:
+    """Print the error line (after the traceback of the error being handled, with --debug)."""
+    if debug:
+        traceback.print_exc()
+    print(f"error: {text}", file=sys.stderr)
+    return EXIT_ERROR
 
 
 def describe(error: BaseException) -> str:

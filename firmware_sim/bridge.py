@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from firmware_sim.wire import UART_BITS_PER_BYTE, WireClock
 from firmware_sim.wire_sim.link import DEFAULT_BAUDRATE, HOST_ID, NODE_ID, WIRES
 from firmware_sim.wire_sim.ports import FLOW_CONTROL_FRAME, frame_bits, isotp_frames
-from hexmigrate.links.can import DEFAULT_BITRATE
+from hexmigrate.links.can_defaults import DEFAULT_BITRATE
 from hexmigrate.links.framing import frame
 from pbort import NativeModule, NativePBO, PortIO, PortSpec
 from pbort.ports import PortValue

@@ -2,6 +2,9 @@
 
 import sys
 
-from hexmigrate.cli import main
+from commandline import importing_command
+
+with importing_command():
+    from hexmigrate.cli import main
 
 sys.exit(main())

@@ -2,6 +2,9 @@
 
 import sys
 
-from morphing_crossbar.cli import main
+from commandline import importing_command
+
+with importing_command():
+    from morphing_crossbar.cli import main
 
 sys.exit(main())

@@ -2,6 +2,9 @@
 
 import sys
 
-from refresh.cli import main
+from commandline import importing_command
+
+with importing_command():
+    from refresh.cli import main
 
 sys.exit(main())

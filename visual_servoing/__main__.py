@@ -2,6 +2,9 @@
 
 import sys
 
-from visual_servoing.experiment.cli import main
+from commandline import importing_command
+
+with importing_command():
+    from visual_servoing.experiment.cli import main
 
 sys.exit(main())

@@ -1,5 +1,10 @@
 """``python -m firmware_sim.servos``: see firmware_sim.servos.cli."""
 
-from firmware_sim.servos.cli import main
+import sys
 
-raise SystemExit(main())
+from commandline import importing_command
+
+with importing_command():
+    from firmware_sim.servos.cli import main
+
+sys.exit(main())

@@ -9,7 +9,7 @@ from firmware_sim.server import NodeTarget
 from firmware_sim.wire_sim.events import Simulation, Transmitter
 from firmware_sim.wire_sim.ports import IsoTpPort, Port, SerialPort
 from hexmigrate.links.base import message_problem
-from hexmigrate.links.can import DEFAULT_BITRATE, HOST_IDS
+from hexmigrate.links.can_defaults import DEFAULT_BITRATE, HOST_IDS
 from hexmigrate.transfer.receiver import Receiver
 
 DEFAULT_BAUDRATE = 115_200

@@ -8,7 +8,7 @@ from functools import cache
 
 from firmware_sim.wire import CAN_MAX_DATA, UART_BITS_PER_BYTE, can_frame_bits
 from firmware_sim.wire_sim.events import Transmitter
-from hexmigrate.links.can import DEFAULT_PADDING
+from hexmigrate.links.can_defaults import DEFAULT_PADDING
 from hexmigrate.links.framing import frame
 from hexmigrate.transfer.messages import Ack, BlockAck, HexLine, decode
 

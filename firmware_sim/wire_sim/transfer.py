@@ -11,7 +11,7 @@ from firmware_sim.wire_sim.events import Simulation
 from firmware_sim.wire_sim.link import DEFAULT_BAUDRATE, NodeEnd, SimulatedLink, connect
 from firmware_sim.wire_sim.ports import ISOTP_CF_DATA, WireStats
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
-from hexmigrate.links.can import DEFAULT_BITRATE
+from hexmigrate.links.can_defaults import DEFAULT_BITRATE
 from hexmigrate.transfer.messages import Ack, BlockAck, decode
 from hexmigrate.transfer.sender import Sender
 

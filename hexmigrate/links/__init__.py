@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import importlib
 
+from commandline.extras import missing_extra
 from hexmigrate.errors import LinkError, LinkUrlError
 from hexmigrate.links.base import Link, LinkBase, is_text
 
@@ -65,7 +66,9 @@ def open_link(url: str, **options: object) -> LinkBase:
         module = importlib.import_module(f"{__name__}.{module_name}")
     except ImportError as error:
         what = f"the {scheme}: scheme" if scheme else "a device path"
-        raise LinkError(f"cannot open {url}: {what} needs {needs}: {error}") from error
+        extra = missing_extra(error) if isinstance(error, ModuleNotFoundError) else None
+        reason = f"{what}: {extra}" if extra else f"{what} needs {needs}: {error}"
+        raise LinkError(f"cannot open {url}: {reason}") from error
     link: LinkBase = module.open_url(url, **options)
     return link
 

@@ -49,6 +49,7 @@ import isotp
 
 from hexmigrate.errors import LinkError
 from hexmigrate.links.base import MAX_MESSAGE_SIZE, LinkBase
+from hexmigrate.links.can_defaults import DEFAULT_BITRATE, DEFAULT_PADDING, HOST_IDS
 from hexmigrate.links.url import choice, integer, parse_parameters, real, url_error
 
 logger = logging.getLogger(__name__)
@@ -58,9 +59,6 @@ FORM = (
     "can://socketcan/INTERFACE, with optional ?role=host|node&txid=ID&rxid=ID&bitrate=N"
     "&stmin=N&blocksize=N&padding=off|N&settle=S"
 )
-HOST_IDS = (0x7E0, 0x7E8)
-DEFAULT_BITRATE = 500_000
-DEFAULT_PADDING = 0xCC
 SLCAN_BITRATES = (10000, 20000, 50000, 100000, 125000, 250000, 500000, 750000, 1000000, 83300)
 NOTIFIER_TIMEOUT = 0.05
 """How long python-can's reader waits per call: the bound on the time `close` takes."""

@@ -19,7 +19,7 @@ from firmware_sim.wire_sim.transfer import DEFAULT_WINDOW, HEX_LINE_CHARS, run_t
 from firmware_sim.wire_sim.workload import EXTRA_RELOCATIONS, TID, random_module
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
-from hexmigrate.links.can import DEFAULT_BITRATE
+from hexmigrate.links.can_defaults import DEFAULT_BITRATE
 from hexmigrate.links.framing import frame
 from hexmigrate.records import Record, RecordType
 from hexmigrate.transfer.messages import Begin, Commit, Data, End, Header, HexLine, encode
