@@ -268,10 +268,11 @@ def _add_run(commands: argparse._SubParsersAction) -> None:
         "any number for a floating-point one",
     )
     length = command.add_mutually_exclusive_group()
-    length.add_argument("--cycles", type=arguments.cycles, help="run this many jobs")
+    length.add_argument("--cycles", type=arguments.cycles, metavar="N", help="run this many jobs")
     length.add_argument(
         "--seconds",
         type=arguments.seconds,
+        metavar="S",
         help=f"run this long in virtual time (default: {DEFAULT_SECONDS:g}, unless --cycles)",
     )
     command.add_argument("--json", action="store_true", help="print the report as JSON")
@@ -331,6 +332,7 @@ def _add_listen(commands: argparse._SubParsersAction) -> None:
     command.add_argument(
         "--seconds",
         type=arguments.seconds,
+        metavar="S",
         help="stop after this long (default: run until interrupted)",
     )
 
@@ -364,6 +366,7 @@ def _add_transfer(commands: argparse._SubParsersAction) -> None:
     command.add_argument(
         "--window",
         type=arguments.window,
+        metavar="N",
         default=DEFAULT_WINDOW,
         help=f"blocks in flight (default {DEFAULT_WINDOW})",
     )

@@ -104,10 +104,10 @@ def plot(data: dict[str, np.ndarray], out: Path) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; the exit status."""
-    return run(parser(), HexmanipulatorError, argv)
+    return run(build_parser(), HexmanipulatorError, argv)
 
 
-def parser() -> argparse.ArgumentParser:
+def build_parser() -> argparse.ArgumentParser:
     """The argument parser: one PNG file to write."""
     top = command_parser("python -m hexmanipulator.plot_sweep", __doc__)
     top.add_argument("out", type=png_file, metavar="OUT.png", help="the PNG file to write")

@@ -50,7 +50,7 @@ def cmd_pack(args: argparse.Namespace) -> None:
     )
 
 
-def parser() -> argparse.ArgumentParser:
+def build_parser() -> argparse.ArgumentParser:
     """The argument parser, subcommands dispatched through `func`."""
     top = command_parser("python -m morphing_crossbar", __doc__)
     commands = top.add_subparsers(required=True, metavar="COMMAND")
@@ -79,4 +79,4 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; the exit status."""
-    return run(parser(), CrossbarError, argv)
+    return run(build_parser(), CrossbarError, argv)

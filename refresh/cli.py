@@ -88,7 +88,7 @@ def _task_with_initial(loaded: Loaded, file: str) -> TaskSpec:
     return loaded.task
 
 
-def parser() -> argparse.ArgumentParser:
+def build_parser() -> argparse.ArgumentParser:
     """The argument parser, subcommands dispatched through `func`."""
     top = command_parser("python -m refresh", __doc__)
     commands = top.add_subparsers(required=True, metavar="COMMAND")
@@ -111,4 +111,4 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; the exit status."""
-    return run(parser(), RefreshError, argv)
+    return run(build_parser(), RefreshError, argv)

@@ -60,10 +60,10 @@ def draw(out: Path) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; the exit status."""
-    return run(parser(), ServoingError, argv)
+    return run(build_parser(), ServoingError, argv)
 
 
-def parser() -> argparse.ArgumentParser:
+def build_parser() -> argparse.ArgumentParser:
     """The argument parser: one PNG file to write."""
     top = command_parser("python -m visual_servoing.figure", __doc__)
     top.add_argument("out", type=png_file, metavar="OUT.png", help="the PNG file to write")

@@ -46,10 +46,10 @@ ERRORS = (ServoEmulatorError, HexmigrateError)
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; the exit status."""
-    return run(parser(), ERRORS, argv)
+    return run(build_parser(), ERRORS, argv)
 
 
-def parser() -> argparse.ArgumentParser:
+def build_parser() -> argparse.ArgumentParser:
     """The argument parser, one sub-command per emulator."""
     top = command_parser("python -m firmware_sim.servos", __doc__)
     commands = top.add_subparsers(required=True, metavar="COMMAND")

@@ -11,7 +11,7 @@ import serial
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from firmware_sim.servos.cli import main, parser
+from firmware_sim.servos.cli import build_parser, main
 from tests.commandline.documented import undocumented
 from tests.commandline.hostile_input import hostile_numbers, run_main
 
@@ -117,4 +117,4 @@ def _runs_long(text: str) -> bool:
 
 
 def test_docs_cli_md_names_every_command_and_option() -> None:
-    assert undocumented(parser(), "## `python -m firmware_sim.servos`") == []
+    assert undocumented(build_parser(), "## `python -m firmware_sim.servos`") == []

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from matplotlib.image import imread
 
 from hexmanipulator.geometry import load
-from hexmanipulator.plot_sweep import AMPLITUDE, main, parser, sweep
+from hexmanipulator.plot_sweep import AMPLITUDE, build_parser, main, sweep
 from tests.commandline.documented import undocumented
 from tests.commandline.hostile_input import hostile_numbers, run_main
 from tests.visual_servoing.pixels import TAB, pixels_of
@@ -82,4 +82,4 @@ def test_hostile_geometry_values_end_in_a_status_not_a_traceback(tmp_path_factor
 
 
 def test_docs_cli_md_names_every_option() -> None:
-    assert undocumented(parser(), "## The figure commands") == []
+    assert undocumented(build_parser(), "## The figure commands") == []

@@ -16,7 +16,7 @@ from morphing_crossbar.bitstream import (
     pack,
     reconfiguration_cycles,
 )
-from morphing_crossbar.cli import main, parser
+from morphing_crossbar.cli import build_parser, main
 from morphing_crossbar.crc import crc8_bits
 from morphing_crossbar.errors import (
     CrcError,
@@ -174,4 +174,4 @@ def test_hostile_numbers_end_in_a_status_not_a_traceback(tmp_path_factory, value
 
 
 def test_docs_cli_md_names_every_command_and_option() -> None:
-    assert undocumented(parser(), "## `python -m morphing_crossbar`") == []
+    assert undocumented(build_parser(), "## `python -m morphing_crossbar`") == []

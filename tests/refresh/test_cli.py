@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 
 from hexmigrate.elf import image_from_elf
-from refresh.cli import main, parser
+from refresh.cli import build_parser, main
 from refresh.load import MAX_FILE_BYTES
 from tests.commandline.documented import undocumented
 from tests.commandline.hostile_input import hostile_numbers, run_main
@@ -208,4 +208,4 @@ def test_hostile_values_end_in_a_status_not_a_traceback(value):
 
 
 def test_docs_cli_md_names_every_command_and_option() -> None:
-    assert undocumented(parser(), "## `python -m refresh`") == []
+    assert undocumented(build_parser(), "## `python -m refresh`") == []

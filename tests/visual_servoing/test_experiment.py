@@ -16,7 +16,7 @@ from tests.commandline.documented import undocumented
 from tests.commandline.hostile_input import hostile_numbers, run_main
 from tests.commandline.terminal import stderr_on_a_terminal
 from tests.visual_servoing.pixels import TAB, pixels_of
-from visual_servoing.experiment.cli import main, parser
+from visual_servoing.experiment.cli import build_parser, main
 from visual_servoing.experiment.experiment import Experiment, Outcome
 from visual_servoing.experiment.report import summary
 from visual_servoing.experiment.scenarios import PAPER, SCENARIOS
@@ -186,4 +186,4 @@ def test_a_machine_without_the_cross_compiler_gets_one_error_line(tmp_path, monk
 
 
 def test_docs_cli_md_names_every_command_and_option() -> None:
-    assert undocumented(parser(), "## `python -m visual_servoing`") == []
+    assert undocumented(build_parser(), "## `python -m visual_servoing`") == []

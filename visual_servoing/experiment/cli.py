@@ -62,7 +62,7 @@ def cmd_scenarios(args: argparse.Namespace) -> None:
         print(f"{'':<12} expected: {scenario.expected}")
 
 
-def parser() -> argparse.ArgumentParser:
+def build_parser() -> argparse.ArgumentParser:
     """The argument parser, subcommands dispatched through `func`."""
     top = command_parser("python -m visual_servoing", __doc__)
     commands = top.add_subparsers(required=True, metavar="COMMAND")
@@ -86,4 +86,4 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; the exit status."""
-    return run(parser(), ServoingError, argv)
+    return run(build_parser(), ServoingError, argv)
