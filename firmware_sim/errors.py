@@ -25,9 +25,13 @@ Tree::
     │                                   type cannot hold exactly
     ├── StartError (RuntimeError)       a PBO that did not start, with what its module logged
     ├── PowerReportError (ValueError)   a module reported a power draw the budget cannot take
-    └── ReconfigurationPortError (LookupError)
-                                        no FPGA reconfiguration port is installed, or the one
-                                        installed cannot build the fabric asked for
+    ├── ReconfigurationPortError (LookupError)
+    │                                   no FPGA reconfiguration port is installed, or the one
+    │                                   installed cannot build the fabric asked for
+    ├── BuildError (RuntimeError)       the SDK cannot build a module: a missing tool or source, a
+    │                                   tool that failed
+    └── ServoEmulatorError              a servo emulator refuses its set-up or a command: its
+                                        branch is drawn in firmware_sim/servos/errors.py
 
 Two exceptions of firmware_sim stand outside the tree on purpose, because they are control flow
 and not failures a caller should report:
@@ -107,3 +111,7 @@ class PowerReportError(FirmwareSimError, ValueError):
 class ReconfigurationPortError(FirmwareSimError, LookupError):
     """``--fpga``: no FPGA reconfiguration port is installed (or more than one), or the one
     installed cannot build a fabric of the size asked for."""
+
+
+class BuildError(FirmwareSimError, RuntimeError):
+    """A module could not be built: a missing tool, a missing source, or a tool that failed."""

@@ -17,6 +17,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from commandline import command_parser, run
+from commandline.arguments import input_file
+from firmware_sim.errors import BuildError
+
 SDK_DIR = Path(__file__).resolve().parent
 EXAMPLES_DIR = SDK_DIR / "examples"
 LINKER_SCRIPT = SDK_DIR / "module.ld"
@@ -42,10 +46,6 @@ COMPILE_FLAGS = [
     "-Wextra",
     "-Werror",
 ]
-
-
-class BuildError(RuntimeError):
-    """A module could not be built: a missing tool, a missing source, or a tool that failed."""
 
 
 @dataclass(frozen=True)
@@ -130,32 +130,36 @@ def build_examples(out_dir: Path) -> list[ModuleBuild]:
     return [build_module(source, out_dir) for source in example_sources()]
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Command line: build modules and print one line per module; ``error: ...`` on failure."""
-    parser = argparse.ArgumentParser(
-        prog="python -m firmware_sim.sdk.build",
-        description="Build migrating modules (C for RV32IM) into ELF, map, binary and Intel HEX.",
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``python -m firmware_sim.sdk.build``."""
+    parser = command_parser(
+        "python -m firmware_sim.sdk.build",
+        "Build migrating modules (C for RV32IM) into ELF, map, binary and Intel HEX.",
     )
     parser.add_argument("--out", type=Path, required=True, help="output directory")
     parser.add_argument(
-        "sources", nargs="*", type=Path, metavar="SOURCE.c", help="default: the SDK's examples"
+        "sources",
+        nargs="*",
+        type=input_file(),
+        metavar="SOURCE.c",
+        help="default: the SDK's examples",
     )
-    parser.add_argument("--debug", action="store_true", help="show a traceback on errors")
-    args = parser.parse_args(argv)
-    sources = args.sources or example_sources()
-    try:
-        for source in sources:
-            built = build_module(source, args.out)
-            print(
-                f"{built.name}: elf={built.elf} map={built.map} bin={built.bin} "
-                f"hex={built.objcopy_hex}"
-            )
-    except BuildError as error:
-        if args.debug:
-            raise
-        print(f"error: {error}", file=sys.stderr)
-        return 1
-    return 0
+    parser.set_defaults(func=build_command)
+    return parser
+
+
+def build_command(args: argparse.Namespace) -> None:
+    """Build each source (the examples by default) and print one line per module."""
+    for source in args.sources or example_sources():
+        built = build_module(source, args.out)
+        print(
+            f"{built.name}: elf={built.elf} map={built.map} bin={built.bin} hex={built.objcopy_hex}"
+        )
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; return the exit status."""
+    return run(build_parser(), BuildError, argv)
 
 
 if __name__ == "__main__":

@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from firmware_sim.errors import BuildError
 from firmware_sim.node import Node, NodeConfig
-from firmware_sim.sdk.build import BuildError
 from hexmanipulator.geometry import load as load_geometry
 from hexmanipulator.hexman_pbo import hexman_module
 from hexmigrate.image import ModuleImage
