@@ -207,9 +207,9 @@ def main() -> None:
         code = module_code(Path(builds))
     images = [random_module(code, size, seed=size) for size in SIZES]
     print(
-        f"modules: {', '.join(f'{image.name} {image.size} B' for image in images)}; random data "
-        f"after the compiled gain example ({code.size} B), {len(images[0].relocations)} "
-        f"relocations, init at 0x{code.init:X}"
+        f"modules: {', '.join(f'{image.size} B' for image in images)}, each the compiled gain "
+        f"example ({code.size} B, so named {code.name} by its descriptor) then random data, "
+        f"{len(images[0].relocations)} relocations, init at 0x{code.init:X}"
     )
     print(
         "virtual time from BEGIN to the ACK of COMMIT; flash 2 ms per block programmed, "

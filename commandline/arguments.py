@@ -113,6 +113,20 @@ def output_file(text: str) -> Path:
     return path
 
 
+def output_file_ending(suffix: str) -> Callable[[str], Path]:
+    """A file to write whose name ends in `suffix`, for writers that pick the format by it
+    (matplotlib and ``.png``)."""
+
+    def parse(text: str) -> Path:
+        path = output_file(text)
+        if path.suffix.lower() != suffix:
+            raise _expected(f"a file name ending in {suffix}", text)
+        return path
+
+    parse.__name__ = "file"
+    return parse
+
+
 def _path(text: str) -> Path:
     """`text` as a path; the system takes no NUL byte in one."""
     if "\0" in text:

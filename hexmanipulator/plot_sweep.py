@@ -24,7 +24,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from commandline import command_parser, run
-from commandline.arguments import input_file, output_file
+from commandline.arguments import input_file, output_file_ending
 from firmware_sim.servos.can_servo import CanServoNodes
 from firmware_sim.servos.can_servo_server import CanServoServer
 from hexmanipulator.can_bus import CanServoBus
@@ -110,7 +110,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser: one PNG file to write."""
     top = command_parser("python -m hexmanipulator.plot_sweep", __doc__)
-    top.add_argument("out", type=png_file, metavar="OUT.png", help="the PNG file to write")
+    top.add_argument(
+        "out", type=output_file_ending(".png"), metavar="OUT.png", help="the PNG file to write"
+    )
     top.add_argument(
         "--geometry",
         type=input_file(GEOMETRY_MAX_BYTES),
@@ -119,14 +121,6 @@ def build_parser() -> argparse.ArgumentParser:
     )
     top.set_defaults(func=_draw)
     return top
-
-
-def png_file(text: str) -> Path:
-    """An output file whose name says PNG: matplotlib picks the format by the suffix."""
-    path = output_file(text)
-    if path.suffix.lower() != ".png":
-        raise argparse.ArgumentTypeError(f"expected a file name ending in .png, got {text!r}")
-    return path
 
 
 def _draw(args: argparse.Namespace) -> None:

@@ -23,7 +23,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 from commandline import command_parser, run
-from commandline.arguments import output_file
+from commandline.arguments import output_file_ending
 from visual_servoing.dehaze import dehaze
 from visual_servoing.errors import ServoingError
 from visual_servoing.image_faults import FaultSchedule
@@ -66,17 +66,11 @@ def main(argv: Sequence[str] | None = None) -> int:
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser: one PNG file to write."""
     top = command_parser("python -m visual_servoing.figure", __doc__)
-    top.add_argument("out", type=png_file, metavar="OUT.png", help="the PNG file to write")
+    top.add_argument(
+        "out", type=output_file_ending(".png"), metavar="OUT.png", help="the PNG file to write"
+    )
     top.set_defaults(func=_draw)
     return top
-
-
-def png_file(text: str) -> Path:
-    """An output file whose name says PNG: matplotlib picks the format by the suffix."""
-    path = output_file(text)
-    if path.suffix.lower() != ".png":
-        raise argparse.ArgumentTypeError(f"expected a file name ending in .png, got {text!r}")
-    return path
 
 
 def _draw(args: argparse.Namespace) -> None:

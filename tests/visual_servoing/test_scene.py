@@ -20,8 +20,8 @@ from visual_servoing.errors import (
     UnknownFaultError,
     UnknownTargetError,
 )
+from visual_servoing.figure import build_parser as figure_parser
 from visual_servoing.figure import main as figure_main
-from visual_servoing.figure import parser as figure_parser
 from visual_servoing.image_faults import FOG_GREY, Fault, FaultKind, FaultSchedule
 from visual_servoing.scene import Scene, Target, relative_bearing
 from visual_servoing.shapes import Shape
