@@ -19,7 +19,7 @@ from firmware_sim.node import Node
 from firmware_sim.sdk.build import ModuleBuild, build_module
 from hexmigrate.elf import image_from_elf
 from pbort.code import Instance, Method, PerformanceKind, Role, Services
-from tests.firmware_sim.test_sdk_fixed_point import INT32_MAX, milli_from_fixed, q16_mul
+from tests.firmware_sim.fixed_point import INT32_MAX, milli_from_fixed, q16_mul
 
 Q16 = 1 << 16
 WRAP = 1 << 32  # the module's clock, in us, wraps here

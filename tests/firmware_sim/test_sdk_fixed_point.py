@@ -22,31 +22,9 @@ from firmware_sim.node import Node
 from firmware_sim.sdk.build import build_module
 from hexmigrate.elf import image_from_elf
 from pbort.code import Method, Role, Services
+from tests.firmware_sim.fixed_point import INT32_MAX, INT32_MIN, milli_from_fixed, q16_mul, saturate
 
 LANES = 64  # values per call
-INT32_MAX = (1 << 31) - 1
-INT32_MIN = -(1 << 31)
-
-
-# The rules pbo_module.h states, in exact arithmetic.
-
-
-def saturate(value: int) -> int:
-    """`value` clamped to the int32 range."""
-    return max(INT32_MIN, min(INT32_MAX, value))
-
-
-def q16_mul(a: int, b: int) -> int:
-    """pbo_q16_mul: a * b / 2^16 rounded to nearest, halves up, saturated."""
-    return saturate(floor(Fraction(a * b, 1 << 16) + Fraction(1, 2)))
-
-
-def milli_from_fixed(magnitude: int, fraction_bits: int) -> int:
-    """pbo_milli_from_fixed: floor(magnitude * 1000 / 2^fraction_bits), and INT32_MAX from
-    floor(INT32_MAX * 2^fraction_bits / 1000) on."""
-    if magnitude >= (INT32_MAX << fraction_bits) // 1000:
-        return INT32_MAX
-    return floor(Fraction(magnitude * 1000, 1 << fraction_bits))
 
 
 class Op(IntEnum):
