@@ -17,8 +17,7 @@ from pathlib import Path
 
 from hexmigrate.descriptor import Descriptor
 from hexmigrate.errors import HexmigrateError
-from hexmigrate.image import ModuleImage
-from hexmigrate.report import find_descriptor
+from hexmigrate.image import ModuleImage, find_descriptor
 from refresh.database import Module, ModuleDatabase
 from refresh.errors import DatabaseImageError
 
