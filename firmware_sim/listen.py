@@ -19,6 +19,7 @@ from pathlib import Path
 
 from firmware_sim.fpga_port import open_port
 from firmware_sim.listen_link import open_listening
+from firmware_sim.kernel_control import KernelControl
 from firmware_sim.listening_node import ListeningNode, Wire
 from firmware_sim.natives import NATIVES
 from firmware_sim.node import Node, NodeConfig
@@ -81,7 +82,7 @@ def listen(config: ListenConfig, say: Callable[[str], None]) -> int:
             target = NodeTarget(
                 node, on_install=installed, fpga=port, on_configure=_configured(say)
             )
-            receiver = Receiver(target)
+            receiver = Receiver(target, KernelControl(node))
             try:
                 serve(node, link, receiver=receiver, stop=_stopper(node, config, say))
             except KeyboardInterrupt:

@@ -221,6 +221,14 @@ class Kernel:
         pbo, name = self._port(port)
         return pbo.spec(name)
 
+    def ports(self, name: str) -> tuple[PortSpec, ...]:
+        """The ports PBO `name` declares, in declaration order: what a host lists of it."""
+        return tuple(self._pbo(name).specs.values())
+
+    def frequency(self, name: str) -> float | None:
+        """PBO `name`'s rate in Hz; None for an aperiodic PBO."""
+        return self._pbo(name).frequency
+
     def connections(self) -> list[tuple[str, str]]:
         """Every (source, sink) pair of the live wiring."""
         return self._svt.connections()

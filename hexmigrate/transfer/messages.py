@@ -170,6 +170,59 @@ class Resume(Message, code=0x0A, verb="RESUME"):
     tid: int = u32()
 
 
+# Node control (control.py): each request carries a tid, and the node answers a repeat of it
+# (its answer was lost) with the same answer instead of doing it again.
+
+
+class ListPbos(Message, code=0x0B, verb="PS"):
+    """Which PBOs does the node run? Answered by `PboTable`."""
+
+    tid: int = u32()
+
+
+class StartPbo(Message, code=0x0C, verb="START"):
+    """Turn PBO `name` on (creating it first if it is not yet)."""
+
+    tid: int = u32()
+    name: str = word()
+
+
+class StopPbo(Message, code=0x0D, verb="STOP"):
+    """Turn PBO `name` off."""
+
+    tid: int = u32()
+    name: str = word()
+
+
+class SetConstant(Message, code=0x0E, verb="SET"):
+    """Set a constant, ``PBO.NAME=VALUE``, while its PBO is off; the value must fit the
+    constant's type exactly."""
+
+    tid: int = u32()
+    setting: str = word()
+
+
+class ConnectPorts(Message, code=0x0F, verb="CONNECT"):
+    """Wire an output to an input, ``OUT_PBO.port=IN_PBO.port``."""
+
+    tid: int = u32()
+    wire: str = word()
+
+
+class DisconnectPorts(Message, code=0x10, verb="DISCONNECT"):
+    """Undo a wire, ``OUT_PBO.port=IN_PBO.port``."""
+
+    tid: int = u32()
+    wire: str = word()
+
+
+class ReadPorts(Message, code=0x16, verb="READ"):
+    """The values of ports, ``PBO.port`` words. Answered by `PortValues`."""
+
+    tid: int = u32()
+    ports: str = free_text()
+
+
 # Answers.
 
 
@@ -202,6 +255,21 @@ class Nak(Message, code=0x14, verb="NAK"):
     value: int = u32()
     reason: str = free_text()
     fatal: bool = flag("RETRY", "FATAL", default=False)
+
+
+class PboTable(Message, code=0x17, verb="PBOS"):
+    """The answer to `ListPbos`: one ``NAME:STATE:RATE:IN:OUT:CONST`` word per PBO
+    (control.py's `PboRow`)."""
+
+    tid: int = u32()
+    pbos: str = free_text(default="")
+
+
+class PortValues(Message, code=0x18, verb="VALUES"):
+    """The answer to `ReadPorts`: one ``PBO.port=VALUE`` word per port."""
+
+    tid: int = u32()
+    values: str = free_text(default="")
 
 
 class BlockAck(Message, code=0x15, check=CRC16):

@@ -19,30 +19,43 @@ from typing import Protocol
 from hexmigrate.errors import HexError, MessageError
 from hexmigrate.links.base import is_text
 from hexmigrate.records import RecordType, decode_record
+from hexmigrate.transfer.control import ControlTarget, ports, rows_text, values_text, wire
 from hexmigrate.transfer.messages import (
     Abort,
     Ack,
     Begin,
     BlockAck,
     Commit,
+    ConnectPorts,
     Data,
+    DisconnectPorts,
     End,
     Header,
     HexLine,
     Listing,
     ListModules,
+    ListPbos,
     Message,
     Nak,
+    PboTable,
     Ping,
     Pong,
+    PortValues,
+    ReadPorts,
     Remove,
     Resume,
+    SetConstant,
+    StartPbo,
+    StopPbo,
     decode,
     encode,
 )
 
 IMPLICIT = 0  # the transfer id of a module typed or pasted on a terminal without BEGIN
 REMEMBERED_COMMITS = 64
+REMEMBERED_CONTROLS = 64
+"""Control answers kept by tid, so that a request repeated after a lost answer is answered
+again, not done again."""
 
 
 class Session(Protocol):
@@ -106,10 +119,14 @@ class Transfer:
 
 
 class Receiver:
-    """The protocol state of one node, shared by all its links."""
+    """The protocol state of one node, shared by all its links; `control` is the node's
+    `ControlTarget` (None: the node refuses control requests)."""
 
-    def __init__(self, target: Target) -> None:
+    def __init__(self, target: Target, control: ControlTarget | None = None) -> None:
         self.target = target
+        self.control = control
+        self.controlled: OrderedDict[int, Message] = OrderedDict()
+        """The answers to recent control requests, by tid."""
         self.transfers: dict[int, Transfer] = {}
         # The answers to recent commits: when an ACK is lost the sender commits again, and must
         # hear the same answer rather than "unknown transfer".
@@ -169,6 +186,47 @@ class Receiver:
         except KeyError:
             return [Nak(0, 0, f"no module named {message.name!r}", fatal=True)]
         return [Ack(0, 0, f"removed {message.name}")]
+
+    # Node control.
+
+    def _controlled(self, message: Message) -> list[Message]:
+        """Do a control request once: a repeat of its tid gets the answer it got the first time.
+        A refusal (unknown name, wrong type, wrong state) is a fatal NAK whose reason names the
+        PBO, port or constant; the node goes on."""
+        tid: int = getattr(message, "tid", IMPLICIT)
+        answer = self.controlled.get(tid)
+        if answer is None:
+            try:
+                answer = self._control(message)
+            except Exception as error:  # a refusal of the node: it says why
+                answer = Nak(tid, 0, f"{message.layout.verb} refused: {error}", fatal=True)
+            self.controlled[tid] = answer
+            while len(self.controlled) > REMEMBERED_CONTROLS:
+                self.controlled.popitem(last=False)
+        return [answer]
+
+    def _control(self, message: Message) -> Message:
+        """The answer to a control request done now."""
+        control = self.control
+        tid: int = getattr(message, "tid", IMPLICIT)
+        if control is None:
+            raise MessageError("this node takes no control requests")
+        if isinstance(message, ListPbos):
+            return PboTable(tid, rows_text(control.pbos()))
+        if isinstance(message, ReadPorts):
+            values = tuple((port, control.read(port)) for port in ports(message.ports))
+            return PortValues(tid, values_text(values))
+        if isinstance(message, StartPbo):
+            return Ack(tid, 0, control.start(message.name))
+        if isinstance(message, StopPbo):
+            return Ack(tid, 0, control.stop(message.name))
+        if isinstance(message, SetConstant):
+            return Ack(tid, 0, control.set_constant(message.setting))
+        if isinstance(message, ConnectPorts):
+            return Ack(tid, 0, control.connect(*wire(message.wire)))
+        if isinstance(message, DisconnectPorts):
+            return Ack(tid, 0, control.disconnect(*wire(message.wire)))
+        raise MessageError(f"{type(message).__name__} is not a control request")
 
     # A transfer.
 
@@ -375,8 +433,15 @@ _HANDLERS = {
     Commit: Receiver._commit,
     Abort: Receiver._abort,
     Resume: Receiver._resume,
+    ListPbos: Receiver._controlled,
+    StartPbo: Receiver._controlled,
+    StopPbo: Receiver._controlled,
+    SetConstant: Receiver._controlled,
+    ConnectPorts: Receiver._controlled,
+    DisconnectPorts: Receiver._controlled,
+    ReadPorts: Receiver._controlled,
 }
 """The requests a node answers. Any other message is an answer (`Pong`, `Listing`, `Ack`,
-`BlockAck`, `Nak`), which a node hears but never answers: on a shared line
-(`hexmigrate.links.shared`) it hears its own answers and other nodes', and two nodes that
+`BlockAck`, `Nak`, `PboTable`, `PortValues`), which a node hears but never answers: on a shared
+line (`hexmigrate.links.shared`) it hears its own answers and other nodes', and two nodes that
 answered answers would talk forever."""

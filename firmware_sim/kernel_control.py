@@ -1,0 +1,96 @@
+"""The node side of node control (`hexmigrate ps|start|stop|set|connect|disconnect|watch`): the
+`hexmigrate.transfer.control.ControlTarget` of a node, done on its pbort kernel.
+
+Every refusal is the kernel's or the settings' own error, whose message names the PBO, port or
+constant; the receiver sends it back and the node goes on. A constant follows the exact-value
+rule of ``--set`` (firmware_sim.settings), and only scalar ports are read.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from firmware_sim.errors import PortValueError
+from firmware_sim.node import Node
+from firmware_sim.settings import Number, exact, setting
+from hexmigrate.transfer.control import PboRow
+from pbort.errors import NotConnectedError
+from pbort.lifecycle import State
+from pbort.ports import Direction, PortKind
+
+
+class KernelControl:
+    """Control of the PBOs of `node`."""
+
+    def __init__(self, node: Node) -> None:
+        self.node = node
+
+    def pbos(self) -> tuple[PboRow, ...]:
+        """Every PBO of the kernel, in registration order."""
+        kernel = self.node.kernel
+        rows = []
+        for name in kernel.names:
+            ports = kernel.ports(name)
+
+            def named(direction: Direction, ports: tuple = ports) -> tuple[str, ...]:
+                return tuple(port.name for port in ports if port.direction is direction)
+
+            rows.append(
+                PboRow(
+                    name,
+                    kernel.state(name).name,
+                    kernel.frequency(name),
+                    named(Direction.IN),
+                    named(Direction.OUT),
+                    named(Direction.CONST),
+                )
+            )
+        return tuple(rows)
+
+    def start(self, name: str) -> str:
+        """Turn PBO `name` on, creating it first when it is not yet."""
+        kernel = self.node.kernel
+        if kernel.state(name) is State.NOT_CREATED:
+            kernel.spawn(name)
+        kernel.on(name)
+        return f"started {name}"
+
+    def stop(self, name: str) -> str:
+        """Turn PBO `name` off."""
+        self.node.kernel.off(name)
+        return f"stopped {name}"
+
+    def set_constant(self, text: str) -> str:
+        """Set ``PBO.NAME=VALUE``, the value converted exactly to the constant's type."""
+        wanted = setting(text)
+        kernel = self.node.kernel
+        spec = kernel.spec(wanted.target)
+        if spec.direction is not Direction.CONST:
+            raise PortValueError(
+                f"{wanted.target} is an {spec.direction.value} port, not a constant"
+            )
+        value = exact(spec, wanted.target, wanted.value)
+        kernel.configure(wanted.target, value)
+        return f"set {wanted.target}={value!r}"
+
+    def connect(self, source: str, sink: str) -> str:
+        """Wire output `source` to input `sink`."""
+        self.node.kernel.connect(source, sink)
+        return f"connected {source}={sink}"
+
+    def disconnect(self, source: str, sink: str) -> str:
+        """Undo the wire `source` -> `sink` (refused when `sink` is not wired to `source`)."""
+        kernel = self.node.kernel
+        if (source, sink) not in kernel.connections():
+            raise NotConnectedError(f"input {sink!r} is not connected to {source!r}")
+        kernel.disconnect(sink)
+        return f"disconnected {source}={sink}"
+
+    def read(self, port: str) -> Number:
+        """The value of scalar port `port`."""
+        kernel = self.node.kernel
+        spec = kernel.spec(port)
+        if spec.kind is not PortKind.SCALAR:
+            raise PortValueError(f"{port} is a {spec.kind.value}; only scalar ports are read")
+        value = np.asarray(kernel.value(port)).item()
+        return value if isinstance(value, (int, float)) else int(value)

@@ -1,0 +1,86 @@
+"""The host's side of node control: `NodeControl` asks a node, through a `Sender` (its retries,
+timeouts and refusal handling), to list, start, stop, set, wire and read its PBOs.
+
+Each request gets a fresh tid, so that the node, which remembers its recent answers by tid,
+answers a repeat (our request or its answer was lost) without doing it twice. A refusal raises
+TransferError with the node's reason.
+"""
+
+from __future__ import annotations
+
+import random
+from collections.abc import Callable
+
+from hexmigrate.transfer.control import Number, PboRow, parse_rows, parse_values
+from hexmigrate.transfer.messages import (
+    Ack,
+    ConnectPorts,
+    DisconnectPorts,
+    ListPbos,
+    Message,
+    PboTable,
+    PortValues,
+    ReadPorts,
+    SetConstant,
+    StartPbo,
+    StopPbo,
+)
+from hexmigrate.transfer.sender import Sender
+
+
+def fresh_tid() -> int:
+    """A tid unlikely to be one the node remembers."""
+    return random.getrandbits(31) | 1
+
+
+class NodeControl:
+    """Control requests to the node at the other end of `sender`'s link; `tids` gives each
+    request's tid (fixed ones make a test reproducible)."""
+
+    def __init__(self, sender: Sender, tids: Callable[[], int] = fresh_tid) -> None:
+        self.sender = sender
+        self.tids = tids
+
+    def pbos(self) -> tuple[PboRow, ...]:
+        """The node's PBOs with their state, rate and ports."""
+        reply = self.sender.request(ListPbos(tid := self.tids()), PboTable, tid)
+        assert isinstance(reply, PboTable)
+        return parse_rows(reply.pbos)
+
+    def read(self, ports: tuple[str, ...]) -> tuple[tuple[str, Number], ...]:
+        """The values of `ports` (``PBO.port`` each), read at the same moment on the node."""
+        reply = self.sender.request(ReadPorts(tid := self.tids(), " ".join(ports)), PortValues, tid)
+        assert isinstance(reply, PortValues)
+        return parse_values(reply.values)
+
+    def start(self, name: str) -> str:
+        """Turn PBO `name` on; the node's line about it."""
+        tid = self.tids()
+        return self._acknowledged(StartPbo(tid, name), tid, "started")
+
+    def stop(self, name: str) -> str:
+        """Turn PBO `name` off."""
+        tid = self.tids()
+        return self._acknowledged(StopPbo(tid, name), tid, "stopped")
+
+    def set(self, setting: str) -> str:
+        """Set a constant, ``PBO.NAME=VALUE``."""
+        tid = self.tids()
+        return self._acknowledged(SetConstant(tid, setting), tid, "set")
+
+    def connect(self, wire: str) -> str:
+        """Wire ``OUT_PBO.port=IN_PBO.port``."""
+        tid = self.tids()
+        return self._acknowledged(ConnectPorts(tid, wire), tid, "connected")
+
+    def disconnect(self, wire: str) -> str:
+        """Undo the wire ``OUT_PBO.port=IN_PBO.port``."""
+        tid = self.tids()
+        return self._acknowledged(DisconnectPorts(tid, wire), tid, "disconnected")
+
+    def _acknowledged(self, message: Message, tid: int, what: str) -> str:
+        """Send `message` until the node acknowledges it (an ACK of `tid` starting with `what`);
+        the acknowledgement's text."""
+        reply = self.sender.request(message, Ack, tid, what=what)
+        assert isinstance(reply, Ack)
+        return reply.text

@@ -1,0 +1,168 @@
+"""Node control over the node's own link, in one process and virtual time: a host lists, stops,
+sets, wires, starts and reads the PBOs of a node through its receiver; refusals name what they
+refuse and the node goes on; through a noisy link every request ends acknowledged and none is
+done twice."""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Iterator
+
+import pytest
+
+from firmware_sim.kernel_control import KernelControl
+from firmware_sim.natives import Signal
+from firmware_sim.node import Node
+from firmware_sim.server import NodeTarget
+from firmware_sim.starting import start_pbo
+from hexmigrate.errors import TransferError
+from hexmigrate.transfer.control_client import NodeControl
+from hexmigrate.transfer.receiver import Receiver
+from hexmigrate.transfer.sender import Sender
+from pbort.native import NativeModule, NativePBO, PortIO
+from pbort.ports import PortSpec
+from tests.hexmigrate.transfer_harness import DirectLink, noisy
+
+
+class Scale(NativePBO):
+    """y = k * x."""
+
+    name = "scale"
+    ports = (PortSpec.input("x"), PortSpec.output("y"), PortSpec.const("k"))
+
+    def cycle(self, io: PortIO) -> None:
+        io["y"] = io["k"] * io["x"]
+
+
+class Floaty(NativePBO):
+    """An input of another type than signal's output."""
+
+    name = "floaty"
+    ports = (PortSpec.input("x", dtype="<f4"),)
+
+
+class Broken(NativePBO):
+    """A PBO whose cycle fails: it goes to ERROR."""
+
+    name = "broken"
+    ports = (PortSpec.output("y"),)
+
+    def cycle(self, io: PortIO) -> int:
+        return -1
+
+
+class Counting(KernelControl):
+    """Counts every state change the node applies."""
+
+    def __init__(self, node: Node) -> None:
+        super().__init__(node)
+        self.applied = 0
+
+    def set_constant(self, text: str) -> str:
+        answer = super().set_constant(text)
+        self.applied += 1
+        return answer
+
+    def connect(self, source: str, sink: str) -> str:
+        answer = super().connect(source, sink)
+        self.applied += 1
+        return answer
+
+    def disconnect(self, source: str, sink: str) -> str:
+        answer = super().disconnect(source, sink)
+        self.applied += 1
+        return answer
+
+
+@pytest.fixture
+def node() -> Iterator[Node]:
+    with Node("controlled") as node:
+        start_pbo(node, NativeModule(Signal), 100.0, name="signal", constants={"amplitude": 3})
+        for native in (Scale, Floaty, Broken):
+            start_pbo(node, NativeModule(native), 100.0, name=native.name)
+        yield node
+
+
+def control_of(node: Node, link: DirectLink | None = None, **options: object) -> NodeControl:
+    receiver = Receiver(NodeTarget(node), KernelControl(node))
+    return NodeControl(Sender(link or DirectLink(receiver), "binary", **options))  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("mode", ["binary", "hex"])
+def test_a_host_stops_sets_wires_starts_and_reads_a_pbo(node: Node, mode: str) -> None:
+    receiver = Receiver(NodeTarget(node), KernelControl(node))
+    control = NodeControl(Sender(DirectLink(receiver), mode))
+    assert control.stop("scale") == "stopped scale"
+    assert control.set("scale.k=2") == "set scale.k=2"
+    assert control.connect("signal.y=scale.x") == "connected signal.y=scale.x"
+    assert control.start("scale") == "started scale"
+    node.run(until=node.kernel.now + 0.1)
+    values = dict(control.read(("signal.y", "scale.y")))
+    assert values["scale.y"] != 0
+    assert values["scale.y"] in (2 * values["signal.y"], 2 * (values["signal.y"] - 3))
+    rows = {row.name: row for row in control.pbos()}
+    assert rows["scale"].state == "ON"
+    assert rows["scale"].rate == 100.0
+    assert (rows["scale"].inputs, rows["scale"].outputs, rows["scale"].constants) == (
+        ("x",),
+        ("y",),
+        ("k",),
+    )
+    assert control.disconnect("signal.y=scale.x") == "disconnected signal.y=scale.x"
+    assert ("signal.y", "scale.x") not in node.kernel.connections()
+
+
+@pytest.mark.parametrize(
+    ("ask", "named"),
+    [
+        (lambda c: c.start("nope"), "'nope'"),
+        (lambda c: c.stop("nope"), "'nope'"),
+        (lambda c: c.set("scale.nope=1"), "scale.nope"),
+        (lambda c: c.set("scale.k=0.5"), "scale.k"),
+        (lambda c: c.set("scale.y=1"), "scale.y"),
+        (lambda c: c.set("scale.k=2"), "'scale'"),  # scale is ON: constants are set while OFF
+        (lambda c: c.connect("signal.y=floaty.x"), "floaty.x"),
+        (lambda c: c.connect("signal.y=nope.x"), "'nope'"),
+        (lambda c: c.disconnect("signal.y=scale.x"), "scale.x"),
+        (lambda c: c.read(("scale.nope",)), "scale.nope"),
+        (lambda c: c.read(("nodot",)), "nodot"),
+    ],
+)
+def test_a_refusal_names_what_it_refuses_and_the_node_goes_on(node: Node, ask, named) -> None:
+    control = control_of(node)
+    with pytest.raises(TransferError, match="the node refused") as refused:
+        ask(control)
+    assert named in str(refused.value)
+    assert control.stop("scale") == "stopped scale"  # still answering
+
+
+def test_a_pbo_in_error_is_not_started(node: Node) -> None:
+    node.run(until=node.kernel.now + 0.1)
+    control = control_of(node)
+    assert {row.name: row.state for row in control.pbos()}["broken"] == "ERROR"
+    with pytest.raises(TransferError, match="'broken'.*ERROR"):
+        control.start("broken")
+    assert control.stop("scale") == "stopped scale"
+
+
+def test_200_requests_through_a_noisy_link_are_each_done_once(node: Node) -> None:
+    node.kernel.off("scale")
+    counting = Counting(node)
+    link = DirectLink(
+        Receiver(NodeTarget(node), counting),
+        outbound=noisy(0.01, seed=13),
+        inbound=noisy(0.01, seed=1013),
+    )
+    sender = Sender(link, "binary", retries=40)
+    tids = itertools.count(1000)
+    control = NodeControl(sender, tids=lambda: next(tids))
+    for step in range(200):
+        if step % 4 == 1:
+            assert control.connect("signal.y=scale.x").startswith("connected")
+        elif step % 4 == 3:
+            assert control.disconnect("signal.y=scale.x").startswith("disconnected")
+        else:
+            assert control.set(f"scale.k={step}") == f"set scale.k={step}"
+    assert counting.applied == 200
+    assert sender.retransmissions > 10  # answers were lost, and requests repeated
+    assert node.kernel.value("scale.k") == 198
