@@ -18,8 +18,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from firmware_sim.fpga_port import open_port
-from firmware_sim.listen_link import open_listening
 from firmware_sim.kernel_control import KernelControl
+from firmware_sim.listen_link import open_listening
 from firmware_sim.listening_node import ListeningNode, Wire
 from firmware_sim.natives import NATIVES
 from firmware_sim.node import Node, NodeConfig

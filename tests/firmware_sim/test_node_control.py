@@ -140,7 +140,7 @@ def test_a_pbo_in_error_is_not_started(node: Node) -> None:
     node.run(until=node.kernel.now + 0.1)
     control = control_of(node)
     assert {row.name: row.state for row in control.pbos()}["broken"] == "ERROR"
-    with pytest.raises(TransferError, match="'broken'.*ERROR"):
+    with pytest.raises(TransferError, match=r"'broken'.*ERROR"):
         control.start("broken")
     assert control.stop("scale") == "stopped scale"
 
