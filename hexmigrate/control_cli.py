@@ -1,0 +1,239 @@
+"""The `hexmigrate` commands that control a node's PBOs over its own link: ps, start, stop, set,
+connect, disconnect and watch (docs/cli.md). Each one opens the link `--to` names, sends its
+requests through a `NodeControl` and prints what the node answered; a refusal is the node's
+reason on one ``error:`` line.
+
+`watch` polls the named ports with read requests, one every `--period` seconds: the node does
+not push reports yet.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import math
+import time
+from collections.abc import Callable, Iterator
+from contextlib import AbstractContextManager
+
+from commandline import UsageError, add_command
+from commandline.arguments import real
+from hexmigrate.errors import MessageError
+from hexmigrate.transfer.control import Number, wire
+from hexmigrate.transfer.control_client import NodeControl
+from hexmigrate.transfer.sender import Sender
+
+Connected = Callable[[argparse.Namespace], AbstractContextManager[Sender]]
+LinkOptions = Callable[[argparse.ArgumentParser], None]
+
+MAX_WATCH_SECONDS = 24 * 3600.0
+MIN_PERIOD = 0.01
+MAX_PERIOD = 3600.0
+MAX_PORTS = 32
+MAX_ARGUMENT = 120
+"""The longest PBO name, setting or wire a command takes: each travels in one message."""
+
+
+def pbo_name(text: str) -> str:
+    """A PBO's name (argparse type): one printable ASCII word without ``.``, ``=`` or ``:``."""
+    if not (_is_word(text) and not set(text) & set(".=:,")):
+        raise argparse.ArgumentTypeError(
+            f"expected a PBO name (1 to {MAX_ARGUMENT} printable ASCII characters without "
+            f"spaces, '.', '=', ':' or ','), got {text!r}"
+        )
+    return text
+
+
+def port_name(text: str) -> str:
+    """``PBO.port`` (argparse type)."""
+    pbo, dot, port = text.partition(".")
+    if not (dot and _is_word(text) and "=" not in text and "." not in port and pbo and port):
+        raise argparse.ArgumentTypeError(f"expected PBO.port, e.g. gain.y, got {text!r}")
+    return text
+
+
+def setting_text(text: str) -> str:
+    """``PBO.NAME=VALUE`` with a finite number for VALUE (argparse type); the node checks that
+    the constant's type holds it exactly."""
+    target, found, value = text.partition("=")
+    try:
+        port_name(target)
+        number = float(int(value, 0)) if _is_integer(value) else float(value)
+    except (argparse.ArgumentTypeError, ValueError):
+        number = math.nan
+    if not (found and _is_word(text) and math.isfinite(number)):
+        raise argparse.ArgumentTypeError(
+            f"expected PBO.NAME=VALUE with a number for VALUE, e.g. gain.k=0x20000, got {text!r}"
+        )
+    return text
+
+
+def wire_text(text: str) -> str:
+    """``OUT_PBO.port=IN_PBO.port`` (argparse type)."""
+    try:
+        wire(text)
+    except MessageError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    if not _is_word(text):
+        raise argparse.ArgumentTypeError(f"expected OUT_PBO.port=IN_PBO.port, got {text!r}")
+    return text
+
+
+def add_control_commands(
+    commands: argparse._SubParsersAction, link_options: LinkOptions, connected: Connected
+) -> None:
+    """Add the control commands; `link_options` adds ``--to`` and its company to a command,
+    `connected` opens the sender they name."""
+
+    @contextlib.contextmanager
+    def control(args: argparse.Namespace) -> Iterator[NodeControl]:
+        with connected(args) as sender:
+            yield NodeControl(sender)
+
+    def ps(args: argparse.Namespace) -> int:
+        with control(args) as node:
+            rows = node.pbos()
+        if args.json:
+            print(json.dumps([row.__dict__ for row in rows], indent=2))
+            return 0
+        if not rows:
+            print(f"no PBOs on {args.to}")
+        for row in rows:
+            rate = "aperiodic" if row.rate is None else f"{row.rate:g} Hz"
+            print(
+                f"{row.name:<16} {row.state:<11} {rate:>10}  in: {','.join(row.inputs) or '-'}"
+                f"  out: {','.join(row.outputs) or '-'}  const: {','.join(row.constants) or '-'}"
+            )
+        return 0
+
+    def one(action: Callable[[NodeControl, str], str], field: str) -> Callable[..., int]:
+        def command(args: argparse.Namespace) -> int:
+            with control(args) as node:
+                print(f"{action(node, getattr(args, field))} on {args.to}")
+            return 0
+
+        return command
+
+    def watch(args: argparse.Namespace) -> int:
+        with control(args) as node:
+            _watch(node, args)
+        return 0
+
+    listing = add_command(
+        commands,
+        "ps",
+        ps,
+        "list a node's PBOs: state, rate, ports",
+        "List the PBOs a node runs: lifecycle state (NOT_CREATED, OFF, ON, ERROR, KILLED),\n"
+        "rate, and the names of their input, output and constant ports.\n\n"
+        "example:\n"
+        "  hexmigrate ps --to socket://127.0.0.1:7777",
+    )
+    listing.add_argument("--json", action="store_true", help="print the PBOs as JSON")
+    link_options(listing)
+    for name, action, verb in (
+        ("start", NodeControl.start, "turn a PBO on (creating it first if need be)"),
+        ("stop", NodeControl.stop, "turn a PBO off (so that its constants can be set)"),
+    ):
+        command = add_command(commands, name, one(action, "pbo"), verb)
+        command.add_argument("pbo", type=pbo_name, metavar="PBO", help="the PBO's name")
+        link_options(command)
+    setting = add_command(
+        commands,
+        "set",
+        one(NodeControl.set, "setting"),
+        "set a constant of a PBO that is off",
+        "Set a constant of a PBO while it is off (stop it first, start it after). The value\n"
+        "must fit the constant's type exactly: a fixed-point constant is given as its raw\n"
+        "integer (0x8000 is 0.5 in Q16.16).\n\n"
+        "example:\n"
+        "  hexmigrate set gain.k=0x20000 --to socket://127.0.0.1:7777",
+    )
+    setting.add_argument(
+        "setting", type=setting_text, metavar="PBO.NAME=VALUE", help="the constant and its value"
+    )
+    link_options(setting)
+    for name, action, verb in (
+        ("connect", NodeControl.connect, "wire an output port to an input port"),
+        ("disconnect", NodeControl.disconnect, "undo a wire"),
+    ):
+        command = add_command(commands, name, one(action, "wire"), verb)
+        command.add_argument(
+            "wire", type=wire_text, metavar="OUT_PBO.port=IN_PBO.port", help="the wire"
+        )
+        link_options(command)
+    watching = add_command(
+        commands,
+        "watch",
+        watch,
+        "print ports of a node as they change",
+        "Read the named ports every --period seconds for --seconds and print one row per read\n"
+        "(the node's ports read at one moment), or a CSV with a time column (seconds since the\n"
+        "first read, on the host's clock).\n\n"
+        "example:\n"
+        "  hexmigrate watch --port gain.y --port signal.y --seconds 2 --csv "
+        "--to socket://127.0.0.1:7777",
+    )
+    watching.add_argument(
+        "--port",
+        type=port_name,
+        action="append",
+        required=True,
+        metavar="PBO.PORT",
+        help=f"a port to read (repeatable, at most {MAX_PORTS})",
+    )
+    watching.add_argument(
+        "--seconds",
+        type=real(above=0, maximum=MAX_WATCH_SECONDS, unit="s"),
+        default=5.0,
+        metavar="S",
+        help="how long to watch (default 5)",
+    )
+    watching.add_argument(
+        "--period",
+        type=real(MIN_PERIOD, MAX_PERIOD, unit="s"),
+        default=0.2,
+        metavar="S",
+        help="seconds between two reads (default 0.2)",
+    )
+    watching.add_argument("--csv", action="store_true", help="print CSV with a time column")
+    link_options(watching)
+
+
+def _watch(node: NodeControl, args: argparse.Namespace) -> None:
+    """Read `args.port` every `args.period` s for `args.seconds` s, one printed row each."""
+    ports: list[str] = args.port
+    if len(ports) > MAX_PORTS:
+        raise UsageError(f"expected at most {MAX_PORTS} --port, got {len(ports)}")
+    if args.csv:
+        print(",".join(["time", *ports]), flush=True)
+    start = time.monotonic()
+    reads = max(1, math.floor(args.seconds / args.period) + 1)
+    for index in range(reads):
+        pause = start + index * args.period - time.monotonic()
+        if pause > 0:
+            time.sleep(pause)
+        values = dict(node.read(tuple(ports)))
+        elapsed = time.monotonic() - start
+        print(_row(elapsed, ports, values, args.csv), flush=True)
+
+
+def _row(elapsed: float, ports: list[str], values: dict[str, Number], csv: bool) -> str:
+    if csv:
+        return ",".join([f"{elapsed:.3f}", *(str(values.get(port, "")) for port in ports)])
+    return f"t={elapsed:.3f}s  " + "  ".join(f"{port}={values.get(port)!r}" for port in ports)
+
+
+def _is_word(text: str) -> bool:
+    return (
+        0 < len(text) <= MAX_ARGUMENT and text.isascii() and text.isprintable() and " " not in text
+    )
+
+
+def _is_integer(text: str) -> bool:
+    try:
+        int(text, 0)
+    except ValueError:
+        return False
+    return True
