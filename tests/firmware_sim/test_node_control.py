@@ -9,6 +9,8 @@ import itertools
 from collections.abc import Iterator
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from firmware_sim.kernel_control import KernelControl
 from firmware_sim.natives import Signal
@@ -17,6 +19,21 @@ from firmware_sim.server import NodeTarget
 from firmware_sim.starting import start_pbo
 from hexmigrate.errors import TransferError
 from hexmigrate.transfer.control_client import NodeControl
+from hexmigrate.transfer.messages import (
+    Ack,
+    ConnectPorts,
+    DisconnectPorts,
+    ListPbos,
+    Nak,
+    PboTable,
+    PortValues,
+    ReadPorts,
+    SetConstant,
+    StartPbo,
+    StopPbo,
+    decode,
+    encode,
+)
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from pbort.native import NativeModule, NativePBO, PortIO
@@ -166,3 +183,36 @@ def test_200_requests_through_a_noisy_link_are_each_done_once(node: Node) -> Non
     assert counting.applied == 200
     assert sender.retransmissions > 10  # answers were lost, and requests repeated
     assert node.kernel.value("scale.k") == 198
+
+
+TIDS = st.integers(0, 0xFFFF_FFFF)
+NAMES = st.one_of(
+    st.sampled_from(["scale", "signal", "scale.k=1", "scale.k=0.5", "signal.y=scale.x", "a.b"]),
+    st.text(max_size=30),
+)
+
+REQUESTS = st.one_of(
+    st.builds(ListPbos, TIDS),
+    st.builds(StartPbo, TIDS, NAMES),
+    st.builds(StopPbo, TIDS, NAMES),
+    st.builds(SetConstant, TIDS, NAMES),
+    st.builds(ConnectPorts, TIDS, NAMES),
+    st.builds(DisconnectPorts, TIDS, NAMES),
+    st.builds(ReadPorts, TIDS, st.text(max_size=60)),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(requests=st.lists(REQUESTS, min_size=1, max_size=8))
+def test_any_control_request_gets_one_answer_and_the_node_goes_on(requests) -> None:
+    with Node("fuzzed") as node:
+        start_pbo(node, NativeModule(Signal), 100.0, name="signal")
+        start_pbo(node, NativeModule(Scale), 100.0, name="scale")
+        receiver = Receiver(NodeTarget(node), KernelControl(node))
+        for request in requests:
+            replies = receiver.handle(encode(request, False))
+            assert len(replies) == 1
+            answer = decode(replies[0], checked=True)
+            assert isinstance(answer, (Ack, Nak, PboTable, PortValues))
+            assert answer.tid == request.tid
+        node.run(until=node.kernel.now + 0.02)
