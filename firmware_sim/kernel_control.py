@@ -73,6 +73,11 @@ class KernelControl:
         kernel.configure(wanted.target, value)
         return f"set {wanted.target}={value!r}"
 
+    def set_rate(self, name: str, hertz: float) -> str:
+        """Run PBO `name` at `hertz` from its next start (set while it is off)."""
+        self.node.kernel.set_frequency(name, hertz)
+        return f"rate {name}={hertz:g} Hz"
+
     def connect(self, source: str, sink: str) -> str:
         """Wire output `source` to input `sink`."""
         self.node.kernel.connect(source, sink)

@@ -1,5 +1,5 @@
 """The `hexmigrate` commands that control a node's PBOs over its own link: ps, start, stop, set,
-connect, disconnect and watch (docs/cli.md). Each one opens the link `--to` names, sends its
+rate, connect, disconnect and watch (docs/cli.md). Each one opens the link `--to` names, sends its
 requests through a `NodeControl` and prints what the node answered; a refusal is the node's
 reason on one ``error:`` line.
 
@@ -16,6 +16,7 @@ import math
 import time
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager
+from typing import Any
 
 from commandline import UsageError, add_command
 from commandline.arguments import real
@@ -31,6 +32,8 @@ MAX_WATCH_SECONDS = 24 * 3600.0
 MIN_PERIOD = 0.01
 MAX_PERIOD = 3600.0
 MAX_PORTS = 32
+MAX_MILLIHERTZ = 0xFFFF_FFFF
+"""The highest rate a request carries, in millihertz (a u32)."""
 MAX_ARGUMENT = 120
 """The longest PBO name, setting or wire a command takes: each travels in one message."""
 
@@ -67,6 +70,22 @@ def setting_text(text: str) -> str:
             f"expected PBO.NAME=VALUE with a number for VALUE, e.g. gain.k=0x20000, got {text!r}"
         )
     return text
+
+
+def rate_setting(text: str) -> tuple[str, int]:
+    """``PBO=HZ`` (argparse type) as the PBO's name and its rate in millihertz, as the protocol
+    carries it: above 0 and at most MAX_HERTZ."""
+    name, found, hertz = text.partition("=")
+    try:
+        rate = float(hertz)
+    except ValueError:
+        rate = math.nan
+    millihertz = round(rate * 1000) if math.isfinite(rate) else 0
+    if not (found and name and 0 < millihertz <= MAX_MILLIHERTZ):
+        raise argparse.ArgumentTypeError(
+            f"expected PBO=HZ with HZ from 0.001 to {MAX_MILLIHERTZ / 1000}, got {text!r}"
+        )
+    return pbo_name(name), millihertz
 
 
 def wire_text(text: str) -> str:
@@ -107,7 +126,7 @@ def add_control_commands(
             )
         return 0
 
-    def one(action: Callable[[NodeControl, str], str], field: str) -> Callable[..., int]:
+    def one(action: Callable[[NodeControl, Any], str], field: str) -> Callable[..., int]:
         def command(args: argparse.Namespace) -> int:
             with control(args) as node:
                 print(f"{action(node, getattr(args, field))} on {args.to}")
@@ -154,6 +173,18 @@ def add_control_commands(
         "setting", type=setting_text, metavar="PBO.NAME=VALUE", help="the constant and its value"
     )
     link_options(setting)
+    rating = add_command(
+        commands,
+        "rate",
+        one(lambda node, rate: node.set_rate(*rate), "rate"),
+        "set the rate of a periodic PBO that is off",
+        "Set the rate (Hz) a periodic PBO runs at from its next start; like a constant, while\n"
+        "it is off.\n\n"
+        "example:\n"
+        "  hexmigrate rate gain=50 --to socket://127.0.0.1:7777",
+    )
+    rating.add_argument("rate", type=rate_setting, metavar="PBO=HZ", help="the PBO and its rate")
+    link_options(rating)
     for name, action, verb in (
         ("connect", NodeControl.connect, "wire an output port to an input port"),
         ("disconnect", NodeControl.disconnect, "undo a wire"),

@@ -22,6 +22,7 @@ from hexmigrate.transfer.messages import (
     PortValues,
     ReadPorts,
     SetConstant,
+    SetRate,
     StartPbo,
     StopPbo,
 )
@@ -67,6 +68,11 @@ class NodeControl:
         """Set a constant, ``PBO.NAME=VALUE``."""
         tid = self.tids()
         return self._acknowledged(SetConstant(tid, setting), tid, "set")
+
+    def set_rate(self, name: str, millihertz: int) -> str:
+        """Run PBO `name` at `millihertz` / 1000 Hz from its next start."""
+        tid = self.tids()
+        return self._acknowledged(SetRate(tid, millihertz, name), tid, "rate")
 
     def connect(self, wire: str) -> str:
         """Wire ``OUT_PBO.port=IN_PBO.port``."""

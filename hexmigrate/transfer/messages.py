@@ -216,6 +216,14 @@ class DisconnectPorts(Message, code=0x10, verb="DISCONNECT"):
     wire: str = word()
 
 
+class SetRate(Message, code=0x19, verb="RATE"):
+    """Run PBO `name` at `millihertz` / 1000 Hz from its next start; set while it is off."""
+
+    tid: int = u32()
+    millihertz: int = u32()
+    name: str = word()
+
+
 class ReadPorts(Message, code=0x16, verb="READ"):
     """The values of ports, ``PBO.port`` words. Answered by `PortValues`."""
 

@@ -45,6 +45,7 @@ from hexmigrate.transfer.messages import (
     Remove,
     Resume,
     SetConstant,
+    SetRate,
     StartPbo,
     StopPbo,
     decode,
@@ -222,6 +223,8 @@ class Receiver:
             return Ack(tid, 0, control.stop(message.name))
         if isinstance(message, SetConstant):
             return Ack(tid, 0, control.set_constant(message.setting))
+        if isinstance(message, SetRate):
+            return Ack(tid, 0, control.set_rate(message.name, message.millihertz / 1000))
         if isinstance(message, ConnectPorts):
             return Ack(tid, 0, control.connect(*wire(message.wire)))
         if isinstance(message, DisconnectPorts):
@@ -437,6 +440,7 @@ _HANDLERS = {
     StartPbo: Receiver._controlled,
     StopPbo: Receiver._controlled,
     SetConstant: Receiver._controlled,
+    SetRate: Receiver._controlled,
     ConnectPorts: Receiver._controlled,
     DisconnectPorts: Receiver._controlled,
     ReadPorts: Receiver._controlled,

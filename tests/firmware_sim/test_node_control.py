@@ -29,6 +29,7 @@ from hexmigrate.transfer.messages import (
     PortValues,
     ReadPorts,
     SetConstant,
+    SetRate,
     StartPbo,
     StopPbo,
     decode,
@@ -111,6 +112,7 @@ def test_a_host_stops_sets_wires_starts_and_reads_a_pbo(node: Node, mode: str) -
     control = NodeControl(Sender(DirectLink(receiver), mode))
     assert control.stop("scale") == "stopped scale"
     assert control.set("scale.k=2") == "set scale.k=2"
+    assert control.set_rate("scale", 50_000) == "rate scale=50 Hz"
     assert control.connect("signal.y=scale.x") == "connected signal.y=scale.x"
     assert control.start("scale") == "started scale"
     node.run(until=node.kernel.now + 0.1)
@@ -119,7 +121,7 @@ def test_a_host_stops_sets_wires_starts_and_reads_a_pbo(node: Node, mode: str) -
     assert values["scale.y"] in (2 * values["signal.y"], 2 * (values["signal.y"] - 3))
     rows = {row.name: row for row in control.pbos()}
     assert rows["scale"].state == "ON"
-    assert rows["scale"].rate == 100.0
+    assert rows["scale"].rate == 50.0
     assert (rows["scale"].inputs, rows["scale"].outputs, rows["scale"].constants) == (
         ("x",),
         ("y",),
@@ -138,6 +140,9 @@ def test_a_host_stops_sets_wires_starts_and_reads_a_pbo(node: Node, mode: str) -
         (lambda c: c.set("scale.k=0.5"), "scale.k"),
         (lambda c: c.set("scale.y=1"), "scale.y"),
         (lambda c: c.set("scale.k=2"), "'scale'"),  # scale is ON: constants are set while OFF
+        (lambda c: c.set_rate("scale", 50_000), "'scale'"),  # scale is ON
+        (lambda c: c.set_rate("scale", 0), "'scale'"),
+        (lambda c: c.set_rate("nope", 1000), "'nope'"),
         (lambda c: c.connect("signal.y=floaty.x"), "floaty.x"),
         (lambda c: c.connect("signal.y=nope.x"), "'nope'"),
         (lambda c: c.disconnect("signal.y=scale.x"), "scale.x"),
@@ -196,6 +201,7 @@ REQUESTS = st.one_of(
     st.builds(StartPbo, TIDS, NAMES),
     st.builds(StopPbo, TIDS, NAMES),
     st.builds(SetConstant, TIDS, NAMES),
+    st.builds(SetRate, TIDS, TIDS, NAMES),
     st.builds(ConnectPorts, TIDS, NAMES),
     st.builds(DisconnectPorts, TIDS, NAMES),
     st.builds(ReadPorts, TIDS, st.text(max_size=60)),

@@ -41,6 +41,7 @@ def test_a_host_sets_wires_and_starts_a_module_then_watches_it(gain_hex: Path) -
         node.wait_for(r"^registered gain at ")
         assert "started signal" in hexmigrate("start", "signal", "--to", to)
         assert "set gain.k=131072" in hexmigrate("set", "gain.k=0x20000", "--to", to)
+        assert "rate gain=50 Hz" in hexmigrate("rate", "gain=50", "--to", to)
         assert "connected signal.y=gain.x" in hexmigrate("connect", "signal.y=gain.x", "--to", to)
         assert "started gain" in hexmigrate("start", "gain", "--to", to)
         shown = hexmigrate(
@@ -52,7 +53,7 @@ def test_a_host_sets_wires_and_starts_a_module_then_watches_it(gain_hex: Path) -
         assert rows[0].keys() == {"time", "signal.y", "gain.y"}
         assert any(int(row["gain.y"]) != 0 for row in rows), shown
         listed = hexmigrate("ps", "--to", to)
-        assert any(line.split()[:2] == ["gain", "ON"] for line in listed.splitlines()), listed
+        assert any(line.split()[:4] == ["gain", "ON", "50", "Hz"] for line in listed.splitlines())
 
         assert "SET refused: unknown port 'gain.q'" in refused("set", "gain.q=1", "--to", to)
         assert "'nope'" in refused("start", "nope", "--to", to)

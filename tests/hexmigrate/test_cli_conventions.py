@@ -22,7 +22,7 @@ from hexmigrate import cli
 from tests.hexmigrate.cli_node import route_to
 
 COMMANDS = ("pack", "inspect", "verify", "relocate", "send", "ping", "ls", "rm")
-CONTROL = ("ps", "start", "stop", "set", "connect", "disconnect", "watch")
+CONTROL = ("ps", "start", "stop", "set", "rate", "connect", "disconnect", "watch")
 
 
 @pytest.fixture

@@ -84,12 +84,15 @@ URLS = st.one_of(
     ),
 )
 NAMES = st.one_of(st.sampled_from(["gain", "", "a b", "x" * 17, "é", "-x"]), st.text(max_size=20))
-CONTROL = ["ps", "start", "stop", "set", "connect", "disconnect", "watch"]
+CONTROL = ["ps", "start", "stop", "set", "rate", "connect", "disconnect", "watch"]
 CONTROL_ARGUMENTS = st.one_of(
-    st.sampled_from(["gain.k=2", "gain.k=nan", "gain.k=1e999", "a.b=c.d", "a.b=c", "=", "x" * 200]),
+    st.sampled_from(
+        ["gain.k=2", "gain.k=nan", "gain.k=1e999", "a.b=c.d", "a.b=c", "=", "x" * 200, "gain=50"]
+    ),
+    st.sampled_from(["gain=0", "gain=-1", "gain=inf", "gain=4294968", "=5"]),
     st.text(max_size=30),
 )
-"""What set, connect and disconnect take, right and wrong."""
+"""What set, rate, connect and disconnect take, right and wrong."""
 
 
 @dataclass(frozen=True)
@@ -195,7 +198,7 @@ def node_commands(draw: st.DrawFn, files: Files) -> list[str]:
     argv = [command]
     if command in ("start", "stop"):
         argv += [draw(NAMES)]
-    if command in ("set", "connect", "disconnect"):
+    if command in ("set", "rate", "connect", "disconnect"):
         argv += [draw(CONTROL_ARGUMENTS)]
     if command == "watch":
         argv += [item for _ in range(draw(st.integers(0, 3))) for item in ("--port", draw(NAMES))]

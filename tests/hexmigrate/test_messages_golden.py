@@ -36,6 +36,7 @@ from hexmigrate.transfer.messages import (
     Remove,
     Resume,
     SetConstant,
+    SetRate,
     StartPbo,
     StopPbo,
     decode,
@@ -199,6 +200,8 @@ GOLDEN: list[tuple[Message, bool, str]] = [
         TEXT,
         "52454144203131206761696e2e79207369676e616c2e79202a4146",
     ),
+    (SetRate(12, 50000, "gain"), TEXT, "52415445203132203530303030206761696e202a4137"),
+    (SetRate(12, 50000, "gain"), BINARY, "190c00000050c300006761696efd23ee60"),
     (ReadPorts(11, "gain.y signal.y"), BINARY, "160b0000006761696e2e79207369676e616c2e796afee3f2"),
     (
         PboTable(5, "gain:OFF:100:x:y:k"),
