@@ -16,7 +16,15 @@ from firmware_sim.settings import Number, exact, setting
 from hexmigrate.transfer.control import PboRow
 from pbort.errors import NotConnectedError
 from pbort.lifecycle import State
-from pbort.ports import Direction, PortKind
+from pbort.ports import Direction, PortKind, PortSpec
+
+DIRECTIONS = (Direction.IN, Direction.OUT, Direction.CONST)
+"""The port directions a PBO listing names, in `PboRow`'s order."""
+
+
+def _named(ports: tuple[PortSpec, ...], direction: Direction) -> tuple[str, ...]:
+    """The names of the ports of one direction."""
+    return tuple(port.name for port in ports if port.direction is direction)
 
 
 class KernelControl:
@@ -28,24 +36,15 @@ class KernelControl:
     def pbos(self) -> tuple[PboRow, ...]:
         """Every PBO of the kernel, in registration order."""
         kernel = self.node.kernel
-        rows = []
-        for name in kernel.names:
-            ports = kernel.ports(name)
-
-            def named(direction: Direction, ports: tuple = ports) -> tuple[str, ...]:
-                return tuple(port.name for port in ports if port.direction is direction)
-
-            rows.append(
-                PboRow(
-                    name,
-                    kernel.state(name).name,
-                    kernel.frequency(name),
-                    named(Direction.IN),
-                    named(Direction.OUT),
-                    named(Direction.CONST),
-                )
+        return tuple(
+            PboRow(
+                name,
+                kernel.state(name).name,
+                kernel.frequency(name),
+                *(_named(kernel.ports(name), way) for way in DIRECTIONS),
             )
-        return tuple(rows)
+            for name in kernel.names
+        )
 
     def start(self, name: str) -> str:
         """Turn PBO `name` on, creating it first when it is not yet."""
@@ -98,4 +97,4 @@ class KernelControl:
         if spec.kind is not PortKind.SCALAR:
             raise PortValueError(f"{port} is a {spec.kind.value}; only scalar ports are read")
         value = np.asarray(kernel.value(port)).item()
-        return value if isinstance(value, (int, float)) else int(value)
+        return value if isinstance(value, float) else int(value)  # a bool port reads 0 or 1
