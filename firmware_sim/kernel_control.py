@@ -8,16 +8,20 @@ rule of ``--set`` (firmware_sim.settings), and only scalar ports are read.
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 
 from firmware_sim.errors import PortValueError
 from firmware_sim.node import Node
 from firmware_sim.settings import Number, exact, setting
 from hexmigrate.transfer.control import PboRow
+from pbort.code import PerformanceKind
 from pbort.errors import NotConnectedError
 from pbort.lifecycle import State
 from pbort.ports import Direction, PortKind, PortSpec
 
+_KIND = {PerformanceKind.FUNCTIONAL: "F", PerformanceKind.NON_FUNCTIONAL: "N"}
 DIRECTIONS = (Direction.IN, Direction.OUT, Direction.CONST)
 """The port directions a PBO listing names, in `PboRow`'s order."""
 
@@ -89,6 +93,31 @@ class KernelControl:
             raise NotConnectedError(f"input {sink!r} is not connected to {source!r}")
         kernel.disconnect(sink)
         return f"disconnected {source}={sink}"
+
+    def clock(self) -> float:
+        """The node's clock, in seconds."""
+        return self.node.kernel.now
+
+    def performance(self) -> tuple[tuple[str, Number], ...]:
+        """The node's leftover power (0-100) and every running PBO's latest evaluator outputs,
+        ``PBO:F0`` (functional) and ``PBO:N0`` (non-functional) by index."""
+        kernel = self.node.kernel
+        values: list[tuple[str, Number]] = [("leftover", self.node.power.leftover)]
+        for name in kernel.names:
+            if kernel.state(name) is State.ON:
+                latest = {(r.kind, r.index): r.value for r in kernel.performance(name)}
+                values += [
+                    (f"{name}:{_KIND[kind]}{index}", value)
+                    for (kind, index), value in sorted(latest.items())
+                ]
+        return tuple(values)
+
+    def state(self) -> str:
+        """A line about the node's PBOs: how many, and how many in each state."""
+        kernel = self.node.kernel
+        states = Counter(kernel.state(name).name for name in kernel.names)
+        counts = ", ".join(f"{count} {state}" for state, count in sorted(states.items()))
+        return f"{self.node.name}: {len(kernel.names)} PBOs" + (f": {counts}" if counts else "")
 
     def read(self, port: str) -> Number:
         """The value of scalar port `port`."""

@@ -111,7 +111,8 @@ def serve(
     """Answer messages on `link` until `stop()` is true, running the node between them.
 
     Pass the `receiver` of an earlier call to keep transfers across a new link (resume). A new
-    receiver also takes the node's control requests (`KernelControl`).
+    receiver also takes the node's control requests (`KernelControl`); what a host's watch
+    asks for is pushed between messages.
     """
     receiver = receiver or Receiver(NodeTarget(node), KernelControl(node))
     while not stop():
@@ -121,4 +122,6 @@ def serve(
                 link.send(reply)
         elif node.kernel.names:
             node.run(until=node.kernel.now + poll)
+        for push in receiver.due():  # reports and heartbeats of a watch
+            link.send(push)
     return receiver

@@ -3,8 +3,9 @@ rate, connect, disconnect and watch (docs/cli.md). Each one opens the link `--to
 requests through a `NodeControl` and prints what the node answered; a refusal is the node's
 reason on one ``error:`` line.
 
-`watch` polls the named ports with read requests, one every `--period` seconds: the node does
-not push reports yet.
+`watch` asks the node to push a report every `--period` seconds (its leftover power, each
+running PBO's evaluator outputs and the named ports) and a heartbeat every second, and prints
+them as they come.
 """
 
 from __future__ import annotations
@@ -13,7 +14,6 @@ import argparse
 import contextlib
 import json
 import math
-import time
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager
 from typing import Any
@@ -21,8 +21,9 @@ from typing import Any
 from commandline import UsageError, add_command
 from commandline.arguments import real
 from hexmigrate.errors import MessageError
-from hexmigrate.transfer.control import Number, wire
+from hexmigrate.transfer.control import Number, parse_values, wire
 from hexmigrate.transfer.control_client import NodeControl
+from hexmigrate.transfer.messages import Heartbeat, PerformanceReport
 from hexmigrate.transfer.sender import Sender
 
 Connected = Callable[[argparse.Namespace], AbstractContextManager[Sender]]
@@ -198,10 +199,12 @@ def add_control_commands(
         commands,
         "watch",
         watch,
-        "print ports of a node as they change",
-        "Read the named ports every --period seconds for --seconds and print one row per read\n"
-        "(the node's ports read at one moment), or a CSV with a time column (seconds since the\n"
-        "first read, on the host's clock).\n\n"
+        "print a node's performance reports and ports as they come",
+        "Have the node push a report every --period seconds of its clock for --seconds: its\n"
+        "leftover power (leftover, 0-100), every running PBO's latest evaluator outputs\n"
+        "(PBO:F0 functional, PBO:N0 non-functional, by index) and the --port values; and a\n"
+        "heartbeat every second. Each prints as one row with the report's sequence number and\n"
+        "node time; with --csv a CSV whose columns are time, seq and the first report's values.\n\n"
         "example:\n"
         "  hexmigrate watch --port gain.y --port signal.y --seconds 2 --csv "
         "--to socket://127.0.0.1:7777",
@@ -210,9 +213,8 @@ def add_control_commands(
         "--port",
         type=port_name,
         action="append",
-        required=True,
         metavar="PBO.PORT",
-        help=f"a port to read (repeatable, at most {MAX_PORTS})",
+        help=f"a port to report too (repeatable, at most {MAX_PORTS})",
     )
     watching.add_argument(
         "--seconds",
@@ -226,34 +228,44 @@ def add_control_commands(
         type=real(MIN_PERIOD, MAX_PERIOD, unit="s"),
         default=0.2,
         metavar="S",
-        help="seconds between two reads (default 0.2)",
+        help="seconds of the node's clock between two reports (default 0.2)",
     )
     watching.add_argument("--csv", action="store_true", help="print CSV with a time column")
     link_options(watching)
 
 
 def _watch(node: NodeControl, args: argparse.Namespace) -> None:
-    """Read `args.port` every `args.period` s for `args.seconds` s, one printed row each."""
-    ports: list[str] = args.port
+    """Have the node push a report every `args.period` s with `args.port` for `args.seconds`
+    s and print each as it comes, then stop the pushes."""
+    ports: tuple[str, ...] = tuple(args.port or ())
     if len(ports) > MAX_PORTS:
         raise UsageError(f"expected at most {MAX_PORTS} --port, got {len(ports)}")
-    if args.csv:
-        print(",".join(["time", *ports]), flush=True)
-    start = time.monotonic()
-    reads = max(1, math.floor(args.seconds / args.period) + 1)
-    for index in range(reads):
-        pause = start + index * args.period - time.monotonic()
-        if pause > 0:
-            time.sleep(pause)
-        values = dict(node.read(tuple(ports)))
-        elapsed = time.monotonic() - start
-        print(_row(elapsed, ports, values, args.csv), flush=True)
+    node.watch(round(args.period * 1000), ports)
+    columns: list[str] = []
+    try:
+        for push in node.pushes(args.seconds):
+            if isinstance(push, Heartbeat):
+                if not args.csv:
+                    print(f"heartbeat #{push.seq} t={push.clock_ms / 1000:.3f}s  {push.state}")
+                continue
+            values = dict(parse_values(push.values))
+            if args.csv and not columns:
+                columns = list(values)
+                print(",".join(["time", "seq", *columns]), flush=True)
+            print(_row(push, columns, values, args.csv), flush=True)
+    finally:
+        node.watch(0)
 
 
-def _row(elapsed: float, ports: list[str], values: dict[str, Number], csv: bool) -> str:
+def _row(
+    report: PerformanceReport, columns: list[str], values: dict[str, Number], csv: bool
+) -> str:
+    """One report as a CSV row of `columns`, or as a line of every value it holds."""
+    clock = f"{report.clock_ms / 1000:.3f}"
     if csv:
-        return ",".join([f"{elapsed:.3f}", *(str(values.get(port, "")) for port in ports)])
-    return f"t={elapsed:.3f}s  " + "  ".join(f"{port}={values.get(port)!r}" for port in ports)
+        return ",".join([clock, str(report.seq), *(str(values.get(n, "")) for n in columns)])
+    shown = "  ".join(f"{name}={value!r}" for name, value in values.items())
+    return f"report #{report.seq} t={clock}s  {shown}"
 
 
 def _is_word(text: str) -> bool:

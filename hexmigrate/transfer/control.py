@@ -67,6 +67,9 @@ class ControlTarget(Protocol):
     def connect(self, source: str, sink: str) -> str: ...
     def disconnect(self, source: str, sink: str) -> str: ...
     def read(self, port: str) -> Number: ...
+    def clock(self) -> float: ...
+    def performance(self) -> tuple[tuple[str, Number], ...]: ...
+    def state(self) -> str: ...
 
 
 def wire(text: str) -> tuple[str, str]:
@@ -98,18 +101,18 @@ def parse_rows(text: str) -> tuple[PboRow, ...]:
 
 
 def values_text(values: tuple[tuple[str, Number], ...]) -> str:
-    """The free text of port values: ``PBO.port=VALUE`` words (a float as Python's repr, so it
-    reads back the same)."""
+    """The free text of named values (ports, evaluator outputs): ``NAME=VALUE`` words (a float
+    as Python's repr, so it reads back the same)."""
     return " ".join(f"{port}={value!r}" for port, value in values)
 
 
 def parse_values(text: str) -> tuple[tuple[str, Number], ...]:
-    """Port values from their free text."""
+    """Named values from their free text."""
     values = []
     for word in text.split():
         port, found, value = word.partition("=")
-        if not (found and _is_port(port)):
-            raise MessageError(f"expected PBO.port=VALUE, got {word[:60]!r}")
+        if not (found and port):
+            raise MessageError(f"expected NAME=VALUE, got {word[:60]!r}")
         values.append((port, _number(value)))
     return tuple(values)
 

@@ -1,5 +1,6 @@
 """The host's side of node control: `NodeControl` asks a node, through a `Sender` (its retries,
-timeouts and refusal handling), to list, start, stop, set, wire and read its PBOs.
+timeouts and refusal handling), to list, start, stop, set, wire and read its PBOs, and to push
+reports (`watch`, then `pushes`).
 
 Each request gets a fresh tid, so that the node, which remembers its recent answers by tid,
 answers a repeat (our request or its answer was lost) without doing it twice. A refusal raises
@@ -9,22 +10,28 @@ TransferError with the node's reason.
 from __future__ import annotations
 
 import random
-from collections.abc import Callable
+import time
+from collections.abc import Callable, Iterator
 
+from hexmigrate.errors import MessageError
 from hexmigrate.transfer.control import Number, PboRow, parse_rows, parse_values
 from hexmigrate.transfer.messages import (
     Ack,
     ConnectPorts,
     DisconnectPorts,
+    Heartbeat,
     ListPbos,
     Message,
     PboTable,
+    PerformanceReport,
     PortValues,
     ReadPorts,
     SetConstant,
     SetRate,
     StartPbo,
     StopPbo,
+    Watch,
+    decode,
 )
 from hexmigrate.transfer.sender import Sender
 
@@ -83,6 +90,28 @@ class NodeControl:
         """Undo the wire ``OUT_PBO.port=IN_PBO.port``."""
         tid = self.tids()
         return self._acknowledged(DisconnectPorts(tid, wire), tid, "disconnected")
+
+    def watch(self, period_ms: int, ports: tuple[str, ...] = ()) -> str:
+        """Ask the node to push a report every `period_ms` with `ports`, and heartbeats; 0
+        stops them."""
+        tid = self.tids()
+        what = "watching" if period_ms else "unwatched"
+        return self._acknowledged(Watch(tid, period_ms, " ".join(ports)), tid, what)
+
+    def pushes(self, seconds: float) -> Iterator[PerformanceReport | Heartbeat]:
+        """The reports and heartbeats the node pushes for `seconds`, as they come (damaged
+        ones and stray answers are skipped: the sequence numbers tell what was lost)."""
+        deadline = time.monotonic() + seconds
+        while (left := deadline - time.monotonic()) > 0:
+            raw = self.sender.link.receive(left)
+            if raw is None:
+                continue
+            try:
+                message = decode(raw, checked=True)
+            except MessageError:
+                continue
+            if isinstance(message, (PerformanceReport, Heartbeat)):
+                yield message
 
     def _acknowledged(self, message: Message, tid: int, what: str) -> str:
         """Send `message` until the node acknowledges it (an ACK of `tid` starting with `what`);

@@ -224,6 +224,15 @@ class SetRate(Message, code=0x19, verb="RATE"):
     name: str = word()
 
 
+class Watch(Message, code=0x1A, verb="WATCH"):
+    """Push a `PerformanceReport` every `period_ms` (0: stop), with the values of `ports`
+    (``PBO.port`` words), and a `Heartbeat` every second, on the link this came from."""
+
+    tid: int = u32()
+    period_ms: int = u32()
+    ports: str = free_text(default="")
+
+
 class ReadPorts(Message, code=0x16, verb="READ"):
     """The values of ports, ``PBO.port`` words. Answered by `PortValues`."""
 
@@ -278,6 +287,25 @@ class PortValues(Message, code=0x18, verb="VALUES"):
 
     tid: int = u32()
     values: str = free_text(default="")
+
+
+class PerformanceReport(Message, code=0x1B, verb="REPORT"):
+    """Pushed by a watched node: report `seq` at `clock_ms` of the node's clock, with
+    ``NAME=VALUE`` words: ``leftover`` (power, 0-100), each running PBO's latest evaluator
+    outputs (``PBO:F0`` functional, ``PBO:N0`` non-functional, by index) and the watched
+    ports."""
+
+    seq: int = u32()
+    clock_ms: int = u32()
+    values: str = free_text(default="")
+
+
+class Heartbeat(Message, code=0x1C, verb="BEAT"):
+    """Pushed by a watched node every second: `seq`, `clock_ms` and a line about its PBOs."""
+
+    seq: int = u32()
+    clock_ms: int = u32()
+    state: str = free_text(default="")
 
 
 class BlockAck(Message, code=0x15, check=CRC16):

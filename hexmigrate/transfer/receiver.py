@@ -48,9 +48,11 @@ from hexmigrate.transfer.messages import (
     SetRate,
     StartPbo,
     StopPbo,
+    Watch,
     decode,
     encode,
 )
+from hexmigrate.transfer.subscription import HEARTBEAT_PERIOD, MIN_PERIOD_MS, Subscription
 
 IMPLICIT = 0  # the transfer id of a module typed or pasted on a terminal without BEGIN
 REMEMBERED_COMMITS = 64
@@ -128,6 +130,9 @@ class Receiver:
         self.control = control
         self.controlled: OrderedDict[int, Message] = OrderedDict()
         """The answers to recent control requests, by tid."""
+        self.subscription: Subscription | None = None
+        """The host's watch, if one is on."""
+        self._text = False  # the mode of the message being handled
         self.transfers: dict[int, Transfer] = {}
         # The answers to recent commits: when an ACK is lost the sender commits again, and must
         # hear the same answer rather than "unknown transfer".
@@ -138,12 +143,20 @@ class Receiver:
         on a message: one that does not decode is refused with the reason, and a reply that
         cannot be written in the mode asked (a module whose name has a blank, listed in hex
         mode) becomes a refusal that says why."""
-        text = is_text(raw)
+        text = self._text = is_text(raw)
         try:
             message = decode(raw)
         except MessageError as error:
             return [_encoded(Nak(0, 0, f"bad message: {error}"), text)]
         return [_encoded(reply, text) for reply in self.dispatch(message)]
+
+    def due(self) -> list[bytes]:
+        """What a watched node pushes now (reports, heartbeats), encoded in the mode of the
+        watch; the node's serve loop sends them between messages."""
+        if self.subscription is None or self.control is None:
+            return []
+        subscription = self.subscription
+        return [_encoded(push, subscription.text) for push in subscription.due(self.control)]
 
     def dispatch(self, message: Message) -> list[Message]:
         """Replies to one decoded message."""
@@ -214,6 +227,8 @@ class Receiver:
             raise MessageError("this node takes no control requests")
         if isinstance(message, ListPbos):
             return PboTable(tid, rows_text(control.pbos()))
+        if isinstance(message, Watch):
+            return self._watch(control, message)
         if isinstance(message, ReadPorts):
             values = tuple((port, control.read(port)) for port in ports(message.ports))
             return PortValues(tid, values_text(values))
@@ -230,6 +245,24 @@ class Receiver:
         if isinstance(message, DisconnectPorts):
             return Ack(tid, 0, control.disconnect(*wire(message.wire)))
         raise MessageError(f"{type(message).__name__} is not a control request")
+
+    def _watch(self, control: ControlTarget, message: Watch) -> Message:
+        """Start, change or stop (period 0) the pushes of reports and heartbeats."""
+        if message.period_ms == 0:
+            self.subscription = None
+            return Ack(message.tid, 0, "unwatched")
+        if message.period_ms < MIN_PERIOD_MS:
+            raise MessageError(
+                f"expected a report period of at least {MIN_PERIOD_MS} ms, got {message.period_ms}"
+            )
+        watched = ports(message.ports) if message.ports.strip() else ()
+        for port in watched:
+            control.read(port)  # refused by name now rather than missing from every report
+        now = control.clock()
+        self.subscription = Subscription(
+            message.period_ms / 1000, watched, self._text, now, now + HEARTBEAT_PERIOD
+        )
+        return Ack(message.tid, message.period_ms, "watching")
 
     # A transfer.
 
@@ -444,8 +477,9 @@ _HANDLERS = {
     ConnectPorts: Receiver._controlled,
     DisconnectPorts: Receiver._controlled,
     ReadPorts: Receiver._controlled,
+    Watch: Receiver._controlled,
 }
-"""The requests a node answers. Any other message is an answer (`Pong`, `Listing`, `Ack`,
-`BlockAck`, `Nak`, `PboTable`, `PortValues`), which a node hears but never answers: on a shared
-line (`hexmigrate.links.shared`) it hears its own answers and other nodes', and two nodes that
-answered answers would talk forever."""
+"""The requests a node answers. Any other message is an answer or a push (`Pong`, `Listing`,
+`Ack`, `BlockAck`, `Nak`, `PboTable`, `PortValues`, `PerformanceReport`, `Heartbeat`), which a
+node hears but never answers: on a shared line (`hexmigrate.links.shared`) it hears its own
+answers and other nodes', and two nodes that answered answers would talk forever."""

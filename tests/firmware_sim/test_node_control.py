@@ -18,25 +18,30 @@ from firmware_sim.node import Node
 from firmware_sim.server import NodeTarget
 from firmware_sim.starting import start_pbo
 from hexmigrate.errors import TransferError
+from hexmigrate.transfer.control import parse_values
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import (
     Ack,
     ConnectPorts,
     DisconnectPorts,
+    Heartbeat,
     ListPbos,
     Nak,
     PboTable,
+    PerformanceReport,
     PortValues,
     ReadPorts,
     SetConstant,
     SetRate,
     StartPbo,
     StopPbo,
+    Watch,
     decode,
     encode,
 )
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
+from pbort.code import PerformanceKind
 from pbort.native import NativeModule, NativePBO, PortIO
 from pbort.ports import PortSpec
 from tests.hexmigrate.transfer_harness import DirectLink, noisy
@@ -50,6 +55,17 @@ class Scale(NativePBO):
 
     def cycle(self, io: PortIO) -> None:
         io["y"] = io["k"] * io["x"]
+
+
+class Judged(NativePBO):
+    """An E-PBO: reports how well it does (functional) and what it costs (non-functional)."""
+
+    name = "judged"
+    ports = (PortSpec.output("y"),)
+
+    def cycle(self, io: PortIO) -> None:
+        io.report(PerformanceKind.FUNCTIONAL, 0, 0.75)
+        io.report(PerformanceKind.NON_FUNCTIONAL, 1, 12.5)
 
 
 class Floaty(NativePBO):
@@ -205,6 +221,7 @@ REQUESTS = st.one_of(
     st.builds(ConnectPorts, TIDS, NAMES),
     st.builds(DisconnectPorts, TIDS, NAMES),
     st.builds(ReadPorts, TIDS, st.text(max_size=60)),
+    st.builds(Watch, TIDS, TIDS, st.text(max_size=60)),
 )
 
 
@@ -222,3 +239,37 @@ def test_any_control_request_gets_one_answer_and_the_node_goes_on(requests) -> N
             assert isinstance(answer, (Ack, Nak, PboTable, PortValues))
             assert answer.tid == request.tid
         node.run(until=node.kernel.now + 0.02)
+
+
+@pytest.mark.parametrize("text", [False, True])
+def test_a_watched_node_pushes_reports_and_heartbeats_at_the_period_asked(node, text) -> None:
+    start_pbo(node, NativeModule(Judged), 100.0, name="judged")
+    receiver = Receiver(NodeTarget(node), KernelControl(node))
+    (ack,) = receiver.handle(encode(Watch(5, 100, "signal.y"), text))
+    assert decode(ack) == Ack(5, 100, "watching")
+    pushed = []
+    for _ in range(25):  # 2.5 s of the node's clock, in steps of 0.1 s
+        node.run(until=node.kernel.now + 0.1)
+        pushed += [decode(raw, checked=True) for raw in receiver.due()]
+    reports = [push for push in pushed if isinstance(push, PerformanceReport)]
+    beats = [push for push in pushed if isinstance(push, Heartbeat)]
+    assert len(reports) == 25 and len(beats) == 2
+    assert [push.seq for push in pushed] == list(range(27))
+    clocks = [report.clock_ms for report in reports]
+    assert all(90 <= later - earlier <= 110 for earlier, later in itertools.pairwise(clocks))
+    values = dict(parse_values(reports[-1].values))
+    assert values["judged:F0"] == 0.75 and values["judged:N1"] == 12.5
+    assert 0 < values["leftover"] < 100
+    assert values["signal.y"] != 0
+    assert "ON" in beats[0].state
+    (ack,) = receiver.handle(encode(Watch(6, 0), text))
+    node.run(until=node.kernel.now + 0.5)
+    assert receiver.due() == []
+
+
+def test_a_watch_of_an_unknown_port_or_too_short_a_period_is_refused(node: Node) -> None:
+    control = control_of(node)
+    with pytest.raises(TransferError, match=r"'scale\.nope'"):
+        control.watch(100, ("scale.nope",))
+    with pytest.raises(TransferError, match="at least 10 ms, got 5"):
+        control.watch(5)

@@ -66,13 +66,14 @@ def messages_of(cls: type[m.Message], text: bool) -> st.SearchStrategy[m.Message
     return st.builds(cls, **{field.name: values(field, text) for field in cls.layout.fields})
 
 
-def test_the_protocol_declares_its_twenty_six_message_types():
+def test_the_protocol_declares_its_twenty_nine_message_types():
     names = {cls.__name__ for cls in DECLARED}
     assert names == {
         "Ping", "ListModules", "Remove", "Begin", "Header", "Data", "HexLine", "End", "Commit",
         "Abort", "Resume", "Pong", "Listing", "Ack", "Nak", "BlockAck",
         "ListPbos", "StartPbo", "StopPbo", "SetConstant", "SetRate", "ConnectPorts",
-        "DisconnectPorts", "ReadPorts", "PboTable", "PortValues",
+        "DisconnectPorts", "ReadPorts", "Watch", "PboTable", "PortValues", "PerformanceReport",
+        "Heartbeat",
     }  # fmt: skip
 
 

@@ -22,6 +22,7 @@ from hexmigrate.transfer.messages import (
     DisconnectPorts,
     End,
     Header,
+    Heartbeat,
     HexLine,
     Listing,
     ListModules,
@@ -29,6 +30,7 @@ from hexmigrate.transfer.messages import (
     Message,
     Nak,
     PboTable,
+    PerformanceReport,
     Ping,
     Pong,
     PortValues,
@@ -39,6 +41,7 @@ from hexmigrate.transfer.messages import (
     SetRate,
     StartPbo,
     StopPbo,
+    Watch,
     decode,
     encode,
 )
@@ -202,6 +205,40 @@ GOLDEN: list[tuple[Message, bool, str]] = [
     ),
     (SetRate(12, 50000, "gain"), TEXT, "52415445203132203530303030206761696e202a4137"),
     (SetRate(12, 50000, "gain"), BINARY, "190c00000050c300006761696efd23ee60"),
+    (
+        Watch(13, 200, "gain.y signal.y"),
+        TEXT,
+        "574154434820313320323030206761696e2e79207369676e616c2e79202a3134",
+    ),
+    (
+        Watch(13, 200, "gain.y signal.y"),
+        BINARY,
+        "1a0d000000c80000006761696e2e79207369676e616c2e790bac96a1",
+    ),
+    (Watch(14, 0), TEXT, "57415443482031342030202a4241"),
+    (Watch(14, 0), BINARY, "1a0e0000000000000073ce6dca"),
+    (
+        PerformanceReport(7, 2500, "leftover=99.5 gain:F0=0.9 gain.y=6"),
+        TEXT,
+        "5245504f525420372032353030206c6566746f7665723d39392e35206761696e3a46303d302e3920"
+        "6761696e2e793d36202a3844",
+    ),
+    (
+        PerformanceReport(7, 2500, "leftover=99.5 gain:F0=0.9 gain.y=6"),
+        BINARY,
+        "1b07000000c40900006c6566746f7665723d39392e35206761696e3a46303d302e39206761696e2e"
+        "793d36925c6ce0",
+    ),
+    (
+        Heartbeat(8, 3000, "node: 2 PBOs: 2 ON"),
+        TEXT,
+        "4245415420382033303030206e6f64653a20322050424f733a2032204f4e202a3741",
+    ),
+    (
+        Heartbeat(8, 3000, "node: 2 PBOs: 2 ON"),
+        BINARY,
+        "1c08000000b80b00006e6f64653a20322050424f733a2032204f4ed7de10dc",
+    ),
     (ReadPorts(11, "gain.y signal.y"), BINARY, "160b0000006761696e2e79207369676e616c2e796afee3f2"),
     (
         PboTable(5, "gain:OFF:100:x:y:k"),
