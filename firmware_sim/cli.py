@@ -121,6 +121,7 @@ def cmd_listen(args: argparse.Namespace) -> int:
         wires=tuple(args.wire),
         show=tuple(args.show),
         seconds=args.seconds,
+        switch_on=not args.no_start,
     )
     return listen(config, lambda line: print(line, flush=True))
 
@@ -334,6 +335,12 @@ def _add_listen(commands: argparse._SubParsersAction) -> None:
         type=arguments.seconds,
         metavar="S",
         help="stop after this long (default: run until interrupted)",
+    )
+    command.add_argument(
+        "--no-start",
+        action="store_true",
+        help="create each PBO (native or installed) but leave it off, for a host to set its "
+        "constants, wire it and start it (hexmigrate set, connect, start)",
     )
 
 

@@ -3,7 +3,8 @@ them.
 
 It says where it listens (first, so that a script can read it), boots the modules its flash file
 holds, starts the native PBOs asked for, then serves the link: each module installed is started
-at its rate with its constants and wired (`firmware_sim.listening_node`), each bitstream is
+(or, with ``--no-start``, created and left off for a host's ``hexmigrate start``) at its rate
+with its constants and wired (`firmware_sim.listening_node`), each bitstream is
 handed to the FPGA reconfiguration port, and every second the ports named by `show` are printed.
 On the real-time clock, so a terminal user sees the node live. One `Receiver` serves the node for
 its whole life, so a transfer cut with the connection (a host that reconnects to a
@@ -18,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from firmware_sim.fpga_port import open_port
+from firmware_sim.kernel_control import KernelControl
 from firmware_sim.listen_link import open_listening
 from firmware_sim.listening_node import ListeningNode, Wire
 from firmware_sim.natives import NATIVES
@@ -50,6 +52,7 @@ class ListenConfig:
     wires: tuple[Wire, ...] = ()
     show: tuple[str, ...] = ()
     seconds: float | None = None
+    switch_on: bool = True
 
 
 def listen(config: ListenConfig, say: Callable[[str], None]) -> int:
@@ -64,6 +67,7 @@ def listen(config: ListenConfig, say: Callable[[str], None]) -> int:
             default_rate=config.default_rate,
             constants=by_pbo(config.settings),
             wires=config.wires,
+            switch_on=config.switch_on,
         )
 
         def installed(name: str, address: int) -> None:
@@ -81,7 +85,7 @@ def listen(config: ListenConfig, say: Callable[[str], None]) -> int:
             target = NodeTarget(
                 node, on_install=installed, fpga=port, on_configure=_configured(say)
             )
-            receiver = Receiver(target)
+            receiver = Receiver(target, KernelControl(node))
             try:
                 serve(node, link, receiver=receiver, stop=_stopper(node, config, say))
             except KeyboardInterrupt:

@@ -33,7 +33,8 @@ def owner(port: str) -> str:
 
 class ListeningNode:
     """Starts the PBOs of `node` with their `rates` (`default_rate` for the others) and
-    `constants`, and keeps the `wires` made between the PBOs that run."""
+    `constants`, and keeps the `wires` made between the PBOs that run; without `switch_on`
+    each PBO is created but left OFF, for a host to start (``hexmigrate start``)."""
 
     def __init__(
         self,
@@ -44,6 +45,7 @@ class ListeningNode:
         default_rate: float,
         constants: Mapping[str, Mapping[str, Number]],
         wires: Sequence[Wire],
+        switch_on: bool = True,
     ) -> None:
         self.node = node
         self.say = say
@@ -51,6 +53,7 @@ class ListeningNode:
         self.default_rate = default_rate
         self.constants = {pbo: dict(values) for pbo, values in constants.items()}
         self.wires = tuple(wires)
+        self.switch_on = switch_on
 
     def start(self, code: ModuleCode | str, name: str) -> None:
         """Start PBO `name` (an installed module's name, or a native's code), then make its
@@ -62,6 +65,7 @@ class ListeningNode:
                 self.rates.get(name, self.default_rate),
                 name=name,
                 constants=self.constants.get(name),
+                switch_on=self.switch_on,
             )
         except FirmwareSimError as error:
             self.say(str(error))

@@ -389,16 +389,19 @@ class Node:
         priority: int = 0,
         triggers: Iterable[str] = (),
         constants: dict[str, object] | None = None,
+        switch_on: bool = True,
     ) -> str:
         """Register a PBO (an installed module by name, or any ModuleCode), set its constants,
-        init it and switch it on. Returns its name."""
+        init it and switch it on (unless not `switch_on`: then it waits OFF for a host's
+        start). Returns its name."""
         if isinstance(code, str):
             code = self.modules[code].code
         name = self.kernel.add(code, name, frequency, priority, triggers)
         for port, value in (constants or {}).items():
             self.kernel.configure(f"{name}.{port}", value)
         self.kernel.spawn(name)
-        self.kernel.on(name)
+        if switch_on:
+            self.kernel.on(name)
         return name
 
     def stop(self, name: str) -> None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from firmware_sim.fpga_port import ReconfigurationPort
+from firmware_sim.kernel_control import KernelControl
 from firmware_sim.loader import InstalledImage, LoadSession
 from firmware_sim.node import Node
 from hexmigrate.image import ModuleImage
@@ -109,9 +110,11 @@ def serve(
 ) -> Receiver:
     """Answer messages on `link` until `stop()` is true, running the node between them.
 
-    Pass the `receiver` of an earlier call to keep transfers across a new link (resume).
+    Pass the `receiver` of an earlier call to keep transfers across a new link (resume). A new
+    receiver also takes the node's control requests (`KernelControl`); what a host's watch
+    asks for is pushed between messages.
     """
-    receiver = receiver or Receiver(NodeTarget(node))
+    receiver = receiver or Receiver(NodeTarget(node), KernelControl(node))
     while not stop():
         raw = link.receive(poll)
         if raw is not None:
@@ -119,4 +122,6 @@ def serve(
                 link.send(reply)
         elif node.kernel.names:
             node.run(until=node.kernel.now + poll)
+        for push in receiver.due():  # reports and heartbeats of a watch
+            link.send(push)
     return receiver

@@ -25,9 +25,11 @@ def start_pbo(
     *,
     name: str,
     constants: Mapping[str, Number] | None = None,
+    switch_on: bool = True,
 ) -> str:
     """Register `code` (or the installed module of that name) as PBO `name` at `frequency`,
-    set its `constants` (each exactly in its port's type), init it and switch it on.
+    set its `constants` (each exactly in its port's type), init it and switch it on (unless
+    not `switch_on`: then it waits OFF).
 
     Raises StartError with the kernel's reason and the lines the module logged meanwhile, or
     with the PortValueError of a constant its port cannot hold (then nothing was registered).
@@ -39,7 +41,7 @@ def start_pbo(
         raise StartError(f"{name} did not start: {error}") from error
     with captured() as lines:
         try:
-            return node.start(module, frequency, name=name, constants=values)
+            return node.start(module, frequency, name=name, constants=values, switch_on=switch_on)
         except KernelError as error:
             prefix = f"{name}: "  # how pbort marks a module's own lines
             said = [line.removeprefix(prefix) for line in lines if line.startswith(prefix)]

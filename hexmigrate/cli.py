@@ -1,5 +1,6 @@
 """The `hexmigrate` command: what a host does with module files (pack, inspect, verify,
-relocate) and to nodes (send, ls, rm, ping).
+relocate) and to nodes (send, ls, rm, ping; and ps, start, stop, set, connect, disconnect,
+watch to control a node's PBOs: control_cli.py).
 
 A node to send to is another program's business (``firmware-sim listen``, or real firmware):
 this module imports nothing above hexmigrate. `commandline.run` owns the exit statuses, the
@@ -19,6 +20,7 @@ from typing import TYPE_CHECKING
 from commandline import CommandLineError, UsageError, add_command, command_parser, run
 from commandline.arguments import address, input_file, integer, output_file, real
 from commandline.progress import progress_bar
+from hexmigrate.control_cli import add_control_commands
 from hexmigrate.descriptor import NAME_LEN
 from hexmigrate.elf import DEFAULT_INIT_SYMBOL, image_from_elf
 from hexmigrate.errors import HexmigrateError, LinkError, TransferError, TransferInterrupted
@@ -46,6 +48,12 @@ examples:
   hexmigrate send gain.hex --to socket://127.0.0.1:7777
   hexmigrate ls --to socket://127.0.0.1:7777
   hexmigrate rm gain --to socket://127.0.0.1:7777
+  hexmigrate ps --to socket://127.0.0.1:7777
+  hexmigrate stop gain --to socket://127.0.0.1:7777
+  hexmigrate set gain.k=0x20000 --to socket://127.0.0.1:7777
+  hexmigrate connect signal.y=gain.x --to socket://127.0.0.1:7777
+  hexmigrate start gain --to socket://127.0.0.1:7777
+  hexmigrate watch --port gain.y --seconds 2 --csv --to socket://127.0.0.1:7777
 """
 
 MAX_TIMEOUT = 600.0
@@ -282,6 +290,7 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     _add_file_commands(commands)
     _add_node_commands(commands)
+    add_control_commands(commands, _link_options, _connected)
     return parser
 
 

@@ -36,7 +36,7 @@ from pbort.errors import (
     UnknownPBOError,
     UnknownPortError,
 )
-from pbort.lifecycle import REMOVABLE, State, require
+from pbort.lifecycle import CONFIGURABLE, REMOVABLE, State, require
 from pbort.pbo import RegisteredPBO
 from pbort.performance import PerformanceBuffer
 from pbort.ports import PortSpec, PortValue
@@ -124,6 +124,18 @@ class Kernel:
         self._check_open()
         self._port(sink)
         self._svt.disconnect(sink)
+
+    def set_frequency(self, name: str, frequency: float) -> None:
+        """Run periodic PBO `name` at `frequency` Hz from its next switch on; like a constant,
+        changed while it is NOT_CREATED or OFF (a host retunes a PBO it stopped)."""
+        self._check_open()
+        pbo = self._pbo(name)
+        if pbo.frequency is None:
+            raise SetupError(f"PBO {name!r} is aperiodic: it runs when triggered, at no rate")
+        _check_registration(name, frequency, ())
+        require(name, pbo.state, "change the rate", CONFIGURABLE)
+        pbo.frequency = frequency
+        pbo.job.period = 1.0 / frequency
 
     def configure(self, port: str, value: object) -> None:
         """Set a constant or resource port (``"pbo.port"``) while the PBO is NOT_CREATED or OFF."""
@@ -220,6 +232,14 @@ class Kernel:
         """The type and shape of a port (``"pbo.port"``): what another node needs to carry it."""
         pbo, name = self._port(port)
         return pbo.spec(name)
+
+    def ports(self, name: str) -> tuple[PortSpec, ...]:
+        """The ports PBO `name` declares, in declaration order: what a host lists of it."""
+        return tuple(self._pbo(name).specs.values())
+
+    def frequency(self, name: str) -> float | None:
+        """PBO `name`'s rate in Hz; None for an aperiodic PBO."""
+        return self._pbo(name).frequency
 
     def connections(self) -> list[tuple[str, str]]:
         """Every (source, sink) pair of the live wiring."""

@@ -170,6 +170,76 @@ class Resume(Message, code=0x0A, verb="RESUME"):
     tid: int = u32()
 
 
+# Node control (control.py): each request carries a tid, and the node answers a repeat of it
+# (its answer was lost) with the same answer instead of doing it again.
+
+
+class ListPbos(Message, code=0x0B, verb="PS"):
+    """Which PBOs does the node run? Answered by `PboTable`."""
+
+    tid: int = u32()
+
+
+class StartPbo(Message, code=0x0C, verb="START"):
+    """Turn PBO `name` on (creating it first if it is not yet)."""
+
+    tid: int = u32()
+    name: str = word()
+
+
+class StopPbo(Message, code=0x0D, verb="STOP"):
+    """Turn PBO `name` off."""
+
+    tid: int = u32()
+    name: str = word()
+
+
+class SetConstant(Message, code=0x0E, verb="SET"):
+    """Set a constant, ``PBO.NAME=VALUE``, while its PBO is off; the value must fit the
+    constant's type exactly."""
+
+    tid: int = u32()
+    setting: str = word()
+
+
+class ConnectPorts(Message, code=0x0F, verb="CONNECT"):
+    """Wire an output to an input, ``OUT_PBO.port=IN_PBO.port``."""
+
+    tid: int = u32()
+    wire: str = word()
+
+
+class DisconnectPorts(Message, code=0x10, verb="DISCONNECT"):
+    """Undo a wire, ``OUT_PBO.port=IN_PBO.port``."""
+
+    tid: int = u32()
+    wire: str = word()
+
+
+class SetRate(Message, code=0x19, verb="RATE"):
+    """Run PBO `name` at `millihertz` / 1000 Hz from its next start; set while it is off."""
+
+    tid: int = u32()
+    millihertz: int = u32()
+    name: str = word()
+
+
+class Watch(Message, code=0x1A, verb="WATCH"):
+    """Push a `PerformanceReport` every `period_ms` (0: stop), with the values of `ports`
+    (``PBO.port`` words), and a `Heartbeat` every second, on the link this came from."""
+
+    tid: int = u32()
+    period_ms: int = u32()
+    ports: str = free_text(default="")
+
+
+class ReadPorts(Message, code=0x16, verb="READ"):
+    """The values of ports, ``PBO.port`` words. Answered by `PortValues`."""
+
+    tid: int = u32()
+    ports: str = free_text()
+
+
 # Answers.
 
 
@@ -202,6 +272,40 @@ class Nak(Message, code=0x14, verb="NAK"):
     value: int = u32()
     reason: str = free_text()
     fatal: bool = flag("RETRY", "FATAL", default=False)
+
+
+class PboTable(Message, code=0x17, verb="PBOS"):
+    """The answer to `ListPbos`: one ``NAME:STATE:RATE:IN:OUT:CONST`` word per PBO
+    (control.py's `PboRow`)."""
+
+    tid: int = u32()
+    pbos: str = free_text(default="")
+
+
+class PortValues(Message, code=0x18, verb="VALUES"):
+    """The answer to `ReadPorts`: one ``PBO.port=VALUE`` word per port."""
+
+    tid: int = u32()
+    values: str = free_text(default="")
+
+
+class PerformanceReport(Message, code=0x1B, verb="REPORT"):
+    """Pushed by a watched node: report `seq` at `clock_ms` of the node's clock, with
+    ``NAME=VALUE`` words: ``leftover`` (power, 0-100), each running PBO's latest evaluator
+    outputs (``PBO:F0`` functional, ``PBO:N0`` non-functional, by index) and the watched
+    ports."""
+
+    seq: int = u32()
+    clock_ms: int = u32()
+    values: str = free_text(default="")
+
+
+class Heartbeat(Message, code=0x1C, verb="BEAT"):
+    """Pushed by a watched node every second: `seq`, `clock_ms` and a line about its PBOs."""
+
+    seq: int = u32()
+    clock_ms: int = u32()
+    state: str = free_text(default="")
 
 
 class BlockAck(Message, code=0x15, check=CRC16):
@@ -267,10 +371,9 @@ def _decode_line(raw: bytes, checked: bool) -> Message:
         raise MessageError(f"expected a command or a record line, got {line[:30]!r}")
     layout = _BY_VERB.get(words[0].upper())
     if layout is None:
-        raise MessageError(
-            f"expected a command ({', '.join(sorted(_BY_VERB))}) or a record line, "
-            f"got {line[:30]!r}"
-        )
+        # No list of the verbs: a node answers every damaged line with this, and on a noisy
+        # line a long answer is itself likely to be damaged (docs/transfer.md lists them).
+        raise MessageError(f"expected a command or a record line, got {line[:30]!r}")
     message: Message = layout.decode_text(words[1] if len(words) > 1 else "", line)
     return message
 

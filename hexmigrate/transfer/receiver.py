@@ -19,30 +19,46 @@ from typing import Protocol
 from hexmigrate.errors import HexError, MessageError
 from hexmigrate.links.base import is_text
 from hexmigrate.records import RecordType, decode_record
+from hexmigrate.transfer.control import ControlTarget, ports, rows_text, values_text, wire
 from hexmigrate.transfer.messages import (
     Abort,
     Ack,
     Begin,
     BlockAck,
     Commit,
+    ConnectPorts,
     Data,
+    DisconnectPorts,
     End,
     Header,
     HexLine,
     Listing,
     ListModules,
+    ListPbos,
     Message,
     Nak,
+    PboTable,
     Ping,
     Pong,
+    PortValues,
+    ReadPorts,
     Remove,
     Resume,
+    SetConstant,
+    SetRate,
+    StartPbo,
+    StopPbo,
+    Watch,
     decode,
     encode,
 )
+from hexmigrate.transfer.subscription import HEARTBEAT_PERIOD, MIN_PERIOD_MS, Subscription
 
 IMPLICIT = 0  # the transfer id of a module typed or pasted on a terminal without BEGIN
 REMEMBERED_COMMITS = 64
+REMEMBERED_CONTROLS = 64
+"""Control answers kept by tid, so that a request repeated after a lost answer is answered
+again, not done again."""
 
 
 class Session(Protocol):
@@ -106,10 +122,17 @@ class Transfer:
 
 
 class Receiver:
-    """The protocol state of one node, shared by all its links."""
+    """The protocol state of one node, shared by all its links; `control` is the node's
+    `ControlTarget` (None: the node refuses control requests)."""
 
-    def __init__(self, target: Target) -> None:
+    def __init__(self, target: Target, control: ControlTarget | None = None) -> None:
         self.target = target
+        self.control = control
+        self.controlled: OrderedDict[int, Message] = OrderedDict()
+        """The answers to recent control requests, by tid."""
+        self.subscription: Subscription | None = None
+        """The host's watch, if one is on."""
+        self._text = False  # the mode of the message being handled
         self.transfers: dict[int, Transfer] = {}
         # The answers to recent commits: when an ACK is lost the sender commits again, and must
         # hear the same answer rather than "unknown transfer".
@@ -120,12 +143,20 @@ class Receiver:
         on a message: one that does not decode is refused with the reason, and a reply that
         cannot be written in the mode asked (a module whose name has a blank, listed in hex
         mode) becomes a refusal that says why."""
-        text = is_text(raw)
+        text = self._text = is_text(raw)
         try:
             message = decode(raw)
         except MessageError as error:
             return [_encoded(Nak(0, 0, f"bad message: {error}"), text)]
         return [_encoded(reply, text) for reply in self.dispatch(message)]
+
+    def due(self) -> list[bytes]:
+        """What a watched node pushes now (reports, heartbeats), encoded in the mode of the
+        watch; the node's serve loop sends them between messages."""
+        if self.subscription is None or self.control is None:
+            return []
+        subscription = self.subscription
+        return [_encoded(push, subscription.text) for push in subscription.due(self.control)]
 
     def dispatch(self, message: Message) -> list[Message]:
         """Replies to one decoded message."""
@@ -169,6 +200,69 @@ class Receiver:
         except KeyError:
             return [Nak(0, 0, f"no module named {message.name!r}", fatal=True)]
         return [Ack(0, 0, f"removed {message.name}")]
+
+    # Node control.
+
+    def _controlled(self, message: Message) -> list[Message]:
+        """Do a control request once: a repeat of its tid gets the answer it got the first time.
+        A refusal (unknown name, wrong type, wrong state) is a fatal NAK whose reason names the
+        PBO, port or constant; the node goes on."""
+        tid: int = getattr(message, "tid", IMPLICIT)
+        answer = self.controlled.get(tid)
+        if answer is None:
+            try:
+                answer = self._control(message)
+            except Exception as error:  # a refusal of the node: it says why
+                answer = Nak(tid, 0, f"{message.layout.verb} refused: {error}", fatal=True)
+            self.controlled[tid] = answer
+            while len(self.controlled) > REMEMBERED_CONTROLS:
+                self.controlled.popitem(last=False)
+        return [answer]
+
+    def _control(self, message: Message) -> Message:
+        """The answer to a control request done now."""
+        control = self.control
+        tid: int = getattr(message, "tid", IMPLICIT)
+        if control is None:
+            raise MessageError("this node takes no control requests")
+        if isinstance(message, ListPbos):
+            return PboTable(tid, rows_text(control.pbos()))
+        if isinstance(message, Watch):
+            return self._watch(control, message)
+        if isinstance(message, ReadPorts):
+            values = tuple((port, control.read(port)) for port in ports(message.ports))
+            return PortValues(tid, values_text(values))
+        if isinstance(message, StartPbo):
+            return Ack(tid, 0, control.start(message.name))
+        if isinstance(message, StopPbo):
+            return Ack(tid, 0, control.stop(message.name))
+        if isinstance(message, SetConstant):
+            return Ack(tid, 0, control.set_constant(message.setting))
+        if isinstance(message, SetRate):
+            return Ack(tid, 0, control.set_rate(message.name, message.millihertz / 1000))
+        if isinstance(message, ConnectPorts):
+            return Ack(tid, 0, control.connect(*wire(message.wire)))
+        if isinstance(message, DisconnectPorts):
+            return Ack(tid, 0, control.disconnect(*wire(message.wire)))
+        raise MessageError(f"{type(message).__name__} is not a control request")
+
+    def _watch(self, control: ControlTarget, message: Watch) -> Message:
+        """Start, change or stop (period 0) the pushes of reports and heartbeats."""
+        if message.period_ms == 0:
+            self.subscription = None
+            return Ack(message.tid, 0, "unwatched")
+        if message.period_ms < MIN_PERIOD_MS:
+            raise MessageError(
+                f"expected a report period of at least {MIN_PERIOD_MS} ms, got {message.period_ms}"
+            )
+        watched = ports(message.ports) if message.ports.strip() else ()
+        for port in watched:
+            control.read(port)  # refused by name now rather than missing from every report
+        now = control.clock()
+        self.subscription = Subscription(
+            message.period_ms / 1000, watched, self._text, now, now + HEARTBEAT_PERIOD
+        )
+        return Ack(message.tid, message.period_ms, "watching")
 
     # A transfer.
 
@@ -375,8 +469,17 @@ _HANDLERS = {
     Commit: Receiver._commit,
     Abort: Receiver._abort,
     Resume: Receiver._resume,
+    ListPbos: Receiver._controlled,
+    StartPbo: Receiver._controlled,
+    StopPbo: Receiver._controlled,
+    SetConstant: Receiver._controlled,
+    SetRate: Receiver._controlled,
+    ConnectPorts: Receiver._controlled,
+    DisconnectPorts: Receiver._controlled,
+    ReadPorts: Receiver._controlled,
+    Watch: Receiver._controlled,
 }
-"""The requests a node answers. Any other message is an answer (`Pong`, `Listing`, `Ack`,
-`BlockAck`, `Nak`), which a node hears but never answers: on a shared line
-(`hexmigrate.links.shared`) it hears its own answers and other nodes', and two nodes that
-answered answers would talk forever."""
+"""The requests a node answers. Any other message is an answer or a push (`Pong`, `Listing`,
+`Ack`, `BlockAck`, `Nak`, `PboTable`, `PortValues`, `PerformanceReport`, `Heartbeat`), which a
+node hears but never answers: on a shared line (`hexmigrate.links.shared`) it hears its own
+answers and other nodes', and two nodes that answered answers would talk forever."""

@@ -119,15 +119,15 @@ class Sender:
 
     def ping(self) -> str:
         """The node's description."""
-        return self._request(Ping(), Pong, tid=None).text
+        return self.request(Ping(), Pong, tid=None).text
 
     def modules(self) -> tuple[tuple[str, int, int], ...]:
         """The node's modules: (name, load address, size) each."""
-        return self._request(ListModules(), Listing, tid=None).modules
+        return self.request(ListModules(), Listing, tid=None).modules
 
     def remove(self, name: str) -> None:
         """Unload a module from the node."""
-        self._request(Remove(name), Ack, tid=0, what="removed")
+        self.request(Remove(name), Ack, tid=0, what="removed")
 
     # Transfers.
 
@@ -138,7 +138,7 @@ class Sender:
         tid = random.getrandbits(31) | 1 if tid is None else tid
         begin = Begin(tid, image.name, image.size, len(image.relocations), image.link_base, base)
         try:
-            load_base = self._request(begin, Ack, tid, what="begun").value
+            load_base = self.request(begin, Ack, tid, what="begun").value
             return self._transfer(image, tid, load_base, header_done=False, programmed=0)
         except TransferInterrupted:
             raise
@@ -159,12 +159,12 @@ class Sender:
             if self.quiet:
                 self._send(Abort(tid))
             else:
-                self._request(Abort(tid), Ack, tid, what="aborted")
+                self.request(Abort(tid), Ack, tid, what="aborted")
 
     def resume(self, image: ModuleImage, tid: int) -> TransferResult:
         """Continue transfer `tid` of `image` after a cut link."""
-        state = self._request(Resume(tid), Ack, tid, what=("begun", "header", "verified"))
-        load_base = self._request(
+        state = self.request(Resume(tid), Ack, tid, what=("begun", "header", "verified"))
+        load_base = self.request(
             Begin(tid, image.name, image.size, len(image.relocations), image.link_base),
             Ack,
             tid,
@@ -183,7 +183,7 @@ class Sender:
                 self._send_header(image, tid)
             self._send_blocks(image, tid, programmed, start)
             crc = zlib.crc32(image.relocate(load_base))
-            self._request(End(tid, crc), Ack, tid, what="verified")
+            self.request(End(tid, crc), Ack, tid, what="verified")
             committed = self._commit(tid)
         except LinkError as error:
             raise TransferInterrupted(
@@ -204,7 +204,7 @@ class Sender:
     def _commit(self, tid: int) -> Message:
         """COMMIT, whose answer may be lost after the node acted on it: then say so."""
         try:
-            return self._request(Commit(tid), Ack, tid, what="installed")
+            return self.request(Commit(tid), Ack, tid, what="installed")
         except NoAnswer as error:
             raise NoAnswer(
                 f"{error}; the image was verified, so the node may have installed it: "
@@ -213,7 +213,7 @@ class Sender:
 
     def _send_header(self, image: ModuleImage, tid: int) -> None:
         if not self.text:
-            self._request(Header(tid, image.init, image.relocations), Ack, tid, what="header")
+            self.request(Header(tid, image.init, image.relocations), Ack, tid, what="header")
             return
         lines = [
             Record.pointer(RecordType.OFFSET_FUNCTION_POINTER, location).encode()
@@ -359,7 +359,7 @@ class Sender:
         self._sent_last = raw
         self.link.send(raw)
 
-    def _request(
+    def request(
         self, message: Message, expected: type, tid: int | None, what: str | tuple[str, ...] = ""
     ) -> Message:
         """Send `message` until a reply of type `expected` (for `tid`) comes, or fail.

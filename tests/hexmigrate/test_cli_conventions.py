@@ -22,6 +22,7 @@ from hexmigrate import cli
 from tests.hexmigrate.cli_node import route_to
 
 COMMANDS = ("pack", "inspect", "verify", "relocate", "send", "ping", "ls", "rm")
+CONTROL = ("ps", "start", "stop", "set", "rate", "connect", "disconnect", "watch")
 
 
 @pytest.fixture
@@ -52,7 +53,7 @@ def help_text(*command: str) -> str:
 
 def test_the_commands_are_the_hosts_and_node_is_gone(capsys):
     listed = cli.build_parser()._subparsers._group_actions[0].choices
-    assert tuple(listed) == COMMANDS
+    assert tuple(listed) == COMMANDS + CONTROL
     with pytest.raises(SystemExit) as exit_info:
         cli.main(["node", "--listen", "pty"])
     assert exit_info.value.code == 2

@@ -84,6 +84,15 @@ URLS = st.one_of(
     ),
 )
 NAMES = st.one_of(st.sampled_from(["gain", "", "a b", "x" * 17, "é", "-x"]), st.text(max_size=20))
+CONTROL = ["ps", "start", "stop", "set", "rate", "connect", "disconnect", "watch"]
+CONTROL_ARGUMENTS = st.one_of(
+    st.sampled_from(
+        ["gain.k=2", "gain.k=nan", "gain.k=1e999", "a.b=c.d", "a.b=c", "=", "x" * 200, "gain=50"]
+    ),
+    st.sampled_from(["gain=0", "gain=-1", "gain=inf", "gain=4294968", "=5"]),
+    st.text(max_size=30),
+)
+"""What set, rate, connect and disconnect take, right and wrong."""
 
 
 @dataclass(frozen=True)
@@ -183,9 +192,18 @@ def file_commands(draw: st.DrawFn, files: Files) -> list[str]:
 
 @st.composite
 def node_commands(draw: st.DrawFn, files: Files) -> list[str]:
-    """send, ping, ls and rm with hostile numbers and links that fail at once."""
-    command = draw(st.sampled_from(["send", "ping", "ls", "rm"]))
+    """send, ping, ls, rm and the control commands with hostile names, numbers and links that
+    fail at once."""
+    command = draw(st.sampled_from(["send", "ping", "ls", "rm", *CONTROL]))
     argv = [command]
+    if command in ("start", "stop"):
+        argv += [draw(NAMES)]
+    if command in ("set", "rate", "connect", "disconnect"):
+        argv += [draw(CONTROL_ARGUMENTS)]
+    if command == "watch":
+        argv += [item for _ in range(draw(st.integers(0, 3))) for item in ("--port", draw(NAMES))]
+        argv += options(draw, ["--seconds", "--period"], NUMBERS)
+        argv += draw(st.lists(st.just("--csv"), max_size=1))
     if command == "send":
         argv += [draw(st.sampled_from(files.inputs()))]
         argv += options(draw, ["--base", "--reconnects"], NUMBERS)

@@ -17,18 +17,31 @@ from hexmigrate.transfer.messages import (
     Begin,
     BlockAck,
     Commit,
+    ConnectPorts,
     Data,
+    DisconnectPorts,
     End,
     Header,
+    Heartbeat,
     HexLine,
     Listing,
     ListModules,
+    ListPbos,
     Message,
     Nak,
+    PboTable,
+    PerformanceReport,
     Ping,
     Pong,
+    PortValues,
+    ReadPorts,
     Remove,
     Resume,
+    SetConstant,
+    SetRate,
+    StartPbo,
+    StopPbo,
+    Watch,
     decode,
     encode,
 )
@@ -155,6 +168,100 @@ GOLDEN: list[tuple[Message, bool, str]] = [
         BINARY,
         "140000000000000000016e6f206d6f64756c65206e616d656420276761696e2731a89854",
     ),
+    # Node control, pinned when declared (each checked by eye against its declaration: the
+    # type code, the tid as 4 little-endian bytes, the UTF-8 tail, the CRC-32).
+    (ListPbos(5), TEXT, "50532035202a3430"),
+    (ListPbos(5), BINARY, "0b050000003e362c86"),
+    (StartPbo(6, "gain"), TEXT, "53544152542036206761696e202a4639"),
+    (StartPbo(6, "gain"), BINARY, "0c060000006761696e211c8337"),
+    (StopPbo(7, "gain"), TEXT, "53544f502037206761696e202a3442"),
+    (StopPbo(7, "gain"), BINARY, "0d070000006761696efc0852ec"),
+    (SetConstant(8, "gain.k=0x10000"), TEXT, "5345542038206761696e2e6b3d30783130303030202a3531"),
+    (SetConstant(8, "gain.k=0x10000"), BINARY, "0e080000006761696e2e6b3d307831303030307076eebb"),
+    (
+        ConnectPorts(9, "signal.y=gain.x"),
+        TEXT,
+        "434f4e4e4543542039207369676e616c2e793d6761696e2e78202a3043",
+    ),
+    (
+        ConnectPorts(9, "signal.y=gain.x"),
+        BINARY,
+        "0f090000007369676e616c2e793d6761696e2e785da044a0",
+    ),
+    (
+        DisconnectPorts(10, "signal.y=gain.x"),
+        TEXT,
+        "444953434f4e4e454354203130207369676e616c2e793d6761696e2e78202a3734",
+    ),
+    (
+        DisconnectPorts(10, "signal.y=gain.x"),
+        BINARY,
+        "100a0000007369676e616c2e793d6761696e2e78f0fd4b9f",
+    ),
+    (
+        ReadPorts(11, "gain.y signal.y"),
+        TEXT,
+        "52454144203131206761696e2e79207369676e616c2e79202a4146",
+    ),
+    (SetRate(12, 50000, "gain"), TEXT, "52415445203132203530303030206761696e202a4137"),
+    (SetRate(12, 50000, "gain"), BINARY, "190c00000050c300006761696efd23ee60"),
+    (
+        Watch(13, 200, "gain.y signal.y"),
+        TEXT,
+        "574154434820313320323030206761696e2e79207369676e616c2e79202a3134",
+    ),
+    (
+        Watch(13, 200, "gain.y signal.y"),
+        BINARY,
+        "1a0d000000c80000006761696e2e79207369676e616c2e790bac96a1",
+    ),
+    (Watch(14, 0), TEXT, "57415443482031342030202a4241"),
+    (Watch(14, 0), BINARY, "1a0e0000000000000073ce6dca"),
+    (
+        PerformanceReport(7, 2500, "leftover=99.5 gain:F0=0.9 gain.y=6"),
+        TEXT,
+        "5245504f525420372032353030206c6566746f7665723d39392e35206761696e3a46303d302e3920"
+        "6761696e2e793d36202a3844",
+    ),
+    (
+        PerformanceReport(7, 2500, "leftover=99.5 gain:F0=0.9 gain.y=6"),
+        BINARY,
+        "1b07000000c40900006c6566746f7665723d39392e35206761696e3a46303d302e39206761696e2e"
+        "793d36925c6ce0",
+    ),
+    (
+        Heartbeat(8, 3000, "node: 2 PBOs: 2 ON"),
+        TEXT,
+        "4245415420382033303030206e6f64653a20322050424f733a2032204f4e202a3741",
+    ),
+    (
+        Heartbeat(8, 3000, "node: 2 PBOs: 2 ON"),
+        BINARY,
+        "1c08000000b80b00006e6f64653a20322050424f733a2032204f4ed7de10dc",
+    ),
+    (ReadPorts(11, "gain.y signal.y"), BINARY, "160b0000006761696e2e79207369676e616c2e796afee3f2"),
+    (
+        PboTable(5, "gain:OFF:100:x:y:k"),
+        TEXT,
+        "50424f532035206761696e3a4f46463a3130303a783a793a6b202a3930",
+    ),
+    (
+        PboTable(5, "gain:OFF:100:x:y:k"),
+        BINARY,
+        "17050000006761696e3a4f46463a3130303a783a793a6be4c485c9",
+    ),
+    (PboTable(5, ""), TEXT, "50424f532035202a3131"),
+    (PboTable(5, ""), BINARY, "1705000000bd4c3c23"),
+    (
+        PortValues(11, "gain.y=6 signal.y=3"),
+        TEXT,
+        "56414c554553203131206761696e2e793d36207369676e616c2e793d33202a3844",
+    ),
+    (
+        PortValues(11, "gain.y=6 signal.y=3"),
+        BINARY,
+        "180b0000006761696e2e793d36207369676e616c2e793d33babc94fb",
+    ),
 ]
 
 TYPED: list[tuple[bytes, Message]] = [
@@ -170,6 +277,8 @@ TYPED: list[tuple[bytes, Message]] = [
     (b"NAK 7 0 retry", Nak(7, 0, "")),
     (b"MODULES", Listing(())),
     (b"PONG", Pong("")),
+    (b"ps 5", ListPbos(5)),
+    (b"set 8 gain.k=2", SetConstant(8, "gain.k=2")),
     (b":00000001FF", HexLine(":00000001FF")),
 ]
 

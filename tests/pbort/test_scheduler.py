@@ -302,3 +302,25 @@ def test_off_and_on_restart_the_release_grid_at_the_time_of_on() -> None:
         kernel.on("p")
         kernel.run(until=0.6)
         assert [t for t, _ in seen(kernel, "p")] == [0.05, 0.15, 0.25, 0.42, 0.52]
+
+
+def test_a_new_rate_takes_effect_at_the_next_switch_on_and_only_while_off() -> None:
+    with Kernel() as kernel:
+        kernel.add(NativeModule(Count), frequency=100.0)
+        kernel.spawn("count")
+        kernel.on("count")
+        with pytest.raises(StateError, match="'count': cannot change the rate in state ON"):
+            kernel.set_frequency("count", 10.0)
+        kernel.run(until=0.1)
+        kernel.off("count")
+        kernel.set_frequency("count", 10.0)
+        assert kernel.frequency("count") == 10.0
+        before = kernel.value("count.y")
+        kernel.on("count")
+        kernel.run(until=kernel.now + 0.1)
+        assert kernel.value("count.y") - before == 1  # one cycle in 0.1 s at 10 Hz
+        kernel.add(NativeModule(Stamp), triggers=["count.y"])
+        with pytest.raises(SetupError, match="'stamp' is aperiodic"):
+            kernel.set_frequency("stamp", 10.0)
+        with pytest.raises(SetupError, match="expected a frequency > 0 Hz"):
+            kernel.set_frequency("count", 0.0)

@@ -1,0 +1,143 @@
+"""Node control over the node's own link: what a receiver needs of a node to list, start, stop,
+set, wire and read its PBOs, and how the answers' contents travel.
+
+A `ControlTarget` is the node side (firmware_sim's `NodeTarget` implements it on its kernel);
+every operation that cannot be done raises an exception whose text says why, naming the PBO,
+port or constant, which the receiver sends back as a refusal. Values cross the wire as numbers
+(int or float) of scalar ports only: a vector or frame port is refused by name.
+
+The answers carry words of free text, one per PBO (`PboRow`) or per port value, which
+`rows_text`/`parse_rows` and `values_text`/`parse_values` write and read on both sides.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+from hexmigrate.errors import MessageError
+
+Number = int | float
+
+
+@dataclass(frozen=True)
+class PboRow:
+    """One PBO of a node: its name, lifecycle state, rate (Hz; None: aperiodic) and its ports
+    by direction (names only)."""
+
+    name: str
+    state: str
+    rate: float | None
+    inputs: tuple[str, ...] = ()
+    outputs: tuple[str, ...] = ()
+    constants: tuple[str, ...] = ()
+
+    def word(self) -> str:
+        """``NAME:STATE:RATE:IN,..:OUT,..:CONST,..`` (RATE ``-`` when aperiodic)."""
+        rate = "-" if self.rate is None else f"{self.rate:g}"
+        ports = (",".join(names) for names in (self.inputs, self.outputs, self.constants))
+        return ":".join((self.name, self.state, rate, *ports))
+
+    @classmethod
+    def parse(cls, word: str) -> PboRow:
+        """A row from its `word`; MessageError when it is not one."""
+        parts = word.split(":")
+        if len(parts) != 6 or not parts[0] or not parts[1]:
+            raise MessageError(f"expected NAME:STATE:RATE:IN:OUT:CONST, got {word[:60]!r}")
+        name, state, rate, inputs, outputs, constants = parts
+        return cls(
+            name,
+            state,
+            None if rate == "-" else _finite(rate),
+            _names(inputs),
+            _names(outputs),
+            _names(constants),
+        )
+
+
+class ControlTarget(Protocol):
+    """The node a receiver controls."""
+
+    def pbos(self) -> tuple[PboRow, ...]: ...
+    def start(self, name: str) -> str: ...
+    def stop(self, name: str) -> str: ...
+    def set_constant(self, setting: str) -> str: ...
+    def set_rate(self, name: str, hertz: float) -> str: ...
+    def connect(self, source: str, sink: str) -> str: ...
+    def disconnect(self, source: str, sink: str) -> str: ...
+    def read(self, port: str) -> Number: ...
+    def clock(self) -> float: ...
+    def performance(self) -> tuple[tuple[str, Number], ...]: ...
+    def state(self) -> str: ...
+
+
+def wire(text: str) -> tuple[str, str]:
+    """``OUT_PBO.port=IN_PBO.port`` as (source, sink); MessageError when it is not of that form."""
+    source, found, sink = text.partition("=")
+    if not (found and _is_port(source) and _is_port(sink)):
+        raise MessageError(f"expected OUT_PBO.port=IN_PBO.port, got {text[:60]!r}")
+    return source, sink
+
+
+def ports(text: str) -> tuple[str, ...]:
+    """The ``PBO.port`` words of a read request; MessageError when one is not, or none come."""
+    names = tuple(text.split())
+    bad = [name for name in names if not _is_port(name)]
+    if bad or not names:
+        got = repr(bad[0][:60]) if bad else "none"
+        raise MessageError(f"expected PBO.port names, got {got}")
+    return names
+
+
+def rows_text(rows: tuple[PboRow, ...]) -> str:
+    """The free text of a PBO listing."""
+    return " ".join(row.word() for row in rows)
+
+
+def parse_rows(text: str) -> tuple[PboRow, ...]:
+    """A PBO listing from its free text."""
+    return tuple(PboRow.parse(word) for word in text.split())
+
+
+def values_text(values: tuple[tuple[str, Number], ...]) -> str:
+    """The free text of named values (ports, evaluator outputs): ``NAME=VALUE`` words (a float
+    as Python's repr, so it reads back the same)."""
+    return " ".join(f"{port}={value!r}" for port, value in values)
+
+
+def parse_values(text: str) -> tuple[tuple[str, Number], ...]:
+    """Named values from their free text."""
+    values = []
+    for word in text.split():
+        port, found, value = word.partition("=")
+        if not (found and port):
+            raise MessageError(f"expected NAME=VALUE, got {word[:60]!r}")
+        values.append((port, _number(value)))
+    return tuple(values)
+
+
+def _is_port(text: str) -> bool:
+    pbo, dot, port = text.partition(".")
+    return bool(dot and pbo and port and "." not in port and "=" not in text)
+
+
+def _names(text: str) -> tuple[str, ...]:
+    return tuple(name for name in text.split(",") if name)
+
+
+def _number(text: str) -> Number:
+    try:
+        return int(text)
+    except ValueError:
+        return _finite(text)
+
+
+def _finite(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise MessageError(f"expected a number, got {text[:30]!r}") from None
+    if not math.isfinite(value):
+        raise MessageError(f"expected a finite number, got {text[:30]!r}")
+    return value

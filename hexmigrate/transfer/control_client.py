@@ -1,0 +1,121 @@
+"""The host's side of node control: `NodeControl` asks a node, through a `Sender` (its retries,
+timeouts and refusal handling), to list, start, stop, set, wire and read its PBOs, and to push
+reports (`watch`, then `pushes`).
+
+Each request gets a fresh tid, so that the node, which remembers its recent answers by tid,
+answers a repeat (our request or its answer was lost) without doing it twice. A refusal raises
+TransferError with the node's reason.
+"""
+
+from __future__ import annotations
+
+import random
+import time
+from collections.abc import Callable, Iterator
+
+from hexmigrate.errors import MessageError
+from hexmigrate.transfer.control import Number, PboRow, parse_rows, parse_values
+from hexmigrate.transfer.messages import (
+    Ack,
+    ConnectPorts,
+    DisconnectPorts,
+    Heartbeat,
+    ListPbos,
+    Message,
+    PboTable,
+    PerformanceReport,
+    PortValues,
+    ReadPorts,
+    SetConstant,
+    SetRate,
+    StartPbo,
+    StopPbo,
+    Watch,
+    decode,
+)
+from hexmigrate.transfer.sender import Sender
+
+
+def fresh_tid() -> int:
+    """A tid unlikely to be one the node remembers."""
+    return random.getrandbits(31) | 1
+
+
+class NodeControl:
+    """Control requests to the node at the other end of `sender`'s link; `tids` gives each
+    request's tid (fixed ones make a test reproducible)."""
+
+    def __init__(self, sender: Sender, tids: Callable[[], int] = fresh_tid) -> None:
+        self.sender = sender
+        self.tids = tids
+
+    def pbos(self) -> tuple[PboRow, ...]:
+        """The node's PBOs with their state, rate and ports."""
+        reply = self.sender.request(ListPbos(tid := self.tids()), PboTable, tid)
+        assert isinstance(reply, PboTable)
+        return parse_rows(reply.pbos)
+
+    def read(self, ports: tuple[str, ...]) -> tuple[tuple[str, Number], ...]:
+        """The values of `ports` (``PBO.port`` each), read at the same moment on the node."""
+        reply = self.sender.request(ReadPorts(tid := self.tids(), " ".join(ports)), PortValues, tid)
+        assert isinstance(reply, PortValues)
+        return parse_values(reply.values)
+
+    def start(self, name: str) -> str:
+        """Turn PBO `name` on; the node's line about it."""
+        tid = self.tids()
+        return self._acknowledged(StartPbo(tid, name), tid, "started")
+
+    def stop(self, name: str) -> str:
+        """Turn PBO `name` off."""
+        tid = self.tids()
+        return self._acknowledged(StopPbo(tid, name), tid, "stopped")
+
+    def set(self, setting: str) -> str:
+        """Set a constant, ``PBO.NAME=VALUE``."""
+        tid = self.tids()
+        return self._acknowledged(SetConstant(tid, setting), tid, "set")
+
+    def set_rate(self, name: str, millihertz: int) -> str:
+        """Run PBO `name` at `millihertz` / 1000 Hz from its next start."""
+        tid = self.tids()
+        return self._acknowledged(SetRate(tid, millihertz, name), tid, "rate")
+
+    def connect(self, wire: str) -> str:
+        """Wire ``OUT_PBO.port=IN_PBO.port``."""
+        tid = self.tids()
+        return self._acknowledged(ConnectPorts(tid, wire), tid, "connected")
+
+    def disconnect(self, wire: str) -> str:
+        """Undo the wire ``OUT_PBO.port=IN_PBO.port``."""
+        tid = self.tids()
+        return self._acknowledged(DisconnectPorts(tid, wire), tid, "disconnected")
+
+    def watch(self, period_ms: int, ports: tuple[str, ...] = ()) -> str:
+        """Ask the node to push a report every `period_ms` with `ports`, and heartbeats; 0
+        stops them."""
+        tid = self.tids()
+        what = "watching" if period_ms else "unwatched"
+        return self._acknowledged(Watch(tid, period_ms, " ".join(ports)), tid, what)
+
+    def pushes(self, seconds: float) -> Iterator[PerformanceReport | Heartbeat]:
+        """The reports and heartbeats the node pushes for `seconds`, as they come (damaged
+        ones and stray answers are skipped: the sequence numbers tell what was lost)."""
+        deadline = time.monotonic() + seconds
+        while (left := deadline - time.monotonic()) > 0:
+            raw = self.sender.link.receive(left)
+            if raw is None:
+                continue
+            try:
+                message = decode(raw, checked=True)
+            except MessageError:
+                continue
+            if isinstance(message, (PerformanceReport, Heartbeat)):
+                yield message
+
+    def _acknowledged(self, message: Message, tid: int, what: str) -> str:
+        """Send `message` until the node acknowledges it (an ACK of `tid` starting with `what`);
+        the acknowledgement's text."""
+        reply = self.sender.request(message, Ack, tid, what=what)
+        assert isinstance(reply, Ack)
+        return reply.text
