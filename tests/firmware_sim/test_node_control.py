@@ -174,6 +174,14 @@ def test_a_refusal_names_what_it_refuses_and_the_node_goes_on(node: Node, ask, n
     assert control.stop("scale") == "stopped scale"  # still answering
 
 
+def test_a_rate_the_node_could_not_run_is_refused(node: Node) -> None:
+    control = control_of(node)
+    control.stop("scale")
+    with pytest.raises(TransferError, match=r"0\.01 to 100000 Hz"):
+        control.set_rate("scale", 4_294_967_295)  # the most a request carries: 4.3 MHz
+    assert node.kernel.frequency("scale") == 100.0
+
+
 def test_a_pbo_in_error_is_not_started(node: Node) -> None:
     node.run(until=node.kernel.now + 0.1)
     control = control_of(node)
