@@ -69,13 +69,14 @@ class FlashFile:
         self.state_path = path.with_name(path.name + STATE_SUFFIX)
         self.size = size
         self.block_count = size // BLOCK_SIZE
-        self.existed = path.exists()
+        # Empty files are what a process killed while creating them left: taken as new.
+        self.existed = path.exists() and path.stat().st_size > 0
         if self.existed and path.stat().st_size != size:
             raise FlashError(
                 f"flash file {path}: expected {size} bytes (the configured flash size), "
                 f"got {path.stat().st_size}"
             )
-        self._had_state = self.state_path.exists()
+        self._had_state = self.state_path.exists() and self.state_path.stat().st_size > 0
         self._image = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
             self._state = os.open(self.state_path, os.O_RDWR | os.O_CREAT, 0o644)

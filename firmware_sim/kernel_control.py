@@ -12,6 +12,7 @@ from collections import Counter
 
 import numpy as np
 
+from firmware_sim.arguments import RATE_MAX, RATE_MIN
 from firmware_sim.errors import PortValueError
 from firmware_sim.node import Node
 from firmware_sim.settings import Number, exact, setting
@@ -77,7 +78,12 @@ class KernelControl:
         return f"set {wanted.target}={value!r}"
 
     def set_rate(self, name: str, hertz: float) -> str:
-        """Run PBO `name` at `hertz` from its next start (set while it is off)."""
+        """Run PBO `name` at `hertz` from its next start (set while it is off), within the rates
+        ``--rate`` takes: a request carries up to 4.3 MHz, which would keep the node busy."""
+        if not RATE_MIN <= hertz <= RATE_MAX:
+            raise PortValueError(
+                f"PBO {name!r}: expected a rate of {RATE_MIN:g} to {RATE_MAX:g} Hz, got {hertz:g}"
+            )
         self.node.kernel.set_frequency(name, hertz)
         return f"rate {name}={hertz:g} Hz"
 

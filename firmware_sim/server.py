@@ -14,6 +14,7 @@ from firmware_sim.fpga_port import ReconfigurationPort
 from firmware_sim.kernel_control import KernelControl
 from firmware_sim.loader import InstalledImage, LoadSession
 from firmware_sim.node import Node
+from hexmigrate.errors import LinkError
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.base import Link
 from hexmigrate.transfer.receiver import Receiver
@@ -112,7 +113,8 @@ def serve(
 
     Pass the `receiver` of an earlier call to keep transfers across a new link (resume). A new
     receiver also takes the node's control requests (`KernelControl`); what a host's watch
-    asks for is pushed between messages.
+    asks for is pushed between messages. A push the link refuses (a host that stopped reading a
+    pty) ends the watch, so the node is not held up by every later one; the host watches again.
     """
     receiver = receiver or Receiver(NodeTarget(node), KernelControl(node))
     while not stop():
@@ -122,6 +124,9 @@ def serve(
                 link.send(reply)
         elif node.kernel.names:
             node.run(until=node.kernel.now + poll)
-        for push in receiver.due():  # reports and heartbeats of a watch
-            link.send(push)
+        try:
+            for push in receiver.due():  # reports and heartbeats of a watch
+                link.send(push)
+        except LinkError:
+            receiver.subscription = None
     return receiver

@@ -15,9 +15,9 @@ from hypothesis import strategies as st
 from firmware_sim.kernel_control import KernelControl
 from firmware_sim.natives import Signal
 from firmware_sim.node import Node
-from firmware_sim.server import NodeTarget
+from firmware_sim.server import NodeTarget, serve
 from firmware_sim.starting import start_pbo
-from hexmigrate.errors import TransferError
+from hexmigrate.errors import LinkError, TransferError
 from hexmigrate.transfer.control import parse_values
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import (
@@ -174,6 +174,14 @@ def test_a_refusal_names_what_it_refuses_and_the_node_goes_on(node: Node, ask, n
     assert control.stop("scale") == "stopped scale"  # still answering
 
 
+def test_a_rate_the_node_could_not_run_is_refused(node: Node) -> None:
+    control = control_of(node)
+    control.stop("scale")
+    with pytest.raises(TransferError, match=r"0\.01 to 100000 Hz"):
+        control.set_rate("scale", 4_294_967_295)  # the most a request carries: 4.3 MHz
+    assert node.kernel.frequency("scale") == 100.0
+
+
 def test_a_pbo_in_error_is_not_started(node: Node) -> None:
     node.run(until=node.kernel.now + 0.1)
     control = control_of(node)
@@ -269,6 +277,35 @@ def test_a_watched_node_pushes_reports_and_heartbeats_at_the_period_asked(node, 
     (ack,) = receiver.handle(encode(Watch(6, 0), text))
     node.run(until=node.kernel.now + 0.5)
     assert receiver.due() == []
+
+
+class _DeafHost:
+    """The node's end of a link to a host that asked for a watch and then stopped reading: the
+    watch's answer goes out, every later message is refused (a pty nobody reads)."""
+
+    def __init__(self, request: bytes) -> None:
+        self.inbox = [request]
+        self.sent = 0
+        self.refused = 0
+
+    def send(self, message: bytes) -> None:
+        if self.sent:
+            self.refused += 1
+            raise LinkError("pty-near: the far end took no bytes (a test fault)")
+        self.sent += 1
+
+    def receive(self, timeout: float) -> bytes | None:
+        return self.inbox.pop() if self.inbox else None
+
+    def close(self) -> None:
+        pass
+
+
+def test_a_host_that_stops_reading_ends_its_watch_and_the_node_goes_on(node: Node) -> None:
+    link = _DeafHost(encode(Watch(5, 100), False))
+    receiver = serve(node, link, stop=lambda: node.kernel.now > 2.0, poll=0.05)
+    assert link.refused == 1 and receiver.subscription is None
+    assert node.kernel.now > 2.0
 
 
 def test_a_watch_of_an_unknown_port_or_too_short_a_period_is_refused(node: Node) -> None:

@@ -133,6 +133,17 @@ def test_an_image_without_its_sidecar_is_taken_as_it_is(tmp_path):
     assert Path(f"{path}{STATE_SUFFIX}").stat().st_size == 16 + 2 * 8
 
 
+@pytest.mark.parametrize("image", [b"", b"\xff" * (2 * BLOCK_SIZE)], ids=["empty", "written"])
+def test_files_left_by_a_process_killed_while_creating_them_are_taken_as_new(tmp_path, image):
+    path = tmp_path / "flash.bin"  # killed after opening both files, or after the image only
+    path.write_bytes(image)
+    Path(f"{path}{STATE_SUFFIX}").write_bytes(b"")
+    with Flash(BASE, 2 * BLOCK_SIZE, path=path) as flash:
+        assert flash.read(BASE, 2 * BLOCK_SIZE) == b"\xff" * 2 * BLOCK_SIZE
+        assert [flash.is_erased(0), flash.is_erased(1)] == [True, True]
+    assert path.stat().st_size == 2 * BLOCK_SIZE
+
+
 @pytest.mark.parametrize(
     ("size", "damage", "message"),
     [
