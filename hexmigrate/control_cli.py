@@ -21,7 +21,7 @@ from typing import Any
 from commandline import UsageError, add_command
 from commandline.arguments import real
 from hexmigrate.errors import MessageError
-from hexmigrate.transfer.control import Number, parse_values, wire
+from hexmigrate.transfer.control import MAX_PORTS, Number, parse_values, wire
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import Heartbeat, PerformanceReport
 from hexmigrate.transfer.sender import Sender
@@ -32,7 +32,6 @@ LinkOptions = Callable[[argparse.ArgumentParser], None]
 MAX_WATCH_SECONDS = 24 * 3600.0
 MIN_PERIOD = 0.01
 MAX_PERIOD = 3600.0
-MAX_PORTS = 32
 MAX_MILLIHERTZ = 0xFFFF_FFFF
 """The highest rate a request carries, in millihertz (a u32)."""
 MAX_ARGUMENT = 120

@@ -1,0 +1,50 @@
+"""Hostile control requests: a node refuses what would flood it or its line, and keeps what it
+remembers of its answers small."""
+
+from __future__ import annotations
+
+from hexmigrate.transfer.control import MAX_PORTS, Number, PboRow
+from hexmigrate.transfer.messages import Message, Nak, ReadPorts, Watch, decode, encode
+from hexmigrate.transfer.receiver import Receiver
+
+
+class Counting:
+    """A node of one readable port that counts its reads."""
+
+    def __init__(self) -> None:
+        self.reads = 0
+
+    def pbos(self) -> tuple[PboRow, ...]:
+        return ()
+
+    def read(self, port: str) -> Number:
+        self.reads += 1
+        return 1
+
+    def clock(self) -> float:
+        return 0.0
+
+    def performance(self) -> tuple[tuple[str, Number], ...]:
+        return ()
+
+    def state(self) -> str:
+        return "ok"
+
+
+def answer(receiver: Receiver, message: Message) -> Message:
+    (raw,) = receiver.handle(encode(message, False))
+    return decode(raw)
+
+
+def test_a_read_or_watch_of_too_many_ports_is_refused_before_any_is_read() -> None:
+    node = Counting()
+    receiver = Receiver(None, node)  # type: ignore[arg-type]
+    many = " ".join(["gain.y"] * (MAX_PORTS + 1))
+    for request in (ReadPorts(1, many), Watch(2, 100, many)):
+        refusal = answer(receiver, request)
+        assert isinstance(refusal, Nak) and refusal.fatal
+        assert f"at most {MAX_PORTS} ports" in refusal.reason
+    assert node.reads == 0
+    assert receiver.subscription is None
+    assert not isinstance(answer(receiver, ReadPorts(3, " ".join(["gain.y"] * MAX_PORTS))), Nak)
+    assert node.reads == MAX_PORTS
