@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from hexmigrate.transfer.control import MAX_PORTS, Number, PboRow
 from hexmigrate.transfer.messages import Message, Nak, ReadPorts, Watch, decode, encode
-from hexmigrate.transfer.receiver import Receiver
+from hexmigrate.transfer.receiver import MAX_REFUSAL, Receiver
 
 
 class Counting:
@@ -18,6 +18,8 @@ class Counting:
         return ()
 
     def read(self, port: str) -> Number:
+        if port != "gain.y":
+            raise ValueError(f"no port named {port!r}")
         self.reads += 1
         return 1
 
@@ -48,3 +50,12 @@ def test_a_read_or_watch_of_too_many_ports_is_refused_before_any_is_read() -> No
     assert receiver.subscription is None
     assert not isinstance(answer(receiver, ReadPorts(3, " ".join(["gain.y"] * MAX_PORTS))), Nak)
     assert node.reads == MAX_PORTS
+
+
+def test_a_refusal_of_a_huge_name_is_short() -> None:
+    receiver = Receiver(None, Counting())  # type: ignore[arg-type]
+    refusal = answer(receiver, ReadPorts(1, "gain." + "\x01" * 100_000))
+    assert isinstance(refusal, Nak) and refusal.fatal
+    assert refusal.reason.startswith("READ refused: ")
+    assert len(refusal.reason) <= MAX_REFUSAL
+    assert len(receiver.controlled[1].reason) <= MAX_REFUSAL  # type: ignore[attr-defined]
