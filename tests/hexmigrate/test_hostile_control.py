@@ -1,11 +1,20 @@
-"""Hostile control requests: a node refuses what would flood it or its line, and keeps what it
-remembers of its answers small."""
+"""Hostile control requests: a node refuses what would flood it or its line, keeps what it
+remembers of its answers small, and a busy node does not make up the reports it missed."""
 
 from __future__ import annotations
 
 from hexmigrate.transfer.control import MAX_PORTS, Number, PboRow
-from hexmigrate.transfer.messages import Message, Nak, ReadPorts, Watch, decode, encode
+from hexmigrate.transfer.messages import (
+    Message,
+    Nak,
+    PerformanceReport,
+    ReadPorts,
+    Watch,
+    decode,
+    encode,
+)
 from hexmigrate.transfer.receiver import MAX_REFUSAL, Receiver
+from hexmigrate.transfer.subscription import Subscription
 
 
 class Counting:
@@ -13,6 +22,7 @@ class Counting:
 
     def __init__(self) -> None:
         self.reads = 0
+        self.now = 0.0
 
     def pbos(self) -> tuple[PboRow, ...]:
         return ()
@@ -24,7 +34,7 @@ class Counting:
         return 1
 
     def clock(self) -> float:
-        return 0.0
+        return self.now
 
     def performance(self) -> tuple[tuple[str, Number], ...]:
         return ()
@@ -59,3 +69,14 @@ def test_a_refusal_of_a_huge_name_is_short() -> None:
     assert refusal.reason.startswith("READ refused: ")
     assert len(refusal.reason) <= MAX_REFUSAL
     assert len(receiver.controlled[1].reason) <= MAX_REFUSAL  # type: ignore[attr-defined]
+
+
+def test_a_report_missed_while_the_node_was_busy_is_not_made_up_for() -> None:
+    node = Counting()
+    watch = Subscription(0.1, (), False, next_report=0.0, next_beat=1e9)
+    node.now = 5.0  # busy for 5 s: 50 reports missed
+    assert [type(push) for push in watch.due(node)] == [PerformanceReport]
+    node.now = 5.05
+    assert watch.due(node) == []
+    node.now = 5.1
+    assert len(watch.due(node)) == 1
