@@ -247,7 +247,10 @@ def _watch(node: NodeControl, args: argparse.Namespace) -> None:
                 if not args.csv:
                     print(f"heartbeat #{push.seq} t={push.clock_ms / 1000:.3f}s  {push.state}")
                 continue
-            values = dict(parse_values(push.values))
+            try:
+                values = dict(parse_values(push.values))
+            except MessageError:  # damaged past hex mode's CRC-8: skipped, as pushes() skips
+                continue
             if args.csv and not columns:
                 columns = list(values)
                 print(",".join(["time", "seq", *columns]), flush=True)

@@ -1,8 +1,15 @@
-"""Hostile control requests: a node refuses what would flood it or its line, keeps what it
-remembers of its answers small, and a busy node does not make up the reports it missed."""
+"""Hostile control requests and damaged pushes: a node refuses what would flood it or its
+line and keeps what it remembers of its answers small, a busy node does not make up the reports
+it missed, and `watch` skips a report damaged past its check."""
 
 from __future__ import annotations
 
+import argparse
+from collections.abc import Iterator
+
+import pytest
+
+from hexmigrate import control_cli
 from hexmigrate.transfer.control import MAX_PORTS, Number, PboRow
 from hexmigrate.transfer.messages import (
     Message,
@@ -80,3 +87,26 @@ def test_a_report_missed_while_the_node_was_busy_is_not_made_up_for() -> None:
     assert watch.due(node) == []
     node.now = 5.1
     assert len(watch.due(node)) == 1
+
+
+class Pushing:
+    """A NodeControl whose node pushes a damaged report, then a good one."""
+
+    def __init__(self) -> None:
+        self.periods: list[int] = []
+
+    def watch(self, period_ms: int, ports: tuple[str, ...] = ()) -> str:
+        self.periods.append(period_ms)
+        return "watching"
+
+    def pushes(self, seconds: float) -> Iterator[PerformanceReport]:
+        yield PerformanceReport(0, 0, "leftover=5O")  # a 0 damaged into an O
+        yield PerformanceReport(1, 10, "leftover=50")
+
+
+def test_watch_skips_a_damaged_report_and_goes_on(capsys: pytest.CaptureFixture[str]) -> None:
+    node = Pushing()
+    args = argparse.Namespace(port=None, period=0.2, seconds=1.0, csv=True)
+    control_cli._watch(node, args)  # type: ignore[arg-type]
+    assert capsys.readouterr().out.splitlines() == ["time,seq,leftover", "0.010,1,50"]
+    assert node.periods == [200, 0]
