@@ -135,6 +135,8 @@ def add_control_commands(
         return command
 
     def watch(args: argparse.Namespace) -> int:
+        if len(args.port or ()) > MAX_PORTS:  # before the link opens
+            raise UsageError(f"expected at most {MAX_PORTS} --port, got {len(args.port)}")
         with control(args) as node:
             _watch(node, args)
         return 0
@@ -237,8 +239,6 @@ def _watch(node: NodeControl, args: argparse.Namespace) -> None:
     """Have the node push a report every `args.period` s with `args.port` for `args.seconds`
     s and print each as it comes, then stop the pushes."""
     ports: tuple[str, ...] = tuple(args.port or ())
-    if len(ports) > MAX_PORTS:
-        raise UsageError(f"expected at most {MAX_PORTS} --port, got {len(ports)}")
     node.watch(round(args.period * 1000), ports)
     columns: list[str] = []
     try:

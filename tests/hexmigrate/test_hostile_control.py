@@ -9,7 +9,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from hexmigrate import control_cli
+from hexmigrate import cli, control_cli
 from hexmigrate.transfer.control import MAX_PORTS, Number, PboRow
 from hexmigrate.transfer.messages import (
     Message,
@@ -110,3 +110,16 @@ def test_watch_skips_a_damaged_report_and_goes_on(capsys: pytest.CaptureFixture[
     control_cli._watch(node, args)  # type: ignore[arg-type]
     assert capsys.readouterr().out.splitlines() == ["time,seq,leftover", "0.010,1,50"]
     assert node.periods == [200, 0]
+
+
+def test_watch_of_too_many_ports_is_refused_before_the_link_opens(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    opened: list[str] = []
+    monkeypatch.setattr(cli, "open_link", opened.append)
+    ports = [word for _ in range(MAX_PORTS + 1) for word in ("--port", "gain.y")]
+    with pytest.raises(SystemExit) as exit:
+        cli.main(["watch", *ports, "--to", "socket://127.0.0.1:7777"])
+    assert exit.value.code == 2
+    assert f"at most {MAX_PORTS} --port" in capsys.readouterr().err
+    assert opened == []
