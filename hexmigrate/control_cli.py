@@ -62,10 +62,10 @@ def setting_text(text: str) -> str:
     target, found, value = text.partition("=")
     try:
         port_name(target)
-        number = float(int(value, 0)) if _is_integer(value) else float(value)
+        numeric = _is_integer(value) or math.isfinite(float(value))
     except (argparse.ArgumentTypeError, ValueError):
-        number = math.nan
-    if not (found and _is_word(text) and math.isfinite(number)):
+        numeric = False
+    if not (found and _is_word(text) and numeric):
         raise argparse.ArgumentTypeError(
             f"expected PBO.NAME=VALUE with a number for VALUE, e.g. gain.k=0x20000, got {text!r}"
         )

@@ -123,3 +123,9 @@ def test_watch_of_too_many_ports_is_refused_before_the_link_opens(
     assert exit.value.code == 2
     assert f"at most {MAX_PORTS} --port" in capsys.readouterr().err
     assert opened == []
+
+
+@pytest.mark.parametrize("value", ["9" * 400, "1e400", "nan", "0x", ""])
+def test_set_refuses_a_value_that_is_no_finite_number_as_usage(value: str) -> None:
+    with pytest.raises(argparse.ArgumentTypeError):
+        control_cli.setting_text(f"gain.k={value}")
