@@ -80,7 +80,7 @@ def rate_setting(text: str) -> tuple[str, int]:
         rate = float(hertz)
     except ValueError:
         rate = math.nan
-    millihertz = round(rate * 1000) if math.isfinite(rate) else 0
+    millihertz = round(rate * 1000) if math.isfinite(rate * 1000) else 0
     if not (found and name and 0 < millihertz <= MAX_MILLIHERTZ):
         raise argparse.ArgumentTypeError(
             f"expected PBO=HZ with HZ from 0.001 to {MAX_MILLIHERTZ / 1000}, got {text!r}"

@@ -129,3 +129,9 @@ def test_watch_of_too_many_ports_is_refused_before_the_link_opens(
 def test_set_refuses_a_value_that_is_no_finite_number_as_usage(value: str) -> None:
     with pytest.raises(argparse.ArgumentTypeError):
         control_cli.setting_text(f"gain.k={value}")
+
+
+@pytest.mark.parametrize("hertz", ["1e308", "inf", "nan", "0", "-1", "1e-9"])
+def test_rate_refuses_a_rate_out_of_range_as_usage(hertz: str) -> None:
+    with pytest.raises(argparse.ArgumentTypeError):
+        control_cli.rate_setting(f"gain={hertz}")
