@@ -1,15 +1,18 @@
-"""Hostile control requests and damaged pushes: a node refuses what would flood it or its
-line and keeps what it remembers of its answers small, a busy node does not make up the reports
-it missed, and `watch` skips a report damaged past its check."""
+"""Hostile control requests and a host that stops reading: a node refuses what would flood it
+or its line and keeps what it remembers of its answers small, a busy node does not make up the
+reports it missed, `watch` skips a report damaged past its check, and a link nobody reads holds
+at most MAX_QUEUED bytes."""
 
 from __future__ import annotations
 
 import argparse
+import time
 from collections.abc import Iterator
 
 import pytest
 
 from hexmigrate import cli, control_cli
+from hexmigrate.links import open_link, stream
 from hexmigrate.transfer.control import MAX_PORTS, Number, PboRow
 from hexmigrate.transfer.messages import (
     Message,
@@ -135,3 +138,22 @@ def test_set_refuses_a_value_that_is_no_finite_number_as_usage(value: str) -> No
 def test_rate_refuses_a_rate_out_of_range_as_usage(hertz: str) -> None:
     with pytest.raises(argparse.ArgumentTypeError):
         control_cli.rate_setting(f"gain={hertz}")
+
+
+def test_a_link_nobody_reads_holds_at_most_max_queued_bytes(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(stream, "MAX_QUEUED", 1000)
+    with open_link("loop://") as link:
+        assert isinstance(link, stream.StreamLink)
+        for _ in range(30):
+            link.send(b"\x02" + bytes(99))
+        deadline = time.monotonic() + 5.0
+        while link.overruns < 20 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        received = []
+        while (message := link.receive(0.2)) is not None:
+            received.append(message)
+        assert (len(received), link.overruns) == (10, 20)
+        link.send(b"\x02" + bytes(99))  # room again once read
+        assert link.receive(2.0) == b"\x02" + bytes(99)
