@@ -21,7 +21,7 @@ from typing import Any
 from commandline import UsageError, add_command
 from commandline.arguments import real
 from hexmigrate.errors import MessageError
-from hexmigrate.transfer.control import Number, parse_values, wire
+from hexmigrate.transfer.control import MAX_PORTS, Number, parse_values, wire
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import Heartbeat, PerformanceReport
 from hexmigrate.transfer.sender import Sender
@@ -32,7 +32,6 @@ LinkOptions = Callable[[argparse.ArgumentParser], None]
 MAX_WATCH_SECONDS = 24 * 3600.0
 MIN_PERIOD = 0.01
 MAX_PERIOD = 3600.0
-MAX_PORTS = 32
 MAX_MILLIHERTZ = 0xFFFF_FFFF
 """The highest rate a request carries, in millihertz (a u32)."""
 MAX_ARGUMENT = 120
@@ -63,10 +62,10 @@ def setting_text(text: str) -> str:
     target, found, value = text.partition("=")
     try:
         port_name(target)
-        number = float(int(value, 0)) if _is_integer(value) else float(value)
+        numeric = _is_integer(value) or math.isfinite(float(value))
     except (argparse.ArgumentTypeError, ValueError):
-        number = math.nan
-    if not (found and _is_word(text) and math.isfinite(number)):
+        numeric = False
+    if not (found and _is_word(text) and numeric):
         raise argparse.ArgumentTypeError(
             f"expected PBO.NAME=VALUE with a number for VALUE, e.g. gain.k=0x20000, got {text!r}"
         )
@@ -81,7 +80,7 @@ def rate_setting(text: str) -> tuple[str, int]:
         rate = float(hertz)
     except ValueError:
         rate = math.nan
-    millihertz = round(rate * 1000) if math.isfinite(rate) else 0
+    millihertz = round(rate * 1000) if math.isfinite(rate * 1000) else 0
     if not (found and name and 0 < millihertz <= MAX_MILLIHERTZ):
         raise argparse.ArgumentTypeError(
             f"expected PBO=HZ with HZ from 0.001 to {MAX_MILLIHERTZ / 1000}, got {text!r}"
@@ -136,6 +135,8 @@ def add_control_commands(
         return command
 
     def watch(args: argparse.Namespace) -> int:
+        if len(args.port or ()) > MAX_PORTS:  # before the link opens
+            raise UsageError(f"expected at most {MAX_PORTS} --port, got {len(args.port)}")
         with control(args) as node:
             _watch(node, args)
         return 0
@@ -238,8 +239,6 @@ def _watch(node: NodeControl, args: argparse.Namespace) -> None:
     """Have the node push a report every `args.period` s with `args.port` for `args.seconds`
     s and print each as it comes, then stop the pushes."""
     ports: tuple[str, ...] = tuple(args.port or ())
-    if len(ports) > MAX_PORTS:
-        raise UsageError(f"expected at most {MAX_PORTS} --port, got {len(ports)}")
     node.watch(round(args.period * 1000), ports)
     columns: list[str] = []
     try:
@@ -248,7 +247,10 @@ def _watch(node: NodeControl, args: argparse.Namespace) -> None:
                 if not args.csv:
                     print(f"heartbeat #{push.seq} t={push.clock_ms / 1000:.3f}s  {push.state}")
                 continue
-            values = dict(parse_values(push.values))
+            try:
+                values = dict(parse_values(push.values))
+            except MessageError:  # damaged past hex mode's CRC-8: skipped, as pushes() skips
+                continue
             if args.csv and not columns:
                 columns = list(values)
                 print(",".join(["time", "seq", *columns]), flush=True)

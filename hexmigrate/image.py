@@ -235,7 +235,7 @@ def find_descriptor(image: ModuleImage) -> tuple[int, abi.Descriptor] | None:
         address = image.link_base + position
         if address % 4 == 0:
             try:
-                return address, abi.Descriptor.decode(image.data[position:])
+                return address, abi.Descriptor.decode(image.data[position : position + abi.SIZE])
             except DescriptorError:
                 pass
         position = image.data.find(magic, position + 1)

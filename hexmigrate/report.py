@@ -11,7 +11,7 @@ from collections import Counter
 from typing import Any
 
 from hexmigrate import descriptor as abi
-from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage, descriptor_name, find_descriptor
+from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage, find_descriptor
 from hexmigrate.records import RecordType, decode_record
 
 
@@ -21,7 +21,7 @@ def build_report(image: ModuleImage, text: str, path: str) -> dict[str, Any]:
     return {
         "file": path,
         "name": image.name,
-        "name_from": "file" if descriptor_name(image) is None else "descriptor",
+        "name_from": "descriptor" if found is not None and found[1].name else "file",
         "link_base": image.link_base,
         "size": image.size,
         "init": image.init,

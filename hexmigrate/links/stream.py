@@ -19,6 +19,11 @@ from hexmigrate.links.framing import Deframer, frame
 POLL_INTERVAL = 0.02
 """How long the reader waits for bytes before it checks whether the link is closing: the upper
 bound on the time `close` takes."""
+MAX_QUEUED = 4 << 20
+"""The most bytes of received messages a link holds for a `receive` that has not come yet: a
+message past it is dropped and counted in `overruns`, as a UART overruns, so that a peer that
+pushes to a reader that stopped reading (a watch printing into a pipe nobody empties) does not
+grow memory without bound. Four of the largest messages fit."""
 
 
 class StreamLink(LinkBase):
@@ -33,6 +38,10 @@ class StreamLink(LinkBase):
         super().__init__(url)
         self.deframer = Deframer()
         self._messages: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
+        self._queued = 0  # bytes of the messages in _messages
+        self._queued_lock = threading.Lock()
+        self.overruns = 0
+        """Received messages dropped because MAX_QUEUED bytes waited for `receive`."""
         self._failure: LinkError | None = None
         self._stopping = threading.Event()
         self._reader = threading.Thread(target=self._read_loop, name=f"reader {url}", daemon=True)
@@ -63,6 +72,8 @@ class StreamLink(LinkBase):
             self._messages.put(None)
             assert self._failure is not None
             raise self._failure
+        with self._queued_lock:
+            self._queued -= len(message)
         return message
 
     def _close(self) -> None:
@@ -80,6 +91,11 @@ class StreamLink(LinkBase):
                     self._fail(LinkError(f"{self.url}: cannot read: {error}"))
                 return
             for message in self.deframer.feed(chunk):
+                with self._queued_lock:
+                    if self._queued + len(message) > MAX_QUEUED:
+                        self.overruns += 1
+                        continue
+                    self._queued += len(message)
                 self._messages.put(message)
 
     def _fail(self, failure: LinkError) -> None:

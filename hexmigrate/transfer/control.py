@@ -20,6 +20,10 @@ from hexmigrate.errors import MessageError
 
 Number = int | float
 
+MAX_PORTS = 32
+"""The most ports one READ or WATCH names: a node reads each of them for the answer, or for
+every report of a watch, so a longer list only floods the node and its line."""
+
 
 @dataclass(frozen=True)
 class PboRow:
@@ -81,8 +85,11 @@ def wire(text: str) -> tuple[str, str]:
 
 
 def ports(text: str) -> tuple[str, ...]:
-    """The ``PBO.port`` words of a read request; MessageError when one is not, or none come."""
-    names = tuple(text.split())
+    """The ``PBO.port`` words of a read request; MessageError when one is not, none come or
+    more than MAX_PORTS."""
+    names = tuple(text.split(maxsplit=MAX_PORTS))
+    if len(names) > MAX_PORTS:
+        raise MessageError(f"expected at most {MAX_PORTS} ports, got more")
     bad = [name for name in names if not _is_port(name)]
     if bad or not names:
         got = repr(bad[0][:60]) if bad else "none"

@@ -59,6 +59,9 @@ REMEMBERED_COMMITS = 64
 REMEMBERED_CONTROLS = 64
 """Control answers kept by tid, so that a request repeated after a lost answer is answered
 again, not done again."""
+MAX_REFUSAL = 200
+"""The longest reason a control refusal gives: a refusal names what it refuses, and a hostile
+name of a megabyte must not become 64 remembered answers of a megabyte each."""
 
 
 class Session(Protocol):
@@ -213,7 +216,10 @@ class Receiver:
             try:
                 answer = self._control(message)
             except Exception as error:  # a refusal of the node: it says why
-                answer = Nak(tid, 0, f"{message.layout.verb} refused: {error}", fatal=True)
+                reason = f"{message.layout.verb} refused: {error}"
+                if len(reason) > MAX_REFUSAL:
+                    reason = reason[: MAX_REFUSAL - 3] + "..."
+                answer = Nak(tid, 0, reason, fatal=True)
             self.controlled[tid] = answer
             while len(self.controlled) > REMEMBERED_CONTROLS:
                 self.controlled.popitem(last=False)

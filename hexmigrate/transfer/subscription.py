@@ -41,7 +41,9 @@ class Subscription:
         now = control.clock()
         pushed: list[Message] = []
         if now >= self.next_report:
-            self.next_report = max(self.next_report + self.period, now)
+            self.next_report += self.period
+            if self.next_report <= now:  # late by a period or more: one period from now
+                self.next_report = now + self.period
             values = control.performance() + _readable(control, self.ports)
             pushed.append(PerformanceReport(self._next_seq(), _ms(now), values_text(values)))
         if now >= self.next_beat:

@@ -12,6 +12,7 @@ import pytest
 from elftools.elf.elffile import ELFFile
 from intelhex import IntelHex
 
+from hexmigrate import descriptor as abi
 from hexmigrate.elf import image_from_elf
 from hexmigrate.errors import HexError, ModuleSourceError
 from hexmigrate.image import ModuleImage
@@ -171,3 +172,21 @@ def test_every_swap_of_two_lines_in_a_real_module_is_caught_or_harmless(example_
 def test_the_elf_route_holds_the_bytes_objcopy_writes_padding_included(example):
     """The gap before the 4-byte aligned descriptor is zero, as in objcopy's raw binary."""
     assert image_from_elf(example.elf).data == example.bin.read_bytes()
+
+
+def test_the_descriptor_search_decodes_a_descriptor_s_bytes_not_the_rest_of_the_image(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Each aligned ``PBO1`` is tried: handing each try the rest of the image made an image
+    full of them quadratic to read (16 MiB: over half an hour)."""
+    decode = abi.Descriptor.decode
+    lengths: list[int] = []
+
+    def recording(data: bytes) -> abi.Descriptor:
+        lengths.append(len(data))
+        return decode(data)
+
+    monkeypatch.setattr(abi.Descriptor, "decode", recording)
+    data = (b"PBO1" + bytes(4)) * 4096  # magics of no ABI this reads
+    ModuleImage("magics", 0x10000, data, (), 0x10000)
+    assert len(lengths) == 4096 and max(lengths) <= abi.SIZE
