@@ -104,7 +104,7 @@ def rows_text(rows: tuple[PboRow, ...]) -> str:
 
 def parse_rows(text: str) -> tuple[PboRow, ...]:
     """A PBO listing from its free text."""
-    return tuple(PboRow.parse(word) for word in text.split())
+    return tuple(PboRow.parse(word) for word in _printable(text).split())
 
 
 def values_text(values: tuple[tuple[str, Number], ...]) -> str:
@@ -116,12 +116,20 @@ def values_text(values: tuple[tuple[str, Number], ...]) -> str:
 def parse_values(text: str) -> tuple[tuple[str, Number], ...]:
     """Named values from their free text."""
     values = []
-    for word in text.split():
+    for word in _printable(text).split():
         port, found, value = word.partition("=")
         if not (found and port):
             raise MessageError(f"expected NAME=VALUE, got {word[:60]!r}")
         values.append((port, _number(value)))
     return tuple(values)
+
+
+def _printable(text: str) -> str:
+    """`text` when it is printable ASCII words; MessageError otherwise. What a host prints of a
+    node's answer must not carry control characters (a terminal's escape sequences)."""
+    if not text.isascii() or not all(word.isprintable() for word in text.split()):
+        raise MessageError(f"expected printable ASCII words, got {text[:60]!r}")
+    return text
 
 
 def _is_port(text: str) -> bool:

@@ -12,8 +12,9 @@ from collections.abc import Iterator
 import pytest
 
 from hexmigrate import cli, control_cli
+from hexmigrate.errors import MessageError
 from hexmigrate.links import open_link, stream
-from hexmigrate.transfer.control import MAX_PORTS, Number, PboRow
+from hexmigrate.transfer.control import MAX_PORTS, Number, PboRow, parse_rows, parse_values
 from hexmigrate.transfer.messages import (
     Message,
     Nak,
@@ -157,3 +158,16 @@ def test_a_link_nobody_reads_holds_at_most_max_queued_bytes(
         assert (len(received), link.overruns) == (10, 20)
         link.send(b"\x02" + bytes(99))  # room again once read
         assert link.receive(2.0) == b"\x02" + bytes(99)
+
+
+@pytest.mark.parametrize(
+    ("parse", "text"),
+    [
+        (parse_rows, "\x1b[2Jevil:ON:10:x:y:"),
+        (parse_values, "gain.y=1 \x1b]0;owned\x07=2"),
+        (parse_values, "g\u00e4in.y=1"),
+    ],
+)
+def test_a_node_s_answer_with_control_characters_is_refused_not_printed(parse, text):
+    with pytest.raises(MessageError, match="expected printable ASCII words"):
+        parse(text)
