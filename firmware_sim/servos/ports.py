@@ -9,6 +9,7 @@ pseudo-terminal whose far end (`path`) a terminal program or a host opens as a s
 
 from __future__ import annotations
 
+import contextlib
 import os
 import select
 import tty
@@ -74,6 +75,7 @@ class PtyPort:
     def __init__(self) -> None:
         master, self._slave = os.openpty()
         tty.setraw(self._slave)
+        os.set_blocking(master, False)  # reads wait in select; a full buffer drops a write
         self._master = master
         self.path = os.ttyname(self._slave)
         self.name = f"pty:{self.path}"
@@ -84,9 +86,12 @@ class PtyPort:
         return os.read(self._master, READ_SIZE) if readable else b""
 
     def write(self, data: bytes) -> None:
-        view = memoryview(data)
-        while view:
-            view = view[os.write(self._master, view) :]
+        """Send what the pty's buffer takes; the rest is lost, as on a serial line that nobody
+        reads (a host that stopped reading must not block the emulator)."""
+        with contextlib.suppress(BlockingIOError):
+            view = memoryview(data)
+            while view:
+                view = view[os.write(self._master, view) :]
 
     def close(self) -> None:
         """Close both ends: the host's reads then fail as on a pulled cable."""
