@@ -45,7 +45,9 @@ class SerialPort:
     def __init__(self, url: str, bit_rate: int = 115200) -> None:
         self.name = url
         try:
-            self._port = serial.serial_for_url(url, baudrate=bit_rate, timeout=POLL_INTERVAL)
+            self._port = serial.serial_for_url(
+                url, baudrate=bit_rate, timeout=POLL_INTERVAL, write_timeout=POLL_INTERVAL
+            )
         except (OSError, ValueError) as error:
             raise ServoPortError(f"cannot open {url}: {error}") from error
 
@@ -59,9 +61,12 @@ class SerialPort:
             raise ServoPortError(f"{self.name}: {error}") from error
 
     def write(self, data: bytes) -> None:
+        """Send what the line takes within a poll; the rest is lost, as on a serial line that
+        nobody reads (no flush: it would wait for the host to read)."""
         try:
             self._port.write(data)
-            self._port.flush()
+        except serial.SerialTimeoutException:
+            pass
         except serial.SerialException as error:
             raise ServoPortError(f"{self.name}: {error}") from error
 
