@@ -5,6 +5,7 @@ one is meant)."""
 from __future__ import annotations
 
 import ast
+import re
 from collections import defaultdict
 from pathlib import Path
 
@@ -55,3 +56,19 @@ def test_each_package_draws_its_tree_under_one_root(package):
     assert doc is not None and "Tree::" in doc
     tree = doc.split("Tree::", 1)[1].strip().splitlines()
     assert tree[0].split()[0] == ROOTS[package]
+
+
+ERRORS_FILES = sorted(
+    path.relative_to(ROOT) for package in LAYERS for path in (ROOT / package).rglob("errors.py")
+)
+
+
+@pytest.mark.parametrize("errors", ERRORS_FILES, ids=str)
+def test_each_errors_file_draws_every_class_it_defines(errors):
+    module = ast.parse((ROOT / errors).read_text(encoding="utf-8"))
+    drawn = set(re.findall(r"\w+", (ast.get_docstring(module) or "").partition("Tree::")[2]))
+    defined = [
+        node.name for node in module.body if isinstance(node, ast.ClassDef) and _is_exception(node)
+    ]
+    assert defined
+    assert [name for name in defined if name not in drawn] == []

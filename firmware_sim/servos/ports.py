@@ -9,6 +9,7 @@ pseudo-terminal whose far end (`path`) a terminal program or a host opens as a s
 
 from __future__ import annotations
 
+import contextlib
 import os
 import select
 import tty
@@ -44,7 +45,9 @@ class SerialPort:
     def __init__(self, url: str, bit_rate: int = 115200) -> None:
         self.name = url
         try:
-            self._port = serial.serial_for_url(url, baudrate=bit_rate, timeout=POLL_INTERVAL)
+            self._port = serial.serial_for_url(
+                url, baudrate=bit_rate, timeout=POLL_INTERVAL, write_timeout=POLL_INTERVAL
+            )
         except (OSError, ValueError) as error:
             raise ServoPortError(f"cannot open {url}: {error}") from error
 
@@ -58,9 +61,12 @@ class SerialPort:
             raise ServoPortError(f"{self.name}: {error}") from error
 
     def write(self, data: bytes) -> None:
+        """Send what the line takes within a poll; the rest is lost, as on a serial line that
+        nobody reads (no flush: it would wait for the host to read)."""
         try:
             self._port.write(data)
-            self._port.flush()
+        except serial.SerialTimeoutException:
+            pass
         except serial.SerialException as error:
             raise ServoPortError(f"{self.name}: {error}") from error
 
@@ -74,6 +80,7 @@ class PtyPort:
     def __init__(self) -> None:
         master, self._slave = os.openpty()
         tty.setraw(self._slave)
+        os.set_blocking(master, False)  # reads wait in select; a full buffer drops a write
         self._master = master
         self.path = os.ttyname(self._slave)
         self.name = f"pty:{self.path}"
@@ -84,9 +91,12 @@ class PtyPort:
         return os.read(self._master, READ_SIZE) if readable else b""
 
     def write(self, data: bytes) -> None:
-        view = memoryview(data)
-        while view:
-            view = view[os.write(self._master, view) :]
+        """Send what the pty's buffer takes; the rest is lost, as on a serial line that nobody
+        reads (a host that stopped reading must not block the emulator)."""
+        with contextlib.suppress(BlockingIOError):
+            view = memoryview(data)
+            while view:
+                view = view[os.write(self._master, view) :]
 
     def close(self) -> None:
         """Close both ends: the host's reads then fail as on a pulled cable."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import threading
 import time
 from pathlib import Path
 
@@ -128,6 +129,22 @@ def test_the_emulator_serves_a_pyserial_url_such_as_a_device_path() -> None:
             assert data == b"SSC32-V2.50USB\r"
     finally:
         far.close()
+
+
+@pytest.mark.parametrize("kind", ["pty", "pyserial"])
+def test_replies_to_a_host_that_never_reads_are_lost_not_a_blocked_emulator(kind: str) -> None:
+    """A real SSC-32 transmits whether or not anyone listens: once the line's buffer is full, a
+    write drops the rest instead of blocking the server thread (and its stop) for good."""
+    far = PtyPort()
+    port = far if kind == "pty" else SerialPort(far.path)
+    writer = threading.Thread(target=port.write, args=(b"SSC32-V2.50USB\r" * 10_000,), daemon=True)
+    writer.start()
+    writer.join(REPLY_TIMEOUT)
+    blocked = writer.is_alive()
+    if not blocked:
+        port.close()
+        far.close()
+    assert not blocked
 
 
 def test_a_bad_url_names_the_url() -> None:

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.test_layers import imported_names
+
 PACKAGE = Path(__file__).parents[2] / "hexmanipulator"
 DATA_SHEET = {"firmware_sim.servos.datasheet", "firmware_sim.servos.errors"}
 """What a servo bus client may import of the servo package: the figures and their errors."""
@@ -17,13 +19,6 @@ DATA_SHEET = {"firmware_sim.servos.datasheet", "firmware_sim.servos.errors"}
 )
 def test_the_platform_s_code_imports_no_emulator(module: str) -> None:
     tree = ast.parse((PACKAGE / f"{module}.py").read_text())
-    imported = {
-        node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.module
-    } | {
-        alias.name
-        for node in ast.walk(tree)
-        if isinstance(node, ast.Import)
-        for alias in node.names
-    }
+    imported = {name for name, _ in imported_names(tree)}
     emulators = {name for name in imported if name.startswith("firmware_sim")} - DATA_SHEET
     assert not emulators

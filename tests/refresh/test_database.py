@@ -187,6 +187,15 @@ def test_only_a_regular_file_of_a_bounded_size_is_read(tmp_path: Path):
         load(big)
 
 
+def test_nesting_the_validator_would_recurse_into_is_refused_first():
+    """Lists the parser reads but ``uniqueItems`` compares item by item, one Python frame per
+    level: without the depth check they end in a RecursionError, not a DatabaseError."""
+    deep = "[" * 300 + "]" * 300
+    text = MINIMAL.replace('robots = ["r1", "r2"]', f"robots = [{deep}, {deep}]")
+    with pytest.raises(DatabaseError, match="expected tables and lists nested at most 32 deep"):
+        loads(text)
+
+
 def test_the_shipped_scenario_loads():
     loaded = load(Path(__file__).parents[2] / "refresh" / "data" / "visual_servoing.toml")
     assert list(loaded.database.schemas) == [

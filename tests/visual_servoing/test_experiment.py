@@ -134,6 +134,13 @@ def test_an_output_folder_that_cannot_be_made_is_one_error_line(tmp_path: Path, 
     assert error.startswith("error: ") and "file" in error and "Traceback" not in error
 
 
+def test_an_output_folder_name_the_system_cannot_take_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["run", "--out", "build/a\0b"])
+    assert exit_.value.code == 2
+    assert "argument --out: expected a folder name, got 'build/a\\x00b'" in capsys.readouterr().err
+
+
 def test_an_unknown_scenario_is_a_usage_error(capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["run", "--scenario", "earthquake"])

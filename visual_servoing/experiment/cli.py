@@ -77,11 +77,20 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"the scenario to run: {', '.join(sorted(SCENARIOS))} (default: paper)",
     )
     running.add_argument(
-        "--out", type=Path, metavar="DIR", help=f"output folder (default {DEFAULT_OUT}/NAME)"
+        "--out", type=_folder, metavar="DIR", help=f"output folder (default {DEFAULT_OUT}/NAME)"
     )
     running.add_argument("--json", action="store_true", help="print the summary as JSON")
     add_command(commands, "scenarios", cmd_scenarios, "list the scenarios")
     return top
+
+
+def _folder(text: str) -> Path:
+    """A folder's name: the system takes no NUL byte in one (making the folder would fail with a
+    ValueError, not an OSError); a folder that cannot be made is an error line when `run` makes
+    it."""
+    if "\0" in text:
+        raise argparse.ArgumentTypeError(f"expected a folder name, got {text!r}")
+    return Path(text)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
