@@ -8,6 +8,8 @@ position-independent code and constant data (docs/module-abi.md, "Why the image 
 
 from __future__ import annotations
 
+import os
+import stat
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from itertools import pairwise
@@ -177,7 +179,7 @@ class ModuleImage:
         named after the file."""
         path = Path(path)
         try:
-            return cls.from_hex(path.read_text(encoding="latin-1"), path.stem)
+            return cls.from_hex(_read_module_file(path), path.stem)
         except HexError as error:
             raise error.with_path(path) from None
 
@@ -260,3 +262,23 @@ def _gap_message(segments: tuple[Segment, ...]) -> str:
         "expected one contiguous run of data (a module fills consecutive flash blocks), "
         f"got a gap at 0x{first.end:08X}..0x{second.address - 1:08X}"
     )
+
+
+MAX_FILE_BYTES = 64 << 20
+"""The largest module file read: far above the HEX text of any flash a node has."""
+
+
+def _read_module_file(path: Path) -> str:
+    """The text of a module file, refusing a pipe, a device or a directory before reading (a
+    pipe would block, a device read without end) and a file larger than MAX_FILE_BYTES."""
+    descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # a FIFO opens without a writer
+    with os.fdopen(descriptor, "rb") as file:
+        info = os.fstat(file.fileno())
+        if not stat.S_ISREG(info.st_mode):
+            raise ModuleSourceError("expected a regular module file, got another kind of file")
+        if info.st_size > MAX_FILE_BYTES:
+            raise ModuleSourceError(
+                f"expected a module file of at most {MAX_FILE_BYTES:,} bytes, "
+                f"got {info.st_size:,} bytes"
+            )
+        return file.read(MAX_FILE_BYTES + 1).decode("latin-1")

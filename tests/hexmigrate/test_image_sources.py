@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import itertools
+import os
 import shutil
 import subprocess
 from pathlib import Path
@@ -190,3 +191,12 @@ def test_the_descriptor_search_decodes_a_descriptor_s_bytes_not_the_rest_of_the_
     data = (b"PBO1" + bytes(4)) * 4096  # magics of no ABI this reads
     ModuleImage("magics", 0x10000, data, (), 0x10000)
     assert len(lengths) == 4096 and max(lengths) <= abi.SIZE
+
+
+def test_reading_a_module_from_a_pipe_or_a_device_is_refused_without_blocking(tmp_path):
+    fifo = tmp_path / "gain.hex"
+    os.mkfifo(fifo)  # no writer: a plain open would wait for one forever
+    for path in (fifo, Path(os.devnull)):
+        with pytest.raises(ModuleSourceError, match="expected a regular module file") as caught:
+            ModuleImage.read(path)
+        assert str(caught.value).startswith(f"{path}: ")
