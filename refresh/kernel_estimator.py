@@ -5,6 +5,12 @@ only; the live configuration keeps running untouched, paper Fig. 9), the run is 
 so values cross the whole chain, and each task metric is read from the functional reports of the
 module that fills the metric's schema. A module whose estimator fails gives no value, which
 fails its metric: a candidate that cannot be estimated is not chosen.
+
+Each module's estimator gets the constants the database gives it, as the Maintainer's start gives
+them to its executor: an estimate of a module configured otherwise than it would run is no
+evidence. Estimators read the kernel's clock; given `at`, the kernel is first run to that time
+(never back), so that an estimator that asks the time (which frame of a recording, which fault is
+on) sees the time of the decision, not the host kernel's own, which may still be at 0.
 """
 
 from __future__ import annotations
@@ -26,8 +32,10 @@ class KernelEstimator:
     `codes` gives the code of every module of the database by name (native classes wrapped in
     `NativeModule`, or guest modules), or by ``Module@robot`` where a robot's differs; `inputs`
     fixes values of external inputs and constants (``module.port``; those of modules outside a
-    configuration, or fed inside it, are left out); `steps` is how many estimate steps each run
-    makes before its reports are read.
+    configuration, or fed inside it, are left out), over the database's constants of each module;
+    `steps` is how many estimate steps each run makes before its reports are read; `at` is the
+    time the estimate is for (the runtime's time of the decision): the kernel is run to it before
+    each estimate.
     """
 
     def __init__(
@@ -39,6 +47,7 @@ class KernelEstimator:
         *,
         inputs: Mapping[str, object] | None = None,
         steps: int = 3,
+        at: float | None = None,
     ) -> None:
         self.kernel = kernel
         self.codes = dict(codes)
@@ -46,6 +55,7 @@ class KernelEstimator:
         self.task = task
         self.inputs = dict(inputs or {})
         self.steps = steps
+        self.at = at
 
     def estimate(self, configuration: Configuration) -> Values:
         """Run the configuration's estimators and read each metric's latest functional report."""
@@ -69,11 +79,18 @@ class KernelEstimator:
         wiring = configuration.connections(self.database)
         wired = {sink for _, sink in wiring}
         present = set(configuration.instances)
-        inputs = {
-            port: value
+        inputs: dict[str, object] = {
+            f"{placement.module}.{name}": value
+            for placement in configuration.placements
+            for name, value in self.database.module(placement.module).constants.items()
+        }
+        inputs.update(
+            (port, value)
             for port, value in self.inputs.items()
             if port.partition(".")[0] in present and port not in wired
-        }
+        )
+        if self.at is not None and self.kernel.now < self.at:
+            self.kernel.run(until=self.at)
         with self.kernel.shadow(modules, wiring, inputs) as run:
             estimates = run.run(self.steps)
         values: dict[str, float | None] = {}
