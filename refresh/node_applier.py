@@ -7,6 +7,10 @@ and stop go through the node (which keeps its power model current) and its pbort
 within a node is the kernel's. A connection between two robots (a coalition) goes through a
 `firmware_sim.bridge.PortBridge` on the link between them: an exporting PBO on the source node,
 an importing one on the sink node, each at its module's rate; the nodes must then be run in step.
+
+Beside the plan's steps, the applier gives the runtime (`refresh.runtime`) what it watches:
+`sources()`, each robot's kernel, whose performance buffers the Decider reads, and `read`, a
+live port value.
 """
 
 from __future__ import annotations
@@ -25,7 +29,9 @@ from hexmigrate.links.direct import DirectLink
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from pbort.code import ModuleCode
+from pbort.errors import KernelError
 from refresh.database import Module
+from refresh.decider import PerformanceSource
 from refresh.errors import ApplyError
 
 IMPORTER_PRIORITY = -1
@@ -73,6 +79,23 @@ class NodeApplier:
                 f"robot {robot!r}: expected one of {', '.join(self.nodes)}, got no such node"
             ) from None
 
+    def sources(self) -> dict[str, PerformanceSource]:
+        """Where each robot's evaluators report: its node's kernel."""
+        return {robot: node.kernel for robot, node in self.nodes.items()}
+
+    def read(self, robot: str, port: str) -> float:
+        """The live value of scalar port `port` (``instance.port``) on `robot`."""
+        try:
+            value = self.node(robot).kernel.value(port)
+        except KernelError as error:
+            raise ApplyError(f"read {port} on {robot}: {error}") from error
+        try:
+            return float(value)  # type: ignore[arg-type]
+        except (TypeError, ValueError):
+            raise ApplyError(
+                f"read {port} on {robot}: expected a scalar value, got {type(value).__name__}"
+            ) from None
+
     def disconnect(self, robot: str, sink: str) -> None:
         """Unbind the input on the node's kernel, and take down the bridge that fed it."""
         self.node(robot).kernel.disconnect(sink)
@@ -88,8 +111,11 @@ class NodeApplier:
                 del self.bridges[key]
                 self._take_down(bridged)
         node = self.node(robot)
-        node.stop(instance)
-        node.kernel.remove(instance)
+        try:
+            node.stop(instance)
+            node.kernel.remove(instance)
+        except KernelError as error:
+            raise ApplyError(f"stop {instance} on {robot}: {error}") from error
         self._frequencies.pop((robot, instance), None)
 
     def migrate(self, robot: str, module: Module) -> None:
