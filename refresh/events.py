@@ -17,7 +17,7 @@ from typing import Any
 
 @dataclass(frozen=True)
 class Event:
-    """One entry: seconds since the log began, a kind (``detection``, ``test_case`` ...), a
+    """One entry: seconds since the log's start, a kind (``detection``, ``test_case`` ...), a
     one-line message, and the data behind it."""
 
     time: float
@@ -31,11 +31,19 @@ class Event:
 
 
 class EventLog:
-    """An append-only list of events; `clock` gives seconds (monotonic by default)."""
+    """An append-only list of events; `clock` gives seconds (the host's monotonic clock by
+    default), counted from `start` (the clock's time when the log is made, by default).
 
-    def __init__(self, clock: Callable[[], float] = time.perf_counter) -> None:
+    A run in virtual time must give its own clock: the default would date its events by the
+    host's wall clock. `refresh.runtime.Runtime` makes its log on its clock, from 0, so events and
+    its records share one time line.
+    """
+
+    def __init__(
+        self, clock: Callable[[], float] = time.perf_counter, start: float | None = None
+    ) -> None:
         self._clock = clock
-        self._start = clock()
+        self._start = clock() if start is None else start
         self._events: list[Event] = []
 
     def record(self, kind: str, message: str, /, **data: Any) -> Event:
