@@ -11,6 +11,7 @@ Tree::
     │   └── DatabaseImageError           a module image it names is missing, unreadable or
     │                                    declares another name or other ports
     ├── ConfigurationError (ValueError)  a configuration that does not fit the task or database
+    │   └── RateError                    a metric's module reports slower than the Decider looks
     ├── EstimationError (RuntimeError)   an estimator that could not estimate a configuration
     └── ApplyError (RuntimeError)        a plan step the applier could not carry out
 """
@@ -49,6 +50,11 @@ class DatabaseImageError(DatabaseError):
 
 class ConfigurationError(RefreshError, ValueError):
     """A configuration that names unknown modules, robots or schemas, or leaves a slot empty."""
+
+
+class RateError(ConfigurationError):
+    """A module that may report a task metric runs slower than the runtime's Decider looks: it
+    would judge stale reports (the message names the module, its rate and the decision period)."""
 
 
 class EstimationError(RefreshError, RuntimeError):

@@ -1,0 +1,202 @@
+"""The runtime: ReFrESH watching a task, deciding and repairing, for any task and applier.
+
+The caller owns the world and the clock (virtual or real) and tells the runtime when a decision
+period has passed: either it advances the world itself and calls `step()` once per
+`decision_period` (the visual-servoing experiment does, sampling every camera frame in between),
+or it hands `run(until, advance)` a function that lets the world run on for some seconds.
+
+`deploy()` starts the task's initial configuration through the Maintainer's plan, as any later
+one. At each `step()` the Decider reads the evaluators' reports (`applier.sources()`) and judges
+the period; a declared fault is acted on unless the configuration switched less than `settle`
+seconds ago. Acting on it is one decision (`refresh.adaptation.decide`: locate with Base Choice,
+synthesize, choose), estimated by a fresh estimator from the caller's factory, then the plan to
+the chosen configuration applied (images migrate first, while the old configuration runs on), or,
+when nothing helps, a safe stop: every module of the task is stopped and nothing runs. After a
+switch, the task counts as recovered once P_T has stayed 1 for `recovery_hold` seconds; the
+recovery is dated from when P_T first came back.
+
+The applier may let the world run while it works (a migration over a slow wire): a `step()` that
+comes meanwhile judges as usual but starts no second decision. Every event goes to `log`, on the
+runtime's clock.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+from refresh.adaptation import Decision, decide
+from refresh.configuration import Configuration, initial_configuration
+from refresh.database import ModuleDatabase
+from refresh.decider import Decider, Detection
+from refresh.errors import ConfigurationError, RefreshError
+from refresh.events import EventLog
+from refresh.locator import brute_force_count
+from refresh.maintainer import Maintainer
+from refresh.runtime.applier import RuntimeApplier
+from refresh.runtime.estimators import EstimatorFactory
+from refresh.runtime.rates import check_rates
+from refresh.runtime.records import History, Reconfiguration
+from refresh.runtime.settings import RuntimeSettings
+from refresh.task import TaskSpec
+
+_EPSILON = 1e-9
+"""Seconds: two times closer than this are one (sums of periods are not exact)."""
+
+
+class Runtime:
+    """ReFrESH's run loop for `task` over `database`, applying plans through `applier`,
+    estimating with what `estimators` makes per decision, on `clock` (seconds of the run).
+
+    `on_switch(configuration)` is told each configuration once it runs (the caller may need to
+    know which module now drives what). A database whose metric modules report slower than the
+    Decider looks is refused (`RateError`, see `refresh.runtime.rates`).
+    """
+
+    def __init__(
+        self,
+        database: ModuleDatabase,
+        task: TaskSpec,
+        applier: RuntimeApplier,
+        estimators: EstimatorFactory,
+        clock: Callable[[], float],
+        settings: RuntimeSettings | None = None,
+        on_switch: Callable[[Configuration], None] | None = None,
+    ) -> None:
+        self.settings = settings if settings is not None else RuntimeSettings()
+        check_rates(database, task, self.settings.decision_period)
+        self.database = database
+        self.task = task
+        self.applier = applier
+        self.estimators = estimators
+        self.clock = clock
+        self.on_switch = on_switch
+        self.log = EventLog(clock=clock, start=0.0)
+        """Every event, dated by the runtime's clock."""
+        self.maintainer = Maintainer(database, applier, self.log)
+        self.decider = Decider(task, database, self.log, self.settings.debounce)
+        self.history = History()
+        self.current: Configuration | None = None
+        """What runs: None before `deploy()` and after a safe stop."""
+        self._good_since: float | None = None  # P_T = 1 since then, after a switch
+        self._deciding = False  # a decision is being carried out: no second one meanwhile
+
+    def deploy(self) -> Configuration:
+        """Start the task's initial configuration (its modules, constants and wiring) and return
+        it; a runtime deploys once."""
+        if self.history.configurations:
+            raise ConfigurationError(
+                f"task {self.task.name!r}: expected a runtime that has not deployed yet, got one "
+                f"that deployed at {self.history.configurations[0][0]:g} s"
+            )
+        target = initial_configuration(self.task, self.database)
+        self._switch(target)
+        return target
+
+    def value(self, schema: str, port: str) -> float:
+        """A scalar port of the module filling `schema` in the running configuration, on
+        whichever robot it runs."""
+        if self.current is None:
+            raise ConfigurationError(
+                f"read {schema}.{port}: expected a running configuration, got none"
+            )
+        instance = self.current.instance_of(schema)
+        return self.applier.read(self.current.robot_of(instance), f"{instance}.{port}")
+
+    def run(self, until: float, advance: Callable[[float], None]) -> None:
+        """Let the world run to `until` seconds, one decision period at a time (`advance(s)` runs
+        it `s` seconds further), with a `step()` after each period."""
+        period = self.settings.decision_period
+        while self.clock() < until - _EPSILON:
+            advance(min(period, until - self.clock()))
+            self.step()
+
+    def step(self) -> Detection | None:
+        """One decision period: judge, watch a recovery, and act on a declared fault. Returns
+        the Decider's detection, if it declared one."""
+        if self.current is None:
+            return None
+        detection = self.decider.step(self.current, self.applier.sources())
+        pending = self.history.pending_recovery()
+        if pending is not None:
+            self._watch_recovery(pending)
+        if detection is not None and not self._deciding and not self._settling():
+            self._deciding = True
+            try:
+                self._repair(self.current)
+            finally:
+                self._deciding = False
+        return detection
+
+    def _switch(self, target: Configuration) -> None:
+        """Apply the Maintainer's plan from what runs to `target`."""
+        self.maintainer.apply(self.maintainer.plan(self.current, target))
+        self.current = target
+        if self.on_switch is not None:
+            self.on_switch(target)
+        self.decider.violations = 0  # what it counted was about the old configuration
+        self.history.configurations.append((self.clock(), target.label()))
+
+    def _settling(self) -> bool:
+        """True within `settle` seconds of the last switch."""
+        last = self.history.switched_at()
+        return last is not None and self.clock() - last < self.settings.settle - _EPSILON
+
+    def _watch_recovery(self, pending: Reconfiguration) -> None:
+        """Confirm recovery once P_T has held for `recovery_hold` since it first came back."""
+        assert pending.applied_at is not None
+        if self.decider.violations:
+            self._good_since = None
+            return
+        now = self.clock()
+        if self._good_since is None:
+            self._good_since = now
+        since = self._good_since
+        if now - since >= self.settings.recovery_hold - _EPSILON:
+            pending.recovered_at = since
+            self.log.record(
+                "recovered",
+                f"P_T = 1 again {1e3 * (since - pending.applied_at):.1f} ms after the switch",
+                seconds=since - pending.applied_at,
+            )
+            self._good_since = None
+
+    def _repair(self, current: Configuration) -> None:
+        """Locate, synthesize, choose; migrate and switch, or stop the task safely."""
+        detected_at = self.clock()
+        estimator = self.estimators(detected_at, self.settings.estimate_steps)
+        started = time.perf_counter()
+        decision = decide(current, self.database, self.task, estimator, self.log)
+        seconds = time.perf_counter() - started
+        record = Reconfiguration(
+            detected_at,
+            decision,
+            seconds,
+            test_cases=decision.location.total,
+            brute_force=brute_force_count(current, self.database),
+        )
+        self.history.reconfigurations.append(record)
+        if decision.target is None:
+            self._stop_safely(current, decision)
+            return
+        self._switch(decision.target)
+        record.applied_at = self.clock()
+        record.target = decision.target
+
+    def _stop_safely(self, current: Configuration, decision: Decision) -> None:
+        """No configuration satisfies P_T: stop every module of the task. A module the applier
+        cannot stop (it failed on its own) is logged, and the others are stopped all the same."""
+        reason = decision.location.module if decision.choice is None else "no candidate"
+        for placement, instance in zip(current.placements, current.instances, strict=True):
+            try:
+                self.applier.stop(placement.robot, instance)
+            except RefreshError as error:
+                self.log.record(
+                    "stop_failed",
+                    f"stop {instance} on {placement.robot}: {error}",
+                    instance=instance,
+                    robot=placement.robot,
+                )
+        self.history.stopped_at = self.clock()
+        self.log.record("stopped", f"no repair ({reason}): the task is stopped", reason=reason)
+        self.current = None

@@ -1,0 +1,62 @@
+"""The runtime's settings: how often the Decider looks, and how patient the runtime is.
+
+The defaults are the visual-servoing experiment's, chosen for a camera task at 30 frames/s: a look
+every 0.1 s, a fault declared after 5 violating looks in a row (0.5 s: a target lost for a turn is
+no fault), half a second after a switch before a detection is acted on (the new configuration's
+evaluators still hold values of the old one), half a second of P_T = 1 to count a repair as a
+recovery, and 10 estimator steps per shadow run (enough to fill a matcher's window of frames).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from refresh.errors import ConfigurationError
+
+
+@dataclass(frozen=True)
+class RuntimeSettings:
+    """The runtime's periods and counts; refused on construction when out of range."""
+
+    decision_period: float = 0.1
+    """Seconds between two looks of the Decider at the evaluators."""
+    debounce: int = 5
+    """Consecutive violating looks before the Decider declares a fault."""
+    settle: float = 0.5
+    """Seconds after a switch during which a detection is not acted on."""
+    recovery_hold: float = 0.5
+    """Seconds P_T must stay 1 after a reconfiguration for the task to count as recovered."""
+    estimate_steps: int = 10
+    """Estimator steps per shadow run before its reports are read."""
+
+    def __post_init__(self) -> None:
+        _seconds("decision_period", self.decision_period, positive=True)
+        _seconds("settle", self.settle, positive=False)
+        _seconds("recovery_hold", self.recovery_hold, positive=False)
+        _count("debounce", self.debounce)
+        _count("estimate_steps", self.estimate_steps)
+
+    @property
+    def decision_rate(self) -> float:
+        """Looks of the Decider per second."""
+        return 1.0 / self.decision_period
+
+
+def _seconds(name: str, value: float, *, positive: bool) -> None:
+    bound = "> 0" if positive else ">= 0"
+    ok = (
+        isinstance(value, int | float)
+        and not isinstance(value, bool)
+        and math.isfinite(value)
+        and (value > 0 if positive else value >= 0)
+    )
+    if not ok:
+        raise ConfigurationError(f"runtime setting {name}: expected seconds {bound}, got {value!r}")
+
+
+def _count(name: str, value: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ConfigurationError(
+            f"runtime setting {name}: expected a whole number >= 1, got {value!r}"
+        )
