@@ -1,21 +1,21 @@
 """One run of a scenario: the task on the robots, ReFrESH watching it, deciding and repairing.
 
-The run deploys the task's preprogrammed configuration with the Maintainer (as any later
-configuration), then advances the world one camera frame at a time. Every frame it records the
-deviation the matcher reports and the true one (where the current target really is in the
-frame); every `DECIDER_PERIOD` the Decider reads the evaluators. On a detection, ReFrESH locates
-the fault and synthesizes the new configuration (`refresh.adaptation.decide`), estimating every
-test configuration and candidate in shadow runs on the module database's host node, which holds
-every module's code (the Dehazer's image included, loaded there from its HEX file); the
-Maintainer then migrates what must move (in the wire's virtual time, while the old configuration
-keeps running) and switches over. When nothing helps, the task is stopped safely: the modules
-are switched off and the platform holds its pose.
+The experiment owns the world: two robots' nodes, the servos, the cameras and the scene, all on
+the world's virtual clock. ReFrESH's part is `refresh.runtime.Runtime` on that clock: it deploys
+the task's preprogrammed configuration with the Maintainer (as any later configuration), and the
+experiment advances the world one camera frame at a time, recording every frame the deviation
+the matcher reports and the true one (where the current target really is in the frame), and
+handing the runtime a step every decision period. On a detection the runtime locates the fault
+and synthesizes the new configuration, estimating every test configuration and candidate in
+shadow runs on the module database's host node, which holds every module's code (the Dehazer's
+image included, loaded there from its HEX file); the Maintainer then migrates what must move (in
+the wire's virtual time, while the old configuration keeps running: the applier lets the world
+run on meanwhile) and switches over. When nothing helps, the task is stopped safely: the modules
+are stopped and the platform holds its pose.
 """
 
 from __future__ import annotations
 
-import contextlib
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,15 +29,10 @@ from hexmanipulator.hexman_pbo import hexman_module
 from hexmigrate.image import ModuleImage
 from pbort import NativeModule
 from pbort.code import ModuleCode
-from pbort.errors import KernelError
-from refresh.adaptation import Decision, decide
-from refresh.configuration import Configuration, initial_configuration
-from refresh.decider import Decider
+from refresh.configuration import Configuration
 from refresh.events import EventLog
-from refresh.kernel_estimator import KernelEstimator
 from refresh.load import Loaded, loads
-from refresh.locator import brute_force_count
-from refresh.maintainer import Maintainer
+from refresh.runtime import HostEstimators, Reconfiguration, Runtime, RuntimeSettings
 from visual_servoing.dehazer_guest import INSTRUCTION_BUDGET, NAME, dehazer_image
 from visual_servoing.errors import ExperimentError
 from visual_servoing.experiment.applier import Migration, VirtualTimeApplier
@@ -51,20 +46,16 @@ from visual_servoing.task.trajectory import Law, trajectory_module
 
 FRAME = 1 / 30
 """Seconds between two samples of the run: one camera frame."""
-DECIDER_PERIOD = 0.1
-"""Seconds between two looks of the Decider at the evaluators."""
-DEBOUNCE = 5
-"""Consecutive violating looks before the Decider declares a fault (0.5 s)."""
-RECOVERY_HOLD = 0.5
-"""Seconds P_T must stay 1 after a reconfiguration for the task to count as recovered."""
-SETTLE = 0.5
-"""Seconds after a switch during which a detection is not acted on: the new configuration's
-evaluators still hold frames of the old one."""
+SETTINGS = RuntimeSettings(
+    decision_period=0.1, debounce=5, settle=0.5, recovery_hold=0.5, estimate_steps=10
+)
+"""The runtime's: a look of the Decider every 3 frames, a fault declared after 0.5 s of
+violations, 0.5 s to settle after a switch (the new configuration's evaluators still hold frames
+of the old one) and for a recovery to hold, 10 estimator steps to fill the matcher's window of
+frames."""
 ROBOT_LINK_BAUD = 12_000_000
 """The serial link between the two robots (ports of a coalition cross it): 12 Mbaud 8N1 carries
 a 160 x 120 frame in 16 ms, within a camera period; 115200 baud would need 1.7 s."""
-ESTIMATE_STEPS = 10
-"""Estimator steps per shadow run: enough to fill the matcher's window of frames."""
 
 
 @dataclass
@@ -81,22 +72,9 @@ class Sample:
 
 
 @dataclass
-class Reconfiguration:
-    """One decision and what came of it (world seconds; `decision_seconds` is host CPU time)."""
-
-    detected_at: float
-    decision: Decision
-    decision_seconds: float
-    applied_at: float | None = None
-    target: Configuration | None = None
-    recovered_at: float | None = None
-    test_cases: int = 0
-    brute_force: int = 0
-
-
-@dataclass
 class Outcome:
-    """Everything a run produced, for the report."""
+    """Everything a run produced, for the report: the samples and migrations are the
+    experiment's, the configurations, reconfigurations and stop the runtime's history."""
 
     scenario: Scenario
     samples: list[Sample] = field(default_factory=list)
@@ -118,13 +96,14 @@ class Experiment:
         try:
             self._set_up(work)
         except BaseException:
+            if hasattr(self, "host"):
+                self.host.close()
             self.world.close()
             raise
 
     def _set_up(self, work: Path) -> None:
         """Build the Dehazer, load the database, bind the modules, make the host and ReFrESH."""
         scenario = self.scenario
-        self.log = EventLog(clock=self.world.now)
         hex_file = work / f"{NAME}.hex"
         try:
             dehazer_image(work / "build").write(hex_file)
@@ -155,12 +134,31 @@ class Experiment:
             rate=ROBOT_LINK_BAUD,
             wait=self.run_for,
         )
-        self.maintainer = Maintainer(self.loaded.database, self.applier, self.log)
-        self.decider = Decider(self.loaded.task, self.loaded.database, self.log, DEBOUNCE)
-        self.outcome = Outcome(scenario, log=self.log, migrations=self.applier.migrations)
-        self.current: Configuration | None = None
-        self._good_since: float | None = None  # P_T = 1 since then, after a switch
-        self._repairing = False  # a decision is being carried out: no second one meanwhile
+        estimators = HostEstimators(
+            self.host.kernel,
+            self._codes(),
+            self.loaded.database,
+            self.loaded.task,
+            inputs=self._live_inputs,
+        )
+        self.runtime = Runtime(
+            self.loaded.database,
+            self.loaded.task,
+            self.applier,
+            estimators,
+            self.world.now,
+            SETTINGS,
+            on_switch=self._switched,
+        )
+        self.log: EventLog = self.runtime.log
+        history = self.runtime.history
+        self.outcome = Outcome(
+            scenario,
+            reconfigurations=history.reconfigurations,
+            configurations=history.configurations,
+            log=self.log,
+            migrations=self.applier.migrations,
+        )
         self._frames = 0
         self._events = self._scheduled()
         self._progress: Callable[[float], None] | None = None
@@ -168,7 +166,7 @@ class Experiment:
     def _intent(self) -> float:
         """Where the task wants the cameras to look: at the target it is after (its azimuth is
         the task's own knowledge, which TrajGen turns by); where the plate is, before it runs."""
-        if self.current is None:
+        if self.runtime.current is None:
             return self.world.plate_yaw()
         targets = list(self.scene.targets.values())
         return targets[int(self._value("trajectory", "target")) % len(targets)].azimuth
@@ -216,16 +214,17 @@ class Experiment:
         """Deploy, run the task to the scenario's end, decide and repair on the way.
         `progress` is told the world's time after every frame (a command's progress bar)."""
         self._progress = progress
-        target = initial_configuration(self.loaded.task, self.loaded.database)
         self.log.record("scenario", self.scenario.title, name=self.scenario.name)
-        self.deploy(target)
+        self.runtime.deploy()
         self.run_for(self.scenario.duration - self.world.time)
+        self.outcome.stopped_at = self.runtime.history.stopped_at
         return self.outcome
 
     def run_for(self, seconds: float) -> None:
-        """Advance the world frame by frame, sampling each and judging every DECIDER_PERIOD."""
+        """Advance the world frame by frame, sampling each and stepping the runtime every
+        decision period."""
         end = self.world.time + seconds
-        decider_every = round(DECIDER_PERIOD / FRAME)
+        decider_every = round(SETTINGS.decision_period / FRAME)
         while self.world.time < end - 1e-9:
             while self._events and self._events[0][0] <= self.world.time + 1e-9:
                 self._events.pop(0)[1]()
@@ -233,11 +232,11 @@ class Experiment:
             self._frames += 1
             if self._progress is not None:
                 self._progress(self.world.time)
-            if self.current is None:
+            if self.runtime.current is None:
                 continue
             self._sample()
             if self._frames % decider_every == 0:
-                self._judge()
+                self.runtime.step()
 
     def close(self) -> None:
         """Release the nodes, the servos and the host."""
@@ -250,20 +249,13 @@ class Experiment:
     def __exit__(self, *exc_info: object) -> None:
         self.close()
 
-    def deploy(self, target: Configuration) -> None:
-        """Apply the Maintainer's plan from the current configuration to `target`."""
-        self.maintainer.apply(self.maintainer.plan(self.current, target))
-        self.current = target
+    def _switched(self, target: Configuration) -> None:
+        """A configuration runs: the plate's pose comes from its manipulator module."""
         self.world.hexman = target.instance_of("manipulator")
-        self.decider.violations = 0  # what it counted was about the old configuration
-        self.outcome.configurations.append((self.world.time, target.label()))
 
     def _value(self, schema: str, port: str) -> float:
         """A port of the module filling `schema`, on whichever robot it runs."""
-        assert self.current is not None
-        instance = self.current.instance_of(schema)
-        kernel = self.world.nodes[self.current.robot_of(instance)].kernel
-        return float(kernel.value(f"{instance}.{port}"))
+        return self.runtime.value(schema, port)
 
     def _sample(self) -> None:
         target = int(self._value("trajectory", "target"))
@@ -306,101 +298,11 @@ class Experiment:
             capacity=drop.capacity,
         )
 
-    def _judge(self) -> None:
-        assert self.current is not None
-        sources = {robot: node.kernel for robot, node in self.world.nodes.items()}
-        detection = self.decider.step(self.current, sources)
-        pending = self._pending_recovery()
-        if pending is not None:
-            self._watch_recovery(pending)
-        if detection is not None and not self._repairing and not self._settling():
-            self._repairing = True
-            try:
-                self._repair()
-            finally:
-                self._repairing = False
-
-    def _settling(self) -> bool:
-        """True within SETTLE seconds of the last switch."""
-        last = self.outcome.configurations[-1][0] if self.outcome.configurations else None
-        return last is not None and self.world.time - last < SETTLE - 1e-9
-
-    def _pending_recovery(self) -> Reconfiguration | None:
-        """The last reconfiguration, while its recovery is not yet confirmed."""
-        if not self.outcome.reconfigurations:
-            return None
-        last = self.outcome.reconfigurations[-1]
-        if last.applied_at is None or last.recovered_at is not None:
-            return None
-        return last
-
-    def _watch_recovery(self, pending: Reconfiguration) -> None:
-        """Confirm recovery once P_T has held for RECOVERY_HOLD since it first came back."""
-        assert pending.applied_at is not None
-        if self.decider.violations:
-            self._good_since = None
-            return
-        if self._good_since is None:
-            self._good_since = self.world.time
-        since = self._good_since
-        if self.world.time - since >= RECOVERY_HOLD - 1e-9:
-            pending.recovered_at = since
-            self.log.record(
-                "recovered",
-                f"P_T = 1 again {1e3 * (since - pending.applied_at):.1f} ms after the switch",
-                seconds=since - pending.applied_at,
-            )
-            self._good_since = None
-
-    def _repair(self) -> None:
-        """Locate, synthesize, choose; migrate and switch, or stop the task safely."""
-        assert self.current is not None
-        detected_at = self.world.time
-        estimator = KernelEstimator(
-            self.host.kernel,
-            self._codes(),
-            self.loaded.database,
-            self.loaded.task,
-            inputs=self._live_inputs(),
-            steps=ESTIMATE_STEPS,
-        )
-        started = time.perf_counter()
-        decision = decide(self.current, self.loaded.database, self.loaded.task, estimator, self.log)
-        seconds = time.perf_counter() - started
-        record = Reconfiguration(
-            detected_at,
-            decision,
-            seconds,
-            test_cases=decision.location.total,
-            brute_force=brute_force_count(self.current, self.loaded.database),
-        )
-        self.outcome.reconfigurations.append(record)
-        if decision.target is None:
-            self._stop_safely(decision)
-            return
-        self.deploy(decision.target)
-        record.applied_at = self.world.time
-        record.target = decision.target
-
     def _live_inputs(self) -> dict[str, object]:
         """What an estimator must start from to estimate now: the target the task looks for."""
         start = int(self._value("trajectory", "target"))
         schema = self.loaded.database.schemas["trajectory"]
         return {f"{module.name}.start": start for module in schema.modules}
-
-    def _stop_safely(self, decision: Decision) -> None:
-        """No configuration satisfies P_T: switch the task's modules off; HexMan holds still."""
-        assert self.current is not None
-        reason = decision.location.module if decision.choice is None else "no candidate"
-        for placement, instance in zip(
-            self.current.placements, self.current.instances, strict=True
-        ):
-            node = self.world.nodes[placement.robot]
-            with contextlib.suppress(KernelError):  # already off, or failed on its own
-                node.stop(instance)
-        self.outcome.stopped_at = self.world.time
-        self.log.record("stopped", f"no repair ({reason}): the task is stopped", reason=reason)
-        self.current = None
 
 
 def deviation_series(samples: list[Sample]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

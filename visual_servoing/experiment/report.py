@@ -3,7 +3,7 @@
 Times are seconds of the world's virtual time, except the decision's, which is the host CPU's
 real time to locate, synthesize and choose (the world stands still meanwhile). The recovery is
 timed from the switch to the first frame whose reported deviation is back within the threshold,
-once the Decider has seen P_T = 1 hold for `RECOVERY_HOLD` seconds.
+once the runtime has seen P_T = 1 hold for its recovery hold (`SETTINGS.recovery_hold`).
 """
 
 from __future__ import annotations
@@ -17,8 +17,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
+from refresh.runtime import Reconfiguration
 from visual_servoing.experiment.applier import Migration
-from visual_servoing.experiment.experiment import Outcome, Reconfiguration, deviation_series
+from visual_servoing.experiment.experiment import Outcome, deviation_series
 
 THRESHOLD = 30.0
 """Pixels: equation (8)'s allowed deviation, drawn on the plot."""
