@@ -20,6 +20,7 @@ One concept per module:
 ``maintainer``        the plan from one configuration to another, applied step by step
 ``memory_applier``    an in-memory applier: the plan's effect on a model of the robots
 ``node_applier``      the applier on emulated nodes (firmware_sim) with hexmigrate transfers
-``events``            the event log of every decision
+``events``            the event log of every decision, on a clock of the caller's
+``runtime``           the run loop for any task: deploy, watch, decide, repair (a package)
 ====================  =======================================================================
 """
