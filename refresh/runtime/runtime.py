@@ -105,10 +105,16 @@ class Runtime:
 
     def run(self, until: float, advance: Callable[[float], None]) -> None:
         """Let the world run to `until` seconds, one decision period at a time (`advance(s)` runs
-        it `s` seconds further), with a `step()` after each period."""
+        it `s` seconds further), with a `step()` after each period. An `advance` that leaves the
+        runtime's clock where it was is refused: the loop would never end."""
         period = self.settings.decision_period
-        while self.clock() < until - _EPSILON:
-            advance(min(period, until - self.clock()))
+        while (now := self.clock()) < until - _EPSILON:
+            advance(min(period, until - now))
+            if self.clock() <= now:
+                raise ConfigurationError(
+                    f"advance({min(period, until - now):g}): expected the runtime's clock to move "
+                    f"on from {now:g} s, got {self.clock():g} s (is the clock the world's?)"
+                )
             self.step()
 
     def step(self) -> Detection | None:

@@ -58,6 +58,15 @@ def test_nothing_is_judged_before_the_deployment():
             runtime.value("steering", "angle")
 
 
+def test_run_refuses_an_advance_that_does_not_move_the_clock():
+    with rover(FAULT_AT) as (runtime, node):
+        runtime.deploy()
+        with pytest.raises(ConfigurationError, match="expected the runtime's clock to move on"):
+            runtime.run(1.0, lambda seconds: None)
+        runtime.run(0.0, advance(node))  # nothing left to run
+        assert node.kernel.now == 0.0
+
+
 def test_the_fault_is_detected_located_and_repaired_and_the_task_recovers():
     with rover(FAULT_AT) as (runtime, node):
         runtime.deploy()
