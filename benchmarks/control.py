@@ -6,8 +6,10 @@ against a baseline of the same run:
   `Sender`), over TCP (``socket://`` to a node on ``tcp-listen://``) and over a pty pair. Goal:
   a control request within 2x the echo (median of the round trips, taken in turn so that both
   see the same machine load);
-- report throughput: NODES node processes (each on its own loopback address, 127.0.0.2 on) each
-  push a report every 100 ms (`NodeControl.watch`) to this process, which reads them all
+- report throughput: NODES node processes (each on its own loopback address, 127.0.0.2 on), each
+  running the native signal into the compiled `gain` example (an E-PBO, so each report carries
+  its evaluator's outputs as the Decider reads them), each push a report every 100 ms with two
+  ports' values (`NodeControl.watch`) to this process, which reads them all
   (`NodeControl.pushes`, a thread per node); the figure is this process's CPU share
   (`time.process_time` over wall time) against the same links open with nothing pushed. Goal:
   under 10% of one core. It prints the reports and bytes per second each node sends (the
@@ -23,12 +25,17 @@ import re
 import statistics
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
 
+from firmware_sim.sdk.build import EXAMPLES_DIR, build_module
+from hexmigrate.elf import image_from_elf
+from hexmigrate.image import ModuleImage
 from hexmigrate.links import open_link
 from hexmigrate.links.base import LinkBase
 from hexmigrate.links.framing import frame
@@ -42,6 +49,9 @@ REPORT_PERIOD_MS = 100
 START_TIMEOUT = 30.0  # a node imports Unicorn and python-can before it says where it listens
 CONNECT_WITH = re.compile(r"\(connect with: hexmigrate send FILE\.hex --to (\S+)\)$")
 NODE_OPTIONS = ("--native", "signal", "--set", "signal.amplitude=3")
+REPORTING = (*NODE_OPTIONS, "--set", "gain.k=0x20000", "--wire", "signal.y=gain.x")
+"""A reporting node: the signal feeds the gain it is sent, which starts once installed."""
+WATCHED = ("signal.y", "gain.y")
 
 
 # The nodes.
@@ -79,6 +89,12 @@ def _connect_url(process: subprocess.Popen[str], listen: str) -> str:
     if found is None:
         raise SystemExit(f"the node on {listen} said no connect URL: {line or 'nothing'}")
     return found[1]
+
+
+def gain_image() -> ModuleImage:
+    """The `gain` example compiled (an E-PBO: its evaluator reports F0 and N0)."""
+    with tempfile.TemporaryDirectory() as folder:
+        return image_from_elf(build_module(EXAMPLES_DIR / "gain.c", Path(folder)).elf)
 
 
 def controlled(stack: ExitStack, url: str) -> NodeControl:
@@ -168,12 +184,15 @@ def report_throughput(nodes: int, seconds: float) -> bool:
     """Start `nodes` nodes, measure this process idle with their links open, then reading
     their reports; print the figures; True if the goal is met."""
     warm_up = 1.0
+    image = gain_image()
     with ExitStack() as stack:
         urls = [
-            stack.enter_context(node_process(f"tcp-listen://127.0.0.{2 + index}:0", *NODE_OPTIONS))
+            stack.enter_context(node_process(f"tcp-listen://127.0.0.{2 + index}:0", *REPORTING))
             for index in range(nodes)
         ]
         controls = [controlled(stack, url) for url in urls]
+        for control in controls:
+            control.sender.send(image)
         idle = cpu_share(seconds)
         tallies = [Tally() for _ in controls]
         readers = [
@@ -181,7 +200,7 @@ def report_throughput(nodes: int, seconds: float) -> bool:
             for control, tally in zip(controls, tallies, strict=True)
         ]
         for control in controls:
-            control.watch(REPORT_PERIOD_MS, ("signal.y",))
+            control.watch(REPORT_PERIOD_MS, WATCHED)
         for reader in readers:
             reader.start()
         time.sleep(warm_up)
@@ -213,7 +232,8 @@ def print_reports(
     reports = sum(rate[0] for rate in rates)
     per_node = [rate[2] for rate in rates]
     print(
-        f"{nodes} nodes on 127.0.0.2..127.0.0.{1 + nodes}, one report every {REPORT_PERIOD_MS} ms"
+        f"{nodes} nodes on 127.0.0.2..127.0.0.{1 + nodes}, each a report every "
+        f"{REPORT_PERIOD_MS} ms (gain's F0 and N0, leftover power, {' and '.join(WATCHED)})"
     )
     print(f"  reports read         {reports:8.1f}/s ({reports / nodes:.1f}/s per node)")
     print(
