@@ -40,6 +40,7 @@ bench: tools $(INSTALLED)
 	$(PY) benchmarks/crossbar.py
 	$(PY) benchmarks/dehazer.py
 	$(PY) benchmarks/servoing_task.py
+	$(PY) benchmarks/control.py
 
 clean:
 	rm -rf $(BUILD) .pytest_cache .ruff_cache .hypothesis

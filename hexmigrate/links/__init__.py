@@ -1,26 +1,31 @@
 """Transports for module transfers, opened by URL: ``open_link(url)``, one module per scheme.
 
-===============================  ========================================  ================
-URL                              what                                      module
-===============================  ========================================  ================
-``serial:///dev/ttyUSB0``        a serial device, ``?baudrate=`` (115200)  `serial`
-``/dev/pts/5``                   a bare device path (a pty's far end)      `serial`
-``loop://``                      pyserial's loopback                       `serial`
-``socket://127.0.0.1:PORT``      a raw TCP byte stream (a client)          `serial`
-``tcp-listen://127.0.0.1:PORT``  its server end, for a node; port 0: any   `tcp`
-``can://virtual/CHANNEL``        python-can's in-process bus, ISO-TP       `can`
-``can://remote/H:P/CHANNEL``     a python-can-remote server, ISO-TP        `can`
-``can://slcan//dev/DEVICE``      an SLCAN adapter, ISO-TP                  `can`
-``can://socketcan/vcan0``        Linux SocketCAN, ISO-TP                   `can`
-``faulty+INNER#FAULTS``          any of the above with injected faults     `faulty`
-===============================  ========================================  ================
+================================  ========================================  ================
+URL                               what                                      module
+================================  ========================================  ================
+``serial:///dev/ttyUSB0``         a serial device, ``?baudrate=`` (115200)  `serial`
+``/dev/pts/5``                    a bare device path (a pty's far end)      `serial`
+``loop://``                       pyserial's loopback                       `serial`
+``socket://HOST:PORT``            a raw TCP byte stream (a client)          `serial`
+``tcp-listen://HOST:PORT``        its server end, for a node, bound to      `tcp`
+                                  HOST only; port 0: any
+``can://virtual/CHANNEL``         python-can's in-process bus, ISO-TP       `can`
+``can://remote/HOST:P/CHANNEL``   a python-can-remote server, ISO-TP        `can`
+``can://slcan//dev/DEVICE``       an SLCAN adapter, ISO-TP                  `can`
+``can://socketcan/vcan0``         Linux SocketCAN, ISO-TP                   `can`
+``faulty+INNER#FAULTS``           any of the above with injected faults     `faulty`
+================================  ========================================  ================
+
+HOST is an IPv4 address (``127.0.0.2``), an IPv6 address in brackets (``[::1]``) or a host name,
+so that nodes, hosts and CAN servers may sit on different machines (python-can-remote's server
+listens on IPv4 only).
 
 Each module documents its grammar at its top. `framing` says how messages travel on a byte
 stream; `tcp` is the listening end a ``socket://`` client connects to, for a node that serves one
-host after another; `remote_server` runs a python-can-remote server for two processes on one CAN
-channel, and `slcan_device` makes a node's CAN controller look like an SLCAN adapter on a pty.
-Scheme modules are imported when first used, so a machine without python-can can still use
-serial links.
+host after another; `remote_server` runs a python-can-remote server that puts processes, on one
+machine or several, on one CAN channel, and `slcan_device` makes a node's CAN controller look
+like an SLCAN adapter on a pty. Scheme modules are imported when first used, so a machine without
+python-can can still use serial links.
 """
 
 from __future__ import annotations

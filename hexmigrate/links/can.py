@@ -42,7 +42,6 @@ import socket
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
-from urllib.parse import urlsplit
 
 import can
 import isotp
@@ -50,7 +49,15 @@ import isotp
 from hexmigrate.errors import LinkError
 from hexmigrate.links.base import MAX_MESSAGE_SIZE, LinkBase
 from hexmigrate.links.can_defaults import DEFAULT_BITRATE, DEFAULT_PADDING, HOST_IDS
-from hexmigrate.links.url import choice, integer, parse_parameters, real, url_error
+from hexmigrate.links.url import (
+    choice,
+    integer,
+    network_host,
+    parse_parameters,
+    real,
+    split_url,
+    url_error,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -143,7 +150,7 @@ class CanSettings:
 
 def parse_url(url: str, **options: object) -> CanSettings:
     """The settings a ``can://`` URL stands for; LinkUrlError with the expected form if bad."""
-    parts = urlsplit(url)
+    parts = split_url(url, FORM)
     if parts.scheme != "can":
         raise url_error(url, f"expected the can scheme, got {parts.scheme!r}", FORM)
     if parts.fragment:
@@ -193,6 +200,10 @@ def _remote_channel(url: str, channel: str) -> str:
         raise url_error(
             url, f"expected HOST:PORT/CHANNEL after can://remote/, got {channel!r}", form
         )
+    try:
+        network_host(host)
+    except ValueError as error:
+        raise url_error(url, f"host: {error}", form) from None
     try:
         integer(1, 65535)(port)
     except ValueError as error:

@@ -1,4 +1,4 @@
-"""A python-can-remote server on 127.0.0.1 for CAN between processes.
+"""A python-can-remote server for CAN between processes, on this machine or across machines.
 
 python-can's `virtual` bus only joins buses of one process. python-can-remote's server puts one
 python-can bus behind a WebSocket; each client (``can://remote/127.0.0.1:PORT/CHANNEL``) gets its
@@ -8,9 +8,12 @@ own bus on the server's CHANNEL, so two processes on one server share a CAN chan
         host = open_link(server.url())              # this process
         # another process: open_link(server.url(role="node")), a URL it is given
 
-The server runs as ``python -m can_remote -i virtual -c CHANNEL -H 127.0.0.1 -p PORT`` in a
-subprocess (it only stops on a signal), on a free port, and only on the loopback address. It
-logs every connection, so its output goes to a file; an error shows the file's last lines.
+The server runs as ``python -m can_remote -i virtual -c CHANNEL -H HOST -p PORT`` in a
+subprocess (it only stops on a signal), on a port free on HOST. HOST is the address it listens
+on, 127.0.0.1 unless given: the loopback address keeps the bus on this machine, one of the
+machine's network addresses (or 0.0.0.0) lets nodes on other machines join it. The server
+listens on IPv4 only (python-can-remote's HTTP server), so an IPv6 address is refused. It logs every
+connection, so its output goes to a file; an error shows the file's last lines.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ import time
 from pathlib import Path
 
 from hexmigrate.errors import LinkError
+from hexmigrate.links.url import network_host
 
 HOST = "127.0.0.1"
 START_TIMEOUT = 10.0
@@ -34,9 +38,20 @@ _POLL = 0.05
 
 
 class RemoteCanServer:
-    """python-can-remote's server for one virtual CAN channel, as a context manager."""
+    """python-can-remote's server for one virtual CAN channel on `host` (an IPv4 address or a
+    host name: the server listens on IPv4 only), as a context manager; LinkError for a
+    malformed host."""
 
-    def __init__(self, channel: str = "refresh") -> None:
+    def __init__(self, channel: str = "refresh", host: str = HOST) -> None:
+        if ":" in host:
+            raise LinkError(
+                f"cannot serve CAN channel {channel!r}: host: expected an IPv4 address or a "
+                f"host name (python-can-remote's server listens on IPv4 only), got {host!r}"
+            )
+        try:
+            self.host: str = network_host(host)
+        except ValueError as error:
+            raise LinkError(f"cannot serve CAN channel {channel!r}: host: {error}") from None
         self.channel = channel
         self.port = 0
         """The TCP port, known once started."""
@@ -47,16 +62,16 @@ class RemoteCanServer:
         """The ``can://remote`` URL of this server's channel for a link of `role`."""
         if not self.port:
             raise LinkError("expected a started RemoteCanServer, got one not started")
-        return f"can://remote/{HOST}:{self.port}/{self.channel}?role={role}"
+        return f"can://remote/{self.host}:{self.port}/{self.channel}?role={role}"
 
     def start(self) -> None:
         """Start the server and wait until it accepts connections; LinkError if it does not."""
-        self.port = _free_port()
+        self.port = _free_port(self.host)
         descriptor, name = tempfile.mkstemp(prefix="can-remote-", suffix=".log")
         os.close(descriptor)
         self._log = Path(name)
         command = [sys.executable, "-m", "can_remote", "-i", "virtual", "-c", self.channel]
-        command += ["-H", HOST, "-p", str(self.port)]
+        command += ["-H", self.host, "-p", str(self.port)]
         with self._log.open("wb") as log:
             self._process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT)
         try:
@@ -93,13 +108,13 @@ class RemoteCanServer:
             if self._process.poll() is not None:
                 raise LinkError(f"python-can-remote server exited: {self._log_tail()}")
             try:
-                socket.create_connection((HOST, self.port), timeout=_POLL).close()
+                socket.create_connection((self.host, self.port), timeout=_POLL).close()
             except OSError:
                 time.sleep(_POLL)
             else:
                 return
         raise LinkError(
-            f"python-can-remote server on {HOST}:{self.port} not listening after "
+            f"python-can-remote server on {self.host}:{self.port} not listening after "
             f"{START_TIMEOUT:g} s: {self._log_tail()}"
         )
 
@@ -109,8 +124,15 @@ class RemoteCanServer:
         return " | ".join(lines[-5:]) or "(no output)"
 
 
-def _free_port() -> int:
-    """A TCP port on the loopback address that nothing listens on right now."""
-    with socket.socket() as probe:
-        probe.bind((HOST, 0))
-        return int(probe.getsockname()[1])
+def _free_port(host: str) -> int:
+    """A TCP port that nothing listens on right now at `host`; LinkError naming the host when
+    it does not resolve or is not this machine's."""
+    try:
+        address = socket.getaddrinfo(host, 0, socket.AF_INET, socket.SOCK_STREAM)[0][4]
+        with socket.socket() as probe:
+            probe.bind(address)
+            return int(probe.getsockname()[1])
+    except OSError as error:
+        raise LinkError(
+            f"cannot start a python-can-remote server on {host!r}: {error.strerror}"
+        ) from None

@@ -24,11 +24,10 @@ import select
 import time
 import tty
 from typing import TYPE_CHECKING
-from urllib.parse import urlsplit
 
 from hexmigrate.errors import LinkError
 from hexmigrate.links.stream import POLL_INTERVAL, StreamLink
-from hexmigrate.links.url import integer, parse_parameters, url_error
+from hexmigrate.links.url import integer, network_host, parse_parameters, split_url, url_error
 
 if TYPE_CHECKING:
     from serial import SerialBase  # type: ignore[import-untyped]
@@ -41,7 +40,7 @@ a pty buffers about 20 KiB, and nobody may have the far end open."""
 
 DEVICE_FORM = "serial:///dev/ttyUSB0?baudrate=115200 or a bare device path such as /dev/pts/5"
 LOOP_FORM = "loop:// (no host, path or parameters)"
-SOCKET_FORM = "socket://HOST:PORT such as socket://127.0.0.1:7000"
+SOCKET_FORM = "socket://HOST:PORT such as socket://127.0.0.1:7000 or socket://[::1]:7000"
 
 
 def open_url(url: str, **options: object) -> SerialLink:
@@ -55,7 +54,7 @@ def _pyserial_target(url: str, options: dict[str, object]) -> tuple[str, dict[st
     if url.startswith("/"):
         parsed = parse_parameters(url, "", _DEVICE_PARAMETERS, DEVICE_FORM, options)
         return url, {"baudrate": DEFAULT_BAUDRATE, **parsed}
-    parts = urlsplit(url)
+    parts = split_url(url, SOCKET_FORM if url.startswith("socket:") else DEVICE_FORM)
     if parts.scheme == "serial":
         if parts.netloc or not parts.path.startswith("/"):
             got = parts.netloc + parts.path
@@ -80,6 +79,10 @@ def _check_socket(url: str, netloc: str, rest: str, options: dict[str, object]) 
     if not host or rest or options:
         got = url[len("socket://") :] or ", ".join(options)
         raise url_error(url, f"expected HOST:PORT after socket://, got {got!r}", SOCKET_FORM)
+    try:
+        network_host(host)
+    except ValueError as error:
+        raise url_error(url, f"host: {error}", SOCKET_FORM) from None
     try:
         integer(1, 65535)(port)
     except ValueError as error:

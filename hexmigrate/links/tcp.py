@@ -1,13 +1,18 @@
-"""The server side of a TCP byte stream: a node that listens for a host on 127.0.0.1.
+"""The server side of a TCP byte stream: a node that listens for a host.
 
 URL grammar::
 
-    tcp-listen://127.0.0.1:PORT     for example tcp-listen://127.0.0.1:7000; port 0 picks any
-                                    free port (`port` and `connect_url` say which)
+    tcp-listen://HOST:PORT          HOST: the address to listen on, an IPv4 literal
+                                    (tcp-listen://127.0.0.1:7000), an IPv6 literal in brackets
+                                    (tcp-listen://[::1]:7000) or a host name (the first address
+                                    it resolves to); 0.0.0.0 or [::] listen on every interface.
+                                    Port 0 picks any free port (`port` and `connect_url` say
+                                    which)
 
 pyserial's ``socket://HOST:PORT`` (serial.py) is a client; this is the end it connects to. The
-link binds 127.0.0.1 only (no other address is accepted, so nothing is reachable from another
-machine) and serves one connection at a time, framed as `framing` describes, like a serial line.
+link binds the address its URL names and nothing else: a node on 127.0.0.2 does not answer on
+127.0.0.1, and only an address other machines can reach makes it reachable from them. It serves
+one connection at a time, framed as `framing` describes, like a serial line.
 When the client hangs up, the link accepts the next one: the link, and what a node keeps behind
 it (the transfer protocol's `Receiver`), stay the same, so a sender can reconnect and RESUME a
 transfer a cut connection interrupted. A second client that connects while one is served waits
@@ -21,67 +26,91 @@ dropped; the next client's stream starts from a clean deframer.
 
 from __future__ import annotations
 
+import os
 import select
 import socket
 import threading
 from contextlib import suppress
-from urllib.parse import urlsplit
 
 from hexmigrate.errors import LinkError
 from hexmigrate.links.framing import Deframer
 from hexmigrate.links.stream import POLL_INTERVAL, StreamLink
-from hexmigrate.links.url import integer, url_error
+from hexmigrate.links.url import integer, network_host, split_url, url_error, url_host
 
-HOST = "127.0.0.1"
 SCHEME = "tcp-listen"
-FORM = "tcp-listen://127.0.0.1:PORT such as tcp-listen://127.0.0.1:7000 (port 0: any free port)"
+FORM = (
+    "tcp-listen://HOST:PORT such as tcp-listen://127.0.0.1:7000 or tcp-listen://[::1]:0 "
+    "(port 0: any free port)"
+)
 READ_SIZE = 1 << 16
 WRITE_TIMEOUT = 5.0
 """How long a reply waits for the client to take bytes before the client is disconnected."""
 
 
 def open_url(url: str, **options: object) -> TcpListenLink:
-    """A listening link for a ``tcp-listen://127.0.0.1:PORT`` URL."""
-    return TcpListenLink(url, parse_url(url, **options))
+    """A listening link for a ``tcp-listen://HOST:PORT`` URL."""
+    return TcpListenLink(url, *parse_url(url, **options))
 
 
-def parse_url(url: str, **options: object) -> int:
-    """The port of a ``tcp-listen://`` URL (0 for any free port); LinkUrlError if malformed."""
-    parts = urlsplit(url)
+def parse_url(url: str, **options: object) -> tuple[str, int]:
+    """The host (an IPv6 literal without its brackets) and port (0 for any free port) of a
+    ``tcp-listen://`` URL; LinkUrlError if malformed."""
+    parts = split_url(url, FORM)
     if parts.scheme != SCHEME:
         raise url_error(url, f"expected the {SCHEME} scheme, got {parts.scheme!r}", FORM)
     if options:
         raise url_error(url, f"expected no parameters, got {next(iter(options))!r}", FORM)
-    host, colon, port = parts.netloc.rpartition(":")
+    name, colon, port = parts.netloc.rpartition(":")
     prefix = f"{SCHEME}://"
     if (
         not url.startswith(prefix)
         or not colon
-        or not host
+        or not name
         or parts.path
         or "?" in url
         or "#" in url
     ):
         got = url.removeprefix(prefix)
-        raise url_error(url, f"expected 127.0.0.1:PORT after {SCHEME}://, got {got!r}", FORM)
-    if host != HOST:
-        raise url_error(url, f"expected to listen on {HOST} only, got {host!r}", FORM)
+        raise url_error(url, f"expected HOST:PORT after {SCHEME}://, got {got!r}", FORM)
+    try:
+        address: str = network_host(name)
+    except ValueError as error:
+        raise url_error(url, f"host: {error}", FORM) from None
     try:
         value: int = integer(0, 65535)(port)
     except ValueError as error:
         raise url_error(url, f"port: {error}", FORM) from None
-    return value
+    return address, value
+
+
+def _listen(url: str, name: str, port: int) -> socket.socket:
+    """A non-blocking socket listening on `name`:`port` (the first address a host name resolves
+    to); LinkError naming the URL when the name does not resolve or the address cannot be
+    bound (not one of this machine's, or taken)."""
+    try:
+        family, _, _, _, address = socket.getaddrinfo(
+            name, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE
+        )[0]
+    except socket.gaierror as error:
+        raise LinkError(f"cannot open {url}: cannot resolve {name!r}: {error.strerror}") from None
+    try:
+        listener = socket.create_server(address, family=family, backlog=1)
+    except OSError as error:
+        raise LinkError(
+            f"cannot open {url}: cannot listen on {address[0]} port {port}: "
+            f"{os.strerror(error.errno) if error.errno else error}"
+        ) from error
+    listener.setblocking(False)
+    return listener
 
 
 class TcpListenLink(StreamLink):
-    """A TCP server on 127.0.0.1 that carries messages to and from one client at a time."""
+    """A TCP server on `host` that carries messages to and from one client at a time."""
 
-    def __init__(self, url: str, port: int) -> None:
-        try:
-            listener = socket.create_server((HOST, port), backlog=1)
-        except OSError as error:
-            raise LinkError(f"cannot open {url}: {error}") from error
-        listener.setblocking(False)
+    def __init__(self, url: str, host: str, port: int) -> None:
+        listener = _listen(url, host, port)
+        self.host = host
+        """The host listened on, as the URL names it (an IPv6 literal without brackets)."""
         self.port: int = listener.getsockname()[1]
         """The port listened on (the one the system picked for port 0)."""
         super().__init__(url)
@@ -98,12 +127,12 @@ class TcpListenLink(StreamLink):
     @property
     def bound_url(self) -> str:
         """This link's URL with the port it actually listens on."""
-        return f"{SCHEME}://{HOST}:{self.port}"
+        return f"{SCHEME}://{url_host(self.host)}:{self.port}"
 
     @property
     def connect_url(self) -> str:
         """The URL a client opens to reach this link (pyserial's ``socket://``)."""
-        return f"socket://{HOST}:{self.port}"
+        return f"socket://{url_host(self.host)}:{self.port}"
 
     @property
     def connected(self) -> bool:

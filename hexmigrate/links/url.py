@@ -8,13 +8,17 @@ options given to `open_link`, which win, so a program can set what a user would 
 
 from __future__ import annotations
 
+import ipaddress
+import re
 from collections.abc import Callable, Mapping
 from typing import Any
-from urllib.parse import parse_qsl
+from urllib.parse import SplitResult, parse_qsl, urlsplit
 
 from hexmigrate.errors import LinkUrlError
 
 Parser = Callable[[str], Any]
+_LABEL = re.compile(r"[A-Za-z0-9]([A-Za-z0-9-]{0,61}[A-Za-z0-9])?")
+"""One label of a host name (RFC 1123): letters, digits and inner hyphens, 63 at most."""
 
 
 def url_error(url: str, problem: str, form: str) -> LinkUrlError:
@@ -109,3 +113,39 @@ def choice(*names: str) -> Parser:
         return text
 
     return parse
+
+
+def network_host(text: str) -> str:
+    """A host to listen on or connect to, as the socket calls take it: an IPv4 literal
+    (``127.0.0.2``), an IPv6 literal in brackets (``[::1]``, returned without them) or a DNS
+    name (``robot-a.local``). Checked here so that a typo fails as a malformed URL at once;
+    whether a name resolves, or an address is this machine's, only opening the link can say."""
+    if text.startswith("[") and text.endswith("]"):
+        try:
+            return str(ipaddress.IPv6Address(text[1:-1]))
+        except ValueError:
+            raise ValueError(f"expected an IPv6 address in brackets, got {text!r}") from None
+    if ":" in text:
+        raise ValueError(f"expected an IPv6 address in brackets such as [::1], got {text!r}")
+    if text.rpartition(".")[2].isdigit():  # a name never ends in a numeric label
+        try:
+            return str(ipaddress.IPv4Address(text))
+        except ValueError:
+            raise ValueError(f"expected an IPv4 address such as 127.0.0.1, got {text!r}") from None
+    if len(text) > 253 or not all(_LABEL.fullmatch(label) for label in text.split(".")):
+        raise ValueError(f"expected an IPv4 or IPv6 address or a host name, got {text!r}")
+    return text
+
+
+def url_host(name: str) -> str:
+    """`name` (an address or a host name) as a URL writes it: an IPv6 address in brackets."""
+    return f"[{name}]" if ":" in name else name
+
+
+def split_url(url: str, form: str) -> SplitResult:
+    """`url` split as urllib does, a LinkUrlError rather than urllib's bare ValueError for a
+    bracketed host that is no IPv6 address (``socket://[::g]:1``, ``tcp-listen://[::1:0``)."""
+    try:
+        return urlsplit(url)
+    except ValueError as error:
+        raise url_error(url, f"expected an IPv6 address between brackets: {error}", form) from None

@@ -68,7 +68,7 @@ MALFORMED_URLS = [
     "socket://",
     "socket://127.0.0.1",
     "socket://127.0.0.1:99999",
-    "tcp-listen://0.0.0.0:1",
+    "tcp-listen://0.0.0.0:99999",
     "can://",
     "can://nowhere/x",
     "faulty+",

@@ -108,7 +108,7 @@ def test_the_remote_server_reports_a_start_failure_from_its_log(
 ) -> None:
     with socket.socket() as taken:
         taken.bind((remote_server.HOST, 0))
-        monkeypatch.setattr(remote_server, "_free_port", lambda: taken.getsockname()[1])
+        monkeypatch.setattr(remote_server, "_free_port", lambda host: taken.getsockname()[1])
         server = RemoteCanServer()
         try:
             with pytest.raises(LinkError, match=r"server exited: .*Address already in use"):

@@ -12,7 +12,7 @@ from hexmigrate.links import open_link
 
 ANY = "serial:///dev/DEVICE, /dev/DEVICE, loop://, socket://HOST:PORT, can://... or faulty+URL"
 DEVICE = "serial:///dev/ttyUSB0?baudrate=115200 or a bare device path such as /dev/pts/5"
-SOCKET = "socket://HOST:PORT such as socket://127.0.0.1:7000"
+SOCKET = "socket://HOST:PORT such as socket://127.0.0.1:7000 or socket://[::1]:7000"
 CAN = (
     "can://virtual/CHANNEL, can://remote/HOST:PORT/CHANNEL, can://slcan//dev/DEVICE or "
     "can://socketcan/INTERFACE, with optional ?role=host|node&txid=ID&rxid=ID&bitrate=N"
