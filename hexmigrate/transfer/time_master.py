@@ -43,6 +43,8 @@ class TimeMaster:
         """Bridge number -> (exporting node, importing node)."""
         self.counts: dict[int, int] = {}
         """Bridge number -> values its exporter had sent at the end of the last quantum."""
+        self.clocks: dict[str, float] = dict.fromkeys(self.controls, 0.0)
+        """Node name -> the clock it acknowledged at the end of the last quantum."""
 
     @property
     def now(self) -> float:
@@ -93,6 +95,7 @@ class TimeMaster:
         if failures:
             raise TransferError(f"quantum to {until:g} s: " + "; ".join(failures))
         for name, (clock, counts) in results.items():
+            self.clocks[name] = clock
             if clock < until:
                 raise TransferError(
                     f"node {name}: expected its clock at {until:g} s, got {clock:g}"
