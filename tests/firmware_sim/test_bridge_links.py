@@ -23,6 +23,7 @@ from firmware_sim.server import NodeTarget
 from hexmigrate.errors import TransferError
 from hexmigrate.links import open_link
 from hexmigrate.transfer.control_client import NodeControl
+from hexmigrate.transfer.messages import PerformanceReport, Watch, decode, encode
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from pbort import NativeModule, NativePBO, PortIO, PortKind, PortSpec
@@ -235,3 +236,14 @@ def test_the_control_requests_set_a_bridge_up_and_advance_it(pair, mode: str) ->
         host_b.import_port(2, "sink.x", LISTEN)
     with pytest.raises(TransferError, match="ADVANCE refused: expected a time >= the node's"):
         host_b.advance(0.05, {})
+
+
+def test_a_lock_step_node_s_reports_follow_its_clock(pair) -> None:
+    _, b, _, on_b = pair
+    receiver = Receiver(NodeTarget(b), on_b)
+    receiver.handle(encode(Watch(1, 100, "viewer.seen"), False))
+    assert [type(decode(raw)) for raw in receiver.due()] == [PerformanceReport]  # at 0 ms
+    assert receiver.due() == []  # the clock stands still between Advances
+    on_b.advance(0.25, {})
+    (report,) = (decode(raw) for raw in receiver.due())
+    assert isinstance(report, PerformanceReport) and report.clock_ms == 250
