@@ -82,10 +82,13 @@ class KernelControl:
     def stop(self, name: str) -> str:
         """Turn PBO `name` off; a bridge's PBO is removed and its link closed."""
         bridged = BRIDGE_PBO.fullmatch(name)
-        number = int(bridged[1]) if bridged else None
-        if number in self.exports or number in self.imports:
-            self._take_down(name, self.exports.pop(number, None) or self.imports.pop(number))
-            return f"stopped {name}: bridge {number} is down"
+        if bridged:
+            number = int(bridged[1])
+            halves: dict[int, LinkedExport] | dict[int, LinkedImport]
+            halves = self.exports if bridged[2] == "tx" else self.imports
+            if number in halves:
+                self._take_down(name, halves.pop(number))
+                return f"stopped {name}: bridge {number} is down"
         self.node.kernel.off(name)
         return f"stopped {name}"
 

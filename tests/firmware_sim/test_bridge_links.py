@@ -214,6 +214,8 @@ def test_stopping_a_bridge_pbo_takes_the_bridge_down(pair) -> None:
     a, b, on_a, on_b = pair
     linked((on_a, on_b), "tcp", 0, number=7)
     link = on_b.imports[7].link
+    with pytest.raises(KernelError, match="bridge7_tx"):  # the other half is not on this node
+        on_b.stop("bridge7_tx")
     assert on_b.stop("bridge7_rx") == "stopped bridge7_rx: bridge 7 is down"
     assert "bridge7_rx" not in b.kernel.names and link.closed and not on_b.imports
     assert on_a.stop("bridge7_tx") == "stopped bridge7_tx: bridge 7 is down"
