@@ -4,6 +4,8 @@ The importing node listens on the URL its `ImportPort` names (``tcp-listen://127
 tells the host the URL to reach it (``socket://127.0.0.1:41234``); the exporting node opens that
 as a client and sends each value as one message (value_message.py). The importing node takes
 what came whenever its serve loop polls (`LinkedImport.poll`) and before each cycle of its PBO.
+Values come in order, numbered from 1: one that is not newer than the last is dropped, so the two
+halves of a bridge are taken down and set up again together.
 
 Times: in lock-step time every node's clock is the master's, so a value's arrival on the
 modelled wire is compared with the importer's clock as it is. In real time each node's clock

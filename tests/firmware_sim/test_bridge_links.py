@@ -155,7 +155,8 @@ def test_a_serial_wire_over_a_link_gives_the_in_process_arrival_times(pair) -> N
 def test_garbage_on_an_import_link_is_dropped_and_counted(pair) -> None:
     _, b, _, on_b = pair
     url = on_b.import_port(4, "sink.x", LISTEN, "tcp", 0)
-    good = encode_value(4, 1, 0.0, 0.0, (77).to_bytes(4, "little"))
+    first = encode_value(4, 1, 0.0, 0.0, (77).to_bytes(4, "little"))
+    good = encode_value(4, 2, 0.0, 0.0, (78).to_bytes(4, "little"))
     damaged = bytearray(good)
     damaged[-6] ^= 0x01
     garbage = [
@@ -167,16 +168,17 @@ def test_garbage_on_an_import_link_is_dropped_and_counted(pair) -> None:
         b"EXPORT 1 2 3 a b c",  # a text line: not a value
     ]
     with open_link(url) as hostile:
+        hostile.send(first)
         for raw in garbage:
             hostile.send(raw)
         hostile.send(good)
-        hostile.send(good)  # a repeat of value 1: stale
+        hostile.send(good)  # a repeat of value 2: stale
     with socket.create_connection(("127.0.0.1", int(url.rsplit(":", 1)[1]))) as raw_socket:
         raw_socket.sendall(b"\x00\xff\xfe\x00junk without a line end")
-    on_b.advance(0.05, {4: 1})
-    assert b.kernel.value("sink.x") == 77
+    on_b.advance(0.05, {4: 2})
+    assert b.kernel.value("sink.x") == 78
     stats = on_b.imports[4].stats
-    assert stats.dropped == len(garbage) + 1 and stats.delivered == 1
+    assert stats.dropped == len(garbage) + 1 and stats.delivered == 2
 
 
 def test_refusals_name_the_bridge_or_the_port(pair) -> None:
