@@ -13,6 +13,7 @@ link) and, on a node in lock-step time, runs the kernel when the time master say
 from __future__ import annotations
 
 import re
+import time
 from collections import Counter
 from collections.abc import Mapping
 
@@ -42,6 +43,9 @@ IMPORTER_PRIORITY = -1
 value that arrived is read in the same period rather than the next."""
 ADVANCE_WAIT = 5.0
 """Seconds an Advance waits for the values it expects before it is refused."""
+MAX_ADVANCE = 3600.0
+"""The most seconds of virtual time one Advance runs: the node answers nothing while it runs, and
+a time master grants quanta far shorter."""
 
 
 def _named(ports: tuple[PortSpec, ...], direction: Direction) -> tuple[str, ...]:
@@ -130,15 +134,18 @@ class KernelControl:
         if not self.lock_step:
             raise BridgeError("this node runs on the real-time clock: start it with --lock-step")
         kernel = self.node.kernel
-        if until < kernel.now:
+        if not kernel.now <= until <= kernel.now + MAX_ADVANCE:
             raise BridgeError(
-                f"expected a time >= the node's clock {kernel.now:g} s, got {until:g}"
+                f"expected a time from the node's clock {kernel.now:g} s to {MAX_ADVANCE:g} s "
+                f"later, got {until:g}"
             )
+        unknown = sorted(set(expect) - set(self.imports))
+        if unknown:
+            raise BridgeError(f"bridge {unknown[0]} is not imported here")
+        deadline = time.monotonic() + ADVANCE_WAIT
         for number, seq in expect.items():
-            imported = self.imports.get(number)
-            if imported is None:
-                raise BridgeError(f"bridge {number} is not imported here")
-            if not imported.wait_for(seq, kernel.now, ADVANCE_WAIT):
+            imported = self.imports[number]
+            if not imported.wait_for(seq, kernel.now, deadline):
                 broken = f" (its link failed: {imported.broken})" if imported.broken else ""
                 raise BridgeError(
                     f"bridge {number} ({bridge_name(number)}_rx): expected value {seq}, got up "

@@ -128,9 +128,8 @@ class LinkedImport:
         except LinkError as error:
             self.broken = str(error)
 
-    def wait_for(self, seq: int, now: float, seconds: float) -> bool:
-        """Whether value `seq` came within `seconds`."""
-        deadline = time.monotonic() + seconds
+    def wait_for(self, seq: int, now: float, deadline: float) -> bool:
+        """Whether value `seq` came by `deadline` (`time.monotonic`)."""
         while self.half.latest < seq and self.broken is None:
             left = deadline - time.monotonic()
             if left <= 0:
