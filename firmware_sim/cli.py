@@ -122,6 +122,7 @@ def cmd_listen(args: argparse.Namespace) -> int:
         show=tuple(args.show),
         seconds=args.seconds,
         switch_on=not args.no_start,
+        lock_step=args.lock_step,
     )
     return listen(config, lambda line: print(line, flush=True))
 
@@ -285,9 +286,10 @@ def _add_listen(commands: argparse._SubParsersAction) -> None:
         "listen",
         cmd_listen,
         "run a node that accepts modules on a link",
-        "Run an emulated node on the real-time clock that accepts modules sent with hexmigrate\n"
-        "send, starts each one it installs and wires it, and prints the --show ports every\n"
-        "second. Its first line says where it listens.\n\n"
+        "Run an emulated node on the real-time clock (or, with --lock-step, on a virtual clock\n"
+        "that only a host's Advance moves) that accepts modules sent with hexmigrate send,\n"
+        "starts each one it installs and wires it, and prints the --show ports every second.\n"
+        "Its first line says where it listens.\n\n"
         "examples:\n"
         "  firmware-sim listen --listen pty --set gain.k=0x20000 --show gain.y\n"
         "  firmware-sim listen --listen tcp-listen://127.0.0.1:0 --native signal \\\n"
@@ -341,6 +343,12 @@ def _add_listen(commands: argparse._SubParsersAction) -> None:
         action="store_true",
         help="create each PBO (native or installed) but leave it off, for a host to set its "
         "constants, wire it and start it (hexmigrate set, connect, start)",
+    )
+    command.add_argument(
+        "--lock-step",
+        action="store_true",
+        help="run on a virtual clock that only a host's Advance moves (a time master's quanta) "
+        "instead of the real-time clock",
     )
 
 

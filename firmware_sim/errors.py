@@ -30,6 +30,8 @@ Tree::
     │                                   installed cannot build the fabric asked for
     ├── BuildError (RuntimeError)       the SDK cannot build a module: a missing tool or source, a
     │                                   tool that failed
+    ├── BridgeError (RuntimeError)      a port between nodes that cannot be set up, or a lock-step
+    │                                   step that cannot run (a bridge's value did not come)
     └── ServoEmulatorError              a servo emulator refuses its set-up or a command: its
                                         branch is drawn in firmware_sim/servos/errors.py
 
@@ -111,6 +113,11 @@ class PowerReportError(FirmwareSimError, ValueError):
 class ReconfigurationPortError(FirmwareSimError, LookupError):
     """``--fpga``: no FPGA reconfiguration port is installed (or more than one), or the one
     installed cannot build a fabric of the size asked for."""
+
+
+class BridgeError(FirmwareSimError, RuntimeError):
+    """A port between nodes that cannot be set up (a busy bridge number, a port too large for a
+    link, an unknown wire), or a lock-step Advance whose imported values did not come."""
 
 
 class BuildError(FirmwareSimError, RuntimeError):

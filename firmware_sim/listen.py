@@ -6,9 +6,11 @@ holds, starts the native PBOs asked for, then serves the link: each module insta
 (or, with ``--no-start``, created and left off for a host's ``hexmigrate start``) at its rate
 with its constants and wired (`firmware_sim.listening_node`), each bitstream is
 handed to the FPGA reconfiguration port, and every second the ports named by `show` are printed.
-On the real-time clock, so a terminal user sees the node live. One `Receiver` serves the node for
-its whole life, so a transfer cut with the connection (a host that reconnects to a
-``tcp-listen://`` node, or reopens the pty) resumes.
+On the real-time clock, so a terminal user sees the node live; with `lock_step`
+(``--lock-step``) on a virtual clock that only a host's Advance moves (a time master's quanta,
+`hexmigrate.transfer.time_master`). One `Receiver` serves the node for its whole life, so a
+transfer cut with the connection (a host that reconnects to a ``tcp-listen://`` node, or reopens
+the pty) resumes. The node's bridges to other nodes are closed when it ends.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ from firmware_sim.node import Node, NodeConfig
 from firmware_sim.server import NodeTarget, serve
 from firmware_sim.settings import Setting, by_pbo
 from hexmigrate.transfer.receiver import Receiver
-from pbort.clock import RealTimeClock
+from pbort.clock import Clock, RealTimeClock, VirtualClock
 from pbort.errors import KernelError
 from pbort.native import NativeModule
 
@@ -39,7 +41,7 @@ SHOW_INTERVAL = 1.0
 class ListenConfig:
     """Everything ``firmware-sim listen`` is told: where to listen, the node's hardware (flash
     file, FPGA slots), which PBOs to start and how, what to show and for how long (None: until
-    interrupted)."""
+    interrupted), and whether its clock is virtual and moved by Advance only (`lock_step`)."""
 
     listen: str
     name: str = "node"
@@ -53,13 +55,15 @@ class ListenConfig:
     show: tuple[str, ...] = ()
     seconds: float | None = None
     switch_on: bool = True
+    lock_step: bool = False
 
 
 def listen(config: ListenConfig, say: Callable[[str], None]) -> int:
     """Run the node until interrupted or for `config.seconds`; each line of output goes to
     `say`. Returns the exit status."""
     port = None if config.fpga is None else open_port(config.fpga)
-    with Node(config.name, NodeConfig(flash_file=config.flash), RealTimeClock()) as node:
+    clock: Clock = VirtualClock() if config.lock_step else RealTimeClock()
+    with Node(config.name, NodeConfig(flash_file=config.flash), clock) as node:
         pbos = ListeningNode(
             node,
             say,
@@ -85,11 +89,14 @@ def listen(config: ListenConfig, say: Callable[[str], None]) -> int:
             target = NodeTarget(
                 node, on_install=installed, fpga=port, on_configure=_configured(say)
             )
-            receiver = Receiver(target, KernelControl(node))
+            control = KernelControl(node, lock_step=config.lock_step)
+            receiver = Receiver(target, control)
             try:
                 serve(node, link, receiver=receiver, stop=_stopper(node, config, say))
             except KeyboardInterrupt:
                 say("stopped")
+            finally:
+                control.close()
     return 0
 
 

@@ -36,7 +36,7 @@ def open_listening(url: str, say: Callable[[str], None]) -> Link:
         say(f"listening on {pair.path} (connect with: hexmigrate send FILE.hex --to {pair.path})")
         return pair.link
     link = open_link(node_side(url))
-    server = _tcp_server(link)
+    server = tcp_server(link)
     if server is None:
         say(f"listening on {url}")
     else:  # say the port the system picked for port 0, also through a faulty+ wrapper
@@ -48,7 +48,7 @@ def open_listening(url: str, say: Callable[[str], None]) -> Link:
     return link
 
 
-def _tcp_server(link: Link) -> TcpListenLink | None:
+def tcp_server(link: Link) -> TcpListenLink | None:
     """The ``tcp-listen://`` link `link` is or wraps (faulty+...), if any."""
     current: object = link
     while current is not None:

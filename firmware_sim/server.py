@@ -115,15 +115,21 @@ def serve(
     receiver also takes the node's control requests (`KernelControl`); what a host's watch
     asks for is pushed between messages. A push the link refuses (a host that stopped reading a
     pty) ends the watch, so the node is not held up by every later one; the host watches again.
+    Between messages the values that came on the node's import links are taken, and the node
+    runs, unless its control is in lock-step time: then only an Advance runs it.
     """
     receiver = receiver or Receiver(NodeTarget(node), KernelControl(node))
+    control = receiver.control if isinstance(receiver.control, KernelControl) else None
+    free_running = control is None or not control.lock_step
     while not stop():
         raw = link.receive(poll)
         if raw is not None:
             for reply in receiver.handle(raw):
                 link.send(reply)
-        elif node.kernel.names:
+        elif node.kernel.names and free_running:
             node.run(until=node.kernel.now + poll)
+        if control is not None:
+            control.poll_imports()
         try:
             for push in receiver.due():  # reports and heartbeats of a watch
                 link.send(push)

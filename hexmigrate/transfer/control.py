@@ -7,12 +7,16 @@ port or constant, which the receiver sends back as a refusal. Values cross the w
 (int or float) of scalar ports only: a vector or frame port is refused by name.
 
 The answers carry words of free text, one per PBO (`PboRow`) or per port value, which
-`rows_text`/`parse_rows` and `values_text`/`parse_values` write and read on both sides.
+`rows_text`/`parse_rows` and `values_text`/`parse_values` write and read on both sides; an
+`Advance` and its answer carry ``NUMBER=COUNT`` words per bridge (`counts_text`/`parse_counts`),
+the answer after the word ``advanced`` and the node's clock in microseconds (`advanced_text`/
+`parse_advanced`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -23,6 +27,13 @@ Number = int | float
 MAX_PORTS = 32
 """The most ports one READ or WATCH names: a node reads each of them for the answer, or for
 every report of a watch, so a longer list only floods the node and its line."""
+MAX_BRIDGES = 256
+"""The most bridges one ADVANCE or its answer names."""
+ADVANCED = "advanced"
+"""The first word of the answer to an Advance."""
+MICROSECONDS = 1_000_000
+BRIDGE_NUMBERS = 1 << 16
+"""Bridge numbers travel as u16."""
 
 
 @dataclass(frozen=True)
@@ -74,6 +85,11 @@ class ControlTarget(Protocol):
     def clock(self) -> float: ...
     def performance(self) -> tuple[tuple[str, Number], ...]: ...
     def state(self) -> str: ...
+    def export_port(self, number: int, source: str, url: str, wire: str, rate: int) -> str: ...
+    def import_port(self, number: int, sink: str, url: str, wire: str, rate: int) -> str: ...
+    def advance(
+        self, until: float, expect: Mapping[int, int]
+    ) -> tuple[float, Mapping[int, int]]: ...
 
 
 def wire(text: str) -> tuple[str, str]:
@@ -82,6 +98,13 @@ def wire(text: str) -> tuple[str, str]:
     if not (found and _is_port(source) and _is_port(sink)):
         raise MessageError(f"expected OUT_PBO.port=IN_PBO.port, got {text[:60]!r}")
     return source, sink
+
+
+def port(text: str) -> str:
+    """A ``PBO.port`` word; MessageError when it is not one."""
+    if not _is_port(text):
+        raise MessageError(f"expected a PBO.port, got {text[:60]!r}")
+    return text
 
 
 def ports(text: str) -> tuple[str, ...]:
@@ -122,6 +145,41 @@ def parse_values(text: str) -> tuple[tuple[str, Number], ...]:
             raise MessageError(f"expected NAME=VALUE, got {word[:60]!r}")
         values.append((port, _number(value)))
     return tuple(values)
+
+
+def counts_text(counts: Mapping[int, int]) -> str:
+    """``NUMBER=COUNT`` words, one per bridge."""
+    return " ".join(f"{number}={count}" for number, count in counts.items())
+
+
+def parse_counts(text: str) -> dict[int, int]:
+    """{bridge number: count} from ``NUMBER=COUNT`` words; MessageError when a word is not one,
+    a number repeats or more than MAX_BRIDGES come."""
+    words = _printable(text).split(maxsplit=MAX_BRIDGES)
+    if len(words) > MAX_BRIDGES:
+        raise MessageError(f"expected at most {MAX_BRIDGES} bridges, got more")
+    counts: dict[int, int] = {}
+    for word in words:
+        number, found, count = word.partition("=")
+        if not (found and number.isdigit() and count.isdigit()):
+            raise MessageError(f"expected NUMBER=COUNT, got {word[:60]!r}")
+        if int(number) >= BRIDGE_NUMBERS or int(number) in counts:
+            raise MessageError(f"expected distinct bridge numbers 0..65535, got {word[:60]!r}")
+        counts[int(number)] = int(count)
+    return counts
+
+
+def advanced_text(clock: float, counts: Mapping[int, int]) -> str:
+    """The text of an Advance's answer: ``advanced CLOCK_US NUMBER=COUNT ...``."""
+    return " ".join([ADVANCED, str(round(clock * MICROSECONDS)), counts_text(counts)]).strip()
+
+
+def parse_advanced(text: str) -> tuple[float, dict[int, int]]:
+    """(the node's clock in seconds, its exports' counts) from an Advance's answer."""
+    words = _printable(text).split(None, 2)
+    if len(words) < 2 or words[0] != ADVANCED or not words[1].isdigit():
+        raise MessageError(f"expected {ADVANCED} CLOCK_US NUMBER=COUNT ..., got {text[:60]!r}")
+    return int(words[1]) / MICROSECONDS, parse_counts(words[2] if len(words) > 2 else "")
 
 
 def _printable(text: str) -> str:

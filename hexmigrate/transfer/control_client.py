@@ -1,6 +1,8 @@
 """The host's side of node control: `NodeControl` asks a node, through a `Sender` (its retries,
-timeouts and refusal handling), to list, start, stop, set, wire and read its PBOs, and to push
-reports (`watch`, then `pushes`).
+timeouts and refusal handling), to list, start, stop, set, wire and read its PBOs, to push
+reports (`watch`, then `pushes`), to carry ports to and from other nodes (`export_port`,
+`import_port`) and, in lock-step time, to run to a time (`advance`; `time_master.TimeMaster`
+drives every node so).
 
 Each request gets a fresh tid, so that the node, which remembers its recent answers by tid,
 answers a repeat (our request or its answer was lost) without doing it twice. A refusal raises
@@ -11,15 +13,27 @@ from __future__ import annotations
 
 import random
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 
 from hexmigrate.errors import MessageError
-from hexmigrate.transfer.control import Number, PboRow, parse_rows, parse_values
+from hexmigrate.transfer.control import (
+    ADVANCED,
+    MICROSECONDS,
+    Number,
+    PboRow,
+    counts_text,
+    parse_advanced,
+    parse_rows,
+    parse_values,
+)
 from hexmigrate.transfer.messages import (
     Ack,
+    Advance,
     ConnectPorts,
     DisconnectPorts,
+    ExportPort,
     Heartbeat,
+    ImportPort,
     ListPbos,
     Message,
     PboTable,
@@ -97,6 +111,35 @@ class NodeControl:
         tid = self.tids()
         what = "watching" if period_ms else "unwatched"
         return self._acknowledged(Watch(tid, period_ms, " ".join(ports)), tid, what)
+
+    def export_port(
+        self, number: int, source: str, url: str, wire: str = "tcp", rate: float = 0
+    ) -> str:
+        """Send output `source` (``PBO.port``) as bridge `number` to the node that imports it at
+        `url` (what `import_port` returned), on a `wire` modelled at `rate` bit/s (``serial``,
+        ``can``; 0: the wire's default) or none (``tcp``)."""
+        tid = self.tids()
+        request = ExportPort(tid, number, round(rate), source, wire, url)
+        return self._acknowledged(request, tid, "exported")
+
+    def import_port(
+        self, number: int, sink: str, url: str, wire: str = "tcp", rate: float = 0
+    ) -> str:
+        """Feed input `sink` (``PBO.port``) from bridge `number`, the node listening on `url`
+        (``tcp-listen://127.0.0.1:0``); the URL the exporting node must open."""
+        tid = self.tids()
+        return self._acknowledged(ImportPort(tid, number, round(rate), sink, wire, url), tid, "")
+
+    def advance(self, until: float, expect: Mapping[int, int]) -> tuple[float, dict[int, int]]:
+        """Run the node to `until` seconds once it holds value `expect[N]` of each bridge N it
+        imports; (the node's clock, {bridge number: values sent so far} of its exports)."""
+        tid = self.tids()
+        request = Advance(tid, round(until * MICROSECONDS), counts_text(expect))
+        text = self._acknowledged(request, tid, ADVANCED)
+        try:
+            return parse_advanced(text)
+        except MessageError as error:
+            raise MessageError(f"the answer to ADVANCE {tid}: {error}") from None
 
     def pushes(self, seconds: float) -> Iterator[PerformanceReport | Heartbeat]:
         """The reports and heartbeats the node pushes for `seconds`, as they come (damaged

@@ -4,10 +4,10 @@ A message type (messages.py) declares each of its fields once, with one of the s
 bottom of this module (``tid: int = u32()``); the generic codec reads those declarations. A field
 is one of two binary kinds:
 
-* **fixed**: a little-endian unsigned number of 1, 2 or 4 bytes (`Number`, `Address`, `Flag`);
+* **fixed**: a little-endian unsigned number of 1, 2, 4 or 8 bytes (`Number`, `Address`, `Flag`);
   the fixed fields of a message are packed in declaration order right after its type byte;
 * **tail**: the rest of the body, after the fixed fields (`Name`, `Text`, `Modules`, `U32Array`,
-  `Payload`); a message has at most one.
+  `Payload`); a message has at most one, or several `Name` fields (layout.py).
 
 and has one of four text forms (`Words`): one word, one word that may be left out (only last
 among the words), the rest of the line (free text: it comes after every word, whatever its place
@@ -49,7 +49,7 @@ class Field:
 
     def __init__(self, format: str | None = None, words: Words = Words.WORD) -> None:
         self.format = format
-        """The struct format of a fixed field (B, H, I); None for the tail."""
+        """The struct format of a fixed field (B, H, I, Q); None for the tail."""
         self.words = words
         self.name = ""
         """The field's name, set when its message type is declared."""
@@ -80,7 +80,7 @@ class Field:
 
 
 class Number(Field):
-    """An unsigned number of `format` (B, H, I), counted in `unit`s on the wire (a block
+    """An unsigned number of `format` (B, H, I, Q), counted in `unit`s on the wire (a block
     acknowledgement counts bytes in 256-byte blocks); `shown` formats it in text."""
 
     def __init__(
@@ -308,6 +308,11 @@ def u16(*, unit: int = 1) -> Any:
 def u32(*, shown: str = "{}") -> Any:
     """An unsigned 32-bit number; `shown` formats it in text (``"0x{:08X}"``; default decimal)."""
     return declared(Number("I", shown=shown))
+
+
+def u64() -> Any:
+    """An unsigned 64-bit number (a time in microseconds that must not wrap)."""
+    return declared(Number("Q"))
 
 
 def address(**options: Any) -> Any:

@@ -5,7 +5,9 @@ type's fields (fields.py) and checks the declaration, so a message type that cou
 or decoded is refused at import, not on the wire. Then:
 
 * **binary**: the type byte, the fixed fields packed little-endian in declaration order, the tail
-  field (if any), and the type's `Check` (CRC-32 unless it declares another) of all of these;
+  (if any), and the type's `Check` (CRC-32 unless it declares another) of all of these. The tail
+  is one field, or several `word()` fields (a bridge's port, wire and URL): each but the last
+  preceded by its length in one byte, the last taking the rest;
 * **text**: the verb, one word per field in declaration order (a free-text field last, whatever
   its place in the declaration, since it runs to the end of the line), then `` *XX``, the line's
   CRC-8 (`line_sum`).
@@ -26,8 +28,11 @@ from typing import Any
 
 from hexmigrate.errors import MessageError
 from hexmigrate.links.base import TEXT_FIRST_BYTE
-from hexmigrate.transfer.fields import KEY, Field, Words
+from hexmigrate.transfer.fields import KEY, Field, Name, Words
 
+MAX_LEADING_WORD = 0xFF
+"""The most UTF-8 bytes of a word of a tail of several words, but the last: its length travels
+in one byte."""
 VERB = re.compile(r"[A-Z][A-Z0-9_]*")
 """A command word: binary type codes are below TEXT_FIRST_BYTE, and a line that starts with ':'
 is an Intel HEX record, so a message's first byte tells what it is."""
@@ -96,13 +101,12 @@ class Layout:
         self.check = check
         self.fields = _fields(cls)
         self.fixed = [field for field in self.fields if field.format is not None]
-        tails = [field for field in self.fields if field.format is None]
-        self.tail = tails[0] if tails else None
+        self.tails = [field for field in self.fields if field.format is None]
         self.struct = struct.Struct("<" + "".join(field.format or "" for field in self.fixed))
         self.text_order = [field for field in self.fields if field.words is not Words.REST]
         self.text_order += [field for field in self.fields if field.words is Words.REST]
         self.usage = " ".join([verb or "", *(field.usage for field in self.text_order)])
-        self._check_declaration(tails)
+        self._check_declaration(self.tails)
 
     @property
     def title(self) -> str:
@@ -116,8 +120,11 @@ class Layout:
         name = self.cls.__name__
         if self.code is not None and not 0 < self.code < TEXT_FIRST_BYTE:
             raise TypeError(f"{name}: expected a type code 0x01..0x1F, got 0x{self.code:02X}")
-        if len(tails) > 1:
-            raise TypeError(f"{name}: expected at most one tail field, got {_names(tails)}")
+        if len(tails) > 1 and not all(type(field) is Name for field in tails):
+            raise TypeError(
+                f"{name}: expected at most one tail field, or only word() fields, got "
+                f"{_names(tails)}"
+            )
         if self.verb is None:
             return
         if not VERB.fullmatch(self.verb):
@@ -138,24 +145,45 @@ class Layout:
             raise MessageError(f"{self.cls.__name__} exists in hex mode only")
         numbers = [self._convert(field, field.to_number, message) for field in self.fixed]
         frame = bytes([self.code]) + self.struct.pack(*numbers)
-        if self.tail is not None:
-            frame += self._convert(self.tail, self.tail.to_tail, message)
+        for index, field in enumerate(self.tails):
+            data = self._convert(field, field.to_tail, message)
+            if index < len(self.tails) - 1:
+                if len(data) > MAX_LEADING_WORD:
+                    raise MessageError(
+                        f"{self.cls.__name__}.{field.name}: expected at most "
+                        f"{MAX_LEADING_WORD} bytes, got {len(data)}"
+                    )
+                frame += bytes([len(data)])
+            frame += data
         return self.check.append(frame)
 
     def decode_binary(self, raw: bytes) -> Any:
         """The message in `raw`, a binary frame whose first byte is this type's code."""
         body = self.check.strip(raw)[1:]
         size = self.struct.size
-        if len(body) < size or (self.tail is None and len(body) > size):
-            expected = f"{size} bytes" if self.tail is None else f"at least {size} bytes"
+        if len(body) < size or (not self.tails and len(body) > size):
+            expected = f"at least {size} bytes" if self.tails else f"{size} bytes"
             raise MessageError(f"expected {expected} in the body of {self.title}, got {len(body)}")
         values = {
             field.name: self._parse(field, field.from_number, number)
             for field, number in zip(self.fixed, self.struct.unpack_from(body), strict=True)
         }
-        if self.tail is not None:
-            values[self.tail.name] = self._parse(self.tail, self.tail.from_tail, body[size:])
+        for field, data in zip(self.tails, self._split_tail(body[size:]), strict=True):
+            values[field.name] = self._parse(field, field.from_tail, data)
         return self.cls(**values)
+
+    def _split_tail(self, tail: bytes) -> list[bytes]:
+        """The bytes of each tail field: each but the last after its one-byte length."""
+        parts = []
+        for field in self.tails[:-1]:
+            if not tail or tail[0] >= len(tail):
+                raise MessageError(
+                    f"{field.name} of {self.title}: expected a length byte and that many bytes "
+                    f"before the next field, got {len(tail)} bytes"
+                )
+            parts.append(tail[1 : 1 + tail[0]])
+            tail = tail[1 + tail[0] :]
+        return [*parts, tail] if self.tails else []
 
     # Text mode.
 

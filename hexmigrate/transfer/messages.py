@@ -33,6 +33,7 @@ from hexmigrate.transfer.fields import (
     u16,
     u32,
     u32_array,
+    u64,
     word,
 )
 from hexmigrate.transfer.layout import CRC16, CRC32, Check, Layout, line_sum
@@ -48,7 +49,19 @@ _BY_VERB: dict[str, Layout] = {}
 
 @dataclass_transform(
     frozen_default=True,
-    field_specifiers=(u8, u16, u32, address, flag, word, free_text, listing, u32_array, payload),
+    field_specifiers=(
+        u8,
+        u16,
+        u32,
+        u64,
+        address,
+        flag,
+        word,
+        free_text,
+        listing,
+        u32_array,
+        payload,
+    ),
 )
 class Message:
     """A protocol message. Each subclass is one message type, a frozen dataclass, declared as
@@ -238,6 +251,47 @@ class ReadPorts(Message, code=0x16, verb="READ"):
 
     tid: int = u32()
     ports: str = free_text()
+
+
+# Ports between nodes and lock-step time (docs/node.md#ports-between-node-processes). Codes
+# 0x1D-0x1F are the last binary type codes: every code below 0x20 (is_text) is now taken.
+
+
+class ExportPort(Message, code=0x1D, verb="EXPORT"):
+    """Send output `source` (``PBO.port``) as bridge `number` to the node that imports it, at
+    `url` (this node opens it as a client), timed on a `wire` (``serial``, ``can``: modelled at
+    `rate` bit/s, 0 for the wire's default; ``tcp``: no modelled wire). The node starts PBO
+    ``bridge{number}_tx``."""
+
+    tid: int = u32()
+    number: int = u16()
+    rate: int = u32()
+    source: str = word()
+    wire: str = word()
+    url: str = word()
+
+
+class ImportPort(Message, code=0x1E, verb="IMPORT"):
+    """Feed input `sink` (``PBO.port``) from bridge `number`, whose values come to `url` (this
+    node listens on it). The node starts PBO ``bridge{number}_rx`` and answers `Ack` whose text
+    is the URL the exporting node opens."""
+
+    tid: int = u32()
+    number: int = u16()
+    rate: int = u32()
+    sink: str = word()
+    wire: str = word()
+    url: str = word()
+
+
+class Advance(Message, code=0x1F, verb="ADVANCE"):
+    """Lock-step time: run the node to `until_us` microseconds once it holds value `SEQ` of each
+    bridge it imports, ``NUMBER=SEQ`` words in `expect`. Answered by `Ack` ``advanced CLOCK_US
+    NUMBER=COUNT ...``: the node's clock and the values each of its exports sent so far."""
+
+    tid: int = u32()
+    until_us: int = u64()
+    expect: str = free_text(default="")
 
 
 # Answers.

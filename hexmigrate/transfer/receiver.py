@@ -19,10 +19,21 @@ from typing import Protocol
 from hexmigrate.errors import HexError, MessageError
 from hexmigrate.links.base import is_text
 from hexmigrate.records import RecordType, decode_record
-from hexmigrate.transfer.control import ControlTarget, ports, rows_text, values_text, wire
+from hexmigrate.transfer.control import (
+    MICROSECONDS,
+    ControlTarget,
+    advanced_text,
+    parse_counts,
+    port,
+    ports,
+    rows_text,
+    values_text,
+    wire,
+)
 from hexmigrate.transfer.messages import (
     Abort,
     Ack,
+    Advance,
     Begin,
     BlockAck,
     Commit,
@@ -30,8 +41,10 @@ from hexmigrate.transfer.messages import (
     Data,
     DisconnectPorts,
     End,
+    ExportPort,
     Header,
     HexLine,
+    ImportPort,
     Listing,
     ListModules,
     ListPbos,
@@ -250,6 +263,13 @@ class Receiver:
             return Ack(tid, 0, control.connect(*wire(message.wire)))
         if isinstance(message, DisconnectPorts):
             return Ack(tid, 0, control.disconnect(*wire(message.wire)))
+        if isinstance(message, ExportPort):
+            return Ack(tid, 0, control.export_port(*_bridge(message, message.source)))
+        if isinstance(message, ImportPort):
+            return Ack(tid, 0, control.import_port(*_bridge(message, message.sink)))
+        if isinstance(message, Advance):
+            until = message.until_us / MICROSECONDS
+            return Ack(tid, 0, advanced_text(*control.advance(until, parse_counts(message.expect))))
         raise MessageError(f"{type(message).__name__} is not a control request")
 
     def _watch(self, control: ControlTarget, message: Watch) -> Message:
@@ -262,8 +282,8 @@ class Receiver:
                 f"expected a report period of at least {MIN_PERIOD_MS} ms, got {message.period_ms}"
             )
         watched = ports(message.ports) if message.ports.strip() else ()
-        for port in watched:
-            control.read(port)  # refused by name now rather than missing from every report
+        for name in watched:
+            control.read(name)  # refused by name now rather than missing from every report
         now = control.clock()
         self.subscription = Subscription(
             message.period_ms / 1000, watched, self._text, now, now + HEARTBEAT_PERIOD
@@ -455,6 +475,11 @@ def _encoded(reply: Message, text: bool) -> bytes:
         return encode(Nak(getattr(reply, "tid", 0), 0, reason), text)
 
 
+def _bridge(message: ExportPort | ImportPort, name: str) -> tuple[int, str, str, str, int]:
+    """(number, port, url, wire, rate) of a bridge request, its port checked to be PBO.port."""
+    return message.number, port(name), message.url, message.wire, message.rate
+
+
 def _guard(action: Callable[..., object], *args: object) -> None:
     """Run a session step; a refusal (format error, no room) ends the transfer."""
     try:
@@ -484,6 +509,9 @@ _HANDLERS = {
     DisconnectPorts: Receiver._controlled,
     ReadPorts: Receiver._controlled,
     Watch: Receiver._controlled,
+    ExportPort: Receiver._controlled,
+    ImportPort: Receiver._controlled,
+    Advance: Receiver._controlled,
 }
 """The requests a node answers. Any other message is an answer or a push (`Pong`, `Listing`,
 `Ack`, `BlockAck`, `Nak`, `PboTable`, `PortValues`, `PerformanceReport`, `Heartbeat`), which a

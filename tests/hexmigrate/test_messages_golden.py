@@ -14,6 +14,7 @@ import pytest
 from hexmigrate.transfer.messages import (
     Abort,
     Ack,
+    Advance,
     Begin,
     BlockAck,
     Commit,
@@ -21,9 +22,11 @@ from hexmigrate.transfer.messages import (
     Data,
     DisconnectPorts,
     End,
+    ExportPort,
     Header,
     Heartbeat,
     HexLine,
+    ImportPort,
     Listing,
     ListModules,
     ListPbos,
@@ -261,6 +264,43 @@ GOLDEN: list[tuple[Message, bool, str]] = [
         PortValues(11, "gain.y=6 signal.y=3"),
         BINARY,
         "180b0000006761696e2e793d36207369676e616c2e793d33babc94fb",
+    ),
+    # Ports between nodes and lock-step time, pinned when declared (checked by eye: the type
+    # code, tid u32, number u16, rate u32 (115200 = 0x1C200), then the words of the tail, each
+    # but the last after its length byte; Advance's until_us as u64; the CRC-32).
+    (
+        ExportPort(5, 3, 115200, "signal.y", "serial", "socket://127.0.0.1:4000"),
+        TEXT,
+        "4558504f52542035203320313135323030207369676e616c2e792073657269616c20736f636b65743a2f"
+        "2f3132372e302e302e313a34303030202a3242",
+    ),
+    (
+        ExportPort(5, 3, 115200, "signal.y", "serial", "socket://127.0.0.1:4000"),
+        BINARY,
+        "1d05000000030000c20100087369676e616c2e790673657269616c736f636b65743a2f2f3132372e302e"
+        "302e313a3430303018555b32",
+    ),
+    (
+        ImportPort(6, 3, 0, "gain.x", "tcp", "tcp-listen://127.0.0.1:0"),
+        TEXT,
+        "494d504f5254203620332030206761696e2e7820746370207463702d6c697374656e3a2f2f3132372e30"
+        "2e302e313a30202a3133",
+    ),
+    (
+        ImportPort(6, 3, 0, "gain.x", "tcp", "tcp-listen://127.0.0.1:0"),
+        BINARY,
+        "1e06000000030000000000066761696e2e78037463707463702d6c697374656e3a2f2f3132372e302e30"
+        "2e313a307ef4bae5",
+    ),
+    (
+        Advance(7, 1_250_000, "3=120 4=7"),
+        TEXT,
+        "414456414e43452037203132353030303020333d31323020343d37202a3032",
+    ),
+    (
+        Advance(7, 1_250_000, "3=120 4=7"),
+        BINARY,
+        "1f07000000d012130000000000333d31323020343d37adb956ce",
     ),
 ]
 

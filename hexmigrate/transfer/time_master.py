@@ -1,0 +1,111 @@
+"""The host's side of lock-step virtual time: a `TimeMaster` grants every node the same quantum.
+
+Each node runs ``firmware-sim listen --lock-step``: its clock moves only when an Advance says
+(`NodeControl.advance`). The master grants quanta one after another; for each it asks every node
+at once (one thread each) to run to the quantum's end, and waits for all of them. A value a node
+sends over a bridge during quantum k reaches the importing node at the start of quantum k+1: the
+master tells the importer how many values the exporter had sent by the end of quantum k (the
+count the exporter acknowledged), and the importer waits for that very value before it runs and
+takes none beyond it (firmware_sim's `KernelControl.advance`). So what each node sees does not
+depend on when TCP delivered it, and a run is reproducible; messages between nodes are delivered
+at quantum boundaries, as Renode synchronises its machines.
+
+Times are counted in whole microseconds (what an Advance carries), so that the nodes' clocks
+and the master's `now` are the same numbers.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from concurrent.futures import ThreadPoolExecutor
+
+from hexmigrate.errors import HexmigrateError, TransferError
+from hexmigrate.transfer.control import MICROSECONDS
+from hexmigrate.transfer.control_client import NodeControl
+
+
+class TimeMaster:
+    """Lock-step time for the nodes `controls` (name -> its control), `quantum` seconds at a
+    time. Each NodeControl is used by the master's threads while `run_until` runs: nothing else
+    may use it then."""
+
+    def __init__(self, controls: Mapping[str, NodeControl], quantum: float) -> None:
+        if not (math.isfinite(quantum) and round(quantum * MICROSECONDS) >= 1):
+            raise ValueError(f"expected a quantum of at least 1 microsecond, got {quantum!r} s")
+        if not controls:
+            raise ValueError("expected at least one node to grant time to, got none")
+        self.controls = dict(controls)
+        self.quantum = quantum
+        self._quantum_us = round(quantum * MICROSECONDS)
+        self._now_us = 0
+        self.routes: dict[int, tuple[str, str]] = {}
+        """Bridge number -> (exporting node, importing node)."""
+        self.counts: dict[int, int] = {}
+        """Bridge number -> values its exporter had sent at the end of the last quantum."""
+        self.clocks: dict[str, float] = dict.fromkeys(self.controls, 0.0)
+        """Node name -> the clock it acknowledged at the end of the last quantum."""
+
+    @property
+    def now(self) -> float:
+        """The time every node has reached, in seconds."""
+        return self._now_us / MICROSECONDS
+
+    def route(self, number: int, source: str, sink: str) -> None:
+        """Bridge `number` carries values from node `source` to node `sink`."""
+        for node in (source, sink):
+            if node not in self.controls:
+                known = ", ".join(self.controls)
+                raise ValueError(f"bridge {number}: expected a node among {known}, got {node!r}")
+        if number in self.routes:
+            raise ValueError(f"bridge {number} is routed already: {self.routes[number]}")
+        self.routes[number] = (source, sink)
+        self.counts[number] = 0
+
+    def unroute(self, number: int) -> None:
+        """Forget bridge `number` (taken down)."""
+        self.routes.pop(number, None)
+        self.counts.pop(number, None)
+
+    def run_until(self, t: float) -> None:
+        """Grant quanta to every node until they all reached `t` (the last quantum is cut short
+        when `t` is not a whole number of them)."""
+        target = round(t * MICROSECONDS)
+        with ThreadPoolExecutor(len(self.controls), thread_name_prefix="time master") as pool:
+            while self._now_us < target:
+                until = min(self._now_us + self._quantum_us, target)
+                self._grant(pool, until)
+                self._now_us = until
+
+    def _grant(self, pool: ThreadPoolExecutor, until_us: int) -> None:
+        """Run every node to `until_us`, each expecting the values sent by the last quantum's
+        end; then note what the exporters sent during this one."""
+        until = until_us / MICROSECONDS
+        futures = {
+            name: pool.submit(control.advance, until, self._expected(name))
+            for name, control in self.controls.items()
+        }
+        results: dict[str, tuple[float, dict[int, int]]] = {}
+        failures = []
+        for name, future in futures.items():
+            try:
+                results[name] = future.result()
+            except HexmigrateError as error:
+                failures.append(f"node {name}: {error}")
+        if failures:
+            raise TransferError(f"quantum to {until:g} s: " + "; ".join(failures))
+        for name, (clock, counts) in results.items():
+            self.clocks[name] = clock
+            if clock < until:
+                raise TransferError(
+                    f"node {name}: expected its clock at {until:g} s, got {clock:g}"
+                )
+            for number, (source, _) in self.routes.items():
+                if source == name and number in counts:
+                    self.counts[number] = counts[number]
+
+    def _expected(self, name: str) -> dict[int, int]:
+        """{bridge number: value to wait for} of the bridges node `name` imports."""
+        return {
+            number: self.counts[number] for number, (_, sink) in self.routes.items() if sink == name
+        }

@@ -1,0 +1,82 @@
+"""The time master in one process: two lock-step nodes, their control over in-memory links, a
+bridge between them over TCP. Quanta are granted to every node (the last one cut short), a
+value sent during one quantum is taken at the start of the next, and a node that cannot advance
+fails the quantum with its name."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+
+from firmware_sim import kernel_control
+from firmware_sim.kernel_control import KernelControl
+from firmware_sim.natives import Signal
+from firmware_sim.node import Node
+from firmware_sim.server import NodeTarget
+from hexmigrate.errors import TransferError
+from hexmigrate.transfer.control_client import NodeControl
+from hexmigrate.transfer.receiver import Receiver
+from hexmigrate.transfer.sender import Sender
+from hexmigrate.transfer.time_master import TimeMaster
+from pbort import NativeModule, NativePBO, PortSpec
+from tests.hexmigrate.transfer_harness import DirectLink
+
+
+class Sink(NativePBO):
+    """Takes a scalar."""
+
+    name = "sink"
+    ports = (PortSpec.input("x"),)
+
+
+@pytest.fixture
+def nodes() -> Iterator[tuple[Node, Node, dict[str, NodeControl]]]:
+    """Node a (a ramp at 100 Hz) and node b (a sink) in lock-step, bridge 1 from a to b."""
+    with Node("a") as a, Node("b") as b:
+        a.start(NativeModule(Signal), 100, constants={"shape": 0, "amplitude": 1})
+        b.start(NativeModule(Sink), 100)
+        kernels = KernelControl(a, lock_step=True), KernelControl(b, lock_step=True)
+        controls = {
+            node.name: NodeControl(Sender(DirectLink(Receiver(NodeTarget(node), kernel))))
+            for node, kernel in zip((a, b), kernels, strict=True)
+        }
+        url = controls["b"].import_port(1, "sink.x", "tcp-listen://127.0.0.1:0")
+        controls["a"].export_port(1, "signal.y", url)
+        try:
+            yield a, b, controls
+        finally:
+            for kernel in kernels:
+                kernel.close()
+
+
+def test_every_node_runs_each_quantum_and_values_cross_at_its_end(nodes) -> None:
+    a, b, controls = nodes
+    master = TimeMaster(controls, 0.03)
+    master.route(1, "a", "b")
+    master.run_until(0.03)
+    assert b.kernel.value("sink.x") == 0  # the values of the first quantum come with the second
+    master.run_until(0.1)  # quanta to 0.06, 0.09 and 0.1
+    assert master.now == 0.1 and master.clocks == {"a": 0.1, "b": 0.1}
+    assert a.kernel.now == b.kernel.now == 0.1
+    assert master.counts == {1: 10}
+    assert b.kernel.value("sink.x") == 9  # what a had sent by 0.09, the last quantum's start
+
+
+def test_a_node_that_cannot_advance_fails_the_quantum_by_name(nodes, monkeypatch) -> None:
+    monkeypatch.setattr(kernel_control, "ADVANCE_WAIT", 0.2)
+    _, b, controls = nodes
+    master = TimeMaster(controls, 0.01)
+    with pytest.raises(ValueError, match="expected a node among a, b, got 'c'"):
+        master.route(1, "a", "c")
+    master.route(1, "a", "b")
+    master.run_until(0.01)
+    master.counts[1] = 99  # a value a never sent: b waits for it, then refuses
+    with pytest.raises(TransferError, match=r"node b: .*bridge 1 \(bridge1_rx\): expected value"):
+        master.run_until(0.02)
+    assert b.kernel.now == 0.01
+
+
+def test_a_quantum_is_at_least_a_microsecond() -> None:
+    with pytest.raises(ValueError, match="at least 1 microsecond"):
+        TimeMaster({}, 1e-7)
