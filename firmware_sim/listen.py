@@ -16,10 +16,11 @@ the pty) resumes. The node's bridges to other nodes are closed when it ends.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
+from firmware_sim.errors import StartError
 from firmware_sim.fpga_port import open_port
 from firmware_sim.kernel_control import KernelControl
 from firmware_sim.listen_link import open_listening
@@ -30,6 +31,7 @@ from firmware_sim.server import NodeTarget, serve
 from firmware_sim.settings import Setting, by_pbo
 from hexmigrate.transfer.receiver import Receiver
 from pbort.clock import Clock, RealTimeClock, VirtualClock
+from pbort.code import ModuleCode
 from pbort.errors import KernelError
 from pbort.native import NativeModule
 
@@ -58,9 +60,19 @@ class ListenConfig:
     lock_step: bool = False
 
 
-def listen(config: ListenConfig, say: Callable[[str], None]) -> int:
+def listen(
+    config: ListenConfig,
+    say: Callable[[str], None],
+    firmware: Mapping[str, ModuleCode] | None = None,
+) -> int:
     """Run the node until interrupted or for `config.seconds`; each line of output goes to
-    `say`. Returns the exit status."""
+    `say`. Returns the exit status.
+
+    `firmware` is the native code this node's firmware has beyond the built-in natives, by
+    name: a program that makes a node of its own robot (drivers bound to its devices) passes
+    them here, and `config.natives` names which to start."""
+    codes = {name: NativeModule(native) for name, native in NATIVES.items()} | dict(firmware or {})
+    natives = [(name, _native(codes, name)) for name in config.natives]  # refused before listening
     port = None if config.fpga is None else open_port(config.fpga)
     clock: Clock = VirtualClock() if config.lock_step else RealTimeClock()
     with Node(config.name, NodeConfig(flash_file=config.flash), clock) as node:
@@ -80,8 +92,8 @@ def listen(config: ListenConfig, say: Callable[[str], None]) -> int:
 
         # The link first: its "listening on" line is the first line out, before any other.
         with open_listening(config.listen, say) as link:
-            for native in config.natives:
-                pbos.start(NativeModule(NATIVES[native]), native)
+            for name, code in natives:
+                pbos.start(code, name)
             for module in list(node.modules.values()):
                 installed(module.name, module.load_address)
             if port is not None:
@@ -98,6 +110,16 @@ def listen(config: ListenConfig, say: Callable[[str], None]) -> int:
             finally:
                 control.close()
     return 0
+
+
+def _native(codes: Mapping[str, ModuleCode], name: str) -> ModuleCode:
+    """The firmware's native code named `name`."""
+    try:
+        return codes[name]
+    except KeyError:
+        raise StartError(
+            f"--native {name}: expected one of {', '.join(sorted(codes))}, got no such native"
+        ) from None
 
 
 def _configured(say: Callable[[str], None]) -> Callable[[str, int, int], None]:

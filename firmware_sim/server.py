@@ -116,7 +116,8 @@ def serve(
     asks for is pushed between messages. A push the link refuses (a host that stopped reading a
     pty) ends the watch, so the node is not held up by every later one; the host watches again.
     Between messages the values that came on the node's import links are taken, and the node
-    runs, unless its control is in lock-step time: then only an Advance runs it.
+    runs (after a message, the releases due by then; when the link is quiet, a poll on), unless
+    its control is in lock-step time: then only an Advance runs it.
     """
     receiver = receiver or Receiver(NodeTarget(node), KernelControl(node))
     control = receiver.control if isinstance(receiver.control, KernelControl) else None
@@ -126,8 +127,10 @@ def serve(
         if raw is not None:
             for reply in receiver.handle(raw):
                 link.send(reply)
-        elif node.kernel.names and free_running:
-            node.run(until=node.kernel.now + poll)
+        if node.kernel.names and free_running:
+            # After a message, only what is due by now: a host that keeps asking must not hold
+            # the node's PBOs back, nor wait a poll for each answer.
+            node.run(until=node.kernel.now + (poll if raw is None else 0.0))
         if control is not None:
             control.poll_imports()
         try:
