@@ -21,5 +21,8 @@ One concept per module:
 ``memory_applier``    an in-memory applier: the plan's effect on a model of the robots
 ``node_applier``      the applier on emulated nodes (firmware_sim) with hexmigrate transfers
 ``events``            the event log of every decision
+``remote.reports``    a robot's performance buffers filled from its node's pushed reports
+``remote.node``       one node over its link: requests and pushes on one reader
+``remote.applier``    the applier over links (nodes in other processes), with bridges
 ====================  =======================================================================
 """

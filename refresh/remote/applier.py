@@ -31,6 +31,7 @@ from urllib.parse import urlsplit
 from hexmigrate.errors import HexmigrateError
 from hexmigrate.image import ModuleImage
 from hexmigrate.transfer.control import PboRow
+from hexmigrate.transfer.control_client import NodeControl
 from refresh.database import Module
 from refresh.errors import ApplyError, NodeLinkError
 from refresh.remote.node import RemoteNode
@@ -126,6 +127,12 @@ class LinkApplier:
     def sources(self) -> Mapping[str, ReportSource]:
         """Each robot's performance source, filled by its node's reports."""
         return {robot: node.source for robot, node in self.nodes.items()}
+
+    def controls(self) -> Mapping[str, NodeControl]:
+        """Each robot's node control, for a lock-step `TimeMaster` (hexmigrate) to advance the
+        nodes with; its requests share the link as the applier's do, so call them from the
+        thread that applies (the pushes that come meanwhile still reach the sources)."""
+        return {robot: node.control for robot, node in self.nodes.items()}
 
     def read(self, robot: str, port: str) -> float:
         """The live value of scalar port `port` (``PBO.port``) on `robot`'s node."""

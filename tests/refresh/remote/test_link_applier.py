@@ -218,3 +218,42 @@ def test_a_node_killed_mid_way_fails_the_next_request_clearly(loaded, node_a):
             applier.stop("a", "gain")
         with pytest.raises(NodeLinkError, match="reading its reports"):
             applier.sources()["a"].performance("gain")
+
+
+@pytest.mark.skipif(
+    not hasattr(NodeControl, "import_port"),
+    reason="ports between nodes (NodeControl.import_port/export_port, helper 'bridge' of issue "
+    "13) are not merged yet",
+)
+def test_a_coalition_bridges_the_port_from_one_node_to_the_other(loaded):
+    database = loaded.database
+    coalition = Configuration(
+        loaded.task.schemas,
+        (
+            (parse_placement("signal", "a", database),),
+            (parse_placement("gain@b", "a", database),),
+        ),
+    )
+    back = configuration(loaded, "signal", "gain")
+    with (
+        NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--name", "a") as node_a,
+        NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--name", "b") as node_b,
+    ):
+        urls = {"a": node_a.connect_url(), "b": node_b.connect_url()}
+        with LinkApplier.open(urls) as applier:
+            assert applier.host("b") == "127.0.0.1"  # where b's importer listens: its URL's host
+            maintainer = Maintainer(database, applier, EventLog())
+            maintainer.apply(maintainer.plan(None, coalition))
+            assert [(b.number, b.source_robot, b.source) for b in applier.bridges.values()] == [
+                (0, "a", "signal.y")
+            ]
+            a, b = applier.node("a").control, applier.node("b").control
+            assert listed(a)["bridge0_tx"][0] == "ON" and listed(b)["bridge0_rx"][0] == "ON"
+            wait_until(lambda: applier.read("b", "gain.y") > 0, "gain output across the bridge")
+            assert applier.read("b", "gain.y") % 6 == 0  # twice a value of the ramp on a
+
+            maintainer.apply(maintainer.plan(coalition, back))
+            assert applier.bridges == {}
+            assert "bridge0_tx" not in listed(a) and "bridge0_rx" not in listed(b)
+            assert listed(b)["gain"][0] == "OFF" and listed(a)["gain"][0] == "ON"
+            wait_until(lambda: applier.read("a", "gain.y") > 0, "gain output on a")
