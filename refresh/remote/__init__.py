@@ -1,4 +1,4 @@
-"""refresh.remote: the manager's side of nodes over links (issue 13).
+"""refresh.remote: the manager's side of nodes over links.
 
 A robot's node runs in another process or on a board (``firmware-sim listen``) and is reached by
 a URL (``socket://``, a pty path, ``can://``, ``faulty+...``). On that one link the manager sends

@@ -23,6 +23,7 @@ and `read(robot, port)` a live port value (READ).
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -269,7 +270,8 @@ class LinkApplier:
                 lambda: exporter.control.export_port(number, source, url, self.wire, self.rate),
             )
         except NodeLinkError:
-            _stop(importer, f"bridge{number}_rx")
+            with contextlib.suppress(NodeLinkError):  # the export's failure is the one to tell
+                _stop(importer, f"bridge{number}_rx")
             raise
         self.bridges[sink_robot, sink] = bridge
 

@@ -7,6 +7,7 @@ names the robot and the URL."""
 from __future__ import annotations
 
 import dataclasses
+import signal
 import socket
 import time
 from collections.abc import Callable, Iterator
@@ -171,11 +172,29 @@ def unused_port() -> int:
         return probe.getsockname()[1]
 
 
-def test_a_node_that_cannot_be_reached_fails_before_any_step():
+def test_a_node_that_cannot_be_reached_fails_before_any_step(node_a):
     url = f"socket://127.0.0.1:{unused_port()}"
-    unreachable = f"robot 'a': cannot open the link to its node at {url}: "
+    unreachable = f"robot 'b': cannot open the link to its node at {url}: "
     with pytest.raises(NodeLinkError, match=unreachable):
-        LinkApplier.open({"a": url})
+        LinkApplier.open({"a": node_a.connect_url(), "b": url}, **QUICK)
+    # Nothing half-done: the link to a was closed, so its node (one host at a time) serves the
+    # next manager.
+    with LinkApplier.open({"a": node_a.connect_url()}, **QUICK) as applier:
+        assert applier.node("a").description.startswith("a: ")
+
+
+def test_a_node_that_stops_answering_fails_the_request_after_the_tries(loaded, node_a):
+    url = node_a.connect_url()
+    with LinkApplier.open({"a": url}, **QUICK) as applier:
+        node_a.process.send_signal(signal.SIGSTOP)  # the link stays up, nobody answers
+        try:
+            with pytest.raises(NodeLinkError) as silent:
+                applier.migrate("a", loaded.database.module("gain"))
+        finally:
+            node_a.process.send_signal(signal.SIGCONT)
+    said = str(silent.value)
+    assert said.startswith(f"robot 'a', node at {url}: LS: no answer to ListModules after 3 tries")
+    assert said.endswith("nobody answered")
 
 
 def test_refusals_name_the_robot_the_url_and_what_the_node_said(loaded, node_a):
@@ -193,13 +212,13 @@ def test_refusals_name_the_robot_the_url_and_what_the_node_said(loaded, node_a):
         assert "unknown port 'gain.q'" in said
         assert listed(applier.node("a").control)["gain"][0] == "OFF"  # the node went on
 
-    signal = loaded.database.module("signal")
+    native = loaded.database.module("signal")
     with (
         NodeProcess("tcp-listen://127.0.0.1:0", "--no-start") as bare,
         LinkApplier.open({"a": bare.connect_url()}) as applier,
         pytest.raises(NodeLinkError, match="start the node with --native signal"),
     ):
-        applier.start("a", "signal", signal)
+        applier.start("a", "signal", native)
 
 
 def test_a_node_killed_mid_way_fails_the_next_request_clearly(loaded, node_a):
@@ -222,8 +241,7 @@ def test_a_node_killed_mid_way_fails_the_next_request_clearly(loaded, node_a):
 
 @pytest.mark.skipif(
     not hasattr(NodeControl, "import_port"),
-    reason="ports between nodes (NodeControl.import_port/export_port, helper 'bridge' of issue "
-    "13) are not merged yet",
+    reason="NodeControl has no import_port/export_port yet: ports between nodes are not merged",
 )
 def test_a_coalition_bridges_the_port_from_one_node_to_the_other(loaded):
     database = loaded.database
