@@ -275,3 +275,24 @@ def test_a_coalition_bridges_the_port_from_one_node_to_the_other(loaded):
             assert "bridge0_tx" not in listed(a) and "bridge0_rx" not in listed(b)
             assert listed(b)["gain"][0] == "OFF" and listed(a)["gain"][0] == "ON"
             wait_until(lambda: applier.read("a", "gain.y") > 0, "gain output on a")
+
+
+def test_a_plan_deploys_over_a_noisy_pty(loaded):
+    current = initial_configuration(loaded.task, loaded.database)
+    with NodeProcess("pty", *NODE, "--name", "a") as node:
+        path = node.wait_for(r"^listening on (/dev/\S+) ")[1][1]
+        url = f"faulty+{path}#corrupt=0.05&drop=0.05&seed=5"
+        with LinkApplier.open({"a": url}, timeout=0.3) as applier:
+            maintainer = Maintainer(loaded.database, applier, EventLog())
+            maintainer.apply(maintainer.plan(None, current))
+            assert listed(applier.node("a").control) == {
+                "signal": ("ON", 100.0),
+                "gain": ("ON", 50.0),
+            }
+            source = applier.sources()["a"]
+            wait_until(
+                lambda: source.performance("gain").latest(PerformanceKind.FUNCTIONAL), "report"
+            )
+            assert applier.host("a") == "127.0.0.1"  # a pty names no host: the manager's
+            counts = applier.node("a").link.counts  # type: ignore[attr-defined]
+            assert counts.dropped + counts.corrupted > 0  # the requests were tried again
