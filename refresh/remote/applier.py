@@ -178,6 +178,12 @@ class LinkApplier:
         node = self.node(robot)
         row = self._row(node, module)
         control = node.control
+        if row.state == "ERROR":
+            raise node.error(
+                f"start {instance}",
+                "expected the PBO off, got it in ERROR (a node started without --no-start "
+                "starts a module as it arrives, before its constants are set)",
+            )
         if row.state == "ON":
             node.ask(f"STOP {instance}", lambda: control.stop(instance))
         if row.rate is not None:

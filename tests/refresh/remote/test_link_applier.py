@@ -212,6 +212,14 @@ def test_refusals_name_the_robot_the_url_and_what_the_node_said(loaded, node_a):
         assert "unknown port 'gain.q'" in said
         assert listed(applier.node("a").control)["gain"][0] == "OFF"  # the node went on
 
+    with (
+        NodeProcess("tcp-listen://127.0.0.1:0", "--native", "signal") as eager,
+        LinkApplier.open({"a": eager.connect_url()}) as applier,
+    ):
+        applier.migrate("a", gain)  # the node starts gain without its k: gain goes to ERROR
+        with pytest.raises(NodeLinkError, match="expected the PBO off, got it in ERROR"):
+            applier.start("a", "gain", gain)
+
     native = loaded.database.module("signal")
     with (
         NodeProcess("tcp-listen://127.0.0.1:0", "--no-start") as bare,
