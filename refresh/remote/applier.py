@@ -27,6 +27,7 @@ import contextlib
 import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Protocol
 from urllib.parse import urlsplit
 
 from hexmigrate.errors import HexmigrateError
@@ -69,12 +70,24 @@ class Bridge:
         )
 
 
+class Router(Protocol):
+    """What lock-step time must know of the bridges: hexmigrate's `TimeMaster`, which tells
+    each importing node how many values to wait for before it runs a quantum."""
+
+    def route(self, number: int, source: str, sink: str) -> None:
+        """Bridge `number` carries values from robot `source`'s node to robot `sink`'s."""
+
+    def unroute(self, number: int) -> None:
+        """Bridge `number` was taken down."""
+
+
 class LinkApplier:
     """Applies plan steps to `nodes` (robot name -> RemoteNode), which it owns (`close`).
 
     `images` may give a module's image instead of the file the database names; `hosts` the host
     a robot's node listens on for bridges, where its URL names none (default LOCAL_HOST); `wire`
-    and `rate` what a bridge models (``tcp``, ``serial`` or ``can``; bit/s, 0: no delay).
+    and `rate` what a bridge models: ``tcp`` (no delay), ``serial`` or ``can`` at `rate` bit/s
+    (0: the wire's default).
     """
 
     def __init__(
@@ -95,6 +108,9 @@ class LinkApplier:
         """The bridges by (sink robot, sink port)."""
         self.wires: dict[tuple[str, str], str] = {}
         """The wires made on one node: (robot, sink port) -> source port."""
+        self.router: Router | None = None
+        """In lock-step time, the `TimeMaster` of the nodes (built on `controls()`, set before
+        the first bridge), told of every bridge put up or taken down."""
         self._numbers = itertools.count()
 
     @classmethod
@@ -280,6 +296,8 @@ class LinkApplier:
                 _stop(importer, f"bridge{number}_rx")
             raise
         self.bridges[sink_robot, sink] = bridge
+        if self.router is not None:
+            self.router.route(number, source_robot, sink_robot)
 
     def host(self, robot: str) -> str:
         """The host `robot`'s node listens on for a bridge: given in `hosts`, else the one its
@@ -296,6 +314,8 @@ class LinkApplier:
                 _stop(self.node(robot), pbo)
             except NodeLinkError as error:
                 failed = failed or error
+        if self.router is not None:  # a half that would not stop carries nothing either
+            self.router.unroute(bridge.number)
         if failed is not None:
             raise failed
 

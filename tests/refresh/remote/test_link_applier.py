@@ -7,6 +7,8 @@ names the robot and the URL."""
 from __future__ import annotations
 
 import dataclasses
+import importlib
+import importlib.util
 import signal
 import socket
 import time
@@ -304,3 +306,42 @@ def test_a_plan_deploys_over_a_noisy_pty(loaded):
             assert applier.host("a") == "127.0.0.1"  # a pty names no host: the manager's
             counts = applier.node("a").link.counts  # type: ignore[attr-defined]
             assert counts.dropped + counts.corrupted > 0  # the requests were tried again
+
+
+@pytest.mark.skipif(
+    importlib.util.find_spec("hexmigrate.transfer.time_master") is None,
+    reason="hexmigrate has no TimeMaster yet: lock-step time is not merged",
+)
+def test_in_lock_step_the_time_master_learns_each_bridge_and_runs_the_coalition(loaded):
+    time_master = importlib.import_module("hexmigrate.transfer.time_master")
+    database = loaded.database
+    coalition = Configuration(
+        loaded.task.schemas,
+        (
+            (parse_placement("signal", "a", database),),
+            (parse_placement("gain@b", "a", database),),
+        ),
+    )
+    with (
+        NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--lock-step", "--name", "a") as node_a,
+        NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--lock-step", "--name", "b") as node_b,
+        LinkApplier.open({"a": node_a.connect_url(), "b": node_b.connect_url()}) as applier,
+    ):
+        master = time_master.TimeMaster(applier.controls(), 0.01)
+        applier.router = master
+        maintainer = Maintainer(database, applier, EventLog())
+        maintainer.apply(maintainer.plan(None, coalition))
+        assert master.routes == {0: ("a", "b")}
+        assert applier.read("b", "gain.y") == 0  # no time has passed on the nodes
+        master.run_until(0.5)
+        assert master.counts[0] > 0  # values went over the bridge
+        doubled = applier.read("b", "gain.y")
+        assert doubled > 0 and doubled % 6 == 0
+        source = applier.sources()["b"]
+        wait_until(lambda: source.performance("gain").latest(PerformanceKind.FUNCTIONAL), "report")
+        assert source.clock is not None and source.clock <= 0.5  # the node's virtual clock
+
+        maintainer.apply(maintainer.plan(coalition, configuration(loaded, "signal", "gain")))
+        assert master.routes == {} and applier.bridges == {}
+        master.run_until(0.6)  # time goes on without the bridge
+        assert applier.read("a", "gain.y") > 0
