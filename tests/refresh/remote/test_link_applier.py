@@ -1,8 +1,9 @@
 """The Maintainer's plan over links: real `firmware-sim listen` nodes in their own processes,
-reached over TCP on loopback, deployed by a `LinkApplier` (the image sent, the rate and the
-constants set, the PBOs started and wired); the Decider then reads the nodes' pushed evaluator
-outputs through the applier's sources. Refusals and dead nodes end in a NodeLinkError that
-names the robot and the URL."""
+reached over TCP on loopback or a noisy pty, deployed by a `LinkApplier` (the image sent, the
+rate and the constants set, the PBOs started and wired, bridges between nodes, in real or
+lock-step time); the Decider then reads the nodes' pushed evaluator outputs through the
+applier's sources. Refusals and dead or silent nodes end in a NodeLinkError that names the
+robot and the URL, within the requests' bounded tries."""
 
 from __future__ import annotations
 
