@@ -22,5 +22,8 @@ One concept per module:
 ``node_applier``      the applier on emulated nodes (firmware_sim) with hexmigrate transfers
 ``events``            the event log of every decision, on a clock of the caller's
 ``runtime``           the run loop for any task: deploy, watch, decide, repair (a package)
+``remote.reports``    a robot's performance buffers filled from its node's pushed reports
+``remote.node``       one node over its link: requests and pushes on one reader
+``remote.applier``    the applier over links (nodes in other processes), with bridges
 ====================  =======================================================================
 """

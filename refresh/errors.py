@@ -13,7 +13,9 @@ Tree::
     ├── ConfigurationError (ValueError)  a configuration that does not fit the task or database
     │   └── RateError                    a metric's module reports slower than the Decider looks
     ├── EstimationError (RuntimeError)   an estimator that could not estimate a configuration
-    └── ApplyError (RuntimeError)        a plan step the applier could not carry out
+    ├── ApplyError (RuntimeError)        a plan step the applier could not carry out
+    └── NodeLinkError (RuntimeError)     a node over a link that cannot be reached, stopped
+                                         answering or refused a request (refresh.remote)
 """
 
 from __future__ import annotations
@@ -63,3 +65,8 @@ class EstimationError(RefreshError, RuntimeError):
 
 class ApplyError(RefreshError, RuntimeError):
     """A plan step the applier refused or could not complete."""
+
+
+class NodeLinkError(RefreshError, RuntimeError):
+    """A node over a link (`refresh.remote`) that cannot be reached, stopped answering, or
+    refused a request; the message names the robot, the node's URL and what the node said."""

@@ -113,6 +113,10 @@ class Sender:
         self.quiet = False
         """Whether the last wait for an answer heard nothing at all."""
         self.flight = window * FLASH_BLOCK_SIZE
+        self.stray: Callable[[Message], None] | None = None
+        """Called with each whole message a request skips or drops as not its answer: a caller
+        that shares the link with a watch (refresh's manager) keeps the node's pushes that come
+        while a request waits, which would otherwise be lost."""
         self._sent_last = b""
 
     # Plain requests.
@@ -383,9 +387,11 @@ class Sender:
         raise tries.failure(type(message).__name__)
 
     def _drain(self) -> None:
-        """Drop the answers that have already arrived."""
-        while self.link.receive(0.0) is not None:
-            pass
+        """Drop the answers that have already arrived (each passed to `stray`, if set)."""
+        while (raw := self.link.receive(0.0)) is not None:
+            if self.stray is not None:
+                with contextlib.suppress(MessageError):
+                    self.stray(decode(raw, checked=True))
 
     def _await(
         self,
@@ -410,6 +416,8 @@ class Sender:
             except MessageError:
                 continue  # corrupted on the way: the retry logic covers it
             if not isinstance(reply, kinds):
+                if self.stray is not None:
+                    self.stray(reply)
                 continue
             if tid is not None and not _concerns(reply, tid):
                 continue

@@ -1,0 +1,18 @@
+"""refresh.remote: the manager's side of nodes over links.
+
+A robot's node runs in another process or on a board (``firmware-sim listen``) and is reached by
+a URL (``socket://``, a pty path, ``can://``, ``faulty+...``). On that one link the manager sends
+images and control requests and receives the node's pushed reports:
+
+============  ===================================================================
+``reports``   `ReportSource`: a robot's performance buffers from its node's reports
+``node``      `RemoteNode`: one node over its link, its requests and its pushes
+``applier``   `LinkApplier`: the Maintainer's applier over links, with bridges
+============  ===================================================================
+"""
+
+from refresh.remote.applier import LinkApplier
+from refresh.remote.node import RemoteNode
+from refresh.remote.reports import ReportSource
+
+__all__ = ["LinkApplier", "RemoteNode", "ReportSource"]

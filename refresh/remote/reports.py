@@ -1,0 +1,144 @@
+"""What a watched node's pushes tell the manager: its evaluators' outputs as performance
+buffers the Decider reads, its leftover power, and its heartbeats.
+
+A node over a link keeps the evaluators on the node, as the paper does (section 4.2): a watch
+makes it push a REPORT every period with its leftover power and every running PBO's latest
+evaluator outputs (``PBO:F0`` functional index 0, ``PBO:N1`` non-functional index 1), and a BEAT
+every second of its clock. `ReportSource` files each report's values into one pbort
+`PerformanceBuffer` per PBO, stamped with the node's clock of the report (the time the node
+measured them, not the time they reached the host), so it is a `refresh.decider.PerformanceSource`
+like a kernel. Reports and beats share one sequence number: a gap counts as missed pushes, a
+number seen before (a duplicate, a late copy) is ignored. The node's millisecond clock travels as
+a u32 and is unwrapped here.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from hexmigrate.errors import MessageError
+from hexmigrate.transfer.control import Number, parse_values
+from hexmigrate.transfer.messages import Heartbeat, Message, PerformanceReport
+from hexmigrate.transfer.subscription import WRAP
+from pbort.code import PerformanceKind
+from pbort.performance import PerformanceBuffer
+
+KINDS = {"F": PerformanceKind.FUNCTIONAL, "N": PerformanceKind.NON_FUNCTIONAL}
+"""The letter of an evaluator output's word (``PBO:F0``) -> its kind."""
+LEFTOVER = "leftover"
+"""The word of a report that carries the node's leftover power (0-100)."""
+
+
+@dataclass(frozen=True)
+class Beat:
+    """The last heartbeat of a node: its sequence number, the node's clock (s), when the host
+    saw it (its monotonic clock, s) and the node's line about its PBOs."""
+
+    seq: int
+    clock: float
+    seen: float
+    state: str
+
+
+class ReportSource:
+    """The performance buffers of one robot's PBOs, filled from its node's pushes (`take`).
+
+    `poll` is called before a buffer is read, so that what has arrived on the link is filed
+    first (`RemoteNode.poll`).
+    """
+
+    def __init__(
+        self, robot: str, poll: Callable[[], None] = lambda: None, maxlen: int = 1024
+    ) -> None:
+        self.robot = robot
+        self.poll = poll
+        self.maxlen = maxlen
+        self.leftover: float | None = None
+        """The node's leftover power in the last report (None before the first)."""
+        self.ports: dict[str, Number] = {}
+        """The watched ports' values in the last report that had them."""
+        self.clock: float | None = None
+        """The node's clock (s) of the last push taken."""
+        self.beat: Beat | None = None
+        """The last heartbeat (None before the first)."""
+        self.reports = 0
+        self.missed = 0
+        """Pushes lost on the way (gaps in the sequence numbers)."""
+        self.damaged = 0
+        """Reports whose values could not be read (ignored whole)."""
+        self._buffers: dict[str, PerformanceBuffer] = {}
+        self._seq = WRAP - 1
+        self._last_ms: int | None = None
+        self._wraps = 0
+
+    def performance(self, name: str) -> PerformanceBuffer:
+        """The buffer of PBO `name` (empty until a report names it), after a `poll`."""
+        self.poll()
+        return self._buffer(name)
+
+    def forget(self, name: str) -> None:
+        """Drop PBO `name`'s buffer: it was stopped or started again, and its old reports must not
+        pass for its new ones (a kernel gives a new PBO a new buffer alike)."""
+        self._buffers.pop(name, None)
+
+    def restart(self) -> None:
+        """A new watch begins: its pushes number from 0 again, so a push lost before the
+        first that arrives counts as missed too."""
+        self._seq = WRAP - 1
+
+    def take(self, message: Message) -> None:
+        """File a push; any other message (a late answer to a request) is not one and ignored."""
+        if not isinstance(message, (PerformanceReport, Heartbeat)) or not self._in_order(message):
+            return
+        clock = self._unwrap(message.clock_ms)
+        self.clock = clock
+        if isinstance(message, Heartbeat):
+            self.beat = Beat(message.seq, clock, time.monotonic(), message.state)
+            return
+        try:
+            values = parse_values(message.values)
+        except MessageError:
+            self.damaged += 1
+            return
+        self.reports += 1
+        for name, value in values:
+            self._file(clock, name, value)
+
+    def _file(self, clock: float, name: str, value: Number) -> None:
+        """One ``NAME=VALUE`` word of a report: the leftover power, an evaluator output or a
+        watched port's value."""
+        if name == LEFTOVER:
+            self.leftover = float(value)
+            return
+        pbo, colon, output = name.rpartition(":")
+        if not colon:
+            self.ports[name] = value
+            return
+        kind, index = KINDS.get(output[:1]), output[1:]
+        if pbo and kind is not None and index.isdigit():
+            self._buffer(pbo).file(clock, kind, int(index), float(value))
+
+    def _buffer(self, name: str) -> PerformanceBuffer:
+        buffer = self._buffers.get(name)
+        if buffer is None:
+            buffer = self._buffers[name] = PerformanceBuffer(self.maxlen)
+        return buffer
+
+    def _in_order(self, message: PerformanceReport | Heartbeat) -> bool:
+        """Whether `message` comes after the last push taken (counting the ones missed between);
+        a repeat or an older push is not."""
+        ahead = (message.seq - self._seq) % WRAP
+        if ahead == 0 or ahead >= WRAP // 2:
+            return False
+        self.missed += ahead - 1
+        self._seq = message.seq
+        return True
+
+    def _unwrap(self, clock_ms: int) -> float:
+        """The node's clock in seconds, counting the wraps of its u32 milliseconds."""
+        if self._last_ms is not None and clock_ms < self._last_ms - WRAP // 2:
+            self._wraps += 1
+        self._last_ms = clock_ms
+        return (self._wraps * WRAP + clock_ms) / 1000

@@ -1,0 +1,348 @@
+"""The Maintainer's plan over links: real `firmware-sim listen` nodes in their own processes,
+reached over TCP on loopback or a noisy pty, deployed by a `LinkApplier` (the image sent, the
+rate and the constants set, the PBOs started and wired, bridges between nodes, in real or
+lock-step time); the Decider then reads the nodes' pushed evaluator outputs through the
+applier's sources. Refusals and dead or silent nodes end in a NodeLinkError that names the
+robot and the URL, within the requests' bounded tries."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import importlib.util
+import signal
+import socket
+import time
+from collections.abc import Callable, Iterator
+
+import pytest
+
+from hexmigrate.elf import image_from_elf
+from hexmigrate.transfer.control_client import NodeControl
+from pbort.code import PerformanceKind
+from refresh.configuration import Configuration, initial_configuration, parse_placement
+from refresh.decider import Decider
+from refresh.errors import NodeLinkError
+from refresh.events import EventLog
+from refresh.load import Loaded, loads
+from refresh.maintainer import Maintainer
+from refresh.remote.applier import LinkApplier
+from tests.firmware_sim.node_process import NodeProcess
+
+DATABASE = """
+[robots.a]
+resources.power = { capacity = 100, reserve = 20, report = 0 }
+[robots.b]
+resources.power = { capacity = 100, reserve = 20, report = 0 }
+
+[schemas.source]
+kind = "sensor"
+[schemas.source.modules.signal]
+robots = ["a"]
+outputs = { y = "q16" }
+needs = { power = 1 }
+source = "native"
+frequency = 100
+constants = { shape = 0, amplitude = 3 }
+
+[schemas.filter]
+kind = "computation"
+[schemas.filter.modules.gain]
+robots = ["a", "b"]
+inputs = { x = "q16" }
+outputs = { y = "q16" }
+needs = { power = 2 }
+source = { image = "gain.hex" }
+frequency = 50
+constants = { k = 131072 }
+[schemas.filter.modules.moving_average]
+robots = ["a"]
+inputs = { x = "q16" }
+outputs = { y = "q16" }
+needs = { power = 2 }
+source = { image = "moving_average.hex" }
+frequency = 20
+
+[task]
+name = "filtering"
+robot = "a"
+states = ["run"]
+schemas = ["source", "filter"]
+initial = ["signal", "gain"]
+
+[task.metrics.error]
+schema = "filter"
+index = 0
+threshold = 1
+direction = "at_most"
+"""
+NODE = ("--native", "signal", "--no-start")
+"""A node of the database's robots: the native signal built in, every PBO waiting for the host."""
+WAIT = 10.0
+"""Seconds a test waits at most for what a node pushes or computes."""
+QUICK = {"timeout": 0.3, "retries": 2}
+"""Short waits for the tests whose node dies: a request fails within a second."""
+
+
+@pytest.fixture(scope="module")
+def loaded(example_builds, tmp_path_factory: pytest.TempPathFactory) -> Loaded:
+    directory = tmp_path_factory.mktemp("remote")
+    for name in ("gain", "moving_average"):
+        image_from_elf(example_builds[name].elf).write(directory / f"{name}.hex")
+    return loads(DATABASE, "filtering.toml", directory)
+
+
+def configuration(loaded: Loaded, *modules: str) -> Configuration:
+    chains = tuple((parse_placement(m, "a", loaded.database),) for m in modules)
+    return Configuration(loaded.task.schemas, chains)
+
+
+def wait_until(condition: Callable[[], object], what: str) -> None:
+    """Return once `condition()` is true; fail after WAIT seconds."""
+    deadline = time.monotonic() + WAIT
+    while not condition():
+        assert time.monotonic() < deadline, f"no {what} within {WAIT:g} s"
+        time.sleep(0.02)
+
+
+def listed(control: NodeControl) -> dict[str, tuple[str, float | None]]:
+    """PBO -> (state, rate) as the node lists them."""
+    return {row.name: (row.state, row.rate) for row in control.pbos()}
+
+
+@pytest.fixture
+def node_a() -> Iterator[NodeProcess]:
+    with NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--name", "a") as node:
+        yield node
+
+
+def test_a_plan_deploys_over_the_link_and_the_decider_reads_the_reports(loaded, node_a):
+    database = loaded.database
+    url = node_a.connect_url()
+    current = initial_configuration(loaded.task, database)
+    with LinkApplier.open({"a": url}) as applier:
+        maintainer = Maintainer(database, applier, EventLog())
+        maintainer.apply(maintainer.plan(None, current))
+        node = applier.node("a")
+        assert listed(node.control) == {"signal": ("ON", 100.0), "gain": ("ON", 50.0)}
+        source = applier.sources()["a"]
+        gain = source.performance("gain")  # filled as the source polls the link
+        wait_until(
+            lambda: source.performance("gain").latest(PerformanceKind.NON_FUNCTIONAL, 0),
+            "power report",
+        )
+        wait_until(lambda: applier.read("a", "gain.y") > 0, "gain output")
+        ((_, x), (_, y)) = node.control.read(("gain.x", "gain.y"))
+        # k = 131072 is 2.0 in Q16.16: y doubles a value of the ramp (steps of 3) that x,
+        # fed at 100 Hz while gain runs at 50 Hz, has reached or passed.
+        assert isinstance(y, int) and y % 6 == 0 and 0 < y <= 2 * x
+
+        values, used = Decider(loaded.task, database, EventLog()).observe(
+            current, applier.sources()
+        )
+        assert values == {"error": 0.0}  # |y - k x| is exact for a doubled ramp
+        power = gain.latest(PerformanceKind.NON_FUNCTIONAL, 0)
+        assert power is not None and used["a", "power"] == pytest.approx(1 + power.value)
+        assert source.clock is not None and power.time <= source.clock
+        assert source.leftover is not None and 0 < source.leftover < 100
+        # The applier's requests came while the node pushed: not one push was lost.
+        assert source.reports > 0 and source.missed == 0 and source.damaged == 0
+
+        averaged = configuration(loaded, "signal", "moving_average")
+        timings = maintainer.apply(maintainer.plan(current, averaged))
+        assert [t.step.action for t in timings] == ["migrate", "stop", "start", "connect"]
+        assert listed(node.control) == {
+            "signal": ("ON", 100.0),
+            "gain": ("OFF", 50.0),
+            "moving_average": ("ON", 20.0),
+        }
+        assert applier.wires == {("a", "moving_average.x"): "signal.y"}
+        assert len(source.performance("gain")) == 0  # an OFF PBO reports nothing
+        wait_until(lambda: applier.read("a", "moving_average.y") > 0, "moving average")
+        assert source.missed == 0
+
+    # A second manager finds both images installed and sends neither again.
+    with LinkApplier.open({"a": url}) as again:
+        again.migrate("a", database.module("gain"))
+        again.migrate("a", database.module("moving_average"))
+    registered = [line for line in node_a.lines if line.startswith("registered ")]
+    assert [line.split()[1] for line in registered] == ["gain", "moving_average"]
+
+
+def unused_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def test_a_node_that_cannot_be_reached_fails_before_any_step(node_a):
+    url = f"socket://127.0.0.1:{unused_port()}"
+    unreachable = f"robot 'b': cannot open the link to its node at {url}: "
+    with pytest.raises(NodeLinkError, match=unreachable):
+        LinkApplier.open({"a": node_a.connect_url(), "b": url}, **QUICK)
+    # Nothing half-done: the link to a was closed, so its node (one host at a time) serves the
+    # next manager.
+    with LinkApplier.open({"a": node_a.connect_url()}, **QUICK) as applier:
+        assert applier.node("a").description.startswith("a: ")
+
+
+def test_a_node_that_stops_answering_fails_the_request_after_the_tries(loaded, node_a):
+    url = node_a.connect_url()
+    with LinkApplier.open({"a": url}, **QUICK) as applier:
+        node_a.process.send_signal(signal.SIGSTOP)  # the link stays up, nobody answers
+        try:
+            with pytest.raises(NodeLinkError) as silent:
+                applier.migrate("a", loaded.database.module("gain"))
+        finally:
+            node_a.process.send_signal(signal.SIGCONT)
+    said = str(silent.value)
+    assert said.startswith(f"robot 'a', node at {url}: LS: no answer to ListModules after 3 tries")
+    assert said.endswith("nobody answered")
+
+
+def test_refusals_name_the_robot_the_url_and_what_the_node_said(loaded, node_a):
+    url = node_a.connect_url()
+    gain = loaded.database.module("gain")
+    with LinkApplier.open({"a": url}) as applier:
+        with pytest.raises(NodeLinkError, match=r"expected its image installed \(a migrate step"):
+            applier.start("a", "gain", gain)
+        applier.migrate("a", gain)
+        unknown = dataclasses.replace(gain, constants={"q": 1})
+        with pytest.raises(NodeLinkError) as refused:
+            applier.start("a", "gain", unknown)
+        said = str(refused.value)
+        assert said.startswith(f"robot 'a', node at {url}: SET gain.q=1: ")
+        assert "unknown port 'gain.q'" in said
+        assert listed(applier.node("a").control)["gain"][0] == "OFF"  # the node went on
+
+    with (
+        NodeProcess("tcp-listen://127.0.0.1:0", "--native", "signal") as eager,
+        LinkApplier.open({"a": eager.connect_url()}) as applier,
+    ):
+        applier.migrate("a", gain)  # the node starts gain without its k: gain goes to ERROR
+        with pytest.raises(NodeLinkError, match="expected the PBO off, got it in ERROR"):
+            applier.start("a", "gain", gain)
+
+    native = loaded.database.module("signal")
+    with (
+        NodeProcess("tcp-listen://127.0.0.1:0", "--no-start") as bare,
+        LinkApplier.open({"a": bare.connect_url()}) as applier,
+        pytest.raises(NodeLinkError, match="start the node with --native signal"),
+    ):
+        applier.start("a", "signal", native)
+
+
+def test_a_node_killed_mid_way_fails_the_next_request_clearly(loaded, node_a):
+    url = node_a.connect_url()
+    current = initial_configuration(loaded.task, loaded.database)
+    with LinkApplier.open({"a": url}, **QUICK) as applier:
+        maintainer = Maintainer(loaded.database, applier, EventLog())
+        maintainer.apply(maintainer.plan(None, current))
+        node_a.process.kill()
+        node_a.process.wait(timeout=5)
+        with pytest.raises(NodeLinkError, match=f"robot 'a', node at {url}: READ gain.y: "):
+            applier.read("a", "gain.y")
+        # Stopping gain first undoes the wire into it: the request that meets the dead node.
+        unwire = f"robot 'a', node at {url}: DISCONNECT signal.y=gain.x: "
+        with pytest.raises(NodeLinkError, match=unwire):
+            applier.stop("a", "gain")
+        with pytest.raises(NodeLinkError, match="reading its reports"):
+            applier.sources()["a"].performance("gain")
+
+
+@pytest.mark.skipif(
+    not hasattr(NodeControl, "import_port"),
+    reason="NodeControl has no import_port/export_port yet: ports between nodes are not merged",
+)
+def test_a_coalition_bridges_the_port_from_one_node_to_the_other(loaded):
+    database = loaded.database
+    coalition = Configuration(
+        loaded.task.schemas,
+        (
+            (parse_placement("signal", "a", database),),
+            (parse_placement("gain@b", "a", database),),
+        ),
+    )
+    back = configuration(loaded, "signal", "gain")
+    with (
+        NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--name", "a") as node_a,
+        NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--name", "b") as node_b,
+    ):
+        urls = {"a": node_a.connect_url(), "b": node_b.connect_url()}
+        with LinkApplier.open(urls) as applier:
+            assert applier.host("b") == "127.0.0.1"  # where b's importer listens: its URL's host
+            maintainer = Maintainer(database, applier, EventLog())
+            maintainer.apply(maintainer.plan(None, coalition))
+            assert [(b.number, b.source_robot, b.source) for b in applier.bridges.values()] == [
+                (0, "a", "signal.y")
+            ]
+            a, b = applier.node("a").control, applier.node("b").control
+            assert listed(a)["bridge0_tx"][0] == "ON" and listed(b)["bridge0_rx"][0] == "ON"
+            wait_until(lambda: applier.read("b", "gain.y") > 0, "gain output across the bridge")
+            assert applier.read("b", "gain.y") % 6 == 0  # twice a value of the ramp on a
+
+            maintainer.apply(maintainer.plan(coalition, back))
+            assert applier.bridges == {}
+            assert "bridge0_tx" not in listed(a) and "bridge0_rx" not in listed(b)
+            assert listed(b)["gain"][0] == "OFF" and listed(a)["gain"][0] == "ON"
+            wait_until(lambda: applier.read("a", "gain.y") > 0, "gain output on a")
+
+
+def test_a_plan_deploys_over_a_noisy_pty(loaded):
+    current = initial_configuration(loaded.task, loaded.database)
+    with NodeProcess("pty", *NODE, "--name", "a") as node:
+        path = node.wait_for(r"^listening on (/dev/\S+) ")[1][1]
+        url = f"faulty+{path}#corrupt=0.05&drop=0.05&seed=5"
+        with LinkApplier.open({"a": url}, timeout=0.3) as applier:
+            maintainer = Maintainer(loaded.database, applier, EventLog())
+            maintainer.apply(maintainer.plan(None, current))
+            assert listed(applier.node("a").control) == {
+                "signal": ("ON", 100.0),
+                "gain": ("ON", 50.0),
+            }
+            source = applier.sources()["a"]
+            wait_until(
+                lambda: source.performance("gain").latest(PerformanceKind.FUNCTIONAL), "report"
+            )
+            assert applier.host("a") == "127.0.0.1"  # a pty names no host: the manager's
+            counts = applier.node("a").link.counts  # type: ignore[attr-defined]
+            assert counts.dropped + counts.corrupted > 0  # the requests were tried again
+
+
+@pytest.mark.skipif(
+    importlib.util.find_spec("hexmigrate.transfer.time_master") is None,
+    reason="hexmigrate has no TimeMaster yet: lock-step time is not merged",
+)
+def test_in_lock_step_the_time_master_learns_each_bridge_and_runs_the_coalition(loaded):
+    time_master = importlib.import_module("hexmigrate.transfer.time_master")
+    database = loaded.database
+    coalition = Configuration(
+        loaded.task.schemas,
+        (
+            (parse_placement("signal", "a", database),),
+            (parse_placement("gain@b", "a", database),),
+        ),
+    )
+    with (
+        NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--lock-step", "--name", "a") as node_a,
+        NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--lock-step", "--name", "b") as node_b,
+        LinkApplier.open({"a": node_a.connect_url(), "b": node_b.connect_url()}) as applier,
+    ):
+        master = time_master.TimeMaster(applier.controls(), 0.01)
+        applier.router = master
+        maintainer = Maintainer(database, applier, EventLog())
+        maintainer.apply(maintainer.plan(None, coalition))
+        assert master.routes == {0: ("a", "b")}
+        assert applier.read("b", "gain.y") == 0  # no time has passed on the nodes
+        master.run_until(0.5)
+        assert master.counts[0] > 0  # values went over the bridge
+        doubled = applier.read("b", "gain.y")
+        assert doubled > 0 and doubled % 6 == 0
+        source = applier.sources()["b"]
+        wait_until(lambda: source.performance("gain").latest(PerformanceKind.FUNCTIONAL), "report")
+        assert source.clock is not None and source.clock <= 0.5  # the node's virtual clock
+
+        maintainer.apply(maintainer.plan(coalition, configuration(loaded, "signal", "gain")))
+        assert master.routes == {} and applier.bridges == {}
+        master.run_until(0.6)  # time goes on without the bridge
+        assert applier.read("a", "gain.y") > 0
