@@ -8,8 +8,6 @@ robot and the URL, within the requests' bounded tries."""
 from __future__ import annotations
 
 import dataclasses
-import importlib
-import importlib.util
 import signal
 import socket
 import time
@@ -19,6 +17,7 @@ import pytest
 
 from hexmigrate.elf import image_from_elf
 from hexmigrate.transfer.control_client import NodeControl
+from hexmigrate.transfer.time_master import TimeMaster
 from pbort.code import PerformanceKind
 from refresh.configuration import Configuration, initial_configuration, parse_placement
 from refresh.decider import Decider
@@ -250,10 +249,6 @@ def test_a_node_killed_mid_way_fails_the_next_request_clearly(loaded, node_a):
             applier.sources()["a"].performance("gain")
 
 
-@pytest.mark.skipif(
-    not hasattr(NodeControl, "import_port"),
-    reason="NodeControl has no import_port/export_port yet: ports between nodes are not merged",
-)
 def test_a_coalition_bridges_the_port_from_one_node_to_the_other(loaded):
     database = loaded.database
     coalition = Configuration(
@@ -309,12 +304,7 @@ def test_a_plan_deploys_over_a_noisy_pty(loaded):
             assert counts.dropped + counts.corrupted > 0  # the requests were tried again
 
 
-@pytest.mark.skipif(
-    importlib.util.find_spec("hexmigrate.transfer.time_master") is None,
-    reason="hexmigrate has no TimeMaster yet: lock-step time is not merged",
-)
 def test_in_lock_step_the_time_master_learns_each_bridge_and_runs_the_coalition(loaded):
-    time_master = importlib.import_module("hexmigrate.transfer.time_master")
     database = loaded.database
     coalition = Configuration(
         loaded.task.schemas,
@@ -328,7 +318,7 @@ def test_in_lock_step_the_time_master_learns_each_bridge_and_runs_the_coalition(
         NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--lock-step", "--name", "b") as node_b,
         LinkApplier.open({"a": node_a.connect_url(), "b": node_b.connect_url()}) as applier,
     ):
-        master = time_master.TimeMaster(applier.controls(), 0.01)
+        master = TimeMaster(applier.controls(), 0.01)
         applier.router = master
         maintainer = Maintainer(database, applier, EventLog())
         maintainer.apply(maintainer.plan(None, coalition))
