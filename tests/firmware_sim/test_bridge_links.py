@@ -28,24 +28,10 @@ from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from pbort import NativeModule, NativePBO, PortIO, PortKind, PortSpec
 from pbort.errors import KernelError
+from tests.firmware_sim.test_bridge import Camera
 from tests.hexmigrate.transfer_harness import DirectLink
 
 LISTEN = "tcp-listen://127.0.0.1:0"
-FRAME = PortSpec.output("image", kind=PortKind.FRAME, dtype="|u1", shape=(120, 160))
-
-
-class Camera(NativePBO):
-    """A frame whose every pixel is the cycle count, so a frame says when it was taken."""
-
-    name = "camera"
-    ports = (FRAME,)
-
-    def on(self, io: PortIO) -> None:
-        self.count = 0
-
-    def cycle(self, io: PortIO) -> None:
-        self.count += 1
-        io["image"] = np.full(FRAME.shape, self.count % 256, dtype=np.uint8)
 
 
 class Viewer(NativePBO):
