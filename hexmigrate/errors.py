@@ -45,6 +45,7 @@ Tree::
     │                                  message that cannot be written in the mode asked for
     ├── LinkError (OSError)            a link cannot be opened or has failed
     │   └── LinkUrlError (ValueError)      a malformed link URL
+    ├── LockStepError (ValueError)     a lock-step time master set up wrong (its quantum, a route)
     └── TransferError (RuntimeError)   the node refused, or a transfer could not go on
         ├── NoAnswer (TimeoutError)        a request went unanswered through every try
         └── TransferInterrupted (ConnectionError)   the link failed mid-transfer: resume it
@@ -215,6 +216,11 @@ class LinkError(HexmigrateError, OSError):
 
 class LinkUrlError(LinkError, ValueError):
     """A link URL is malformed; the message shows the expected form."""
+
+
+class LockStepError(HexmigrateError, ValueError):
+    """A lock-step `TimeMaster` set up wrong: a quantum under a microsecond, no node, a bridge
+    routed twice or to a node it does not grant time to."""
 
 
 class TransferError(HexmigrateError, RuntimeError):

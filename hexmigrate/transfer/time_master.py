@@ -20,7 +20,7 @@ import math
 from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 
-from hexmigrate.errors import HexmigrateError, TransferError
+from hexmigrate.errors import HexmigrateError, LockStepError, TransferError
 from hexmigrate.transfer.control import MICROSECONDS
 from hexmigrate.transfer.control_client import NodeControl
 
@@ -32,9 +32,9 @@ class TimeMaster:
 
     def __init__(self, controls: Mapping[str, NodeControl], quantum: float) -> None:
         if not (math.isfinite(quantum) and round(quantum * MICROSECONDS) >= 1):
-            raise ValueError(f"expected a quantum of at least 1 microsecond, got {quantum!r} s")
+            raise LockStepError(f"expected a quantum of at least 1 microsecond, got {quantum!r} s")
         if not controls:
-            raise ValueError("expected at least one node to grant time to, got none")
+            raise LockStepError("expected at least one node to grant time to, got none")
         self.controls = dict(controls)
         self.quantum = quantum
         self._quantum_us = round(quantum * MICROSECONDS)
@@ -56,9 +56,9 @@ class TimeMaster:
         for node in (source, sink):
             if node not in self.controls:
                 known = ", ".join(self.controls)
-                raise ValueError(f"bridge {number}: expected a node among {known}, got {node!r}")
+                raise LockStepError(f"bridge {number}: expected a node among {known}, got {node!r}")
         if number in self.routes:
-            raise ValueError(f"bridge {number} is routed already: {self.routes[number]}")
+            raise LockStepError(f"bridge {number} is routed already: {self.routes[number]}")
         self.routes[number] = (source, sink)
         self.counts[number] = 0
 

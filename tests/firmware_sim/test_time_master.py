@@ -14,7 +14,7 @@ from firmware_sim.kernel_control import KernelControl
 from firmware_sim.natives import Signal
 from firmware_sim.node import Node
 from firmware_sim.server import NodeTarget
-from hexmigrate.errors import TransferError
+from hexmigrate.errors import LockStepError, TransferError
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
@@ -67,7 +67,7 @@ def test_a_node_that_cannot_advance_fails_the_quantum_by_name(nodes, monkeypatch
     monkeypatch.setattr(kernel_control, "ADVANCE_WAIT", 0.2)
     _, b, controls = nodes
     master = TimeMaster(controls, 0.01)
-    with pytest.raises(ValueError, match="expected a node among a, b, got 'c'"):
+    with pytest.raises(LockStepError, match="expected a node among a, b, got 'c'"):
         master.route(1, "a", "c")
     master.route(1, "a", "b")
     master.run_until(0.01)
@@ -78,5 +78,5 @@ def test_a_node_that_cannot_advance_fails_the_quantum_by_name(nodes, monkeypatch
 
 
 def test_a_quantum_is_at_least_a_microsecond() -> None:
-    with pytest.raises(ValueError, match="at least 1 microsecond"):
+    with pytest.raises(LockStepError, match="at least 1 microsecond"):
         TimeMaster({}, 1e-7)
