@@ -25,6 +25,10 @@ from hexmigrate.errors import LinkError
 from hexmigrate.links.base import Link, LinkBase
 from hexmigrate.links.stream import POLL_INTERVAL
 
+INBOX_LIMIT = 1024
+"""Messages a station holds unread: past it, the oldest is lost (`Station.overrun`), as a UART's
+receive buffer overruns, so a station nobody reads cannot take the process's memory."""
+
 
 class Station(LinkBase):
     """One party on a `SharedLine`: sends onto the line, receives all the line carries."""
@@ -32,11 +36,23 @@ class Station(LinkBase):
     def __init__(self, line: SharedLine, number: int) -> None:
         super().__init__(f"{line.link.url}#station{number}")
         self._line = line
-        self._inbox: queue.SimpleQueue[bytes | LinkError] = queue.SimpleQueue()
+        self._inbox: queue.Queue[bytes | LinkError] = queue.Queue(INBOX_LIMIT)
+        self.overrun = 0
+        """Messages lost because the station held INBOX_LIMIT unread ones."""
 
     def deliver(self, item: bytes | LinkError) -> None:
-        """Queue what the line carried (or the failure that ended it) for `receive`."""
-        self._inbox.put(item)
+        """Queue what the line carried (or the failure that ended it) for `receive`; a full
+        inbox loses its oldest message."""
+        while True:
+            try:
+                self._inbox.put_nowait(item)
+                return
+            except queue.Full:
+                try:
+                    self._inbox.get_nowait()
+                    self.overrun += 1
+                except queue.Empty:  # read meanwhile: room now
+                    continue
 
     def _send(self, message: bytes) -> None:
         self._line.transmit(message)
@@ -47,7 +63,7 @@ class Station(LinkBase):
         except queue.Empty:
             return None
         if isinstance(item, LinkError):
-            self._inbox.put(item)  # every later receive fails alike
+            self.deliver(item)  # every later receive fails alike
             raise item
         return item
 

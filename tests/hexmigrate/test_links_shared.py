@@ -7,7 +7,7 @@ import pytest
 from hexmigrate.errors import LinkError
 from hexmigrate.links import open_link
 from hexmigrate.links.base import LinkBase
-from hexmigrate.links.shared import SharedLine
+from hexmigrate.links.shared import INBOX_LIMIT, SharedLine
 from hexmigrate.transfer import messages as m
 from hexmigrate.transfer.receiver import Receiver
 
@@ -33,6 +33,20 @@ def test_every_station_hears_every_message_in_order():
         assert receive_all(first, 3) == sent
         assert receive_all(second, 3) == sent
         assert first.receive(0.05) is None
+
+
+def test_a_station_nobody_reads_keeps_the_newest_messages_only():
+    with SharedLine(open_link("loop://")) as line:
+        idle, talker = line.station(), line.station()
+        extra = 10
+        for number in range(INBOX_LIMIT + extra):
+            talker.send(b"M%d" % number)
+            receive_all(talker, 1)  # its echo: the pump has handed the message out
+        assert idle.overrun == extra
+        assert receive_all(idle, INBOX_LIMIT) == [
+            b"M%d" % number for number in range(extra, INBOX_LIMIT + extra)
+        ]
+        assert idle.receive(0.05) is None
 
 
 def test_a_closed_station_hears_nothing_more_and_the_others_go_on():
