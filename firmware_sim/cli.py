@@ -215,13 +215,14 @@ def _add_pbo_options(
         action="append",
         choices=natives,
         default=[],
-        metavar=None if natives is not None else "NAME",
-        help="add a native PBO of the node's firmware"
+        metavar="NAME",
+        help="add a native PBO of the node's firmware ("
         + (
-            ""
+            ", ".join(natives)
             if natives is not None
-            else f" (built in: {', '.join(sorted(NATIVES))}; or one of --natives)"
-        ),
+            else f"{', '.join(sorted(NATIVES))}, or one of --natives"
+        )
+        + ")",
     )
     command.add_argument(
         "--wire",

@@ -5,14 +5,14 @@ Examples:
   python -m refresh cases refresh/data/visual_servoing.toml --k 2
   python -m refresh manage --db tank.toml --task tank --natives tank_natives \
       --node a=socket://127.0.0.1:7001 --node b=socket://127.0.0.1:7002 \
-      --lock-step 0.01 --seconds 5 --events events.jsonl
+      --lock-step --quantum 0.01 --seconds 5 --events events.jsonl
 
 check validates a database file and the module images it names (each must exist and its
 descriptor must declare the module's name and ports), then prints the tree and the task. cases
 prints the Base Choice test cases of the task's initial configuration, against the brute-force
 count, and the Generator's candidates for each slot (--k: modules per combo). Errors print one
 line "error: FILE: KEY: expected ..., got ..." and exit 1; usage errors exit 2; --debug shows
-the traceback. manage runs ReFrESH on a task whose robots' nodes are ``firmware-sim listen``
+the traceback. manage runs ReFrESH on a task whose robots' nodes are firmware-sim listen
 processes (docs/tutorial.md): each event is printed as it comes; Ctrl-C ends it (exit 130).
 """
 
@@ -40,6 +40,8 @@ MAX_SECONDS = 1e6
 """The longest --seconds and decision period (about 11 days): a longer run is until Ctrl-C."""
 MAX_QUANTUM = 10.0
 """The longest lock-step quantum: a node's Advance runs it at most this far at once."""
+QUANTUM = 0.01
+"""The default lock-step quantum: a tenth of the default decision period."""
 MAX_COUNT = 1000
 """The largest --debounce and --estimate-steps."""
 DEFAULTS = RuntimeSettings()
@@ -115,7 +117,10 @@ def manage_command(options: argparse.Namespace) -> None:
         recovery_hold=options.recovery_hold,
         estimate_steps=options.estimate_steps,
     )
-    mode = RealTime() if options.lock_step is None else LockStep(options.lock_step)
+    if options.quantum is not None and not options.lock_step:
+        raise UsageError("--quantum: expected with --lock-step (real time has no quanta)")
+    quantum = QUANTUM if options.quantum is None else options.quantum
+    mode = LockStep(quantum) if options.lock_step else RealTime()
     config = ManagerConfig(
         database=options.db,
         task=options.task,
@@ -150,7 +155,7 @@ def _add_manage(commands: argparse._SubParsersAction) -> None:
         "example:\n"
         "  python -m refresh manage --db tank.toml --task tank --natives tank_natives \\\n"
         "      --node a=socket://127.0.0.1:7001 --node b=socket://127.0.0.1:7002 \\\n"
-        "      --lock-step 0.01 --seconds 5 --events events.jsonl",
+        "      --lock-step --quantum 0.01 --seconds 5 --events events.jsonl",
     )
     command.add_argument(
         "--db",
@@ -183,15 +188,21 @@ def _add_manage(commands: argparse._SubParsersAction) -> None:
     time_mode = command.add_mutually_exclusive_group()
     time_mode.add_argument(
         "--lock-step",
-        type=real(maximum=MAX_QUANTUM, above=0, unit="s"),
-        metavar="QUANTUM",
-        help="lock-step virtual time: grant every node QUANTUM seconds at a time (the nodes run "
-        "firmware-sim listen --lock-step); a run is reproducible",
+        action="store_true",
+        help="lock-step virtual time: grant every node --quantum seconds at a time (the nodes "
+        "run firmware-sim listen --lock-step); a run is reproducible",
     )
     time_mode.add_argument(
         "--real-time",
         action="store_true",
-        help="every node on its real-time clock; the run's clock is the host's (the default)",
+        help="every node on its real-time clock; the run's clock is the host's (the default, "
+        "as for firmware-sim listen)",
+    )
+    command.add_argument(
+        "--quantum",
+        type=real(maximum=MAX_QUANTUM, above=0, unit="s"),
+        metavar="S",
+        help=f"with --lock-step, the seconds each grant runs the nodes (default {QUANTUM:g})",
     )
     command.add_argument(
         "--seconds",

@@ -30,7 +30,7 @@ NODE = ("--natives", NATIVES, "--no-start")
 NATIVES_OF = {"a": ("--native", "Sensor", "--native", "Check"), "b": ("--native", "Sensor_alt")}
 HOSTS = {"a": "127.0.0.2", "b": "127.0.0.3"}
 SETTINGS = ("--debounce", "2", "--settle", "0.2", "--recovery-hold", "0.3")
-RUN = ("--lock-step", "0.01", "--seconds", "2", "--estimate-steps", "3", *SETTINGS)
+RUN = ("--lock-step", "--quantum", "0.01", "--seconds", "2", "--estimate-steps", "3", *SETTINGS)
 MANAGER_TIMEOUT = 60.0
 """Seconds a manager subprocess may take at most (it takes a few)."""
 WALL_CLOCK_KINDS = {"step", "applied"}
@@ -154,7 +154,7 @@ def test_in_lock_step_the_fault_is_repaired_by_a_coalition_across_hosts(database
 
 def test_a_node_in_the_other_time_mode_is_refused_before_anything_is_deployed(database):
     with nodes("", "--lock-step") as (started, options):
-        done = manage(database, *options, "--lock-step", "0.01", "--seconds", "1")
+        done = manage(database, *options, "--lock-step", "--seconds", "1")
         assert done.returncode == 1
         assert done.stderr.startswith("error: robot 'a', node at socket://127.0.0.2:")
         assert "start it with firmware-sim listen --lock-step" in done.stderr
@@ -182,7 +182,8 @@ def unused_port() -> int:
         (("--node", "a=socket://127.0.0.1:1"), 1, "expected a --node ROBOT=URL for every robot"),
         (("--node", "a", "--node", "b=x"), 2, "argument --node: expected ROBOT=URL, got 'a'"),
         (("--node", "a=x", "--seconds", "nan"), 2, "argument --seconds: expected a number"),
-        (("--node", "a=x", "--lock-step", "1e300"), 2, "argument --lock-step: expected a number"),
+        (("--node", "a=x", "--lock-step", "--quantum", "1e300"), 2, "argument --quantum: expected"),
+        (("--node", "a=x", "--quantum", "0.1"), 2, "--quantum: expected with --lock-step"),
         (("--node", "a=x", "--decision-period", "0"), 2, "argument --decision-period: expected"),
         (("--node", "a=x", "--node", "a=y"), 2, "expected one node per robot, got two"),
     ],
