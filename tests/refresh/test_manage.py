@@ -4,17 +4,21 @@ stuck at 1 s; its alternative runs on robot b only, so the repair is a coalition
 node to a's). In lock-step the fault is detected, located and repaired, the JSON lines say so, and
 a second run gives the same events at the same times. The nodes listen on 127.0.0.2 and 127.0.0.3,
 the manager binds nothing, and every bridge listens on its sink node's host: nothing assumes one
-host. Nodes in the other time mode and bad input end in one ``error:`` line."""
+host. In real time it repairs the fault too, and Ctrl-C ends it (exit 130) with its events
+written. Nodes in the other time mode and bad input end in one ``error:`` line."""
 
 from __future__ import annotations
 
 import contextlib
 import json
 import os
+import re
 import shutil
+import signal
 import socket
 import subprocess
 import sys
+import threading
 from collections.abc import Iterator
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
@@ -150,6 +154,51 @@ def test_in_lock_step_the_fault_is_repaired_by_a_coalition_across_hosts(database
     for event in found:
         assert f"{event['time']:9.3f} s  {event['kind']:<11} {event['message']}" in stdout
     assert reproducible(runs[1][1]) == reproducible(found)
+
+
+def test_in_real_time_it_repairs_and_runs_until_interrupted(database, tmp_path):
+    out = tmp_path / "events.jsonl"
+    command = [sys.executable, "-m", "refresh", "manage", "--db", str(database), "--task"]
+    command += ["levels", "--natives", NATIVES, "--real-time", *SETTINGS, "--events", str(out)]
+    with nodes("", "") as (_started, options):
+        manager = subprocess.Popen(
+            [*command, *options], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
+        try:
+            lines = read_until(manager, re.compile(r"^ *\d+\.\d{3} s  recovered "))
+            manager.send_signal(signal.SIGINT)
+            _, stderr = manager.communicate(timeout=MANAGER_TIMEOUT)
+        finally:
+            if manager.poll() is None:
+                manager.kill()
+                manager.wait()
+    assert manager.returncode == 130, stderr
+    assert stderr.endswith("interrupted\n") and "Traceback" not in stderr
+    kinds = [event["kind"] for event in events(out)]
+    assert kinds.index("deployed") < kinds.index("switch") < kinds.index("recovered")
+    # Times are the run's clock, from 0 at the start, not the host's wall clock.
+    assert all(0 <= event["time"] < MANAGER_TIMEOUT for event in events(out))
+    assert any(line.endswith("running {Sensor_alt@b, gain, Check}") for line in lines)
+
+
+def read_until(process: subprocess.Popen[str], pattern: re.Pattern[str]) -> list[str]:
+    """The lines `process` printed up to the first that `pattern` finds (within
+    MANAGER_TIMEOUT s, else the test fails)."""
+    assert process.stdout is not None
+    lines: list[str] = []
+    found = threading.Event()
+
+    def read() -> None:
+        assert process.stdout is not None
+        for line in process.stdout:
+            lines.append(line.rstrip("\n"))
+            if pattern.search(line):
+                found.set()
+                return
+
+    threading.Thread(target=read, daemon=True).start()
+    assert found.wait(MANAGER_TIMEOUT), "\n".join(lines)
+    return lines
 
 
 def test_a_node_in_the_other_time_mode_is_refused_before_anything_is_deployed(database):
