@@ -71,6 +71,6 @@ def test_a_native_of_the_robots_firmware_is_started_by_name_and_runs() -> None:
 def test_a_native_the_firmware_lacks_is_refused_before_the_node_listens() -> None:
     lines: list[str] = []
     config = ListenConfig("tcp-listen://127.0.0.1:0", natives=("wheel",), seconds=1.0)
-    with pytest.raises(StartError, match="--native wheel: expected one of .*odometer.*signal"):
+    with pytest.raises(StartError, match=r"--native wheel: expected one of .*odometer.*signal"):
         listen(config, lines.append, {"odometer": NativeModule(Odometer)})
     assert lines == []
