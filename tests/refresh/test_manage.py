@@ -249,7 +249,19 @@ def test_a_node_that_does_not_answer_and_an_unknown_task_are_one_error_line(data
     done = manage(database, "--node", f"a={url}", "--node", f"b={url}")
     assert done.returncode == 1
     assert done.stderr.startswith(f"error: robot 'a': cannot open the link to its node at {url}")
-    command = [sys.executable, "-m", "refresh", "manage", "--db", str(database), "--task", "x"]
+    command = [sys.executable, "-m", "refresh", "manage", "--db", str(database), "--task"]
+    done = subprocess.run(  # without --natives: the manager has no code for Sensor
+        [*command, "levels", "--node", f"a={url}", "--node", f"b={url}"],
+        capture_output=True,
+        text=True,
+        timeout=MANAGER_TIMEOUT,
+    )
+    assert done.returncode == 1
+    assert done.stderr == (
+        "error: module 'Sensor' is native: expected its NativePBO class among the natives "
+        "(signal; add yours with --natives MODULE), got none\n"
+    )
+    command.append("x")
     done = subprocess.run(
         [*command, "--node", f"a={url}"], capture_output=True, text=True, timeout=MANAGER_TIMEOUT
     )
