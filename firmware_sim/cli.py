@@ -18,7 +18,7 @@ from firmware_sim.kernel_log import into_node_log
 from firmware_sim.listen import ListenConfig, listen
 from firmware_sim.listen_link import PTY
 from firmware_sim.memory_map import MemoryMap
-from firmware_sim.natives import NATIVES
+from firmware_sim.natives import NATIVES, load_natives
 from firmware_sim.node import Node
 from firmware_sim.run_report import render, run_report
 from firmware_sim.services import DESCRIPTIONS, Service
@@ -124,7 +124,8 @@ def cmd_listen(args: argparse.Namespace) -> int:
         switch_on=not args.no_start,
         lock_step=args.lock_step,
     )
-    return listen(config, lambda line: print(line, flush=True))
+    firmware = {name: NativeModule(native) for name, native in load_natives(args.natives).items()}
+    return listen(config, lambda line: print(line, flush=True), firmware=firmware)
 
 
 def cmd_info(args: argparse.Namespace) -> int:
@@ -201,14 +202,27 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _add_pbo_options(command: argparse.ArgumentParser, wire_help: str, set_help: str) -> None:
-    """The options of run and listen that say which PBOs run and how."""
+def _add_pbo_options(
+    command: argparse.ArgumentParser,
+    wire_help: str,
+    set_help: str,
+    natives: Sequence[str] | None = None,
+) -> None:
+    """The options of run and listen that say which PBOs run and how; `natives` the names
+    --native takes (None: any, checked once the firmware's natives are known)."""
     command.add_argument(
         "--native",
         action="append",
-        choices=sorted(NATIVES),
+        choices=natives,
         default=[],
-        help="add a native PBO of the node's firmware",
+        metavar="NAME",
+        help="add a native PBO of the node's firmware ("
+        + (
+            ", ".join(natives)
+            if natives is not None
+            else f"{', '.join(sorted(NATIVES))}, or one of --natives"
+        )
+        + ")",
     )
     command.add_argument(
         "--wire",
@@ -268,6 +282,7 @@ def _add_run(commands: argparse._SubParsersAction) -> None:
         "connect an output to an input",
         "set a configuration constant: a whole number (decimal or 0x...) for an integer port, "
         "any number for a floating-point one",
+        sorted(NATIVES),
     )
     length = command.add_mutually_exclusive_group()
     length.add_argument("--cycles", type=arguments.cycles, metavar="N", help="run this many jobs")
@@ -323,6 +338,15 @@ def _add_listen(commands: argparse._SubParsersAction) -> None:
         "connect an output to an input whenever both PBOs run",
         "a constant set when that PBO starts: a whole number (decimal or 0x...) for an "
         "integer port, any number for a floating-point one",
+    )
+    command.add_argument(
+        "--natives",
+        action="append",
+        default=[],
+        metavar="MODULE",
+        help="a Python module (imported by name, from the current directory first) whose "
+        "NativePBO subclasses with a name join the firmware's natives, for --native to start "
+        "or a host to start (docs/tutorial.md)",
     )
     command.add_argument(
         "--show",

@@ -1,13 +1,22 @@
-"""Native PBOs built into every node's firmware: signal sources for wiring up guest modules.
+"""Native PBOs of a node's firmware: the built-in signal source, and a user's own natives.
 
-A node's firmware has some native PBOs of its own (drivers, generators); these are the ones the
-`firmware-sim` command can add by name, so that guest modules have something to process.
+A node's firmware has some native PBOs of its own (drivers, generators); `NATIVES` are the ones
+every emulated node has, so that guest modules have something to process. A user adds natives of
+their own as a Python module (``--natives MODULE``): `load_natives` imports it by name and takes
+every `NativePBO` subclass in it that has a `name`. The same loader serves the node
+(``firmware-sim listen --natives``), which runs them, and the manager (``python -m refresh manage
+--natives``), which estimates with them: one file is the native's code on both sides.
 """
 
 from __future__ import annotations
 
+import importlib
 import math
+import os
+import sys
+from collections.abc import Iterable
 
+from firmware_sim.errors import StartError
 from pbort.native import NativePBO, PortIO
 from pbort.ports import PortSpec
 
@@ -48,3 +57,64 @@ class Signal(NativePBO):
 
 
 NATIVES: dict[str, type[NativePBO]] = {Signal.name: Signal}
+
+
+def load_natives(modules: Iterable[str]) -> dict[str, type[NativePBO]]:
+    """The built-in natives and those of each Python module named in `modules`, by PBO name.
+
+    A module is imported by its dotted name, from the current directory first (as ``python -m``
+    does, so that ``--natives my_natives`` finds ``./my_natives.py`` whichever program runs);
+    its natives are the `NativePBO` subclasses in its namespace whose `name` is set. A module
+    that cannot be imported, has no native, or gives a name that another native has is refused
+    (`StartError`), before a node or a manager starts anything."""
+    natives = dict(NATIVES)
+    for module in modules:
+        for name, native in _natives_of(module).items():
+            if natives.get(name, native) is not native:
+                raise StartError(
+                    f"--natives {module}: native {name!r} ({native.__qualname__}): expected a "
+                    f"name no other native has, got the name of {natives[name].__module__}."
+                    f"{natives[name].__qualname__}"
+                )
+            natives[name] = native
+    return natives
+
+
+def _natives_of(module: str) -> dict[str, type[NativePBO]]:
+    """The natives that Python module `module` defines or imports, by name."""
+    imported = _import(module)
+    found: dict[str, type[NativePBO]] = {}
+    for value in vars(imported).values():
+        if isinstance(value, type) and issubclass(value, NativePBO):
+            name = getattr(value, "name", None)
+            if isinstance(name, str) and name:
+                found[name] = value
+    if not found:
+        raise StartError(
+            f"--natives {module}: expected NativePBO subclasses with a name in "
+            f"{getattr(imported, '__file__', module)}, got none"
+        )
+    return found
+
+
+def _import(module: str) -> object:
+    """Import `module` by name with the current directory first on the path, then restore it."""
+    here = os.getcwd()
+    added = here not in sys.path
+    if added:
+        sys.path.insert(0, here)
+    try:
+        return importlib.import_module(module)
+    except ImportError as error:
+        raise StartError(
+            f"--natives {module}: expected a Python module importable by name (a file "
+            f"{module.replace('.', '/')}.py in the current directory or on PYTHONPATH), got "
+            f"{type(error).__name__}: {error}"
+        ) from error
+    except Exception as error:  # the user's code failed while it was imported
+        raise StartError(
+            f"--natives {module}: importing it failed: {type(error).__name__}: {error}"
+        ) from error
+    finally:
+        if added:
+            sys.path.remove(here)

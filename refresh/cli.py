@@ -1,15 +1,19 @@
-"""Inspect a ReFrESH module database and the decisions it allows.
+"""Inspect a ReFrESH module database and the decisions it allows, and manage a task's nodes.
 
 Examples:
   python -m refresh check refresh/data/visual_servoing.toml
   python -m refresh cases refresh/data/visual_servoing.toml --k 2
+  python -m refresh manage --db tank.toml --task tank --natives tank_natives \
+      --node a=socket://127.0.0.1:7001 --node b=socket://127.0.0.1:7002 \
+      --lock-step --quantum 0.01 --seconds 5 --events events.jsonl
 
 check validates a database file and the module images it names (each must exist and its
 descriptor must declare the module's name and ports), then prints the tree and the task. cases
 prints the Base Choice test cases of the task's initial configuration, against the brute-force
 count, and the Generator's candidates for each slot (--k: modules per combo). Errors print one
 line "error: FILE: KEY: expected ..., got ..." and exit 1; usage errors exit 2; --debug shows
-the traceback.
+the traceback. manage runs ReFrESH on a task whose robots' nodes are firmware-sim listen
+processes (docs/tutorial.md): each event is printed as it comes; Ctrl-C ends it (exit 130).
 """
 
 from __future__ import annotations
@@ -17,19 +21,30 @@ from __future__ import annotations
 import argparse
 from collections.abc import Sequence
 
-from commandline import add_command, command_parser, run
-from commandline.arguments import input_file, integer
+from commandline import UsageError, add_command, command_parser, run
+from commandline.arguments import input_file, integer, output_file, real
 from refresh.configuration import initial_configuration
 from refresh.errors import DatabaseError, RefreshError
 from refresh.generator import DEFAULT_MAX_MODULES, candidates
 from refresh.images import check_images
 from refresh.load import MAX_FILE_BYTES, Loaded, load
 from refresh.locator import base_choice_cases, brute_force_count
+from refresh.manager import LockStep, ManagerConfig, RealTime, manage
+from refresh.runtime import RuntimeSettings
 from refresh.task import TaskSpec
 
 MAX_COMBO_MODULES = 4
 """The largest --k: each more module per combo multiplies the combos by the number of modules
 (the paper uses 2)."""
+MAX_SECONDS = 1e6
+"""The longest --seconds and decision period (about 11 days): a longer run is until Ctrl-C."""
+MAX_QUANTUM = 10.0
+"""The longest lock-step quantum: a node's Advance runs it at most this far at once."""
+QUANTUM = 0.01
+"""The default lock-step quantum: a tenth of the default decision period."""
+MAX_COUNT = 1000
+"""The largest --debounce and --estimate-steps."""
+DEFAULTS = RuntimeSettings()
 
 
 def check(options: argparse.Namespace) -> None:
@@ -88,6 +103,157 @@ def _task_with_initial(loaded: Loaded, file: str) -> TaskSpec:
     return loaded.task
 
 
+def manage_command(options: argparse.Namespace) -> None:
+    """Manage the task over the links to its nodes until --seconds or Ctrl-C."""
+    nodes: dict[str, str] = {}
+    for robot, url in options.node:
+        if robot in nodes:
+            raise UsageError(f"--node {robot}=...: expected one node per robot, got two")
+        nodes[robot] = url
+    settings = RuntimeSettings(
+        decision_period=options.decision_period,
+        debounce=options.debounce,
+        settle=options.settle,
+        recovery_hold=options.recovery_hold,
+        estimate_steps=options.estimate_steps,
+    )
+    if options.quantum is not None and not options.lock_step:
+        raise UsageError("--quantum: expected with --lock-step (real time has no quanta)")
+    quantum = QUANTUM if options.quantum is None else options.quantum
+    mode = LockStep(quantum) if options.lock_step else RealTime()
+    config = ManagerConfig(
+        database=options.db,
+        task=options.task,
+        nodes=nodes,
+        time=mode,
+        natives=tuple(options.natives),
+        seconds=options.seconds,
+        events=options.events,
+        settings=settings,
+    )
+    manage(config, lambda line: print(line, flush=True))
+
+
+def robot_url(text: str) -> tuple[str, str]:
+    """``ROBOT=URL``: a robot of the database and the URL of its node."""
+    robot, equals, url = text.partition("=")
+    if not equals or not robot or not url:
+        raise argparse.ArgumentTypeError(f"expected ROBOT=URL, got {text!r}")
+    return robot, url
+
+
+def _add_manage(commands: argparse._SubParsersAction) -> None:
+    command = add_command(
+        commands,
+        "manage",
+        manage_command,
+        "run ReFrESH on a task whose nodes run in other processes",
+        "Deploy the task's initial configuration on the robots' nodes (firmware-sim listen\n"
+        "--no-start), then every decision period read the nodes' reports, judge, and repair a\n"
+        "fault (locate, synthesize, choose, migrate, switch), printing each event as it comes.\n"
+        "Until --seconds on the run's clock, or Ctrl-C (exit 130). See docs/tutorial.md.\n\n"
+        "example:\n"
+        "  python -m refresh manage --db tank.toml --task tank --natives tank_natives \\\n"
+        "      --node a=socket://127.0.0.1:7001 --node b=socket://127.0.0.1:7002 \\\n"
+        "      --lock-step --quantum 0.01 --seconds 5 --events events.jsonl",
+    )
+    command.add_argument(
+        "--db",
+        required=True,
+        type=input_file(MAX_FILE_BYTES),
+        metavar="DB.toml",
+        help="the module database with its task (TOML)",
+    )
+    command.add_argument(
+        "--task", required=True, metavar="NAME", help="the task to manage: the database's"
+    )
+    command.add_argument(
+        "--node",
+        action="append",
+        required=True,
+        type=robot_url,
+        metavar="ROBOT=URL",
+        help="the node of a robot of the database (socket://HOST:PORT, a pty, can://...); one "
+        "for every robot",
+    )
+    command.add_argument(
+        "--natives",
+        action="append",
+        default=[],
+        metavar="MODULE",
+        help="a Python module (imported by name, from the current directory first) whose "
+        "NativePBO subclasses with a name are the native modules' code, to estimate with: the "
+        "one the nodes were started with (firmware-sim listen --natives)",
+    )
+    time_mode = command.add_mutually_exclusive_group()
+    time_mode.add_argument(
+        "--lock-step",
+        action="store_true",
+        help="lock-step virtual time: grant every node --quantum seconds at a time (the nodes "
+        "run firmware-sim listen --lock-step); a run is reproducible",
+    )
+    time_mode.add_argument(
+        "--real-time",
+        action="store_true",
+        help="every node on its real-time clock; the run's clock is the host's (the default, "
+        "as for firmware-sim listen)",
+    )
+    command.add_argument(
+        "--quantum",
+        type=real(maximum=MAX_QUANTUM, above=0, unit="s"),
+        metavar="S",
+        help=f"with --lock-step, the seconds each grant runs the nodes (default {QUANTUM:g})",
+    )
+    command.add_argument(
+        "--seconds",
+        type=real(maximum=MAX_SECONDS, above=0, unit="s"),
+        metavar="S",
+        help="stop after S seconds of the run's clock (default: run until interrupted)",
+    )
+    command.add_argument(
+        "--events",
+        type=output_file,
+        metavar="FILE.jsonl",
+        help="write each event as one JSON object per line: time, kind, message, data",
+    )
+    command.add_argument(
+        "--decision-period",
+        type=real(maximum=MAX_SECONDS, above=0, unit="s"),
+        default=DEFAULTS.decision_period,
+        metavar="S",
+        help=f"seconds between two looks of the Decider (default {DEFAULTS.decision_period:g})",
+    )
+    command.add_argument(
+        "--debounce",
+        type=integer(1, MAX_COUNT),
+        default=DEFAULTS.debounce,
+        metavar="N",
+        help=f"violating looks in a row that make a fault (default {DEFAULTS.debounce})",
+    )
+    command.add_argument(
+        "--settle",
+        type=real(0, MAX_SECONDS, unit="s"),
+        default=DEFAULTS.settle,
+        metavar="S",
+        help=f"seconds after a switch before a fault is acted on (default {DEFAULTS.settle:g})",
+    )
+    command.add_argument(
+        "--recovery-hold",
+        type=real(0, MAX_SECONDS, unit="s"),
+        default=DEFAULTS.recovery_hold,
+        metavar="S",
+        help="seconds P_T must stay 1 after a repair to count as recovered (default "
+        f"{DEFAULTS.recovery_hold:g})",
+    )
+    command.add_argument(
+        "--estimate-steps",
+        type=integer(1, MAX_COUNT),
+        default=DEFAULTS.estimate_steps,
+        metavar="N",
+        help=f"estimator steps per shadow run (default {DEFAULTS.estimate_steps})",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser, subcommands dispatched through `func`."""
     top = command_parser("python -m refresh", __doc__)
@@ -106,6 +272,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="K",
         help=f"modules per combo, 1 to {MAX_COMBO_MODULES} (default {DEFAULT_MAX_MODULES})",
     )
+    _add_manage(commands)
     return top
 
 

@@ -1,0 +1,46 @@
+"""Every event of the runtime, as it comes: one line on the terminal, one JSON object on a file.
+
+The runtime records into its `EventLog`; the manager hands what was recorded since the last
+flush to `EventStream.flush` after the deployment and before each decision period's wait, so a
+user sees a detection, the decision and the switch within a period of when they happened. The
+time of an event is the runtime's clock (virtual in lock-step, the host's since the start in real
+time), never the wall clock.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from typing import TextIO
+
+from refresh.events import Event, EventLog
+
+
+class EventStream:
+    """Writes the events of `log` not written yet: `say` gets each as a line, `out` (if any) each
+    as a JSON line, flushed at once so that a reader of the file follows the run."""
+
+    def __init__(
+        self, log: EventLog, say: Callable[[str], None], out: TextIO | None = None
+    ) -> None:
+        self.log = log
+        self.say = say
+        self.out = out
+        self.written = 0
+        """How many of the log's events were written."""
+
+    def flush(self) -> None:
+        """Write every event recorded since the last flush."""
+        events = list(self.log)[self.written :]
+        for event in events:
+            self.say(line(event))
+            if self.out is not None:
+                self.out.write(json.dumps(event.as_dict()) + "\n")
+        if self.out is not None and events:
+            self.out.flush()
+        self.written += len(events)
+
+
+def line(event: Event) -> str:
+    """An event as the terminal shows it: time (s) on the runtime's clock, kind, message."""
+    return f"{event.time:9.3f} s  {event.kind:<11} {event.message}"

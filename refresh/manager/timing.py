@@ -1,0 +1,144 @@
+"""The two time modes of a managed run, behind one interface: the runtime's clock, how the world
+runs on for some seconds, and a check that every node runs in the mode asked for.
+
+- `LockStep`: every node runs ``firmware-sim listen --lock-step``, on a virtual clock that only
+  the manager's `TimeMaster` moves, one quantum at a time for all of them (values between nodes
+  are delivered at quantum boundaries). The runtime's clock is the master's `now`. A run is
+  reproducible: the same events at the same times. After each wait the manager asks every node
+  for a PING, whose answer comes after the reports the node pushed at the end of its last
+  quantum, so the Decider always reads the same reports, whenever TCP delivered them.
+- `RealTime`: every node runs on its real-time clock; the runtime's clock is the host's
+  monotonic clock since the start, and a wait is a sleep.
+
+A node in the other mode is refused before anything is deployed, with what to do, instead of a
+run that hangs (a lock-step node whose clock never moves) or judges nothing: each node is asked
+for an Advance to 0 s, which a lock-step node at its start takes and a real-time node refuses.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Protocol
+
+from hexmigrate.errors import HexmigrateError, NoAnswer, TransferError, TransferInterrupted
+from hexmigrate.transfer.time_master import TimeMaster
+from refresh.errors import NodeLinkError
+from refresh.remote import LinkApplier, RemoteNode
+
+REAL_TIME_REFUSAL = "real-time clock"
+"""What a real-time node's refusal of an Advance says (firmware_sim's `KernelControl.advance`)."""
+
+
+class TimeMode(Protocol):
+    """A time mode: attached to the applier before the deployment, then the runtime's clock and
+    its `advance`."""
+
+    def attach(self, applier: LinkApplier) -> None:
+        """Check every node runs in this mode and take the applier's nodes in hand."""
+
+    def clock(self) -> float:
+        """Seconds of the run, from 0 at the deployment."""
+
+    def advance(self, seconds: float) -> None:
+        """Let the world run `seconds` further."""
+
+    def describe(self) -> str:
+        """The mode, as a user would say it."""
+
+
+LOCK_STEP, REAL_TIME, LOCK_STEP_MOVED = "lock-step", "real-time", "lock-step, moved on"
+"""What `mode_of` finds a node in."""
+
+
+def mode_of(node: RemoteNode) -> tuple[str, str]:
+    """The time mode `node` runs in, and what it said: asked for an Advance to 0 s, a lock-step
+    node at its start takes it, a real-time node refuses it, a lock-step node that some run
+    moved on already refuses it otherwise. A link that fails raises its `NodeLinkError`."""
+    try:
+        node.ask("ADVANCE 0 s", lambda: node.control.advance(0.0, {}))
+    except NodeLinkError as error:
+        cause = error.__cause__
+        refused = isinstance(cause, TransferError) and not isinstance(
+            cause, (NoAnswer, TransferInterrupted)
+        )
+        if not refused:
+            raise
+        return (REAL_TIME if REAL_TIME_REFUSAL in str(cause) else LOCK_STEP_MOVED), str(error)
+    return LOCK_STEP, ""
+
+
+class LockStep:
+    """Lock-step virtual time, `quantum` seconds at a time, granted by a `TimeMaster`."""
+
+    def __init__(self, quantum: float) -> None:
+        self.quantum = quantum
+        self.master: TimeMaster | None = None
+        self.nodes: dict[str, RemoteNode] = {}
+
+    def attach(self, applier: LinkApplier) -> None:
+        """Refuse a node that is not in lock-step at 0 s, then route the applier's bridges
+        through a new master."""
+        for node in applier.nodes.values():
+            mode, said = mode_of(node)
+            if mode == REAL_TIME:
+                raise NodeLinkError(
+                    f"{said} (expected a node in lock-step: start it with firmware-sim listen "
+                    "--lock-step, or run the manager with --real-time)"
+                )
+            if mode == LOCK_STEP_MOVED:
+                raise NodeLinkError(
+                    f"{said} (expected a node in lock-step at 0 s, as a run starts: start the "
+                    "node again)"
+                )
+        self.nodes = dict(applier.nodes)
+        self.master = TimeMaster(applier.controls(), self.quantum)
+        applier.router = self.master
+
+    def clock(self) -> float:
+        return 0.0 if self.master is None else self.master.now
+
+    def advance(self, seconds: float) -> None:
+        """Grant quanta to `seconds` further, then file every report the nodes pushed by then."""
+        if self.master is None:
+            raise NodeLinkError("lock-step time: expected the nodes attached, got none")
+        until = self.master.now + seconds
+        try:
+            self.master.run_until(until)
+        except HexmigrateError as error:
+            raise NodeLinkError(f"lock-step time: {error}") from error
+        for node in self.nodes.values():
+            node.ask("PING", node.sender.ping)
+
+    def describe(self) -> str:
+        return f"lock-step virtual time, quantum {self.quantum:g} s"
+
+
+class RealTime:
+    """Real time: the host's monotonic clock from when the nodes were attached."""
+
+    def __init__(self) -> None:
+        self.start: float | None = None
+
+    def attach(self, applier: LinkApplier) -> None:
+        """Refuse a node in lock-step (its clock would never move), then start the clock."""
+        for node in applier.nodes.values():
+            if mode_of(node)[0] != REAL_TIME:
+                raise NodeLinkError(
+                    f"robot {node.robot!r}, node at {node.url}: expected a node on the "
+                    "real-time clock, got one in lock-step (its clock moves only when a manager "
+                    "advances it): run the manager with --lock-step QUANTUM, or start the node "
+                    "without --lock-step"
+                )
+        self.start = time.monotonic()
+
+    def clock(self) -> float:
+        return 0.0 if self.start is None else time.monotonic() - self.start
+
+    def advance(self, seconds: float) -> None:
+        """Sleep until `seconds` past the clock's time now."""
+        until = self.clock() + seconds
+        while (left := until - self.clock()) > 0:
+            time.sleep(left)
+
+    def describe(self) -> str:
+        return "real time"

@@ -1,0 +1,271 @@
+"""``python -m refresh manage`` as a user runs it: a subprocess managing two ``firmware-sim
+listen`` node processes over TCP, on the test task of tests/refresh/data (Sensor on robot a gets
+stuck at 1 s; its alternative runs on robot b only, so the repair is a coalition bridged from b's
+node to a's). In lock-step the fault is detected, located and repaired, the JSON lines say so, and
+a second run gives the same events at the same times. The nodes listen on 127.0.0.2 and 127.0.0.3,
+the manager binds nothing, and every bridge listens on its sink node's host: nothing assumes one
+host. In real time it repairs the fault too, and Ctrl-C ends it (exit 130) with its events
+written. Nodes in the other time mode and bad input end in one ``error:`` line."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import re
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+from collections.abc import Iterator
+from contextlib import ExitStack, contextmanager
+from pathlib import Path
+
+import pytest
+
+from hexmigrate.elf import image_from_elf
+from tests.firmware_sim.node_process import NodeProcess
+
+DATA = Path(__file__).parent / "data"
+NATIVES = "tests.refresh.data.manage_natives"
+NODE = ("--natives", NATIVES, "--no-start")
+NATIVES_OF = {"a": ("--native", "Sensor", "--native", "Check"), "b": ("--native", "Sensor_alt")}
+HOSTS = {"a": "127.0.0.2", "b": "127.0.0.3"}
+SETTINGS = ("--debounce", "2", "--settle", "0.2", "--recovery-hold", "0.3")
+RUN = ("--lock-step", "--quantum", "0.01", "--seconds", "2", "--estimate-steps", "3", *SETTINGS)
+MANAGER_TIMEOUT = 60.0
+"""Seconds a manager subprocess may take at most (it takes a few)."""
+WALL_CLOCK_KINDS = {"step", "applied"}
+"""Events whose message gives how long a step took on the host: not reproducible."""
+
+
+@pytest.fixture(scope="module")
+def database(example_builds, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The test task's database, beside the guest gain's image it names."""
+    directory = tmp_path_factory.mktemp("manage")
+    image_from_elf(example_builds["gain"].elf).write(directory / "gain.hex")
+    return Path(shutil.copy(DATA / "manage.toml", directory / "manage.toml"))
+
+
+def manage(database: Path, *options: str) -> subprocess.CompletedProcess[str]:
+    """Run ``python -m refresh manage`` on the test task to its end."""
+    command = [sys.executable, "-m", "refresh", "manage", "--db", str(database)]
+    command += ["--task", "levels", "--natives", NATIVES, *options]
+    return subprocess.run(command, capture_output=True, text=True, timeout=MANAGER_TIMEOUT)
+
+
+@contextmanager
+def nodes(*modes: str) -> Iterator[tuple[dict[str, NodeProcess], list[str]]]:
+    """Robot a's and b's nodes (each started with the option in `modes`, "" for none), on
+    HOSTS; the --node options that name them."""
+    with ExitStack() as stack:
+        started = {
+            robot: stack.enter_context(
+                NodeProcess(
+                    f"tcp-listen://{HOSTS[robot]}:0",
+                    *NODE,
+                    *NATIVES_OF[robot],
+                    "--name",
+                    robot,
+                    *([mode] if mode else []),
+                )
+            )
+            for robot, mode in zip(("a", "b"), modes, strict=True)
+        }
+        options = []
+        for robot, node in started.items():
+            url = node.wait_for(rf"--to (socket://{HOSTS[robot]}:\d+)\)$")[1][1]
+            options += ["--node", f"{robot}={url}"]
+        yield started, options
+
+
+def tcp_sockets(pid: int) -> set[tuple[str, str]]:
+    """(local host, remote host) of each IPv4 TCP socket process `pid` holds (Linux /proc)."""
+    inodes = set()
+    for fd in Path(f"/proc/{pid}/fd").iterdir():
+        with contextlib.suppress(OSError):
+            target = os.readlink(fd)
+            if target.startswith("socket:["):
+                inodes.add(target[len("socket:[") : -1])
+    found = set()
+    for row in Path(f"/proc/{pid}/net/tcp").read_text().splitlines()[1:]:
+        fields = row.split()
+        if fields[9] in inodes:
+            found.add((_host(fields[1]), _host(fields[2])))
+    return found
+
+
+ANY = "0.0.0.0"
+"""The remote host of a listening socket in /proc/net/tcp."""
+
+
+def _host(address: str) -> str:
+    """The host of a /proc/net/tcp address (little-endian hex IPv4, then the port)."""
+    return socket.inet_ntoa(bytes.fromhex(address.partition(":")[0])[::-1])
+
+
+def events(path: Path) -> list[dict[str, object]]:
+    return [json.loads(line) for line in path.read_text().splitlines()]
+
+
+def reproducible(found: list[dict[str, object]]) -> list[tuple[object, ...]]:
+    """The events without what the host's own clock measured."""
+    return [
+        (e["time"], e["kind"]) + (() if e["kind"] in WALL_CLOCK_KINDS else (e["message"],))
+        for e in found
+    ]
+
+
+def test_in_lock_step_the_fault_is_repaired_by_a_coalition_across_hosts(database, tmp_path):
+    runs = []
+    for run in range(2):
+        with nodes("--lock-step", "--lock-step") as (started, options):
+            out = tmp_path / f"events{run}.jsonl"
+            done = manage(database, *options, *RUN, "--events", str(out))
+            assert done.returncode == 0, done.stderr + started["a"].output()
+            # The nodes keep running the repair: b's node feeds a's over a connection to a's
+            # host (the bridge's importer listens on its sink node's host), and each node
+            # listens on its own host only.
+            sockets = {robot: tcp_sockets(node.process.pid) for robot, node in started.items()}
+            assert "127.0.0.2" in {remote for _, remote in sockets["b"]}
+            for robot, found in sockets.items():
+                assert {local for local, remote in found if remote == ANY} == {HOSTS[robot]}
+        runs.append((done.stdout, events(out)))
+
+    stdout, found = runs[0]
+    kinds = [e["kind"] for e in found]
+    assert kinds.index("deployed") < kinds.index("detection") < kinds.index("switch")
+    assert kinds[-1] == "recovered"
+    by_kind = {e["kind"]: e for e in found}
+    assert by_kind["deployed"]["time"] == 0.0
+    assert by_kind["deployed"]["data"] == {"configuration": "{Sensor, gain, Check}"}
+    # Stuck from 1 s: reports of 1.05 and 1.1 s violate, the second look declares the fault.
+    assert by_kind["detection"]["time"] == pytest.approx(1.2)
+    assert by_kind["location"]["data"]["module"] == "Sensor"
+    assert by_kind["switch"]["time"] == pytest.approx(1.2)
+    assert by_kind["switch"]["data"] == {"configuration": "{Sensor_alt@b, gain, Check}"}
+    connect = [
+        e for e in found if e["kind"] == "step" and "Sensor_alt.y@b -> gain.x@a" in e["message"]
+    ]
+    assert len(connect) == 1  # the coalition's port crosses from b's node to a's
+    # Every event was printed as it came, on the run's clock.
+    for event in found:
+        assert f"{event['time']:9.3f} s  {event['kind']:<11} {event['message']}" in stdout
+    assert reproducible(runs[1][1]) == reproducible(found)
+
+
+def test_in_real_time_it_repairs_and_runs_until_interrupted(database, tmp_path):
+    out = tmp_path / "events.jsonl"
+    command = [sys.executable, "-m", "refresh", "manage", "--db", str(database), "--task"]
+    command += ["levels", "--natives", NATIVES, "--real-time", *SETTINGS, "--events", str(out)]
+    with nodes("", "") as (_started, options):
+        manager = subprocess.Popen(
+            [*command, *options], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
+        try:
+            lines = read_until(manager, re.compile(r"^ *\d+\.\d{3} s  recovered "))
+            manager.send_signal(signal.SIGINT)
+            _, stderr = manager.communicate(timeout=MANAGER_TIMEOUT)
+        finally:
+            if manager.poll() is None:
+                manager.kill()
+                manager.wait()
+    assert manager.returncode == 130, stderr
+    assert stderr.endswith("interrupted\n") and "Traceback" not in stderr
+    kinds = [event["kind"] for event in events(out)]
+    assert kinds.index("deployed") < kinds.index("switch") < kinds.index("recovered")
+    # Times are the run's clock, from 0 at the start, not the host's wall clock.
+    assert all(0 <= event["time"] < MANAGER_TIMEOUT for event in events(out))
+    assert any(line.endswith("running {Sensor_alt@b, gain, Check}") for line in lines)
+
+
+def read_until(process: subprocess.Popen[str], pattern: re.Pattern[str]) -> list[str]:
+    """The lines `process` printed up to the first that `pattern` finds (within
+    MANAGER_TIMEOUT s, else the test fails)."""
+    assert process.stdout is not None
+    lines: list[str] = []
+    found = threading.Event()
+
+    def read() -> None:
+        assert process.stdout is not None
+        for line in process.stdout:
+            lines.append(line.rstrip("\n"))
+            if pattern.search(line):
+                found.set()
+                return
+
+    threading.Thread(target=read, daemon=True).start()
+    assert found.wait(MANAGER_TIMEOUT), "\n".join(lines)
+    return lines
+
+
+def test_a_node_in_the_other_time_mode_is_refused_before_anything_is_deployed(database):
+    with nodes("", "--lock-step") as (started, options):
+        done = manage(database, *options, "--lock-step", "--seconds", "1")
+        assert done.returncode == 1
+        assert done.stderr.startswith("error: robot 'a', node at socket://127.0.0.2:")
+        assert "start it with firmware-sim listen --lock-step" in done.stderr
+        done = manage(database, *options, "--real-time", "--seconds", "1")
+        assert done.returncode == 1
+        said = done.stderr
+        assert said.startswith("error: robot 'b', node at socket://127.0.0.3:")
+        assert "expected a node on the real-time clock, got one in lock-step" in said
+        assert "Traceback" not in said and said.count("\n") == 1
+        # Nothing was deployed on either node.
+        for node in started.values():
+            assert not any(line.startswith("registered ") for line in node.lines)
+
+
+def unused_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+@pytest.mark.parametrize(
+    ("options", "status", "said"),
+    [
+        (("--node", "c=socket://127.0.0.1:1"), 1, "--node c=...: expected a robot of "),
+        (("--node", "a=socket://127.0.0.1:1"), 1, "expected a --node ROBOT=URL for every robot"),
+        (("--node", "a", "--node", "b=x"), 2, "argument --node: expected ROBOT=URL, got 'a'"),
+        (("--node", "a=x", "--seconds", "nan"), 2, "argument --seconds: expected a number"),
+        (("--node", "a=x", "--lock-step", "--quantum", "1e300"), 2, "argument --quantum: expected"),
+        (("--node", "a=x", "--quantum", "0.1"), 2, "--quantum: expected with --lock-step"),
+        (("--node", "a=x", "--decision-period", "0"), 2, "argument --decision-period: expected"),
+        (("--node", "a=x", "--node", "a=y"), 2, "expected one node per robot, got two"),
+    ],
+)
+def test_bad_input_is_one_error_line(database, options, status, said):
+    done = manage(database, *options)
+    assert done.returncode == status, done.stderr
+    assert said in done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def test_a_node_that_does_not_answer_and_an_unknown_task_are_one_error_line(database):
+    url = f"socket://127.0.0.1:{unused_port()}"
+    done = manage(database, "--node", f"a={url}", "--node", f"b={url}")
+    assert done.returncode == 1
+    assert done.stderr.startswith(f"error: robot 'a': cannot open the link to its node at {url}")
+    command = [sys.executable, "-m", "refresh", "manage", "--db", str(database), "--task"]
+    done = subprocess.run(  # without --natives: the manager has no code for Sensor
+        [*command, "levels", "--node", f"a={url}", "--node", f"b={url}"],
+        capture_output=True,
+        text=True,
+        timeout=MANAGER_TIMEOUT,
+    )
+    assert done.returncode == 1
+    assert done.stderr == (
+        "error: module 'Sensor' is native: expected its NativePBO class among the natives "
+        "(signal; add yours with --natives MODULE), got none\n"
+    )
+    command.append("x")
+    done = subprocess.run(
+        [*command, "--node", f"a={url}"], capture_output=True, text=True, timeout=MANAGER_TIMEOUT
+    )
+    assert done.returncode == 1
+    assert done.stderr == (
+        f"error: {database}: task.name: expected task 'x' (--task), got task 'levels' only\n"
+    )
