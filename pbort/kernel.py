@@ -257,29 +257,33 @@ class Kernel:
 
     def shadow(
         self,
-        modules: Iterable[str | ModuleCode],
+        modules: Iterable[str | ModuleCode | tuple[str, ModuleCode]],
         wiring: Iterable[tuple[str, str]] | None = None,
         inputs: Mapping[str, object] | None = None,
     ) -> ShadowRun:
         """A shadow run of estimators for a candidate configuration (see `pbort.shadow`).
 
-        `modules` are names of registered PBOs (running or not: their constants come along) or
-        `ModuleCode`s not on this kernel (named by their code). `wiring` defaults to the live
-        connections among the named PBOs. An input left unwired reads a snapshot of the live
-        variable it is connected to, if any; `inputs` adds or overrides values (``"pbo.port"``).
+        `modules` are names of registered PBOs (running or not: their constants come along),
+        `ModuleCode`s not on this kernel (named by their code), or (name, code) pairs: one code
+        under a name of its own, so a configuration that uses a module twice (a combo of two
+        of the same filter) names each. `wiring` defaults to the live connections among the
+        named PBOs. An input left unwired reads a snapshot of the live variable it is connected
+        to, if any; `inputs` adds or overrides values (``"pbo.port"``).
         """
         self._check_open()
         codes: dict[str, ModuleCode] = {}
         live_names: set[str] = set()
         for item in modules:
-            name = item if isinstance(item, str) else item.name
+            if isinstance(item, str):
+                name, code = item, self._pbo(item).code
+                live_names.add(name)
+            elif isinstance(item, tuple):
+                name, code = item
+            else:
+                name, code = item.name, item
             if name in codes:
                 raise DuplicateNameError(f"module {name!r} is given twice to the shadow run")
-            if isinstance(item, str):
-                codes[name] = self._pbo(name).code
-                live_names.add(name)
-            else:
-                codes[name] = item
+            codes[name] = code
         live = self._svt.connections()
         if wiring is None:
             wiring = [(s, d) for s, d in live if {_owner(s), _owner(d)} <= live_names]

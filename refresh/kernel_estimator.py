@@ -70,18 +70,15 @@ class KernelEstimator:
                 raise EstimationError(
                     f"module {placement.module!r}: expected code of that name, got {code.name!r}"
                 )
-            if instance != placement.module:
-                raise EstimationError(
-                    f"module {placement.module!r} appears twice in {configuration.label()}; "
-                    "a shadow run names modules by their code"
-                )
-            modules.append(code)
+            modules.append((instance, code))
         wiring = configuration.connections(self.database)
         wired = {sink for _, sink in wiring}
         present = set(configuration.instances)
         inputs: dict[str, object] = {
-            f"{placement.module}.{name}": value
-            for placement in configuration.placements
+            f"{instance}.{name}": value
+            for placement, instance in zip(
+                configuration.placements, configuration.instances, strict=True
+            )
             for name, value in self.database.module(placement.module).constants.items()
         }
         inputs.update(

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from pbort import Kernel
-from refresh.configuration import initial_configuration
+from refresh.configuration import Configuration, initial_configuration, parse_placement
 from refresh.kernel_estimator import KernelEstimator
 from tests.refresh.line_follower import load, natives
 
@@ -44,3 +44,20 @@ def test_the_kernel_never_goes_back(loaded):
         kernel.run(until=3.0)
         assert estimate(loaded, kernel, at=0.5) == pytest.approx(2 + 100)
         assert kernel.now == pytest.approx(3.0)
+
+
+def test_a_combo_that_uses_a_module_twice_is_estimated_with_both(loaded):
+    database = loaded.database
+    twice = Configuration(
+        loaded.task.schemas,
+        (
+            tuple(
+                parse_placement(name, "rover", database) for name in ("Sensor", "Filter", "Filter")
+            ),
+            (parse_placement("Steer", "rover", database),),
+        ),
+    )
+    assert twice.instances == ("Sensor", "Filter", "Filter_2", "Steer")
+    with Kernel() as kernel:
+        estimator = KernelEstimator(kernel, natives(FAULT_AT), database, loaded.task, steps=4)
+        assert estimator.estimate(twice)["error"] == pytest.approx((2 + 10) / 4)  # halved twice
