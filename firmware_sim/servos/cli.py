@@ -29,11 +29,11 @@ import can
 
 from commandline import add_command, command_parser, run
 from commandline.arguments import integer, real
+from firmware_sim.listen_link import open_listening
 from firmware_sim.servos.bank import ServoBank
 from firmware_sim.servos.can_servo import NODES, CanServoNodes
 from firmware_sim.servos.can_servo_server import CanServoServer
 from firmware_sim.servos.datasheet import S3003, SSC32_CHANNELS
-from firmware_sim.listen_link import open_listening
 from firmware_sim.servos.errors import ServoEmulatorError, ServoPortError
 from firmware_sim.servos.lock_step import ServoClock, ServoControl, serve_control
 from firmware_sim.servos.ports import BytePort, PtyPort, SerialPort

@@ -17,10 +17,9 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Protocol
 
+from firmware_sim.wire_sim.transfer import WireRun, run_transfer
 from hexmanipulator.geometry import Geometry
 from hexmanipulator.servo_bus import ServoBus
-
-from firmware_sim.wire_sim.transfer import WireRun, run_transfer
 from refresh.database import Module
 from refresh.node_applier import NodeApplier
 from refresh.runtime import RuntimeApplier

@@ -93,7 +93,9 @@ class Experiment:
     processes gives its world over links (`visual_servoing.experiment.linked`), which overrides
     `_applier` too; the run is the same."""
 
-    def __init__(self, scenario: Scenario, work: Path, world: ExperimentWorld | None = None) -> None:
+    def __init__(
+        self, scenario: Scenario, work: Path, world: ExperimentWorld | None = None
+    ) -> None:
         self.scenario = scenario
         self.scene = Scene()
         self.world: ExperimentWorld = world if world is not None else World(load_geometry(None))
