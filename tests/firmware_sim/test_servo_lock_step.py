@@ -46,7 +46,7 @@ def test_control_requests_a_servo_emulator_cannot_do_are_refused_with_the_reason
     control = ServoControl(CanServoNodes(now=clock.now), clock)
     host = NodeControl(Sender(DirectLink(Receiver(NoModules(), control).handle), retries=0))
     assert host.pbos() == ()
-    with pytest.raises(TransferError, match="START refused: start HexMan: .* no PBOs"):
+    with pytest.raises(TransferError, match=r"START refused: start HexMan: .* no PBOs"):
         host.start("HexMan")
     with pytest.raises(TransferError, match=r"expected servoN\.angle with N from 1 to 6"):
         host.read(("servo7.angle",))

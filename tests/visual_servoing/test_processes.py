@@ -56,7 +56,7 @@ def test_a_process_that_ends_early_is_an_error_naming_its_log_and_all_are_stoppe
         failing = launch.start("failing", "-c", "import sys; print('no luck'); sys.exit(3)")
         with pytest.raises(ExperimentError, match=r"process failing exited with status 3 "):
             failing.wait_for(PTY)
-        with pytest.raises(ExperimentError, match=rf"failing.log\): no luck"):
+        with pytest.raises(ExperimentError, match=r"failing.log\): no luck"):
             launch.check()
     finally:
         launch.stop()
