@@ -108,3 +108,7 @@ fi
 echo
 echo "=== the paper's experiment: two robots, noise in the camera, ReFrESH repairs the task ==="
 run python -m visual_servoing run --scenario paper --out "$(dirname "$build")/visual_servoing/paper"
+
+echo
+echo "=== the same experiment across processes: two nodes, the servos and the manager on loopback links, lock-step time ==="
+run python -m visual_servoing run --scenario paper --processes --out "$(dirname "$build")/visual_servoing/paper-processes"

@@ -6,14 +6,14 @@ Examples:
   python -m firmware_sim.servos can --url can://virtual/hexman   # or can://remote/...
   python -m firmware_sim.servos can --slcan hexman               # an SLCAN adapter on a pty
   python -m firmware_sim.servos can --url can://remote/127.0.0.1:P1/can1 \
-      --url can://remote/127.0.0.1:P2/can2 --lock-step tcp-listen://127.0.0.1:0
+      --url can://remote/127.0.0.1:P2/can2 --time-master tcp-listen://127.0.0.1:0
 
 The emulator runs in real time until interrupted (Ctrl-C, exit status 130) or for --seconds. It
 prints one line saying where it listens, then nothing until it stops. CAN servo nodes given
-several --url answer on each bus (redundant CAN interfaces). With --lock-step URL their clock is
-virtual and moves only when a time master's ADVANCE on URL says (hexmigrate's transfer protocol,
-as a ``firmware-sim listen --lock-step`` node); the line saying where that link listens comes
-first. Errors print one line
+several --url answer on each bus (redundant CAN interfaces). With --time-master URL their clock
+is virtual (lock-step time) and moves only when a time master's ADVANCE on URL says
+(hexmigrate's transfer protocol, as a node started with firmware-sim listen --lock-step); the
+line saying where that link listens comes first. Errors print one line
 "error: ..." and exit with status 1, usage errors exit 2; --debug shows the traceback.
 """
 
@@ -87,10 +87,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     where.add_argument("--slcan", metavar="CHANNEL", help="an SLCAN adapter on a new pty")
     nodes.add_argument(
-        "--lock-step",
+        "--time-master",
         metavar="URL",
-        help="virtual time moved only by a time master's ADVANCE on URL (tcp-listen://HOST:0, "
-        "pty, ...)",
+        help="lock-step virtual time, moved only by a time master's ADVANCE on URL "
+        "(tcp-listen://HOST:0, pty, ...)",
     )
     nodes.add_argument(
         "--nodes",
@@ -134,7 +134,7 @@ def _run_ssc32(args: argparse.Namespace) -> None:
 
 def _run_can(args: argparse.Namespace) -> None:
     """Serve the CAN servo nodes on the buses until the time is up."""
-    clock = ServoClock() if args.lock_step else None
+    clock = ServoClock() if args.time_master else None
     nodes = CanServoNodes(
         args.nodes,
         args.volts,
@@ -143,8 +143,8 @@ def _run_can(args: argparse.Namespace) -> None:
     )
     with contextlib.ExitStack() as stack:
         link = None
-        if args.lock_step:
-            link = stack.enter_context(open_listening(args.lock_step, _say))
+        if args.time_master:
+            link = stack.enter_context(open_listening(args.time_master, _say))
         if args.slcan:
             device = stack.enter_context(SlcanDevice(args.slcan))
             bus = _open_bus(device.url, interface="virtual", channel=args.slcan, ignore_config=True)

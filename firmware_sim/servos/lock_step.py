@@ -4,7 +4,7 @@ says, over a link of hexmigrate's transfer protocol, as a node's does.
 A HexManipulator node in lock-step time (``firmware-sim listen --lock-step``) runs each quantum
 of virtual time on its own clock; the servos it commands over CAN must be on that clock too, or a
 move would run on for as long as the host takes to grant the next quantum. ``python -m
-firmware_sim.servos can --lock-step URL`` listens on URL and answers, like a node, PING and the
+firmware_sim.servos can --time-master URL`` listens on URL and answers, like a node, PING and the
 control requests that make sense for servos: ADVANCE (the clock jumps to the time granted; the
 servos have no bridges, so no value is awaited and none is counted), READ of ``servoN.angle``
 (the shaft's angle in degrees) and WATCH (heartbeats on the servos' clock). Every other request

@@ -1,6 +1,6 @@
 """The CAN servo nodes in lock-step time: their clock moves only when a time master's ADVANCE
 says, over the transfer protocol, in process and as ``python -m firmware_sim.servos can
---lock-step URL`` between processes."""
+--time-master URL`` between processes."""
 
 from __future__ import annotations
 
@@ -58,7 +58,7 @@ def test_a_move_runs_in_virtual_time_between_processes() -> None:
     """A move commanded over a python-can-remote bus progresses only as ADVANCE says."""
     with RemoteCanServer("lockstep") as server:
         command = [sys.executable, "-m", "firmware_sim.servos", "can", "--url", server.url()]
-        command += ["--lock-step", "tcp-listen://127.0.0.1:0", "--seconds", "60"]
+        command += ["--time-master", "tcp-listen://127.0.0.1:0", "--seconds", "60"]
         with subprocess.Popen(command, stdout=subprocess.PIPE, text=True) as emulator:
             try:
                 assert emulator.stdout is not None

@@ -144,7 +144,7 @@ def run_processes(
         for url in buses:
             servo_args += ["--url", url]
         if not real_time:
-            servo_args += ["--lock-step", f"tcp-listen://{HOST}:0"]
+            servo_args += ["--time-master", f"tcp-listen://{HOST}:0"]
         servos = launch.start("servos", *servo_args)
         node = ["-m", "visual_servoing", "node", "--scenario", scenario.name]
         if not real_time:
