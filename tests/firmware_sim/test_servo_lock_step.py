@@ -12,6 +12,9 @@ import time
 import numpy as np
 import pytest
 
+from firmware_sim.kernel_control import KernelControl
+from firmware_sim.node import Node
+from firmware_sim.server import NodeTarget
 from firmware_sim.servos.can_servo import CanServoNodes
 from firmware_sim.servos.errors import ServoEmulatorError
 from firmware_sim.servos.lock_step import NoModules, ServoClock, ServoControl
@@ -24,6 +27,8 @@ from hexmigrate.links.remote_server import RemoteCanServer
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
+from hexmigrate.transfer.time_master import TimeMaster
+from pbort import NativeModule, NativePBO, PortIO, PortSpec
 
 GEOMETRY = load()
 WAIT = 20.0
@@ -52,6 +57,30 @@ def test_control_requests_a_servo_emulator_cannot_do_are_refused_with_the_reason
         host.read(("servo7.angle",))
     assert host.read(("servo1.angle",)) == (("servo1.angle", 0.0),)
     assert host.advance(0.5, {}) == (0.5, {})
+
+
+def test_a_time_master_grants_the_servos_each_quantum_before_the_nodes() -> None:
+    """What a node's PBO sees of the servos' clock during a quantum is the quantum's end."""
+    clock = ServoClock()
+    servos = ServoControl(CanServoNodes(now=clock.now), clock)
+    seen: list[tuple[float, float]] = []
+
+    class Watcher(NativePBO):
+        name = "watcher"
+        ports = (PortSpec.output("y"),)
+
+        def cycle(self, io: PortIO) -> None:
+            seen.append((round(io.now, 6), clock.now()))
+
+    with Node("n") as node:
+        node.start(NativeModule(Watcher), 40)
+        kernel = KernelControl(node, lock_step=True)
+        nodes = {"n": NodeControl(Sender(DirectLink(Receiver(NodeTarget(node), kernel).handle)))}
+        first = {"servos": NodeControl(Sender(DirectLink(Receiver(NoModules(), servos).handle)))}
+        master = TimeMaster(nodes, 0.05, first=first)
+        master.run_until(0.1)
+    assert seen == [(0.0, 0.05), (0.025, 0.05), (0.05, 0.1), (0.075, 0.1)]
+    assert master.clocks["servos"] == 0.1
 
 
 def test_a_move_runs_in_virtual_time_between_processes() -> None:

@@ -39,7 +39,6 @@ from firmware_sim.wire_sim.transfer import run_transfer
 from hexmanipulator.can_bus import CanServoBus, open_can_bus
 from hexmanipulator.geometry import Geometry
 from hexmigrate.errors import HexmigrateError
-from hexmigrate.transfer.control import MICROSECONDS
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.time_master import TimeMaster
 from refresh.database import Module
@@ -62,16 +61,17 @@ REPORT_PERIOD = 0.01
 each quantum ends with one."""
 QUANTUM = 0.01
 """The default lock-step quantum, seconds."""
+SERVOS = "servos"
+"""The servo emulator's name for the time master."""
 MIGRATION_WIRE = "serial"
 """The wire a migration's time is modelled on (115200 baud 8N1, wire_sim's default)."""
 
 
 class LockStep:
-    """Lock-step virtual time: the servos' quantum, then the nodes' (`master`)."""
+    """Lock-step virtual time: `master` grants the servos, then the nodes, each quantum."""
 
-    def __init__(self, master: TimeMaster, servos: NodeControl) -> None:
+    def __init__(self, master: TimeMaster) -> None:
         self.master = master
-        self.servos = servos
 
     def start(self) -> float:
         """The run's time 0 on the manager's clock."""
@@ -83,12 +83,7 @@ class LockStep:
 
     def run_until(self, t: float) -> None:
         """Grant quanta to the servos and the nodes until they reach `t`."""
-        target = round(t * MICROSECONDS)
-        quantum = round(self.master.quantum * MICROSECONDS)
-        while (now := round(self.master.now * MICROSECONDS)) < target:
-            until = min(now + quantum, target) / MICROSECONDS
-            self.servos.advance(until, {})
-            self.master.run_until(until)
+        self.master.run_until(t)
 
 
 class RealTime:
@@ -147,9 +142,9 @@ class LinkedWorld:
         if servos is None:
             self._clock = RealTime()
         else:
-            master = TimeMaster(applier.controls(), quantum)
+            master = TimeMaster(applier.controls(), quantum, first={SERVOS: servos})
             applier.router = master
-            self._clock = LockStep(master, servos)
+            self._clock = LockStep(master)
         self._controllers: dict[str, BusOffController] = {}
         self.servo_buses: dict[str, CanServoBus] = {}
         for _name, link in MANIPULATORS:
