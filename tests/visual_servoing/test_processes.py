@@ -4,6 +4,11 @@ the launcher stops every process it started whatever happens."""
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
+import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -62,3 +67,52 @@ def test_a_process_that_ends_early_is_an_error_naming_its_log_and_all_are_stoppe
         launch.stop()
     assert all(child.process.poll() is not None for child in launch.children)
     assert launch.children[0].process.returncode != 0  # stopped, not ended by itself
+
+
+def children() -> dict[int, str]:
+    """This process's child processes: pid -> command line."""
+    found = {}
+    for task in Path("/proc/self/task").iterdir():
+        for pid in (task / "children").read_text().split():
+            with contextlib.suppress(OSError):
+                command = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ")
+                found[int(pid)] = command.decode(errors="replace")
+    return found
+
+
+def test_a_node_killed_mid_run_fails_the_run_by_name_and_every_process_is_stopped(tmp_path):
+    out = tmp_path / "run"
+    failure: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            run_processes(SCENARIOS["paper"], out)
+        except ExperimentError as error:
+            failure.append(error)
+
+    runner = threading.Thread(target=run)
+    runner.start()
+    seen: dict[int, str] = {}
+    deadline = time.monotonic() + 120
+    while not (out / "manager.log").exists() and time.monotonic() < deadline:
+        seen |= children()
+        time.sleep(0.05)
+    time.sleep(2.0)  # the manager is connected and runs
+    seen |= children()
+    (rotation,) = [pid for pid, command in seen.items() if "--robot rotation" in command]
+    os.kill(rotation, signal.SIGKILL)
+    runner.join(timeout=120)
+    assert not runner.is_alive()
+    (error,) = failure
+    assert "rotation" in str(error) and "rotation.log" in str(error)
+    assert len(seen) >= 6  # two CAN servers, the servos, two nodes, the manager
+    alive = [command for pid, command in seen.items() if Path(f"/proc/{pid}").exists()]
+    assert alive == []
+
+
+def test_in_real_time_the_processes_run_on_their_clocks_and_repair_the_paper_fault(tmp_path):
+    got = run_processes(SCENARIOS["paper"], tmp_path, real_time=True)
+    assert got["processes"]["servos"].startswith("can://remote/127.0.0.1:")  # no time master
+    (record,) = got["reconfigurations"]
+    assert record["located"] == "CamReader"
+    assert got["final"] is not None and got["stopped_at"] is None
