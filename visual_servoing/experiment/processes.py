@@ -4,7 +4,8 @@ loopback links, started, watched and stopped by this launcher.
 The processes, each with its output in a log file of the run's folder (``ROLE.log``):
 
 =============  ==========================================================================
-``can1/can2``  python-can-remote servers on 127.0.0.1, one per CAN bus to the servos
+``can1/can2``  python-can-remote servers on 127.0.0.1 (``python -m can_remote``), one per
+               CAN bus to the servos, each on a port the system picks
 ``servos``     ``python -m firmware_sim.servos can`` on both buses (its lock-step control
                link on 127.0.0.1 in lock-step time)
 ``hexman``     ``python -m visual_servoing node --robot hexman`` on a pty (a serial line:
@@ -15,7 +16,8 @@ The processes, each with its output in a log file of the run's folder (``ROLE.lo
 
 Each process says where it listens in its first line, which the launcher waits for (bounded).
 Whatever happens (a process that exits early, one that does not answer, Ctrl-C), every process
-the launcher started is stopped before it returns; an error names the process and its log.
+the launcher started is stopped before it returns (SIGINT, then SIGKILL; the last started
+first, so the CAN servers last); an error names the process and its log.
 """
 
 from __future__ import annotations
@@ -31,7 +33,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from hexmigrate.links.remote_server import RemoteCanServer
 from visual_servoing.errors import ExperimentError
 from visual_servoing.experiment.firmware import MANIPULATORS
 from visual_servoing.experiment.linked import QUANTUM
@@ -51,6 +52,8 @@ PTY = re.compile(r"^listening on (/dev/\S+)")
 """A pty listener's first line."""
 SERVOS = re.compile(r"CAN servo nodes on ")
 """The servo emulator's line once it serves its buses."""
+CAN_SERVER = re.compile(r"Connect using channel 'ws://localhost:(\d+)/'")
+"""The python-can-remote server's line with the port it listens on."""
 
 
 @dataclass
@@ -133,13 +136,18 @@ def run_processes(
     out.mkdir(parents=True, exist_ok=True)
     launch = Launch(out)
     with contextlib.ExitStack() as stack:
+        stack.callback(launch.stop)
+        servers = [
+            launch.start(
+                link, "-m", "can_remote", "-i", "virtual", "-c", link, "-H", HOST, "-p", "0"
+            )
+            for _name, link in MANIPULATORS
+        ]
         buses = []
-        for _name, link in MANIPULATORS:
-            server = RemoteCanServer(link, HOST)
-            stack.callback(server.stop)
-            server.start()
-            buses.append(launch.urls.setdefault(link, server.url()))
-        stack.callback(launch.stop)  # the processes first, then the CAN servers
+        for server in servers:
+            port = server.wait_for(CAN_SERVER)[1]
+            url = f"can://remote/{HOST}:{port}/{server.role}?role=host"
+            buses.append(launch.urls.setdefault(server.role, url))
         servo_args = ["-m", "firmware_sim.servos", "can"]
         for url in buses:
             servo_args += ["--url", url]
