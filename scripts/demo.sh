@@ -9,6 +9,8 @@
 # 3. The paper's section 6 experiment on two emulated robots: noise in the camera, ReFrESH
 #    detects it, locates CamReader with Base Choice, chooses the Dehazer, migrates its image and
 #    the task recovers. It ends with the summary table and where the report and plot are.
+# 4. The same experiment across processes: the two robots' nodes, the servo emulator, two
+#    python-can-remote servers and the manager on loopback links, in lock-step virtual time.
 #
 # Usage: scripts/demo.sh VENV MODULE_BUILD_DIR
 set -euo pipefail
