@@ -13,9 +13,13 @@ against a baseline of the same run:
   (`NodeControl.pushes`, a thread per node); the figure is this process's CPU share
   (`time.process_time` over wall time) against the same links open with nothing pushed. Goal:
   under 10% of one core. It prints the reports and bytes per second each node sends (the
-  framed bytes on the wire, reports and heartbeats).
+  framed bytes on the wire, reports and heartbeats);
+- the paper scenario across processes: ``python -m visual_servoing run --scenario paper
+  --processes`` (lock-step time: the nodes, the servo emulator, the CAN servers and the manager
+  started, run and stopped) against the in-process ``run --scenario paper``, each timed whole
+  on the wall clock as a user runs it. Goal: at most 3x the in-process run.
 
-    python benchmarks/control.py [--requests N] [--nodes N] [--seconds S]
+    python benchmarks/control.py [--requests N] [--nodes N] [--seconds S] [--scenario NAME]
 """
 
 from __future__ import annotations
@@ -45,6 +49,8 @@ from hexmigrate.transfer.sender import Sender
 
 ROUND_TRIP_GOAL = 2.0  # a control request's median round trip / the echo's
 CPU_GOAL = 0.10  # of one core, for NODES nodes at REPORT_HZ reports/s each
+PROCESSES_GOAL = 3.0  # the scenario's run across processes / in process
+SCENARIO_TIMEOUT = 900.0
 REPORT_PERIOD_MS = 100
 START_TIMEOUT = 30.0  # a node imports Unicorn and python-can before it says where it listens
 CONNECT_WITH = re.compile(r"\(connect with: hexmigrate send FILE\.hex --to (\S+)\)$")
@@ -248,11 +254,33 @@ def print_reports(
     )
 
 
+def scenario_run_time(scenario: str) -> bool:
+    """Time the scenario in process, then across processes in lock-step time; print both."""
+    times = {}
+    with tempfile.TemporaryDirectory(prefix="scenario-") as folder:
+        for label, extra in (("in process", ()), ("across processes", ("--processes",))):
+            command = [sys.executable, "-m", "visual_servoing", "run", "--scenario", scenario]
+            command += ["--out", str(Path(folder) / label.replace(" ", "-")), "--json", *extra]
+            start = time.perf_counter()
+            subprocess.run(command, check=True, capture_output=True, timeout=SCENARIO_TIMEOUT)
+            times[label] = time.perf_counter() - start
+    ratio = times["across processes"] / times["in process"]
+    met = ratio <= PROCESSES_GOAL
+    print(f"the {scenario} scenario, run whole from the command line (wall clock)")
+    print(f"  in process (baseline)              {times['in process']:6.1f} s")
+    print(
+        f"  across processes, lock-step time   {times['across processes']:6.1f} s"
+        f"  ({ratio:.1f}x; goal <= {PROCESSES_GOAL:g}x: {'yes' if met else 'NO'})"
+    )
+    return met
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--requests", type=int, default=200, help="round trips of each kind")
     parser.add_argument("--nodes", type=int, default=10, help="nodes that push reports")
     parser.add_argument("--seconds", type=float, default=5.0, help="length of each CPU window")
+    parser.add_argument("--scenario", default="paper", help="the scenario run across processes")
     args = parser.parse_args()
 
     print(f"control round trip, {args.requests} of each kind taken in turn (microseconds)")
@@ -265,6 +293,8 @@ def main() -> None:
             )
     print()
     met = report_throughput(args.nodes, args.seconds) and met
+    print()
+    met = scenario_run_time(args.scenario) and met
     if not met:
         print("a goal was missed")
 

@@ -61,6 +61,8 @@ class KernelControl:
         self.lock_step = lock_step
         self.exports: dict[int, LinkedExport] = {}
         self.imports: dict[int, LinkedImport] = {}
+        self.granted = 0.0
+        """The last time an Advance ran the node to (its clock may be beyond)."""
 
     def pbos(self) -> tuple[PboRow, ...]:
         """Every PBO of the kernel, in registration order."""
@@ -130,15 +132,19 @@ class KernelControl:
     def advance(self, until: float, expect: Mapping[int, int]) -> tuple[float, dict[int, int]]:
         """Lock-step time: run the kernel to `until` once each imported bridge N has brought
         value `expect[N]` (waiting at most ADVANCE_WAIT s), letting its importer take values up
-        to that one; the node's clock and the values each export sent so far."""
+        to that one; the node's clock and the values each export sent so far. The node's clock
+        may be past `until` already (a PBO released before the last time granted ran on beyond
+        it, each call taking its time, as on any kernel): the node then runs nothing more, and a
+        time before the last one granted is refused."""
         if not self.lock_step:
             raise BridgeError("this node runs on the real-time clock: start it with --lock-step")
         kernel = self.node.kernel
-        if not kernel.now <= until <= kernel.now + MAX_ADVANCE:
+        if not self.granted <= until <= self.granted + MAX_ADVANCE:
             raise BridgeError(
-                f"expected a time from the node's clock {kernel.now:g} s to {MAX_ADVANCE:g} s "
+                f"expected a time from the node's clock {self.granted:g} s to {MAX_ADVANCE:g} s "
                 f"later, got {until:g}"
             )
+        self.granted = until
         unknown = sorted(set(expect) - set(self.imports))
         if unknown:
             raise BridgeError(f"bridge {unknown[0]} is not imported here")

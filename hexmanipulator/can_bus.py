@@ -69,6 +69,7 @@ class CanServoBus:
             )
 
     def read(self) -> Reading:
+        self._drain()
         self._counter = (self._counter + 1) % 256
         self._send(SYNC_ID, {"Counter": self._counter})
         feedback, status = self._collect()
@@ -88,6 +89,13 @@ class CanServoBus:
 
     def close(self) -> None:
         """Nothing to release: the bus belongs to whoever opened it."""
+
+    def _drain(self) -> None:
+        """Drop the frames already received: answers to an earlier Sync, or to another host's
+        on a shared bus (a manager's estimator reading the same servos), whose counter may be
+        the one this read is about to send."""
+        while self.bus.recv(timeout=0) is not None:
+            pass
 
     def _collect(self) -> tuple[dict[int, dict], dict[int, dict]]:
         """The Feedback and Status signals per node that answer the current Sync."""

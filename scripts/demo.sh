@@ -9,6 +9,8 @@
 # 3. The paper's section 6 experiment on two emulated robots: noise in the camera, ReFrESH
 #    detects it, locates CamReader with Base Choice, chooses the Dehazer, migrates its image and
 #    the task recovers. It ends with the summary table and where the report and plot are.
+# 4. The same experiment across processes: the two robots' nodes, the servo emulator, two
+#    python-can-remote servers and the manager on loopback links, in lock-step virtual time.
 #
 # Usage: scripts/demo.sh VENV MODULE_BUILD_DIR
 set -euo pipefail
@@ -108,3 +110,7 @@ fi
 echo
 echo "=== the paper's experiment: two robots, noise in the camera, ReFrESH repairs the task ==="
 run python -m visual_servoing run --scenario paper --out "$(dirname "$build")/visual_servoing/paper"
+
+echo
+echo "=== the same experiment across processes: two nodes, the servos and the manager on loopback links, lock-step time ==="
+run python -m visual_servoing run --scenario paper --processes --out "$(dirname "$build")/visual_servoing/paper-processes"

@@ -92,6 +92,13 @@ class CanServoNodes:
         with self._lock:
             self.bank.servos[node - 1].jammed = True
 
+    def angle(self, node: int) -> float:
+        """Node `node`'s shaft angle now, in degrees (what its potentiometer reads)."""
+        self._check(node)
+        with self._lock:
+            self.bank.advance_to(self.now())
+            return float(self.bank.servos[node - 1].angle)
+
     def handle(self, frame: can.Message) -> list[can.Message]:
         """The frames the nodes send in answer to one frame from the bus."""
         with self._lock:

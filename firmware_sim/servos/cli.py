@@ -5,9 +5,15 @@ Examples:
   python -m firmware_sim.servos ssc32 --url /dev/ttyUSB1         # any pyserial URL
   python -m firmware_sim.servos can --url can://virtual/hexman   # or can://remote/...
   python -m firmware_sim.servos can --slcan hexman               # an SLCAN adapter on a pty
+  python -m firmware_sim.servos can --url can://remote/127.0.0.1:P1/can1 \
+      --url can://remote/127.0.0.1:P2/can2 --time-master tcp-listen://127.0.0.1:0
 
 The emulator runs in real time until interrupted (Ctrl-C, exit status 130) or for --seconds. It
-prints one line saying where it listens, then nothing until it stops. Errors print one line
+prints one line saying where it listens, then nothing until it stops. CAN servo nodes given
+several --url answer on each bus (redundant CAN interfaces). With --time-master URL their clock
+is virtual (lock-step time) and moves only when a time master's ADVANCE on URL says
+(hexmigrate's transfer protocol, as a node started with firmware-sim listen --lock-step); the
+line saying where that link listens comes first. Errors print one line
 "error: ..." and exit with status 1, usage errors exit 2; --debug shows the traceback.
 """
 
@@ -17,17 +23,19 @@ import argparse
 import contextlib
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import can
 
 from commandline import add_command, command_parser, run
 from commandline.arguments import integer, real
+from firmware_sim.listen_link import open_listening
 from firmware_sim.servos.bank import ServoBank
 from firmware_sim.servos.can_servo import NODES, CanServoNodes
 from firmware_sim.servos.can_servo_server import CanServoServer
 from firmware_sim.servos.datasheet import S3003, SSC32_CHANNELS
 from firmware_sim.servos.errors import ServoEmulatorError, ServoPortError
+from firmware_sim.servos.lock_step import ServoClock, ServoControl, serve_control
 from firmware_sim.servos.ports import BytePort, PtyPort, SerialPort
 from firmware_sim.servos.ssc32 import Ssc32
 from firmware_sim.servos.ssc32_server import Ssc32Server
@@ -71,8 +79,19 @@ def build_parser() -> argparse.ArgumentParser:
     )
     nodes = add_command(commands, "can", _run_can, "CAN servo nodes with S3003 servos")
     where = nodes.add_mutually_exclusive_group(required=True)
-    where.add_argument("--url", help="can://virtual/CH or can://remote/127.0.0.1:PORT/CH")
+    where.add_argument(
+        "--url",
+        action="append",
+        help="can://virtual/CH or can://remote/127.0.0.1:PORT/CH; repeat it for a bus more "
+        "(the nodes answer on each)",
+    )
     where.add_argument("--slcan", metavar="CHANNEL", help="an SLCAN adapter on a new pty")
+    nodes.add_argument(
+        "--time-master",
+        metavar="URL",
+        help="lock-step virtual time, moved only by a time master's ADVANCE on URL "
+        "(tcp-listen://HOST:0, pty, ...)",
+    )
     nodes.add_argument(
         "--nodes",
         type=integer(1, NODES),
@@ -114,18 +133,44 @@ def _run_ssc32(args: argparse.Namespace) -> None:
 
 
 def _run_can(args: argparse.Namespace) -> None:
-    """Serve the CAN servo nodes on the bus until the time is up."""
-    nodes = CanServoNodes(args.nodes, args.volts, feedback_period=args.period_ms / 1000)
+    """Serve the CAN servo nodes on the buses until the time is up."""
+    clock = ServoClock() if args.time_master else None
+    nodes = CanServoNodes(
+        args.nodes,
+        args.volts,
+        now=None if clock is None else clock.now,
+        feedback_period=args.period_ms / 1000,
+    )
     with contextlib.ExitStack() as stack:
+        link = None
+        if args.time_master:
+            link = stack.enter_context(open_listening(args.time_master, _say))
         if args.slcan:
             device = stack.enter_context(SlcanDevice(args.slcan))
             bus = _open_bus(device.url, interface="virtual", channel=args.slcan, ignore_config=True)
-            where = device.url
+            stack.enter_context(CanServoServer(nodes, bus))
+            where = [device.url]
         else:
-            bus = _open_bus(args.url, **parse_url(args.url).bus_config())
+            for url in args.url:
+                bus = _open_bus(url, **parse_url(url).bus_config())
+                stack.enter_context(CanServoServer(nodes, bus))
             where = args.url
-        stack.enter_context(CanServoServer(nodes, bus))
-        _announce(f"{args.nodes} CAN servo nodes on {where}", args.seconds)
+        announced = f"{args.nodes} CAN servo nodes on {' and '.join(where)}"
+        if link is None or clock is None:
+            _announce(announced, args.seconds)
+            return
+        _say(announced)
+        serve_control(link, ServoControl(nodes, clock), _deadline(args.seconds))
+
+
+def _say(line: str) -> None:
+    print(line, flush=True)
+
+
+def _deadline(seconds: float | None) -> Callable[[], bool]:
+    """True once `seconds` have passed (never for None)."""
+    deadline = math.inf if seconds is None else time.monotonic() + seconds
+    return lambda: time.monotonic() >= deadline
 
 
 def _open_bus(url: str, **config: object) -> can.BusABC:

@@ -10,6 +10,11 @@ takes none beyond it (firmware_sim's `KernelControl.advance`). So what each node
 depend on when TCP delivered it, and a run is reproducible; messages between nodes are delivered
 at quantum boundaries, as Renode synchronises its machines.
 
+A process whose clock the nodes read synchronously during a quantum (a servo emulator on a CAN
+bus: a node sends it a command and waits for its answer) is granted each quantum `first`, before
+the nodes: what a node sends it during the quantum then meets it at the quantum's end, whatever
+the order in which the processes run.
+
 Times are counted in whole microseconds (what an Advance carries), so that the nodes' clocks
 and the master's `now` are the same numbers.
 """
@@ -30,12 +35,19 @@ class TimeMaster:
     time. Each NodeControl is used by the master's threads while `run_until` runs: nothing else
     may use it then."""
 
-    def __init__(self, controls: Mapping[str, NodeControl], quantum: float) -> None:
+    def __init__(
+        self,
+        controls: Mapping[str, NodeControl],
+        quantum: float,
+        first: Mapping[str, NodeControl] | None = None,
+    ) -> None:
         if not (math.isfinite(quantum) and round(quantum * MICROSECONDS) >= 1):
             raise LockStepError(f"expected a quantum of at least 1 microsecond, got {quantum!r} s")
         if not controls:
             raise LockStepError("expected at least one node to grant time to, got none")
         self.controls = dict(controls)
+        self.first = dict(first or {})
+        """Processes granted each quantum before the nodes, one after another (no bridges)."""
         self.quantum = quantum
         self._quantum_us = round(quantum * MICROSECONDS)
         self._now_us = 0
@@ -81,6 +93,11 @@ class TimeMaster:
         """Run every node to `until_us`, each expecting the values sent by the last quantum's
         end; then note what the exporters sent during this one."""
         until = until_us / MICROSECONDS
+        for name, control in self.first.items():
+            try:
+                self.clocks[name], _ = control.advance(until, {})
+            except HexmigrateError as error:
+                raise TransferError(f"quantum to {until:g} s: {name}: {error}") from error
         futures = {
             name: pool.submit(control.advance, until, self._expected(name))
             for name, control in self.controls.items()

@@ -5,16 +5,24 @@ at all. Here a migration crosses the serial line from the module database's host
 (`firmware_sim.wire_sim`, 115200 baud 8N1 unless given), and the world runs on for as long as the
 transfer took: the old configuration keeps working while the image travels, as on a real robot.
 Each migration's figures are kept for the report.
+
+`ExperimentWorld` and `ExperimentApplier` say what the experiment's run needs of its world and
+its applier: the in-process `World` and this applier, or the manager's world over links and its
+applier (`visual_servoing.experiment.linked`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import Protocol
 
 from firmware_sim.wire_sim.transfer import WireRun, run_transfer
+from hexmanipulator.geometry import Geometry
+from hexmanipulator.servo_bus import ServoBus
 from refresh.database import Module
 from refresh.node_applier import NodeApplier
+from refresh.runtime import RuntimeApplier
 from visual_servoing.experiment.world import World
 
 
@@ -26,6 +34,42 @@ class Migration:
     robot: str
     start: float
     run: WireRun
+
+
+class ExperimentWorld(Protocol):
+    """What the experiment runs on: a clock, the plate, the servo buses its host's HexMan
+    estimators read, and the scenario's events."""
+
+    time: float
+    geometry: Geometry
+
+    @property
+    def servo_buses(self) -> Mapping[str, ServoBus]:
+        """The host's servo buses by link (``can1``, ``can2``)."""
+
+    def now(self) -> float:
+        """The world's time in seconds."""
+
+    def advance(self, seconds: float) -> None:
+        """Let the robots run `seconds` further."""
+
+    def plate_yaw(self) -> float:
+        """Where the cameras on the plate look, in degrees."""
+
+    def follow(self, manipulator: str) -> None:
+        """PBO `manipulator` drives the plate from now on."""
+
+    def cut_servo_link(self, link: str) -> None:
+        """The servo bus `link` is cut (its host controller goes bus-off)."""
+
+    def close(self) -> None:
+        """Release everything."""
+
+
+class ExperimentApplier(RuntimeApplier, Protocol):
+    """The runtime's applier, which keeps the migrations' figures for the report."""
+
+    migrations: list[Migration]
 
 
 class VirtualTimeApplier(NodeApplier):

@@ -25,9 +25,7 @@ import numpy as np
 from firmware_sim.errors import BuildError
 from firmware_sim.node import Node, NodeConfig
 from hexmanipulator.geometry import load as load_geometry
-from hexmanipulator.hexman_pbo import hexman_module
 from hexmigrate.image import ModuleImage
-from pbort import NativeModule
 from pbort.code import ModuleCode
 from refresh.configuration import Configuration
 from refresh.events import EventLog
@@ -35,14 +33,16 @@ from refresh.load import Loaded, loads
 from refresh.runtime import HostEstimators, Reconfiguration, Runtime, RuntimeSettings
 from visual_servoing.dehazer_guest import INSTRUCTION_BUDGET, NAME, dehazer_image
 from visual_servoing.errors import ExperimentError
-from visual_servoing.experiment.applier import Migration, VirtualTimeApplier
+from visual_servoing.experiment.applier import (
+    ExperimentApplier,
+    ExperimentWorld,
+    Migration,
+    VirtualTimeApplier,
+)
+from visual_servoing.experiment.firmware import camera_devices, task_natives
 from visual_servoing.experiment.scenarios import Scenario
 from visual_servoing.experiment.world import World
-from visual_servoing.image_faults import Fault, FaultSchedule
 from visual_servoing.scene import Scene
-from visual_servoing.task.camera import CameraDevice, camera_module
-from visual_servoing.task.matcher import matcher_module
-from visual_servoing.task.trajectory import Law, trajectory_module
 
 FRAME = 1 / 30
 """Seconds between two samples of the run: one camera frame."""
@@ -87,12 +87,18 @@ class Outcome:
 
 class Experiment:
     """A scenario set up on a new world; `run()` runs it once. `work` receives the Dehazer's
-    build and HEX file; a Dehazer that cannot be built here is an `ExperimentError`."""
+    build and HEX file; a Dehazer that cannot be built here is an `ExperimentError`.
 
-    def __init__(self, scenario: Scenario, work: Path) -> None:
+    The world is the in-process `World` unless given: the manager of the experiment across
+    processes gives its world over links (`visual_servoing.experiment.linked`), which overrides
+    `_applier` too; the run is the same."""
+
+    def __init__(
+        self, scenario: Scenario, work: Path, world: ExperimentWorld | None = None
+    ) -> None:
         self.scenario = scenario
         self.scene = Scene()
-        self.world = World(load_geometry(None))
+        self.world: ExperimentWorld = world if world is not None else World(load_geometry(None))
         try:
             self._set_up(work)
         except BaseException:
@@ -114,26 +120,24 @@ class Experiment:
         self.image = ModuleImage.read(hex_file)  # what migrates is what the HEX file says
         text = scenario.database.read_text() + scenario.extra
         self.loaded: Loaded = loads(text, scenario.database.name, work)
-        self.devices = {
-            f"{module}@{robot}": CameraDevice(
-                self.scene,
-                self.world.plate_yaw,
-                self.world.now,
-                FaultSchedule(list(self._camera_faults(module, robot))),
-                self._intent,
-            )
-            for module, robot in self._cameras()
-        }
-        self.natives = self._natives()
+        self.devices = camera_devices(
+            scenario,
+            self.loaded.database,
+            self.scene,
+            self.world.plate_yaw,
+            self.world.now,
+            self._intent,
+        )
+        self.natives = task_natives(
+            self.loaded.database,
+            self.scene,
+            self.devices,
+            self.world.servo_buses,
+            self.world.geometry,
+        )
         self.host = Node("refresh", NodeConfig(budget=INSTRUCTION_BUDGET))
         self.host.load(self.image)  # the host holds every module's code, to estimate with
-        self.applier = VirtualTimeApplier(
-            self.world,
-            natives=self.natives,
-            images={NAME: self.image},
-            rate=ROBOT_LINK_BAUD,
-            wait=self.run_for,
-        )
+        self.applier = self._applier()
         estimators = HostEstimators(
             self.host.kernel,
             self._codes(),
@@ -163,6 +167,17 @@ class Experiment:
         self._events = self._scheduled()
         self._progress: Callable[[float], None] | None = None
 
+    def _applier(self) -> ExperimentApplier:
+        """The Maintainer's applier on the world's nodes, migrations in virtual time."""
+        assert isinstance(self.world, World)
+        return VirtualTimeApplier(
+            self.world,
+            natives=self.natives,
+            images={NAME: self.image},
+            rate=ROBOT_LINK_BAUD,
+            wait=self.run_for,
+        )
+
     def _intent(self) -> float:
         """Where the task wants the cameras to look: at the target it is after (its azimuth is
         the task's own knowledge, which TrajGen turns by); where the plate is, before it runs."""
@@ -170,39 +185,6 @@ class Experiment:
             return self.world.plate_yaw()
         targets = list(self.scene.targets.values())
         return targets[int(self._value("trajectory", "target")) % len(targets)].azimuth
-
-    def _cameras(self) -> list[tuple[str, str]]:
-        """(module, robot) for every camera: a camera module on each robot reads that robot's
-        camera (the rotation robot's turns with the plate, so it sees what the plate sees)."""
-        schema = self.loaded.database.schemas["camera"]
-        return [(module.name, robot) for module in schema.modules for robot in module.robots]
-
-    def _camera_faults(self, module: str, robot: str) -> tuple[Fault, ...]:
-        faults = self.scenario.faults
-        return faults.get(f"{module}@{robot}", faults.get(module, ()))
-
-    def _power(self, module: str) -> float:
-        return self.loaded.database.module(module).needs.get("power", 0.0)
-
-    def _natives(self) -> dict[str, NativeModule]:
-        """The robots' firmware: every native module of the database, bound to the world."""
-        database = self.loaded.database
-        natives: dict[str, NativeModule] = {}
-        for key, device in self.devices.items():
-            name = key.partition("@")[0]
-            natives[key] = camera_module(name, device, self._power(name))
-        methods = {"SSD": "ssd", "SSD_alt": "ncc"}
-        laws = {"TrajGen": Law(), "TrajGen_alt": Law(rate=150.0, gain=0.2)}
-        for module in database.modules():
-            name = module.name
-            if name in methods:
-                natives[name] = matcher_module(name, self.scene, methods[name], self._power(name))
-            elif name in laws:
-                natives[name] = trajectory_module(name, self.scene, laws[name], self._power(name))
-        for name, link in (("HexMan", "can1"), ("HexMan_alt", "can2")):
-            bus = self.world.servo_buses[link]
-            natives[name] = hexman_module(bus, self.world.geometry, name)
-        return natives
 
     def _codes(self) -> dict[str, ModuleCode]:
         """What the host estimates with: the natives and the Dehazer's guest code."""
@@ -251,7 +233,7 @@ class Experiment:
 
     def _switched(self, target: Configuration) -> None:
         """A configuration runs: the plate's pose comes from its manipulator module."""
-        self.world.hexman = target.instance_of("manipulator")
+        self.world.follow(target.instance_of("manipulator"))
 
     def _value(self, schema: str, port: str) -> float:
         """A port of the module filling `schema`, on whichever robot it runs."""

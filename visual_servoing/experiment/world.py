@@ -8,8 +8,8 @@ same clock, each with two CAN interfaces on two in-process virtual buses, as red
 have: the HexMan PBO reaches them through `hexmanipulator.can_bus` on the first, HexMan_alt on
 the second; the first bus's host controller can be cut off (`cut_servo_link`: it goes bus-off).
 The cameras on the travelling plate look along the plate's yaw, which
-the world recovers from the servos' feedback by the forward kinematics: what the platform did,
-not what it was told.
+the world recovers from the servos' feedback by the forward kinematics (`PlateTracker`, shared
+with a HexManipulator node in its own process): what the platform did, not what it was told.
 """
 
 from __future__ import annotations
@@ -26,9 +26,10 @@ from firmware_sim.servos.can_servo import CanServoNodes
 from firmware_sim.servos.can_servo_server import CanServoServer
 from hexmanipulator.can_bus import CanServoBus
 from hexmanipulator.geometry import Geometry
-from hexmanipulator.kinematics import Pose, forward
+from hexmanipulator.kinematics import Pose
 from pbort.errors import KernelError
 from visual_servoing.dehazer_guest import INSTRUCTION_BUDGET
+from visual_servoing.experiment.plate import PlateTracker
 
 ROBOTS = ("hexman", "rotation")
 """The robots' names: the task runs on the first."""
@@ -60,8 +61,7 @@ class World:
             host = BusOffController(can.Bus(interface="virtual", channel=channel))
             self._hosts[link] = host
             self.servo_buses[link] = CanServoBus(host, geometry)
-        self._plate = Pose()
-        self._plate_from: np.ndarray | None = None
+        self._plate = PlateTracker(geometry)
 
     def now(self) -> float:
         """The world's time in seconds."""
@@ -81,12 +81,12 @@ class World:
         try:
             feedback = np.asarray(node.kernel.value(f"{self.hexman}.feedback"), dtype=float)
         except KernelError:  # HexMan is not running: the plate stays where it was
-            return self._plate
-        if self._plate_from is None or not np.array_equal(feedback, self._plate_from):
-            if np.any(feedback):
-                self._plate = forward(self.geometry, feedback, guess=self._plate)
-            self._plate_from = feedback
-        return self._plate
+            return self._plate.pose
+        return self._plate.update(feedback)
+
+    def follow(self, manipulator: str) -> None:
+        """The plate's pose comes from PBO `manipulator`'s feedback from now on."""
+        self.hexman = manipulator
 
     def cut_servo_link(self, link: str) -> None:
         """The host's controller on `link` leaves the bus (a cut or shorted cable)."""

@@ -1,0 +1,118 @@
+"""The experiment across processes: in lock-step time each scenario ends as in process (the
+same located module, configuration chosen, detection, switch and recovery, to the quantum), and
+the launcher stops every process it started whatever happens."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from visual_servoing.errors import ExperimentError
+from visual_servoing.experiment.experiment import Experiment
+from visual_servoing.experiment.linked import QUANTUM
+from visual_servoing.experiment.processes import PTY, Launch, run_processes
+from visual_servoing.experiment.report import summary
+from visual_servoing.experiment.scenarios import SCENARIOS
+
+ROLES = {"can1", "can2", "servos", "hexman", "rotation", "manager"}
+TIMES = ("detected_at", "applied_at", "recovered_at")
+"""The times of a reconfiguration that must agree to the quantum."""
+
+
+def in_process(name: str, out: Path) -> dict[str, Any]:
+    with Experiment(SCENARIOS[name], out) as experiment:
+        return summary(experiment.run())
+
+
+@pytest.mark.parametrize("name", ["paper", "blackout", "fog", "servo-cut"])
+def test_across_processes_in_lock_step_a_scenario_ends_as_in_process(name, tmp_path) -> None:
+    expected = in_process(name, tmp_path / "in-process")
+    got = run_processes(SCENARIOS[name], tmp_path / "processes")
+    assert set(got["processes"]) == ROLES
+    assert got["processes"]["hexman"].startswith("/dev/pts/")  # a serial line: migration
+    assert got["processes"]["rotation"].startswith("socket://127.0.0.1:")
+    assert got["final"] == expected["final"] and got["stopped_at"] == expected["stopped_at"]
+    assert len(got["reconfigurations"]) == len(expected["reconfigurations"]) == 1
+    ((mine, theirs),) = zip(got["reconfigurations"], expected["reconfigurations"], strict=True)
+    assert mine["located"] == theirs["located"]
+    assert mine["chosen"] == theirs["chosen"]
+    assert [m["module"] for m in mine["migrations"]] == [m["module"] for m in theirs["migrations"]]
+    for key in TIMES:
+        assert mine[key] == pytest.approx(theirs[key], abs=QUANTUM), key
+    assert (tmp_path / "processes" / "deviation.png").stat().st_size > 0
+
+
+def test_a_process_that_ends_early_is_an_error_naming_its_log_and_all_are_stopped(tmp_path):
+    launch = Launch(tmp_path)
+    try:
+        lasting = launch.start(
+            "lasting",
+            "-c",
+            "import time; print('listening on /dev/pts/99', flush=True); time.sleep(60)",
+        )
+        assert lasting.wait_for(PTY)[1] == "/dev/pts/99"
+        failing = launch.start("failing", "-c", "import sys; print('no luck'); sys.exit(3)")
+        with pytest.raises(ExperimentError, match=r"process failing exited with status 3 "):
+            failing.wait_for(PTY)
+        with pytest.raises(ExperimentError, match=r"failing.log\): no luck"):
+            launch.check()
+    finally:
+        launch.stop()
+    assert all(child.process.poll() is not None for child in launch.children)
+    assert launch.children[0].process.returncode != 0  # stopped, not ended by itself
+
+
+def children() -> dict[int, str]:
+    """This process's child processes: pid -> command line."""
+    found = {}
+    for task in Path("/proc/self/task").iterdir():
+        for pid in (task / "children").read_text().split():
+            with contextlib.suppress(OSError):
+                command = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ")
+                found[int(pid)] = command.decode(errors="replace")
+    return found
+
+
+def test_a_node_killed_mid_run_fails_the_run_by_name_and_every_process_is_stopped(tmp_path):
+    out = tmp_path / "run"
+    failure: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            run_processes(SCENARIOS["paper"], out)
+        except ExperimentError as error:
+            failure.append(error)
+
+    runner = threading.Thread(target=run)
+    runner.start()
+    seen: dict[int, str] = {}
+    deadline = time.monotonic() + 120
+    while not (out / "manager.log").exists() and time.monotonic() < deadline:
+        seen |= children()
+        time.sleep(0.05)
+    time.sleep(2.0)  # the manager is connected and runs
+    seen |= children()
+    (rotation,) = [pid for pid, command in seen.items() if "--robot rotation" in command]
+    os.kill(rotation, signal.SIGKILL)
+    runner.join(timeout=120)
+    assert not runner.is_alive()
+    (error,) = failure
+    assert "rotation" in str(error) and "rotation.log" in str(error)
+    assert len(seen) >= 6  # two CAN servers, the servos, two nodes, the manager
+    alive = [command for pid, command in seen.items() if Path(f"/proc/{pid}").exists()]
+    assert alive == []
+
+
+def test_in_real_time_the_processes_run_on_their_clocks_and_repair_the_paper_fault(tmp_path):
+    got = run_processes(SCENARIOS["paper"], tmp_path, real_time=True)
+    assert got["processes"]["servos"].startswith("can://remote/127.0.0.1:")  # no time master
+    (record,) = got["reconfigurations"]
+    assert record["located"] == "CamReader"
+    assert got["final"] is not None and got["stopped_at"] is None

@@ -1,0 +1,239 @@
+"""The experiment's manager across processes: the world over links, and its applier.
+
+The manager (``python -m visual_servoing manager``) runs the same experiment as in process
+(`Experiment`: the run loop, the samples, the runtime, the report) on a `LinkedWorld`: the two
+robots' nodes are ``python -m visual_servoing node`` processes reached by URL (`LinkApplier`),
+the servos a ``python -m firmware_sim.servos can`` process on two python-can-remote buses.
+
+- **Time.** In lock-step time (`LockStep`) a hexmigrate `TimeMaster` grants the nodes quanta
+  of `quantum` seconds; the servo emulator is granted each quantum first (an ADVANCE on its
+  control link), so every CAN frame a node sends in a quantum meets the servos at the quantum's
+  end, and a run is reproducible. The world's time is the sum of the frames the experiment ran,
+  as in process; the nodes' clocks are that time to the microsecond. In real time
+  (`RealTime`) every process runs on its own clock and the manager waits for the wall clock.
+- **What the manager sees.** Samples and the live inputs are READs of scalar ports (the plate's
+  yaw: ``Plate.yaw`` on the HexManipulator's node); the Decider reads the nodes' pushed reports,
+  one at the end of every quantum (the watch period is shorter than a quantum), taken before
+  each step (a PING after each advance makes sure every push of the quantum has arrived).
+- **The host's estimators** run on the manager's host node with the same natives (camera
+  devices with the same faults, on the manager's clock; HexMan estimators reading the servos
+  over their own connections to the two CAN buses).
+- **Migration.** `LinkedApplier` sends an image over the node's own link (the HexManipulator's
+  is a pty: a serial line), then lets the world run on for as long as the transfer takes on a
+  115200 baud 8N1 wire (`firmware_sim.wire_sim`), as in process.
+- **The plate's yaw on the rotation robot.** Its camera turns with the plate: a bridge (number
+  `PLATE_BRIDGE`, over TCP, no wire delay) carries ``Plate.yaw`` from the HexManipulator's node
+  to the rotation robot's ``Plate.yaw`` input.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import time
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+from firmware_sim.servos.bus_off import BusOffController
+from firmware_sim.wire_sim.transfer import run_transfer
+from hexmanipulator.can_bus import CanServoBus, open_can_bus
+from hexmanipulator.geometry import Geometry
+from hexmigrate.errors import HexmigrateError
+from hexmigrate.transfer.control_client import NodeControl
+from hexmigrate.transfer.time_master import TimeMaster
+from refresh.database import Module
+from refresh.errors import RefreshError
+from refresh.remote import LinkApplier
+from visual_servoing.dehazer_guest import NAME
+from visual_servoing.errors import ExperimentError
+from visual_servoing.experiment.applier import ExperimentApplier, Migration
+from visual_servoing.experiment.experiment import Experiment, Outcome
+from visual_servoing.experiment.firmware import MANIPULATORS
+from visual_servoing.experiment.node import HEXMAN_ROBOT, PLATE
+from visual_servoing.experiment.scenarios import Scenario
+
+PLATE_BRIDGE = 65535
+"""The number of the bridge that carries the plate's yaw (a LinkApplier numbers its own from 0)."""
+PLATE_MHZ = 100_000
+"""The rate of the ``Plate`` PBOs in millihertz (100 Hz)."""
+REPORT_PERIOD = 0.01
+"""Seconds between two reports of a node: the shortest a node takes, so that in lock-step time
+each quantum ends with one."""
+QUANTUM = 0.01
+"""The default lock-step quantum, seconds."""
+SERVOS = "servos"
+"""The servo emulator's name for the time master."""
+MIGRATION_WIRE = "serial"
+"""The wire a migration's time is modelled on (115200 baud 8N1, wire_sim's default)."""
+
+
+class LockStep:
+    """Lock-step virtual time: `master` grants the servos, then the nodes, each quantum."""
+
+    def __init__(self, master: TimeMaster) -> None:
+        self.master = master
+
+    def start(self) -> float:
+        """The run's time 0 on the manager's clock."""
+        return 0.0
+
+    def now(self, time_: float) -> float:
+        """The manager's time: the world's logical time."""
+        return time_
+
+    def run_until(self, t: float) -> None:
+        """Grant quanta to the servos and the nodes until they reach `t`."""
+        self.master.run_until(t)
+
+
+class RealTime:
+    """Real time: every process on its own clock; the manager waits for the wall clock."""
+
+    def __init__(self) -> None:
+        self.origin = time.monotonic()
+
+    def start(self) -> float:
+        self.origin = time.monotonic()
+        return 0.0
+
+    def now(self, time_: float) -> float:
+        return time.monotonic() - self.origin
+
+    def run_until(self, t: float) -> None:
+        while (left := t - (time.monotonic() - self.origin)) > 0:
+            time.sleep(left)
+
+
+class LinkedApplier(LinkApplier):
+    """A `LinkApplier` whose migrations take the modelled wire's time: after the image is on
+    the node, `wait(seconds)` lets the world run on (the experiment's `run_for`)."""
+
+    migrations: list[Migration]
+    wait: Callable[[float], None]
+    clock: Callable[[], float]
+
+    def migrate(self, robot: str, module: Module) -> None:
+        if module.name in self.node(robot).modules():
+            return
+        start = self.clock()
+        super().migrate(robot, module)
+        run = run_transfer(self.image_of(module), MIGRATION_WIRE)
+        self.migrations.append(Migration(module.name, robot, start, run))
+        self.wait(run.seconds)
+
+
+class LinkedWorld:
+    """The robots' nodes (`applier`), the servos and the clock, across processes; `servos`
+    the servo emulator's control (lock-step time), None for real time; `buses` the URLs of
+    the two CAN buses to the servos (``can1``, ``can2``) the host's HexMan estimators use."""
+
+    def __init__(
+        self,
+        applier: LinkedApplier,
+        geometry: Geometry,
+        buses: Mapping[str, str],
+        servos: NodeControl | None,
+        quantum: float = QUANTUM,
+    ) -> None:
+        self.applier = applier
+        self.geometry = geometry
+        self.time = 0.0
+        self._clock: LockStep | RealTime
+        if servos is None:
+            self._clock = RealTime()
+        else:
+            master = TimeMaster(applier.controls(), quantum, first={SERVOS: servos})
+            applier.router = master
+            self._clock = LockStep(master)
+        self._controllers: dict[str, BusOffController] = {}
+        self.servo_buses: dict[str, CanServoBus] = {}
+        for _name, link in MANIPULATORS:
+            controller = BusOffController(open_can_bus(buses[link]))
+            self._controllers[link] = controller
+            self.servo_buses[link] = CanServoBus(controller, geometry)
+
+    def start(self) -> None:
+        """Time 0 of the run: start each robot's ``Plate`` and bridge the plate's yaw to the
+        robots other than the HexManipulator."""
+        for robot, node in self.applier.nodes.items():
+            node.ask(f"RATE {PLATE}", functools.partial(node.control.set_rate, PLATE, PLATE_MHZ))
+            node.ask(f"START {PLATE}", functools.partial(node.control.start, PLATE))
+            if robot != HEXMAN_ROBOT:
+                self._bridge_plate(robot)
+        self.time = self._clock.start()
+
+    def _bridge_plate(self, robot: str) -> None:
+        """``Plate.yaw`` of the HexManipulator's node feeds `robot`'s ``Plate.yaw``."""
+        applier = self.applier
+        importer, exporter = applier.node(robot), applier.node(HEXMAN_ROBOT)
+        port = f"{PLATE}.yaw"
+        listen = f"tcp-listen://{applier.host(robot)}:0"
+        url = importer.ask(
+            f"IMPORT bridge{PLATE_BRIDGE} into {port}",
+            lambda: importer.control.import_port(PLATE_BRIDGE, port, listen),
+        )
+        exporter.ask(
+            f"EXPORT bridge{PLATE_BRIDGE} from {port}",
+            lambda: exporter.control.export_port(PLATE_BRIDGE, port, url),
+        )
+        if applier.router is not None:
+            applier.router.route(PLATE_BRIDGE, HEXMAN_ROBOT, robot)
+
+    def now(self) -> float:
+        """The run's time in seconds."""
+        return self._clock.now(self.time)
+
+    def advance(self, seconds: float) -> None:
+        """Let every process run `seconds` further, then take every push that came."""
+        self.time = self._clock.now(self.time) + seconds
+        try:
+            self._clock.run_until(self.time)
+        except HexmigrateError as error:
+            raise ExperimentError(f"advancing to {self.time:.6f} s: {error}") from error
+        for node in self.applier.nodes.values():
+            node.ask("PING", node.sender.ping)
+
+    def plate_yaw(self) -> float:
+        """Where the cameras on the plate look: the HexManipulator's ``Plate.yaw``."""
+        return self.applier.read(HEXMAN_ROBOT, f"{PLATE}.yaw")
+
+    def follow(self, manipulator: str) -> None:
+        """Nothing to do: the HexManipulator's node follows whichever manipulator reads the
+        servos."""
+
+    def cut_servo_link(self, link: str) -> None:
+        """The host's own controller on `link` goes bus-off (each node cuts its own on its
+        clock)."""
+        self._controllers[link].bus_off()
+
+    def close(self) -> None:
+        """Close the CAN connections and the links to the nodes (which keep running)."""
+        for controller in self._controllers.values():
+            with contextlib.suppress(Exception):
+                controller.shutdown()
+        self.applier.close()
+
+
+class LinkedExperiment(Experiment):
+    """The experiment on a `LinkedWorld`: the same run, the nodes in other processes."""
+
+    world: LinkedWorld
+
+    def __init__(self, scenario: Scenario, work: Path, world: LinkedWorld) -> None:
+        super().__init__(scenario, work, world)
+
+    def _applier(self) -> ExperimentApplier:
+        applier = self.world.applier
+        applier.images[NAME] = self.image
+        applier.migrations = []
+        applier.wait = self.run_for
+        applier.clock = self.world.now
+        return applier
+
+    def run(self, progress: Callable[[float], None] | None = None) -> Outcome:
+        """Start the plates at time 0, then run as in process."""
+        try:
+            self.world.start()
+        except RefreshError as error:
+            raise ExperimentError(f"starting the plates: {error}") from error
+        return super().run(progress)

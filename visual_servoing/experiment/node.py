@@ -1,0 +1,250 @@
+"""A robot's node in its own process: ``python -m visual_servoing node --robot NAME --scenario
+NAME --listen URL [--lock-step] [--servos URL ...]``.
+
+The program makes that robot's firmware (`firmware.task_natives` on this robot's devices: its
+cameras with the scenario's faults, the matchers and trajectories it may run, and on the
+HexManipulator HexMan and HexMan_alt on the two CAN buses to the servos) and serves it as a
+listening node (`firmware_sim.listen.listen`), its PBOs off until the manager starts them. Each
+robot also has a ``Plate`` native, which the manager starts at the run's time 0:
+
+- on the HexManipulator, it puts on its ``yaw`` output where the plate is, from the servos'
+  feedback as HexMan (or HexMan_alt) reads it (`PlateTracker`, the forward kinematics the
+  in-process world uses): the cameras on the plate look along it, the manager samples it (READ)
+  and a bridge carries it to the rotation robot;
+- on the rotation robot, its ``yaw`` input is that bridge, and its camera, which turns with the
+  plate, looks along it.
+
+The devices' clock is the node's, counted from when the manager started ``Plate`` (0 in
+lock-step time), read from the PBO call under way: the scenario's faults strike at the run's
+time, as in process. A scenario that cuts the first servo bus cuts it on the node's clock (the
+host controller goes bus-off), and the manager cuts its own at the same time.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from typing import ClassVar
+
+import can
+import numpy as np
+
+import firmware_sim.listen as listening
+from firmware_sim.listen import ListenConfig, listen
+from firmware_sim.node import NodeConfig
+from firmware_sim.servos.bus_off import BusOffController
+from hexmanipulator.can_bus import CanServoBus, open_can_bus
+from hexmanipulator.geometry import Geometry
+from hexmanipulator.geometry import load as load_geometry
+from hexmanipulator.servo_bus import Reading, ServoBus
+from pbort import NativeModule, NativePBO, PortIO, PortSpec
+from pbort.code import Method, ModuleCode
+from refresh.load import loads
+from visual_servoing.dehazer_guest import INSTRUCTION_BUDGET
+from visual_servoing.errors import ExperimentError
+from visual_servoing.experiment.firmware import MANIPULATORS, camera_devices, task_natives
+from visual_servoing.experiment.plate import PlateTracker
+from visual_servoing.experiment.scenarios import Scenario
+from visual_servoing.scene import Scene
+
+PLATE = "Plate"
+"""The native that carries the plate's yaw, on both robots."""
+HEXMAN_ROBOT = "hexman"
+"""The robot whose plate carries the cameras and whose servos are on the CAN buses."""
+
+
+class NodeTime:
+    """The node's clock as its firmware sees it: the time of the PBO call under way (`stamp`),
+    counted from `epoch` (when the manager started ``Plate``)."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+        self.epoch = 0.0
+
+    def stamp(self, io: PortIO) -> None:
+        self.now = io.now
+
+    def run_time(self) -> float:
+        """Seconds of the run."""
+        return max(0.0, self.now - self.epoch)
+
+
+def stamped(code: NativeModule, time: NodeTime) -> NativeModule:
+    """`code` whose every hook first notes the node's time in `time`."""
+    base = code.pbo_class
+    hooks: dict[str, object] = {}
+    for method in Method:
+        hook = getattr(base, method.value)
+        if hook is getattr(NativePBO, method.value):
+            continue  # absent: it stays absent
+
+        def wrapped(self: NativePBO, io: PortIO, _hook: Callable = hook) -> object:
+            time.stamp(io)
+            return _hook(self, io)
+
+        hooks[method.value] = wrapped
+    return NativeModule(type(base.__name__, (base,), hooks))
+
+
+@dataclass
+class Readings:
+    """A servo bus whose readings also move `tracker` (the plate's pose as the robot knows it)."""
+
+    inner: ServoBus
+    tracker: PlateTracker
+
+    def move(self, angles: np.ndarray, duration: float) -> None:
+        self.inner.move(angles, duration)
+
+    def read(self) -> Reading:
+        reading = self.inner.read()
+        self.tracker.update(reading.angles)
+        return reading
+
+    def close(self) -> None:
+        self.inner.close()
+
+
+class ScheduledCut(BusOffController):
+    """A host CAN controller that goes bus-off once `clock()` reaches `at` (None: never)."""
+
+    def __init__(self, inner: can.BusABC, at: float | None, clock: Callable[[], float]) -> None:
+        super().__init__(inner)
+        self.at = at
+        self.clock = clock
+
+    def _due(self) -> None:
+        if self.at is not None and self.clock() >= self.at - 1e-9:
+            self.bus_off()
+
+    def send(self, msg: can.Message, timeout: float | None = None) -> None:
+        self._due()
+        super().send(msg, timeout)
+
+    def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
+        self._due()
+        return super()._recv_internal(timeout)
+
+
+def servo_buses(
+    urls: Sequence[str],
+    geometry: Geometry,
+    cut_at: float | None,
+    clock: Callable[[], float],
+    stack: contextlib.ExitStack,
+) -> dict[str, CanServoBus]:
+    """The servo buses ``can1``, ``can2`` at `urls` (in that order); the first is cut at
+    `cut_at` on `clock`. Each is shut down when `stack` closes."""
+    if len(urls) != len(MANIPULATORS):
+        raise ExperimentError(
+            f"expected {len(MANIPULATORS)} servo bus URLs (can1, can2), got {len(urls)}"
+        )
+    buses: dict[str, CanServoBus] = {}
+    for (_name, link), url in zip(MANIPULATORS, urls, strict=True):
+        controller = ScheduledCut(open_can_bus(url), cut_at if link == "can1" else None, clock)
+        stack.callback(controller.shutdown)
+        buses[link] = CanServoBus(controller, geometry)
+    return buses
+
+
+class _PlateSource(NativePBO):
+    """The HexManipulator's plate yaw (degrees) on ``yaw``."""
+
+    ports = (PortSpec.output("yaw", dtype="<f8"),)
+    tracker: ClassVar[PlateTracker]
+    time: ClassVar[NodeTime]
+
+    def on(self, io: PortIO) -> None:
+        self.time.epoch = io.now
+
+    def cycle(self, io: PortIO) -> None:
+        io["yaw"] = self.tracker.yaw
+
+
+@dataclass
+class PlateView:
+    """The plate's yaw as the rotation robot last heard it."""
+
+    yaw: float = 0.0
+
+
+class _PlateFollower(NativePBO):
+    """The plate's yaw (degrees) from ``yaw``, for the rotation robot's camera."""
+
+    ports = (PortSpec.input("yaw", dtype="<f8"),)
+    view: ClassVar[PlateView]
+    time: ClassVar[NodeTime]
+
+    def on(self, io: PortIO) -> None:
+        self.time.epoch = io.now
+
+    def cycle(self, io: PortIO) -> None:
+        self.view.yaw = float(io["yaw"])
+
+
+def firmware(
+    robot: str, scenario: Scenario, urls: Sequence[str], stack: contextlib.ExitStack
+) -> dict[str, ModuleCode]:
+    """`robot`'s natives for `scenario`, by the name the node gives their PBOs."""
+    loaded = loads(scenario.database.read_text() + scenario.extra, scenario.database.name)
+    database = loaded.database
+    if robot not in database.robots:
+        raise ExperimentError(
+            f"--robot {robot}: expected one of {', '.join(database.robots)} (scenario "
+            f"{scenario.name}), got no such robot"
+        )
+    geometry = load_geometry(None)
+    time = NodeTime()
+    tracker = PlateTracker(geometry)
+    plate: type[NativePBO]
+    if robot == HEXMAN_ROBOT:
+        buses = servo_buses(urls, geometry, scenario.servo_link_cut, time.run_time, stack)
+        tapped = {link: Readings(bus, tracker) for link, bus in buses.items()}
+        yaw: Callable[[], float] = lambda: tracker.yaw  # noqa: E731
+        plate = type(PLATE, (_PlateSource,), {"name": PLATE, "tracker": tracker, "time": time})
+    else:
+        if urls:
+            raise ExperimentError(f"--servos: robot {robot} drives no servos, got {list(urls)}")
+        tapped = {}
+        view = PlateView()
+        yaw = lambda: view.yaw  # noqa: E731
+        plate = type(PLATE, (_PlateFollower,), {"name": PLATE, "view": view, "time": time})
+    devices = camera_devices(scenario, database, Scene(), yaw, time.run_time, robot=robot)
+    natives = task_natives(database, Scene(), devices, tapped, geometry, robot=robot)
+    codes = {key.partition("@")[0]: stamped(code, time) for key, code in natives.items()}
+    codes[PLATE] = NativeModule(plate)
+    return codes
+
+
+def run_node(
+    robot: str,
+    scenario: Scenario,
+    url: str,
+    servos: Sequence[str],
+    lock_step: bool,
+    say: Callable[[str], None],
+) -> int:
+    """Make `robot`'s node and serve it on `url` until interrupted; the exit status."""
+    with contextlib.ExitStack() as stack:
+        codes = firmware(robot, scenario, servos, stack)
+        config = ListenConfig(
+            listen=url, name=robot, natives=tuple(codes), switch_on=False, lock_step=lock_step
+        )
+        with _budget(INSTRUCTION_BUDGET):
+            return listen(config, say, firmware=codes)
+
+
+@contextlib.contextmanager
+def _budget(budget: int) -> Iterator[None]:
+    """Nodes made by `listen` meanwhile allow `budget` guest instructions per method call (the
+    Dehazer needs 1.6 million a frame). `ListenConfig` has no budget yet, so listen's node
+    configuration is given this default for the time; an integrator adding one to ListenConfig
+    replaces this."""
+    original = listening.NodeConfig
+    listening.NodeConfig = functools.partial(NodeConfig, budget=budget)  # type: ignore[misc]
+    try:
+        yield
+    finally:
+        listening.NodeConfig = original  # type: ignore[misc]

@@ -1,0 +1,199 @@
+"""``python -m visual_servoing run --processes``: the experiment as separate processes on
+loopback links, started, watched and stopped by this launcher.
+
+The processes, each with its output in a log file of the run's folder (``ROLE.log``):
+
+=============  ==========================================================================
+``can1/can2``  python-can-remote servers on 127.0.0.1 (``python -m can_remote``), one per
+               CAN bus to the servos, each on a port the system picks
+``servos``     ``python -m firmware_sim.servos can`` on both buses (its lock-step control
+               link on 127.0.0.1 in lock-step time)
+``hexman``     ``python -m visual_servoing node --robot hexman`` on a pty (a serial line:
+               the manager migrates over it)
+``rotation``   ``python -m visual_servoing node --robot rotation`` on TCP, 127.0.0.1
+``manager``    ``python -m visual_servoing manager``: the runtime, writing the run's report
+=============  ==========================================================================
+
+Each process says where it listens in its first line, which the launcher waits for (bounded).
+Whatever happens (a process that exits early, one that does not answer, Ctrl-C), every process
+the launcher started is stopped before it returns (SIGINT, then SIGKILL; the last started
+first, so the CAN servers last); an error names the process and its log.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import re
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from visual_servoing.errors import ExperimentError
+from visual_servoing.experiment.firmware import MANIPULATORS
+from visual_servoing.experiment.linked import QUANTUM
+from visual_servoing.experiment.scenarios import Scenario
+
+HOST = "127.0.0.1"
+START_TIMEOUT = 60.0
+"""Seconds a process may take to say where it listens (it imports numpy, Unicorn, python-can)."""
+RUN_TIMEOUT = 900.0
+"""Seconds the manager may take for a whole run."""
+STOP_TIMEOUT = 5.0
+"""Seconds a process has to stop on SIGINT before it is killed."""
+POLL = 0.05
+CONNECT = re.compile(r"--to (socket://\S+)\)$")
+"""The end of a ``tcp-listen://`` listener's first line: the URL to connect to."""
+PTY = re.compile(r"^listening on (/dev/\S+)")
+"""A pty listener's first line."""
+SERVOS = re.compile(r"CAN servo nodes on ")
+"""The servo emulator's line once it serves its buses."""
+CAN_SERVER = re.compile(r"Connect using channel 'ws://localhost:(\d+)/'")
+"""The python-can-remote server's line with the port it listens on."""
+
+
+@dataclass
+class Child:
+    """A process of the run: its role, its process and its log file."""
+
+    role: str
+    process: subprocess.Popen[bytes]
+    log: Path
+
+    def wait_for(self, pattern: re.Pattern[str], timeout: float = START_TIMEOUT) -> re.Match[str]:
+        """The first match of `pattern` in the log's lines; an error naming the log when the
+        process exits first or the time is up."""
+        deadline = time.monotonic() + timeout
+        while True:
+            for line in self.log.read_text(errors="replace").splitlines():
+                found = pattern.search(line)
+                if found:
+                    return found
+            if self.process.poll() is not None:
+                raise self.error(f"exited with status {self.process.returncode}")
+            if time.monotonic() >= deadline:
+                raise self.error(f"said nothing matching {pattern.pattern!r} in {timeout:g} s")
+            time.sleep(POLL)
+
+    def error(self, what: str) -> ExperimentError:
+        """An error about this process, naming its log and its last lines."""
+        lines = self.log.read_text(errors="replace").splitlines()[-5:]
+        tail = " | ".join(lines) or "(no output)"
+        return ExperimentError(f"process {self.role} {what} (log {self.log}): {tail}")
+
+    def stop(self) -> None:
+        """SIGINT, as Ctrl-C; SIGKILL if it does not end in STOP_TIMEOUT."""
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGINT)
+            try:
+                self.process.wait(timeout=STOP_TIMEOUT)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait(timeout=STOP_TIMEOUT)
+
+
+@dataclass
+class Launch:
+    """The processes of one run, started in `out`; `stop()` ends them all."""
+
+    out: Path
+    children: list[Child] = field(default_factory=list)
+    urls: dict[str, str] = field(default_factory=dict)
+    """Each process's role -> its URL."""
+
+    def start(self, role: str, *arguments: str) -> Child:
+        """Start ``python ARGUMENTS`` as `role`, its output into ``ROLE.log``."""
+        log = self.out / f"{role}.log"
+        with log.open("wb") as output:
+            process = subprocess.Popen(
+                [sys.executable, *arguments], stdout=output, stderr=subprocess.STDOUT
+            )
+        child = Child(role, process, log)
+        self.children.append(child)
+        return child
+
+    def check(self) -> None:
+        """An error when a process of the run has ended."""
+        for child in self.children:
+            if child.role != "manager" and child.process.poll() is not None:
+                raise child.error(f"ended early with status {child.process.returncode}")
+
+    def stop(self) -> None:
+        """Stop every process, the last started first."""
+        for child in reversed(self.children):
+            child.stop()
+
+
+def run_processes(
+    scenario: Scenario, out: Path, real_time: bool = False, quantum: float = QUANTUM
+) -> dict[str, Any]:
+    """Run `scenario` across processes; the summary of the report the manager wrote in `out`,
+    with ``processes``: each process's role -> its URL."""
+    out.mkdir(parents=True, exist_ok=True)
+    launch = Launch(out)
+    with contextlib.ExitStack() as stack:
+        stack.callback(launch.stop)
+        servers = [
+            launch.start(
+                link, "-m", "can_remote", "-i", "virtual", "-c", link, "-H", HOST, "-p", "0"
+            )
+            for _name, link in MANIPULATORS
+        ]
+        buses = []
+        for server in servers:
+            port = server.wait_for(CAN_SERVER)[1]
+            url = f"can://remote/{HOST}:{port}/{server.role}?role=host"
+            buses.append(launch.urls.setdefault(server.role, url))
+        servo_args = ["-m", "firmware_sim.servos", "can"]
+        for url in buses:
+            servo_args += ["--url", url]
+        if not real_time:
+            servo_args += ["--time-master", f"tcp-listen://{HOST}:0"]
+        servos = launch.start("servos", *servo_args)
+        node = ["-m", "visual_servoing", "node", "--scenario", scenario.name]
+        if not real_time:
+            node.append("--lock-step")
+        servo_urls = [a for url in buses for a in ("--servos", url)]
+        hexman = launch.start("hexman", *node, "--robot", "hexman", "--listen", "pty", *servo_urls)
+        rotation = launch.start(
+            "rotation", *node, "--robot", "rotation", "--listen", f"tcp-listen://{HOST}:0"
+        )
+        control = None
+        if not real_time:
+            control = servos.wait_for(CONNECT)[1]
+            launch.urls["servos"] = control
+        else:
+            servos.wait_for(SERVOS)
+            launch.urls["servos"] = " ".join(buses)
+        launch.urls["hexman"] = hexman.wait_for(PTY)[1]
+        launch.urls["rotation"] = rotation.wait_for(CONNECT)[1]
+        manager_args = ["-m", "visual_servoing", "manager", "--scenario", scenario.name]
+        manager_args += ["--out", str(out), "--quantum", repr(quantum)]
+        for robot in ("hexman", "rotation"):
+            manager_args += ["--node", f"{robot}={launch.urls[robot]}"]
+        manager_args += servo_urls
+        if control is not None:
+            manager_args += ["--servo-control", control]
+        manager = launch.start("manager", *manager_args)
+        launch.urls["manager"] = (out / "report.json").resolve().as_uri()
+        _wait_for_manager(launch, manager)
+    report = json.loads((out / "report.json").read_text())
+    summary: dict[str, Any] = report["summary"]
+    summary["processes"] = launch.urls
+    return summary
+
+
+def _wait_for_manager(launch: Launch, manager: Child) -> None:
+    """Wait for the manager's run to end, watching the other processes meanwhile."""
+    deadline = time.monotonic() + RUN_TIMEOUT
+    while manager.process.poll() is None:
+        launch.check()
+        if time.monotonic() >= deadline:
+            raise manager.error(f"did not finish its run in {RUN_TIMEOUT:g} s")
+        time.sleep(POLL)
+    if manager.process.returncode != 0:
+        raise manager.error(f"failed with status {manager.process.returncode}")
