@@ -12,14 +12,16 @@ import sys
 from collections.abc import Sequence
 
 from commandline import UsageError, add_command, command_parser, run
+from commandline.arguments import integer
 from firmware_sim import arguments
 from firmware_sim.errors import FirmwareSimError
+from firmware_sim.guest import DEFAULT_BUDGET
 from firmware_sim.kernel_log import into_node_log
 from firmware_sim.listen import ListenConfig, listen
 from firmware_sim.listen_link import PTY
 from firmware_sim.memory_map import MemoryMap
 from firmware_sim.natives import NATIVES, load_natives
-from firmware_sim.node import Node
+from firmware_sim.node import Node, NodeConfig
 from firmware_sim.run_report import render, run_report
 from firmware_sim.services import DESCRIPTIONS, Service
 from firmware_sim.settings import by_pbo
@@ -53,11 +55,15 @@ examples:
   firmware-sim info --json"""
 
 
+BUDGET_MAX = 1_000_000_000
+"""The largest --budget: 10 s of a 100 MHz CPU in one method call, far past any watchdog."""
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """Load modules into one node, start and wire its PBOs, run it, and report."""
     if not args.module and not args.native:
         raise UsageError("run: expected at least one --module or --native")
-    with Node() as node, into_node_log(node, echo=args.debug):
+    with Node(config=NodeConfig(budget=args.budget)) as node, into_node_log(node, echo=args.debug):
         codes: dict[str, ModuleCode] = {}
         for argument in args.module:
             module = node.load(argument.path, argument.address)
@@ -123,6 +129,7 @@ def cmd_listen(args: argparse.Namespace) -> int:
         seconds=args.seconds,
         switch_on=not args.no_start,
         lock_step=args.lock_step,
+        budget=args.budget,
     )
     firmware = {name: NativeModule(native) for name, native in load_natives(args.natives).items()}
     return listen(config, lambda line: print(line, flush=True), firmware=firmware)
@@ -254,6 +261,14 @@ def _add_pbo_options(
         default=DEFAULT_RATE,
         metavar="HZ",
         help=f"the frequency of PBOs without --rate (default {DEFAULT_RATE:g})",
+    )
+    command.add_argument(
+        "--budget",
+        type=integer(1, BUDGET_MAX),
+        default=DEFAULT_BUDGET,
+        metavar="N",
+        help="guest instructions one method call may run before the watchdog stops its PBO "
+        f"(default {DEFAULT_BUDGET:,}: 1 ms at 100 MHz)",
     )
 
 

@@ -22,6 +22,7 @@ from pathlib import Path
 
 from firmware_sim.errors import StartError
 from firmware_sim.fpga_port import open_port
+from firmware_sim.guest import DEFAULT_BUDGET
 from firmware_sim.kernel_control import KernelControl
 from firmware_sim.listen_link import open_listening
 from firmware_sim.listening_node import ListeningNode, Wire
@@ -42,8 +43,9 @@ SHOW_INTERVAL = 1.0
 @dataclass(frozen=True)
 class ListenConfig:
     """Everything ``firmware-sim listen`` is told: where to listen, the node's hardware (flash
-    file, FPGA slots), which PBOs to start and how, what to show and for how long (None: until
-    interrupted), and whether its clock is virtual and moved by Advance only (`lock_step`)."""
+    file, FPGA slots, the guest instructions a method call may take), which PBOs to start and
+    how, what to show and for how long (None: until interrupted), and whether its clock is
+    virtual and moved by Advance only (`lock_step`)."""
 
     listen: str
     name: str = "node"
@@ -58,6 +60,7 @@ class ListenConfig:
     seconds: float | None = None
     switch_on: bool = True
     lock_step: bool = False
+    budget: int = DEFAULT_BUDGET
 
 
 def listen(
@@ -75,7 +78,9 @@ def listen(
     natives = [(name, _native(codes, name)) for name in config.natives]  # refused before listening
     port = None if config.fpga is None else open_port(config.fpga)
     clock: Clock = VirtualClock() if config.lock_step else RealTimeClock()
-    with Node(config.name, NodeConfig(flash_file=config.flash), clock) as node:
+    with Node(
+        config.name, NodeConfig(flash_file=config.flash, budget=config.budget), clock
+    ) as node:
         pbos = ListeningNode(
             node,
             say,

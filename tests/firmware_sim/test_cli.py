@@ -69,6 +69,14 @@ def test_run_reports_modules_ports_and_stats_as_json(hex_files):
     assert report["power"]["leftover"] <= 100
 
 
+def test_a_budget_too_small_for_a_module_s_code_is_the_watchdog_s_error(hex_files):
+    common = ("run", "--module", hex_files["gain"], "--set", "gain.k=1", "--seconds", "0.05")
+    result = run(*common, "--budget", "5")
+    assert result.returncode == 1
+    assert "watchdog: instruction budget of 5 exhausted" in result.stderr
+    assert json.loads(run(*common, "--json").stdout)["stats"]["gain"]["cycles"] == 5
+
+
 def test_run_text_output(hex_files):
     result = run("run", "--module", hex_files["gain"], "--set", "gain.k=65536", "--cycles", "5")
     assert result.returncode == 0, result.stderr

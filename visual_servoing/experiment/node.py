@@ -23,17 +23,14 @@ host controller goes bus-off), and the manager cuts its own at the same time.
 from __future__ import annotations
 
 import contextlib
-import functools
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import ClassVar
 
 import can
 import numpy as np
 
-import firmware_sim.listen as listening
 from firmware_sim.listen import ListenConfig, listen
-from firmware_sim.node import NodeConfig
 from firmware_sim.servos.bus_off import BusOffController
 from hexmanipulator.can_bus import CanServoBus, open_can_bus
 from hexmanipulator.geometry import Geometry
@@ -230,21 +227,11 @@ def run_node(
     with contextlib.ExitStack() as stack:
         codes = firmware(robot, scenario, servos, stack)
         config = ListenConfig(
-            listen=url, name=robot, natives=tuple(codes), switch_on=False, lock_step=lock_step
+            listen=url,
+            name=robot,
+            natives=tuple(codes),
+            switch_on=False,
+            lock_step=lock_step,
+            budget=INSTRUCTION_BUDGET,
         )
-        with _budget(INSTRUCTION_BUDGET):
-            return listen(config, say, firmware=codes)
-
-
-@contextlib.contextmanager
-def _budget(budget: int) -> Iterator[None]:
-    """Nodes made by `listen` meanwhile allow `budget` guest instructions per method call (the
-    Dehazer needs 1.6 million a frame). `ListenConfig` has no budget yet, so listen's node
-    configuration is given this default for the time; an integrator adding one to ListenConfig
-    replaces this."""
-    original = listening.NodeConfig
-    listening.NodeConfig = functools.partial(NodeConfig, budget=budget)  # type: ignore[misc]
-    try:
-        yield
-    finally:
-        listening.NodeConfig = original  # type: ignore[misc]
+        return listen(config, say, firmware=codes)
