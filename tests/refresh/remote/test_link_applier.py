@@ -196,7 +196,8 @@ def test_a_node_that_stops_answering_fails_the_request_after_the_tries(loaded, n
             node_a.process.send_signal(signal.SIGCONT)
     said = str(silent.value)
     assert said.startswith(f"robot 'a', node at {url}: LS: no answer to ListModules after 3 tries")
-    assert said.endswith("nobody answered")
+    assert "waiting 0.3 s after each (0.9 s in all)" in said  # a report pushed just before
+    # the node stopped may have been heard meanwhile: it is no answer
 
 
 def test_refusals_name_the_robot_the_url_and_what_the_node_said(loaded, node_a):
