@@ -9,6 +9,8 @@ from __future__ import annotations
 import csv
 import re
 
+import pytest
+
 from tests.firmware_sim.node_process import NodeProcess, hexmigrate
 
 NODES = {"127.0.0.2": "3", "127.0.0.3": "5"}
@@ -39,6 +41,7 @@ def state(to: str, name: str) -> str:
     return next(row[1] for row in rows if row and row[0] == name)
 
 
+@pytest.mark.slow
 def test_nodes_on_two_addresses_are_controlled_from_a_third() -> None:
     nodes: dict[str, NodeProcess] = {}
     try:

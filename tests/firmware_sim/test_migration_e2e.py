@@ -240,6 +240,7 @@ def test_tcp_listen_serves_one_client_after_another():
 # Two processes.
 
 
+@pytest.mark.slow
 def test_a_pty_pair_between_two_processes(hex_files, tmp_path):
     flash = ("--flash", str(tmp_path / "flash.bin"))
     with NodeProcess(

@@ -33,6 +33,7 @@ def refused(*arguments: str) -> str:
     return done.stderr
 
 
+@pytest.mark.slow
 def test_a_host_sets_wires_and_starts_a_module_then_watches_it(gain_hex: Path) -> None:
     node_options = ("--native", "signal", "--set", "signal.amplitude=3", "--no-start")
     with NodeProcess("tcp-listen://127.0.0.1:0", *node_options) as node:

@@ -68,6 +68,7 @@ def test_ping_list_and_remove(node, images, mode):
         sender.remove("gain")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", MODES)
 def test_two_hundred_transfers_through_one_percent_byte_faults(node, images, mode):
     """1% of the bytes corrupted and 1% lost, each way: a 2-block binary message would almost

@@ -98,6 +98,7 @@ def test_the_summary_gives_the_demo_s_figures(paper):
     assert figures["final"] == PAPER_CANDIDATES[1]
 
 
+@pytest.mark.slow
 def test_the_command_writes_report_timeline_and_plot(tmp_path: Path, capsys):
     assert main(["run", "--scenario", "paper", "--out", str(tmp_path)]) == 0
     printed = capsys.readouterr().out

@@ -31,6 +31,7 @@ def in_process(name: str, out: Path) -> dict[str, Any]:
         return summary(experiment.run())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["paper", "blackout", "fog", "servo-cut"])
 def test_across_processes_in_lock_step_a_scenario_ends_as_in_process(name, tmp_path) -> None:
     expected = in_process(name, tmp_path / "in-process")
@@ -80,6 +81,7 @@ def children() -> dict[int, str]:
     return found
 
 
+@pytest.mark.slow
 def test_a_node_killed_mid_run_fails_the_run_by_name_and_every_process_is_stopped(tmp_path):
     out = tmp_path / "run"
     failure: list[BaseException] = []
@@ -110,6 +112,7 @@ def test_a_node_killed_mid_run_fails_the_run_by_name_and_every_process_is_stoppe
     assert alive == []
 
 
+@pytest.mark.slow
 def test_in_real_time_the_processes_run_on_their_clocks_and_repair_the_paper_fault(tmp_path):
     got = run_processes(SCENARIOS["paper"], tmp_path, real_time=True)
     assert got["processes"]["servos"].startswith("can://remote/127.0.0.1:")  # no time master

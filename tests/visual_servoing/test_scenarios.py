@@ -22,6 +22,7 @@ def recovered(outcome: Outcome) -> None:
     assert record.recovered_at is not None and outcome.stopped_at is None
 
 
+@pytest.mark.slow
 def test_fog_is_cleared_by_the_dehazer(tmp_path_factory):
     outcome = run("fog", tmp_path_factory)
     recovered(outcome)
