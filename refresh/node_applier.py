@@ -33,6 +33,7 @@ from pbort.errors import KernelError
 from refresh.database import Module
 from refresh.decider import PerformanceSource
 from refresh.errors import ApplyError
+from refresh.runtime.applier import node_of
 
 IMPORTER_PRIORITY = -1
 """A bridge's importer runs before the PBOs of priority 0 released at the same instant."""
@@ -72,12 +73,7 @@ class NodeApplier:
 
     def node(self, robot: str) -> Node:
         """The node of `robot`."""
-        try:
-            return self.nodes[robot]
-        except KeyError:
-            raise ApplyError(
-                f"robot {robot!r}: expected one of {', '.join(self.nodes)}, got no such node"
-            ) from None
+        return node_of(self.nodes, robot)
 
     def sources(self) -> dict[str, PerformanceSource]:
         """Where each robot's evaluators report: its node's kernel."""

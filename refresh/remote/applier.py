@@ -38,6 +38,7 @@ from refresh.database import Module
 from refresh.errors import ApplyError, NodeLinkError
 from refresh.remote.node import RemoteNode
 from refresh.remote.reports import ReportSource
+from refresh.runtime.applier import node_of
 
 LOCAL_HOST = "127.0.0.1"
 """Where a bridge's importer listens when its node's URL names no host (a pty, a serial device,
@@ -132,12 +133,7 @@ class LinkApplier:
 
     def node(self, robot: str) -> RemoteNode:
         """The node of `robot`."""
-        try:
-            return self.nodes[robot]
-        except KeyError:
-            raise ApplyError(
-                f"robot {robot!r}: expected one of {', '.join(self.nodes)}, got no such node"
-            ) from None
+        return node_of(self.nodes, robot)
 
     # The runtime's view.
 

@@ -8,17 +8,31 @@ performance source (the evaluators' reports the Decider reads) and a live port's
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Protocol
+from typing import Protocol, TypeVar
 
 from refresh.decider import PerformanceSource
+from refresh.errors import ApplyError
 from refresh.maintainer import Applier
+
+Node = TypeVar("Node")
 
 
 class RuntimeApplier(Applier, Protocol):
-    """An `Applier` that also shows what runs: the shared contract of issue 13."""
+    """An `Applier` that also shows what runs: the evaluators' reports and live ports."""
 
     def sources(self) -> Mapping[str, PerformanceSource]:
         """Each robot's performance source, by robot name."""
 
     def read(self, robot: str, port: str) -> float:
         """The live value of scalar port `port` (``instance.port``) on `robot`."""
+
+
+def node_of(nodes: Mapping[str, Node], robot: str) -> Node:
+    """The node of `robot` among an applier's `nodes`; an ApplyError names the robots there
+    are."""
+    try:
+        return nodes[robot]
+    except KeyError:
+        raise ApplyError(
+            f"robot {robot!r}: expected one of {', '.join(nodes)}, got no such node"
+        ) from None
