@@ -28,6 +28,14 @@ from hexmigrate.image import ModuleImage, descriptor_name
 from hexmigrate.links import open_link
 from hexmigrate.mapfile import image_from_map
 from hexmigrate.report import build_report, render_text
+from hexmigrate.signing.verify import examine
+from hexmigrate.signing_cli import (
+    KEY_FILE,
+    add_signing_commands,
+    describe,
+    load_keys,
+    require_holds,
+)
 from hexmigrate.transfer.sender import MODES, Progress, Sender, TransferResult
 
 if TYPE_CHECKING:
@@ -111,17 +119,26 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     """Show what a module file holds."""
     image = ModuleImage.read(args.file)
     text = args.file.read_text(encoding="latin-1")
-    report = build_report(image, text, str(args.file))
+    report = build_report(image, text, str(args.file), load_keys(args.key))
     print(json.dumps(report, indent=2) if args.json else render_text(report))
     return 0
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
-    """Exit 0 when the file is a valid module file."""
+    """Exit 0 when the file is a valid module file (and, with --key, signed by one of the keys
+    and unchanged since)."""
     image = ModuleImage.read(args.file)
+    verdict = examine(image, load_keys(args.key))
+    if args.key or (verdict is not None and not (verdict.hash_holds and verdict.name_holds)):
+        require_holds(verdict, args.file)
+    signed = (
+        "unsigned"
+        if verdict is None
+        else f"version {verdict.version}, key hash {verdict.key_hash}: {describe(verdict)}"
+    )
     print(
         f"{args.file}: valid module {image.name}, {image.size} bytes, "
-        f"{len(image.relocations)} relocations"
+        f"{len(image.relocations)} relocations, {signed}"
     )
     return 0
 
@@ -347,11 +364,14 @@ def _add_file_commands(commands: argparse._SubParsersAction) -> None:
     )
     inspect.add_argument("file", type=MODULE_FILE, metavar="FILE.hex")
     inspect.add_argument("--json", action="store_true", help="print the report as JSON")
+    _key_option(inspect, "check the signature with this public key (repeatable)")
 
     verify = add_command(
         commands, "verify", cmd_verify, "exit 0 if the file is a valid module, 1 if not"
     )
     verify.add_argument("file", type=MODULE_FILE, metavar="FILE.hex")
+    _key_option(verify, "require a signature by this public key (repeatable: by one of them)")
+    add_signing_commands(commands)
 
     relocate = add_command(
         commands,
@@ -406,6 +426,10 @@ def _link_options(command: argparse.ArgumentParser) -> None:
         metavar="N",
         help="tries per step (default 10)",
     )
+
+
+def _key_option(command: argparse.ArgumentParser, help: str) -> None:
+    command.add_argument("--key", type=KEY_FILE, action="append", metavar="PUB.pem", help=help)
 
 
 def _add_node_commands(commands: argparse._SubParsersAction) -> None:

@@ -30,7 +30,8 @@ Tree::
     │   │   ├── TextAfterEofError
     │   │   ├── AddressOverflowError
     │   │   ├── OverlapError
-    │   │   └── OrderError
+    │   │   ├── OrderError
+    │   │   └── SignatureRecordError       09 records out of order or too many
     │   └── ModuleError                    the file is not a valid relocatable module
     │       ├── MultipleInitError
     │       ├── MissingInitError
@@ -45,6 +46,11 @@ Tree::
     │                                  message that cannot be written in the mode asked for
     ├── LinkError (OSError)            a link cannot be opened or has failed
     │   └── LinkUrlError (ValueError)      a malformed link URL
+    ├── SigningError (ValueError)      a key, version or signature area that cannot be used
+    │   ├── KeyFileError                   a file that is not a supported PEM key
+    │   ├── VersionError                   a version that is not MAJOR.MINOR.REVISION
+    │   ├── TlvError                       a signature area whose TLVs cannot be read
+    │   └── SignatureError                 the signature does not hold (`reason` says why)
     ├── LockStepError (ValueError)     a lock-step time master set up wrong (its quantum, a route)
     └── TransferError (RuntimeError)   the node refused, or a transfer could not go on
         ├── NoAnswer (TimeoutError)        a request went unanswered through every try
@@ -161,6 +167,10 @@ class OrderError(HexStructureError):
     """Data records do not come in ascending address order, as a streaming node needs them."""
 
 
+class SignatureRecordError(HexStructureError):
+    """Signature records (09) whose offsets do not follow one another from 0, or too many."""
+
+
 class ModuleError(HexError):
     """The file or its sources do not describe a valid relocatable module."""
 
@@ -216,6 +226,32 @@ class LinkError(HexmigrateError, OSError):
 
 class LinkUrlError(LinkError, ValueError):
     """A link URL is malformed; the message shows the expected form."""
+
+
+class SigningError(HexmigrateError, ValueError):
+    """A key, a version or a signature area that cannot be used (hexmigrate.signing)."""
+
+
+class KeyFileError(SigningError):
+    """A file that is not an Ed25519 or ECDSA P-256 key in PEM, as `imgtool keygen` writes."""
+
+
+class VersionError(SigningError):
+    """A module version that is not MAJOR.MINOR.REVISION within MCUboot's field sizes."""
+
+
+class TlvError(SigningError):
+    """A signature area whose TLVs cannot be read: a wrong magic, a length past the end, a
+    missing or repeated entry."""
+
+
+class SignatureError(SigningError):
+    """The signature of a module does not hold; `reason` is the short cause a node reports:
+    "not signed", "signed by an unknown key" or "signature does not match"."""
+
+    def __init__(self, reason: str, detail: str = "") -> None:
+        super().__init__(f"{reason}: {detail}" if detail else reason)
+        self.reason = reason
 
 
 class LockStepError(HexmigrateError, ValueError):

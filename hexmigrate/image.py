@@ -27,6 +27,7 @@ from hexmigrate.errors import (
     ModuleSourceError,
     OverlapError,
     RelocationOutsideImageError,
+    TlvError,
 )
 from hexmigrate.records import (
     ADDRESS_SPACE,
@@ -36,6 +37,7 @@ from hexmigrate.records import (
     decode,
     encode,
 )
+from hexmigrate.signing import tlv
 
 FLASH_BLOCK_SIZE = 256
 GAP_FILL = 0x00
@@ -53,13 +55,15 @@ class ModuleImage:
     `name` is the name the node registers the module under: the name in its PBO descriptor (the
     first valid one in the data, see `find_descriptor`), which replaces the name given; the name
     given (a file's stem, when read from a file) only for an image without a descriptor, such as
-    a partial bitstream. So a file copied under another name still shows, sends and is removed
+    a partial bitstream; a signed image without one takes the name it was signed under. So a
+    file copied under another name still shows, sends and is removed
     as the module it holds.
 
     A module is written to consecutive flash blocks, so it is one run of bytes; `from_segments`
     fills gaps between linker sections with zeros, as ``objcopy -O binary`` does.
     `symbols` maps function start addresses to names when the image was built from linker output;
-    it is not part of the HEX file, so it takes no part in equality.
+    it is not part of the HEX file, so it takes no part in equality. `signature` is the signature
+    area its 09 records carry (hexmigrate.signing), empty when the module is not signed.
     """
 
     name: str
@@ -68,11 +72,12 @@ class ModuleImage:
     relocations: tuple[int, ...]
     init: int
     symbols: Mapping[int, str] = field(default_factory=dict, compare=False, repr=False)
+    signature: bytes = field(default=b"", repr=False)
 
     def __post_init__(self) -> None:
         if not self.data:
             raise ModuleSourceError(f"module {self.name!r}: expected image data, got none")
-        registered = descriptor_name(self)
+        registered = descriptor_name(self) or _signed_name(self.signature)
         if registered is not None:
             object.__setattr__(self, "name", registered)
         if self.link_base + len(self.data) > ADDRESS_SPACE:
@@ -148,8 +153,8 @@ class ModuleImage:
 
     @property
     def content(self) -> HexContent:
-        """The image as HEX file content (data, 07 records, 08 record)."""
-        return HexContent((self.segment,), self.relocations, self.init)
+        """The image as HEX file content (data, 07 records, 08 record, 09 records)."""
+        return HexContent((self.segment,), self.relocations, self.init, signature=self.signature)
 
     def to_hex(self, record_size: int = 16) -> str:
         """The image as canonical extended Intel HEX text."""
@@ -171,7 +176,14 @@ class ModuleImage:
         if len(content.segments) != 1:
             raise GapError(_gap_message(content.segments))
         segment = content.segments[0]
-        return cls(name, segment.address, segment.data, content.relocations, content.init)
+        return cls(
+            name,
+            segment.address,
+            segment.data,
+            content.relocations,
+            content.init,
+            signature=content.signature,
+        )
 
     @classmethod
     def read(cls, path: str | Path) -> ModuleImage:
@@ -248,6 +260,18 @@ def descriptor_name(image: ModuleImage) -> str | None:
     """The name in the image's descriptor, if it has one with a name."""
     found = find_descriptor(image)
     return found[1].name if found is not None and found[1].name else None
+
+
+def _signed_name(signature: bytes) -> str | None:
+    """The name in a signature area, for an image without a descriptor: signed, it is the name
+    a node registers whatever the file is called. None for no area or one that cannot be read
+    (`verify` reports that)."""
+    if not signature:
+        return None
+    try:
+        return tlv.parse(signature).name
+    except TlvError:
+        return None
 
 
 def _span(segment: Segment) -> str:

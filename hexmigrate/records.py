@@ -6,6 +6,9 @@ Standard records 00-05 keep their Intel meaning. ReFrESH adds two (docs/hex-form
   pointer word inside the image; the loader adds ``load_base - link_base`` to that word.
 * 08, module initialization pointer: data = big-endian link-time address of the module's init
   subroutine; at most one per file.
+* 09, signature: data = the next bytes of the module's signature area (hexmigrate.signing: its
+  version, the hash and the signature, as MCUboot TLVs); address field = offset of these bytes
+  in the area. Optional; the records follow one another from offset 0.
 
 `decode_record` / `Record.encode` work on single lines, for a node that receives a file line by
 line. `decode` / `encode` work on whole files. `decode` is the hot path (a 1 MiB image is 65,536
@@ -51,12 +54,17 @@ from hexmigrate.errors import (
     RecordAfterEofError,
     RecordSizeError,
     RelocationOutsideImageError,
+    SignatureRecordError,
     TextAfterEofError,
     UnknownRecordTypeError,
 )
 
 ADDRESS_SPACE = 1 << 32
 POINTER_SIZE = 4
+SIGNATURE_RECORD_SIZE = 32
+MAX_SIGNATURE_AREA = 4096
+"""The most bytes the 09 records may carry: far above a signature area (under 300 bytes), and
+within the 16-bit offset of their address field."""
 HEX_DIGITS = frozenset("0123456789abcdefABCDEF")
 
 
@@ -71,6 +79,7 @@ class RecordType(IntEnum):
     START_LINEAR_ADDRESS = 0x05
     OFFSET_FUNCTION_POINTER = 0x07
     MODULE_INIT_POINTER = 0x08
+    SIGNATURE = 0x09
 
     @property
     def label(self) -> str:
@@ -188,13 +197,17 @@ def _check_record(raw: bytes, line_number: int | None) -> Record:
     """Turn a well-formed record into a `Record`, refusing types and sizes we do not allow."""
     if raw[3] not in _KNOWN_TYPES:
         raise UnknownRecordTypeError(
-            f"expected record type 00, 01, 02, 03, 04, 05, 07 or 08, got {raw[3]:02X}",
+            f"expected record type 00, 01, 02, 03, 04, 05, 07, 08 or 09, got {raw[3]:02X}",
             line=line_number,
         )
     kind = RecordType(raw[3])
     address = raw[1] << 8 | raw[2]
     data = raw[4:-1]
-    if kind is not RecordType.DATA:
+    if kind is RecordType.SIGNATURE and not data:
+        raise RecordSizeError(
+            f"expected 1 to 255 bytes for record type {kind.label}, got 0", line=line_number
+        )
+    if kind not in (RecordType.DATA, RecordType.SIGNATURE):
         if len(data) != FIXED_SIZE[kind]:
             raise RecordSizeError(
                 f"expected a byte count of {FIXED_SIZE[kind]} for record type {kind.label}, "
@@ -231,7 +244,8 @@ class HexContent:
     """What a HEX file holds: merged data segments, pointer records and start address.
 
     `relocations` keeps the order of the 07 records; `start_segment` is the CS:IP pair of an 03
-    record, `start_linear` the EIP of an 05 record (at most one of the two).
+    record, `start_linear` the EIP of an 05 record (at most one of the two); `signature` the
+    bytes of the 09 records joined (empty when the file is not signed).
     """
 
     segments: tuple[Segment, ...]
@@ -239,6 +253,7 @@ class HexContent:
     init: int | None = None
     start_segment: tuple[int, int] | None = None
     start_linear: int | None = None
+    signature: bytes = b""
 
     def contains(self, address: int, size: int = 1) -> bool:
         """True when the `size` bytes at `address` lie inside one data segment."""
@@ -257,6 +272,7 @@ class _Decoder:
         self.start_segment: tuple[int, int] | None = None
         self.start_linear: int | None = None
         self.start_line = 0
+        self.signature = bytearray()
 
     def apply(self, record: Record, line_number: int) -> None:
         """Take one non-data, non-EOF record into account."""
@@ -275,6 +291,8 @@ class _Decoder:
                     line=line_number,
                 )
             self.init, self.init_line = record.value, line_number
+        elif kind is RecordType.SIGNATURE:
+            self._add_signature(record, line_number)
         else:
             self._set_start(record, line_number)
 
@@ -287,6 +305,20 @@ class _Decoder:
             )
         self.relocations.append(location)
         self.relocation_lines[location] = line_number
+
+    def _add_signature(self, record: Record, line_number: int) -> None:
+        if record.address != len(self.signature):
+            raise SignatureRecordError(
+                f"expected the signature record (09) for offset {len(self.signature)} of the "
+                f"signature area, got offset {record.address}",
+                line=line_number,
+            )
+        if len(self.signature) + len(record.data) > MAX_SIGNATURE_AREA:
+            raise SignatureRecordError(
+                f"expected a signature area of at most {MAX_SIGNATURE_AREA} bytes, got more",
+                line=line_number,
+            )
+        self.signature.extend(record.data)
 
     def _set_start(self, record: Record, line_number: int) -> None:
         if self.start_line:
@@ -309,6 +341,7 @@ class _Decoder:
             init=self.init,
             start_segment=self.start_segment,
             start_linear=self.start_linear,
+            signature=bytes(self.signature),
         )
         for location in self.relocations:
             if not content.contains(location, POINTER_SIZE):
@@ -489,6 +522,9 @@ def _trailer_records(content: HexContent) -> Iterable[Record]:
         )
     if content.start_linear is not None:
         yield Record.pointer(RecordType.START_LINEAR_ADDRESS, content.start_linear)
+    for offset in range(0, len(content.signature), SIGNATURE_RECORD_SIZE):
+        chunk = content.signature[offset : offset + SIGNATURE_RECORD_SIZE]
+        yield Record(RecordType.SIGNATURE, offset, chunk)
     yield Record(RecordType.EOF, 0, b"")
 
 

@@ -8,15 +8,20 @@ from __future__ import annotations
 
 import zlib
 from collections import Counter
+from collections.abc import Sequence
 from typing import Any
 
 from hexmigrate import descriptor as abi
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage, find_descriptor
 from hexmigrate.records import RecordType, decode_record
+from hexmigrate.signing.keys import PublicKey
+from hexmigrate.signing.verify import examine
 
 
-def build_report(image: ModuleImage, text: str, path: str) -> dict[str, Any]:
-    """Everything `inspect` prints, as JSON-ready data."""
+def build_report(
+    image: ModuleImage, text: str, path: str, keys: Sequence[PublicKey] = ()
+) -> dict[str, Any]:
+    """Everything `inspect` prints, as JSON-ready data; `keys` check the signature."""
     found = find_descriptor(image)
     return {
         "file": path,
@@ -31,6 +36,24 @@ def build_report(image: ModuleImage, text: str, path: str) -> dict[str, Any]:
         "records": _record_counts(text),
         "descriptor": _descriptor_report(found),
         "relocations": [_relocation(image, found, location) for location in image.relocations],
+        "signature": _signature_report(image, keys),
+    }
+
+
+def _signature_report(image: ModuleImage, keys: Sequence[PublicKey]) -> dict[str, Any] | None:
+    """Version, signer and what holds, for a signed image (None for an unsigned one).
+    `signature_holds` is None when no key given has the module's key hash."""
+    verdict = examine(image, keys)
+    if verdict is None:
+        return None
+    return {
+        "version": str(verdict.version),
+        "name": verdict.area.name,
+        "key_type": verdict.area.signature_type,
+        "key_hash": verdict.key_hash,
+        "hash_holds": verdict.hash_holds,
+        "name_holds": verdict.name_holds,
+        "signature_holds": verdict.signature_holds,
     }
 
 
@@ -95,6 +118,7 @@ def render_text(report: dict[str, Any]) -> str:
         "base: " + ", ".join(f"0x{b:08X}" for b in blocks)
     )
     lines += _descriptor_lines(report["descriptor"])
+    lines.append(_signature_line(report["signature"]))
     lines.append(f"  relocations {len(report['relocations'])} (record 07)")
     lines.append(f"    {'location':<12}{'target':<12}{'slot':<22}function")
     lines += [
@@ -103,6 +127,18 @@ def render_text(report: dict[str, Any]) -> str:
         for r in report["relocations"]
     ]
     return "\n".join(lines)
+
+
+def _signature_line(signature: dict[str, Any] | None) -> str:
+    if signature is None:
+        return "  signature   none (unsigned: no 09 records)"
+    holds = {True: "holds", False: "does NOT hold", None: "not checked (no --key with this hash)"}
+    return (
+        f"  signature   version {signature['version']}, {signature['key_type']} key "
+        f"{signature['key_hash']}; hash {'holds' if signature['hash_holds'] else 'does NOT hold'}"
+        f"{'' if signature['name_holds'] else ', signed as ' + repr(signature['name'])}, "
+        f"signature {holds[signature['signature_holds']]}"
+    )
 
 
 def _descriptor_lines(descriptor: dict[str, Any] | None) -> list[str]:
