@@ -306,6 +306,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = command_parser("hexmigrate", DESCRIPTION)
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     _add_file_commands(commands)
+    add_signing_commands(commands)
     _add_node_commands(commands)
     add_control_commands(commands, _link_options, _connected)
     return parser
@@ -364,14 +365,16 @@ def _add_file_commands(commands: argparse._SubParsersAction) -> None:
     )
     inspect.add_argument("file", type=MODULE_FILE, metavar="FILE.hex")
     inspect.add_argument("--json", action="store_true", help="print the report as JSON")
-    _key_option(inspect, "check the signature with this public key (repeatable)")
+    _key_option(
+        inspect,
+        "check the signature with this public key (or a private key's public half; repeatable)",
+    )
 
     verify = add_command(
         commands, "verify", cmd_verify, "exit 0 if the file is a valid module, 1 if not"
     )
     verify.add_argument("file", type=MODULE_FILE, metavar="FILE.hex")
     _key_option(verify, "require a signature by this public key (repeatable: by one of them)")
-    add_signing_commands(commands)
 
     relocate = add_command(
         commands,
@@ -429,7 +432,7 @@ def _link_options(command: argparse.ArgumentParser) -> None:
 
 
 def _key_option(command: argparse.ArgumentParser, help: str) -> None:
-    command.add_argument("--key", type=KEY_FILE, action="append", metavar="PUB.pem", help=help)
+    command.add_argument("--key", type=KEY_FILE, action="append", metavar="KEY.pem", help=help)
 
 
 def _add_node_commands(commands: argparse._SubParsersAction) -> None:

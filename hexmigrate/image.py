@@ -56,8 +56,7 @@ class ModuleImage:
     first valid one in the data, see `find_descriptor`), which replaces the name given; the name
     given (a file's stem, when read from a file) only for an image without a descriptor, such as
     a partial bitstream; a signed image without one takes the name it was signed under. So a
-    file copied under another name still shows, sends and is removed
-    as the module it holds.
+    file copied under another name still shows, sends and is removed as the module it holds.
 
     A module is written to consecutive flash blocks, so it is one run of bytes; `from_segments`
     fills gaps between linker sections with zeros, as ``objcopy -O binary`` does.

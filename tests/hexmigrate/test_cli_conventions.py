@@ -21,7 +21,7 @@ from firmware_sim.node import Node
 from hexmigrate import cli
 from tests.hexmigrate.cli_node import route_to
 
-COMMANDS = ("pack", "inspect", "verify", "relocate", "send", "ping", "ls", "rm")
+COMMANDS = ("pack", "inspect", "verify", "relocate", "keygen", "sign", "send", "ping", "ls", "rm")
 CONTROL = ("ps", "start", "stop", "set", "rate", "connect", "disconnect", "watch")
 
 

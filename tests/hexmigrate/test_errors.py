@@ -36,7 +36,7 @@ CASES = [
         "bad_unknown_type",
         errors.UnknownRecordTypeError,
         4,
-        "expected record type 00, 01, 02, 03, 04, 05, 07 or 08, got 06",
+        "expected record type 00, 01, 02, 03, 04, 05, 07, 08 or 09, got 06",
     ),
     (
         "bad_record_size",
@@ -94,6 +94,12 @@ CASES = [
         5,
         "expected data records in ascending address order (at or after 0x00010020), got 0x00010000 "
         "after line 4",
+    ),
+    (
+        "bad_signature_order",
+        errors.SignatureRecordError,
+        6,
+        "expected the signature record (09) for offset 0 of the signature area, got offset 32",
     ),
     (
         "bad_multiple_init",
