@@ -16,6 +16,8 @@ Tree::
     │                                   read-back mismatch)
     ├── BootError (RuntimeError)        a directory entry that is not a whole module in flash
     ├── RegistrationError (RuntimeError) a loaded module's init subroutine did not register it
+    ├── TrustError (PermissionError)    a node with trusted keys refuses a module: not signed, an
+    │                                   unknown key, a broken signature, a downgrade
     ├── OutOfSramError (MemoryError)    no free SRAM block is large enough
     ├── CpuClosedError (RuntimeError)   the CPU was used after it was closed
     ├── KernelAccessError (ValueError)  a kernel read or write outside the memory map (a bug)
@@ -76,6 +78,12 @@ class BootError(FirmwareSimError, RuntimeError):
 
 class RegistrationError(FirmwareSimError, RuntimeError):
     """A loaded module did not register: its init subroutine faulted or its descriptor is bad."""
+
+
+class TrustError(FirmwareSimError, PermissionError):
+    """A node that trusts keys refuses a module before its init runs; the message is the reason
+    the sender is told ("not signed", "signed by an unknown key", "signature does not match",
+    "version 1.1.0 is older than the installed 1.2.0")."""
 
 
 class OutOfSramError(FirmwareSimError, MemoryError):
