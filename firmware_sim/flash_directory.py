@@ -8,7 +8,11 @@ erases and programs the other slot with the next sequence number, and boot takes
 with the highest sequence. A power cut at any moment of a commit therefore leaves either the
 previous record or the new one valid, never neither (docs/node.md gives the byte layout).
 
-One record fills at most one block, which bounds the number of modules (`MAX_ENTRIES`).
+One record fills at most one block, which bounds the number of modules (`MAX_ENTRIES`). Each
+entry keeps its module's signed version (0 for an unsigned module), the version a node that
+trusts keys refuses to go below (anti-rollback, firmware_sim/trust.py): written by the same
+commit as the entry, it survives a power cut as the entry does. Version 1 records (44-byte entries,
+no version) are still read, as entries without a version.
 """
 
 from __future__ import annotations
@@ -24,12 +28,14 @@ from hexmigrate.descriptor import NAME_LEN
 
 OWNER = "directory"  # the FlashSpace owner of the directory's blocks
 MAGIC = b"RFMD"
-VERSION = 1
+VERSION = 2
 SLOT_COUNT = 2
 _HEADER = struct.Struct("<4sHHI")  # magic, version, entry count, sequence
-_ENTRY = struct.Struct(f"<{NAME_LEN}s7I")  # name, then the seven words of DirectoryEntry
+_ENTRY = struct.Struct(f"<{NAME_LEN}s8I")  # name, then the eight words of DirectoryEntry
+_ENTRY_V1 = struct.Struct(f"<{NAME_LEN}s7I")  # a version 1 record's entry: no module version
 _CRC = struct.Struct("<I")
 MAX_ENTRIES = (BLOCK_SIZE - _HEADER.size - _CRC.size) // _ENTRY.size
+_LAYOUTS = {1: _ENTRY_V1, VERSION: _ENTRY}
 
 
 @dataclass(frozen=True)
@@ -45,21 +51,22 @@ class DirectoryEntry:
     relocations: int  # how many pointer words were fixed (their addresses are not kept)
     crc32: int
     sequence: int  # the directory sequence of the commit that added the module
+    version: int = 0  # signed version as major << 24 | minor << 16 | revision; 0: none
 
     def encode(self) -> bytes:
-        """The entry's 44 bytes."""
+        """The entry's 48 bytes."""
         name = self.name.encode("ascii", errors="replace")
         if not name or len(name) > NAME_LEN or not self.name.isascii():
             raise DirectoryError(
                 f"expected a module name of 1 to {NAME_LEN} ASCII characters, got {self.name!r}"
             )
         words = (self.load_address, self.size, self.link_base, self.init_address)
-        return _ENTRY.pack(name, *words, self.relocations, self.crc32, self.sequence)
+        return _ENTRY.pack(name, *words, self.relocations, self.crc32, self.sequence, self.version)
 
     @classmethod
-    def decode(cls, data: bytes, offset: int) -> DirectoryEntry:
-        """The entry at `offset` of a record."""
-        name, *words = _ENTRY.unpack_from(data, offset)
+    def decode(cls, data: bytes, offset: int, layout: struct.Struct = _ENTRY) -> DirectoryEntry:
+        """The entry at `offset` of a record whose entries have `layout`."""
+        name, *words = layout.unpack_from(data, offset)
         return cls(name.split(b"\0", 1)[0].decode("ascii", errors="replace"), *words)
 
 
@@ -87,13 +94,15 @@ class DirectoryRecord:
     def decode(cls, data: bytes) -> DirectoryRecord:
         """The record a slot holds; DirectoryError says why it is not a valid one."""
         magic, version, count, sequence = _HEADER.unpack_from(data)
-        if magic != MAGIC or version != VERSION:
+        if magic != MAGIC or version not in _LAYOUTS:
             raise DirectoryError(
-                f"expected magic {MAGIC!r} version {VERSION}, got {magic!r} version {version}"
+                f"expected magic {MAGIC!r} version 1 or {VERSION}, got {magic!r} version {version}"
             )
-        if count > MAX_ENTRIES:
-            raise DirectoryError(f"expected at most {MAX_ENTRIES} entries, got {count}")
-        end = _HEADER.size + count * _ENTRY.size
+        layout = _LAYOUTS[version]
+        most = (BLOCK_SIZE - _HEADER.size - _CRC.size) // layout.size
+        if count > most:
+            raise DirectoryError(f"expected at most {most} entries, got {count}")
+        end = _HEADER.size + count * layout.size
         (stored,) = _CRC.unpack_from(data, end)
         computed = zlib.crc32(data[:end])
         if stored != computed:
@@ -101,8 +110,9 @@ class DirectoryRecord:
                 f"expected CRC-32 0x{computed:08X} of the {count}-entry record (sequence "
                 f"{sequence}), got 0x{stored:08X}"
             )
-        offsets = range(_HEADER.size, end, _ENTRY.size)
-        return cls(sequence, tuple(DirectoryEntry.decode(data, offset) for offset in offsets))
+        offsets = range(_HEADER.size, end, layout.size)
+        entries = (DirectoryEntry.decode(data, offset, layout) for offset in offsets)
+        return cls(sequence, tuple(entries))
 
 
 @dataclass(frozen=True)

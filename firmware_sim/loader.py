@@ -34,7 +34,13 @@ from hexmigrate.errors import (
     RelocationOutsideImageError,
 )
 from hexmigrate.image import ModuleImage
-from hexmigrate.records import POINTER_SIZE, Record, RecordType, decode_record
+from hexmigrate.records import (
+    MAX_SIGNATURE_AREA,
+    POINTER_SIZE,
+    Record,
+    RecordType,
+    decode_record,
+)
 
 
 class BlockBuffer(Protocol):
@@ -80,6 +86,7 @@ class InstalledImage:
     crc32: int
     extent: Extent
     flash_time: float
+    signature: bytes = field(default=b"", repr=False)  # the 09 records' area, b"" unsigned
 
     @property
     def delta(self) -> int:
@@ -147,6 +154,7 @@ class LoadSession:
         self._progress = _Progress()
         self._lines = 0
         self._extent = self._reserve(size, address)
+        self._signature = bytearray()
         self._done = False
 
     def __enter__(self) -> LoadSession:
@@ -261,9 +269,27 @@ class LoadSession:
             self.feed_relocation(record.value, line)
         elif kind is RecordType.MODULE_INIT_POINTER:
             self.feed_init(record.value, line)
+        elif kind is RecordType.SIGNATURE:
+            self.feed_signature(record.address, record.data, line)
         elif kind is RecordType.EOF:
             self.end(line)
         # Start address records (03, 05) mean nothing for a module: the 08 record is its entry.
+
+    def feed_signature(self, offset: int, data: bytes, line: int = 0) -> None:
+        """Take the next bytes of the module's signature area (09 records), kept in SRAM until
+        the commit checks them; bounded like the decoder's (`MAX_SIGNATURE_AREA`)."""
+        where = f"line {line}: " if line else ""
+        if offset != len(self._signature):
+            raise LoadError(
+                f"{where}expected signature bytes for offset {len(self._signature)}, "
+                f"got offset {offset}"
+            )
+        if offset + len(data) > MAX_SIGNATURE_AREA:
+            raise LoadError(
+                f"{where}expected a signature area of at most {MAX_SIGNATURE_AREA} bytes, "
+                f"got {offset + len(data)}"
+            )
+        self._signature.extend(data)
 
     def end(self, line: int = 0) -> None:
         """The end-of-file record arrived (or the binary protocol's END)."""
@@ -406,6 +432,7 @@ class LoadSession:
             crc32=progress.crc,
             extent=extent,
             flash_time=progress.flash_time,
+            signature=bytes(self._signature),
         )
 
     def _check_pointers(self, link_base: int, size: int) -> None:

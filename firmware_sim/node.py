@@ -43,6 +43,7 @@ from firmware_sim.memory_map import (
 )
 from firmware_sim.power import PowerModel
 from firmware_sim.sram import SramAllocator
+from firmware_sim.trust import TrustPolicy, linked_image, version_of, version_word
 from hexmigrate.image import ModuleImage
 from pbort.clock import Clock
 from pbort.code import ModuleCode, PerformanceKind, Services
@@ -70,6 +71,7 @@ class NodeConfig:
     energy: float = 3600.0
     base_draw: float = 50.0
     flash_file: Path | None = None
+    trust: TrustPolicy = field(default_factory=TrustPolicy)
 
 
 @dataclass(frozen=True)
@@ -285,8 +287,9 @@ class Node:
         ran, and a power cut at any moment leaves one of the two listed in the directory.
         """
         try:
+            version = self._admit(owner, image)
             code = self._register(image, taken=set(self.kernel.names) - set(self.modules))
-            entry = self._entry(code.name, image)
+            entry = self._entry(code.name, image, version)
             kept = [module.entry for name, module in self.modules.items() if name != code.name]
             self.directory.write([*kept, entry])
         except Exception:
@@ -305,13 +308,34 @@ class Node:
         )
         return module
 
+    def _admit(self, owner: str, image: InstalledImage) -> int:
+        """The signed version word for the directory (0 when the node trusts no key), once the
+        trust policy admits the image as it sits in flash (its CRC already checked), before
+        its init runs; `TrustError` with the reason otherwise."""
+        trust = self.config.trust
+        if not trust.enforced:
+            return 0
+        linked = linked_image(
+            owner,
+            self.flash.read(image.load_base, image.size),
+            image.link_base,
+            image.load_base,
+            image.relocations,
+            image.init,
+            image.signature,
+        )
+        installed = self.modules.get(linked.name)
+        highest = installed.entry.version if installed is not None else 0
+        version = trust.admit(linked, version_of(highest) if highest else None)
+        return version_word(version) if version is not None else 0
+
     def discard(self, owner: str, image: InstalledImage) -> None:
         """Erase and free a received image that is not to be committed."""
         self._erase(image)
         self.space.free(owner)
 
-    def _entry(self, name: str, image: InstalledImage) -> DirectoryEntry:
-        """The directory line of an image about to be committed."""
+    def _entry(self, name: str, image: InstalledImage, version: int) -> DirectoryEntry:
+        """The directory line of an image about to be committed, with its version word."""
         return DirectoryEntry(
             name=name,
             load_address=image.load_base,
@@ -321,6 +345,7 @@ class Node:
             relocations=len(image.relocations),
             crc32=image.crc32,
             sequence=self.directory.scan().next_sequence,
+            version=version,
         )
 
     def load(self, source: ModuleImage | str | Path, address: int | None = None) -> InstalledModule:

@@ -49,6 +49,16 @@ class TrustPolicy:
         return version
 
 
+def version_word(version: Version) -> int:
+    """The version as the flash directory keeps it: major << 24 | minor << 16 | revision."""
+    return version.major << 24 | version.minor << 16 | version.revision
+
+
+def version_of(word: int) -> Version:
+    """The inverse of `version_word`."""
+    return Version(word >> 24 & 0xFF, word >> 16 & 0xFF, word & 0xFFFF)
+
+
 def linked_image(
     name: str,
     flash: bytes,

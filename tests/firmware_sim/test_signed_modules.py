@@ -32,7 +32,7 @@ def signed_gain(example_builds, tmp_path_factory) -> tuple[ModuleImage, Path]:
 def test_a_node_that_trusts_no_key_loads_a_signed_file(signed_gain):
     image, path = signed_gain
     assert image.signature
-    with Node(NodeConfig()) as node:
+    with Node(config=NodeConfig()) as node:
         installed = node.load(path)
         assert installed.name == "gain"
         unsigned = node.load(ModuleImage.read(path))

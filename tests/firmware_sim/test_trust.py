@@ -1,6 +1,7 @@
 """The trust policy of a node (firmware_sim/trust.py): which modules a node that trusts keys
 admits, with the reason a sender is told for each it refuses, and the signed bytes recovered
-from a relocated image in flash."""
+from a relocated image in flash; then on a node (in one process): a refused module leaves it
+exactly as it was, and the installed version outlives a restart."""
 
 from __future__ import annotations
 
@@ -9,7 +10,9 @@ import dataclasses
 import pytest
 
 from firmware_sim.errors import TrustError
-from firmware_sim.trust import TrustPolicy, linked_image
+from firmware_sim.node import Node, NodeConfig
+from firmware_sim.trust import TrustPolicy, linked_image, version_of
+from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
 from hexmigrate.signing import keys
 from hexmigrate.signing.sign import sign_image
@@ -81,3 +84,66 @@ def test_the_signed_bytes_come_back_from_flash_wherever_the_module_sits(image, k
     )
     assert recovered == signed
     assert TrustPolicy((key.public_key(),)).admit(recovered, None) == V1_2
+
+
+@pytest.fixture(scope="module")
+def gain(example_builds) -> ModuleImage:
+    return image_from_elf(example_builds["gain"].elf)
+
+
+def state(node: Node) -> tuple:
+    """What a refused module must leave as it was: the flash before the directory, what the
+    directory lists (and the versions), the flash space, SRAM and the kernel's PBOs."""
+    listed = node.directory.scan().newest
+    return (
+        node.flash.read(node.flash.base, node.directory.slot_address(0) - node.flash.base),
+        () if listed is None else tuple((e.name, e.version) for e in listed.entries),
+        node.space.owners,
+        node.space.free_blocks,
+        node.sram.allocations,
+        node.kernel.names,
+        set(node.modules),
+    )
+
+
+def test_a_trusting_node_refuses_before_init_and_keeps_nothing(gain, key):
+    trust = TrustPolicy((key.public_key(),))
+    with Node(config=NodeConfig(trust=trust)) as node:
+        node.load(sign_image(gain, key, V1_2))
+        assert version_of(node.modules["gain"].entry.version) == V1_2
+        before = state(node)
+        signed = sign_image(gain, key, V1_2)
+        data = bytearray(signed.data)
+        data[-1] ^= 0x01
+        refused = {
+            "not signed": gain,
+            "signed by an unknown key": sign_image(gain, keys.generate("ed25519"), V1_2),
+            "signature does not match": dataclasses.replace(signed, data=bytes(data)),
+            "version 1.1.0 is older than the installed 1.2.0": sign_image(gain, key, V1_1),
+        }
+        for reason, image in refused.items():
+            with pytest.raises(TrustError) as caught:
+                node.load(image)
+            assert str(caught.value) == reason
+            assert state(node) == before, reason
+        node.load(sign_image(gain, key, Version(1, 3, 0)))
+        assert version_of(node.modules["gain"].entry.version) == Version(1, 3, 0)
+
+
+def test_allow_downgrade_installs_an_older_version(gain, key):
+    trust = TrustPolicy((key.public_key(),), allow_downgrade=True)
+    with Node(config=NodeConfig(trust=trust)) as node:
+        node.load(sign_image(gain, key, V1_2))
+        node.load(sign_image(gain, key, V1_1))
+        assert version_of(node.modules["gain"].entry.version) == V1_1
+
+
+def test_the_installed_version_survives_a_restart(gain, key, tmp_path):
+    trust = TrustPolicy((key.public_key(),))
+    path = tmp_path / "flash.bin"
+    with Node(config=NodeConfig(flash_file=path, trust=trust)) as node:
+        node.load(sign_image(gain, key, V1_2))
+    with Node(config=NodeConfig(flash_file=path, trust=trust)) as node:
+        assert version_of(node.modules["gain"].entry.version) == V1_2
+        with pytest.raises(TrustError, match=r"older than the installed 1\.2\.0"):
+            node.load(sign_image(gain, key, V1_1))
