@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from firmware_sim.errors import FlashError
+from firmware_sim.errors import FlashError, TrustError
 from firmware_sim.flash import BLOCK_SIZE, STATE_SUFFIX, Flash, PowerCut
 from firmware_sim.flash_directory import (
     MAX_ENTRIES,
@@ -19,8 +19,12 @@ from firmware_sim.flash_directory import (
 from firmware_sim.natives import Signal
 from firmware_sim.node import Node, NodeConfig
 from firmware_sim.sdk.build import build_module
+from firmware_sim.trust import TrustPolicy, version_of
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
+from hexmigrate.signing import keys
+from hexmigrate.signing.sign import sign_image
+from hexmigrate.signing.tlv import Version
 from pbort.native import NativeModule
 
 BASE = 0x0800_0000
@@ -401,3 +405,44 @@ def test_a_power_cut_at_any_step_of_an_unload_leaves_the_module_or_not(tmp_path,
     cut = cut_each_operation(tmp_path, committed, unload)
     assert cut[0][-1][0] == "erase"  # gain's blocks go after the directory write
     check_cuts(committed, images, unload, cut)
+
+
+def test_the_installed_version_survives_a_power_cut_at_any_step_of_a_signed_commit(
+    tmp_path, images
+):
+    """gain 1.2.0 is installed on a node that trusts the key; 1.3.0 replaces it and the power is
+    cut at each flash operation. Up to the directory write the node boots with 1.2.0, after it
+    with 1.3.0, and each time refuses 1.1.0 as older than the version it boots with."""
+    key = keys.generate("ed25519")
+    trust = TrustPolicy((key.public_key(),))
+    signed = {
+        v: sign_image(images["gain"], key, Version.parse(v)) for v in ("1.1.0", "1.2.0", "1.3.0")
+    }
+
+    def trusted(path: Path) -> NodeConfig:
+        return NodeConfig(flash_file=path, trust=trust)
+
+    def installed(node: Node) -> str:
+        return str(version_of(node.modules["gain"].entry.version))
+
+    start = tmp_path / "signed.bin"
+    with Node(config=trusted(start)) as node:
+        node.load(signed["1.2.0"])
+    with Node(config=trusted(copy_flash(start, tmp_path / "dry.bin"))) as node:
+        operations = record_operations(node.flash)
+        node.load(signed["1.3.0"])
+        commit_point = directory_write(node, operations)
+    for count in range(1, len(operations) + 1):
+        path = copy_flash(start, tmp_path / f"cut{count}.bin")
+        with Node(config=trusted(path)) as node:
+            node.flash.power_cut_after = count
+            with pytest.raises(PowerCut):
+                node.load(signed["1.3.0"])
+        with Node(config=trusted(path)) as node:
+            expected = "1.2.0" if count <= commit_point else "1.3.0"
+            assert installed(node) == expected, count
+            assert_whole(node, images)
+            with pytest.raises(TrustError) as caught:
+                node.load(signed["1.1.0"])
+            assert str(caught.value) == f"version 1.1.0 is older than the installed {expected}"
+            assert installed(node) == expected
