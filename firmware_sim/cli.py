@@ -12,7 +12,7 @@ import sys
 from collections.abc import Sequence
 
 from commandline import UsageError, add_command, command_parser, run
-from commandline.arguments import integer
+from commandline.arguments import input_file, integer
 from firmware_sim import arguments
 from firmware_sim.errors import FirmwareSimError
 from firmware_sim.guest import DEFAULT_BUDGET
@@ -26,9 +26,11 @@ from firmware_sim.run_report import render, run_report
 from firmware_sim.services import DESCRIPTIONS, Service
 from firmware_sim.settings import by_pbo
 from firmware_sim.starting import start_pbo
+from firmware_sim.trust import TrustPolicy
 from firmware_sim.wire_sim.transfer import DEFAULT_WINDOW, run_transfer
 from hexmigrate.errors import HexmigrateError
 from hexmigrate.image import ModuleImage
+from hexmigrate.signing.keys import MAX_KEY_FILE, load_public
 from hexmigrate.transfer.sender import MODES
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
@@ -130,6 +132,9 @@ def cmd_listen(args: argparse.Namespace) -> int:
         switch_on=not args.no_start,
         lock_step=args.lock_step,
         budget=args.budget,
+        trust=TrustPolicy(
+            tuple(load_public(path) for path in args.trust or ()), args.allow_downgrade
+        ),
     )
     firmware = {name: NativeModule(native) for name, native in load_natives(args.natives).items()}
     return listen(config, lambda line: print(line, flush=True), firmware=firmware)
@@ -388,6 +393,19 @@ def _add_listen(commands: argparse._SubParsersAction) -> None:
         action="store_true",
         help="run on a virtual clock that only a host's Advance moves (a time master's quanta) "
         "instead of the real-time clock",
+    )
+    command.add_argument(
+        "--trust",
+        type=input_file(MAX_KEY_FILE),
+        action="append",
+        metavar="PUB.pem",
+        help="install only modules signed by this key (repeatable: any of them; hexmigrate "
+        "keygen --public or imgtool getpub -e pem); send them in hex mode",
+    )
+    command.add_argument(
+        "--allow-downgrade",
+        action="store_true",
+        help="with --trust, also install a module older than the installed one of its name",
     )
 
 

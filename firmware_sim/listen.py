@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from firmware_sim.errors import StartError
@@ -30,6 +30,7 @@ from firmware_sim.natives import NATIVES
 from firmware_sim.node import Node, NodeConfig
 from firmware_sim.server import NodeTarget, serve
 from firmware_sim.settings import Setting, by_pbo
+from firmware_sim.trust import TrustPolicy
 from hexmigrate.transfer.receiver import Receiver
 from pbort.clock import Clock, RealTimeClock, VirtualClock
 from pbort.code import ModuleCode
@@ -45,7 +46,8 @@ class ListenConfig:
     """Everything ``firmware-sim listen`` is told: where to listen, the node's hardware (flash
     file, FPGA slots, the guest instructions a method call may take), which PBOs to start and
     how, what to show and for how long (None: until interrupted), and whether its clock is
-    virtual and moved by Advance only (`lock_step`)."""
+    virtual and moved by Advance only (`lock_step`), and which signed modules it admits
+    (`trust`, firmware_sim/trust.py)."""
 
     listen: str
     name: str = "node"
@@ -61,6 +63,7 @@ class ListenConfig:
     switch_on: bool = True
     lock_step: bool = False
     budget: int = DEFAULT_BUDGET
+    trust: TrustPolicy = field(default_factory=TrustPolicy)
 
 
 def listen(
@@ -79,7 +82,9 @@ def listen(
     port = None if config.fpga is None else open_port(config.fpga)
     clock: Clock = VirtualClock() if config.lock_step else RealTimeClock()
     with Node(
-        config.name, NodeConfig(flash_file=config.flash, budget=config.budget), clock
+        config.name,
+        NodeConfig(flash_file=config.flash, budget=config.budget, trust=config.trust),
+        clock,
     ) as node:
         pbos = ListeningNode(
             node,

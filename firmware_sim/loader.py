@@ -276,9 +276,14 @@ class LoadSession:
         # Start address records (03, 05) mean nothing for a module: the 08 record is its entry.
 
     def feed_signature(self, offset: int, data: bytes, line: int = 0) -> None:
-        """Take the next bytes of the module's signature area (09 records), kept in SRAM until
-        the commit checks them; bounded like the decoder's (`MAX_SIGNATURE_AREA`)."""
+        """Take the next bytes of the module's signature area (09 records), kept until the
+        commit checks them; bounded like the decoder's (`MAX_SIGNATURE_AREA`). Bytes already
+        taken are taken again without complaint (a header sent twice)."""
         where = f"line {line}: " if line else ""
+        if offset + len(data) <= len(self._signature) and (
+            self._signature[offset : offset + len(data)] == data
+        ):
+            return  # a repeat: the header sent again after a lost acknowledgement
         if offset != len(self._signature):
             raise LoadError(
                 f"{where}expected signature bytes for offset {len(self._signature)}, "

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from hexmigrate.errors import LinkError, MessageError, NoAnswer, TransferError, TransferInterrupted
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
 from hexmigrate.links.base import Link
-from hexmigrate.records import Record, RecordType
+from hexmigrate.records import SIGNATURE_RECORD_SIZE, Record, RecordType
 from hexmigrate.transfer.messages import (
     Abort,
     Ack,
@@ -216,10 +216,22 @@ class Sender:
             ) from None
 
     def _send_header(self, image: ModuleImage, tid: int) -> None:
+        """The 07 and 08 records: a HEADER message, or in hex mode their lines, acknowledged
+        after the 08, with a signed module's 09 lines before them. Binary mode has no message
+        for the signature area yet (every type code is taken), so a node that trusts keys
+        refuses a module sent in binary mode as not signed (docs/transfer.md)."""
         if not self.text:
             self.request(Header(tid, image.init, image.relocations), Ack, tid, what="header")
             return
         lines = [
+            Record(
+                RecordType.SIGNATURE,
+                offset,
+                image.signature[offset : offset + SIGNATURE_RECORD_SIZE],
+            ).encode()
+            for offset in range(0, len(image.signature), SIGNATURE_RECORD_SIZE)
+        ]
+        lines += [
             Record.pointer(RecordType.OFFSET_FUNCTION_POINTER, location).encode()
             for location in image.relocations
         ]
