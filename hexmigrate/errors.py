@@ -38,7 +38,14 @@ Tree::
     │       ├── DuplicateRelocationError
     │       ├── RelocationOutsideImageError
     │       ├── InitOutsideImageError
-    │       └── ModuleSourceError          an ELF, map or binary the image is built from is unusable
+    │       ├── ModuleSourceError          an ELF, map or binary the image is built from is unusable
+    │       └── ModuleCheckError           a module a node would refuse or run wrongly
+    │           ├── PointerAlignmentError      a 07 word unaligned or across a flash block
+    │           ├── InitAlignmentError         an init off a 4-byte instruction boundary
+    │           ├── CompressedCodeError        RVC code for a node that runs RV32IM
+    │           ├── MissingRelocationsError    an ELF linked without --emit-relocs
+    │           ├── MapMismatchError           a map file from another build than the binary
+    │           └── NameLengthError            a descriptor name longer than 15 characters
     ├── DescriptorError (ValueError)   bytes that are not a PBO module descriptor
     │   └── AbiMismatchError               a wrong magic or ABI version
     ├── MessageError (ValueError)      bytes that are not a transfer protocol message, or a
@@ -191,6 +198,38 @@ class InitOutsideImageError(ModuleError):
 
 class ModuleSourceError(ModuleError):
     """An ELF file, a map file or a raw binary cannot give a module image."""
+
+
+# The module checks (hexmigrate.checks): what `pack` and `verify` refuse before a node would.
+
+
+class ModuleCheckError(ModuleError):
+    """A module that decodes but that a node would refuse, or load and then run wrongly."""
+
+
+class PointerAlignmentError(ModuleCheckError):
+    """An 07 pointer word that is not 4-byte aligned, or that straddles a 256-byte flash block
+    (the node fixes pointer words block by block)."""
+
+
+class InitAlignmentError(ModuleCheckError):
+    """The init subroutine (08) is not on an instruction boundary, or not in code."""
+
+
+class CompressedCodeError(ModuleCheckError):
+    """Compressed (RVC) code, which a node's RV32IM core cannot run."""
+
+
+class MissingRelocationsError(ModuleCheckError):
+    """An ELF holds absolute addresses but no relocations: linked without ``--emit-relocs``."""
+
+
+class MapMismatchError(ModuleCheckError):
+    """A map file that does not describe the raw binary it comes with."""
+
+
+class NameLengthError(ModuleCheckError):
+    """A descriptor name longer than the ABI's 15 characters (16 bytes with its NUL)."""
 
 
 class DescriptorError(HexmigrateError, ValueError):
