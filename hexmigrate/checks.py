@@ -6,11 +6,12 @@ A decoded module file is well formed (`hexmigrate.records`) and its pointers lie
 
 - each 07 pointer word sits at a 4-byte aligned offset from the image's start, so it never
   straddles two 256-byte flash blocks (the node places an image at a block boundary and fixes
-  the words of each block before programming it);
+  the words of each block before programming it), and holds an address inside the image;
 - for a module of code (one with a PBO descriptor): the init subroutine is on a 4-byte
-  instruction boundary, no 16-bit (compressed, RVC) instruction is reachable from init or from a
-  method the 07 words point to (a node's core is RV32IM), and the descriptor's name has at most
-  15 characters. An image without a descriptor, such as a partial bitstream, is data for another
+  instruction boundary, every method pointer of the descriptor has its 07 record, no 16-bit
+  (compressed, RVC) instruction is reachable from init or from a method (a node's core is
+  RV32IM), and the descriptor's name has at most 15 characters. An image without a descriptor,
+  such as a partial bitstream, is data for another
   port, not code, and gets only the pointer checks.
 
 The ELF and map routes add their own checks (`hexmigrate.elf`, `hexmigrate.mapfile`).
@@ -27,8 +28,10 @@ from hexmigrate.errors import (
     CompressedCodeError,
     HexError,
     InitAlignmentError,
+    MissingRelocationsError,
     NameLengthError,
     PointerAlignmentError,
+    PointerTargetError,
 )
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage, find_descriptor, read_module_text
 from hexmigrate.records import POINTER_SIZE, decode
@@ -57,10 +60,12 @@ def check_module(image: ModuleImage, lines: RecordLines | None = None) -> None:
     """Raise a `ModuleCheckError` for the first thing a node would refuse or run wrongly."""
     lines = lines or RecordLines()
     check_pointer_alignment(image, lines)
+    check_pointer_targets(image, lines)
     found = find_descriptor(image)
     if found is None:
         return
     address, descriptor = found
+    check_descriptor_relocated(image, descriptor, address)
     check_name(descriptor, address)
     check_init_boundary(image, lines)
     check_no_compressed_code(image, descriptor, lines)
@@ -99,6 +104,40 @@ def check_pointer_alignment(image: ModuleImage, lines: RecordLines) -> None:
             "descriptor's alignment, do not pack it)",
             line=lines.relocations.get(location),
         )
+
+
+def check_pointer_targets(image: ModuleImage, lines: RecordLines) -> None:
+    """Each 07 word holds an address inside the image: the node adds the move to it, which
+    makes sense only for a pointer into the module (a 07 record on a word of code or of a
+    constant would corrupt it)."""
+    for location in image.relocations:
+        value = image.word_at(location)
+        if image.segment.contains(value):
+            continue
+        raise PointerTargetError(
+            f"expected the word at 0x{location:08X} named by the 07 record to hold an address "
+            f"inside the image ({_span(image)}), got 0x{value:08X}: the node would add the "
+            "move to a word that is no pointer into the module; list only pointer words",
+            line=lines.relocations.get(location),
+        )
+
+
+def check_descriptor_relocated(
+    image: ModuleImage, descriptor: abi.Descriptor, address: int
+) -> None:
+    """Each method pointer of the descriptor is listed by an 07 record, or the node leaves it
+    at its link-time value and REGISTER refuses the module (or, loaded at the link base, it
+    works by accident)."""
+    relocated = set(image.relocations)
+    for index, (method, target) in enumerate(descriptor.methods.items()):
+        slot = address + abi.METHODS_OFFSET + 4 * index
+        if target and slot not in relocated:
+            raise MissingRelocationsError(
+                f"expected an 07 record for the descriptor's method {method!r} (the pointer "
+                f"word at 0x{slot:08X}, holding 0x{target:08X}), got none: the node would not "
+                "fix it when it moves the module; if the module came from an ELF, link it "
+                "with -Wl,--emit-relocs and pack it again"
+            )
 
 
 def check_name(descriptor: abi.Descriptor, address: int) -> None:
@@ -224,3 +263,7 @@ def _branch_offset(word: int) -> int:
 def _signed(value: int, bits: int) -> int:
     value &= (1 << bits) - 1
     return value - (1 << bits) if value >> (bits - 1) else value
+
+
+def _span(image: ModuleImage) -> str:
+    return f"0x{image.link_base:08X}..0x{image.link_base + image.size - 1:08X}"

@@ -41,6 +41,7 @@ Tree::
     │       ├── ModuleSourceError          an ELF, map or binary the image is built from is unusable
     │       └── ModuleCheckError           a module a node would refuse or run wrongly
     │           ├── PointerAlignmentError      a 07 word unaligned or across a flash block
+    │           ├── PointerTargetError         a 07 word that holds no address in the image
     │           ├── InitAlignmentError         an init off a 4-byte instruction boundary
     │           ├── CompressedCodeError        RVC code for a node that runs RV32IM
     │           ├── MissingRelocationsError    an ELF linked without --emit-relocs
@@ -212,6 +213,11 @@ class PointerAlignmentError(ModuleCheckError):
     (the node fixes pointer words block by block)."""
 
 
+class PointerTargetError(ModuleCheckError):
+    """An 07 record names a word whose value is no address inside the image: not a pointer
+    the node should move."""
+
+
 class InitAlignmentError(ModuleCheckError):
     """The init subroutine (08) is not on an instruction boundary, or not in code."""
 
@@ -221,7 +227,8 @@ class CompressedCodeError(ModuleCheckError):
 
 
 class MissingRelocationsError(ModuleCheckError):
-    """An ELF holds absolute addresses but no relocations: linked without ``--emit-relocs``."""
+    """An absolute address no relocation lists: an ELF linked without ``--emit-relocs``, or a
+    descriptor method pointer without its 07 record."""
 
 
 class MapMismatchError(ModuleCheckError):

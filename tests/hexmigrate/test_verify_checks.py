@@ -27,6 +27,7 @@ from hexmigrate.errors import (
     CompressedCodeError,
     InitAlignmentError,
     MapMismatchError,
+    MissingRelocationsError,
     NameLengthError,
     PointerAlignmentError,
 )
@@ -111,6 +112,13 @@ def test_verify_refuses_a_pointer_word_straddling_two_flash_blocks(example, tmp_
     assert "0x000100FE: it straddles two 256-byte flash blocks (offset 254" in message
 
 
+def test_verify_refuses_an_07_record_on_a_word_that_is_no_pointer(example, tmp_path, capsys):
+    path = hex_of_binary(example, tmp_path, relocations=(0x10000,))
+    message = refuse(["verify", str(path)], capsys)
+    assert message.startswith(f"error: {path}:1: expected the word at 0x00010000 named by the 07")
+    assert "to hold an address inside the image (0x00010000..0x0001045F), got 0x" in message
+
+
 def test_a_pointer_word_aligned_from_the_image_start_passes(example, tmp_path):
     path = hex_of_binary(example, tmp_path)
     assert verify_file(path).relocations
@@ -145,6 +153,17 @@ def test_pack_refuses_an_elf_linked_without_emit_relocs(tmp_path, capsys):
     assert message.startswith(f"error: {elf}: expected relocations for the absolute address of ")
     assert "(.pbo_descriptor), got no relocation sections: link with -Wl,--emit-relocs" in message
     assert not (tmp_path / "gain.hex").exists()
+
+
+def test_verify_refuses_a_descriptor_method_without_its_07_record(tmp_path):
+    unlinked = build(EXAMPLES_DIR / "gain.c", tmp_path, emit_relocs=False)
+    path = hex_of_binary(unlinked, tmp_path, relocations=())
+    with pytest.raises(MissingRelocationsError) as caught:
+        verify_file(path)
+    assert str(caught.value).startswith(
+        f"{path}: expected an 07 record for the descriptor's method 'init' (the pointer word at "
+    )
+    assert "link it with -Wl,--emit-relocs" in str(caught.value)
 
 
 # A map file from another build than the binary.
