@@ -11,8 +11,8 @@ A decoded module file is well formed (`hexmigrate.records`) and its pointers lie
   instruction boundary, every method pointer of the descriptor has its 07 record, no 16-bit
   (compressed, RVC) instruction is reachable from init or from a method (a node's core is
   RV32IM), and the descriptor's name has at most 15 characters. An image without a descriptor,
-  such as a partial bitstream, is data for another
-  port, not code, and gets only the pointer checks.
+  such as a partial bitstream, is data for another port, not code, and gets only the pointer
+  checks.
 
 The ELF and map routes add their own checks (`hexmigrate.elf`, `hexmigrate.mapfile`).
 """
