@@ -27,6 +27,7 @@ from elftools.elf.sections import Section, SymbolTableSection
 
 from hexmigrate.checks import RV32IM_FIX, check_module
 from hexmigrate.errors import (
+    AbsoluteCodeError,
     CompressedCodeError,
     HexError,
     InitAlignmentError,
@@ -37,6 +38,10 @@ from hexmigrate.image import ModuleImage
 from hexmigrate.records import Segment
 
 R_RISCV_32 = 1
+ABSOLUTE_CODE_RELOCATIONS = {26: "R_RISCV_HI20", 27: "R_RISCV_LO12_I", 28: "R_RISCV_LO12_S"}
+"""Instruction fields that hold parts of an absolute address (``lui``/``addi`` pairs, as
+``-mcmodel=medlow`` writes): no record fixes them, so the code works only at its link base."""
+MEDANY_FIX = "compile with -mcmodel=medany, as firmware_sim/sdk/build.py does"
 EF_RISCV_RVC = 0x0001
 """The e_flags bit that says the code uses compressed (16-bit) instructions."""
 DEFAULT_INIT_SYMBOL = "module_init"
@@ -54,6 +59,7 @@ def image_from_elf(path: str | Path, init_symbol: str = DEFAULT_INIT_SYMBOL) -> 
             _check_not_compressed(elf)
             segments = _allocated_sections(elf, path)
             relocations = _pointer_relocations(elf)
+            _check_position_independent(elf)
             functions, symbols = _symbols(elf)
             if init_symbol in symbols:
                 _check_init_in_code(elf, init_symbol)
@@ -144,6 +150,25 @@ def _pointer_relocations(elf: ELFFile) -> list[int]:
             if relocation["r_info_type"] == R_RISCV_32
         )
     return locations
+
+
+def _check_position_independent(elf: ELFFile) -> None:
+    """No instruction of the image may hold part of an absolute address."""
+    for section in elf.iter_sections():
+        if not isinstance(section, RelocationSection):
+            continue
+        target = elf.get_section(section["sh_info"])
+        if not target["sh_flags"] & SH_FLAGS.SHF_ALLOC:
+            continue
+        for relocation in section.iter_relocations():
+            kind = ABSOLUTE_CODE_RELOCATIONS.get(relocation["r_info_type"])
+            if kind is not None:
+                raise AbsoluteCodeError(
+                    f"expected position-independent code, got a {kind} relocation at "
+                    f"0x{relocation['r_offset']:08X} ({target.name}): an instruction holds part "
+                    "of an absolute address, which no 07 record fixes, so the module would run "
+                    f"wrongly anywhere but at its link base: {MEDANY_FIX}"
+                )
 
 
 def _symbols(elf: ELFFile) -> tuple[dict[int, str], dict[str, int]]:

@@ -45,6 +45,7 @@ Tree::
     │           ├── InitAlignmentError         an init off a 4-byte instruction boundary
     │           ├── CompressedCodeError        RVC code for a node that runs RV32IM
     │           ├── MissingRelocationsError    an ELF linked without --emit-relocs
+    │           ├── AbsoluteCodeError          code that holds absolute addresses (medlow)
     │           ├── MapMismatchError           a map file from another build than the binary
     │           └── NameLengthError            a descriptor name longer than 15 characters
     ├── DescriptorError (ValueError)   bytes that are not a PBO module descriptor
@@ -229,6 +230,11 @@ class CompressedCodeError(ModuleCheckError):
 class MissingRelocationsError(ModuleCheckError):
     """An absolute address no relocation lists: an ELF linked without ``--emit-relocs``, or a
     descriptor method pointer without its 07 record."""
+
+
+class AbsoluteCodeError(ModuleCheckError):
+    """Instructions that hold parts of absolute addresses (``-mcmodel=medlow``): no record
+    fixes them, so the module runs right only at its link base."""
 
 
 class MapMismatchError(ModuleCheckError):

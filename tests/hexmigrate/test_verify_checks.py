@@ -51,12 +51,13 @@ def build(
     emit_relocs: bool = True,
     optimise: str = "-Os",
     werror: bool = True,
+    compile_flags: list[str] = COMPILE_FLAGS,
 ) -> ModuleBuild:
     """Compile and link `source` as firmware_sim/sdk/build.py does, with one thing changed."""
     out.mkdir(parents=True, exist_ok=True)
     name = source.stem
     obj, elf, map_file, binary = (out / f"{name}{ext}" for ext in (".o", ".elf", ".map", ".bin"))
-    flags = [*target, *(f for f in COMPILE_FLAGS if f not in TARGET)]
+    flags = [*target, *(f for f in compile_flags if f not in TARGET)]
     flags = [optimise if f == "-Os" else f for f in flags if werror or f != "-Werror"]
     compile_command = [GCC, *flags, f"-I{SDK_DIR}", "-c", str(source), "-o", str(obj)]
     subprocess.run(compile_command, check=True, capture_output=True)
@@ -164,6 +165,15 @@ def test_verify_refuses_a_descriptor_method_without_its_07_record(tmp_path):
         f"{path}: expected an 07 record for the descriptor's method 'init' (the pointer word at "
     )
     assert "link it with -Wl,--emit-relocs" in str(caught.value)
+
+
+def test_pack_refuses_code_that_holds_absolute_addresses(tmp_path, capsys):
+    medlow = [f for f in COMPILE_FLAGS if f != "-mcmodel=medany"] + ["-mcmodel=medlow"]
+    elf = build(EXAMPLES_DIR / "gain.c", tmp_path, compile_flags=medlow).elf
+    message = refuse(["pack", str(elf), "-o", str(tmp_path / "gain.hex")], capsys)
+    assert message.startswith(f"error: {elf}: expected position-independent code, got a R_RISCV_")
+    assert "(.text): an instruction holds part of an absolute address" in message
+    assert message.endswith("compile with -mcmodel=medany, as firmware_sim/sdk/build.py does")
 
 
 # A map file from another build than the binary.
