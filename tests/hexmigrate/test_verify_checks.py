@@ -195,6 +195,22 @@ def test_pack_refuses_the_map_of_another_build_of_the_same_module(example_builds
     assert "to come from the build that wrote this map" in str(caught.value)
 
 
+def test_pack_refuses_a_binary_without_the_descriptor_where_the_map_has_it(example, tmp_path):
+    linker_map = example.map.read_text()
+    address = int(linker_map.split("\n.pbo_descriptor\n")[1].split()[0], 16)
+    data = bytearray(example.bin.read_bytes())
+    data[address - 0x10000 : address - 0x10000 + 4] = bytes(4)
+    other = tmp_path / "other.bin"
+    other.write_bytes(data)
+    with pytest.raises(MapMismatchError, match="got 0x00000000 where its magic 0x314F4250 belongs"):
+        image_from_map(other, example.map)
+
+
+def test_the_map_route_packs_a_descriptor_of_another_abi_for_the_node_to_refuse(tmp_path):
+    stranger = build(Path(__file__).parents[1] / "firmware_sim/guests/stranger.c", tmp_path)
+    assert image_from_map(stranger.bin, stranger.map) == image_from_elf(stranger.elf)
+
+
 # Compressed (RVC) code for a node that runs RV32IM.
 
 
