@@ -3,11 +3,14 @@ each bad input is built for real with the SDK's toolchain, or from a real module
 
 from __future__ import annotations
 
+import contextlib
 import shutil
 import subprocess
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from firmware_sim.sdk.build import (
     COMPILE_FLAGS,
@@ -20,7 +23,7 @@ from firmware_sim.sdk.build import (
     ModuleBuild,
 )
 from hexmigrate import descriptor as abi
-from hexmigrate.checks import verify_file
+from hexmigrate.checks import check_module, verify_file
 from hexmigrate.cli import main
 from hexmigrate.elf import image_from_elf
 from hexmigrate.errors import (
@@ -28,6 +31,7 @@ from hexmigrate.errors import (
     InitAlignmentError,
     MapMismatchError,
     MissingRelocationsError,
+    ModuleCheckError,
     NameLengthError,
     PointerAlignmentError,
 )
@@ -250,3 +254,22 @@ def test_pack_and_verify_refuse_a_sixteen_character_name(tmp_path, capsys):
         image_from_elf(long.elf)
     message = refuse(["verify", str(hex_of_binary(long, tmp_path))], capsys)
     assert "expected a module name of at most 15 characters" in message
+
+
+@settings(
+    max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(changes=st.lists(st.tuples(st.integers(0, 0x37F), st.integers(0, 255)), max_size=40))
+def test_the_code_walk_ends_on_any_code_with_a_pass_or_a_check_error(example_builds, changes):
+    """Random bytes in gain's code and constants (its descriptor kept): every walk ends, and
+    ends with a pass or a `ModuleCheckError`, never another exception."""
+    data = bytearray(example_builds["gain"].bin.read_bytes())
+    for offset, value in changes:
+        data[offset] = value
+    plain = ModuleImage("gain", 0x10000, bytes(data), (), 0x10000)
+    found = find_descriptor(plain)
+    assert found is not None
+    slots = tuple(found[0] + abi.METHODS_OFFSET + 4 * index for index in range(9))
+    image = ModuleImage("gain", 0x10000, bytes(data), slots, 0x10000)
+    with contextlib.suppress(ModuleCheckError):
+        check_module(image)
