@@ -23,7 +23,7 @@ from pbort.lifecycle import State
 
 GUESTS = Path(__file__).parent / "guests"
 Q16 = 1 << 16
-LABEL = "module 'intruder' at 0x"
+LABEL = "cycle faulted: module 'intruder' at 0x"
 
 
 @pytest.fixture(scope="module")

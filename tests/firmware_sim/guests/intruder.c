@@ -82,6 +82,14 @@ static int32_t intruder_cycle(struct pbo_context *ctx)
     return PBO_OK;
 }
 
+/* Cleared, it behaves for three more cycles. */
+static int32_t intruder_clear(struct pbo_context *ctx)
+{
+    struct intruder_state *s = ctx->state;
+    s->cycles = 0;
+    return PBO_OK;
+}
+
 static const struct pbo_descriptor intruder_descriptor PBO_DESCRIPTOR = {
     .magic = PBO_MAGIC,
     .abi_version = PBO_ABI_VERSION,
@@ -95,6 +103,7 @@ static const struct pbo_descriptor intruder_descriptor PBO_DESCRIPTOR = {
         [PORT_TARGET] = {"target", PBO_PORT_CONST, PBO_SCALAR, sizeof(int32_t), 1, 1},
     },
     .cycle = intruder_cycle,
+    .clear = intruder_clear,
 };
 
 PBO_MODULE(intruder_descriptor)
