@@ -3,7 +3,8 @@
 Each case is a C module in tests/firmware_sim/guests/ run on a whole node beside `gain`: it
 behaves for three cycles, then its fourth does what its `mode` says. The node must stop exactly
 that call with a fault naming the module, put it into ERROR, and keep `gain` running, and a
-cleared module must run again (docs/memory-map.md, "What a guest cannot change").
+cleared module must run again (docs/memory-map.md, "What a guest cannot change"). A module
+whose job is longer than its period is charged with it, not the PBOs it delays.
 """
 
 from __future__ import annotations
@@ -14,7 +15,8 @@ from pathlib import Path
 import pytest
 
 from firmware_sim.memory_map import KERNEL_BASE
-from firmware_sim.node import Node
+from firmware_sim.node import Node, NodeConfig
+from firmware_sim.run_report import render, run_report
 from firmware_sim.sdk.build import build_module
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
@@ -29,7 +31,8 @@ LABEL = "cycle faulted: module 'intruder' at 0x"
 @pytest.fixture(scope="module")
 def images(tmp_path_factory: pytest.TempPathFactory, example_builds) -> dict[str, ModuleImage]:
     out = tmp_path_factory.mktemp("containment")
-    builds = {name: build_module(GUESTS / f"{name}.c", out) for name in ("intruder", "spy")}
+    names = ("intruder", "spy", "hog")
+    builds = {name: build_module(GUESTS / f"{name}.c", out) for name in names}
     builds["gain"] = example_builds["gain"]
     return {name: image_from_elf(build.elf) for name, build in builds.items()}
 
@@ -118,3 +121,23 @@ def test_no_register_value_reaches_the_next_module(images):
         assert node.kernel.stats("spy").cycles == 10
         seen = node.kernel.value("spy.seen")
     assert [hex(value) for value in seen] == ["0x0"] * 28
+
+
+def test_a_job_longer_than_its_period_is_charged_to_its_own_pbo(images):
+    # 3 * 40,000 instructions: 1.2 ms at 100 MHz, past the 1 ms period (within the budget).
+    with Node(config=NodeConfig(budget=200_000)) as node:
+        node.load(images["hog"])
+        node.load(images["gain"])
+        node.start("hog", 1000, constants={"n": 40_000})
+        node.start("gain", 1000, constants={"k": Q16})
+        jobs = node.run(until=0.05)
+        hog, gain = node.kernel.stats("hog"), node.kernel.stats("gain")
+        lines = render(run_report(node, {}, jobs)).splitlines()
+    assert hog.cycles > 0
+    assert hog.long_jobs == hog.cycles
+    assert hog.faults == 0  # a long job is counted, not stopped
+    assert gain.missed_deadlines > 0  # gain is delayed by hog...
+    assert gain.long_jobs == 0  # ...but its own jobs are short
+    table = [line.split() for line in lines[lines.index("PBOs") + 1 :]]
+    header, row = table[0], next(row for row in table if row[0] == "hog")
+    assert row[header.index("long")] == str(hog.cycles)
