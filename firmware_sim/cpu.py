@@ -69,8 +69,8 @@ WORD_MASK = 0xFFFF_FFFF
 TRAMPOLINE_CODE = (0x0000_006F).to_bytes(4, "little")
 
 _ARGUMENT_REGISTERS = (UC_RISCV_REG_A0, UC_RISCV_REG_A1, UC_RISCV_REG_A2, UC_RISCV_REG_A3)
-# x1..x31 (Unicorn numbers them consecutively), then the privilege mode: what a call sets.
-_CALL_REGISTERS = (*range(UC_RISCV_REG_X1, UC_RISCV_REG_X1 + 31), UC_RISCV_REG_PRIV)
+# x1..x31, which Unicorn numbers consecutively: every call sets them all.
+_CALL_REGISTERS = tuple(range(UC_RISCV_REG_X1, UC_RISCV_REG_X1 + 31))
 _RA, _SP, _A0 = 0, 1, 9  # their indices in _CALL_REGISTERS (x1, x2, x10)
 _USER_MODE = 0  # RISC-V privilege U: CSRs, mret, sret, wfi and sfence.vma are illegal there
 _ANYWHERE = range(0, 1 << 32)  # code=None: fetch wherever the memory map lets the guest execute
@@ -269,6 +269,15 @@ class _Registers:
     def write(self, *values: int) -> None:
         """Set the registers, in the order given (32-bit values)."""
         self._values[:] = list(values)
+        self._write()
+
+    def write_from(self, index: int, values: Sequence[int]) -> None:
+        """Set the registers from position `index` on to `values`, and write all of them again:
+        the others keep the values last given (32-bit values)."""
+        self._values[index : index + len(values)] = values
+        self._write()
+
+    def _write(self) -> None:
         status = self._lib.uc_reg_write_batch(self._handle, self._ids, self._pointers, self._count)
         if status != UC_ERR_OK:
             raise UcError(status)
@@ -303,9 +312,12 @@ class Cpu:
         self._engine = _Engine(self._uc)
         registers = self._engine.registers
         self._call_registers = registers(*_CALL_REGISTERS)
-        self._call_values = [0] * len(_CALL_REGISTERS)  # a fresh CPU: all 0, user mode
-        self._call_values[_RA] = TRAMPOLINE
-        self._call_values[_SP] = self.memory.stack_top
+        initial = [0] * len(_CALL_REGISTERS)  # what every call starts from
+        initial[_RA], initial[_SP] = TRAMPOLINE, self.memory.stack_top
+        self._call_registers.write(*initial)
+        # Once: in user mode nothing can raise the privilege again (a trap never reaches a
+        # handler: the hooks take it). tests/firmware_sim/test_cpu.py checks it after every fault.
+        self._engine.write(UC_RISCV_REG_PRIV, _USER_MODE)
         self._result_registers = registers(UC_RISCV_REG_PC, UC_RISCV_REG_A0)
         self._service_registers = registers(UC_RISCV_REG_A7, *_ARGUMENT_REGISTERS)
         # Before the first run, so that every translated block carries them.
@@ -318,6 +330,7 @@ class Cpu:
         self._fault: str | None = None
         self._completed: int | None = None  # the exact count when the last block did not finish
         self._code = _ANYWHERE  # where the running call may fetch instructions
+        self._code_start, self._code_end = _ANYWHERE.start, _ANYWHERE.stop
         self._services: GuestServices | None = None
 
     @property
@@ -344,12 +357,12 @@ class Cpu:
             raise ValueError(f"expected an instruction budget of at least 1, got {budget}")
         if len(args) > len(_ARGUMENT_REGISTERS):
             raise ValueError(f"expected at most 4 arguments (a0..a3), got {len(args)}")
-        values = self._call_values
         arguments = [value & WORD_MASK for value in args]
-        values[_A0 : _A0 + len(_ARGUMENT_REGISTERS)] = arguments + [0] * (4 - len(arguments))
-        self._call_registers.write(*values)
+        arguments += [0] * (len(_ARGUMENT_REGISTERS) - len(arguments))
+        self._call_registers.write_from(_A0, arguments)
         self._count, self._fault, self._completed = 0, None, None
         self._code = _ANYWHERE if code is None else code
+        self._code_start, self._code_end = self._code.start, self._code.stop  # for the block hook
         self._services, self._running = services, True
         try:
             self._engine.start(entry, TRAMPOLINE, budget)
@@ -449,8 +462,11 @@ class Cpu:
 
     def _on_block(self, _uc: int, address: int, size: int, _data: int) -> None:
         end = address + size
-        code = self._code
-        if (address | size) % INSTRUCTION_SIZE or address < code.start or end > code.stop:
+        if (
+            (address | size) % INSTRUCTION_SIZE
+            or address < self._code_start
+            or end > self._code_end
+        ):
             self._refuse_block(address, end)
             return
         self._count += size // INSTRUCTION_SIZE

@@ -323,6 +323,25 @@ def test_illegal_and_unsupported_instructions_fault(cpu: Cpu, guest: Guest) -> N
     assert cpu.call(guest["combine"], (1, 2, 3, 4), 100).status == 11
 
 
+def test_no_fault_leaves_the_core_out_of_user_mode(cpu: Cpu, guest: Guest) -> None:
+    runs = [
+        ("illegal", ()),
+        ("breakpoint", ()),
+        ("wait", ()),
+        ("privileged", ()),
+        ("halfway", ()),
+        ("spin", ()),
+        ("jump", ()),
+        ("store", (SRAM_BASE, 1)),
+        ("service", (99, 0, 0, 0)),
+    ]
+    for name, args in runs:
+        assert cpu.call(guest[name], args, 100).fault is not None, name
+        privileged = cpu.call(guest["privileged"], (), 100)
+        assert privileged.fault is not None, name
+        assert privileged.fault.startswith("illegal instruction 0x30001073"), name
+
+
 def test_every_call_starts_with_registers_cleared(cpu: Cpu, guest: Guest) -> None:
     assert cpu.call(guest["taint"], (), 100).ok
     assert cpu.call(guest["leftovers"], (), 100).status == 0
