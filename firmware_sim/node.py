@@ -346,7 +346,7 @@ class Node:
             budget=self.config.budget,
         )
         return GuestModule(
-            self.cpu, self.sram, descriptor, image.load_base, budget=self.config.budget
+            self.cpu, self.sram, descriptor, image.load_base, image.size, budget=self.config.budget
         )
 
     def unload(self, name: str) -> None:
