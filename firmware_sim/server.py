@@ -131,6 +131,7 @@ def serve(
             # After a message, only what is due by now: a host that keeps asking must not hold
             # the node's PBOs back, nor wait a poll for each answer.
             node.run(until=node.kernel.now + (poll if raw is None else 0.0))
+        receiver.expire()  # a killed sender's transfer gives its flash and SRAM back
         if control is not None:
             control.poll_imports()
         try:
