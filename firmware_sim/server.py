@@ -51,6 +51,7 @@ class NodeTarget:
         if self.fpga is not None and self.fpga.owns(image.link_base):
             return self._configure(owner, image)
         module = self.node.commit(owner, image)
+        self.node.cpu.forget_translations()  # the replaced module's code: see its docstring
         if self.on_install is not None:
             self.on_install(module.name, module.load_address)
         return module.name, module.load_address
@@ -93,6 +94,7 @@ class NodeTarget:
         if name not in self.node.modules:
             raise KeyError(name)
         self.node.unload(name)
+        self.node.cpu.forget_translations()
 
     def describe(self) -> str:
         """One line about the node."""
