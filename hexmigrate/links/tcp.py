@@ -56,7 +56,7 @@ FORM = (
 READ_SIZE = 1 << 16
 MAX_CLIENTS = 8
 """Clients served at once; more wait in the listen backlog until one hangs up."""
-MAX_WAITING = 1 << 20
+MAX_WAITING = 1 << 16
 """Bytes of one client's received messages waiting for `receive` (each counted with
 MESSAGE_OVERHEAD) before the link stops reading that client."""
 MESSAGE_OVERHEAD = 64
@@ -237,8 +237,9 @@ class TcpListenLink(LinkBase):
                     self._end(client)
                     return
             client.pending += data
-            if len(client.pending) > MAX_PENDING:  # it does not read: let it go
+            if len(client.pending) > MAX_PENDING:  # it does not read: let it go, unheard
                 self.lost += 1
+                client.hung_up = True
                 self._end(client)
 
     def hang_up(self, peer: int) -> None:
