@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 from hexmigrate.errors import LinkError
 from hexmigrate.links.base import LinkBase, message_problem
 from hexmigrate.links.framing import Deframer, frame
-from hexmigrate.links.stream import POLL_INTERVAL
+from hexmigrate.links.stream import MESSAGE_OVERHEAD, POLL_INTERVAL
 from hexmigrate.links.url import integer, network_host, split_url, url_error, url_host
 
 SCHEME = "tcp-listen"
@@ -59,9 +59,6 @@ MAX_CLIENTS = 8
 MAX_WAITING = 1 << 16
 """Bytes of one client's received messages waiting for `receive` (each counted with
 MESSAGE_OVERHEAD) before the link stops reading that client."""
-MESSAGE_OVERHEAD = 64
-"""What a waiting message costs beyond its bytes: a stream of 4-byte PINGs is bounded by
-count, not only by bytes."""
 MAX_PENDING = 1 << 18
 """Bytes of answers a client has not taken before it is disconnected."""
 
