@@ -80,6 +80,8 @@ sender that reconnects within this time resumes (``RESUME``)."""
 MAX_TRANSFERS = 8
 """Transfers open at once; a BEGIN beyond them is refused, so that hostile BEGINs cannot take
 every flash block and SRAM buffer between two expiries."""
+ADDRESS_SPACE = 1 << 32
+"""Where a module's link addresses end: an image linked past it cannot be addressed."""
 MAX_IMPLICIT_RELOCATIONS = 1024
 """The most 07 records of a module typed on a terminal without BEGIN (no size to bound them)."""
 MAX_REFUSAL = 200
@@ -334,6 +336,16 @@ class Receiver:
         existing = self.transfers.get(message.tid)
         if existing is not None:  # our ACK was lost and the sender asks again
             return [Ack(message.tid, existing.session.load_base, "begun")]
+        if message.link_base + message.size > ADDRESS_SPACE:
+            return [
+                Nak(
+                    message.tid,
+                    0,
+                    f"cannot begin: an image of {message.size} bytes linked at "
+                    f"0x{message.link_base:08X} ends past the 32-bit address space",
+                    fatal=True,
+                )
+            ]
         if len(self.transfers) >= MAX_TRANSFERS:
             return [
                 Nak(

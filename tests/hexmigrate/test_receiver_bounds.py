@@ -121,3 +121,11 @@ def _record(kind: int, value: int) -> bytes:
     body = bytes([4, 0, 0, kind]) + value.to_bytes(4, "big")
     checksum = -sum(body) & 0xFF
     return b":" + (body + bytes([checksum])).hex().upper().encode()
+
+
+def test_an_image_linked_past_the_address_space_is_refused(node):
+    receiver = Receiver(NodeTarget(node))
+    before = _free(node)
+    refusal = _answer(receiver, encode(Begin(3, "m", 4096, 0, 0xFFFFFF00), True))
+    assert isinstance(refusal, Nak) and refusal.fatal and "32-bit" in refusal.reason, refusal
+    assert _free(node) == before
