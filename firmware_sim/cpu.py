@@ -408,6 +408,13 @@ class Cpu:
         bank.view[offset : offset + size] = source_bank.view[source_offset : source_offset + size]
         self._written(bank, destination, size)
 
+    def forget_translations(self) -> None:
+        """Drop every block Unicorn translated. Its code buffer (1 GiB) keeps the translation
+        of each image ever run until it is full, so a node that installs module after module
+        grew by 8 KiB of native memory per install; the node calls this when an image leaves
+        or replaces another, and the next call translates what runs again."""
+        self._open().ctl_flush_tb()
+
     def close(self) -> None:
         """Free the emulator and its memory; calling it again does nothing."""
         uc, self._uc = self._uc, None
