@@ -38,6 +38,7 @@ bench: tools $(INSTALLED)
 	$(PY) benchmarks/migration.py
 	$(PY) benchmarks/decision.py
 	$(PY) benchmarks/crossbar.py
+	$(PY) benchmarks/hostile.py
 	$(PY) benchmarks/dehazer.py
 	$(PY) benchmarks/servoing_task.py
 	$(PY) benchmarks/control.py

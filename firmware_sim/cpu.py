@@ -1,12 +1,16 @@
 """The node's CPU: an RV32IM core on Unicorn that runs one guest function per `call`.
 
-A call sets a0..a3, points ra at the kernel's return trampoline and sp at the top of the stack,
-and runs until the guest returns to the trampoline. Three things can end it early, each reported
-as a fault text naming the addresses involved, after which the next call works as usual:
+A call hands the guest a CPU in a known state: every register 0 but a0..a3 (the arguments), ra
+(the kernel's return trampoline) and sp (the top of the stack), in user mode, where every CSR and
+every system instruction but ecall is illegal, so no guest can change what the next one gets
+(docs/memory-map.md, "What a guest cannot change"). It runs until the guest returns to the
+trampoline. Four things can end it early, each reported as a fault text naming the addresses
+involved, after which the next call works as usual:
 
 - the watchdog: every call runs with an instruction budget (Unicorn's ``count``);
 - a memory fault: Unicorn enforces the memory map's guest permissions on every access, so a write
   outside the task window and the stack stops the guest without a per-access Python hook;
+- an instruction fetch outside the code the call was given (the module's own image);
 - an illegal instruction, or a kernel service that refuses its arguments (`ServiceFault`).
 
 Executed instructions are counted exactly with a block hook (RV32IM without the C extension:
@@ -28,6 +32,7 @@ from types import TracebackType
 
 from unicorn import (
     UC_ARCH_RISCV,
+    UC_ERR_INSN_INVALID,
     UC_ERR_OK,
     UC_HOOK_BLOCK,
     UC_HOOK_INTR,
@@ -47,8 +52,8 @@ from unicorn.riscv_const import (
     UC_RISCV_REG_A3,
     UC_RISCV_REG_A7,
     UC_RISCV_REG_PC,
-    UC_RISCV_REG_RA,
-    UC_RISCV_REG_SP,
+    UC_RISCV_REG_PRIV,
+    UC_RISCV_REG_X1,
 )
 from unicorn.unicorn_py3 import unicorn as _binding
 
@@ -64,6 +69,11 @@ WORD_MASK = 0xFFFF_FFFF
 TRAMPOLINE_CODE = (0x0000_006F).to_bytes(4, "little")
 
 _ARGUMENT_REGISTERS = (UC_RISCV_REG_A0, UC_RISCV_REG_A1, UC_RISCV_REG_A2, UC_RISCV_REG_A3)
+# x1..x31, which Unicorn numbers consecutively: every call sets them all.
+_CALL_REGISTERS = tuple(range(UC_RISCV_REG_X1, UC_RISCV_REG_X1 + 31))
+_RA, _SP, _A0 = 0, 1, 9  # their indices in _CALL_REGISTERS (x1, x2, x10)
+_USER_MODE = 0  # RISC-V privilege U: CSRs, mret, sret, wfi and sfence.vma are illegal there
+_ANYWHERE = range(0, 1 << 32)  # code=None: fetch wherever the memory map lets the guest execute
 _ECALL_CAUSES = frozenset({8, 9, 11})  # environment call from U-, S- or M-mode
 _ILLEGAL_INSTRUCTION = 2
 _FETCHES = frozenset({UC_MEM_FETCH_PROT, UC_MEM_FETCH_UNMAPPED})
@@ -74,6 +84,7 @@ _READS = frozenset({UC_MEM_READ_PROT, UC_MEM_READ_UNMAPPED})
 _BLOCK_HOOK = ctypes.CFUNCTYPE(
     None, ctypes.c_void_p, ctypes.c_uint64, ctypes.c_uint32, ctypes.c_void_p
 )
+_BlockCallback = Callable[[int, int, int, int], None]
 _INTERRUPT_HOOK = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_uint32, ctypes.c_void_p)
 _MEMORY_HOOK = ctypes.CFUNCTYPE(
     ctypes.c_bool,
@@ -182,15 +193,14 @@ class _Engine:
         """Stop the running guest at the next instruction (from a hook)."""
         self._lib.uc_emu_stop(self._handle)  # cannot fail while a guest runs
 
-    def hook_block(self, callback: Callable[[int, int], None]) -> None:
-        """Call `callback(address, size)` as each translated block starts.
+    def hook_block(self, callback: _BlockCallback) -> None:
+        """Call `callback(engine, address, size, data)` as each translated block starts.
 
-        The hottest hook runs unguarded: `callback` must not raise (an exception would be
-        printed by ctypes and ignored).
+        The hottest hook runs unguarded and with Unicorn's own arguments (no wrapper: one Python
+        frame less per block): `callback` must not raise (an exception would be printed by
+        ctypes and ignored).
         """
-        self._add(
-            UC_HOOK_BLOCK, _BLOCK_HOOK(lambda _uc, address, size, _data: callback(address, size))
-        )
+        self._add(UC_HOOK_BLOCK, _BLOCK_HOOK(callback))
 
     def hook_interrupt(self, callback: Callable[[int], None]) -> None:
         """Call `callback(cause)` on an exception or ecall."""
@@ -259,6 +269,15 @@ class _Registers:
     def write(self, *values: int) -> None:
         """Set the registers, in the order given (32-bit values)."""
         self._values[:] = list(values)
+        self._write()
+
+    def write_from(self, index: int, values: Sequence[int]) -> None:
+        """Set the registers from position `index` on to `values`, and write all of them again:
+        the others keep the values last given (32-bit values)."""
+        self._values[index : index + len(values)] = values
+        self._write()
+
+    def _write(self) -> None:
         status = self._lib.uc_reg_write_batch(self._handle, self._ids, self._pointers, self._count)
         if status != UC_ERR_OK:
             raise UcError(status)
@@ -292,7 +311,13 @@ class Cpu:
         self.write(TRAMPOLINE, TRAMPOLINE_CODE)
         self._engine = _Engine(self._uc)
         registers = self._engine.registers
-        self._call_registers = registers(*_ARGUMENT_REGISTERS, UC_RISCV_REG_RA, UC_RISCV_REG_SP)
+        self._call_registers = registers(*_CALL_REGISTERS)
+        initial = [0] * len(_CALL_REGISTERS)  # what every call starts from
+        initial[_RA], initial[_SP] = TRAMPOLINE, self.memory.stack_top
+        self._call_registers.write(*initial)
+        # Once: in user mode nothing can raise the privilege again (a trap never reaches a
+        # handler: the hooks take it). tests/firmware_sim/test_cpu.py checks it after every fault.
+        self._engine.write(UC_RISCV_REG_PRIV, _USER_MODE)
         self._result_registers = registers(UC_RISCV_REG_PC, UC_RISCV_REG_A0)
         self._service_registers = registers(UC_RISCV_REG_A7, *_ARGUMENT_REGISTERS)
         # Before the first run, so that every translated block carries them.
@@ -304,6 +329,8 @@ class Cpu:
         self._block_end = 0  # the address after the latest block entered
         self._fault: str | None = None
         self._completed: int | None = None  # the exact count when the last block did not finish
+        self._code = _ANYWHERE  # where the running call may fetch instructions
+        self._code_start, self._code_end = _ANYWHERE.start, _ANYWHERE.stop
         self._services: GuestServices | None = None
 
     @property
@@ -317,9 +344,12 @@ class Cpu:
         args: Sequence[int],
         budget: int,
         services: GuestServices | None = None,
+        code: range | None = None,
     ) -> GuestRun:
         """Run the guest function at `entry` with up to four arguments and at most `budget`
-        instructions; `services` answers its ecalls (None: an ecall is a fault)."""
+        instructions; `services` answers its ecalls (None: an ecall is a fault). With `code`,
+        fetching an instruction outside those addresses is a fault (a module runs only its own
+        image); without it, the memory map's execute permission is the only bound."""
         self._open()
         if self._running:
             raise RuntimeError("Cpu.call is not reentrant: a guest call is already running")
@@ -329,15 +359,17 @@ class Cpu:
             raise ValueError(f"expected at most 4 arguments (a0..a3), got {len(args)}")
         arguments = [value & WORD_MASK for value in args]
         arguments += [0] * (len(_ARGUMENT_REGISTERS) - len(arguments))
-        self._call_registers.write(*arguments, TRAMPOLINE, self.memory.stack_top)
+        self._call_registers.write_from(_A0, arguments)
         self._count, self._fault, self._completed = 0, None, None
+        self._code = _ANYWHERE if code is None else code
+        self._code_start, self._code_end = self._code.start, self._code.stop  # for the block hook
         self._services, self._running = services, True
         try:
             self._engine.start(entry, TRAMPOLINE, budget)
         except UcError as error:
             if self._fault is None:  # not described by a hook: say what Unicorn says
                 pc = self._engine.read(UC_RISCV_REG_PC)
-                self._fault_at(pc, f"{error} at 0x{pc:08X}")
+                self._fault_at(pc, self._describe_stop(error, pc))
         finally:
             self._services, self._running = None, False
         return self._result(budget)
@@ -346,11 +378,10 @@ class Cpu:
         pc, a0 = self._result_registers.read()
         instructions = self._count if self._completed is None else self._completed
         if self._fault is None and pc != TRAMPOLINE:
-            if self._count > budget:  # the budget stopped the guest inside a block it entered
-                self._fault = f"watchdog: instruction budget of {budget} exhausted at 0x{pc:08X}"
-                instructions = budget
-            else:  # Unicorn ends emu_start early, without an error, only when a wfi halts it
-                self._fault = f"halted by a wfi at 0x{pc - 4:08X}: no interrupt will come"
+            # Only the budget ends emu_start early without an error (a wfi could, in machine
+            # mode; in user mode it is illegal), inside a block the guest entered.
+            self._fault = f"watchdog: instruction budget of {budget} exhausted at 0x{pc:08X}"
+            instructions = budget
         return GuestRun(
             a0=a0,
             instructions=instructions,
@@ -376,6 +407,13 @@ class Cpu:
         bank, offset = self._bank(destination, size, "write")
         bank.view[offset : offset + size] = source_bank.view[source_offset : source_offset + size]
         self._written(bank, destination, size)
+
+    def forget_translations(self) -> None:
+        """Drop every block Unicorn translated. Its code buffer (1 GiB) keeps the translation
+        of each image ever run until it is full, so a node that installs module after module
+        grew by 8 KiB of native memory per install; the node calls this when an image leaves
+        or replaces another, and the next call translates what runs again."""
+        self._open().ctl_flush_tb()
 
     def close(self) -> None:
         """Free the emulator and its memory; calling it again does nothing."""
@@ -429,18 +467,35 @@ class Cpu:
 
     # Hooks: Unicorn calls them during a call; they record what happened for _result.
 
-    def _on_block(self, address: int, size: int) -> None:
-        if (address | size) % INSTRUCTION_SIZE:
+    def _on_block(self, _uc: int, address: int, size: int, _data: int) -> None:
+        end = address + size
+        if (
+            (address | size) % INSTRUCTION_SIZE
+            or address < self._code_start
+            or end > self._code_end
+        ):
+            self._refuse_block(address, end)
+            return
+        self._count += size // INSTRUCTION_SIZE
+        self._block_end = end
+
+    def _refuse_block(self, address: int, end: int) -> None:
+        """Stop before a block runs (which keeps the count exact) and say why."""
+        code = self._code
+        if address not in code or end > code.stop:
+            outside = address if address not in code else code.stop
+            self._fault = (
+                f"instruction fetch at 0x{outside:08X} outside the image of the module "
+                f"(0x{code.start:08X}..0x{code.stop - 1:08X}): a module runs only its own code"
+            )
+        else:
             # Unicorn's RISC-V always decodes compressed instructions; the node's RV32IM core
-            # would not. Stopping here, before the block runs, keeps the count exact too.
+            # would not.
             self._fault = (
                 f"instruction fetch at 0x{address:08X}: expected 4-byte aligned RV32IM "
                 "instructions, got a misaligned address or a compressed instruction"
             )
-            self._engine.stop()
-            return
-        self._count += size // INSTRUCTION_SIZE
-        self._block_end = address + size
+        self._engine.stop()
 
     def _on_invalid_memory(self, access: int, address: int, size: int) -> None:
         where = self._note(address)
@@ -480,6 +535,14 @@ class Cpu:
             self._engine.stop()
             return
         self._engine.write(UC_RISCV_REG_A0, result & WORD_MASK)
+
+    def _describe_stop(self, error: UcError, pc: int) -> str:
+        """What an error of Unicorn's that no hook described means (an ebreak is
+        UC_ERR_INSN_INVALID: the node has no debugger, so it is one more illegal instruction)."""
+        if error.errno == UC_ERR_INSN_INVALID:
+            word = int.from_bytes(self.read(pc, INSTRUCTION_SIZE), "little")
+            return f"illegal instruction 0x{word:08X} at 0x{pc:08X}"
+        return f"{error} at 0x{pc:08X}"
 
     def _fault_at(self, pc: int, text: str) -> None:
         """Record a fault of the instruction at `pc`; it and the rest of its block did not run."""

@@ -239,7 +239,7 @@ def register_module(
     subroutine returned without registering.
     """
     registrar = Registrar(cpu, sram, image_base, image_size, kernel, taken)
-    run = cpu.call(init, (), budget, registrar)
+    run = cpu.call(init, (), budget, registrar, range(image_base, image_base + image_size))
     where = f"module image at 0x{image_base:08X}, init subroutine at 0x{init:08X}"
     if run.fault is not None:
         raise RegistrationError(f"{where}: {run.fault}")
@@ -254,8 +254,9 @@ class GuestModule:
     """A registered guest module (`pbort.code.ModuleCode`): descriptor, ports, instances.
 
     `descriptor` is the one REGISTER accepted, read from flash after relocation, so its method
-    addresses are where the code is; `load_address` is where the image starts. Each method call
-    may run at most `budget` instructions.
+    addresses are where the code is; the image is the `image_size` bytes from `load_address`,
+    and its methods may fetch instructions nowhere else. Each method call may run at most
+    `budget` instructions.
     """
 
     def __init__(
@@ -264,6 +265,7 @@ class GuestModule:
         sram: SramAllocator,
         descriptor: abi.Descriptor,
         load_address: int,
+        image_size: int,
         *,
         budget: int = DEFAULT_BUDGET,
     ) -> None:
@@ -271,6 +273,7 @@ class GuestModule:
         self.sram = sram
         self.descriptor = descriptor
         self.load_address = load_address
+        self.image = range(load_address, load_address + image_size)
         self.budget = budget
         self.layout = AreaLayout.of(descriptor)
         if self.layout.size > cpu.memory.window.size:
@@ -361,7 +364,8 @@ class GuestInstance:
         # A fresh context every call: the guest may have overwritten its own in the window.
         cpu.write(self.window, self._context)
         cpu.copy(self.window + CONTEXT_SIZE, self.area + CONTEXT_SIZE, body)
-        run = cpu.call(entry, (self.window,), self.module.budget, self._services)
+        module = self.module
+        run = cpu.call(entry, (self.window,), module.budget, self._services, module.image)
         cpu.copy(self.area + CONTEXT_SIZE, self.window + CONTEXT_SIZE, body)
         fault = None if run.fault is None else f"{self.label}, {method.value}: {run.fault}"
         return CallResult(run.status, fault, run.duration, run.instructions)

@@ -14,6 +14,7 @@ boots with exactly the modules the directory lists, whatever moment a power cut 
 from __future__ import annotations
 
 import zlib
+from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -51,6 +52,8 @@ from pbort.errors import MethodFailedError
 from pbort.kernel import Kernel
 from pbort.lifecycle import REMOVABLE, State
 
+LOG_LINES = 1000
+"""Notes a node keeps: a node that runs for weeks installing modules must not grow with them."""
 POWER_INDEX = 0  # the non-functional value an evaluator reports its draw (mW) under
 
 
@@ -159,7 +162,8 @@ class Node:
         self.kernel = Kernel(clock)
         self.power = PowerModel(self.config.energy, self.config.base_draw)
         self.modules: dict[str, InstalledModule] = {}
-        self.log: list[tuple[float, str]] = []
+        self.log: deque[tuple[float, str]] = deque(maxlen=LOG_LINES)
+        """What the node noted (installs, boots, refused reports), the newest LOG_LINES."""
         self._refused_draws: set[str] = set()  # PBOs whose latest draw report was refused
         self._closed = False
         try:
@@ -371,7 +375,7 @@ class Node:
             budget=self.config.budget,
         )
         return GuestModule(
-            self.cpu, self.sram, descriptor, image.load_base, budget=self.config.budget
+            self.cpu, self.sram, descriptor, image.load_base, image.size, budget=self.config.budget
         )
 
     def unload(self, name: str) -> None:

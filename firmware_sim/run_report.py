@@ -55,12 +55,13 @@ def render(report: dict[str, Any]) -> str:
     ]
     lines.append("PBOs")
     lines.append(
-        f"  {'PBO':<16} {'state':<10}{'cycles':>8}{'missed':>8}{'overruns':>10}"
+        f"  {'PBO':<16} {'state':<10}{'cycles':>8}{'missed':>8}{'overruns':>10}{'long':>6}"
         f"{'faults':>8}{'instructions':>14}{'busy ms':>10}"
     )
     lines += [
         f"  {name:<16} {s['state']:<10}{s['cycles']:>8}{s['missed_deadlines']:>8}"
-        f"{s['overruns']:>10}{s['faults']:>8}{s['instructions']:>14}{s['busy_time'] * 1e3:>10.3f}"
+        f"{s['overruns']:>10}{s['long_jobs']:>6}{s['faults']:>8}{s['instructions']:>14}"
+        f"{s['busy_time'] * 1e3:>10.3f}"
         for name, s in report["stats"].items()
     ]
     lines.append("ports")

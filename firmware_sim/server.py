@@ -17,6 +17,8 @@ from firmware_sim.node import Node
 from hexmigrate.errors import LinkError
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.base import Link
+from hexmigrate.links.tcp import TcpListenLink
+from hexmigrate.transfer.messages import is_foreign
 from hexmigrate.transfer.receiver import Receiver
 
 
@@ -49,6 +51,7 @@ class NodeTarget:
         if self.fpga is not None and self.fpga.owns(image.link_base):
             return self._configure(owner, image)
         module = self.node.commit(owner, image)
+        self.node.cpu.forget_translations()  # the replaced module's code: see its docstring
         if self.on_install is not None:
             self.on_install(module.name, module.load_address)
         return module.name, module.load_address
@@ -91,6 +94,7 @@ class NodeTarget:
         if name not in self.node.modules:
             raise KeyError(name)
         self.node.unload(name)
+        self.node.cpu.forget_translations()
 
     def describe(self) -> str:
         """One line about the node."""
@@ -117,25 +121,59 @@ def serve(
     pty) ends the watch, so the node is not held up by every later one; the host watches again.
     Between messages the values that came on the node's import links are taken, and the node
     runs (after a message, the releases due by then; when the link is quiet, a poll on), unless
-    its control is in lock-step time: then only an Advance runs it.
+    its control is in lock-step time: then only an Advance runs it. Transfers idle too long are
+    dropped (`Receiver.expire`).
+
+    On a ``tcp-listen://`` link each client has a session of its own (its record lines feed
+    its own transfer, its answers and its watch's pushes go to it alone), and a client whose
+    line cannot be a command (`is_foreign`: an HTTP request line or header) is refused once and
+    disconnected, with what else it sent: a browser or ``curl`` pointed at the port cannot
+    remove or install modules with the lines of a request's body.
     """
     receiver = receiver or Receiver(NodeTarget(node), KernelControl(node))
     control = receiver.control if isinstance(receiver.control, KernelControl) else None
     free_running = control is None or not control.lock_step
+    server = link if isinstance(link, TcpListenLink) else None
+    watcher: int | None = None  # the client whose watch is on (tcp-listen)
     while not stop():
-        raw = link.receive(poll)
-        if raw is not None:
-            for reply in receiver.handle(raw):
-                link.send(reply)
+        got = server.receive_from(poll) if server is not None else _unnamed(link.receive(poll))
+        raw = None if got is None else got[1]
+        if got is not None:
+            peer, raw = got
+            watched = receiver.subscription
+            replies = receiver.handle(raw, peer)
+            _answer(link, server, peer, replies)
+            if server is not None and peer is not None and is_foreign(raw):
+                server.hang_up(peer)
+            if receiver.subscription is not watched:
+                watcher = peer
         if node.kernel.names and free_running:
             # After a message, only what is due by now: a host that keeps asking must not hold
             # the node's PBOs back, nor wait a poll for each answer.
             node.run(until=node.kernel.now + (poll if raw is None else 0.0))
+        receiver.expire()  # a killed sender's transfer gives its flash and SRAM back
         if control is not None:
             control.poll_imports()
+        if server is not None and watcher is not None and watcher not in server.peers:
+            receiver.subscription = None  # the watching client left
         try:
-            for push in receiver.due():  # reports and heartbeats of a watch
-                link.send(push)
+            _answer(link, server, watcher, receiver.due())  # reports and heartbeats of a watch
         except LinkError:
             receiver.subscription = None
     return receiver
+
+
+def _unnamed(raw: bytes | None) -> tuple[None, bytes] | None:
+    """A message of a link without clients (a pty, a serial port, CAN): no peer."""
+    return None if raw is None else (None, raw)
+
+
+def _answer(
+    link: Link, server: TcpListenLink | None, peer: int | None, messages: list[bytes]
+) -> None:
+    """Send `messages` to client `peer` of a ``tcp-listen://`` link, or on `link`."""
+    for message in messages:
+        if server is not None and peer is not None:
+            server.send_to(peer, message)
+        else:
+            link.send(message)

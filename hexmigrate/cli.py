@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 from commandline import CommandLineError, UsageError, add_command, command_parser, run
 from commandline.arguments import address, input_file, integer, output_file, real
 from commandline.progress import progress_bar
+from hexmigrate.checks import verify_file
 from hexmigrate.control_cli import add_control_commands
 from hexmigrate.descriptor import NAME_LEN
 from hexmigrate.elf import DEFAULT_INIT_SYMBOL, image_from_elf
@@ -125,9 +126,9 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
-    """Exit 0 when the file is a valid module file (and, with --key, signed by one of the keys
-    and unchanged since)."""
-    image = ModuleImage.read(args.file)
+    """Exit 0 when the file is a valid module file that passes the module checks (and, with
+    --key, is signed by one of the keys and unchanged since)."""
+    image = verify_file(args.file)
     verdict = examine(image, load_keys(args.key))
     if args.key or (verdict is not None and not (verdict.hash_holds and verdict.name_holds)):
         require_holds(verdict, args.file)

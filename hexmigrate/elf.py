@@ -8,6 +8,11 @@ also maps the ELF and program headers, which are no part of the module.
 With ``-mcmodel=medany`` the code is position-independent, so the only words that hold absolute
 addresses are the ``R_RISCV_32`` relocations that ``--emit-relocs`` keeps; each becomes a 07
 record. The 08 record targets the init symbol.
+
+Before building the image the ELF must show it is a module a node can run: no compressed (RVC)
+code (the ``EF_RISCV_RVC`` flag), init a function in code, and relocations whenever the image
+holds an absolute address (an ELF linked without ``--emit-relocs`` has none, and would pack as a
+module whose pointers no node fixes). Then the image gets the checks of `hexmigrate.checks`.
 """
 
 from __future__ import annotations
@@ -20,12 +25,27 @@ from elftools.elf.elffile import ELFFile
 from elftools.elf.relocation import RelocationSection
 from elftools.elf.sections import Section, SymbolTableSection
 
-from hexmigrate.errors import HexError, ModuleSourceError
+from hexmigrate.checks import RV32IM_FIX, check_module
+from hexmigrate.errors import (
+    AbsoluteCodeError,
+    CompressedCodeError,
+    HexError,
+    InitAlignmentError,
+    MissingRelocationsError,
+    ModuleSourceError,
+)
 from hexmigrate.image import ModuleImage
 from hexmigrate.records import Segment
 
 R_RISCV_32 = 1
+ABSOLUTE_CODE_RELOCATIONS = {26: "R_RISCV_HI20", 27: "R_RISCV_LO12_I", 28: "R_RISCV_LO12_S"}
+"""Instruction fields that hold parts of an absolute address (``lui``/``addi`` pairs, as
+``-mcmodel=medlow`` writes): no record fixes them, so the code works only at its link base."""
+MEDANY_FIX = "compile with -mcmodel=medany, as firmware_sim/sdk/build.py does"
+EF_RISCV_RVC = 0x0001
+"""The e_flags bit that says the code uses compressed (16-bit) instructions."""
 DEFAULT_INIT_SYMBOL = "module_init"
+EMIT_RELOCS_FIX = "link with -Wl,--emit-relocs, as firmware_sim/sdk/build.py does"
 
 
 def image_from_elf(path: str | Path, init_symbol: str = DEFAULT_INIT_SYMBOL) -> ModuleImage:
@@ -36,9 +56,17 @@ def image_from_elf(path: str | Path, init_symbol: str = DEFAULT_INIT_SYMBOL) -> 
         with path.open("rb") as stream:
             elf = ELFFile(stream)
             _check_machine(elf, path)
+            _check_not_compressed(elf)
             segments = _allocated_sections(elf, path)
             relocations = _pointer_relocations(elf)
+            _check_position_independent(elf)
             functions, symbols = _symbols(elf)
+            if init_symbol in symbols:
+                _check_init_in_code(elf, init_symbol)
+            if not _has_relocation_sections(elf):
+                _check_no_absolute_words(elf, functions)
+    except HexError as error:
+        raise error.with_path(path) from None
     except ELFError as error:
         raise ModuleSourceError(f"expected an ELF file, but {error}", path=path) from None
     except OSError as error:
@@ -50,11 +78,13 @@ def image_from_elf(path: str | Path, init_symbol: str = DEFAULT_INIT_SYMBOL) -> 
             path=path,
         )
     try:
-        return ModuleImage.from_segments(
+        image = ModuleImage.from_segments(
             path.stem, segments, relocations, symbols[init_symbol], functions
         )
+        check_module(image)
     except HexError as error:
         raise error.with_path(path) from None
+    return image
 
 
 def _check_machine(elf: ELFFile, path: Path) -> None:
@@ -122,6 +152,25 @@ def _pointer_relocations(elf: ELFFile) -> list[int]:
     return locations
 
 
+def _check_position_independent(elf: ELFFile) -> None:
+    """No instruction of the image may hold part of an absolute address."""
+    for section in elf.iter_sections():
+        if not isinstance(section, RelocationSection):
+            continue
+        target = elf.get_section(section["sh_info"])
+        if not target["sh_flags"] & SH_FLAGS.SHF_ALLOC:
+            continue
+        for relocation in section.iter_relocations():
+            kind = ABSOLUTE_CODE_RELOCATIONS.get(relocation["r_info_type"])
+            if kind is not None:
+                raise AbsoluteCodeError(
+                    f"expected position-independent code, got a {kind} relocation at "
+                    f"0x{relocation['r_offset']:08X} ({target.name}): an instruction holds part "
+                    "of an absolute address, which no 07 record fixes, so the module would run "
+                    f"wrongly anywhere but at its link base: {MEDANY_FIX}"
+                )
+
+
 def _symbols(elf: ELFFile) -> tuple[dict[int, str], dict[str, int]]:
     """Function starts (address to name) and every named symbol (name to address)."""
     table = elf.get_section_by_name(".symtab")
@@ -136,3 +185,56 @@ def _symbols(elf: ELFFile) -> tuple[dict[int, str], dict[str, int]]:
         if symbol["st_info"]["type"] == "STT_FUNC":
             functions[symbol["st_value"]] = symbol.name
     return functions, symbols
+
+
+def _check_not_compressed(elf: ELFFile) -> None:
+    """A node's core is RV32IM: code built with the C extension would fault on it."""
+    if elf["e_flags"] & EF_RISCV_RVC:
+        raise CompressedCodeError(
+            f"expected RV32IM code, got e_flags 0x{elf['e_flags']:X} with EF_RISCV_RVC (0x1): "
+            f"the ELF holds compressed (16-bit) instructions: {RV32IM_FIX}"
+        )
+
+
+def _check_init_in_code(elf: ELFFile, init_symbol: str) -> None:
+    """The init symbol must name code: a function in an executable section."""
+    table = elf.get_section_by_name(".symtab")
+    assert isinstance(table, SymbolTableSection)
+    symbol = table.get_symbol_by_name(init_symbol)[0]
+    index = symbol["st_shndx"]
+    section = elf.get_section(index) if isinstance(index, int) else None
+    if section is not None and section["sh_flags"] & SH_FLAGS.SHF_EXECINSTR:
+        return
+    where = section.name if section is not None else str(index)
+    raise InitAlignmentError(
+        f"expected the init symbol {init_symbol!r} to be code (in an executable section), got a "
+        f"{symbol['st_info']['type']} in {where}: name the init function (--init)"
+    )
+
+
+def _has_relocation_sections(elf: ELFFile) -> bool:
+    """True when some relocation section applies to an allocated section (``--emit-relocs``
+    keeps them; a plain link drops them all)."""
+    return any(
+        isinstance(section, RelocationSection)
+        and elf.get_section(section["sh_info"])["sh_flags"] & SH_FLAGS.SHF_ALLOC
+        for section in elf.iter_sections()
+    )
+
+
+def _check_no_absolute_words(elf: ELFFile, functions: dict[int, str]) -> None:
+    """Without relocations, no word of the image's constants (the descriptor among them) may
+    hold a function's address: the node would not fix it when it moves the module."""
+    for section in elf.iter_sections():
+        flags = section["sh_flags"]
+        if not _has_image_bytes(section) or flags & SH_FLAGS.SHF_EXECINSTR:
+            continue
+        data, base = section.data(), section["sh_addr"]
+        for offset in range(-base % 4, len(data) - 3, 4):
+            value = int.from_bytes(data[offset : offset + 4], "little")
+            if value in functions:
+                raise MissingRelocationsError(
+                    f"expected relocations for the absolute address of {functions[value]} "
+                    f"(0x{value:08X}) in the word at 0x{base + offset:08X} ({section.name}), got "
+                    f"no relocation sections: {EMIT_RELOCS_FIX}"
+                )

@@ -39,7 +39,16 @@ Tree::
     │       ├── DuplicateRelocationError
     │       ├── RelocationOutsideImageError
     │       ├── InitOutsideImageError
-    │       └── ModuleSourceError          an ELF, map or binary the image is built from is unusable
+    │       ├── ModuleSourceError          an ELF, map or binary the image is built from is unusable
+    │       └── ModuleCheckError           a module a node would refuse or run wrongly
+    │           ├── PointerAlignmentError      a 07 word unaligned or across a flash block
+    │           ├── PointerTargetError         a 07 word that holds no address in the image
+    │           ├── InitAlignmentError         an init off a 4-byte instruction boundary
+    │           ├── CompressedCodeError        RVC code for a node that runs RV32IM
+    │           ├── MissingRelocationsError    an ELF linked without --emit-relocs
+    │           ├── AbsoluteCodeError          code that holds absolute addresses (medlow)
+    │           ├── MapMismatchError           a map file from another build than the binary
+    │           └── NameLengthError            a descriptor name longer than 15 characters
     ├── DescriptorError (ValueError)   bytes that are not a PBO module descriptor
     │   └── AbiMismatchError               a wrong magic or ABI version
     ├── MessageError (ValueError)      bytes that are not a transfer protocol message, or a
@@ -201,6 +210,49 @@ class InitOutsideImageError(ModuleError):
 
 class ModuleSourceError(ModuleError):
     """An ELF file, a map file or a raw binary cannot give a module image."""
+
+
+# The module checks (hexmigrate.checks): what `pack` and `verify` refuse before a node would.
+
+
+class ModuleCheckError(ModuleError):
+    """A module that decodes but that a node would refuse, or load and then run wrongly."""
+
+
+class PointerAlignmentError(ModuleCheckError):
+    """An 07 pointer word that is not 4-byte aligned, or that straddles a 256-byte flash block
+    (the node fixes pointer words block by block)."""
+
+
+class PointerTargetError(ModuleCheckError):
+    """An 07 record names a word whose value is no address inside the image: not a pointer
+    the node should move."""
+
+
+class InitAlignmentError(ModuleCheckError):
+    """The init subroutine (08) is not on an instruction boundary, or not in code."""
+
+
+class CompressedCodeError(ModuleCheckError):
+    """Compressed (RVC) code, which a node's RV32IM core cannot run."""
+
+
+class MissingRelocationsError(ModuleCheckError):
+    """An absolute address no relocation lists: an ELF linked without ``--emit-relocs``, or a
+    descriptor method pointer without its 07 record."""
+
+
+class AbsoluteCodeError(ModuleCheckError):
+    """Instructions that hold parts of absolute addresses (``-mcmodel=medlow``): no record
+    fixes them, so the module runs right only at its link base."""
+
+
+class MapMismatchError(ModuleCheckError):
+    """A map file that does not describe the raw binary it comes with."""
+
+
+class NameLengthError(ModuleCheckError):
+    """A descriptor name longer than the ABI's 15 characters (16 bytes with its NUL)."""
 
 
 class DescriptorError(HexmigrateError, ValueError):

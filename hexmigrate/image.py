@@ -190,7 +190,7 @@ class ModuleImage:
         named after the file."""
         path = Path(path)
         try:
-            return cls.from_hex(_read_module_file(path), path.stem)
+            return cls.from_hex(read_module_text(path), path.stem)
         except HexError as error:
             raise error.with_path(path) from None
 
@@ -291,7 +291,7 @@ MAX_FILE_BYTES = 64 << 20
 """The largest module file read: far above the HEX text of any flash a node has."""
 
 
-def _read_module_file(path: Path) -> str:
+def read_module_text(path: Path) -> str:
     """The text of a module file, refusing a pipe, a device or a directory before reading (a
     pipe would block, a device read without end) and a file larger than MAX_FILE_BYTES."""
     descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # a FIFO opens without a writer

@@ -6,6 +6,11 @@ with ``-ffunction-sections``, so static functions appear too) and the global sym
 The pointer slots are the words of the descriptor section that hold one of those addresses. The
 raw binary (``objcopy -O binary``) starts at the link base, which the SDK linker script names
 ``__module_start``.
+
+A map from another build than the binary would give 07 records at words that hold no pointer
+and leave the real pointers unfixed, so the binary must agree with the map before it is packed:
+its size is ``__module_end - __module_start``, the descriptor section holds a descriptor, and
+each of its method pointers is a function start the map names.
 """
 
 from __future__ import annotations
@@ -14,14 +19,18 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from hexmigrate import descriptor as abi
+from hexmigrate.checks import check_module
 from hexmigrate.descriptor import DESCRIPTOR_SECTION
 from hexmigrate.elf import DEFAULT_INIT_SYMBOL
-from hexmigrate.errors import HexError, ModuleSourceError
+from hexmigrate.errors import DescriptorError, HexError, MapMismatchError, ModuleSourceError
 from hexmigrate.image import ModuleImage
 
 MEMORY_MAP_HEADING = "Linker script and memory map"
 SYMBOL_NAME = re.compile(r"[A-Za-z_.$][\w.$]*")
 LINK_BASE_SYMBOL = "__module_start"
+END_SYMBOL = "__module_end"
+SAME_BUILD_FIX = "pack the .bin and the .map that one build wrote (or pack the ELF)"
 
 
 @dataclass(frozen=True)
@@ -153,8 +162,10 @@ def image_from_map(
     link_base = _required_symbol(linker_map, LINK_BASE_SYMBOL, map_path, "the link base")
     init = _required_symbol(linker_map, init_symbol, map_path, "the init subroutine")
     relocations = _descriptor_pointers(linker_map, data, link_base, map_path)
+    _check_size(linker_map, data, link_base, map_path, binary_path)
+    _check_descriptor_methods(linker_map, data, link_base, map_path, binary_path)
     try:
-        return ModuleImage(
+        image = ModuleImage(
             binary_path.stem,
             link_base,
             data,
@@ -162,8 +173,56 @@ def image_from_map(
             init,
             linker_map.function_starts(),
         )
+        check_module(image)
     except HexError as error:
         raise error.with_path(binary_path) from None
+    return image
+
+
+def _check_size(
+    linker_map: LinkerMap, data: bytes, link_base: int, map_path: Path, binary_path: Path
+) -> None:
+    """The binary is as long as the map says the image is (when the map names its end)."""
+    end = linker_map.symbols.get(END_SYMBOL)
+    if end is None or end - link_base == len(data):
+        return
+    raise MapMismatchError(
+        f"expected {binary_path} to come from the build that wrote this map: the map's image "
+        f"is {end - link_base} bytes ({LINK_BASE_SYMBOL} 0x{link_base:08X} to {END_SYMBOL} "
+        f"0x{end:08X}), got a binary of {len(data)} bytes: {SAME_BUILD_FIX}",
+        path=map_path,
+    )
+
+
+def _check_descriptor_methods(
+    linker_map: LinkerMap, data: bytes, link_base: int, map_path: Path, binary_path: Path
+) -> None:
+    """The binary's bytes at the map's descriptor start with the descriptor magic and, under
+    this ABI, its methods are the map's function starts. (A descriptor of another ABI version
+    is packed as it is: the node refuses it at REGISTER, as a test module does on purpose.)"""
+    descriptor = linker_map.output_sections[DESCRIPTOR_SECTION]
+    offset = descriptor.address - link_base
+    where = f"{DESCRIPTOR_SECTION} at 0x{descriptor.address:08X}"
+    magic = int.from_bytes(data[offset : offset + 4], "little")
+    if magic != abi.MAGIC:
+        raise MapMismatchError(
+            f"expected {binary_path} to hold the descriptor the map places at {where}, got "
+            f"0x{magic:08X} where its magic 0x{abi.MAGIC:08X} belongs: {SAME_BUILD_FIX}",
+            path=map_path,
+        )
+    try:
+        decoded = abi.Descriptor.decode(data[offset : offset + abi.SIZE])
+    except DescriptorError:
+        return
+    starts = linker_map.function_starts()
+    for method, target in decoded.methods.items():
+        if target and target not in starts:
+            raise MapMismatchError(
+                f"expected the descriptor's method {method!r} in {binary_path} ({where}) to "
+                f"point to a function start of the map, got 0x{target:08X}, where the map "
+                f"names no function: {SAME_BUILD_FIX}",
+                path=map_path,
+            )
 
 
 def _required_symbol(linker_map: LinkerMap, symbol: str, map_path: Path, role: str) -> int:
@@ -183,10 +242,10 @@ def _descriptor_pointers(
             path=map_path,
         )
     if descriptor.address < link_base or descriptor.end > link_base + len(data):
-        raise ModuleSourceError(
+        raise MapMismatchError(
             f"expected {DESCRIPTOR_SECTION} at 0x{descriptor.address:08X}..0x{descriptor.end:08X} "
             f"inside the binary (0x{link_base:08X}..0x{link_base + len(data):08X}), "
-            "got it outside: does the binary belong to this map?",
+            f"got it outside: does the binary belong to this map? {SAME_BUILD_FIX}",
             path=map_path,
         )
     starts = linker_map.function_starts()

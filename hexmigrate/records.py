@@ -30,8 +30,8 @@ otherwise decode to the same bytes.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
 from enum import IntEnum
 
 from hexmigrate.bulk import parse_well_formed
@@ -246,6 +246,9 @@ class HexContent:
     `relocations` keeps the order of the 07 records; `start_segment` is the CS:IP pair of an 03
     record, `start_linear` the EIP of an 05 record (at most one of the two); `signature` the
     bytes of the 09 records joined (empty when the file is not signed).
+    `relocation_lines` and `init_line` say on which line of the file each pointer record was,
+    for the module checks' messages (`hexmigrate.checks`); they are not content, so they take no
+    part in equality.
     """
 
     segments: tuple[Segment, ...]
@@ -254,6 +257,8 @@ class HexContent:
     start_segment: tuple[int, int] | None = None
     start_linear: int | None = None
     signature: bytes = b""
+    relocation_lines: Mapping[int, int] = field(default_factory=dict, compare=False, repr=False)
+    init_line: int | None = field(default=None, compare=False, repr=False)
 
     def contains(self, address: int, size: int = 1) -> bool:
         """True when the `size` bytes at `address` lie inside one data segment."""
@@ -342,6 +347,8 @@ class _Decoder:
             start_segment=self.start_segment,
             start_linear=self.start_linear,
             signature=bytes(self.signature),
+            relocation_lines=self.relocation_lines,
+            init_line=self.init_line or None,
         )
         for location in self.relocations:
             if not content.contains(location, POINTER_SIZE):

@@ -167,6 +167,8 @@ class Scheduler:
         counters.cycles += 1
         counters.busy_time += finish - start
         if job.period is not None:
+            if finish - start > job.period + _SLACK:
+                counters.long_jobs += 1  # its own fault, unlike the releases others made it skip
             self._account_period(job, job.period, finish)
 
     def _account_period(self, job: Job, period: float, finish: float) -> None:

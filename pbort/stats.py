@@ -19,6 +19,7 @@ class Counters:
         "faults",
         "instructions",
         "last_failure",
+        "long_jobs",
         "missed_deadlines",
         "overruns",
     )
@@ -27,6 +28,7 @@ class Counters:
         self.cycles = 0
         self.missed_deadlines = 0
         self.overruns = 0
+        self.long_jobs = 0
         self.busy_time = 0.0
         self.instructions = 0
         self.faults = 0
@@ -38,6 +40,7 @@ class Counters:
             cycles=self.cycles,
             missed_deadlines=self.missed_deadlines,
             overruns=self.overruns,
+            long_jobs=self.long_jobs,
             busy_time=self.busy_time,
             instructions=self.instructions,
             faults=self.faults,
@@ -52,7 +55,10 @@ class Stats:
     `cycles` counts jobs run (cycle plus evaluation). A periodic job's deadline is its next
     release: `missed_deadlines` counts jobs that finished after it. `overruns` counts releases
     skipped because the previous job had not started or finished by then (the kernel never queues
-    a backlog); for an aperiodic PBO, triggers that came while a release was pending. `busy_time`
+    a backlog); for an aperiodic PBO, triggers that came while a release was pending: both may
+    be caused by other PBOs that held the CPU. `long_jobs` counts this PBO's own jobs that held the
+    CPU longer than its period (a guest's virtual duration; on the real-time clock, the host time
+    its emulation took): the PBO alone cannot keep its rate on this node. `busy_time`
     is the time jobs held the CPU, in seconds. `instructions` sums what every call on the executor
     reported (0 for native code). `faults` counts failed method calls (negative status or fault),
     whatever the method; `last_failure` says what the last one was.
@@ -61,6 +67,7 @@ class Stats:
     cycles: int
     missed_deadlines: int
     overruns: int
+    long_jobs: int
     busy_time: float
     instructions: int
     faults: int

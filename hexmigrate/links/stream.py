@@ -23,7 +23,10 @@ MAX_QUEUED = 4 << 20
 """The most bytes of received messages a link holds for a `receive` that has not come yet: a
 message past it is dropped and counted in `overruns`, as a UART overruns, so that a peer that
 pushes to a reader that stopped reading (a watch printing into a pipe nobody empties) does not
-grow memory without bound. Four of the largest messages fit."""
+grow memory without bound. Four of the largest messages fit. Each message counts
+MESSAGE_OVERHEAD bytes more, so a flood of 4-byte lines is bounded by count too."""
+MESSAGE_OVERHEAD = 64
+"""What a waiting message costs beyond its bytes (a Python bytes object and its queue slot)."""
 
 
 class StreamLink(LinkBase):
@@ -73,7 +76,7 @@ class StreamLink(LinkBase):
             assert self._failure is not None
             raise self._failure
         with self._queued_lock:
-            self._queued -= len(message)
+            self._queued -= len(message) + MESSAGE_OVERHEAD
         return message
 
     def _close(self) -> None:
@@ -91,11 +94,12 @@ class StreamLink(LinkBase):
                     self._fail(LinkError(f"{self.url}: cannot read: {error}"))
                 return
             for message in self.deframer.feed(chunk):
+                cost = len(message) + MESSAGE_OVERHEAD
                 with self._queued_lock:
-                    if self._queued + len(message) > MAX_QUEUED:
+                    if self._queued + cost > MAX_QUEUED:
                         self.overruns += 1
                         continue
-                    self._queued += len(message)
+                    self._queued += cost
                 self._messages.put(message)
 
     def _fail(self, failure: LinkError) -> None:

@@ -11,30 +11,41 @@ URL grammar::
 
 pyserial's ``socket://HOST:PORT`` (serial.py) is a client; this is the end it connects to. The
 link binds the address its URL names and nothing else: a node on 127.0.0.2 does not answer on
-127.0.0.1, and only an address other machines can reach makes it reachable from them. It serves
-one connection at a time, framed as `framing` describes, like a serial line.
-When the client hangs up, the link accepts the next one: the link, and what a node keeps behind
-it (the transfer protocol's `Receiver`), stay the same, so a sender can reconnect and RESUME a
-transfer a cut connection interrupted. A second client that connects while one is served waits
-in the listen backlog until the first hangs up.
+127.0.0.1, and only an address other machines can reach makes it reachable from them.
 
-Between connections the link is a serial line with nothing plugged in: `send` loses the message
-(counted in `lost`) instead of raising, and `receive` times out. A client that takes no bytes
-for WRITE_TIMEOUT seconds is disconnected. Bytes of a message cut short by a hang-up are
-dropped; the next client's stream starts from a clean deframer.
+It serves up to MAX_CLIENTS connections at once, each framed as `framing` describes, like a
+serial line, each with its own deframer: one idle client does not hold up another.
+`receive_from` says which client a message came from and `send_to` answers that one (a node
+keeps one session per client: `firmware_sim.server.serve`); `receive` and `send` are the plain
+`Link`, answering the client of the last message received. The link, and what a node keeps
+behind it (the transfer protocol's `Receiver`), outlive every connection, so a sender can
+reconnect and RESUME a transfer a cut connection interrupted.
+
+Every buffer is bounded, so no client can grow the node's memory: a client's received messages
+waiting for `receive` take at most MAX_WAITING bytes (then the link stops reading that client,
+and TCP's flow control holds the client back), and its answers not yet taken at most
+MAX_PENDING bytes (then the client, which does not read, is disconnected). `send_to` never
+waits for a client. A message for a client that is gone is lost (counted in `lost`), as on a
+serial line with nothing plugged in; `hang_up` disconnects a client and drops what it sent that
+was not received yet (a node does so to a client whose line cannot be a command: an HTTP
+request). Bytes of a message cut short by a hang-up are dropped.
 """
 
 from __future__ import annotations
 
 import os
+import queue
 import select
 import socket
 import threading
+import time
 from contextlib import suppress
+from dataclasses import dataclass, field
 
 from hexmigrate.errors import LinkError
-from hexmigrate.links.framing import Deframer
-from hexmigrate.links.stream import POLL_INTERVAL, StreamLink
+from hexmigrate.links.base import LinkBase, message_problem
+from hexmigrate.links.framing import Deframer, frame
+from hexmigrate.links.stream import MESSAGE_OVERHEAD, POLL_INTERVAL
 from hexmigrate.links.url import integer, network_host, split_url, url_error, url_host
 
 SCHEME = "tcp-listen"
@@ -43,8 +54,13 @@ FORM = (
     "(port 0: any free port)"
 )
 READ_SIZE = 1 << 16
-WRITE_TIMEOUT = 5.0
-"""How long a reply waits for the client to take bytes before the client is disconnected."""
+MAX_CLIENTS = 8
+"""Clients served at once; more wait in the listen backlog until one hangs up."""
+MAX_WAITING = 1 << 16
+"""Bytes of one client's received messages waiting for `receive` (each counted with
+MESSAGE_OVERHEAD) before the link stops reading that client."""
+MAX_PENDING = 1 << 18
+"""Bytes of answers a client has not taken before it is disconnected."""
 
 
 def open_url(url: str, **options: object) -> TcpListenLink:
@@ -104,8 +120,21 @@ def _listen(url: str, name: str, port: int) -> socket.socket:
     return listener
 
 
-class TcpListenLink(StreamLink):
-    """A TCP server on `host` that carries messages to and from one client at a time."""
+@dataclass(eq=False)
+class _Client:
+    """One connection: its socket, deframer, and what waits in each direction."""
+
+    number: int
+    connection: socket.socket
+    deframer: Deframer = field(default_factory=Deframer)
+    waiting: int = 0  # bytes (with overhead) of its messages not yet received
+    pending: bytearray = field(default_factory=bytearray)  # answers it has not taken
+    gone: bool = False  # left, or let go: its socket is closed by the server thread
+    hung_up: bool = False  # let go by `hang_up`: its messages not yet received are dropped
+
+
+class TcpListenLink(LinkBase):
+    """A TCP server on `host` that carries messages to and from up to MAX_CLIENTS clients."""
 
     def __init__(self, url: str, host: str, port: int) -> None:
         listener = _listen(url, host, port)
@@ -115,14 +144,20 @@ class TcpListenLink(StreamLink):
         """The port listened on (the one the system picked for port 0)."""
         super().__init__(url)
         self.connections = 0
-        """Clients accepted so far."""
+        """Clients accepted so far (each one's number is its count)."""
         self.lost = 0
-        """Messages sent while no client was connected, or that a client did not take."""
+        """Messages sent to a client that was gone, or that a client did not take."""
+        self.last_peer: int | None = None
+        """The client the last message received came from: `send` answers it."""
         self._listener = listener
-        self._connection: socket.socket | None = None
-        self._lock = threading.Lock()  # guards _connection against a send during a hang-up
+        self._clients: dict[int, _Client] = {}
+        self._lock = threading.Lock()  # guards _clients and each client's counters and output
         self._dropped_before = 0
-        self._start()
+        self._messages: queue.SimpleQueue[tuple[_Client, bytes] | None] = queue.SimpleQueue()
+        self._failure: LinkError | None = None
+        self._stopping = threading.Event()
+        self._reader = threading.Thread(target=self._serve, name=f"server {url}", daemon=True)
+        self._reader.start()
 
     @property
     def bound_url(self) -> str:
@@ -137,73 +172,184 @@ class TcpListenLink(StreamLink):
     @property
     def connected(self) -> bool:
         """True while a client is connected."""
-        return self._connection is not None
+        return bool(self._clients)
+
+    @property
+    def peers(self) -> frozenset[int]:
+        """The numbers of the clients connected now."""
+        with self._lock:
+            return frozenset(self._clients)
 
     @property
     def dropped(self) -> int:
         """Received lines and frames given up as garbage, over all connections."""
-        return self._dropped_before + self.deframer.dropped
+        with self._lock:
+            live = sum(client.deframer.dropped for client in self._clients.values())
+        return self._dropped_before + live
 
-    def _read_chunk(self) -> bytes:
-        connection = self._connection
-        if connection is None:
-            self._accept()
-            return b""
-        readable, _, _ = select.select([connection], [], [], POLL_INTERVAL)
-        if not readable:
-            return b""
-        try:
-            data = connection.recv(READ_SIZE)
-        except (BlockingIOError, InterruptedError):
-            return b""
-        except OSError:  # reset by the peer, or shut down by `_write` after a failed reply
-            data = b""
-        if not data:
-            self._hang_up(connection)
-        return data
+    def receive_from(self, timeout: float) -> tuple[int, bytes] | None:
+        """The next message and the number of the client it came from, or None when none
+        arrived within `timeout` seconds."""
+        if timeout < 0:
+            raise ValueError(f"expected a timeout >= 0 seconds, got {timeout}")
+        self._check_open()
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                item = self._messages.get(timeout=max(0.0, deadline - time.monotonic()))
+            except queue.Empty:
+                return None
+            if item is None:
+                self._messages.put(None)
+                assert self._failure is not None
+                raise self._failure
+            client, message = item
+            with self._lock:
+                client.waiting -= len(message) + MESSAGE_OVERHEAD
+            if client.hung_up:  # what a client was hung up on for is not heard
+                continue
+            self.last_peer = client.number
+            return client.number, message
+
+    def send_to(self, peer: int, message: bytes) -> None:
+        """Send one message to client `peer`; lost (counted) if that client is gone. Never
+        waits: what the client has not taken waits here, up to MAX_PENDING bytes."""
+        problem = message_problem(message)
+        if problem is not None:
+            raise ValueError(problem)
+        self._check_open()
+        data = frame(message)
+        with self._lock:
+            client = self._clients.get(peer)
+            if client is None or client.gone:
+                self.lost += 1
+                return
+            if not client.pending:
+                try:
+                    data = data[client.connection.send(data) :]
+                except (BlockingIOError, InterruptedError):
+                    pass
+                except OSError:
+                    self.lost += 1
+                    self._end(client)
+                    return
+            client.pending += data
+            if len(client.pending) > MAX_PENDING:  # it does not read: let it go, unheard
+                self.lost += 1
+                client.hung_up = True
+                self._end(client)
+
+    def hang_up(self, peer: int) -> None:
+        """Disconnect client `peer` and drop what it sent that was not received yet."""
+        with self._lock:
+            client = self._clients.get(peer)
+            if client is not None:
+                client.hung_up = True
+                self._end(client)
+
+    def _send(self, message: bytes) -> None:
+        if self._failure is not None:
+            raise self._failure
+        if self.last_peer is None:
+            self.lost += 1
+            return
+        self.send_to(self.last_peer, message)
+
+    def _receive(self, timeout: float) -> bytes | None:
+        got = self.receive_from(timeout)
+        return None if got is None else got[1]
+
+    def _end(self, client: _Client) -> None:
+        """Mark a client gone (lock held); the server thread closes its socket."""
+        client.gone = True
+        with suppress(OSError):
+            client.connection.shutdown(socket.SHUT_RDWR)
+
+    def _serve(self) -> None:
+        """The server thread: accepts clients, reads and deframes what they send, writes what
+        waits for them, and closes those gone."""
+        while not self._stopping.is_set():
+            try:
+                self._turn()
+            except OSError as error:
+                if not self._stopping.is_set():
+                    self._failure = LinkError(f"{self.url}: cannot read: {error}")
+                    self._messages.put(None)
+                return
+
+    def _turn(self) -> None:
+        with self._lock:
+            for client in [c for c in self._clients.values() if c.gone]:
+                self._close_client(client)
+            clients = list(self._clients.values())
+            readers: list[socket.socket] = [
+                c.connection for c in clients if c.waiting < MAX_WAITING
+            ]
+            writers = [c.connection for c in clients if c.pending]
+        if len(clients) < MAX_CLIENTS:
+            readers.append(self._listener)
+        readable, writable, _ = select.select(readers, writers, [], POLL_INTERVAL)
+        by_socket = {c.connection: c for c in clients}
+        for sock in readable:
+            if sock is self._listener:
+                self._accept()
+            else:
+                self._read(by_socket[sock])
+        for sock in writable:
+            self._flush(by_socket[sock])
 
     def _accept(self) -> None:
-        """Take the next client, waiting at most POLL_INTERVAL. An error of the listening socket
-        itself (OSError) fails the link; a client that left before it was taken is skipped."""
-        readable, _, _ = select.select([self._listener], [], [], POLL_INTERVAL)
-        if not readable:
-            return
+        """Take the next client; one that left before it was taken is skipped."""
         try:
             connection, _ = self._listener.accept()
         except (BlockingIOError, InterruptedError, ConnectionAbortedError):
             return
-        connection.settimeout(WRITE_TIMEOUT)
+        connection.setblocking(False)
         connection.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         with self._lock:
-            self._connection = connection
             self.connections += 1
+            self._clients[self.connections] = _Client(self.connections, connection)
 
-    def _hang_up(self, connection: socket.socket) -> None:
-        """Forget a client that left (in the reader thread, between two chunks); the next one
-        starts with a clean deframer, so a frame the old one left half-sent never joins it."""
-        with self._lock:
-            if self._connection is connection:
-                self._connection = None
-        connection.close()
-        self._dropped_before += self.deframer.dropped
-        self.deframer = Deframer()
+    def _read(self, client: _Client) -> None:
+        try:
+            data = client.connection.recv(READ_SIZE)
+        except (BlockingIOError, InterruptedError):
+            return
+        except OSError:  # reset by the peer, or shut down after a failed answer
+            data = b""
+        if not data:
+            with self._lock:
+                client.gone = True
+            return
+        for message in client.deframer.feed(data):
+            with self._lock:
+                client.waiting += len(message) + MESSAGE_OVERHEAD
+            self._messages.put((client, message))
 
-    def _write(self, data: bytes) -> None:
+    def _flush(self, client: _Client) -> None:
         with self._lock:
-            connection = self._connection
-            if connection is None:
-                self.lost += 1  # nobody plugged in: the bytes go nowhere, as on a serial line
+            if client.gone or not client.pending:
                 return
             try:
-                connection.sendall(data)
-            except OSError:  # gone, or took nothing for WRITE_TIMEOUT s: let the reader hang up
-                self.lost += 1
-                with suppress(OSError):
-                    connection.shutdown(socket.SHUT_RDWR)
+                sent = client.connection.send(client.pending)
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError:
+                self._end(client)
+                return
+            del client.pending[:sent]
 
-    def _close_stream(self) -> None:
+    def _close_client(self, client: _Client) -> None:
+        """Forget a client that left or was let go (lock held)."""
+        self._clients.pop(client.number, None)
+        self._dropped_before += client.deframer.dropped
+        client.connection.close()
+
+    def _close(self) -> None:
+        self._stopping.set()
+        if self._reader.is_alive():
+            self._reader.join(timeout=10 * POLL_INTERVAL + 1.0)
         with self._lock:
-            connection, self._connection = self._connection, None
-        if connection is not None:
-            connection.close()
+            for client in list(self._clients.values()):
+                self._close_client(client)
         self._listener.close()

@@ -413,6 +413,20 @@ def decode(raw: bytes, checked: bool = False) -> Message:
     return message
 
 
+def is_foreign(raw: bytes) -> bool:
+    """True for a text line that cannot be a message of this protocol in any way (not a record
+    line, and a first word that is no verb): an HTTP request line or header from a browser or
+    ``curl`` pointed at a node's port. A blank line, or a command with bad arguments, is not
+    foreign: a person at a terminal typed it."""
+    if not is_text(raw) or raw.startswith(RECORD_START.encode()):
+        return False
+    words = raw.split(None, 1)
+    if not words:
+        return False
+    verb = words[0].decode("ascii", "replace").upper()
+    return verb not in _BY_VERB
+
+
 def _decode_line(raw: bytes, checked: bool) -> Message:
     try:
         line = raw.decode("ascii").strip()

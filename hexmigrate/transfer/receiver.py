@@ -11,8 +11,9 @@ node's modules are untouched; ``ABORT`` or any fatal error erases what the trans
 
 from __future__ import annotations
 
+import time
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -72,6 +73,17 @@ REMEMBERED_COMMITS = 64
 REMEMBERED_CONTROLS = 64
 """Control answers kept by tid, so that a request repeated after a lost answer is answered
 again, not done again."""
+TRANSFER_IDLE = 60.0
+"""Seconds a transfer may go without a message before the node drops it and gives back its
+flash reservation and SRAM buffer: a sender killed mid-transfer must not hold them forever. A
+sender that reconnects within this time resumes (``RESUME``)."""
+MAX_TRANSFERS = 8
+"""Transfers open at once; a BEGIN beyond them is refused, so that hostile BEGINs cannot take
+every flash block and SRAM buffer between two expiries."""
+ADDRESS_SPACE = 1 << 32
+"""Where a module's link addresses end: an image linked past it cannot be addressed."""
+MAX_IMPLICIT_RELOCATIONS = 1024
+"""The most 07 records of a module typed on a terminal without BEGIN (no size to bound them)."""
 MAX_REFUSAL = 200
 """The longest reason a control refusal gives: a refusal names what it refuses, and a hostile
 name of a megabyte must not become 64 remembered answers of a megabyte each."""
@@ -136,15 +148,30 @@ class Transfer:
     base: int = 0  # the 02/04 address base of hex mode
     image: Image | None = None
     locations: set[int] = field(default_factory=set)
+    peer: Hashable = None
+    """The connection that opened (or last resumed) it: its record lines go to it alone."""
+    touched: float = 0.0
+    """When it last heard a message (the receiver's clock)."""
 
 
 class Receiver:
     """The protocol state of one node, shared by all its links; `control` is the node's
     `ControlTarget` (None: the node refuses control requests)."""
 
-    def __init__(self, target: Target, control: ControlTarget | None = None) -> None:
+    def __init__(
+        self,
+        target: Target,
+        control: ControlTarget | None = None,
+        *,
+        idle: float = TRANSFER_IDLE,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
         self.target = target
         self.control = control
+        self.idle = idle
+        """Seconds without a message after which a transfer is dropped (`expire`)."""
+        self.clock = clock
+        self._peer: Hashable = None  # the connection of the message being handled
         self.controlled: OrderedDict[int, Message] = OrderedDict()
         """The answers to recent control requests, by tid."""
         self.subscription: Subscription | None = None
@@ -155,11 +182,14 @@ class Receiver:
         # hear the same answer rather than "unknown transfer".
         self.committed: OrderedDict[int, Ack] = OrderedDict()
 
-    def handle(self, raw: bytes) -> list[bytes]:
+    def handle(self, raw: bytes, peer: Hashable = None) -> list[bytes]:
         """Replies to one received message, encoded in the mode it came in. A node never exits
         on a message: one that does not decode is refused with the reason, and a reply that
         cannot be written in the mode asked (a module whose name has a blank, listed in hex
-        mode) becomes a refusal that says why."""
+        mode) becomes a refusal that says why. `peer` names the connection it came on (one of
+        a ``tcp-listen://`` link's clients): record lines go to a transfer of that connection."""
+        self.expire()
+        self._peer = peer
         text = self._text = is_text(raw)
         try:
             message = decode(raw)
@@ -187,10 +217,20 @@ class Receiver:
             self._drop(tid)
             return [Nak(tid, 0, str(error), fatal=True)]
 
+    def expire(self) -> list[int]:
+        """Drop the transfers idle for more than `idle` seconds, giving back their flash and
+        SRAM; their tids. The node's serve loop calls it between messages."""
+        now = self.clock()
+        stale = [tid for tid, t in self.transfers.items() if now - t.touched > self.idle]
+        for tid in stale:
+            self._drop(tid)
+        return stale
+
     def _transfer(self, tid: int) -> Transfer:
         transfer = self.transfers.get(tid)
         if transfer is None:
             raise _FatalRefusal(f"unknown transfer {tid}: send BEGIN first")
+        transfer.touched = self.clock()
         return transfer
 
     def _drop(self, tid: int) -> None:
@@ -297,19 +337,47 @@ class Receiver:
         existing = self.transfers.get(message.tid)
         if existing is not None:  # our ACK was lost and the sender asks again
             return [Ack(message.tid, existing.session.load_base, "begun")]
+        if message.link_base + message.size > ADDRESS_SPACE:
+            return [
+                Nak(
+                    message.tid,
+                    0,
+                    f"cannot begin: an image of {message.size} bytes linked at "
+                    f"0x{message.link_base:08X} ends past the 32-bit address space",
+                    fatal=True,
+                )
+            ]
+        if len(self.transfers) >= MAX_TRANSFERS:
+            return [
+                Nak(
+                    message.tid,
+                    0,
+                    f"cannot begin: {MAX_TRANSFERS} transfers are open (an idle one ends after "
+                    f"{self.idle:g} s)",
+                    fatal=True,
+                )
+            ]
         owner = f"transfer:{message.tid:08X}"
         try:
             session = self.target.begin(owner, message.size, message.base)
         except Exception as error:  # no room, bad address: the node says why
             return [Nak(message.tid, 0, f"cannot begin: {error}", fatal=True)]
         self.transfers[message.tid] = Transfer(
-            message.tid, owner, session, message.link_base, message.relocations, message.size
+            message.tid,
+            owner,
+            session,
+            message.link_base,
+            message.relocations,
+            message.size,
+            peer=self._peer,
+            touched=self.clock(),
         )
         return [Ack(message.tid, session.load_base, "begun")]
 
     def _header(self, message: Header) -> list[Message]:
         transfer = self._transfer(message.tid)
         if not transfer.header_done:
+            _check_relocation_count(transfer, len(message.relocations))
             _guard(transfer.session.reset_pointers)
             for location in message.relocations:
                 _guard(transfer.session.feed_relocation, location)
@@ -365,11 +433,14 @@ class Receiver:
         return BlockAck.of(transfer.tid, programmed) if binary else Ack(transfer.tid, programmed)
 
     def _line(self, message: HexLine) -> list[Message]:
-        transfer = self._text_transfer()
         try:
             record = decode_record(message.text)
-        except HexError as error:
-            return [Nak(transfer.tid, transfer.session.received, f"bad record: {error}")]
+        except HexError as error:  # refused before it can open a transfer and reserve flash
+            transfer = self._open_text_transfer()
+            received = 0 if transfer is None else transfer.session.received
+            tid = IMPLICIT if transfer is None else transfer.tid
+            return [Nak(tid, received, f"bad record: {error}")]
+        transfer = self._text_transfer()
         kind = record.type
         if kind is RecordType.DATA:
             return self._feed(transfer, transfer.base + record.address, record.data)
@@ -385,18 +456,32 @@ class Receiver:
             return self._end(End(transfer.tid, 0), check_crc=False)
         return []
 
+    def _open_text_transfer(self) -> Transfer | None:
+        """The open transfer the connection of this message opened (or resumed) last."""
+        mine = [t for t in self.transfers.values() if t.image is None and t.peer == self._peer]
+        if not mine:
+            return None
+        mine[-1].touched = self.clock()
+        return mine[-1]
+
     def _text_transfer(self) -> Transfer:
-        """The hex-mode transfer a record line belongs to: the open one, or an implicit one for
-        a module typed on a terminal without BEGIN."""
-        open_transfers = [t for t in self.transfers.values() if t.image is None]
-        if open_transfers:
-            return open_transfers[-1]
+        """The hex-mode transfer a record line belongs to: the open one of this connection, or
+        an implicit one for a module typed on a terminal without BEGIN (one at a time)."""
+        transfer = self._open_text_transfer()
+        if transfer is not None:
+            return transfer
+        if IMPLICIT in self.transfers:
+            raise _FatalRefusal(
+                "a module sent without BEGIN is loading on another connection: send BEGIN"
+            )
         owner = f"transfer:{IMPLICIT:08X}"
         try:
             session = self.target.begin(owner, None, None)
         except Exception as error:
             raise _FatalRefusal(f"cannot begin: {error}") from None
-        transfer = Transfer(IMPLICIT, owner, session, None, None)
+        transfer = Transfer(
+            IMPLICIT, owner, session, None, None, peer=self._peer, touched=self.clock()
+        )
         self.transfers[IMPLICIT] = transfer
         return transfer
 
@@ -404,6 +489,7 @@ class Receiver:
         session = transfer.session
         if kind is RecordType.OFFSET_FUNCTION_POINTER:
             if value not in transfer.locations:
+                _check_relocation_count(transfer, len(transfer.locations) + 1)
                 _guard(session.feed_relocation, value)
                 transfer.locations.add(value)
             return []
@@ -460,6 +546,7 @@ class Receiver:
 
     def _resume(self, message: Resume) -> list[Message]:
         transfer = self._transfer(message.tid)
+        transfer.peer = self._peer  # the sender came back on a new connection
         transfer.session.rewind()
         state = (
             "verified"
@@ -481,6 +568,16 @@ def _encoded(reply: Message, text: bool) -> bytes:
 def _bridge(message: ExportPort | ImportPort, name: str) -> tuple[int, str, str, str, int]:
     """(number, port, url, wire, rate) of a bridge request, its port checked to be PBO.port."""
     return message.number, port(name), message.url, message.wire, message.rate
+
+
+def _check_relocation_count(transfer: Transfer, count: int) -> None:
+    """Refuse more pointer locations than BEGIN announced, or than the image has words: a
+    hostile header of 262,000 locations must not be kept."""
+    limit = MAX_IMPLICIT_RELOCATIONS if transfer.relocations is None else transfer.relocations
+    if transfer.size is not None:
+        limit = min(limit, transfer.size // 4)
+    if count > limit:
+        raise _FatalRefusal(f"expected at most {limit} pointer locations, got {count}")
 
 
 def _guard(action: Callable[..., object], *args: object) -> None:

@@ -58,6 +58,17 @@ __asm__(".section .text.wait\n.globl wait\nwait:\nwfi\nret\n");
 __asm__(".section .text.breakpoint\n.globl breakpoint\nbreakpoint:\nnop\nebreak\nret\n");
 /* jumps 2 bytes into itself, where a compressed instruction would start */
 __asm__(".section .text.halfway\n.globl halfway\nhalfway:\nauipc t0, 0\njr 2(t0)\nret\n");
+/* every register a call does not set, written, then or-ed together */
+__asm__(".section .text.taint\n.globl taint\ntaint:\nli gp, 3\nli tp, 4\nli t0, 5\nli t6, 31\n"
+        "li s0, 8\nli s11, 27\nli a1, 11\nli a7, 17\nret\n");
+__asm__(".section .text.leftovers\n.globl leftovers\nleftovers:\nor a0, x3, x4\nor a0, a0, x5\n"
+        "or a0, a0, x6\nor a0, a0, x7\nor a0, a0, x8\nor a0, a0, x9\nor a0, a0, x11\n"
+        "or a0, a0, x12\nor a0, a0, x13\nor a0, a0, x14\nor a0, a0, x15\nor a0, a0, x16\n"
+        "or a0, a0, x17\nor a0, a0, x18\nor a0, a0, x19\nor a0, a0, x20\nor a0, a0, x21\n"
+        "or a0, a0, x22\nor a0, a0, x23\nor a0, a0, x24\nor a0, a0, x25\nor a0, a0, x26\n"
+        "or a0, a0, x27\nor a0, a0, x28\nor a0, a0, x29\nor a0, a0, x30\nor a0, a0, x31\nret\n");
+/* csrw mstatus, zero; then a load: in machine mode both would run */
+__asm__(".section .text.privileged\n.globl privileged\nprivileged:\n.word 0x30001073\nret\n");
 __asm__(".section .text.answer\n.globl answer\nanswer:\nli a0, 1\nret\nli a0, 2\nret\n");
 """
 
@@ -296,16 +307,61 @@ def test_illegal_and_unsupported_instructions_fault(cpu: Cpu, guest: Guest) -> N
     assert illegal.fault == f"illegal instruction 0xFFFFFFFF at 0x{guest['illegal'] + 4:08X}"
     assert illegal.instructions == 1  # the nop
     breakpoint_run = cpu.call(guest["breakpoint"], (), 100)
-    assert breakpoint_run.fault is not None
-    assert f"at 0x{guest['breakpoint'] + 4:08X}" in breakpoint_run.fault
+    assert (
+        breakpoint_run.fault == f"illegal instruction 0x00100073 at 0x{guest['breakpoint'] + 4:08X}"
+    )
     assert breakpoint_run.instructions == 1
     halfway = cpu.call(guest["halfway"], (), 100)
     assert halfway.fault is not None
     assert halfway.fault.startswith(f"instruction fetch at 0x{guest['halfway'] + 2:08X}")
     assert halfway.instructions == 2
+    # Guests run in user mode: wfi, like every CSR access, is illegal there.
     wait = cpu.call(guest["wait"], (), 100)
-    assert wait.fault == f"halted by a wfi at 0x{guest['wait']:08X}: no interrupt will come"
+    assert wait.fault == f"illegal instruction 0x10500073 at 0x{guest['wait']:08X}"
+    privileged = cpu.call(guest["privileged"], (), 100)
+    assert privileged.fault == f"illegal instruction 0x30001073 at 0x{guest['privileged']:08X}"
     assert cpu.call(guest["combine"], (1, 2, 3, 4), 100).status == 11
+
+
+def test_no_fault_leaves_the_core_out_of_user_mode(cpu: Cpu, guest: Guest) -> None:
+    runs = [
+        ("illegal", ()),
+        ("breakpoint", ()),
+        ("wait", ()),
+        ("privileged", ()),
+        ("halfway", ()),
+        ("spin", ()),
+        ("jump", ()),
+        ("store", (SRAM_BASE, 1)),
+        ("service", (99, 0, 0, 0)),
+    ]
+    for name, args in runs:
+        assert cpu.call(guest[name], args, 100).fault is not None, name
+        privileged = cpu.call(guest["privileged"], (), 100)
+        assert privileged.fault is not None, name
+        assert privileged.fault.startswith("illegal instruction 0x30001073"), name
+
+
+def test_every_call_starts_with_registers_cleared(cpu: Cpu, guest: Guest) -> None:
+    assert cpu.call(guest["taint"], (), 100).ok
+    assert cpu.call(guest["leftovers"], (), 100).status == 0
+
+
+def test_fetches_outside_the_given_code_fault(cpu: Cpu, guest: Guest) -> None:
+    combine = guest["combine"]
+    code = range(combine, guest["store"])
+    assert cpu.call(combine, (1, 2, 3, 4), 100, code=code).status == 11
+    run = cpu.call(guest["load"], (SRAM_BASE,), 100, code=code)
+    assert run.fault == (
+        f"instruction fetch at 0x{guest['load']:08X} outside the image of the module "
+        f"(0x{combine:08X}..0x{guest['store'] - 1:08X}): a module runs only its own code"
+    )
+    assert run.instructions == 0
+    # A block that starts inside and runs past the end stops where the code ends.
+    straight = guest["straight"]
+    run = cpu.call(straight, (0,), 100, code=range(straight, straight + 8))
+    assert run.fault is not None
+    assert run.fault.startswith(f"instruction fetch at 0x{straight + 8:08X} outside")
 
 
 def test_kernel_writes_replace_code_that_was_already_translated(cpu: Cpu, guest: Guest) -> None:

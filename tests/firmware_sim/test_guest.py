@@ -165,8 +165,9 @@ class Node:
         )
 
     def load(self, elf: Path, address: int = FLASH_BASE, budget: int = 100_000) -> GuestModule:
-        descriptor = self.register(image_from_elf(elf), address)
-        return GuestModule(self.cpu, self.sram, descriptor, address, budget=budget)
+        image = image_from_elf(elf)
+        descriptor = self.register(image, address)
+        return GuestModule(self.cpu, self.sram, descriptor, address, image.size, budget=budget)
 
     def instance(self, module: GuestModule, role: Role = Role.EXECUTOR) -> GuestInstance:
         return module.instantiate(role, self.kernel.services())

@@ -217,7 +217,7 @@ def assert_installed_and_ran(node: NodeThread, names: Iterable[str]) -> None:
 # The tcp-listen link the TCP tests' node listens on.
 
 
-def test_tcp_listen_serves_one_client_after_another():
+def test_tcp_listen_serves_several_clients_at_once_each_on_its_own_stream():
     with open_link("tcp-listen://127.0.0.1:0") as server:
         assert isinstance(server, TcpListenLink)
         assert server.connect_url == f"socket://127.0.0.1:{server.port}"
@@ -225,15 +225,15 @@ def test_tcp_listen_serves_one_client_after_another():
         address = ("127.0.0.1", server.port)
         with socket.create_connection(address, timeout=5.0) as first:
             first.sendall(b"ONE\n")
-            assert server.receive(5.0) == b"ONE"
+            assert server.receive_from(5.0) == (1, b"ONE")
             with socket.create_connection(address, timeout=5.0) as second:
-                second.sendall(b"TWO\n")
-                assert server.receive(0.2) is None  # waits until the first hangs up
-                first.sendall(b"\x00\x05\x01ab")  # a binary frame cut short by the hang-up
-                first.close()
-                assert server.receive(5.0) == b"TWO"  # not joined to the first's leftover
-                server.send(b"HELLO")
+                first.sendall(b"\x00\x05\x01ab")  # a binary frame the first leaves cut short
+                second.sendall(b"TWO\n")  # served while the first is still connected
+                assert server.receive_from(5.0) == (2, b"TWO")  # not joined to the first's
+                server.send(b"HELLO")  # answers the client of the last message
                 assert second.recv(64) == b"HELLO\n"
+                server.send_to(1, b"FIRST")
+                assert first.recv(64) == b"FIRST\n"
         assert (server.lost, server.connections) == (1, 2)
 
 

@@ -9,7 +9,7 @@ import pytest
 
 from firmware_sim.errors import DirectoryError, RegistrationError
 from firmware_sim.natives import Signal
-from firmware_sim.node import Node
+from firmware_sim.node import LOG_LINES, Node
 from firmware_sim.sdk.build import ModuleBuild, build_module
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
@@ -289,3 +289,11 @@ def test_a_module_cannot_take_the_name_of_a_pbo_that_is_not_a_module(node, image
     with pytest.raises(RegistrationError, match="a module 'gain' is already loaded"):
         node.load(images["gain"])
     assert snapshot(node) == before
+
+
+def test_the_node_keeps_its_newest_notes_only():
+    with Node() as node:
+        for number in range(LOG_LINES + 5):
+            node._note(f"note {number}")
+        assert len(node.log) == LOG_LINES
+        assert node.log[0][1] == "note 5"

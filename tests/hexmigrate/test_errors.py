@@ -167,7 +167,9 @@ def test_every_error_class_has_a_fixture():
         for cls in vars(errors).values()
         if isinstance(cls, type) and issubclass(cls, errors.HexError) and not cls.__subclasses__()
     }
-    assert leaves - tested == {errors.ModuleSourceError}  # ELF/map inputs: see test_image_sources
+    # ELF/map inputs: see test_image_sources; the module checks: see test_verify_checks
+    checks = set(errors.ModuleCheckError.__subclasses__())
+    assert leaves - tested == {errors.ModuleSourceError, *checks}
 
 
 def test_every_error_is_a_hex_error_and_a_value_error():

@@ -15,7 +15,7 @@ from intelhex import IntelHex
 
 from hexmigrate import descriptor as abi
 from hexmigrate.elf import image_from_elf
-from hexmigrate.errors import HexError, ModuleSourceError
+from hexmigrate.errors import HexError, MapMismatchError, ModuleSourceError
 from hexmigrate.image import ModuleImage
 from hexmigrate.mapfile import image_from_map, parse_map
 from hexmigrate.records import decode
@@ -142,7 +142,7 @@ def test_map_without_memory_map_part(example, tmp_path):
 def test_map_with_a_truncated_binary_is_refused(example, tmp_path):
     short = tmp_path / "short.bin"
     short.write_bytes(example.bin.read_bytes()[:64])
-    with pytest.raises(ModuleSourceError, match="does the binary belong to this map"):
+    with pytest.raises(MapMismatchError, match="does the binary belong to this map"):
         image_from_map(short, example.map)
 
 

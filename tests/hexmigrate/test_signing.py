@@ -41,8 +41,11 @@ VERSION = tlv.Version(1, 2, 0)
 
 @pytest.fixture(scope="module")
 def image() -> ModuleImage:
-    data = bytes(range(64))
-    return ModuleImage("gain", 0x10000, data, (0x10008, 0x10010), 0x10020)
+    data = bytearray(range(64))
+    data[8:12] = (0x10030).to_bytes(4, "little")  # pointer words into the image, as 07 says
+    data[16:20] = (0x10034).to_bytes(4, "little")
+    data[32:36] = (0x00008067).to_bytes(4, "little")  # init: ret
+    return ModuleImage("gain", 0x10000, bytes(data), (0x10008, 0x10010), 0x10020)
 
 
 @pytest.fixture(scope="module", params=keys.KEY_TYPES)
