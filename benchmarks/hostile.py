@@ -50,6 +50,8 @@ from hexmigrate.transfer.sender import Sender
 
 QUIET = 0.2
 """Seconds a hostile connection is read after its last byte."""
+ANSWER_LIMIT = 10.0
+"""Seconds one input's answers are read for at most (a node that answers without end)."""
 U32 = (1 << 32) - 1
 
 
@@ -105,7 +107,8 @@ def exchange(port: int, data: bytes) -> list[bytes]:
     with socket.create_connection(("127.0.0.1", port), timeout=10.0) as client:
         client.sendall(data)
         client.settimeout(QUIET)
-        while True:
+        deadline = time.monotonic() + ANSWER_LIMIT
+        while time.monotonic() < deadline:
             try:
                 chunk = client.recv(1 << 16)
             except (TimeoutError, ConnectionResetError):

@@ -144,7 +144,6 @@ class KernelControl:
                 f"expected a time from the node's clock {self.granted:g} s to {MAX_ADVANCE:g} s "
                 f"later, got {until:g}"
             )
-        self.granted = until
         unknown = sorted(set(expect) - set(self.imports))
         if unknown:
             raise BridgeError(f"bridge {unknown[0]} is not imported here")
@@ -157,6 +156,7 @@ class KernelControl:
                     f"bridge {number} ({bridge_name(number)}_rx): expected value {seq}, got up "
                     f"to {imported.half.latest} in {ADVANCE_WAIT:g} s{broken}"
                 )
+        self.granted = until  # only once it runs: a refused Advance leaves the node as it was
         for number, seq in expect.items():
             self.imports[number].half.release(seq)
         self.node.run(until=until)

@@ -17,12 +17,13 @@ module whose pointers no node fixes). Then the image gets the checks of `hexmigr
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 from elftools.common.exceptions import ELFError
 from elftools.elf.constants import SH_FLAGS
 from elftools.elf.elffile import ELFFile
-from elftools.elf.relocation import RelocationSection
+from elftools.elf.relocation import Relocation, RelocationSection
 from elftools.elf.sections import Section, SymbolTableSection
 
 from hexmigrate.checks import RV32IM_FIX, check_module
@@ -135,40 +136,37 @@ def _has_image_bytes(section: Section) -> bool:
     )
 
 
-def _pointer_relocations(elf: ELFFile) -> list[int]:
-    """Addresses of the R_RISCV_32 words in allocated sections (those that reach flash)."""
-    locations: list[int] = []
+def _image_relocations(elf: ELFFile) -> Iterator[tuple[Relocation, Section]]:
+    """Each relocation of an allocated section (one that reaches flash), with that section."""
     for section in elf.iter_sections():
         if not isinstance(section, RelocationSection):
             continue
         target = elf.get_section(section["sh_info"])
-        if not target["sh_flags"] & SH_FLAGS.SHF_ALLOC:
-            continue
-        locations.extend(
-            relocation["r_offset"]
-            for relocation in section.iter_relocations()
-            if relocation["r_info_type"] == R_RISCV_32
-        )
-    return locations
+        if target["sh_flags"] & SH_FLAGS.SHF_ALLOC:
+            for relocation in section.iter_relocations():
+                yield relocation, target
+
+
+def _pointer_relocations(elf: ELFFile) -> list[int]:
+    """Addresses of the R_RISCV_32 words in allocated sections (those that reach flash)."""
+    return [
+        relocation["r_offset"]
+        for relocation, _ in _image_relocations(elf)
+        if relocation["r_info_type"] == R_RISCV_32
+    ]
 
 
 def _check_position_independent(elf: ELFFile) -> None:
     """No instruction of the image may hold part of an absolute address."""
-    for section in elf.iter_sections():
-        if not isinstance(section, RelocationSection):
-            continue
-        target = elf.get_section(section["sh_info"])
-        if not target["sh_flags"] & SH_FLAGS.SHF_ALLOC:
-            continue
-        for relocation in section.iter_relocations():
-            kind = ABSOLUTE_CODE_RELOCATIONS.get(relocation["r_info_type"])
-            if kind is not None:
-                raise AbsoluteCodeError(
-                    f"expected position-independent code, got a {kind} relocation at "
-                    f"0x{relocation['r_offset']:08X} ({target.name}): an instruction holds part "
-                    "of an absolute address, which no 07 record fixes, so the module would run "
-                    f"wrongly anywhere but at its link base: {MEDANY_FIX}"
-                )
+    for relocation, target in _image_relocations(elf):
+        kind = ABSOLUTE_CODE_RELOCATIONS.get(relocation["r_info_type"])
+        if kind is not None:
+            raise AbsoluteCodeError(
+                f"expected position-independent code, got a {kind} relocation at "
+                f"0x{relocation['r_offset']:08X} ({target.name}): an instruction holds part "
+                "of an absolute address, which no 07 record fixes, so the module would run "
+                f"wrongly anywhere but at its link base: {MEDANY_FIX}"
+            )
 
 
 def _symbols(elf: ELFFile) -> tuple[dict[int, str], dict[str, int]]:

@@ -12,19 +12,33 @@ not read the images (a database may name images still to be built); ``refresh ch
 from __future__ import annotations
 
 import stat
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 from hexmigrate.descriptor import Descriptor
 from hexmigrate.errors import HexmigrateError
 from hexmigrate.image import ModuleImage, find_descriptor
 from refresh.database import Module, ModuleDatabase
-from refresh.errors import DatabaseImageError
+from refresh.errors import ApplyError, DatabaseImageError
 
 MAX_IMAGE_BYTES = 16 << 20
 """Far above the HEX text of any module a node's flash can hold: a bigger file is not one."""
 SETTABLE = ("const", "resource")
 """Descriptor port directions a database's constants may set."""
+
+
+def migration_image(module: Module, given: Mapping[str, ModuleImage]) -> ModuleImage:
+    """The image an applier migrates for `module`: the one `given` by the module's name, else the
+    file the database names; an ApplyError for a native module or a file that does not read."""
+    image = given.get(module.name)
+    if image is not None:
+        return image
+    if module.source.image is None:
+        raise ApplyError(f"migrate {module.name}: expected an image, got native code")
+    try:
+        return ModuleImage.read(module.source.image)
+    except (HexmigrateError, OSError) as error:
+        raise ApplyError(f"migrate {module.name}: {error}") from error
 
 
 def check_images(database: ModuleDatabase, file: str) -> None:

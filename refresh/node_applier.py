@@ -22,7 +22,6 @@ from dataclasses import dataclass
 from firmware_sim.bridge import PortBridge
 from firmware_sim.node import Node
 from firmware_sim.server import NodeTarget
-from hexmigrate.errors import HexmigrateError
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.base import Link
 from hexmigrate.links.direct import DirectLink
@@ -33,6 +32,7 @@ from pbort.errors import KernelError
 from refresh.database import Module
 from refresh.decider import PerformanceSource
 from refresh.errors import ApplyError
+from refresh.images import migration_image
 from refresh.runtime.applier import node_of
 
 IMPORTER_PRIORITY = -1
@@ -133,15 +133,7 @@ class NodeApplier:
 
     def image_of(self, module: Module) -> ModuleImage:
         """The image to migrate: the one given for the module, else the file the database names."""
-        image = self.images.get(module.name)
-        if image is not None:
-            return image
-        if module.source.image is None:
-            raise ApplyError(f"migrate {module.name}: expected an image, got native code")
-        try:
-            return ModuleImage.read(module.source.image)
-        except (HexmigrateError, OSError) as error:
-            raise ApplyError(f"migrate {module.name}: {error}") from error
+        return migration_image(module, self.images)
 
     def start(self, robot: str, instance: str, module: Module) -> None:
         """Start the installed image (or the native code) as PBO `instance`."""

@@ -14,7 +14,9 @@ link binds the address its URL names and nothing else: a node on 127.0.0.2 does 
 127.0.0.1, and only an address other machines can reach makes it reachable from them.
 
 It serves up to MAX_CLIENTS connections at once, each framed as `framing` describes, like a
-serial line, each with its own deframer: one idle client does not hold up another.
+serial line, each with its own deframer: one idle client does not hold up another. A client
+that comes when MAX_CLIENTS are connected takes the place of the one silent the longest, so
+idle connections (a hostile client's, or a host's that hung) cannot keep every sender out.
 `receive_from` says which client a message came from and `send_to` answers that one (a node
 keeps one session per client: `firmware_sim.server.serve`); `receive` and `send` are the plain
 `Link`, answering the client of the last message received. The link, and what a node keeps
@@ -131,6 +133,7 @@ class _Client:
     pending: bytearray = field(default_factory=bytearray)  # answers it has not taken
     gone: bool = False  # left, or let go: its socket is closed by the server thread
     hung_up: bool = False  # let go by `hang_up`: its messages not yet received are dropped
+    heard: float = field(default_factory=time.monotonic)  # when it last sent (or connected)
 
 
 class TcpListenLink(LinkBase):
@@ -286,8 +289,7 @@ class TcpListenLink(LinkBase):
                 c.connection for c in clients if c.waiting < MAX_WAITING
             ]
             writers = [c.connection for c in clients if c.pending]
-        if len(clients) < MAX_CLIENTS:
-            readers.append(self._listener)
+        readers.append(self._listener)
         readable, writable, _ = select.select(readers, writers, [], POLL_INTERVAL)
         by_socket = {c.connection: c for c in clients}
         for sock in readable:
@@ -307,6 +309,9 @@ class TcpListenLink(LinkBase):
         connection.setblocking(False)
         connection.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         with self._lock:
+            present = [c for c in self._clients.values() if not c.gone]
+            if len(present) >= MAX_CLIENTS:
+                self._end(min(present, key=lambda c: c.heard))
             self.connections += 1
             self._clients[self.connections] = _Client(self.connections, connection)
 
@@ -321,6 +326,7 @@ class TcpListenLink(LinkBase):
             with self._lock:
                 client.gone = True
             return
+        client.heard = time.monotonic()
         for message in client.deframer.feed(data):
             with self._lock:
                 client.waiting += len(message) + MESSAGE_OVERHEAD

@@ -30,12 +30,12 @@ from dataclasses import dataclass
 from typing import Protocol
 from urllib.parse import urlsplit
 
-from hexmigrate.errors import HexmigrateError
 from hexmigrate.image import ModuleImage
 from hexmigrate.transfer.control import PboRow
 from hexmigrate.transfer.control_client import NodeControl
 from refresh.database import Module
 from refresh.errors import ApplyError, NodeLinkError
+from refresh.images import migration_image
 from refresh.remote.node import RemoteNode
 from refresh.remote.reports import ReportSource
 from refresh.runtime.applier import node_of
@@ -170,15 +170,7 @@ class LinkApplier:
 
     def image_of(self, module: Module) -> ModuleImage:
         """The image to migrate: the one given for the module, else the file the database names."""
-        image = self.images.get(module.name)
-        if image is not None:
-            return image
-        if module.source.image is None:
-            raise ApplyError(f"migrate {module.name}: expected an image, got native code")
-        try:
-            return ModuleImage.read(module.source.image)
-        except (HexmigrateError, OSError) as error:
-            raise ApplyError(f"migrate {module.name}: {error}") from error
+        return migration_image(module, self.images)
 
     def start(self, robot: str, instance: str, module: Module) -> None:
         """Set the PBO's rate and constants from the database while it is off, then start it."""

@@ -196,6 +196,9 @@ def test_an_advance_waits_for_the_value_it_expects_then_refuses(pair, monkeypatc
     with pytest.raises(BridgeError, match=missing):
         on_b.advance(0.1, {3: 1})
     assert b.kernel.now == 0.0  # refused before it ran
+    on_b.stop("bridge3_rx")
+    on_b.advance(0.05, {})  # the refused grant to 0.1 s left the node's grants as they were
+    assert b.kernel.now >= 0.05
 
 
 def test_stopping_a_bridge_pbo_takes_the_bridge_down(pair) -> None:

@@ -44,7 +44,7 @@ from hexmigrate.links.faulty import FaultyLink
 from hexmigrate.links.remote_server import RemoteCanServer
 from hexmigrate.links.shared import SharedLine
 from hexmigrate.links.slcan_device import SlcanDevice
-from hexmigrate.links.tcp import TcpListenLink
+from hexmigrate.links.tcp import MAX_CLIENTS, TcpListenLink
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from pbort.errors import KernelError
@@ -235,6 +235,25 @@ def test_tcp_listen_serves_several_clients_at_once_each_on_its_own_stream():
                 server.send_to(1, b"FIRST")
                 assert first.recv(64) == b"FIRST\n"
         assert (server.lost, server.connections) == (1, 2)
+
+
+def test_a_client_past_the_limit_takes_the_place_of_the_one_silent_the_longest():
+    with open_link("tcp-listen://127.0.0.1:0") as server, contextlib.ExitStack() as stack:
+        assert isinstance(server, TcpListenLink)
+        address = ("127.0.0.1", server.port)
+        idle = [
+            stack.enter_context(socket.create_connection(address, timeout=5.0))
+            for _ in range(MAX_CLIENTS)
+        ]
+        for number, client in enumerate(idle[1:], start=2):  # all but the first speak
+            client.sendall(b"HERE\n")
+            assert server.receive_from(5.0) == (number, b"HERE")
+        late = stack.enter_context(socket.create_connection(address, timeout=5.0))
+        late.sendall(b"LATE\n")
+        assert server.receive_from(5.0) == (MAX_CLIENTS + 1, b"LATE")
+        assert idle[0].recv(64) == b""  # let go: it had said nothing since it connected
+        idle[1].sendall(b"STILL\n")
+        assert server.receive_from(5.0) == (2, b"STILL")
 
 
 # Two processes.
