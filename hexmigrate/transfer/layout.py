@@ -4,7 +4,8 @@ A `Layout` is built once per message type when the type is declared (messages.py
 type's fields (fields.py) and checks the declaration, so a message type that could not be encoded
 or decoded is refused at import, not on the wire. Then:
 
-* **binary**: the type byte, the fixed fields packed little-endian in declaration order, the tail
+* **binary**: the type (one byte 0x01-0x1F, or 0x00 and a second byte for an extended type,
+  `extended`), the fixed fields packed little-endian in declaration order, the tail
   (if any), and the type's `Check` (CRC-32 unless it declares another) of all of these. The tail
   is one field, or several `word()` fields (a bridge's port, wire and URL): each but the last
   preceded by its length in one byte, the last taking the rest;
@@ -30,6 +31,11 @@ from hexmigrate.errors import MessageError
 from hexmigrate.links.base import TEXT_FIRST_BYTE
 from hexmigrate.transfer.fields import KEY, Field, Name, Words
 
+EXTENDED = 0x00
+"""The first byte of a binary message of an extended type: its type is the second byte. The
+one-byte codes 0x01-0x1F ran out with node control; 0x00 was never a type, so no message that
+existed before extended types can be mistaken for one."""
+_EXTENDED_BASE = 0x100
 MAX_LEADING_WORD = 0xFF
 """The most UTF-8 bytes of a word of a tail of several words, but the last: its length travels
 in one byte."""
@@ -56,7 +62,7 @@ class Check:
         frame, check = raw[: -self.size], raw[-self.size :]
         if len(raw) <= self.size or self.compute(frame) != int.from_bytes(check, "little"):
             raise MessageError(
-                f"expected a binary message of type 0x{raw[0]:02X} ending in a valid "
+                f"expected a binary message of type {code_text(type_of(raw) or 0)} ending in a valid "
                 f"{self.name}, got {len(raw)} bytes that do not"
             )
         return frame
@@ -64,6 +70,26 @@ class Check:
 
 CRC32 = Check("CRC-32", 4, zlib.crc32)
 CRC16 = Check("CRC-16/CCITT (initial value 0xFFFF)", 2, lambda data: binascii.crc_hqx(data, 0xFFFF))
+
+
+def extended(code: int) -> int:
+    """The declared code of extended type `code` (0x01-0xFF), which travels as ``00 code``."""
+    if not 0 < code <= 0xFF:
+        raise TypeError(f"expected an extended type code 0x01..0xFF, got 0x{code:X}")
+    return _EXTENDED_BASE | code
+
+
+def type_of(raw: bytes) -> int | None:
+    """The declared code of the binary message `raw` (a frame's first byte, or ``00`` and the
+    next), None when too short to have one."""
+    if not raw or (raw[0] == EXTENDED and len(raw) < 2):
+        return None
+    return _EXTENDED_BASE | raw[1] if raw[0] == EXTENDED else raw[0]
+
+
+def code_text(code: int) -> str:
+    """How errors name a declared code: ``0x1F``, or ``0x00 0x02`` for an extended one."""
+    return f"0x00 0x{code & 0xFF:02X}" if code >= _EXTENDED_BASE else f"0x{code:02X}"
 
 
 def _crc8_table() -> tuple[int, ...]:
@@ -91,14 +117,17 @@ def line_sum(line: str) -> int:
 
 
 class Layout:
-    """The encodings of message type `cls`: binary with type byte `code` ending in `check`
-    (None: hex mode only), text with command word `verb` (None: binary mode only)."""
+    """The encodings of message type `cls`: binary with type `code` ending in `check` (None:
+    hex mode only; `extended(n)` for an extended type), text with command word `verb` (None:
+    binary mode only)."""
 
     def __init__(self, cls: type, code: int | None, verb: str | None, check: Check) -> None:
         self.cls = cls
         self.code = code
         self.verb = verb
         self.check = check
+        self.prefix = b"" if code is None else _prefix(code)
+        """What a binary message of this type starts with: its type byte, or two."""
         self.fields = _fields(cls)
         self.fixed = [field for field in self.fields if field.format is not None]
         self.tails = [field for field in self.fields if field.format is None]
@@ -111,15 +140,20 @@ class Layout:
     @property
     def title(self) -> str:
         """How errors name this type: its class, its verb or type byte."""
-        tags = [f"type 0x{self.code:02X}"] if self.code is not None else []
+        tags = [f"type {code_text(self.code)}"] if self.code is not None else []
         tags += [self.verb] if self.verb is not None else []
         return f"{self.cls.__name__} ({', '.join(tags)})" if tags else self.cls.__name__
 
     def _check_declaration(self, tails: list[Field]) -> None:
         """Refuse, at import, a type whose messages could not be encoded or decoded."""
         name = self.cls.__name__
-        if self.code is not None and not 0 < self.code < TEXT_FIRST_BYTE:
-            raise TypeError(f"{name}: expected a type code 0x01..0x1F, got 0x{self.code:02X}")
+        if self.code is not None and not (
+            0 < self.code < TEXT_FIRST_BYTE or _EXTENDED_BASE < self.code <= _EXTENDED_BASE | 0xFF
+        ):
+            raise TypeError(
+                f"{name}: expected a type code 0x01..0x1F or extended(0x01..0xFF), got "
+                f"0x{self.code:X}"
+            )
         if len(tails) > 1 and not all(type(field) is Name for field in tails):
             raise TypeError(
                 f"{name}: expected at most one tail field, or only word() fields, got "
@@ -140,11 +174,11 @@ class Layout:
     # Binary mode.
 
     def encode_binary(self, message: object) -> bytes:
-        """The binary form of `message`: type byte, fixed fields, tail, check."""
+        """The binary form of `message`: type, fixed fields, tail, check."""
         if self.code is None:
             raise MessageError(f"{self.cls.__name__} exists in hex mode only")
         numbers = [self._convert(field, field.to_number, message) for field in self.fixed]
-        frame = bytes([self.code]) + self.struct.pack(*numbers)
+        frame = self.prefix + self.struct.pack(*numbers)
         for index, field in enumerate(self.tails):
             data = self._convert(field, field.to_tail, message)
             if index < len(self.tails) - 1:
@@ -158,8 +192,8 @@ class Layout:
         return self.check.append(frame)
 
     def decode_binary(self, raw: bytes) -> Any:
-        """The message in `raw`, a binary frame whose first byte is this type's code."""
-        body = self.check.strip(raw)[1:]
+        """The message in `raw`, a binary frame that starts with this type's `prefix`."""
+        body = self.check.strip(raw)[len(self.prefix) :]
         size = self.struct.size
         if len(body) < size or (not self.tails and len(body) > size):
             expected = f"at least {size} bytes" if self.tails else f"{size} bytes"
@@ -235,6 +269,11 @@ class Layout:
         except MessageError as error:
             where = self.title if line is None else f"{line[:60]!r} (the form: {self.usage})"
             raise MessageError(f"{field.name} of {where}: {error}") from None
+
+
+def _prefix(code: int) -> bytes:
+    """The bytes that start a binary message of declared type `code`."""
+    return bytes([EXTENDED, code & 0xFF]) if code >= _EXTENDED_BASE else bytes([code])
 
 
 def _fields(cls: type) -> list[Field]:

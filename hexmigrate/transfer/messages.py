@@ -36,7 +36,16 @@ from hexmigrate.transfer.fields import (
     u64,
     word,
 )
-from hexmigrate.transfer.layout import CRC16, CRC32, Check, Layout, line_sum
+from hexmigrate.transfer.layout import (
+    CRC16,
+    CRC32,
+    Check,
+    Layout,
+    code_text,
+    extended,
+    line_sum,
+    type_of,
+)
 
 TAG_MASK = 0xFFFF
 BLOCK = 256  # a BlockAck counts flash blocks
@@ -101,7 +110,7 @@ def _register(layout: Layout) -> None:
 def _claim(table: dict[Any, Layout], key: int | str, layout: Layout) -> None:
     """Two message types may not share a type code or a verb."""
     if key in table:
-        what = f"type code 0x{key:02X}" if isinstance(key, int) else f"verb {key!r}"
+        what = f"type code {code_text(key)}" if isinstance(key, int) else f"verb {key!r}"
         raise TypeError(f"{layout.cls.__name__}: {what} is already {table[key].cls.__name__}'s")
     table[key] = layout
 
@@ -254,7 +263,7 @@ class ReadPorts(Message, code=0x16, verb="READ"):
 
 
 # Ports between nodes and lock-step time (docs/node.md#ports-between-node-processes). Codes
-# 0x1D-0x1F are the last binary type codes: every code below 0x20 (is_text) is now taken.
+# 0x1D-0x1F are the last one-byte type codes: the types after them are extended.
 
 
 class ExportPort(Message, code=0x1D, verb="EXPORT"):
@@ -292,6 +301,33 @@ class Advance(Message, code=0x1F, verb="ADVANCE"):
     tid: int = u32()
     until_us: int = u64()
     expect: str = free_text(default="")
+
+
+# Extended types (``00 NN`` in binary mode, layout.extended): trusted sessions, binary signatures.
+
+
+class Challenge(Message, code=extended(0x01), verb="CHALLENGE"):
+    """Open an authenticated session on this connection (docs/security.md): answered by `Ack`
+    ``challenge NONCE``, a fresh nonce of 64 hex digits that one `Authenticate` may answer."""
+
+    tid: int = u32()
+
+
+class Authenticate(Message, code=extended(0x02), verb="AUTH"):
+    """The answer to the last `Challenge` of this connection: `signature` (hex) over it by the
+    key whose hash is `key` (hex; hexmigrate/signing/challenge.py). Answered by `Ack`
+    ``authenticated KEY``: the connection may then change the node (install, remove, control)."""
+
+    tid: int = u32()
+    key: str = word()
+    signature: str = word()
+
+
+class Signature(Message, code=extended(0x03)):
+    """Binary mode: the signature area of transfer `tid` (hex mode sends its 09 lines)."""
+
+    tid: int = u32()
+    area: bytes = payload()
 
 
 # Answers.
@@ -405,10 +441,12 @@ def decode(raw: bytes, checked: bool = False) -> Message:
         raise MessageError("expected a message, got nothing")
     if is_text(raw):
         return _decode_line(raw, checked)
-    layout = _BY_CODE.get(raw[0])
+    code = type_of(raw)
+    layout = None if code is None else _BY_CODE.get(code)
     if layout is None:
-        codes = ", ".join(f"0x{code:02X}" for code in sorted(_BY_CODE))
-        raise MessageError(f"expected a binary message type among {codes}, got 0x{raw[0]:02X}")
+        codes = ", ".join(code_text(code) for code in sorted(_BY_CODE))
+        got = raw[:2].hex(" ") if raw[0] == 0 else f"0x{raw[0]:02X}"
+        raise MessageError(f"expected a binary message type among {codes}, got {got}")
     message: Message = layout.decode_binary(raw)
     return message
 

@@ -21,7 +21,7 @@ from hexmigrate.transfer.receiver import Receiver
 DECLARED = [cls.layout for cls in Message.__subclasses__()]
 CODES = sorted(layout.code for layout in DECLARED if layout.code is not None)
 VERBS = sorted(layout.verb for layout in DECLARED if layout.verb is not None)
-CHECKS = {layout.code: layout.check for layout in DECLARED if layout.code is not None}
+CHECKS = {layout.code: layout for layout in DECLARED if layout.code is not None}
 
 
 def with_crc32(frame: bytes) -> bytes:
@@ -29,8 +29,10 @@ def with_crc32(frame: bytes) -> bytes:
 
 
 def with_check(code: int, body: bytes) -> bytes:
-    """A frame of type `code` whose check (the CRC its type declares) is right."""
-    return CHECKS[code].append(bytes([code]) + body)
+    """A frame of type `code` (one type byte, or two for an extended type) whose check (the
+    CRC its type declares) is right."""
+    layout = CHECKS[code]
+    return layout.check.append(layout.prefix + body)
 
 
 def line_sum(line: bytes) -> int:
@@ -48,6 +50,7 @@ garbage = st.binary(max_size=64)
 crc_valid_frames = st.one_of(
     st.builds(with_check, st.sampled_from(CODES), garbage),
     st.builds(lambda code, body: with_crc32(bytes([code]) + body), st.integers(0, 0x1F), garbage),
+    st.builds(lambda code, body: with_crc32(bytes([0, code]) + body), st.integers(0, 0xFF), garbage),
 )
 word = st.one_of(
     st.from_regex(r"-?(0x)?[0-9a-fA-F_]{0,12}", fullmatch=True),

@@ -15,7 +15,7 @@ from hexmigrate.links.base import is_text
 from hexmigrate.transfer import fields
 from hexmigrate.transfer import messages as m
 from hexmigrate.transfer.fields import Field, u32_array, word
-from hexmigrate.transfer.layout import CRC16, CRC32
+from hexmigrate.transfer.layout import CRC16, CRC32, extended
 
 DECLARED = [cls for cls in m.Message.__subclasses__() if cls.__module__ == m.__name__]
 
@@ -66,14 +66,15 @@ def messages_of(cls: type[m.Message], text: bool) -> st.SearchStrategy[m.Message
     return st.builds(cls, **{field.name: values(field, text) for field in cls.layout.fields})
 
 
-def test_the_protocol_declares_its_thirty_two_message_types():
+def test_the_protocol_declares_its_thirty_five_message_types():
     names = {cls.__name__ for cls in DECLARED}
     assert names == {
         "Ping", "ListModules", "Remove", "Begin", "Header", "Data", "HexLine", "End", "Commit",
         "Abort", "Resume", "Pong", "Listing", "Ack", "Nak", "BlockAck",
         "ListPbos", "StartPbo", "StopPbo", "SetConstant", "SetRate", "ConnectPorts",
         "DisconnectPorts", "ReadPorts", "Watch", "PboTable", "PortValues", "PerformanceReport",
-        "Heartbeat", "ExportPort", "ImportPort", "Advance",
+        "Heartbeat", "ExportPort", "ImportPort", "Advance", "Challenge", "Authenticate",
+        "Signature",
     }  # fmt: skip
 
 
@@ -179,7 +180,9 @@ def declare(options: dict[str, Any], **declared: Any) -> type:
     [
         ({"options": {"code": 0x01}}, "type code 0x01 is already Ping's"),
         ({"options": {"verb": "PING"}}, "verb 'PING' is already Ping's"),
-        ({"options": {"code": 0x20}}, "expected a type code 0x01..0x1F, got 0x20"),
+        ({"options": {"code": 0x20}}, r"expected a type code 0x01..0x1F or extended\(0x01..0xFF\), got 0x20"),
+        ({"options": {"code": 0x200}}, r"or extended\(0x01..0xFF\), got 0x200"),
+        ({"options": {"code": extended(0x01)}}, "type code 0x00 0x01 is already Challenge's"),
         ({"options": {"verb": "ping"}}, "expected an upper-case word as verb, got 'ping'"),
         ({"options": {"code": 0x1E}, "a": u32_array(), "b": u32_array()}, "at most one tail"),
         ({"options": {"verb": "PROBE"}, "a": u32_array()}, "needs a text form"),

@@ -15,7 +15,9 @@ from hexmigrate.transfer.messages import (
     Abort,
     Ack,
     Advance,
+    Authenticate,
     Begin,
+    Challenge,
     BlockAck,
     Commit,
     ConnectPorts,
@@ -42,6 +44,7 @@ from hexmigrate.transfer.messages import (
     Resume,
     SetConstant,
     SetRate,
+    Signature,
     StartPbo,
     StopPbo,
     Watch,
@@ -302,6 +305,13 @@ GOLDEN: list[tuple[Message, bool, str]] = [
         BINARY,
         "1f07000000d012130000000000333d31323020343d37adb956ce",
     ),
+    # Extended types, pinned when declared (checked by eye: 00 and the extended code, tid u32,
+    # the words of the tail, each but the last after its length byte, the CRC-32).
+    (Challenge(5), TEXT, "4348414c4c454e47452035202a4231"),
+    (Challenge(5), BINARY, "00010500000021787cbb"),
+    (Authenticate(7, "ab01", "cd02"), TEXT, "41555448203720616230312063643032202a4237"),
+    (Authenticate(7, "ab01", "cd02"), BINARY, "0002070000000461623031636430320ea7adff"),
+    (Signature(3, b"\x07\x69"), BINARY, "000303000000076961f871a9"),
 ]
 
 TYPED: list[tuple[bytes, Message]] = [
