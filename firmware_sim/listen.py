@@ -112,7 +112,7 @@ def listen(
                 node, on_install=installed, fpga=port, on_configure=_configured(say)
             )
             control = KernelControl(node, lock_step=config.lock_step)
-            receiver = Receiver(target, control)
+            receiver = Receiver(target, control, trusted=config.trust.keys)
             try:
                 serve(node, link, receiver=receiver, stop=_stopper(node, config, say))
             except KeyboardInterrupt:

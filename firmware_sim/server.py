@@ -125,28 +125,26 @@ def serve(
     dropped (`Receiver.expire`).
 
     On a ``tcp-listen://`` link each client has a session of its own (its record lines feed
-    its own transfer, its answers and its watch's pushes go to it alone), and a client whose
+    its own transfer, its answers and its watch's pushes go to it alone, its authentication on
+    a node that trusts keys is its own and ends when it leaves), and a client whose
     line cannot be a command (`is_foreign`: an HTTP request line or header) is refused once and
     disconnected, with what else it sent: a browser or ``curl`` pointed at the port cannot
     remove or install modules with the lines of a request's body.
     """
-    receiver = receiver or Receiver(NodeTarget(node), KernelControl(node))
+    receiver = receiver or Receiver(
+        NodeTarget(node), KernelControl(node), trusted=node.config.trust.keys
+    )
     control = receiver.control if isinstance(receiver.control, KernelControl) else None
     free_running = control is None or not control.lock_step
     server = link if isinstance(link, TcpListenLink) else None
-    watcher: int | None = None  # the client whose watch is on (tcp-listen)
     while not stop():
         got = server.receive_from(poll) if server is not None else _unnamed(link.receive(poll))
         raw = None if got is None else got[1]
         if got is not None:
             peer, raw = got
-            watched = receiver.subscription
-            replies = receiver.handle(raw, peer)
-            _answer(link, server, peer, replies)
+            _answer(link, server, peer, receiver.handle(raw, peer))
             if server is not None and peer is not None and is_foreign(raw):
                 server.hang_up(peer)
-            if receiver.subscription is not watched:
-                watcher = peer
         if node.kernel.names and free_running:
             # After a message, only what is due by now: a host that keeps asking must not hold
             # the node's PBOs back, nor wait a poll for each answer.
@@ -154,12 +152,13 @@ def serve(
         receiver.expire()  # a killed sender's transfer gives its flash and SRAM back
         if control is not None:
             control.poll_imports()
-        if server is not None and watcher is not None and watcher not in server.peers:
-            receiver.subscription = None  # the watching client left
-        try:
-            _answer(link, server, watcher, receiver.due())  # reports and heartbeats of a watch
-        except LinkError:
-            receiver.subscription = None
+        if server is not None:  # the clients that left take their watch and authentication
+            receiver.sessions.keep(server.peers)
+        for watcher in receiver.sessions.watchers():
+            try:
+                _answer(link, server, watcher, receiver.due(watcher))
+            except LinkError:
+                receiver.unwatch(watcher)
     return receiver
 
 

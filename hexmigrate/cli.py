@@ -29,6 +29,7 @@ from hexmigrate.image import ModuleImage, descriptor_name
 from hexmigrate.links import open_link
 from hexmigrate.mapfile import image_from_map
 from hexmigrate.report import build_report, render_text
+from hexmigrate.signing.keys import load_private
 from hexmigrate.signing.verify import examine
 from hexmigrate.signing_cli import (
     KEY_FILE,
@@ -191,15 +192,24 @@ class SendProgress:
 
 
 def _sender(args: argparse.Namespace, progress: Callable[[Progress], None] | None = None) -> Sender:
-    link = open_link(args.to)
-    return Sender(
-        link,
+    """A sender on the link `--to` names, its connection authenticated with `--key` if given
+    (a node that trusts keys takes no change from a stranger: docs/security.md)."""
+    key = None if args.key is None else load_private(args.key)
+    sender = Sender(
+        open_link(args.to),
         args.mode,
         window=args.window,
         timeout=args.timeout,
         retries=args.retries,
         progress=progress,
     )
+    if key is not None:
+        try:
+            sender.authenticate(key)
+        except BaseException:
+            sender.link.close()
+            raise
+    return sender
 
 
 def cmd_send(args: argparse.Namespace) -> int:
@@ -233,9 +243,8 @@ def _send_resuming(
 ) -> TransferResult:
     """Send `image`; when the link fails midway, open it again and resume the transfer where
     the node got to (`--reconnects` times, a second apart), as after a cable was re-plugged."""
-    sender = _sender(args, progress.callback)
     try:
-        with contextlib.closing(sender.link):
+        with _session(_sender(args, progress.callback)) as sender:
             return sender.send(image, args.base)
     except TransferInterrupted as error:
         interrupted = error
@@ -247,7 +256,7 @@ def _send_resuming(
         except LinkError:
             continue
         try:
-            with contextlib.closing(sender.link):
+            with _session(sender):
                 return sender.resume(image, interrupted.tid)
         except TransferInterrupted as error:
             interrupted = error
@@ -256,10 +265,22 @@ def _send_resuming(
 
 @contextlib.contextmanager
 def _connected(args: argparse.Namespace) -> Iterator[Sender]:
-    """A sender on the link `--to` names, closed afterwards."""
-    sender = _sender(args)
-    with contextlib.closing(sender.link):
+    """A sender on the link `--to` names, its session ended and its link closed afterwards."""
+    with _session(_sender(args)) as sender:
         yield sender
+
+
+@contextlib.contextmanager
+def _session(sender: Sender) -> Iterator[Sender]:
+    """`sender`, whose authentication (if any) ends with ``BYE`` when the command is done, and
+    whose link is closed then: on a pty the next command without ``--key`` is a stranger."""
+    with contextlib.closing(sender.link):
+        try:
+            yield sender
+        finally:
+            if sender.key is not None:
+                with contextlib.suppress(HexmigrateError):
+                    sender.end_session()
 
 
 def cmd_ping(args: argparse.Namespace) -> int:
@@ -429,6 +450,13 @@ def _link_options(command: argparse.ArgumentParser) -> None:
         default=10,
         metavar="N",
         help="tries per step (default 10)",
+    )
+    command.add_argument(
+        "--key",
+        type=KEY_FILE,
+        metavar="KEY.pem",
+        help="a private key the node trusts: authenticate the connection with it first (a "
+        "node started with --trust takes changes only so; docs/security.md)",
     )
 
 

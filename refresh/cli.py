@@ -21,8 +21,10 @@ from __future__ import annotations
 import argparse
 from collections.abc import Sequence
 
-from commandline import UsageError, add_command, command_parser, run
+from commandline import CommandLineError, UsageError, add_command, command_parser, run
 from commandline.arguments import input_file, integer, output_file, real
+from hexmigrate.errors import KeyFileError
+from hexmigrate.signing.keys import MAX_KEY_FILE, load_private
 from refresh.configuration import initial_configuration
 from refresh.errors import DatabaseError, RefreshError
 from refresh.generator import DEFAULT_MAX_MODULES, candidates
@@ -121,7 +123,12 @@ def manage_command(options: argparse.Namespace) -> None:
         raise UsageError("--quantum: expected with --lock-step (real time has no quanta)")
     quantum = QUANTUM if options.quantum is None else options.quantum
     mode = LockStep(quantum) if options.lock_step else RealTime()
+    try:
+        key = None if options.key is None else load_private(options.key)
+    except KeyFileError as error:
+        raise CommandLineError(f"--key: {error}") from None
     config = ManagerConfig(
+        key=key,
         database=options.db,
         task=options.task,
         nodes=nodes,
@@ -215,6 +222,13 @@ def _add_manage(commands: argparse._SubParsersAction) -> None:
         type=output_file,
         metavar="FILE.jsonl",
         help="write each event as one JSON object per line: time, kind, message, data",
+    )
+    command.add_argument(
+        "--key",
+        type=input_file(MAX_KEY_FILE),
+        metavar="KEY.pem",
+        help="a private key the nodes trust: the manager authenticates its link to each node "
+        "with it (nodes started with firmware-sim listen --trust take changes only so)",
     )
     command.add_argument(
         "--decision-period",

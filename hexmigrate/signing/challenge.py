@@ -58,5 +58,5 @@ def check(trusted: Iterable[PublicKey], hash_: bytes, nonce: bytes, signature: b
         else:
             key.verify(signature, message, ec.ECDSA(hashes.SHA256()))
     except InvalidSignature:
-        raise SignatureError(MISMATCH, "the answer is not the key's signature over the challenge") from None
+        raise SignatureError(MISMATCH, "not the key's signature over the challenge") from None
     return key

@@ -11,7 +11,6 @@ TransferError with the node's reason.
 
 from __future__ import annotations
 
-import random
 import time
 from collections.abc import Callable, Iterator, Mapping
 
@@ -47,12 +46,7 @@ from hexmigrate.transfer.messages import (
     Watch,
     decode,
 )
-from hexmigrate.transfer.sender import Sender
-
-
-def fresh_tid() -> int:
-    """A tid unlikely to be one the node remembers."""
-    return random.getrandbits(31) | 1
+from hexmigrate.transfer.sender import Sender, fresh_tid
 
 
 class NodeControl:

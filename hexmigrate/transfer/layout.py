@@ -61,9 +61,10 @@ class Check:
         """`raw` without its check, once the check is verified; MessageError if it is not."""
         frame, check = raw[: -self.size], raw[-self.size :]
         if len(raw) <= self.size or self.compute(frame) != int.from_bytes(check, "little"):
+            kind = code_text(type_of(raw) or 0)
             raise MessageError(
-                f"expected a binary message of type {code_text(type_of(raw) or 0)} ending in a valid "
-                f"{self.name}, got {len(raw)} bytes that do not"
+                f"expected a binary message of type {kind} ending in a valid {self.name}, got "
+                f"{len(raw)} bytes that do not"
             )
         return frame
 

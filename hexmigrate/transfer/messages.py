@@ -323,6 +323,13 @@ class Authenticate(Message, code=extended(0x02), verb="AUTH"):
     signature: str = word()
 
 
+class EndSession(Message, code=extended(0x04), verb="BYE"):
+    """End this connection's authentication (a host done with a line that others may use
+    next: a pty, a serial port, CAN). Answered by `Ack` ``bye``."""
+
+    tid: int = u32()
+
+
 class Signature(Message, code=extended(0x03)):
     """Binary mode: the signature area of transfer `tid` (hex mode sends its 09 lines)."""
 

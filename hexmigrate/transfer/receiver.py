@@ -7,19 +7,27 @@ refuses what does not fit (``NAK`` with the position to go back to: the first by
 part of a block received in order kept), keeps transfers across link cuts (``RESUME``), checks the
 final CRC (``END``) and only makes the module the node's on an explicit ``COMMIT``. Until then the
 node's modules are untouched; ``ABORT`` or any fatal error erases what the transfer wrote.
+
+A node given `trusted` keys takes requests that change it (`CHANGING`: a transfer, ``RM``, the
+control requests that start, stop, set or wire) only from a connection that proved it holds
+one of them (``CHALLENGE`` then ``AUTH``, hexmigrate/signing/challenge.py); reading stays open
+to anyone (docs/security.md).
 """
 
 from __future__ import annotations
 
 import time
 from collections import OrderedDict
-from collections.abc import Callable, Hashable
+from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
-from hexmigrate.errors import HexError, MessageError
+from hexmigrate.errors import HexError, MessageError, SignatureError
 from hexmigrate.links.base import is_text
 from hexmigrate.records import RecordType, decode_record
+from hexmigrate.signing import challenge
+from hexmigrate.signing.keys import PublicKey
+from hexmigrate.signing.verify import MISMATCH
 from hexmigrate.transfer.control import (
     MICROSECONDS,
     ControlTarget,
@@ -35,13 +43,16 @@ from hexmigrate.transfer.messages import (
     Abort,
     Ack,
     Advance,
+    Authenticate,
     Begin,
     BlockAck,
+    Challenge,
     Commit,
     ConnectPorts,
     Data,
     DisconnectPorts,
     End,
+    EndSession,
     ExportPort,
     Header,
     HexLine,
@@ -60,12 +71,14 @@ from hexmigrate.transfer.messages import (
     Resume,
     SetConstant,
     SetRate,
+    Signature,
     StartPbo,
     StopPbo,
     Watch,
     decode,
     encode,
 )
+from hexmigrate.transfer.sessions import AUTHENTICATION_REQUIRED, PeerSession, Sessions
 from hexmigrate.transfer.subscription import HEARTBEAT_PERIOD, MIN_PERIOD_MS, Subscription
 
 IMPLICIT = 0  # the transfer id of a module typed or pasted on a terminal without BEGIN
@@ -156,26 +169,30 @@ class Transfer:
 
 class Receiver:
     """The protocol state of one node, shared by all its links; `control` is the node's
-    `ControlTarget` (None: the node refuses control requests)."""
+    `ControlTarget` (None: the node refuses control requests); with `trusted` keys, requests
+    that change the node need an authenticated connection."""
 
     def __init__(
         self,
         target: Target,
         control: ControlTarget | None = None,
         *,
+        trusted: Sequence[PublicKey] = (),
         idle: float = TRANSFER_IDLE,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.target = target
         self.control = control
+        self.trusted = tuple(trusted)
         self.idle = idle
         """Seconds without a message after which a transfer is dropped (`expire`)."""
         self.clock = clock
+        self.sessions = Sessions()
+        """Each connection's authentication and watch."""
         self._peer: Hashable = None  # the connection of the message being handled
+        self._session = PeerSession()  # its session
         self.controlled: OrderedDict[int, Message] = OrderedDict()
         """The answers to recent control requests, by tid."""
-        self.subscription: Subscription | None = None
-        """The host's watch, if one is on."""
         self._text = False  # the mode of the message being handled
         self.transfers: dict[int, Transfer] = {}
         # The answers to recent commits: when an ACK is lost the sender commits again, and must
@@ -190,6 +207,7 @@ class Receiver:
         a ``tcp-listen://`` link's clients): record lines go to a transfer of that connection."""
         self.expire()
         self._peer = peer
+        self._session = self.sessions.heard(peer, self.clock())
         text = self._text = is_text(raw)
         try:
             message = decode(raw)
@@ -197,20 +215,34 @@ class Receiver:
             return [_encoded(Nak(0, 0, f"bad message: {error}"), text)]
         return [_encoded(reply, text) for reply in self.dispatch(message)]
 
-    def due(self) -> list[bytes]:
-        """What a watched node pushes now (reports, heartbeats), encoded in the mode of the
-        watch; the node's serve loop sends them between messages."""
-        if self.subscription is None or self.control is None:
+    def due(self, peer: Hashable = None) -> list[bytes]:
+        """What the watch of connection `peer` pushes now (reports, heartbeats), encoded in the
+        mode of the watch; the node's serve loop sends them between messages."""
+        session = self.sessions.get(peer)
+        if session is None or session.subscription is None or self.control is None:
             return []
-        subscription = self.subscription
+        subscription = session.subscription
         return [_encoded(push, subscription.text) for push in subscription.due(self.control)]
 
+    def watching(self, peer: Hashable = None) -> bool:
+        """Whether connection `peer` has a watch on."""
+        session = self.sessions.get(peer)
+        return session is not None and session.subscription is not None
+
+    def unwatch(self, peer: Hashable = None) -> None:
+        """End the watch of connection `peer` (its link refused a push)."""
+        session = self.sessions.get(peer)
+        if session is not None:
+            session.subscription = None
+
     def dispatch(self, message: Message) -> list[Message]:
-        """Replies to one decoded message."""
+        """Replies to one decoded message, from the connection of the last `handle`."""
         handler = _HANDLERS.get(type(message))
         if handler is None:  # an answer: see _HANDLERS
             return []
         tid = getattr(message, "tid", IMPLICIT)
+        if self.trusted and type(message) in CHANGING and not self._session.authenticated:
+            return [Nak(tid, 0, AUTHENTICATION_REQUIRED, fatal=True)]
         try:
             return handler(self, message)
         except _FatalRefusal as error:
@@ -316,7 +348,7 @@ class Receiver:
     def _watch(self, control: ControlTarget, message: Watch) -> Message:
         """Start, change or stop (period 0) the pushes of reports and heartbeats."""
         if message.period_ms == 0:
-            self.subscription = None
+            self._session.subscription = None
             return Ack(message.tid, 0, "unwatched")
         if message.period_ms < MIN_PERIOD_MS:
             raise MessageError(
@@ -326,10 +358,43 @@ class Receiver:
         for name in watched:
             control.read(name)  # refused by name now rather than missing from every report
         now = control.clock()
-        self.subscription = Subscription(
+        self._session.subscription = Subscription(
             message.period_ms / 1000, watched, self._text, now, now + HEARTBEAT_PERIOD
         )
         return Ack(message.tid, message.period_ms, "watching")
+
+    # Authentication.
+
+    def _challenge(self, message: Challenge) -> list[Message]:
+        """A fresh nonce for this connection; it ends any authentication it had, so that on a
+        line shared in turns (a pty, a serial port) a new host starts as a stranger."""
+        session = self._session
+        session.log_out()
+        session.nonce = challenge.new_nonce()
+        return [Ack(message.tid, 0, f"challenge {session.nonce.hex()}")]
+
+    def _authenticate(self, message: Authenticate) -> list[Message]:
+        """Check the answer to this connection's challenge; its nonce serves once."""
+        session = self._session
+        if session.answered is not None and session.answered[0] == message.tid:
+            return [session.answered[1]]  # our ACK was lost and the host asks again
+        nonce, session.nonce = session.nonce, None
+        if nonce is None:
+            return [Nak(message.tid, 0, "no challenge: send CHALLENGE first", fatal=True)]
+        try:
+            key_hash = _hex(message.key, "key hash")
+            signature = _hex(message.signature, "signature")
+            challenge.check(self.trusted, key_hash, nonce, signature)
+        except SignatureError as error:
+            return [Nak(message.tid, 0, error.reason, fatal=True)]
+        session.key = key_hash
+        ack = Ack(message.tid, 0, f"authenticated {key_hash.hex()[:16]}")
+        session.answered = (message.tid, ack)
+        return [ack]
+
+    def _end_session(self, message: EndSession) -> list[Message]:
+        self._session.log_out()
+        return [Ack(message.tid, 0, "bye")]
 
     # A transfer.
 
@@ -565,6 +630,17 @@ def _encoded(reply: Message, text: bool) -> bytes:
         return encode(Nak(getattr(reply, "tid", 0), 0, reason), text)
 
 
+def _hex(text: str, what: str) -> bytes:
+    """The bytes of a hex word of an AUTH; a malformed one does not match."""
+    try:
+        data = bytes.fromhex(text)
+    except ValueError:
+        raise SignatureError(MISMATCH, f"{what} is not hex") from None
+    if len(data) > challenge.MAX_SIGNATURE:
+        raise SignatureError(MISMATCH, f"{what} is {len(data)} bytes") from None
+    return data
+
+
 def _bridge(message: ExportPort | ImportPort, name: str) -> tuple[int, str, str, str, int]:
     """(number, port, url, wire, rate) of a bridge request, its port checked to be PBO.port."""
     return message.number, port(name), message.url, message.wire, message.rate
@@ -612,8 +688,38 @@ _HANDLERS = {
     ExportPort: Receiver._controlled,
     ImportPort: Receiver._controlled,
     Advance: Receiver._controlled,
+    Challenge: Receiver._challenge,
+    Authenticate: Receiver._authenticate,
+    EndSession: Receiver._end_session,
 }
 """The requests a node answers. Any other message is an answer or a push (`Pong`, `Listing`,
 `Ack`, `BlockAck`, `Nak`, `PboTable`, `PortValues`, `PerformanceReport`, `Heartbeat`), which a
 node hears but never answers: on a shared line (`hexmigrate.links.shared`) it hears its own
 answers and other nodes', and two nodes that answered answers would talk forever."""
+
+CHANGING = frozenset(
+    {
+        Remove,
+        Begin,
+        Header,
+        Data,
+        HexLine,
+        End,
+        Commit,
+        Abort,
+        Resume,
+        StartPbo,
+        StopPbo,
+        SetConstant,
+        SetRate,
+        ConnectPorts,
+        DisconnectPorts,
+        ExportPort,
+        ImportPort,
+        Advance,
+        Signature,
+    }
+)
+"""The requests that change a node: on a node that trusts keys, only an authenticated connection
+may send them. The others read (``PING``, ``LS``, ``PS``, ``READ``, ``WATCH``: a watch is the
+connection's own) or open and close a session (``CHALLENGE``, ``AUTH``, ``BYE``)."""

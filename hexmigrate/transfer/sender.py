@@ -4,7 +4,8 @@ A module goes in 256-byte blocks, the node's flash blocks, go-back-N: up to `win
 in flight; the node acknowledges each block once it is programmed; a timeout or a ``NAK`` sends
 again from the first block not acknowledged. ``END`` carries the CRC-32 the node must read back,
 ``COMMIT`` makes the module the node's. A cut link raises `TransferInterrupted`, which says how
-to `resume` on a new link.
+to `resume` on a new link. A node that trusts keys takes a transfer, ``RM`` and the control
+requests that change it only after `authenticate` on the same connection.
 """
 
 from __future__ import annotations
@@ -20,14 +21,19 @@ from hexmigrate.errors import LinkError, MessageError, NoAnswer, TransferError, 
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
 from hexmigrate.links.base import Link
 from hexmigrate.records import SIGNATURE_RECORD_SIZE, Record, RecordType
+from hexmigrate.signing import challenge
+from hexmigrate.signing.keys import PrivateKey
 from hexmigrate.transfer.messages import (
     Abort,
     Ack,
+    Authenticate,
     Begin,
     BlockAck,
+    Challenge,
     Commit,
     Data,
     End,
+    EndSession,
     Header,
     HexLine,
     Listing,
@@ -41,6 +47,7 @@ from hexmigrate.transfer.messages import (
     decode,
     encode,
 )
+from hexmigrate.transfer.sessions import AUTHENTICATION_REQUIRED
 
 MODES = ("binary", "hex")
 # Flash blocks per binary DATA message. Two halve the per-message overhead (on CAN, ISO-TP's
@@ -52,6 +59,8 @@ BLOCKS_PER_DATA = 2
 # bytes) almost never arrives, while one of 32 bytes (45) does more often than not.
 MIN_PAYLOAD = 32
 RECORD_SIZE = 16  # data bytes per record line in hex mode
+CHALLENGE_WORD = "challenge "
+"""How the node's answer to ``CHALLENGE`` starts, before the nonce in hex."""
 REFUSALS_PER_RETRY = 20
 """Refusals in a row without progress, per retry, after which a transfer gives up: on a noisy
 line each lost message costs a few refusals, but a line that lets nothing through, or a node
@@ -117,6 +126,9 @@ class Sender:
         """Called with each whole message a request skips or drops as not its answer: a caller
         that shares the link with a watch (refresh's manager) keeps the node's pushes that come
         while a request waits, which would otherwise be lost."""
+        self.key: PrivateKey | None = None
+        """The key `authenticate` proved this connection holds: a request the node refuses as
+        not authenticated (its session lapsed, or it restarted) authenticates again with it."""
         self._sent_last = b""
 
     # Plain requests.
@@ -133,13 +145,41 @@ class Sender:
         """Unload a module from the node."""
         self.request(Remove(name), Ack, tid=0, what="removed")
 
+    def authenticate(self, key: PrivateKey) -> str:
+        """Prove to the node that this connection holds `key` (``CHALLENGE``, then ``AUTH``
+        with the key's signature over the node's nonce); the node's answer, ``authenticated
+        KEY``. A node that trusts no key answers too (it guards nothing); one that does not
+        trust `key` refuses, and `TransferError` says why."""
+        tid = fresh_tid()
+        offer = self.request(Challenge(tid), Ack, tid, what=CHALLENGE_WORD)
+        try:
+            nonce = bytes.fromhex(offer.text.removeprefix(CHALLENGE_WORD))
+        except ValueError:
+            raise MessageError(f"expected a challenge of hex digits, got {offer.text!r}") from None
+        key_hash, signature = challenge.respond(key, nonce)
+        tid = fresh_tid()
+        answer = Authenticate(tid, key_hash.hex(), signature.hex())
+        welcome = self.request(answer, Ack, tid, what="authenticated").text
+        self.key = key
+        return welcome
+
+    def end_session(self) -> None:
+        """Tell the node this connection is done changing it (``BYE``): on a line others may
+        use next (a pty, a serial port, CAN) the next host starts as a stranger. One try,
+        waited for once: when it is lost the node ends the session after SESSION_IDLE s."""
+        self.key = None
+        tid = fresh_tid()
+        self._drain()
+        self._send(EndSession(tid))
+        self._await(tid, (Ack,), what="bye")
+
     # Transfers.
 
     def send(
         self, image: ModuleImage, base: int | None = None, tid: int | None = None
     ) -> TransferResult:
         """Transfer and commit `image`; `base` asks for a load address."""
-        tid = random.getrandbits(31) | 1 if tid is None else tid
+        tid = fresh_tid() if tid is None else tid
         begin = Begin(tid, image.name, image.size, len(image.relocations), image.link_base, base)
         try:
             load_base = self.request(begin, Ack, tid, what="begun").value
@@ -388,6 +428,7 @@ class Sender:
         """
         self._drain()
         tries = _Tries(self)
+        renewed = False
         for attempt in range(self.retries + 1):
             if attempt:
                 self.retransmissions += 1
@@ -395,6 +436,10 @@ class Sender:
             reply = self._await(tid, (expected, Nak), what=what)
             if isinstance(reply, expected):
                 return reply
+            if not renewed and self.key is not None and _wants_authentication(reply):
+                renewed = True
+                self.authenticate(self.key)
+                continue
             tries.count(reply)
         raise tries.failure(type(message).__name__)
 
@@ -517,6 +562,11 @@ class _Window:
         self.next = self.known
 
 
+def fresh_tid() -> int:
+    """A tid unlikely to be one the node remembers."""
+    return random.getrandbits(31) | 1
+
+
 def _plural(count: int, one: str, many: str) -> str:
     return f"{count} {one if count == 1 else many}"
 
@@ -525,6 +575,11 @@ def _check_fatal(reply: Message) -> None:
     """A fatal refusal ends the transfer: the node said why."""
     if isinstance(reply, Nak) and reply.fatal:
         raise TransferError(f"the node refused: {reply.reason}")
+
+
+def _wants_authentication(reply: Message | None) -> bool:
+    """Whether `reply` refuses a request because the connection is not authenticated."""
+    return isinstance(reply, Nak) and reply.fatal and reply.reason == AUTHENTICATION_REQUIRED
 
 
 def _is_repeat(reply: Message) -> bool:

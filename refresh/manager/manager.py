@@ -19,6 +19,7 @@ from pathlib import Path
 from firmware_sim.errors import FirmwareSimError
 from firmware_sim.natives import load_natives
 from firmware_sim.node import Node
+from hexmigrate.signing.keys import PrivateKey
 from refresh.configuration import Configuration
 from refresh.errors import ConfigurationError, DatabaseError
 from refresh.load import Loaded, load
@@ -34,7 +35,8 @@ from refresh.runtime import Runtime, RuntimeSettings
 class ManagerConfig:
     """What ``python -m refresh manage`` is told: the database and its task, the node of each
     robot by URL, the Python modules of the natives, the time mode, how long to run (None:
-    until interrupted), where to write the events as JSON lines, and the runtime's settings."""
+    until interrupted), where to write the events as JSON lines, the runtime's settings, and
+    the key that authenticates the manager to nodes that trust keys."""
 
     database: Path
     task: str
@@ -44,6 +46,7 @@ class ManagerConfig:
     seconds: float | None = None
     events: Path | None = None
     settings: RuntimeSettings = field(default_factory=RuntimeSettings)
+    key: PrivateKey | None = None
 
 
 def manage(config: ManagerConfig, say: Callable[[str], None]) -> Runtime:
@@ -61,7 +64,9 @@ def manage(config: ManagerConfig, say: Callable[[str], None]) -> Runtime:
             out = stack.enter_context(config.events.open("w", encoding="utf-8"))
         host = stack.enter_context(Node("manager"))
         estimators = host_estimators(loaded.database, loaded.task, host, natives)
-        applier = stack.enter_context(LinkApplier.open(dict(config.nodes), period=period))
+        applier = stack.enter_context(
+            LinkApplier.open(dict(config.nodes), period=period, key=config.key)
+        )
         for robot, node in applier.nodes.items():
             say(f"robot {robot}: {node.description} at {node.url}")
         config.time.attach(applier)

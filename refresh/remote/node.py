@@ -23,6 +23,7 @@ from typing import TypeVar
 from hexmigrate.errors import HexmigrateError, MessageError
 from hexmigrate.links import open_link
 from hexmigrate.links.base import Link
+from hexmigrate.signing.keys import PrivateKey
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import decode
 from hexmigrate.transfer.sender import Sender
@@ -41,8 +42,9 @@ RETRIES = 5
 
 
 class RemoteNode:
-    """Robot `robot`'s node at the other end of `link`: checked with a PING, then watched (a
-    report every `period` s), its pushes filed in `source`."""
+    """Robot `robot`'s node at the other end of `link`: checked with a PING, the connection
+    authenticated with `key` (a node that trusts keys takes changes only so: docs/security.md),
+    then watched (a report every `period` s), its pushes filed in `source`."""
 
     def __init__(
         self,
@@ -53,6 +55,7 @@ class RemoteNode:
         period: float = REPORT_PERIOD,
         timeout: float = TIMEOUT,
         retries: int = RETRIES,
+        key: PrivateKey | None = None,
     ) -> None:
         self.robot = robot
         self.link = link
@@ -64,6 +67,8 @@ class RemoteNode:
         self.sender.stray = self.source.take
         self.description = self.ask("PING", self.sender.ping)
         """What the node says it is (its answer to PING)."""
+        if key is not None:
+            self.ask("AUTH", lambda: self.sender.authenticate(key))
         self.watch(period)
 
     @classmethod
@@ -118,11 +123,15 @@ class RemoteNode:
                 raise self.error("reading its reports", error) from error
 
     def close(self) -> None:
-        """Stop the pushes (if the node still answers at the first try) and close the link."""
+        """Stop the pushes and end the authenticated session (if the node still answers at the
+        first try), and close the link."""
         with self._lock:
             self.sender.retries = 0
             with contextlib.suppress(NodeLinkError):
                 self.watch(0)
+            if self.sender.key is not None:
+                with contextlib.suppress(HexmigrateError, OSError):
+                    self.sender.end_session()
             self.link.close()
 
     def __enter__(self) -> RemoteNode:

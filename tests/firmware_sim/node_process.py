@@ -36,6 +36,14 @@ def hexmigrate(*arguments: object) -> str:
     return done.stdout
 
 
+def hexmigrate_refused(*arguments: object) -> str:
+    """Run ``python -m hexmigrate ARGUMENTS``, which must fail with exit code 1; its stderr."""
+    command = [sys.executable, "-m", "hexmigrate", *map(str, arguments)]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=CLI_TIMEOUT)
+    assert done.returncode == 1, f"hexmigrate {' '.join(command[3:])}: exit {done.returncode}"
+    return done.stderr
+
+
 class NodeProcess:
     """``firmware-sim listen --listen URL --seconds NODE_SECONDS OPTIONS`` in a subprocess."""
 

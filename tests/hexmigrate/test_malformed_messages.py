@@ -50,7 +50,9 @@ garbage = st.binary(max_size=64)
 crc_valid_frames = st.one_of(
     st.builds(with_check, st.sampled_from(CODES), garbage),
     st.builds(lambda code, body: with_crc32(bytes([code]) + body), st.integers(0, 0x1F), garbage),
-    st.builds(lambda code, body: with_crc32(bytes([0, code]) + body), st.integers(0, 0xFF), garbage),
+    st.builds(
+        lambda code, body: with_crc32(bytes([0, code]) + body), st.integers(0, 0xFF), garbage
+    ),
 )
 word = st.one_of(
     st.from_regex(r"-?(0x)?[0-9a-fA-F_]{0,12}", fullmatch=True),

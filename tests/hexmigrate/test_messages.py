@@ -66,7 +66,7 @@ def messages_of(cls: type[m.Message], text: bool) -> st.SearchStrategy[m.Message
     return st.builds(cls, **{field.name: values(field, text) for field in cls.layout.fields})
 
 
-def test_the_protocol_declares_its_thirty_five_message_types():
+def test_the_protocol_declares_its_thirty_six_message_types():
     names = {cls.__name__ for cls in DECLARED}
     assert names == {
         "Ping", "ListModules", "Remove", "Begin", "Header", "Data", "HexLine", "End", "Commit",
@@ -74,7 +74,7 @@ def test_the_protocol_declares_its_thirty_five_message_types():
         "ListPbos", "StartPbo", "StopPbo", "SetConstant", "SetRate", "ConnectPorts",
         "DisconnectPorts", "ReadPorts", "Watch", "PboTable", "PortValues", "PerformanceReport",
         "Heartbeat", "ExportPort", "ImportPort", "Advance", "Challenge", "Authenticate",
-        "Signature",
+        "Signature", "EndSession",
     }  # fmt: skip
 
 
@@ -180,7 +180,10 @@ def declare(options: dict[str, Any], **declared: Any) -> type:
     [
         ({"options": {"code": 0x01}}, "type code 0x01 is already Ping's"),
         ({"options": {"verb": "PING"}}, "verb 'PING' is already Ping's"),
-        ({"options": {"code": 0x20}}, r"expected a type code 0x01..0x1F or extended\(0x01..0xFF\), got 0x20"),
+        (
+            {"options": {"code": 0x20}},
+            r"expected a type code 0x01..0x1F or extended\(0x01..0xFF\), got 0x20",
+        ),
         ({"options": {"code": 0x200}}, r"or extended\(0x01..0xFF\), got 0x200"),
         ({"options": {"code": extended(0x01)}}, "type code 0x00 0x01 is already Challenge's"),
         ({"options": {"verb": "ping"}}, "expected an upper-case word as verb, got 'ping'"),

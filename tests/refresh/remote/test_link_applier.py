@@ -16,6 +16,9 @@ from collections.abc import Callable, Iterator
 import pytest
 
 from hexmigrate.elf import image_from_elf
+from hexmigrate.signing import keys
+from hexmigrate.signing.sign import sign_image
+from hexmigrate.signing.tlv import Version
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.time_master import TimeMaster
 from pbort.code import PerformanceKind
@@ -337,3 +340,33 @@ def test_in_lock_step_the_time_master_learns_each_bridge_and_runs_the_coalition(
         assert master.routes == {} and applier.bridges == {}
         master.run_until(0.6)  # time goes on without the bridge
         assert applier.read("a", "gain.y") > 0
+
+
+def test_a_node_that_trusts_keys_takes_the_plan_only_from_a_manager_with_the_key(
+    example_builds, tmp_path_factory: pytest.TempPathFactory
+):
+    """The images signed by the key the node trusts; a manager without the key is refused at
+    its first change, named with the robot; with the key the plan deploys and runs."""
+    directory = tmp_path_factory.mktemp("trusted")
+    key = keys.generate("ed25519")
+    (directory / "trusted.pub.pem").write_bytes(keys.public_pem(key.public_key()))
+    for name in ("gain", "moving_average"):
+        image = sign_image(image_from_elf(example_builds[name].elf), key, Version(1, 0, 0))
+        image.write(directory / f"{name}.hex")
+    loaded = loads(DATABASE, "filtering.toml", directory)
+    current = initial_configuration(loaded.task, loaded.database)
+    trust = ("--trust", str(directory / "trusted.pub.pem"))
+    with NodeProcess("tcp-listen://127.0.0.1:0", *NODE, *trust, "--name", "a") as node:
+        url = node.connect_url()
+        with LinkApplier.open({"a": url}) as stranger:
+            maintainer = Maintainer(loaded.database, stranger, EventLog())
+            with pytest.raises(NodeLinkError, match=r"robot 'a'.*authentication required"):
+                maintainer.apply(maintainer.plan(None, current))
+        with LinkApplier.open({"a": url}, key=key) as applier:
+            maintainer = Maintainer(loaded.database, applier, EventLog())
+            maintainer.apply(maintainer.plan(None, current))
+            assert listed(applier.node("a").control) == {
+                "signal": ("ON", 100.0),
+                "gain": ("ON", 50.0),
+            }
+            wait_until(lambda: applier.read("a", "gain.y") > 0, "gain output")
