@@ -9,12 +9,15 @@ is bounded; the node is terminated (and killed if need be) when the test leaves 
 from __future__ import annotations
 
 import re
+import socket
 import subprocess
 import sys
 import tempfile
 import threading
 import time
 from collections.abc import Iterable
+
+from hexmigrate.links.framing import Deframer
 
 NODE_SECONDS = 20
 """How long a node subprocess lives at most; each test ends it much sooner."""
@@ -42,6 +45,27 @@ def hexmigrate_refused(*arguments: object) -> str:
     done = subprocess.run(command, capture_output=True, text=True, timeout=CLI_TIMEOUT)
     assert done.returncode == 1, f"hexmigrate {' '.join(command[3:])}: exit {done.returncode}"
     return done.stderr
+
+
+def exchange(url: str, data: bytes, quiet: float = 0.3, timeout: float = 10.0) -> list[bytes]:
+    """Send `data` to the node at ``socket://`` `url` on a connection of its own; the messages
+    it answered until `quiet` seconds passed without one (at most `timeout` s)."""
+    host, port = url.removeprefix("socket://").rsplit(":", 1)
+    deframer = Deframer()
+    answers: list[bytes] = []
+    with socket.create_connection((host, int(port)), timeout=timeout) as client:
+        client.sendall(data)
+        client.settimeout(quiet)
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            try:
+                chunk = client.recv(1 << 16)
+            except (TimeoutError, ConnectionResetError):
+                break
+            if not chunk:
+                break
+            answers += deframer.feed(chunk)
+    return answers
 
 
 class NodeProcess:

@@ -5,21 +5,41 @@ reading stays open; on TCP one client's authentication is not another's."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
+from firmware_sim.memory_map import FLASH_BASE
 from hexmigrate.elf import image_from_elf
 from hexmigrate.errors import TransferError
 from hexmigrate.image import ModuleImage
 from hexmigrate.links import open_link
-from hexmigrate.signing import keys
+from hexmigrate.links.framing import frame
+from hexmigrate.signing import challenge, keys
 from hexmigrate.signing.sign import sign_image
 from hexmigrate.signing.tlv import Version
+from hexmigrate.transfer.control_client import NodeControl
+from hexmigrate.transfer.messages import (
+    Ack,
+    Authenticate,
+    Begin,
+    Challenge,
+    Commit,
+    Remove,
+    SetConstant,
+    StartPbo,
+    StopPbo,
+    decode,
+    encode,
+)
 from hexmigrate.transfer.sender import Sender
 from tests.firmware_sim.node_process import (
     NodeProcess,
     check_node_output,
+    exchange,
     hexmigrate,
     hexmigrate_refused,
 )
@@ -87,3 +107,99 @@ def test_a_tcp_clients_authentication_is_its_own(files):
         # a new connection of the same host starts as a stranger
         with open_link(url) as again, pytest.raises(TransferError, match=REQUIRED):
             Sender(again, "hex", timeout=2.0).send(ModuleImage.read(files["gain"]))
+
+
+class Trusting:
+    """A node that trusts one key, with gain 1.0.0 installed by a connection that holds it,
+    from a flash file; what a stranger may not change: its modules, their bytes in flash and
+    the state of its PBOs."""
+
+    def __init__(self, node: NodeProcess, flash: Path, files: dict[str, Path]) -> None:
+        self.node = node
+        self.flash = flash
+        self.url = node.connect_url()
+        self.key = keys.load_private(files["key"])
+        with open_link(self.url) as link:
+            sender = Sender(link, "hex", timeout=5.0)
+            sender.authenticate(self.key)
+            installed = sender.send(ModuleImage.read(files["gain"]))
+        self.span = (installed.load_address - FLASH_BASE, installed.size)
+        self.state = self.observe()
+
+    def observe(self) -> tuple[object, ...]:
+        """The node's modules, the installed module's bytes in flash and its PBOs' rows."""
+        offset, size = self.span
+        with open_link(self.url) as link:
+            sender = Sender(link, timeout=5.0)
+            rows = NodeControl(sender).pbos()
+            return sender.modules(), self.flash.read_bytes()[offset : offset + size], rows
+
+
+@pytest.fixture(scope="module")
+def trusting(files, tmp_path_factory) -> Iterator[Trusting]:
+    flash = tmp_path_factory.mktemp("trusting") / "flash.bin"
+    options = ("--flash", str(flash), "--trust", str(files["pub"]), "--seconds", "600")
+    with NodeProcess("tcp-listen://127.0.0.1:0", *options) as node:
+        yield Trusting(node, flash, files)
+
+
+@pytest.fixture(scope="module")
+def transfers(files, trusting) -> dict[str, bytes]:
+    """gain 2.0.0 signed by the trusted key and by another, each as a whole hex-mode transfer
+    (BEGIN, the file's lines, COMMIT), framed for a stream."""
+    gain = ModuleImage.read(files["gain"])
+    found = {}
+    for name, key in (("trusted", trusting.key), ("other", keys.generate("ed25519"))):
+        image = sign_image(gain, key, Version(2, 0, 0))
+        begin = Begin(9, image.name, image.size, len(image.relocations), image.link_base)
+        lines = [encode(begin, True), *(line.encode() for line in image.to_hex().split())]
+        found[name] = b"".join(frame(line) for line in [*lines, encode(Commit(9), True)])
+    return found
+
+
+@st.composite
+def strangers_requests(
+    draw: st.DrawFn, transfers: dict[str, bytes], trusted: keys.PrivateKey
+) -> bytes:
+    """What a stranger sends on one connection: well-formed requests that would change the node
+    (a whole module newer than the installed one, ``RM``, control), answers to a challenge
+    signed by another key or over another nonce than the node's, and random bytes."""
+    text = draw(st.booleans())
+    kind = draw(st.sampled_from(["module", "rm", "control", "forged", "garbage"]))
+    if kind == "module":
+        return transfers[draw(st.sampled_from(["trusted", "other"]))]
+    if kind == "rm":
+        return frame(encode(Remove("gain"), text))
+    if kind == "control":
+        control = [StopPbo(5, "gain"), SetConstant(6, "gain.k=5"), StartPbo(7, "gain")]
+        return frame(encode(draw(st.sampled_from(control)), text))
+    if kind == "forged":
+        signer = draw(st.sampled_from([trusted, OTHER_KEY]))
+        nonce = draw(st.binary(min_size=32, max_size=32))  # not the nonce the node drew
+        key_hash, signature = challenge.respond(signer, nonce)
+        forged = Authenticate(2, key_hash.hex(), signature.hex())
+        asked = [Challenge(1), forged, Remove("gain")]
+        return b"".join(frame(encode(message, text)) for message in asked)
+    return draw(st.binary(min_size=1, max_size=300))
+
+
+OTHER_KEY = keys.generate("ecdsa-p256")
+CHANGED = ("installed", "removed", "stopped", "started", "set", "authenticated")
+
+
+def test_nothing_a_stranger_sends_changes_a_trusting_node(trusting, transfers):
+    @settings(
+        max_examples=25,
+        deadline=None,
+        derandomize=True,
+        suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+    )
+    @given(st.lists(strangers_requests(transfers, trusting.key), min_size=1, max_size=4))
+    def one(parts: list[bytes]) -> None:
+        for raw in exchange(trusting.url, b"".join(parts)):
+            answer = decode(raw)
+            assert not (isinstance(answer, Ack) and answer.text.startswith(CHANGED)), answer
+        assert trusting.node.process.poll() is None, trusting.node.output()
+
+    one()
+    assert trusting.observe() == trusting.state
