@@ -399,8 +399,10 @@ def _add_listen(commands: argparse._SubParsersAction) -> None:
         type=input_file(MAX_KEY_FILE),
         action="append",
         metavar="PUB.pem",
-        help="install only modules signed by this key (repeatable: any of them; hexmigrate "
-        "keygen --public or imgtool getpub -e pem); send them in hex mode",
+        help="install only modules signed by this key, and take a module, rm or control "
+        "request that changes the node only from a connection authenticated with such a key "
+        "(hexmigrate --key); repeatable: any of them (hexmigrate keygen --public, imgtool "
+        "getpub -e pem)",
     )
     command.add_argument(
         "--allow-downgrade",

@@ -31,6 +31,7 @@ from firmware_sim.node import Node, NodeConfig
 from firmware_sim.server import NodeTarget, serve
 from firmware_sim.settings import Setting, by_pbo
 from firmware_sim.trust import TrustPolicy
+from hexmigrate.signing.keys import key_hash
 from hexmigrate.transfer.receiver import Receiver
 from pbort.clock import Clock, RealTimeClock, VirtualClock
 from pbort.code import ModuleCode
@@ -108,6 +109,9 @@ def listen(
                 installed(module.name, module.load_address)
             if port is not None:
                 say(f"fpga: {port.description} on the reconfiguration port")
+            if config.trust.enforced:
+                hashes = " ".join(key_hash(key).hex()[:16] for key in config.trust.keys)
+                say(f"trusting keys {hashes}: changes need a connection authenticated by one")
             target = NodeTarget(
                 node, on_install=installed, fpga=port, on_configure=_configured(say)
             )
