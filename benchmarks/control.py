@@ -5,7 +5,9 @@ against a baseline of the same run:
   bare request/echo over the same link (a `Ping` answered by a `Pong` through the same
   `Sender`), over TCP (``socket://`` to a node on ``tcp-listen://``) and over a pty pair. Goal:
   a control request within 2x the echo (median of the round trips, taken in turn so that both
-  see the same machine load);
+  see the same machine load). Also over TCP to a node that trusts a key (``--trust``), on a
+  connection authenticated with it: the requests cost what they cost on an open node, and a
+  new authentication (CHALLENGE + AUTH, one signature each way) is timed against the echo;
 - report throughput: NODES node processes (each on its own loopback address, 127.0.0.2 on), each
   running the native signal into the compiled `gain` example (an E-PBO, so each report carries
   its evaluator's outputs as the Decider reads them), each push a report every 100 ms with two
@@ -43,11 +45,14 @@ from hexmigrate.image import ModuleImage
 from hexmigrate.links import open_link
 from hexmigrate.links.base import LinkBase
 from hexmigrate.links.framing import frame
+from hexmigrate.signing import keys
+from hexmigrate.signing.keys import PrivateKey
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import Heartbeat, PerformanceReport, encode
 from hexmigrate.transfer.sender import Sender
 
 ROUND_TRIP_GOAL = 2.0  # a control request's median round trip / the echo's
+UNGOALED = ("echo", "authenticate")  # the baseline, and a figure the issue sets no goal for
 CPU_GOAL = 0.10  # of one core, for NODES nodes at REPORT_HZ reports/s each
 PROCESSES_GOAL = 3.0  # the scenario's run across processes / in process
 SCENARIO_TIMEOUT = 900.0
@@ -112,14 +117,20 @@ def controlled(stack: ExitStack, url: str) -> NodeControl:
 # Round trips.
 
 
-def round_trips(control: NodeControl, requests: int) -> dict[str, list[float]]:
-    """Seconds of each round trip, per kind, taken in turn: echo, read, start, stop."""
+def round_trips(
+    control: NodeControl, requests: int, key: PrivateKey | None = None
+) -> dict[str, list[float]]:
+    """Seconds of each round trip, per kind, taken in turn: echo, read, start, stop, and with a
+    `key` (the node trusts it) an authentication of the connection."""
     toggles = (("start", control.start), ("stop", control.stop))
     kinds: list[tuple[str, Callable[[], object]]] = [
         ("echo (Ping/Pong)", control.sender.ping),
         ("read 1 port", lambda: control.read(("signal.y",))),
         *((name, lambda request=request: request("signal")) for name, request in toggles),
     ]
+    if key is not None:
+        control.sender.authenticate(key)
+        kinds.append(("authenticate", lambda: control.sender.authenticate(key)))
     times: dict[str, list[float]] = {name: [] for name, _ in kinds}
     for _, request in kinds:  # warm up: imports, the node's first answers
         request()
@@ -140,10 +151,11 @@ def print_round_trips(wire: str, times: dict[str, list[float]]) -> bool:
         ratio = median / echo
         ninetieth = statistics.quantiles(samples, n=10)[-1]
         goal = "baseline" if name.startswith("echo") else f"{ROUND_TRIP_GOAL:g}x"
-        ok = "" if name.startswith("echo") else ("yes" if ratio <= ROUND_TRIP_GOAL else "NO")
+        goal = "-" if name == "authenticate" else goal
+        ok = "" if name.startswith(UNGOALED) else ("yes" if ratio <= ROUND_TRIP_GOAL else "NO")
         met = met and ok != "NO"
         print(
-            f"{wire:5}{name:18}{median * 1e6:>10.0f}{ninetieth * 1e6:>10.0f}{ratio:>8.2f}"
+            f"{wire:7}{name:18}{median * 1e6:>10.0f}{ninetieth * 1e6:>10.0f}{ratio:>8.2f}"
             f"{goal:>10}{ok:>5}"
         )
     return met
@@ -284,13 +296,21 @@ def main() -> None:
     args = parser.parse_args()
 
     print(f"control round trip, {args.requests} of each kind taken in turn (microseconds)")
-    print(f"{'link':5}{'request':18}{'median':>10}{'p90':>10}{'ratio':>8}{'goal':>10}{'met':>5}")
+    print(f"{'link':7}{'request':18}{'median':>10}{'p90':>10}{'ratio':>8}{'goal':>10}{'met':>5}")
     met = True
     for wire, listen in (("TCP", "tcp-listen://127.0.0.1:0"), ("pty", "pty")):
         with node_process(listen, *NODE_OPTIONS, "--no-start") as url, ExitStack() as stack:
             met = (
                 print_round_trips(wire, round_trips(controlled(stack, url), args.requests)) and met
             )
+    key = keys.generate("ed25519")
+    with tempfile.TemporaryDirectory() as folder:
+        public = Path(folder) / "trusted.pub.pem"
+        public.write_bytes(keys.public_pem(key.public_key()))
+        trusting = (*NODE_OPTIONS, "--no-start", "--trust", str(public))
+        with node_process("tcp-listen://127.0.0.1:0", *trusting) as url, ExitStack() as stack:
+            times = round_trips(controlled(stack, url), args.requests, key)
+            met = print_round_trips("TCP+key", times) and met
     print()
     met = report_throughput(args.nodes, args.seconds) and met
     print()
