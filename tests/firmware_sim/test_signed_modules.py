@@ -1,8 +1,8 @@
 """A signed module is still the module it was: a node that trusts no key installs and runs it
 as it would unsigned, in one process (`Node.load` of the file) and across processes
 (`hexmigrate send` over TCP to ``firmware-sim listen``, in both transfer modes). A node started
-with ``--trust`` (over TCP and a pty) installs only the modules its key signed, not older than
-the one it has, and says why it refuses the others."""
+with ``--trust`` (over TCP and a pty, in both modes) installs only the modules its key signed,
+not older than the one it has, and says why it refuses the others."""
 
 from __future__ import annotations
 
@@ -101,23 +101,25 @@ REFUSALS = {
 }
 
 
+@pytest.mark.parametrize("mode", ["hex", "binary"])
 @pytest.mark.parametrize("listen", ["tcp-listen://127.0.0.1:0", "pty"])
-def test_a_trusting_node_installs_only_what_its_key_signed(modules, listen):
-    """Across processes: each refusal comes back with its reason and leaves the node as it was
-    (its modules and its free flash blocks); the module signed by the trusted key runs."""
+def test_a_trusting_node_installs_only_what_its_key_signed(modules, listen, mode):
+    """Across processes, in both modes (binary mode's SIGNATURE message carries what hex mode's
+    09 lines do): each refusal comes back with its reason and leaves the node as it was (its
+    modules and its free flash blocks); the module signed by the trusted key runs."""
     with NodeProcess(listen, *GAIN_SET, "--show", "gain.y", "--trust", modules["key"]) as node:
         if listen == "pty":
             to = node.wait_for(r"^listening on (/dev/pts/\d+) ")[1][1]
         else:
             to = node.connect_url()
-        sent = hexmigrate("send", modules["v1.2.0"], "--to", to, "--quiet", "--mode", "hex")
+        sent = hexmigrate("send", modules["v1.2.0"], "--to", to, "--quiet", "--mode", mode)
         assert "module gain installed at 0x" in sent
         check_node_output(node, ["gain"])
         before = (hexmigrate("ls", "--to", to), hexmigrate("ping", "--to", to))
         assert "1 module(s)" in before[1]
         for name, reason in REFUSALS.items():
-            error = refused("send", modules[name], "--to", to, "--quiet", "--mode", "hex")
+            error = refused("send", modules[name], "--to", to, "--quiet", "--mode", mode)
             assert f"commit refused: {reason}" in error, (name, error)
             assert (hexmigrate("ls", "--to", to), hexmigrate("ping", "--to", to)) == before
-        again = hexmigrate("send", modules["v1.2.0"], "--to", to, "--quiet", "--mode", "hex")
+        again = hexmigrate("send", modules["v1.2.0"], "--to", to, "--quiet", "--mode", mode)
         assert "module gain installed at 0x" in again
