@@ -6,7 +6,9 @@ port (`firmware_sim.server.NodeTarget(node, fpga=port)`, or ``firmware-sim liste
 takes it over the transfer protocol like any module, writes it to flash, checks its CRC, and at
 COMMIT hands it to the port instead of calling an init: the port checks the image, applies it to
 the addressed slot and reports what it did. A refused image leaves the slot as it was, as the
-hardware does.
+hardware does. A node that trusts keys admits a bitstream first as it does a module (signed by a
+trusted key, unchanged, not older than the highest version kept of its signed name: docs/node.md,
+"Trusted keys and anti-rollback"), so the port sees only bitstreams the node accepted.
 
 The node knows a port only through `ReconfigurationPort`. The implementation (morphing_crossbar's
 crossbar, one layer with firmware_sim) registers a factory under the entry-point group

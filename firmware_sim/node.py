@@ -30,7 +30,12 @@ from firmware_sim.errors import (
 )
 from firmware_sim.flash import BLOCK_SIZE, Flash, FlashTiming
 from firmware_sim.flash_directory import OWNER as DIRECTORY_OWNER
-from firmware_sim.flash_directory import SLOT_COUNT, DirectoryEntry, ModuleDirectory
+from firmware_sim.flash_directory import (
+    SLOT_COUNT,
+    DirectoryEntry,
+    KeptVersion,
+    ModuleDirectory,
+)
 from firmware_sim.flash_space import Extent, FlashSpace
 from firmware_sim.guest import DEFAULT_BUDGET, GuestModule, register_module
 from firmware_sim.loader import InstalledImage, LoadSession
@@ -162,6 +167,9 @@ class Node:
         self.kernel = Kernel(clock)
         self.power = PowerModel(self.config.energy, self.config.base_draw)
         self.modules: dict[str, InstalledModule] = {}
+        self.kept_versions: dict[str, int] = {}
+        """The highest signed version word of each name the flash holds no image of (a module
+        removed, a partial bitstream applied): the directory's kept versions."""
         self.log: deque[tuple[float, str]] = deque(maxlen=LOG_LINES)
         """What the node noted (installs, boots, refused reports), the newest LOG_LINES."""
         self._refused_draws: set[str] = set()  # PBOs whose latest draw report was refused
@@ -205,12 +213,15 @@ class Node:
             self._note(problem)
         if scan.newest is None:
             return []
+        self.kept_versions = {kept.name: kept.version for kept in scan.newest.kept}
         booted = []
         for entry in scan.newest.entries:
             try:
                 booted.append(self._restore(entry))
             except (BootError, FlashError, FlashFullError, RegistrationError) as error:
                 self._note(f"boot: skipped module {entry.name!r}: {error}")
+                if entry.version:  # the next directory write keeps it, as for a removed module
+                    self.kept_versions[entry.name] = entry.version
         return booted
 
     def _restore(self, entry: DirectoryEntry) -> InstalledModule:
@@ -284,7 +295,8 @@ class Node:
         """Make a received image (flash owner `owner`) one of the node's modules.
 
         Its init subroutine registers it; a module of the same name is replaced, so only the
-        names of other PBOs are taken. Then the directory is written: the commit point. Only
+        names of other PBOs are taken. Then the directory is written: the commit point (the
+        module's version moves from the kept versions, if there, to its entry). Only
         after it is the module it replaces stopped, removed from the kernel, and its flash freed
         and erased, so a failure before it (the new module does not register, the directory is
         full) discards the new image and leaves the old module exactly as it was, running if it
@@ -295,10 +307,12 @@ class Node:
             code = self._register(image, taken=set(self.kernel.names) - set(self.modules))
             entry = self._entry(code.name, image, version)
             kept = [module.entry for name, module in self.modules.items() if name != code.name]
-            self.directory.write([*kept, entry])
+            versions = {name: v for name, v in self.kept_versions.items() if name != code.name}
+            self.directory.write([*kept, entry, *_kept(versions)])
         except Exception:
             self.discard(owner, image)
             raise
+        self.kept_versions = versions
         replaced = self.modules.pop(code.name, None)
         if replaced is not None:
             self._retire(replaced)
@@ -316,8 +330,7 @@ class Node:
         """The signed version word for the directory (0 when the node trusts no key), once the
         trust policy admits the image as it sits in flash (its CRC already checked), before
         its init runs; `TrustError` with the reason otherwise."""
-        trust = self.config.trust
-        if not trust.enforced:
+        if not self.config.trust.enforced:
             return 0
         linked = linked_image(
             owner,
@@ -328,10 +341,32 @@ class Node:
             image.init,
             image.signature,
         )
-        installed = self.modules.get(linked.name)
-        highest = installed.entry.version if installed is not None else 0
-        version = trust.admit(linked, version_of(highest) if highest else None)
+        return self.admit(linked)
+
+    def admit(self, image: ModuleImage) -> int:
+        """The signed version word of `image` (the bytes that were signed), once the trust
+        policy admits it against the highest version the node keeps of its name: its installed
+        module's, else its kept version. 0 when the node trusts no key; `TrustError` with the
+        reason the sender is told otherwise."""
+        installed = self.modules.get(image.name)
+        highest = installed.entry.version if installed else self.kept_versions.get(image.name, 0)
+        version = self.config.trust.admit(
+            image, version_of(highest) if highest else None, installed=installed is not None
+        )
         return version_word(version) if version is not None else 0
+
+    def keep_version(self, name: str, version: int) -> None:
+        """Keep `version` (a word, as `admit` gives) as the highest of `name`, which has no
+        image in flash (a partial bitstream the FPGA port takes): a directory write, so it
+        survives a power cut at any block. Version 0 (a node that trusts no key) keeps nothing;
+        a full directory raises `DirectoryError` before the flash is touched."""
+        if not version:
+            return
+        versions = {**self.kept_versions, name: version}
+        self.directory.write(
+            [*(module.entry for module in self.modules.values()), *_kept(versions)]
+        )
+        self.kept_versions = versions
 
     def discard(self, owner: str, image: InstalledImage) -> None:
         """Erase and free a received image that is not to be committed."""
@@ -381,9 +416,19 @@ class Node:
     def unload(self, name: str) -> None:
         """Write the directory without the module, then stop and remove it and free (and erase)
         its flash and its SRAM. A power cut before the directory write completes leaves the
-        module installed; one after it leaves it gone (its blocks are free, erased or not)."""
+        module installed; one after it leaves it gone (its blocks are free, erased or not).
+
+        A signed module's version stays, among the directory's kept versions, written by the
+        same directory write: a node that trusts keys refuses an older one of that name after
+        ``rm`` as before it. The write always fits, a kept version being smaller than an entry.
+        """
         module = self.modules[name]
-        self.directory.write(m.entry for other, m in self.modules.items() if other != name)
+        versions = dict(self.kept_versions)
+        if module.entry.version:
+            versions[name] = module.entry.version
+        entries = [m.entry for other, m in self.modules.items() if other != name]
+        self.directory.write([*entries, *_kept(versions)])
+        self.kept_versions = versions
         del self.modules[name]
         self._retire(module)
         self._note(f"unloaded {name!r}")
@@ -484,3 +529,8 @@ class Node:
 
     def _note(self, text: str) -> None:
         self.log.append((self.kernel.now, text))
+
+
+def _kept(versions: dict[str, int]) -> list[KeptVersion]:
+    """The directory's kept versions, from name -> version word."""
+    return [KeptVersion(name, version) for name, version in versions.items()]

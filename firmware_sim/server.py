@@ -14,8 +14,8 @@ from firmware_sim.fpga_port import ReconfigurationPort
 from firmware_sim.kernel_control import KernelControl
 from firmware_sim.loader import InstalledImage, LoadSession
 from firmware_sim.node import Node
+from firmware_sim.trust import linked_image
 from hexmigrate.errors import LinkError
-from hexmigrate.image import ModuleImage
 from hexmigrate.links.base import Link
 from hexmigrate.links.tcp import TcpListenLink
 from hexmigrate.transfer.messages import is_foreign
@@ -25,7 +25,8 @@ from hexmigrate.transfer.receiver import Receiver
 class NodeTarget:
     """The `hexmigrate.transfer.receiver.Target` of an emulated node; `fpga` is its FPGA
     reconfiguration port, if it has one. `on_install(name, address)` hears of each module
-    committed, `on_configure(name, slot, cycles)` of each bitstream applied."""
+    committed, `on_configure(name, slot, cycles)` of each bitstream applied. A bitstream
+    follows the node's trust policy as a module does (`_configure`)."""
 
     def __init__(
         self,
@@ -58,13 +59,25 @@ class NodeTarget:
 
     def _configure(self, owner: str, image: InstalledImage) -> tuple[str, int]:
         """Shift a verified bitstream from flash into its slot; its flash copy is freed either
-        way (the port refuses a corrupt frame, and the slot keeps its old routing)."""
+        way (the port refuses a corrupt frame, and the slot keeps its old routing).
+
+        On a node that trusts keys the bitstream is admitted first, as a module is
+        (`Node.admit`: signed by a trusted key, unchanged, not older than the highest version
+        kept of the name it was signed under), and its version kept in the flash directory
+        (`Node.keep_version`) before the port is touched: a refused one leaves the slot as it
+        was. An unsigned image is named "bitstream"; a signed one takes its signed name."""
         assert self.fpga is not None
-        data = self.node.flash.read(image.load_base, image.size)
         try:
-            bitstream = ModuleImage(
-                "bitstream", image.link_base, data, image.relocations, image.init
+            bitstream = linked_image(
+                "bitstream",
+                self.node.flash.read(image.load_base, image.size),
+                image.link_base,
+                image.load_base,
+                image.relocations,
+                image.init,
+                image.signature,
             )
+            self.node.keep_version(bitstream.name, self.node.admit(bitstream))
             record = self.fpga.load(bitstream)
         finally:
             self.node.discard(owner, image)

@@ -4,7 +4,8 @@ of the same name it had (docs/node.md, "Trusted keys").
 The check runs on the image as it sits in flash, after its CRC and before its init: the loader
 has added ``load_base - link_base`` to every 07 word while programming, so `linked_image` takes
 that back to recover the bytes that were signed. The policy itself holds no state: the highest
-version seen per name is the node's to keep (its flash directory), and is passed in.
+version seen per name is the node's to keep (its flash directory: in the entry of an installed
+module, in the kept versions for a removed module or a partial bitstream), and is passed in.
 """
 
 from __future__ import annotations
@@ -34,10 +35,13 @@ class TrustPolicy:
     def enforced(self) -> bool:
         return bool(self.keys)
 
-    def admit(self, image: ModuleImage, highest: Version | None) -> Version | None:
+    def admit(
+        self, image: ModuleImage, highest: Version | None, *, installed: bool = True
+    ) -> Version | None:
         """The version of `image` when the node may install it, `highest` being the highest
-        version of its name the node has seen (None: never seen). None for a node that trusts
-        no key. Raises `TrustError` with the reason the sender is told."""
+        version of its name the node keeps (None: never seen), of a module `installed` now or of
+        one it had before (removed, or a bitstream applied to the FPGA port). None for a node
+        that trusts no key. Raises `TrustError` with the reason the sender is told."""
         if not self.enforced:
             return None
         try:
@@ -45,7 +49,9 @@ class TrustPolicy:
         except SignatureError as error:
             raise TrustError(error.reason) from None
         if highest is not None and version < highest and not self.allow_downgrade:
-            raise TrustError(f"version {version} is older than the installed {highest}")
+            if installed:
+                raise TrustError(f"version {version} is older than the installed {highest}")
+            raise TrustError(f"version {version} is older than {highest}, installed before")
         return version
 
 

@@ -24,7 +24,7 @@ from typing import Protocol
 
 from hexmigrate.errors import HexError, MessageError, SignatureError
 from hexmigrate.links.base import is_text
-from hexmigrate.records import RecordType, decode_record
+from hexmigrate.records import MAX_SIGNATURE_AREA, RecordType, decode_record
 from hexmigrate.signing import challenge
 from hexmigrate.signing.keys import PublicKey
 from hexmigrate.signing.verify import MISMATCH
@@ -451,6 +451,19 @@ class Receiver:
             transfer.header_done = True
         return [Ack(message.tid, transfer.session.programmed, "header")]
 
+    def _signature(self, message: Signature) -> list[Message]:
+        """Binary mode: the signature area, which hex mode sends as 09 lines; a node that
+        trusts keys checks it at COMMIT. Sent again after a lost ACK, the same area is taken
+        again; a larger area than the 09 records may hold is refused before it is kept."""
+        transfer = self._transfer(message.tid)
+        if len(message.area) > MAX_SIGNATURE_AREA:
+            raise _FatalRefusal(
+                f"expected a signature area of at most {MAX_SIGNATURE_AREA} bytes, got "
+                f"{len(message.area)}"
+            )
+        _guard(transfer.session.feed_signature, 0, message.area)
+        return [Ack(message.tid, transfer.session.programmed, "signature")]
+
     def _data(self, message: Data) -> list[Message]:
         transfer = self._transfer(message.tid)
         return self._feed(transfer, message.address, message.payload, binary=True)
@@ -670,6 +683,7 @@ _HANDLERS = {
     Remove: Receiver._remove,
     Begin: Receiver._begin,
     Header: Receiver._header,
+    Signature: Receiver._signature,
     Data: Receiver._data,
     HexLine: Receiver._line,
     End: Receiver._end,

@@ -44,6 +44,7 @@ from hexmigrate.transfer.messages import (
     Pong,
     Remove,
     Resume,
+    Signature,
     decode,
     encode,
 )
@@ -92,7 +93,9 @@ class TransferResult:
 
 
 class Sender:
-    """Talks to one node over `link`, in `mode` ("binary" or "hex")."""
+    """Talks to one node over `link`, in `mode` ("binary" or "hex"). A signed module's
+    signature area travels in both modes (09 lines, or a binary SIGNATURE message), so a node
+    that trusts keys can check it either way."""
 
     def __init__(
         self,
@@ -257,10 +260,13 @@ class Sender:
 
     def _send_header(self, image: ModuleImage, tid: int) -> None:
         """The 07 and 08 records: a HEADER message, or in hex mode their lines, acknowledged
-        after the 08, with a signed module's 09 lines before them. Binary mode has no message
-        for the signature area yet (every type code is taken), so a node that trusts keys
-        refuses a module sent in binary mode as not signed (docs/transfer.md)."""
+        after the 08. A signed module's signature area goes before them: in binary mode a
+        SIGNATURE message (an extended type, 00 03) acknowledged on its own, in hex mode its 09
+        lines. Both are sent again when the header is (a retry, a resume before the header's
+        ACK): the node takes the same area again."""
         if not self.text:
+            if image.signature:
+                self.request(Signature(tid, image.signature), Ack, tid, what="signature")
             self.request(Header(tid, image.init, image.relocations), Ack, tid, what="header")
             return
         lines = [

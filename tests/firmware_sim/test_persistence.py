@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import shutil
+import struct
+import zlib
 from collections.abc import Callable
 from pathlib import Path
 
@@ -14,6 +16,8 @@ from firmware_sim.flash_directory import (
     MAX_ENTRIES,
     DirectoryEntry,
     DirectoryError,
+    DirectoryRecord,
+    KeptVersion,
     ModuleDirectory,
 )
 from firmware_sim.natives import Signal
@@ -252,6 +256,34 @@ def test_a_directory_beyond_one_block_is_refused_before_the_flash_is_touched():
     assert flash.read(BASE, flash.size) == before
 
 
+def test_kept_versions_share_the_block_with_the_entries():
+    """A record holds 48-byte entries and 20-byte kept versions in 240 bytes: 4 modules and 2
+    kept versions fit and read back; a third is refused before the flash is touched."""
+    flash = Flash(BASE, 8 * BLOCK_SIZE)
+    directory = ModuleDirectory(flash)
+    modules = [entry(f"m{index}") for index in range(4)]
+    kept = [KeptVersion("gain", 0x01020000), KeptVersion("mx_slot2", 0x00010003)]
+    directory.write([*modules, *kept])
+    assert directory.scan().newest == DirectoryRecord(1, tuple(modules), tuple(kept))
+    before = flash.read(BASE, flash.size)
+    with pytest.raises(
+        DirectoryError,
+        match=r"at most 5 modules .* got 4: .* and 3 kept versions: \['gain', 'mx_slot2', 'x'\]",
+    ):
+        directory.write([*modules, *kept, KeptVersion("x", 1)])
+    assert flash.read(BASE, flash.size) == before
+
+
+def test_a_version_2_record_is_still_read():
+    """A flash written before kept versions existed boots with its modules and their versions."""
+    flash = Flash(BASE, 8 * BLOCK_SIZE)
+    directory = ModuleDirectory(flash)
+    signed = DirectoryEntry("gain", BASE, 300, 0x2_0000, BASE + 8, 3, 0xDEADBEEF, 1, 0x01020000)
+    body = struct.pack("<4sHHI", b"RFMD", 2, 1, 1) + signed.encode()
+    flash.program(directory.slot_address(0), body + struct.pack("<I", zlib.crc32(body)))
+    assert directory.scan().newest == DirectoryRecord(1, (signed,), ())
+
+
 def test_the_directory_needs_room_besides_its_two_blocks():
     with pytest.raises(ValueError, match=r"more than 2 blocks \(the directory takes the last 2\)"):
         ModuleDirectory(Flash(BASE, 2 * BLOCK_SIZE))
@@ -446,3 +478,45 @@ def test_the_installed_version_survives_a_power_cut_at_any_step_of_a_signed_comm
                 node.load(signed["1.1.0"])
             assert str(caught.value) == f"version 1.1.0 is older than the installed {expected}"
             assert installed(node) == expected
+
+
+def test_a_removed_module_s_version_survives_a_power_cut_at_any_step_of_the_rm(tmp_path, images):
+    """gain 1.2.0 is installed on a node that trusts the key and removed, the power cut at each
+    flash operation. Up to the directory write the node boots with gain 1.2.0 installed, after
+    it without gain and with 1.2.0 among the kept versions: either way it refuses 1.1.0."""
+    key = keys.generate("ed25519")
+    trust = TrustPolicy((key.public_key(),))
+    signed = {v: sign_image(images["gain"], key, Version.parse(v)) for v in ("1.1.0", "1.2.0")}
+
+    def trusted(path: Path) -> NodeConfig:
+        return NodeConfig(flash_file=path, trust=trust)
+
+    start = tmp_path / "signed.bin"
+    with Node(config=trusted(start)) as node:
+        node.load(signed["1.2.0"])
+        node.load(sign_image(images["moving_average"], key, Version(1, 0, 0)))
+    with Node(config=trusted(copy_flash(start, tmp_path / "dry.bin"))) as node:
+        operations = record_operations(node.flash)
+        node.unload("gain")
+        commit_point = directory_write(node, operations)
+    assert operations[-1][0] == "erase"  # gain's blocks go after the directory write
+    refusals = {
+        True: "version 1.1.0 is older than the installed 1.2.0",
+        False: "version 1.1.0 is older than 1.2.0, installed before",
+    }
+    for count in range(1, len(operations) + 1):
+        path = copy_flash(start, tmp_path / f"cut{count}.bin")
+        with Node(config=trusted(path)) as node:
+            node.flash.power_cut_after = count
+            with pytest.raises(PowerCut):
+                node.unload("gain")
+        with Node(config=trusted(path)) as node:
+            installed = count <= commit_point
+            assert set(node.modules) == (
+                {"gain", "moving_average"} if installed else {"moving_average"}
+            )
+            assert node.kept_versions == ({} if installed else {"gain": 0x01020000}), count
+            assert_whole(node, images)
+            with pytest.raises(TrustError) as caught:
+                node.load(signed["1.1.0"])
+            assert str(caught.value) == refusals[installed], count

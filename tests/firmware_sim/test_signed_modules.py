@@ -1,14 +1,12 @@
 """A signed module is still the module it was: a node that trusts no key installs and runs it
 as it would unsigned, in one process (`Node.load` of the file) and across processes
 (`hexmigrate send` over TCP to ``firmware-sim listen``, in both transfer modes). A node started
-with ``--trust`` (over TCP and a pty) installs only the modules its key signed, not older than
-the one it has, and says why it refuses the others."""
+with ``--trust`` (over TCP and a pty, in both modes) installs only the modules its key signed,
+not older than the one it has, and says why it refuses the others."""
 
 from __future__ import annotations
 
 import dataclasses
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -20,13 +18,14 @@ from hexmigrate.signing import keys
 from hexmigrate.signing.sign import sign_image
 from hexmigrate.signing.tlv import Version
 from tests.firmware_sim.node_process import (
-    CLI_TIMEOUT,
     NodeProcess,
     check_node_output,
     hexmigrate,
+    hexmigrate_refused,
 )
 
 GAIN_SET = ("--set", "gain.k=0x20000")
+TCP = "tcp-listen://127.0.0.1:0"
 
 
 @pytest.fixture(scope="module")
@@ -60,22 +59,15 @@ def test_a_signed_file_sends_and_runs_on_a_listening_node(signed_gain, mode):
         assert "gain" in hexmigrate("ls", "--to", node.connect_url())
 
 
-def refused(*arguments: object) -> str:
-    """Run ``hexmigrate ARGUMENTS``, which must fail; its error line."""
-    command = [sys.executable, "-m", "hexmigrate", *map(str, arguments)]
-    done = subprocess.run(command, capture_output=True, text=True, timeout=CLI_TIMEOUT)
-    assert done.returncode == 1, done.stdout
-    return done.stderr
-
-
 @pytest.fixture(scope="module")
 def modules(example_builds, tmp_path_factory) -> dict[str, Path]:
     """gain unsigned, signed 1.2.0 and 1.1.0 by the trusted key, signed by another key, and
-    signed 1.2.0 then changed; and the trusted public key."""
+    signed 1.2.0 then changed; and the trusted key, private (to authenticate) and public."""
     folder = tmp_path_factory.mktemp("trust")
     gain = image_from_elf(example_builds["gain"].elf)
     trusted, other = keys.generate("ed25519"), keys.generate("ecdsa-p256")
     (folder / "trusted.pub.pem").write_bytes(keys.public_pem(trusted.public_key()))
+    (folder / "trusted.pem").write_bytes(keys.private_pem(trusted))
     signed = sign_image(gain, trusted, Version(1, 2, 0))
     data = bytearray(signed.data)
     data[-1] ^= 0x01
@@ -86,7 +78,7 @@ def modules(example_builds, tmp_path_factory) -> dict[str, Path]:
         "other-key": sign_image(gain, other, Version(1, 3, 0)),
         "changed": dataclasses.replace(signed, data=bytes(data)),
     }
-    files = {"key": folder / "trusted.pub.pem"}
+    files = {"key": folder / "trusted.pub.pem", "signer": folder / "trusted.pem"}
     for name, image in images.items():
         files[name] = folder / f"{name}.hex"
         image.write(files[name])
@@ -101,23 +93,32 @@ REFUSALS = {
 }
 
 
-@pytest.mark.parametrize("listen", ["tcp-listen://127.0.0.1:0", "pty"])
-def test_a_trusting_node_installs_only_what_its_key_signed(modules, listen):
-    """Across processes: each refusal comes back with its reason and leaves the node as it was
-    (its modules and its free flash blocks); the module signed by the trusted key runs."""
+@pytest.mark.parametrize(
+    ("listen", "mode"),
+    [
+        ("tcp-listen://127.0.0.1:0", "hex"),
+        ("tcp-listen://127.0.0.1:0", "binary"),
+        ("pty", "binary"),
+    ],
+)
+def test_a_trusting_node_installs_only_what_its_key_signed(modules, listen, mode):
+    """Across processes, in both modes (binary mode's SIGNATURE message carries what hex mode's
+    09 lines do): each refusal comes back with its reason and leaves the node as it was (its
+    modules and its free flash blocks); the module signed by the trusted key runs."""
     with NodeProcess(listen, *GAIN_SET, "--show", "gain.y", "--trust", modules["key"]) as node:
         if listen == "pty":
             to = node.wait_for(r"^listening on (/dev/pts/\d+) ")[1][1]
         else:
             to = node.connect_url()
-        sent = hexmigrate("send", modules["v1.2.0"], "--to", to, "--quiet", "--mode", "hex")
+        send = ("--to", to, "--quiet", "--mode", mode, "--key", modules["signer"])
+        sent = hexmigrate("send", modules["v1.2.0"], *send)
         assert "module gain installed at 0x" in sent
         check_node_output(node, ["gain"])
         before = (hexmigrate("ls", "--to", to), hexmigrate("ping", "--to", to))
         assert "1 module(s)" in before[1]
         for name, reason in REFUSALS.items():
-            error = refused("send", modules[name], "--to", to, "--quiet", "--mode", "hex")
+            error = hexmigrate_refused("send", modules[name], *send)
             assert f"commit refused: {reason}" in error, (name, error)
             assert (hexmigrate("ls", "--to", to), hexmigrate("ping", "--to", to)) == before
-        again = hexmigrate("send", modules["v1.2.0"], "--to", to, "--quiet", "--mode", "hex")
+        again = hexmigrate("send", modules["v1.2.0"], *send)
         assert "module gain installed at 0x" in again

@@ -9,7 +9,7 @@ import dataclasses
 
 import pytest
 
-from firmware_sim.errors import TrustError
+from firmware_sim.errors import DirectoryError, TrustError
 from firmware_sim.node import Node, NodeConfig
 from firmware_sim.trust import TrustPolicy, linked_image, version_of
 from hexmigrate.elf import image_from_elf
@@ -93,11 +93,13 @@ def gain(example_builds) -> ModuleImage:
 
 def state(node: Node) -> tuple:
     """What a refused module must leave as it was: the flash before the directory, what the
-    directory lists (and the versions), the flash space, SRAM and the kernel's PBOs."""
+    directory lists (and the versions, also those it keeps of names no longer installed), the
+    flash space, SRAM and the kernel's PBOs."""
     listed = node.directory.scan().newest
     return (
         node.flash.read(node.flash.base, node.directory.slot_address(0) - node.flash.base),
         () if listed is None else tuple((e.name, e.version) for e in listed.entries),
+        () if listed is None else listed.kept,
         node.space.owners,
         node.space.free_blocks,
         node.sram.allocations,
@@ -147,3 +149,67 @@ def test_the_installed_version_survives_a_restart(gain, key, tmp_path):
         assert version_of(node.modules["gain"].entry.version) == V1_2
         with pytest.raises(TrustError, match=r"older than the installed 1\.2\.0"):
             node.load(sign_image(gain, key, V1_1))
+
+
+def test_a_removed_module_s_version_stays_and_survives_a_restart(gain, key, tmp_path):
+    """``rm`` keeps the version among the directory's kept versions: an older one of that name
+    is refused after it as before it, also once the node restarted; the same version installs
+    again and its entry takes the version back."""
+    trust = TrustPolicy((key.public_key(),))
+    path = tmp_path / "flash.bin"
+    older = "version 1.1.0 is older than 1.2.0, installed before"
+    with Node(config=NodeConfig(flash_file=path, trust=trust)) as node:
+        node.load(sign_image(gain, key, V1_2))
+        node.unload("gain")
+        assert node.kept_versions == {"gain": 0x01020000}
+        with pytest.raises(TrustError) as caught:
+            node.load(sign_image(gain, key, V1_1))
+        assert str(caught.value) == older
+    with Node(config=NodeConfig(flash_file=path, trust=trust)) as node:
+        assert node.modules == {}
+        before = state(node)
+        with pytest.raises(TrustError) as caught:
+            node.load(sign_image(gain, key, V1_1))
+        assert str(caught.value) == older
+        assert state(node) == before
+        node.load(sign_image(gain, key, V1_2))
+        assert node.kept_versions == {}
+        assert node.directory.scan().newest.kept == ()
+        assert version_of(node.modules["gain"].entry.version) == V1_2
+
+
+def test_a_module_skipped_at_boot_keeps_its_version(gain, key, tmp_path):
+    trust = TrustPolicy((key.public_key(),))
+    path = tmp_path / "flash.bin"
+    with Node(config=NodeConfig(flash_file=path, trust=trust)) as node:
+        address = node.load(sign_image(gain, key, V1_2)).load_address - node.flash.base
+    with path.open("r+b") as flash:  # the image no longer matches its CRC
+        flash.seek(address + 40)
+        flash.write(b"\x00")
+    with Node(config=NodeConfig(flash_file=path, trust=trust)) as node:
+        assert node.modules == {}
+        with pytest.raises(TrustError, match=r"^version 1\.1\.0 is older than 1\.2\.0, installed"):
+            node.load(sign_image(gain, key, V1_1))
+
+
+def test_a_node_that_trusts_no_key_keeps_no_versions(gain, key):
+    with Node() as node:
+        node.load(sign_image(gain, key, V1_2))
+        node.unload("gain")
+        assert node.directory.scan().newest.kept == ()
+        node.load(sign_image(gain, key, V1_1))
+        assert node.modules["gain"].entry.version == 0
+
+
+def test_a_full_directory_refuses_an_install_rather_than_forget_a_version(gain, key):
+    """Kept versions share the directory's block with the entries: when they fill it, a new
+    module is refused (and erased) and every version stays."""
+    trust = TrustPolicy((key.public_key(),))
+    with Node(config=NodeConfig(trust=trust)) as node:
+        for index in range(12):  # 12 x 20 bytes: the whole block
+            node.keep_version(f"component{index}", 0x01000000)
+        before = state(node)
+        with pytest.raises(DirectoryError, match=r"at most 5 modules .* and 12 kept versions"):
+            node.load(sign_image(gain, key, V1_2))
+        assert state(node) == before
+        assert len(node.directory.scan().newest.kept) == 12
