@@ -111,6 +111,18 @@ def node(*trusted: keys.PublicKey) -> tuple[Receiver, Recording]:
     return receiver, recording
 
 
+def clocked_node(now: list[float]) -> tuple[Receiver, Recording]:
+    """A node trusting TRUSTED whose receiver's clock reads `now[0]`."""
+    recording = Recording()
+    receiver = Receiver(
+        recording,  # type: ignore[arg-type]
+        recording,  # type: ignore[arg-type]
+        trusted=(TRUSTED.public_key(),),
+        clock=lambda: now[0],
+    )
+    return receiver, recording
+
+
 def answer(
     receiver: Receiver, message: Message, peer: Hashable = None, text: bool = False
 ) -> Message:
@@ -292,13 +304,7 @@ def test_a_silent_lines_session_lapses_but_a_tcp_clients_does_not():
     """A host killed before its BYE: the line's session ends after SESSION_IDLE s of silence;
     a TCP client's ends when it leaves, however long it was silent."""
     now = [0.0]
-    recording = Recording()
-    receiver = Receiver(
-        recording,  # type: ignore[arg-type]
-        recording,  # type: ignore[arg-type]
-        trusted=(TRUSTED.public_key(),),
-        clock=lambda: now[0],
-    )
+    receiver, recording = clocked_node(now)
     authenticate(receiver, TRUSTED)
     authenticate(receiver, TRUSTED, peer=3)
     now[0] = SESSION_IDLE * 0.9
@@ -311,13 +317,7 @@ def test_a_silent_lines_session_lapses_but_a_tcp_clients_does_not():
 
 def test_the_sender_authenticates_again_when_its_session_lapsed():
     now = [0.0]
-    recording = Recording()
-    receiver = Receiver(
-        recording,  # type: ignore[arg-type]
-        recording,  # type: ignore[arg-type]
-        trusted=(TRUSTED.public_key(),),
-        clock=lambda: now[0],
-    )
+    receiver, recording = clocked_node(now)
     sender = Sender(DirectLink(receiver.handle), timeout=0.05)
     sender.authenticate(TRUSTED)
     now[0] = SESSION_IDLE + 1
