@@ -16,8 +16,7 @@ from firmware_sim.loader import InstalledImage, LoadSession
 from firmware_sim.node import Node
 from firmware_sim.trust import linked_image
 from hexmigrate.errors import LinkError
-from hexmigrate.links.base import Link
-from hexmigrate.links.tcp import TcpListenLink
+from hexmigrate.links.base import ClientsLink, Link
 from hexmigrate.transfer.messages import is_foreign
 from hexmigrate.transfer.receiver import Receiver
 
@@ -137,19 +136,20 @@ def serve(
     its control is in lock-step time: then only an Advance runs it. Transfers idle too long are
     dropped (`Receiver.expire`).
 
-    On a ``tcp-listen://`` link each client has a session of its own (its record lines feed
-    its own transfer, its answers and its watch's pushes go to it alone, its authentication on
-    a node that trusts keys is its own and ends when it leaves), and a client whose
-    line cannot be a command (`is_foreign`: an HTTP request line or header) is refused once and
-    disconnected, with what else it sent: a browser or ``curl`` pointed at the port cannot
-    remove or install modules with the lines of a request's body.
+    On a link with clients (``tcp-listen://``, also behind ``faulty+``: `ClientsLink`) each
+    client has a session of its own (its record lines feed its own transfer, its answers and
+    its watch's pushes go to it alone, its authentication on a node that trusts keys is its own
+    and ends when it leaves), and a client whose line cannot be a command (`is_foreign`: an
+    HTTP request line or header) is refused once and disconnected, with what else it sent: a
+    browser or ``curl`` pointed at the port cannot remove or install modules with the lines of
+    a request's body.
     """
     receiver = receiver or Receiver(
         NodeTarget(node), KernelControl(node), trusted=node.config.trust.keys
     )
     control = receiver.control if isinstance(receiver.control, KernelControl) else None
     free_running = control is None or not control.lock_step
-    server = link if isinstance(link, TcpListenLink) else None
+    server = link if isinstance(link, ClientsLink) else None
     while not stop():
         got = server.receive_from(poll) if server is not None else _unnamed(link.receive(poll))
         raw = None if got is None else got[1]
@@ -181,7 +181,7 @@ def _unnamed(raw: bytes | None) -> tuple[None, bytes] | None:
 
 
 def _answer(
-    link: Link, server: TcpListenLink | None, peer: int | None, messages: list[bytes]
+    link: Link, server: ClientsLink | None, peer: int | None, messages: list[bytes]
 ) -> None:
     """Send `messages` to client `peer` of a ``tcp-listen://`` link, or on `link`."""
     for message in messages:

@@ -17,7 +17,7 @@ delivers what arrived, in order, or nothing.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import Protocol, Self
+from typing import Protocol, Self, runtime_checkable
 
 from hexmigrate.errors import LinkError
 
@@ -42,6 +42,26 @@ class Link(Protocol):
 
     def close(self) -> None:
         """Release the transport."""
+
+
+@runtime_checkable
+class ClientsLink(Protocol):
+    """A link with several clients, each a connection of its own, told apart by a number that
+    is never reused (``tcp-listen://``, also behind ``faulty+``): a node keeps a session per
+    client (its transfers, watch and authentication) and answers each one alone."""
+
+    @property
+    def peers(self) -> frozenset[int]:
+        """The numbers of the clients connected now."""
+
+    def receive_from(self, timeout: float) -> tuple[int, bytes] | None:
+        """The next message and the number of its client, or None within `timeout` s."""
+
+    def send_to(self, peer: int, message: bytes) -> None:
+        """Send one message to client `peer` (lost if that client is gone)."""
+
+    def hang_up(self, peer: int) -> None:
+        """Disconnect client `peer`."""
 
 
 MAX_MESSAGE_SIZE = 1 << 20

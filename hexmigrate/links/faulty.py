@@ -36,7 +36,7 @@ import time
 from dataclasses import asdict, dataclass
 
 from hexmigrate.errors import LinkError
-from hexmigrate.links.base import Link, LinkBase, message_problem
+from hexmigrate.links.base import ClientsLink, Link, LinkBase, message_problem
 from hexmigrate.links.url import choice, integer, parse_parameters, real, url_error
 
 PREFIX = "faulty+"
@@ -105,7 +105,10 @@ def open_url(url: str, **options: object) -> FaultyLink:
     from hexmigrate.links import open_link
 
     inner_url, faults = split_url(url, **options)
-    return FaultyLink(url, open_link(inner_url), faults)
+    inner = open_link(inner_url)
+    if isinstance(inner, ClientsLink):
+        return FaultyClientsLink(url, inner, faults)
+    return FaultyLink(url, inner, faults)
 
 
 class FaultInjector:
@@ -171,13 +174,18 @@ class FaultyLink(LinkBase):
         self._inject = FaultInjector(faults, self.counts)
 
     def _send(self, message: bytes) -> None:
+        for copy in self._faulted(message):
+            self.inner.send(copy)
+
+    def _faulted(self, message: bytes) -> list[bytes]:
+        """What arrives of `message` sent now (the faults injected, the cable counted)."""
         self._check_cable()
         arriving = self._inject(message)
         if arriving:
             self._hold()
         for copy in arriving:
             self._cross(len(copy))
-            self.inner.send(copy)
+        return arriving
 
     def _receive(self, timeout: float) -> bytes | None:
         self._check_cable()
@@ -208,3 +216,34 @@ class FaultyLink(LinkBase):
                 f"{self.url}: cut after {self.counts.bytes_crossed} bytes "
                 f"(cut_after={self.faults.cut_after}, an injected fault)"
             )
+
+
+class FaultyClientsLink(FaultyLink):
+    """A `FaultyLink` around a link with clients (``faulty+tcp-listen://``): the node still
+    tells its clients apart (`ClientsLink`), and what it sends each one gets the faults."""
+
+    inner: ClientsLink
+
+    def __init__(self, url: str, inner: ClientsLink, faults: Faults) -> None:
+        super().__init__(url, inner, faults)  # type: ignore[arg-type]
+
+    @property
+    def peers(self) -> frozenset[int]:
+        return self.inner.peers
+
+    def receive_from(self, timeout: float) -> tuple[int, bytes] | None:
+        self._check_cable()
+        got = self.inner.receive_from(timeout)
+        if got is not None:
+            self._cross(len(got[1]))
+        return got
+
+    def send_to(self, peer: int, message: bytes) -> None:
+        problem = message_problem(message)
+        if problem is not None:
+            raise ValueError(problem)
+        for copy in self._faulted(message):
+            self.inner.send_to(peer, copy)
+
+    def hang_up(self, peer: int) -> None:
+        self.inner.hang_up(peer)

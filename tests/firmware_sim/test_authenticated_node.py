@@ -89,9 +89,13 @@ def test_only_a_connection_with_a_trusted_key_changes_the_node(files, listen):
         assert "no modules" in hexmigrate("ls", "--to", to)
 
 
-def test_a_tcp_clients_authentication_is_its_own(files):
+@pytest.mark.parametrize(
+    "listen", ["tcp-listen://127.0.0.1:0", "faulty+tcp-listen://127.0.0.1:0#seed=1"]
+)
+def test_a_tcp_clients_authentication_is_its_own(files, listen):
+    """Also behind a fault wrapper, which once made every client one connection."""
     key = keys.load_private(files["key"])
-    with NodeProcess("tcp-listen://127.0.0.1:0", "--trust", files["pub"]) as node:
+    with NodeProcess(listen, "--trust", files["pub"]) as node:
         url = node.connect_url()
         with open_link(url) as first, open_link(url) as second:
             trusted, stranger = (
