@@ -156,8 +156,8 @@ def serve(
         if got is not None:
             peer, raw = got
             _answer(link, server, peer, receiver.handle(raw, peer))
-            if server is not None and peer is not None and is_foreign(raw):
-                server.hang_up(peer)
+            if server is not None and peer is not None:
+                _keep_or_let_go(server, receiver, peer, raw)
         if node.kernel.names and free_running:
             # After a message, only what is due by now: a host that keeps asking must not hold
             # the node's PBOs back, nor wait a poll for each answer.
@@ -173,6 +173,17 @@ def serve(
             except LinkError:
                 receiver.unwatch(watcher)
     return receiver
+
+
+def _keep_or_let_go(server: ClientsLink, receiver: Receiver, peer: int, raw: bytes) -> None:
+    """Hang up on a client whose line cannot be a command (`is_foreign`); shelter one that
+    authenticated from being let go for a newcomer."""
+    if is_foreign(raw):
+        server.hang_up(peer)
+        return
+    session = receiver.sessions.get(peer)
+    if session is not None and session.authenticated:
+        server.shelter(peer)
 
 
 def _unnamed(raw: bytes | None) -> tuple[None, bytes] | None:

@@ -63,6 +63,9 @@ class ClientsLink(Protocol):
     def hang_up(self, peer: int) -> None:
         """Disconnect client `peer`."""
 
+    def shelter(self, peer: int) -> None:
+        """Keep client `peer` when a newcomer needs room (an authenticated host)."""
+
 
 MAX_MESSAGE_SIZE = 1 << 20
 """The largest message any link carries: a module image with room to spare, and a bound on what a

@@ -247,3 +247,6 @@ class FaultyClientsLink(FaultyLink):
 
     def hang_up(self, peer: int) -> None:
         self.inner.hang_up(peer)
+
+    def shelter(self, peer: int) -> None:
+        self.inner.shelter(peer)

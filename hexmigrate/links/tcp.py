@@ -57,7 +57,12 @@ FORM = (
 )
 READ_SIZE = 1 << 16
 MAX_CLIENTS = 8
-"""Clients served at once; more wait in the listen backlog until one hangs up."""
+"""Clients served at once. One more takes the place of the one silent the longest, but never of
+a sheltered one (`TcpListenLink.shelter`: a node's authenticated host); when every client is
+sheltered, the newcomer is hung up on at once."""
+BACKLOG = MAX_CLIENTS
+"""Connections the kernel queues until the server thread takes them: with one, clients that
+connect in a burst find the queue full and wait a second for their SYN to be sent again."""
 MAX_WAITING = 1 << 16
 """Bytes of one client's received messages waiting for `receive` (each counted with
 MESSAGE_OVERHEAD) before the link stops reading that client."""
@@ -112,7 +117,7 @@ def _listen(url: str, name: str, port: int) -> socket.socket:
     except socket.gaierror as error:
         raise LinkError(f"cannot open {url}: cannot resolve {name!r}: {error.strerror}") from None
     try:
-        listener = socket.create_server(address, family=family, backlog=1)
+        listener = socket.create_server(address, family=family, backlog=BACKLOG)
     except OSError as error:
         raise LinkError(
             f"cannot open {url}: cannot listen on {address[0]} port {port}: "
@@ -134,6 +139,7 @@ class _Client:
     gone: bool = False  # left, or let go: its socket is closed by the server thread
     hung_up: bool = False  # let go by `hang_up`: its messages not yet received are dropped
     heard: float = field(default_factory=time.monotonic)  # when it last sent (or connected)
+    sheltered: bool = False  # not to be let go for a newcomer (`shelter`)
 
 
 class TcpListenLink(LinkBase):
@@ -242,6 +248,15 @@ class TcpListenLink(LinkBase):
                 client.hung_up = True
                 self._end(client)
 
+    def shelter(self, peer: int) -> None:
+        """Never let client `peer` go to make room for a newcomer: a node shelters the host
+        that authenticated, so that strangers opening connections cannot push out a manager
+        that is quiet between its requests."""
+        with self._lock:
+            client = self._clients.get(peer)
+            if client is not None:
+                client.sheltered = True
+
     def hang_up(self, peer: int) -> None:
         """Disconnect client `peer` and drop what it sent that was not received yet."""
         with self._lock:
@@ -311,7 +326,11 @@ class TcpListenLink(LinkBase):
         with self._lock:
             present = [c for c in self._clients.values() if not c.gone]
             if len(present) >= MAX_CLIENTS:
-                self._end(min(present, key=lambda c: c.heard))
+                exposed = [c for c in present if not c.sheltered]
+                if not exposed:
+                    connection.close()
+                    return
+                self._end(min(exposed, key=lambda c: c.heard))
             self.connections += 1
             self._clients[self.connections] = _Client(self.connections, connection)
 

@@ -5,6 +5,8 @@ reading stays open; on TCP one client's authentication is not another's."""
 
 from __future__ import annotations
 
+import contextlib
+import socket
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -18,6 +20,7 @@ from hexmigrate.errors import TransferError
 from hexmigrate.image import ModuleImage
 from hexmigrate.links import open_link
 from hexmigrate.links.framing import frame
+from hexmigrate.links.tcp import MAX_CLIENTS
 from hexmigrate.signing import challenge, keys
 from hexmigrate.signing.sign import sign_image
 from hexmigrate.signing.tlv import Version
@@ -207,3 +210,22 @@ def test_nothing_a_stranger_sends_changes_a_trusting_node(trusting, transfers):
 
     one()
     assert trusting.observe() == trusting.state
+
+
+def test_strangers_opening_connections_do_not_push_out_an_authenticated_host(files):
+    """A tcp-listen node serves MAX_CLIENTS at once and lets the longest-silent one go for a
+    newcomer, but never the host that authenticated: quiet between its requests, it keeps its
+    connection while strangers come and go, and when every place is sheltered a stranger is
+    hung up on at once."""
+    key = keys.load_private(files["key"])
+    with NodeProcess("tcp-listen://127.0.0.1:0", "--trust", files["pub"]) as node:
+        url = node.connect_url()
+        host, port = url.removeprefix("socket://").rsplit(":", 1)
+        with open_link(url) as link, contextlib.ExitStack() as stack:
+            host_sender = Sender(link, "hex", timeout=2.0)
+            host_sender.authenticate(key)
+            for _ in range(3 * MAX_CLIENTS):  # strangers, each saying something, then idle
+                stranger = stack.enter_context(socket.create_connection((host, int(port)), 5.0))
+                stranger.sendall(b"PING\n")
+            host_sender.send(ModuleImage.read(files["gain"]))
+            assert [name for name, _, _ in host_sender.modules()] == ["gain"]
