@@ -30,6 +30,7 @@ from hexmigrate.errors import (
     MissingInitError,
     MultipleInitError,
     OrderError,
+    PointerAlignmentError,
     RecordAfterEofError,
     RelocationOutsideImageError,
 )
@@ -303,6 +304,12 @@ class LoadSession:
     def feed_relocation(self, location: int, line: int = 0) -> None:
         """An offset function pointer (07): the link address of a pointer word to fix."""
         progress = self._progress
+        if location % POINTER_SIZE:
+            raise PointerAlignmentError(
+                f"expected a 4-byte aligned pointer word, got 0x{location:08X} (the node fixes "
+                "whole words; `hexmigrate verify` refuses this file too)",
+                line=line,
+            )
         if location in progress.relocations:
             raise DuplicateRelocationError(
                 f"expected each pointer word once, got 0x{location:08X} again "

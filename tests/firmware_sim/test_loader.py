@@ -9,7 +9,12 @@ from firmware_sim.flash import BLOCK_SIZE, Flash
 from firmware_sim.flash_space import FlashSpace
 from firmware_sim.loader import InstalledImage, LoadSession, load_image
 from hexmigrate.elf import image_from_elf
-from hexmigrate.errors import ChecksumError, MissingEofError, RelocationOutsideImageError
+from hexmigrate.errors import (
+    ChecksumError,
+    MissingEofError,
+    PointerAlignmentError,
+    RelocationOutsideImageError,
+)
 from hexmigrate.image import ModuleImage
 from hexmigrate.records import Record, RecordType
 
@@ -113,11 +118,22 @@ def test_pointer_record_after_its_block_is_refused(flash, space, gain):
 
 
 def test_pointer_outside_the_image_rolls_back(flash, space):
+    image = ModuleImage("m", 0x10000, bytes(302), (0x10000,), 0x10000)
+    lines = image.to_hex().splitlines()
+    outside = Record.pointer(RecordType.OFFSET_FUNCTION_POINTER, 0x10000 + 300).encode()
+    with pytest.raises(RelocationOutsideImageError, match="0x0001012C"):
+        stream(flash, space, "m", [outside, *lines])
+    assert erased(flash)
+    assert space.owners == {}
+
+
+def test_an_unaligned_pointer_word_is_refused_as_verify_refuses_it(flash, space):
+    """Not only one across two flash blocks: the node takes what `hexmigrate verify` takes."""
     image = ModuleImage("m", 0x10000, bytes(300), (0x10000,), 0x10000)
     lines = image.to_hex().splitlines()
-    outside = Record.pointer(RecordType.OFFSET_FUNCTION_POINTER, 0x10000 + 298).encode()
-    with pytest.raises(RelocationOutsideImageError, match="0x0001012A"):
-        stream(flash, space, "m", [outside, *lines])
+    unaligned = Record.pointer(RecordType.OFFSET_FUNCTION_POINTER, 0x10000 + 6).encode()
+    with pytest.raises(PointerAlignmentError, match="0x00010006"):
+        stream(flash, space, "m", [unaligned, *lines])
     assert erased(flash)
     assert space.owners == {}
 
