@@ -102,7 +102,7 @@ def write_json(outcome: Outcome, path: Path) -> None:
     report = {
         "summary": summary(outcome),
         "configurations": [{"time": t, "label": label} for t, label in outcome.configurations],
-        "events": outcome.log.to_json() if outcome.log is not None else [],
+        "events": [event.as_dict() for event in outcome.log] if outcome.log is not None else [],
         "samples": [vars(sample) for sample in outcome.samples],
     }
     path.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
