@@ -1,14 +1,14 @@
-"""One patrol run: three robots' nodes in one virtual time, the task on them, ReFrESH repairing.
+"""One patrol run, whatever runs the robots: the task deployed, ReFrESH deciding and repairing,
+rover1's path recorded.
 
-The robots are emulated nodes (`firmware_sim.Node`) advanced together in steps of `STEP`, so the
-ports bridged between them (coalitions) arrive as the link delivers them. The world needs no code
-of its own: rover1's body is a module of the task (`Chassis`), so the loop sensors -> filter ->
-controller -> drive -> chassis -> sensors runs on the nodes, across robots where a coalition
-takes it. ReFrESH is `refresh.runtime.Runtime` on the run's clock, applying plans with
-`refresh.node_applier.NodeApplier` (guest images sent with hexmigrate to the node's loader) and
-estimating in shadow runs on a host node that holds every module's code, from the rover's live
-pose (`Chassis.x0`, `y0`, `theta0`). Every `SAMPLE` seconds the run records where rover1 really
-is against the line.
+The world needs no code of its own: rover1's body is a module of the task (`Chassis`), so the
+loop sensors -> filter -> controller -> drive -> chassis -> sensors runs on the robots' nodes,
+across robots where a coalition takes it. ReFrESH is `refresh.runtime.Runtime` on the run's
+clock with the applier the subclass gives (`patrol.local`: nodes in this process;
+`patrol.linked`: node processes over links), estimating in shadow runs on a host node that holds
+every module's code (the natives, and the guest images loaded from their HEX files), from
+rover1's live pose (the chassis's `x0`, `y0`, `theta0` for the estimators). Every `SAMPLE`
+seconds the run reads rover1's pose and records where it really is against the line.
 """
 
 from __future__ import annotations
@@ -18,22 +18,28 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from firmware_sim.node import Node
+from hexmigrate.image import ModuleImage
 from patrol.firmware import natives
 from patrol.guests import build_guests
 from patrol.scenarios import DATABASE, Scenario, with_faults
 from patrol.track import deviation
 from pbort.code import ModuleCode
-from refresh.database import Module
+from refresh.database import ModuleDatabase
 from refresh.events import EventLog
 from refresh.load import loads
-from refresh.node_applier import NodeApplier
-from refresh.runtime import HostEstimators, Reconfiguration, Runtime, RuntimeSettings
+from refresh.runtime import (
+    HostEstimators,
+    Reconfiguration,
+    Runtime,
+    RuntimeApplier,
+    RuntimeSettings,
+)
+from refresh.task import TaskSpec
 
 ROBOTS = ("rover1", "rover2", "mast")
-STEP = 0.005
-"""Seconds the three nodes advance together: a quarter of the modules' 50 Hz period."""
+TASK_ROBOT = "rover1"
 SAMPLE = 0.02
-"""Seconds between two samples of the rover's true pose."""
+"""Seconds between two samples of rover1's true pose."""
 LINK_BAUD = 1_000_000
 """The robots' radio link (ports of a coalition cross it), modelled as a 1 Mbaud serial line."""
 SETTINGS = RuntimeSettings(
@@ -58,7 +64,8 @@ class Sample:
 
 @dataclass(frozen=True)
 class Migration:
-    """A guest image sent to a robot's node: when (run seconds) and its size in bytes."""
+    """A migrate step of a plan: a guest image sent to a robot's node (unless the node held it
+    already), when (run seconds) and the image's size in bytes."""
 
     time: float
     module: str
@@ -68,8 +75,7 @@ class Migration:
 
 @dataclass
 class Outcome:
-    """What a run produced: the samples and migrations are the run's, the configurations and
-    reconfigurations the runtime's history."""
+    """What a run produced: the samples are the run's, the rest the runtime's history and log."""
 
     scenario: Scenario
     samples: list[Sample] = field(default_factory=list)
@@ -80,66 +86,75 @@ class Outcome:
     log: EventLog | None = None
 
 
-class RecordingApplier(NodeApplier):
-    """A `NodeApplier` that notes each image it sends (the node did not hold it yet)."""
+@dataclass(frozen=True)
+class Prepared:
+    """A scenario's database (its faults set), task, and guest images built into a folder."""
 
-    def __init__(self, clock: Callable[[], float], **options: object) -> None:
-        super().__init__(**options)  # type: ignore[arg-type]
-        self.clock = clock
-        self.migrations: list[Migration] = []
-
-    def migrate(self, robot: str, module: Module) -> None:
-        if module.name not in self.node(robot).modules:
-            size = len(self.image_of(module).data)
-            self.migrations.append(Migration(self.clock(), module.name, robot, size))
-        super().migrate(robot, module)
+    database: ModuleDatabase
+    task: TaskSpec
+    images: dict[str, ModuleImage]
 
 
-class Patrol:
-    """A scenario set up on three new nodes; `run()` runs it once. `work` receives the guest
-    modules' builds and HEX files (the database names them there)."""
+def prepare(scenario: Scenario, work: Path) -> Prepared:
+    """Build the guests into `work`, where the database names their HEX files, and load the
+    database with the scenario's faults."""
+    images = build_guests(work)
+    loaded = loads(DATABASE.read_text(encoding="utf-8"), DATABASE.name, work)
+    assert loaded.task is not None  # the file holds the task
+    return Prepared(with_faults(loaded.database, scenario.faults), loaded.task, images)
+
+
+class Mission:
+    """The run on `applier` (made by the subclass in `_open`), on the subclass's clock; `run()`
+    runs it once. `work` receives the guest modules' builds and HEX files."""
 
     def __init__(self, scenario: Scenario, work: Path) -> None:
         self.scenario = scenario
-        self.time = 0.0
-        self.nodes = {robot: Node(robot) for robot in ROBOTS}
+        self.work = work
+        self.prepared = prepare(scenario, work)
         self.host = Node("host")
         try:
-            self._set_up(work)
+            self.applier = self._open()
+            self._set_up()
         except BaseException:
             self.close()
             raise
 
-    def _set_up(self, work: Path) -> None:
-        images = build_guests(work)
-        loaded = loads(DATABASE.read_text(encoding="utf-8"), DATABASE.name, work)
-        self.database = with_faults(loaded.database, self.scenario.faults)
-        self.task = loaded.task
+    def _open(self) -> RuntimeApplier:
+        """The robots, and the applier that runs plans on them."""
+        raise NotImplementedError
+
+    def now(self) -> float:
+        """The run's time in seconds."""
+        raise NotImplementedError
+
+    def advance_world(self, seconds: float) -> None:
+        """Let the robots run `seconds` further."""
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release the host (subclasses release the robots first)."""
+        self.host.close()
+
+    def _set_up(self) -> None:
+        prepared = self.prepared
         codes: dict[str, ModuleCode] = dict(natives())
-        for image in images.values():
+        for image in prepared.images.values():
             self.host.load(image)  # the host holds every module's code, to estimate with
             codes[image.name] = self.host.modules[image.name].code
-        self.applier = RecordingApplier(
-            self.now, nodes=self.nodes, natives=natives(), images=images, rate=LINK_BAUD
-        )
         estimators = HostEstimators(
-            self.host.kernel, codes, self.database, self.task, inputs=self._live_pose
+            self.host.kernel, codes, prepared.database, prepared.task, inputs=self._live_pose
         )
         self.runtime = Runtime(
-            self.database, self.task, self.applier, estimators, self.now, SETTINGS
+            prepared.database, prepared.task, self.applier, estimators, self.now, SETTINGS
         )
         history = self.runtime.history
         self.outcome = Outcome(
             self.scenario,
-            migrations=self.applier.migrations,
             configurations=history.configurations,
             reconfigurations=history.reconfigurations,
             log=self.runtime.log,
         )
-
-    def now(self) -> float:
-        """The run's virtual time in seconds."""
-        return self.time
 
     def run(self, progress: Callable[[float], None] | None = None) -> Outcome:
         """Deploy, patrol to the scenario's end, deciding and repairing on the way; `progress`
@@ -148,31 +163,25 @@ class Patrol:
         self.runtime.deploy()
 
         def advance(seconds: float) -> None:
-            self.advance(seconds)
+            end = self.now() + seconds
+            while (left := end - self.now()) > 1e-9:
+                self.advance_world(min(SAMPLE, left))
+                self._sample()
             if progress is not None:
-                progress(self.time)
+                progress(self.now())
 
         self.runtime.run(self.scenario.duration, advance)
         self.outcome.stopped_at = self.runtime.history.stopped_at
+        self.outcome.migrations[:] = self._migrations()
         return self.outcome
-
-    def advance(self, seconds: float) -> None:
-        """Run the three nodes `seconds` further together, sampling the rover on the way."""
-        end = self.time + seconds
-        while self.time < end - 1e-9:
-            self.time = min(end, self.time + STEP)
-            for node in self.nodes.values():
-                node.run(until=self.time)
-            if round(self.time / STEP) % round(SAMPLE / STEP) == 0:
-                self._sample()
 
     def pose(self) -> tuple[float, float, float]:
         """Rover1's pose from its chassis: mm, mm, rad."""
         read = self.applier.read
         return (
-            read("rover1", "Chassis.x"),
-            read("rover1", "Chassis.y"),
-            read("rover1", "Chassis.theta") / 1000.0,
+            read(TASK_ROBOT, "Chassis.x"),
+            read(TASK_ROBOT, "Chassis.y"),
+            read(TASK_ROBOT, "Chassis.theta") / 1000.0,
         )
 
     def _sample(self) -> None:
@@ -180,19 +189,26 @@ class Patrol:
             return
         x, y, theta = self.pose()
         seen = deviation(x, y, theta)
-        self.outcome.samples.append(Sample(self.time, x, y, theta, seen.offset, seen.heading))
+        self.outcome.samples.append(Sample(self.now(), x, y, theta, seen.offset, seen.heading))
 
     def _live_pose(self) -> dict[str, object]:
         """The estimators start the chassis where the rover is now."""
         x, y, theta = self.pose()
         return {"Chassis.x0": x, "Chassis.y0": y, "Chassis.theta0": theta}
 
-    def close(self) -> None:
-        """Release the nodes and the host."""
-        for node in (*self.nodes.values(), self.host):
-            node.close()
+    def _migrations(self) -> list[Migration]:
+        """The plans' migrate steps, from the runtime's log."""
+        images = self.prepared.images
+        found = []
+        for event in self.runtime.log:
+            if event.kind == "step" and event.data.get("action") == "migrate":
+                _, module, _, robot = str(event.data["step"]).split()
+                image = images.get(module)
+                size = len(image.data) if image is not None else 0
+                found.append(Migration(event.time, module, robot, size))
+        return found
 
-    def __enter__(self) -> Patrol:
+    def __enter__(self) -> Mission:
         return self
 
     def __exit__(self, *exc_info: object) -> None:

@@ -80,7 +80,7 @@ def table(figures: dict[str, Any]) -> str:
         )
         recovered = "not yet" if r["recovered_at"] is None else f"at {r['recovered_at']:.2f} s"
         lines += [
-            f"  fault {number}      at {r['fault_at']} s, "
+            f"  fault {number}      {_struck(r['fault_at'])}, "
             f"detected at {r['detected_at']:.2f} s{delay}",
             f"    located    {r['located']} after {r['test_cases_estimated']} of "
             f"{r['test_cases']} Base Choice cases (brute force: {r['brute_force']}), "
@@ -95,6 +95,10 @@ def table(figures: dict[str, Any]) -> str:
         f"  worst offset {figures['max_offset_mm']:.1f} mm (the task allows 100)",
     ]
     return "\n".join(lines)
+
+
+def _struck(fault_at: float | None) -> str:
+    return "before any fault struck" if fault_at is None else f"at {fault_at:g} s"
 
 
 def write_json(outcome: Outcome, path: Path) -> None:

@@ -2,10 +2,11 @@
 
 A differential-drive rover: from the wheel speeds (mm/s) it integrates its pose over one period
 (`period` seconds, the module's own: a shadow run steps without the clock moving) and outputs it
-(`x`, `y` in mm, `theta` in mrad, wrapped), which every sensor reads. It starts at its constants
-`x0`, `y0`, `theta0` (mm, mm, rad): the database's start on the line when the task is deployed,
-the live pose (the estimators' inputs) in a shadow run, so a candidate is judged from where the
-rover is. It draws nothing from the node: the motors' power is the drive's.
+(`x`, `y` in mm, `theta` in mrad, wrapped), which every sensor reads. It starts (init, and again
+when switched on: a node process creates its PBOs before the manager sets their constants) at its
+constants `x0`, `y0`, `theta0` (mm, mm, rad): the database's start on the line when the task is
+deployed, the live pose (the estimators' inputs) in a shadow run, so a candidate is judged from
+where the rover is. It draws nothing from the node: the motors' power is the drive's.
 """
 
 from __future__ import annotations
@@ -33,6 +34,13 @@ class Chassis(Reporting):
     )
 
     def init(self, io: PortIO) -> None:
+        self.place(io)
+
+    def on(self, io: PortIO) -> None:
+        self.place(io)  # a node may create the PBO before a host sets its constants
+
+    def place(self, io: PortIO) -> None:
+        """Put the rover at its start pose, the constants."""
         self.pose = (float(io["x0"]), float(io["y0"]), float(io["theta0"]))
         self.publish(io)
 

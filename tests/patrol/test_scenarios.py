@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from patrol.errors import ScenarioError
-from patrol.mission import Patrol
+from patrol.local import Patrol
 from patrol.scenarios import SCENARIOS, Scenario, with_faults
 from refresh.load import load
 
