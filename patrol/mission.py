@@ -13,6 +13,7 @@ seconds the run reads rover1's pose and records where it really is against the l
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,6 +43,8 @@ SAMPLE = 0.02
 """Seconds between two samples of rover1's true pose."""
 LINK_BAUD = 1_000_000
 """The robots' radio link (ports of a coalition cross it), modelled as a 1 Mbaud serial line."""
+MIGRATE_STEP = re.compile(r"migrate (\w+) to (\w+)")
+"""A plan's migrate step, as the runtime's log words it."""
 SETTINGS = RuntimeSettings(
     decision_period=0.1, debounce=5, settle=0.5, recovery_hold=0.5, estimate_steps=25
 )
@@ -198,13 +201,13 @@ class Mission:
 
     def _migrations(self) -> list[Migration]:
         """The plans' migrate steps, from the runtime's log."""
-        images = self.prepared.images
         found = []
         for event in self.runtime.log:
             if event.kind == "step" and event.data.get("action") == "migrate":
-                _, module, _, robot = str(event.data["step"]).split()
-                image = images.get(module)
-                size = len(image.data) if image is not None else 0
+                step = MIGRATE_STEP.fullmatch(str(event.data["step"]))
+                assert step is not None, event.data  # refresh.maintainer.Step's own wording
+                module, robot = step.groups()
+                size = len(self.prepared.images[module].data)
                 found.append(Migration(event.time, module, robot, size))
         return found
 
