@@ -99,10 +99,13 @@ class Prepared:
 
 
 def prepare(scenario: Scenario, work: Path) -> Prepared:
-    """Build the guests into `work`, where the database names their HEX files, and load the
-    database with the scenario's faults."""
+    """Build the guests into `work`, copy the database file beside their HEX files (as it names
+    them: ``python -m refresh check WORK/patrol.toml`` checks what ran), and load it with the
+    scenario's faults."""
     images = build_guests(work)
-    loaded = loads(DATABASE.read_text(encoding="utf-8"), DATABASE.name, work)
+    text = DATABASE.read_text(encoding="utf-8")
+    (work / DATABASE.name).write_text(text, encoding="utf-8")
+    loaded = loads(text, DATABASE.name, work)
     assert loaded.task is not None  # the file holds the task
     return Prepared(with_faults(loaded.database, scenario.faults), loaded.task, images)
 

@@ -8,6 +8,8 @@ import pytest
 
 from patrol.cli import main
 from patrol.scenarios import SCENARIOS
+from refresh.images import check_images
+from refresh.load import load
 
 
 def test_scenarios_lists_each_with_what_it_expects(capsys):
@@ -31,6 +33,8 @@ def test_run_prints_the_summary_and_writes_the_report_timeline_and_figure(tmp_pa
     assert len(report["samples"]) == 750
     assert "choice       chosen: {MastCam@mast" in (tmp_path / "timeline.txt").read_text()
     assert (tmp_path / "patrol.png").read_bytes().startswith(b"\x89PNG")
+    database = tmp_path / "patrol.toml"  # beside the guests' HEX files, as it names them
+    check_images(load(database).database, str(database))
 
 
 def test_run_as_json_prints_the_summary_only(tmp_path, capsys):
