@@ -85,6 +85,11 @@ def table(figures: dict[str, Any]) -> str:
             f"    located    {r['located']} after {r['test_cases_estimated']} of "
             f"{r['test_cases']} Base Choice cases (brute force: {r['brute_force']}), "
             f"decided in {r['decision_ms']:.1f} ms",
+        ]
+        if r["chosen"] is None:
+            lines.append("    chosen     nothing satisfies P_T: every module is stopped")
+            continue
+        lines += [
             f"    chosen     {r['chosen']} on {', '.join(r['robots'])}",
             f"    migrated   {moved or 'nothing'}",
             f"    recovered  {recovered}",

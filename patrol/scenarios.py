@@ -62,7 +62,26 @@ TWO_FAULTS = Scenario(
     faults={"LineCam": 1.0, "Median": 4.0},
 )
 
-SCENARIOS = {scenario.name: scenario for scenario in (GLARE, CONTROLLER, FILTER, TWO_FAULTS)}
+RELAY = Scenario(
+    "relay",
+    "glare on the line camera at 1 s, then the mast's camera blinded at 5 s",
+    "first the mast's camera joins (a coalition); when it fails too, LineCam's test case still "
+    "fails and IRArray's passes: MastCam located, the coalition ends, the line slot back on "
+    "rover1: {IRArray, Gyro, Median, PID, Drive, Chassis}",
+    faults={"LineCam": 1.0, "MastCam": 5.0},
+)
+
+BLIND = Scenario(
+    "blind",
+    "every line sensor blinded at 1 s (the warehouse lights fail)",
+    "no single replacement helps: more than one fault suspected; the task is stopped safely "
+    "and rover1 halts",
+    faults={"LineCam": 1.0, "IRArray": 1.0, "MastCam": 1.0},
+)
+
+SCENARIOS = {
+    scenario.name: scenario for scenario in (GLARE, CONTROLLER, FILTER, TWO_FAULTS, RELAY, BLIND)
+}
 
 
 def with_faults(database: ModuleDatabase, faults: Mapping[str, float]) -> ModuleDatabase:

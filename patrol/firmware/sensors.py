@@ -5,11 +5,14 @@ against the patrol line (`patrol.track`), with its own noise and resolution; the
 evaluators report the quality of what they see (functional index 0, the task's metric
 `line_quality`: 1 a sharp line, 0 none). Outputs are int32: millimetres and milliradians.
 
-- `LineCam`, rover1's downward camera: 3 mm of noise, quality 0.95. From its `fault_at` on, glare
-  blinds it: quality 0.15 and it holds the last offset it saw (its driver's "line lost" policy).
+- `LineCam`, rover1's downward camera: 3 mm of noise, quality 0.95.
 - `IRArray`, rover1's reflectance bar: 10 mm steps over +-150 mm, quality 0.8.
 - `MastCam`, the mast's overhead camera watching rover1 from above: 5 mm of noise, quality 0.9.
   Used by rover1, it makes a coalition: the pose crosses to the mast, the offset comes back.
+
+From its `fault_at` on, a line sensor is blinded (glare on a lens, dust on the bar): it reports
+a quality of 0.15 and holds the last offset it saw (its driver's "line lost" policy).
+
 - `Gyro` (rover1's IMU), `Compass` (rover1's magnetometer), `MastTracker` (the mast's camera
   tracking the rover's orientation marker): the heading error, with 5, 30 and 15 mrad of noise.
 """
@@ -24,6 +27,8 @@ from pbort import PerformanceKind, PortIO, PortSpec
 
 POSE = (PortSpec.input("x"), PortSpec.input("y"), PortSpec.input("theta"))
 """The chassis's pose, the input of every sensor: mm, mm, mrad."""
+BLINDED = 0.15
+"""The quality a blinded line sensor reports."""
 
 
 class _Sensor(Reporting):
@@ -50,37 +55,37 @@ class _Sensor(Reporting):
         return self.quality
 
 
-class LineCam(_Sensor):
-    name = "LineCam"
+class _LineSensor(_Sensor):
+    """Measures the offset, `resolution` mm a step within +-`reach` mm; blinded from
+    `fault_at`."""
+
     ports = (*POSE, PortSpec.output("offset"), PortSpec.const("fault_at", dtype="<f8"))
-    power, cpu, noise, quality = 2.0, 20.0, 3.0, 0.95
+    resolution, reach = 1.0, 1e9
 
     def cycle(self, io: PortIO) -> None:
-        if not faulty(io):  # blinded, it holds the last offset it saw
-            io["offset"] = round(self.deviation(io)[0])
+        if faulty(io):  # blinded, it holds the last offset it saw
+            return
+        offset = max(-self.reach, min(self.reach, self.deviation(io)[0]))
+        io["offset"] = round(round(offset / self.resolution) * self.resolution)
 
     def seen_quality(self, io: PortIO) -> float:
-        return 0.15 if faulty(io) else self.quality
+        return BLINDED if faulty(io) else self.quality
 
 
-class IRArray(_Sensor):
+class LineCam(_LineSensor):
+    name = "LineCam"
+    power, cpu, noise, quality = 2.0, 20.0, 3.0, 0.95
+
+
+class IRArray(_LineSensor):
     name = "IRArray"
-    ports = (*POSE, PortSpec.output("offset"))
     power, cpu, quality = 6.0, 10.0, 0.8
-    STEP, RANGE = 10.0, 150.0
-
-    def cycle(self, io: PortIO) -> None:
-        offset = max(-self.RANGE, min(self.RANGE, self.deviation(io)[0]))
-        io["offset"] = round(round(offset / self.STEP) * self.STEP)
+    resolution, reach = 10.0, 150.0
 
 
-class MastCam(_Sensor):
+class MastCam(_LineSensor):
     name = "MastCam"
-    ports = (*POSE, PortSpec.output("offset"))
     power, cpu, noise, quality = 3.0, 10.0, 5.0, 0.9
-
-    def cycle(self, io: PortIO) -> None:
-        io["offset"] = round(self.deviation(io)[0])
 
 
 class _Heading(_Sensor):

@@ -72,7 +72,7 @@ def test_the_line_camera_sees_the_line_until_glare_then_holds_its_last_offset():
 
 def test_the_ir_array_reads_in_steps_and_saturates():
     with Node("rover1") as node:
-        node.start(CODES["IRArray"], 50)
+        node.start(CODES["IRArray"], 50, constants={"fault_at": 1e6})
         pose = {"x": 0, "y": -1000 + 47, "theta": 0}
         feed(node, "IRArray", pose)
         node.run(until=0.1)

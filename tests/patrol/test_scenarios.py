@@ -28,6 +28,10 @@ EXPECTED = {
             [("Kalman", "rover2")],
         )
     ],
+    "relay": [
+        ("LineCam", 1, MASTCAM, []),
+        ("MastCam", 2, "{IRArray, Gyro, Median, PID, Drive, Chassis}", []),  # LineCam's case fails
+    ],
     "two-faults": [
         ("LineCam", 1, MASTCAM, []),
         (
@@ -63,6 +67,18 @@ def test_each_fault_is_located_and_repaired_as_the_scenario_expects(name, tmp_pa
     assert got == EXPECTED[name]
     assert outcome.stopped_at is None
     assert max(abs(sample.offset) for sample in outcome.samples) < 100  # mm: on the line
+
+
+def test_with_every_line_sensor_blind_the_task_is_stopped_safely(tmp_path):
+    with Patrol(SCENARIOS["blind"], tmp_path) as patrol:
+        outcome = patrol.run()
+        running = {robot: set(node.kernel.names) for robot, node in patrol.nodes.items()}
+    (record,) = outcome.reconfigurations
+    assert not record.decision.location.located  # more than one fault suspected
+    assert record.decision.location.tried == record.test_cases == 9
+    assert record.target is None and outcome.stopped_at == pytest.approx(1.5)
+    assert running == {"rover1": set(), "rover2": set(), "mast": set()}
+    assert outcome.samples[-1].time == pytest.approx(1.5)  # rover1 halted: nothing to sample
 
 
 def test_without_a_fault_nothing_is_reconfigured(tmp_path):
