@@ -141,12 +141,18 @@ def plot(outcome: Outcome, path: Path) -> None:
     offset.plot([s.time for s in outcome.samples], [s.offset for s in outcome.samples])
     for limit in (OFFSET_LIMIT, -OFFSET_LIMIT):
         offset.axhline(limit, color="red", linestyle=":", linewidth=1)
+    struck: dict[float, list[str]] = {}
     for module, time in outcome.scenario.faults.items():
+        struck.setdefault(time, []).append(module)
+    for time, modules in struck.items():
         offset.axvline(time, color="red", linewidth=1)
-        offset.annotate(f"{module} fails", (time, OFFSET_LIMIT * 0.8), fontsize=8, rotation=90)
+        label = f"{', '.join(modules)} fail{'s' if len(modules) == 1 else ''}"
+        offset.annotate(label, (time, -OFFSET_LIMIT * 0.95), fontsize=8, rotation=90)
     for record in outcome.reconfigurations:
-        offset.axvline(record.detected_at, color="green", linestyle="--", linewidth=1)
-    offset.set_xlabel("time (s): red, a fault; green, the switch")
+        colour = "green" if record.target is not None else "black"
+        offset.axvline(record.detected_at, color=colour, linestyle="--", linewidth=1)
+    offset.set_xlim(0, outcome.scenario.duration)
+    offset.set_xlabel("time (s): red, a fault; green, a switch; black, the task stopped")
     offset.set_ylabel("rover1's true offset from the line (mm)")
     offset.set_title(outcome.scenario.title, fontsize=9)
     figure.tight_layout()
