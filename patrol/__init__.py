@@ -12,7 +12,9 @@ guest modules in C that migrate. It runs on the same runtime as the visual-servo
 ``guests``    building the guests into the HEX files that migrate
 ``patrol.toml``  the module database and the task
 ``scenarios`` the faults of each scenario, set as the modules' fault_at constants
-``mission``   one run: three nodes in one virtual time, the runtime deciding and repairing
+``mission``   one run, whatever runs the robots: the runtime deploying, deciding, repairing
+``local``     the robots as three nodes in this process, in one virtual time
+``linked``    the robots as node processes, driven over links in lock-step time
 ``report``    summary, timeline, JSON and the figure
 ``cli``       ``python -m patrol run | scenarios``
 ============  ==========================================================================
