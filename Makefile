@@ -24,6 +24,7 @@ modules: tools $(INSTALLED)
 
 demo: modules
 	@scripts/demo.sh $(VENV) $(BUILD)/modules
+	$(PY) -m patrol run --scenario two-faults --out $(BUILD)/patrol/two-faults
 
 lint: $(INSTALLED)
 	$(PY) -m ruff check .

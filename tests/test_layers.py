@@ -28,6 +28,7 @@ LAYERS: dict[str, int] = {
     "refresh": 3,
     "hexmanipulator": 4,
     "visual_servoing": 5,
+    "patrol": 5,
 }
 
 
