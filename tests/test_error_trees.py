@@ -21,6 +21,7 @@ ROOTS = {
     "refresh": "RefreshError",
     "hexmanipulator": "HexmanipulatorError",
     "visual_servoing": "ServoingError",
+    "patrol": "PatrolError",
 }
 
 
