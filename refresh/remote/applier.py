@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import contextlib
 import itertools
+import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Protocol
@@ -47,6 +48,8 @@ from refresh.remote.node import RemoteNode
 from refresh.remote.reports import ReportSource
 from refresh.runtime.applier import Inventory, node_of
 
+BRIDGE_PBO = re.compile(r"bridge(\d+)_(?:tx|rx)")
+"""The name of a bridge's half on a node."""
 LOCAL_HOST = "127.0.0.1"
 """Where a bridge's importer listens when its node's URL names no host (a pty, a serial device,
 CAN): such a node is reached from the manager's own machine."""
@@ -120,6 +123,7 @@ class LinkApplier:
         """In lock-step time, the `TimeMaster` of the nodes (built on `controls()`, set before
         the first bridge), told of every bridge put up or taken down."""
         self._numbers = itertools.count()
+        self._issued = 0  # the bridges numbered so far
 
     @classmethod
     def open(cls, urls: Mapping[str, str], **options: object) -> LinkApplier:
@@ -190,7 +194,8 @@ class LinkApplier:
     def rejoin(self, robot: str) -> Inventory | None:
         """Open lost `robot`'s link again (one try, its node's options otherwise); what its node
         has (modules in flash, PBOs and their states) once it answers, else None. What this
-        applier had made on the node before (wires, bridges' halves) is forgotten."""
+        applier had made on the node before (wires, bridges' halves) is forgotten, and a half of
+        a bridge taken down meanwhile that the node still runs is stopped."""
         old = self.node(robot)
         options = {**old.options, "retries": 0}
         old.close()
@@ -204,9 +209,20 @@ class LinkApplier:
         try:
             rows = node.ask("PS", node.control.pbos)
             modules = node.modules()
+            self._stop_stale_bridges(node, [row.name for row in rows if row.state == "ON"])
         except NodeLinkError:
             return None
         return Inventory(modules, tuple((row.name, row.state) for row in rows))
+
+    def _stop_stale_bridges(self, node: RemoteNode, running: list[str]) -> None:
+        """Stop the halves of this applier's bridges that `node` still runs though they were
+        taken down while it was lost (a node whose link was cut lived on)."""
+        issued = self._issued
+        live = {bridge.number for bridge in self.bridges.values()}
+        for name in running:
+            found = BRIDGE_PBO.fullmatch(name)
+            if found and int(found[1]) < issued and int(found[1]) not in live:
+                _stop(node, name)
 
     def _forget(self, robot: str) -> None:
         """Drop the wires on `robot` and take down the bridges with a half on it."""
@@ -340,6 +356,7 @@ class LinkApplier:
         """IMPORT on the sink's node, then EXPORT on the source's node to the URL it answered;
         an export that fails takes the importer down again."""
         number = next(self._numbers)
+        self._issued = number + 1
         bridge = Bridge(number, source_robot, source, sink_robot, sink)
         importer, exporter = self.node(sink_robot), self.node(source_robot)
         listen = f"tcp-listen://{self.host(sink_robot)}:0"

@@ -8,7 +8,6 @@ what ReFrESH should end up doing, in words, for the report.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -142,8 +141,8 @@ BLACKOUT_END = 6.5
 """When the HexManipulator's cameras see again in the outage scenarios."""
 KILL_AT = 7.0
 """When the rotation robot's node is lost in the outage scenarios (it serves the coalition)."""
-SECOND_BLACKOUT = 11.0
-"""When the HexManipulator's cameras go dark again in the rejoin scenario."""
+SECOND_FAULT = 11.0
+"""When the HexManipulator's battery sags in the rejoin scenario (the rejoined node helps)."""
 
 
 def _dark(*spans: tuple[float, float]) -> dict[str, tuple[Fault, ...]]:
@@ -181,11 +180,12 @@ REJOIN = Scenario(
     "rejoin",
     "the rotation robot's node is killed, restarts from its flash file and is used again",
     "as node-outage; the node restarts at 8.5 s and rejoins; at 11 s the HexManipulator's "
-    "cameras go dark again: the coalition with the rejoined node, "
-    "{CamReader@rotation, SSD, TrajGen, HexMan}",
+    "battery sags to 28 of 100 (as power-drop): SSD moves onto the rejoined node, "
+    "{CamReader, SSD@rotation, TrajGen, HexMan}",
     database=TWO_ROBOTS,
-    faults=_dark((FAULT_AT, BLACKOUT_END), (SECOND_BLACKOUT, math.inf)),
+    faults=_dark((FAULT_AT, BLACKOUT_END)),
     outage=Outage(KILL_AT, "rotation", back=8.5),
+    power_drop=PowerDrop(SECOND_FAULT, "hexman", 28.0),
     duration=13.0,
 )
 
