@@ -27,11 +27,12 @@ the servos a ``python -m firmware_sim.servos can`` process on two python-can-rem
 - **Outages** (docs/experiment.md, "Outages across processes"). A killed node kills itself on
   its clock (`visual_servoing.experiment.node`); in lock-step time its next Advance fails and the
   runtime declares it lost, while the other nodes run on. A cut link is a `Relay` between the
-  manager and the node, cut and restored at the scenario's times. When the outage ends the
-  manager waits (bounded, `BACK_TIMEOUT`) until the node can be reached again, so that the
-  runtime's next try finds it back at the same virtual time on every run; a node that rejoins
-  with its ``Plate`` off (restarted) has it started again and the plate's yaw bridged to it
-  anew.
+  manager and the node, cut and restored at the scenario's times. The launcher restarts a killed
+  node as soon as it died (wall time), but the node counts as down until the outage's end in the
+  run's time (`rejoin` finds nothing before); then the manager waits (bounded, `BACK_TIMEOUT`)
+  until the node can be reached, so that the runtime's next try finds it back at the same
+  virtual time on every run. A node that rejoins with its ``Plate`` off (restarted) has it
+  started again and the plate's yaw bridged to it anew.
 """
 
 from __future__ import annotations
@@ -130,6 +131,8 @@ class LinkedApplier(LinkApplier):
     clock: Callable[[], float]
     relays: dict[str, Relay]
     rejoined: Callable[[str], None]
+    down: set[str]
+    """The robots whose outage has not ended yet in the run's time."""
 
     def migrate(self, robot: str, module: Module) -> None:
         if module.name in self.node(robot).modules():
@@ -143,6 +146,7 @@ class LinkedApplier(LinkApplier):
     def lose_node(self, outage: Outage) -> None:
         """A cut: the robot's relay drops the link. A kill needs nothing: the node kills
         itself at that time on its own clock."""
+        self.down.add(outage.robot)
         if outage.kind == "cut":
             self._relay(outage.robot).cut()
 
@@ -151,6 +155,7 @@ class LinkedApplier(LinkApplier):
         if outage.kind == "cut":
             self._relay(outage.robot).restore()
         reachable(self.node(outage.robot).url, BACK_TIMEOUT)
+        self.down.discard(outage.robot)
 
     def _relay(self, robot: str) -> Relay:
         relay = self.relays.get(robot)
@@ -162,6 +167,10 @@ class LinkedApplier(LinkApplier):
         return relay
 
     def rejoin(self, robot: str) -> Inventory | None:
+        """Nothing while the robot's outage lasts; then as a `LinkApplier`, and a node back
+        with its ``Plate`` off has it started and bridged again."""
+        if robot in self.down:
+            return None
         inventory = super().rejoin(robot)
         if inventory is not None and (PLATE, "ON") not in inventory.pbos:
             self.rejoined(robot)

@@ -64,6 +64,7 @@ def run_manager(
             reached, wire=BRIDGE_WIRE, rate=ROBOT_LINK_BAUD, period=REPORT_PERIOD
         )
         applier.relays = relays
+        applier.down = set()
         try:
             world = LinkedWorld(applier, load_geometry(None), links, servos, quantum)
         except BaseException:
