@@ -203,7 +203,9 @@ class LinkApplier:
             node = RemoteNode.open(robot, old.url, **options, clock=old.clock)
         except NodeLinkError:
             return None
-        node.sender.retries = int(old.options["retries"])  # type: ignore[call-overload]
+        retries = old.options["retries"]
+        assert isinstance(retries, int)
+        node.sender.retries = retries
         self.nodes[robot] = node
         self._forget(robot)
         try:

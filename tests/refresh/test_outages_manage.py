@@ -12,6 +12,7 @@ import json
 import re
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -24,7 +25,6 @@ import pytest
 
 from hexmigrate.elf import image_from_elf
 from tests.firmware_sim.node_process import NodeProcess
-from tests.refresh.remote.test_link_applier import unused_port
 
 DATA = Path(__file__).parent / "data"
 NATIVES = "tests.refresh.data.manage_natives"
@@ -42,6 +42,14 @@ def database(example_builds, tmp_path_factory: pytest.TempPathFactory) -> Path:
     directory = tmp_path_factory.mktemp("outage")
     image_from_elf(example_builds["gain"].elf).write(directory / "gain.hex")
     return Path(shutil.copy(DATA / "outage.toml", directory / "outage.toml"))
+
+
+def unused_port() -> int:
+    """A port of 127.0.0.1 nothing listens on now: a node restarted on it is found again."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port: int = probe.getsockname()[1]
+        return port
 
 
 def node(robot: str, port: int, *options: str) -> NodeProcess:
