@@ -118,6 +118,7 @@ def manage_command(options: argparse.Namespace) -> None:
         settle=options.settle,
         recovery_hold=options.recovery_hold,
         estimate_steps=options.estimate_steps,
+        lost_after=options.lost_after,
     )
     if options.quantum is not None and not options.lock_step:
         raise UsageError("--quantum: expected with --lock-step (real time has no quanta)")
@@ -265,6 +266,15 @@ def _add_manage(commands: argparse._SubParsersAction) -> None:
         default=DEFAULTS.estimate_steps,
         metavar="N",
         help=f"estimator steps per shadow run (default {DEFAULTS.estimate_steps})",
+    )
+    command.add_argument(
+        "--lost-after",
+        type=real(maximum=MAX_SECONDS, above=0, unit="s"),
+        default=DEFAULTS.lost_after,
+        metavar="S",
+        help="seconds without a word from a node before it is lost (its modules count as "
+        "failed), and between two tries to reach a lost node again (default "
+        f"{DEFAULTS.lost_after:g})",
     )
 
 

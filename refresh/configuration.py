@@ -57,6 +57,12 @@ class Configuration:
         return tuple(p for chain in self.chains for p in chain)
 
     @cached_property
+    def robots(self) -> tuple[str, ...]:
+        """The robots the configuration places modules on, each once, in data-flow order:
+        whose resources equation (1) judges."""
+        return tuple(dict.fromkeys(p.robot for p in self.placements))
+
+    @cached_property
     def instances(self) -> tuple[str, ...]:
         """A kernel name per placement: the module's name, with ``_2``, ``_3`` ... for repeats
         (a combo may hold the same module twice, e.g. two Dehazers with K = 3)."""

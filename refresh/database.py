@@ -122,11 +122,32 @@ class ModuleDatabase:
             name: tuple(Placement(m.name, r) for m in schema.modules for r in m.robots)
             for name, schema in self.schemas.items()
         }
+        self.lost: set[str] = set()
+        """Robots whose node is lost (an outage): they offer no resource until they rejoin."""
+
+    def lose(self, robot: str) -> None:
+        """`robot`'s node is lost: a configuration that places a module there fails equation
+        (1) until `rejoin(robot)`."""
+        self._robot(robot)
+        self.lost.add(robot)
+
+    def rejoin(self, robot: str) -> None:
+        """`robot`'s node is back: its resources count again."""
+        self._robot(robot)
+        self.lost.discard(robot)
+
+    def _robot(self, robot: str) -> Robot:
+        try:
+            return self.robots[robot]
+        except KeyError:
+            raise ConfigurationError(
+                f"unknown robot {robot!r}: expected one of {', '.join(self.robots)}"
+            ) from None
 
     def set_capacity(self, robot: str, resource: str, capacity: float) -> None:
         """A robot's resource changed while it runs (a battery sagging): later assessments use
         the new capacity."""
-        current = self.robots[robot]
+        current = self._robot(robot)
         if resource not in current.resources:
             raise ConfigurationError(
                 f"robot {robot!r}: expected a resource among {', '.join(current.resources)}, "

@@ -61,7 +61,7 @@ class Decider:
     ) -> Detection | None:
         """Read the buffers of `configuration` (`sources` by robot) and judge one period."""
         values, used = self.observe(configuration, sources)
-        return self.judge(assess(used, values, self.task, self.database))
+        return self.judge(assess(used, values, self.task, self.database, configuration.robots))
 
     def observe(
         self, configuration: Configuration, sources: Mapping[str, PerformanceSource]

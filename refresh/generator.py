@@ -133,7 +133,8 @@ def synthesize(
     assessed = []
     for candidate in found:
         used = usage_replaced(base_usage, seed, candidate.chain, database)
-        assessment = assess(used, estimator.estimate(candidate.configuration), task, database)
+        target = candidate.configuration
+        assessment = assess(used, estimator.estimate(target), task, database, target.robots)
         assessed.append((candidate, assessment))
         log.record(
             "candidate",

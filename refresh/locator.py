@@ -124,7 +124,13 @@ def locate(
     for case in base_choice_cases(configuration, database):
         tried += 1
         used = usage_replaced(base_usage, case.replaced, (case.replacement,), database)
-        assessment = assess(used, estimator.estimate(case.configuration), task, database)
+        assessment = assess(
+            used,
+            estimator.estimate(case.configuration),
+            task,
+            database,
+            case.configuration.robots,
+        )
         log.record(
             "test_case",
             f"{case.number}. {case.configuration.label()}: P_T = {assessment.p_t}",
@@ -166,7 +172,7 @@ def locate_brute_force(
     for number, chains in enumerate(itertools.product(*options), start=1):
         candidate = Configuration(configuration.schemas, chains)
         used: Usage = usage(candidate, database)
-        assessment = assess(used, estimator.estimate(candidate), task, database)
+        assessment = assess(used, estimator.estimate(candidate), task, database, candidate.robots)
         changed = [s for s, c in enumerate(chains) if c != configuration.chains[s]]
         if assessment.p_t and changed and (closest is None or len(changed) < closest[0]):
             slot = changed[0]

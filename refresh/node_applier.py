@@ -11,6 +11,12 @@ an importing one on the sink node, each at its module's rate; the nodes must the
 Beside the plan's steps, the applier gives the runtime (`refresh.runtime`) what it watches:
 `sources()`, each robot's kernel, whose performance buffers the Decider reads, and `read`, a
 live port value.
+
+Outages, as over links: `power_off(robot)` is a node switched off (every PBO of it stops, and
+the runtime finds it `lost` at its next look: an in-process node has no link to fall silent);
+a step on it asks nothing of it (stopping what ran there only forgets it) or, to add something,
+is refused. `power_on(robot)` switches it on again, with its modules still in flash and its
+PBOs off, and the runtime's next `rejoin` finds it back.
 """
 
 from __future__ import annotations
@@ -33,7 +39,7 @@ from refresh.database import Module
 from refresh.decider import PerformanceSource
 from refresh.errors import ApplyError
 from refresh.images import migration_image
-from refresh.runtime.applier import node_of
+from refresh.runtime.applier import Inventory, node_of
 
 IMPORTER_PRIORITY = -1
 """A bridge's importer runs before the PBOs of priority 0 released at the same instant."""
@@ -68,12 +74,46 @@ class NodeApplier:
         self.bridges: dict[tuple[str, str], Bridged] = {}
         """The bridges by (sink robot, sink port)."""
         self._receivers = {name: Receiver(NodeTarget(node)) for name, node in self.nodes.items()}
+        self.off: dict[str, str] = {}
+        """The robots whose node is switched off, with why."""
         self._frequencies: dict[tuple[str, str], float | None] = {}
         self._numbers = itertools.count()
 
     def node(self, robot: str) -> Node:
-        """The node of `robot`."""
-        return node_of(self.nodes, robot)
+        """The node of `robot`, refused when it is switched off."""
+        node = node_of(self.nodes, robot)
+        if robot in self.off:
+            raise ApplyError(f"robot {robot!r}: its node is lost ({self.off[robot]})")
+        return node
+
+    # Outages.
+
+    def power_off(self, robot: str, why: str = "powered off") -> None:
+        """Switch `robot`'s node off: every PBO stops; the robot is lost for `why`."""
+        node = self.node(robot)
+        for name in node.kernel.names:
+            node.stop(name)
+            node.kernel.remove(name)
+        self.off[robot] = why
+
+    def power_on(self, robot: str) -> None:
+        """Switch `robot`'s node on again: its flash kept, its PBOs off, until it rejoins."""
+        node_of(self.nodes, robot)
+        self.off.pop(robot, None)
+
+    def lost(self, after: float) -> dict[str, str]:
+        """The robots whose node is switched off (an in-process node cannot fall silent)."""
+        return dict(self.off)
+
+    def rejoin(self, robot: str) -> Inventory | None:
+        """What `robot`'s node has once it is switched on again, else None."""
+        if robot in self.off:
+            return None
+        node = self.node(robot)
+        for key in [key for key, bridged in self.bridges.items() if robot in bridged.robots()]:
+            self._take_down(self.bridges.pop(key))
+        pbos = tuple((name, node.kernel.state(name).name) for name in node.kernel.names)
+        return Inventory(tuple(node.modules), pbos)
 
     def sources(self) -> dict[str, PerformanceSource]:
         """Where each robot's evaluators report: its node's kernel."""
@@ -94,7 +134,8 @@ class NodeApplier:
 
     def disconnect(self, robot: str, sink: str) -> None:
         """Unbind the input on the node's kernel, and take down the bridge that fed it."""
-        self.node(robot).kernel.disconnect(sink)
+        if robot not in self.off:
+            self.node(robot).kernel.disconnect(sink)
         bridged = self.bridges.pop((robot, sink), None)
         if bridged is not None:
             self._take_down(bridged)
@@ -106,13 +147,15 @@ class NodeApplier:
             if instance in bridged.ends(robot):
                 del self.bridges[key]
                 self._take_down(bridged)
+        self._frequencies.pop((robot, instance), None)
+        if robot in self.off:
+            return  # it stopped with its node
         node = self.node(robot)
         try:
             node.stop(instance)
             node.kernel.remove(instance)
         except KernelError as error:
             raise ApplyError(f"stop {instance} on {robot}: {error}") from error
-        self._frequencies.pop((robot, instance), None)
 
     def migrate(self, robot: str, module: Module) -> None:
         """Transfer the module's image to the node unless it is installed there already."""
@@ -171,11 +214,13 @@ class NodeApplier:
         self.bridges[robot, sink] = Bridged(bridge, source_robot, source, robot, sink)
 
     def _take_down(self, bridged: Bridged) -> None:
-        """Stop a bridge's two PBOs."""
+        """Stop a bridge's two PBOs (a half on a switched-off node stopped with it)."""
         for robot, pbo in (
             (bridged.source_robot, bridged.bridge.exporter.name),
             (bridged.sink_robot, bridged.bridge.importer.name),
         ):
+            if robot in self.off:
+                continue
             node = self.node(robot)
             if pbo in node.kernel.names:
                 node.stop(pbo)
@@ -191,6 +236,10 @@ class Bridged:
     source: str
     sink_robot: str
     sink: str
+
+    def robots(self) -> tuple[str, str]:
+        """The robots of the source and of the sink."""
+        return self.source_robot, self.sink_robot
 
     def ends(self, robot: str) -> tuple[str, ...]:
         """The PBOs on `robot` the bridge connects."""

@@ -1,7 +1,11 @@
 """The performance functions of section 3.2, equations (1)-(5).
 
-- (1) P_NF: one binary term per (robot, resource) of R: what is left of the capacity after the
-  modules placed there exceeds the robot's reserve.
+- (1) P_NF: one binary term per (robot, resource) of R, the resources of the robots the
+  configuration places modules on: what is left of the capacity after the modules placed there
+  exceeds the robot's reserve. A robot the configuration does not use is not judged (a sagging
+  battery or a dead node elsewhere does not fail it); a robot it uses whose node is lost
+  (`ModuleDatabase.lost`) has one term instead, ``node@robot``, which is 0: its modules count as
+  failed.
 - (2) P_F: one binary term per task metric: the value is on the good side of its threshold.
 - (3) P_T: the product of all terms.
 - (4) Util(C) = alpha * sum_k Util_NF_k + (1 - alpha) * sum_j Util_F_j, where Util_NF_k is the use
@@ -25,6 +29,9 @@ from refresh.task import TaskSpec
 
 Usage = dict[tuple[str, str], float]
 """Resource use per (robot, resource)."""
+
+NODE = "node"
+"""The term of equation (1) a lost robot has instead of its resources' terms: always 0."""
 
 T = TypeVar("T")
 
@@ -84,13 +91,13 @@ def assess(
     values: Mapping[str, float | None],
     task: TaskSpec,
     database: ModuleDatabase,
+    robots: Iterable[str] | None = None,
 ) -> Assessment:
-    """Equations (1)-(4) for resource use `used` and functional `values` (metric -> value)."""
-    nonfunctional = {
-        (robot.name, name): int(resource.satisfied(used.get((robot.name, name), 0.0)))
-        for robot in database.robots.values()
-        for name, resource in robot.resources.items()
-    }
+    """Equations (1)-(4) for resource use `used` and functional `values` (metric -> value),
+    judging the resources of `robots`, those the configuration places modules on
+    (`Configuration.robots`; None: every robot of the database)."""
+    judged = set(database.robots if robots is None else robots)
+    nonfunctional = _nonfunctional(used, judged, database)
     util_nf: dict[str, float] = {}
     for (_, name), amount in used.items():
         util_nf[name] = util_nf.get(name, 0.0) + amount
@@ -107,6 +114,22 @@ def assess(
         util_f=util_f,
         util=util,
     )
+
+
+def _nonfunctional(
+    used: Mapping[tuple[str, str], float], judged: set[str], database: ModuleDatabase
+) -> dict[tuple[str, str], int]:
+    """Equation (1)'s terms for the robots `judged`, in database order."""
+    terms: dict[tuple[str, str], int] = {}
+    for robot in database.robots.values():
+        if robot.name not in judged:
+            continue
+        if robot.name in database.lost:
+            terms[robot.name, NODE] = 0
+            continue
+        for name, resource in robot.resources.items():
+            terms[robot.name, name] = int(resource.satisfied(used.get((robot.name, name), 0.0)))
+    return terms
 
 
 def best(assessed: Iterable[tuple[T, Assessment]]) -> tuple[T, Assessment] | None:

@@ -70,6 +70,7 @@ def manage(config: ManagerConfig, say: Callable[[str], None]) -> Runtime:
         for robot, node in applier.nodes.items():
             say(f"robot {robot}: {node.description} at {node.url}")
         config.time.attach(applier)
+        applier.use_clock(config.time.clock)
         runtime = Runtime(
             loaded.database,
             loaded.task,

@@ -6,7 +6,10 @@ runs on for some seconds, and a check that every node runs in the mode asked for
   are delivered at quantum boundaries). The runtime's clock is the master's `now`. A run is
   reproducible: the same events at the same times. After each wait the manager asks every node
   for a PING, whose answer comes after the reports the node pushed at the end of its last
-  quantum, so the Decider always reads the same reports, whenever TCP delivered them.
+  quantum, so the Decider always reads the same reports, whenever TCP delivered them. A node
+  whose Advance fails through its tries (killed, its link cut) is lost, and the others run on
+  (`refresh.remote.guard`); silence is timed on the master's clock, which stands still while
+  the manager thinks.
 - `RealTime`: every node runs on its real-time clock; the runtime's clock is the host's
   monotonic clock since the start, and a wait is a sleep.
 
@@ -73,7 +76,7 @@ class LockStep:
     def __init__(self, quantum: float) -> None:
         self.quantum = quantum
         self.master: TimeMaster | None = None
-        self.nodes: dict[str, RemoteNode] = {}
+        self.applier: LinkApplier | None = None
 
     def attach(self, applier: LinkApplier) -> None:
         """Refuse a node that is not in lock-step at 0 s, then route the applier's bridges
@@ -90,7 +93,7 @@ class LockStep:
                     f"{said} (expected a node in lock-step at 0 s, as a run starts: start the "
                     "node again)"
                 )
-        self.nodes = dict(applier.nodes)
+        self.applier = applier
         self.master = TimeMaster(applier.controls(), self.quantum)
         applier.router = self.master
 
@@ -99,15 +102,14 @@ class LockStep:
 
     def advance(self, seconds: float) -> None:
         """Grant quanta to `seconds` further, then file every report the nodes pushed by then."""
-        if self.master is None:
+        if self.master is None or self.applier is None:
             raise NodeLinkError("lock-step time: expected the nodes attached, got none")
         until = self.master.now + seconds
         try:
             self.master.run_until(until)
         except HexmigrateError as error:
             raise NodeLinkError(f"lock-step time: {error}") from error
-        for node in self.nodes.values():
-            node.ask("PING", node.sender.ping)
+        self.applier.sync()
 
     def describe(self) -> str:
         return f"lock-step virtual time, quantum {self.quantum:g} s"

@@ -19,13 +19,20 @@ Each step becomes requests of the transfer protocol on the node's own link:
 
 `sources()` gives the runtime each robot's `ReportSource` (the node's pushed evaluator outputs)
 and `read(robot, port)` a live port value (READ).
+
+Outages (docs/refresh.md, "Outages"): `lost(after)` names the robots whose node is lost, by a
+link failure or by silence (nothing heard for `after` seconds once what arrived is filed);
+`rejoin(robot)` opens a lost robot's link again and reads what its node has. A step on a lost
+robot asks nothing of it: stopping what ran there, or taking down a bridge's half there, only
+forgets it (the node is gone, or has restarted with its PBOs off).
 """
 
 from __future__ import annotations
 
 import contextlib
 import itertools
-from collections.abc import Mapping
+import re
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Protocol
 from urllib.parse import urlsplit
@@ -36,10 +43,13 @@ from hexmigrate.transfer.control_client import NodeControl
 from refresh.database import Module
 from refresh.errors import ApplyError, NodeLinkError
 from refresh.images import migration_image
+from refresh.remote.guard import GuardedControl
 from refresh.remote.node import RemoteNode
 from refresh.remote.reports import ReportSource
-from refresh.runtime.applier import node_of
+from refresh.runtime.applier import Inventory, node_of
 
+BRIDGE_PBO = re.compile(r"bridge(\d+)_(?:tx|rx)")
+"""The name of a bridge's half on a node."""
 LOCAL_HOST = "127.0.0.1"
 """Where a bridge's importer listens when its node's URL names no host (a pty, a serial device,
 CAN): such a node is reached from the manager's own machine."""
@@ -113,6 +123,7 @@ class LinkApplier:
         """In lock-step time, the `TimeMaster` of the nodes (built on `controls()`, set before
         the first bridge), told of every bridge put up or taken down."""
         self._numbers = itertools.count()
+        self._issued = 0  # the bridges numbered so far
 
     @classmethod
     def open(cls, urls: Mapping[str, str], **options: object) -> LinkApplier:
@@ -144,8 +155,86 @@ class LinkApplier:
     def controls(self) -> Mapping[str, NodeControl]:
         """Each robot's node control, for a lock-step `TimeMaster` (hexmigrate) to advance the
         nodes with; its requests share the link as the applier's do, so call them from the
-        thread that applies (the pushes that come meanwhile still reach the sources)."""
-        return {robot: node.control for robot, node in self.nodes.items()}
+        thread that applies (the pushes that come meanwhile still reach the sources). Each
+        advances the robot's current node, and a lost one not at all (`GuardedControl`)."""
+        return {robot: GuardedControl(self._current(robot)) for robot in self.nodes}
+
+    def _current(self, robot: str) -> Callable[[], RemoteNode]:
+        return lambda: self.nodes[robot]
+
+    def use_clock(self, clock: Callable[[], float]) -> None:
+        """Time the nodes' silence on `clock` (a lock-step master's time) from now on."""
+        for node in self.nodes.values():
+            node.clock = clock
+            node.heard = clock()
+
+    def sync(self) -> None:
+        """PING every node that is not lost, so that every push it made by now is filed (a
+        node answers after its pushes); a node that does not answer is lost, not an error."""
+        for node in self.nodes.values():
+            if node.lost is None:
+                with contextlib.suppress(NodeLinkError):
+                    node.ask("PING", node.sender.ping)
+
+    # Outages.
+
+    def lost(self, after: float) -> dict[str, str]:
+        """The robots whose node is lost, and why: a link that failed, or nothing heard for
+        `after` seconds of the nodes' clock once what had arrived is filed."""
+        for node in self.nodes.values():
+            if node.lost is not None:
+                continue
+            silent = node.silent_for()
+            if node.failed is not None:
+                node.lose(f"its link failed: {node.failed}")
+            elif silent >= after:
+                node.lose(f"nothing heard for {silent:.3f} s (at most {after:g} s allowed)")
+        return {robot: node.lost for robot, node in self.nodes.items() if node.lost is not None}
+
+    def rejoin(self, robot: str) -> Inventory | None:
+        """Open lost `robot`'s link again (one try, its node's options otherwise); what its node
+        has (modules in flash, PBOs and their states) once it answers, else None. What this
+        applier had made on the node before (wires, bridges' halves) is forgotten, and a half of
+        a bridge taken down meanwhile that the node still runs is stopped."""
+        old = self.node(robot)
+        options = {**old.options, "retries": 0}
+        old.close()
+        try:
+            node = RemoteNode.open(robot, old.url, **options, clock=old.clock)
+        except NodeLinkError:
+            return None
+        retries = old.options["retries"]
+        assert isinstance(retries, int)
+        node.sender.retries = retries
+        self.nodes[robot] = node
+        self._forget(robot)
+        try:
+            rows = node.ask("PS", node.control.pbos)
+            modules = node.modules()
+            self._stop_stale_bridges(node, [row.name for row in rows if row.state == "ON"])
+        except NodeLinkError:
+            return None
+        return Inventory(modules, tuple((row.name, row.state) for row in rows))
+
+    def _stop_stale_bridges(self, node: RemoteNode, running: list[str]) -> None:
+        """Stop the halves of this applier's bridges that `node` still runs though they were
+        taken down while it was lost (a node whose link was cut lived on)."""
+        issued = self._issued
+        live = {bridge.number for bridge in self.bridges.values()}
+        for name in running:
+            found = BRIDGE_PBO.fullmatch(name)
+            if found and int(found[1]) < issued and int(found[1]) not in live:
+                _stop(node, name)
+
+    def _forget(self, robot: str) -> None:
+        """Drop the wires on `robot` and take down the bridges with a half on it."""
+        for key in [key for key in self.wires if key[0] == robot]:
+            del self.wires[key]
+        for key, bridge in list(self.bridges.items()):
+            if robot in (bridge.source_robot, bridge.sink_robot):
+                del self.bridges[key]
+                with contextlib.suppress(NodeLinkError):
+                    self._take_down(bridge)
 
     def read(self, robot: str, port: str) -> float:
         """The live value of scalar port `port` (``PBO.port``) on `robot`'s node."""
@@ -227,7 +316,8 @@ class LinkApplier:
         for (wired_robot, sink), source in list(self.wires.items()):
             if wired_robot == robot and instance in (_owner(source), _owner(sink)):
                 self._unwire(node, source, sink)
-        node.ask(f"STOP {instance}", lambda: node.control.stop(instance))
+        if node.lost is None:
+            node.ask(f"STOP {instance}", lambda: node.control.stop(instance))
         node.source.forget(instance)
 
     def connect(self, robot: str, source: str, sink: str, source_robot: str) -> None:
@@ -258,7 +348,8 @@ class LinkApplier:
 
     def _unwire(self, node: RemoteNode, source: str, sink: str) -> None:
         wire = f"{source}={sink}"
-        node.ask(f"DISCONNECT {wire}", lambda: node.control.disconnect(wire))
+        if node.lost is None:
+            node.ask(f"DISCONNECT {wire}", lambda: node.control.disconnect(wire))
         del self.wires[node.robot, sink]
 
     # Bridges.
@@ -267,6 +358,7 @@ class LinkApplier:
         """IMPORT on the sink's node, then EXPORT on the source's node to the URL it answered;
         an export that fails takes the importer down again."""
         number = next(self._numbers)
+        self._issued = number + 1
         bridge = Bridge(number, source_robot, source, sink_robot, sink)
         importer, exporter = self.node(sink_robot), self.node(source_robot)
         listen = f"tcp-listen://{self.host(sink_robot)}:0"
@@ -295,9 +387,11 @@ class LinkApplier:
 
     def _take_down(self, bridge: Bridge) -> None:
         """Stop the bridge's two PBOs, both tried even if the first fails (whose error is
-        raised then)."""
+        raised then); a half on a lost node is gone with it."""
         failed: NodeLinkError | None = None
         for robot, pbo in bridge.ends():
+            if self.node(robot).lost is not None:
+                continue  # gone with its node
             try:
                 _stop(self.node(robot), pbo)
             except NodeLinkError as error:

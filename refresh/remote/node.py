@@ -11,21 +11,29 @@ arrived. So no report is lost while a request waits, and nothing but the lock or
 Every failure is a `NodeLinkError` naming the robot, the URL and what the node said (its
 refusal) or what the link did (cut, silent). Every wait is bounded by the sender's `timeout` and
 `retries`, so a node that died fails the request that needed it, it does not hang it.
+
+Liveness (docs/refresh.md, "Outages"): `heard` is when the node last said anything (a push, an
+answer), on the node's `clock` (the host's monotonic clock, or the lock-step master's time);
+`failed` says why the link failed, if it did (closed, cut, a request unanswered through every
+try: not a refusal, which is an answer). The manager declares the node `lost` (`lose`, from
+`LinkApplier.lost`) when its link failed or it was silent for too long; a lost node is not asked
+again: a request to it fails at once, and its reports are not read.
 """
 
 from __future__ import annotations
 
 import contextlib
 import threading
+import time
 from collections.abc import Callable
 from typing import TypeVar
 
-from hexmigrate.errors import HexmigrateError, MessageError
+from hexmigrate.errors import HexmigrateError, MessageError, NoAnswer, TransferError
 from hexmigrate.links import open_link
 from hexmigrate.links.base import Link
 from hexmigrate.signing.keys import PrivateKey
 from hexmigrate.transfer.control_client import NodeControl
-from hexmigrate.transfer.messages import decode
+from hexmigrate.transfer.messages import Message, decode
 from hexmigrate.transfer.sender import Sender
 from refresh.errors import NodeLinkError
 from refresh.remote.reports import ReportSource
@@ -56,15 +64,31 @@ class RemoteNode:
         timeout: float = TIMEOUT,
         retries: int = RETRIES,
         key: PrivateKey | None = None,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.robot = robot
         self.link = link
         self.url = link.url
+        self.options: dict[str, object] = {
+            "mode": mode,
+            "period": period,
+            "timeout": timeout,
+            "retries": retries,
+            "key": key,
+        }
+        """What the node was opened with, to open it again when it rejoins."""
+        self.clock = clock
+        self.heard = clock()
+        """When the node last said anything, on `clock`."""
+        self.failed: str | None = None
+        """Why the link failed (None while it works)."""
+        self.lost: str | None = None
+        """Why the manager declared the node lost (None while it is not)."""
         self._lock = threading.RLock()
         self.sender = Sender(link, mode, timeout=timeout, retries=retries)
         self.control = NodeControl(self.sender)
         self.source = ReportSource(robot, self.poll)
-        self.sender.stray = self.source.take
+        self.sender.stray = self._take
         self.description = self.ask("PING", self.sender.ping)
         """What the node says it is (its answer to PING)."""
         if key is not None:
@@ -88,12 +112,32 @@ class RemoteNode:
 
     def ask(self, what: str, request: Callable[[], T]) -> T:
         """Run `request` (a call of the sender or the node control) alone on the link; its
-        failure becomes a NodeLinkError that says `what` was asked."""
+        failure becomes a NodeLinkError that says `what` was asked (and, for a failure of the
+        link, not a refusal, sets `failed`). A lost node is not asked: the NodeLinkError comes
+        at once."""
         with self._lock:
+            if self.lost is not None:
+                raise self.error(what, f"not asked: the node is lost ({self.lost})")
             try:
-                return request()
+                answer = request()
             except (HexmigrateError, OSError) as error:
+                if link_failed(error):
+                    self.failed = self.failed or f"{what}: {error}"
                 raise self.error(what, error) from error
+            self.heard = self.clock()
+            return answer
+
+    def lose(self, why: str) -> None:
+        """Declare the node lost for `why` (the first reason stays)."""
+        if self.lost is None:
+            self.lost = why
+
+    def silent_for(self) -> float:
+        """Seconds (on `clock`) since the node last said anything, after filing what arrived (a
+        link that fails meanwhile sets `failed`)."""
+        with contextlib.suppress(NodeLinkError):
+            self.poll()
+        return self.clock() - self.heard
 
     def error(self, what: str, error: object) -> NodeLinkError:
         """The error of `what` on this node: the robot, the URL, then what happened."""
@@ -113,23 +157,32 @@ class RemoteNode:
 
     def poll(self) -> None:
         """File the pushes that have arrived (damaged ones are skipped: the sequence numbers
-        count what was lost)."""
+        count what was lost). A lost node's are not read: its buffers keep what came before,
+        and the Decider judges it lost (`refresh.performance`)."""
         with self._lock:
+            if self.lost is not None:
+                return
             try:
                 while (raw := self.link.receive(0.0)) is not None:
                     with contextlib.suppress(MessageError):
-                        self.source.take(decode(raw, checked=True))
+                        self._take(decode(raw, checked=True))
             except (HexmigrateError, OSError) as error:
+                self.failed = self.failed or f"reading its reports: {error}"
                 raise self.error("reading its reports", error) from error
+
+    def _take(self, message: Message) -> None:
+        """A message that came besides an answer: the node is heard; a push is filed."""
+        self.heard = self.clock()
+        self.source.take(message)
 
     def close(self) -> None:
         """Stop the pushes and end the authenticated session (if the node still answers at the
-        first try), and close the link."""
+        first try: a lost node is not asked), and close the link."""
         with self._lock:
             self.sender.retries = 0
             with contextlib.suppress(NodeLinkError):
                 self.watch(0)
-            if self.sender.key is not None:
+            if self.sender.key is not None and self.lost is None:
                 with contextlib.suppress(HexmigrateError, OSError):
                     self.sender.end_session()
             self.link.close()
@@ -139,3 +192,10 @@ class RemoteNode:
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()
+
+
+def link_failed(error: BaseException) -> bool:
+    """Whether `error` says the link failed (closed, cut, a request unanswered through every
+    try), rather than that the node answered with a refusal."""
+    refused = isinstance(error, TransferError) and not isinstance(error, NoAnswer)
+    return not refused or isinstance(error, ConnectionError)

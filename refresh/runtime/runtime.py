@@ -18,6 +18,16 @@ recovery is dated from when P_T first came back.
 The applier may let the world run while it works (a migration over a slow wire): a `step()` that
 comes meanwhile judges as usual but starts no second decision. Every event goes to `log`, on the
 runtime's clock.
+
+Outages (docs/refresh.md, "Outages"): each `step()` first asks the applier which robots' nodes
+are lost (`lost_after` seconds silent, or gone). A newly lost robot is marked lost in the
+database (equation (1) fails any configuration that places a module there), and when the
+running configuration uses it the runtime repairs at once, without the debounce or the settle
+(the loss is a fact, not a noisy sample): the Locator and Generator then find configurations on
+the robots that remain. A lost robot is tried again every `lost_after` seconds; once its node
+answers, the runtime reads what it has (its modules in flash, its PBOs and their states), stops
+any module of the task it still runs outside the running configuration, and counts its
+resources again.
 """
 
 from __future__ import annotations
@@ -29,7 +39,7 @@ from refresh.adaptation import Decision, decide
 from refresh.configuration import Configuration, initial_configuration
 from refresh.database import ModuleDatabase
 from refresh.decider import Decider, Detection
-from refresh.errors import ConfigurationError, RefreshError
+from refresh.errors import ConfigurationError, NodeLinkError, RefreshError
 from refresh.events import EventLog
 from refresh.locator import brute_force_count
 from refresh.maintainer import Maintainer
@@ -80,6 +90,7 @@ class Runtime:
         """What runs: None before `deploy()` and after a safe stop."""
         self._good_since: float | None = None  # P_T = 1 since then, after a switch
         self._deciding = False  # a decision is being carried out: no second one meanwhile
+        self._tried: dict[str, float] = {}  # a lost robot -> when it was last tried again
 
     def deploy(self) -> Configuration:
         """Start the task's initial configuration (its modules, constants and wiring) and return
@@ -120,9 +131,23 @@ class Runtime:
     def step(self) -> Detection | None:
         """One decision period: judge, watch a recovery, and act on a declared fault. Returns
         the Decider's detection, if it declared one."""
+        lost = self._watch_nodes()
         if self.current is None:
             return None
-        detection = self.decider.step(self.current, self.applier.sources())
+        if self._deciding:
+            lost = set()  # the decision under way repairs first; the loss is acted on after it
+        if lost & set(self.current.robots):
+            self._deciding = True
+            try:
+                self._repair(self.current)
+            finally:
+                self._deciding = False
+            return None
+        try:
+            detection = self.decider.step(self.current, self.applier.sources())
+        except NodeLinkError as error:  # a link failed as the Decider read: lost at the next look
+            self.log.record("link_failed", str(error))
+            return None
         pending = self.history.pending_recovery()
         if pending is not None:
             self._watch_recovery(pending)
@@ -133,6 +158,53 @@ class Runtime:
             finally:
                 self._deciding = False
         return detection
+
+    def _watch_nodes(self) -> set[str]:
+        """Mark the robots newly lost and try the lost ones again; the robots lost now."""
+        lost = self.applier.lost(self.settings.lost_after)
+        now = self.clock()
+        for robot, why in lost.items():
+            if robot not in self.database.lost:
+                self.database.lose(robot)
+                self._tried[robot] = now
+                self.log.record("node_lost", f"robot {robot}: {why}", robot=robot, why=why)
+        for robot in sorted(self.database.lost):
+            if now - self._tried[robot] >= self.settings.lost_after - _EPSILON:
+                self._tried[robot] = now
+                self._try_rejoin(robot)
+        return set(self.database.lost)
+
+    def _try_rejoin(self, robot: str) -> None:
+        """Reach lost `robot` again; once it answers, stop what of the task it runs outside the
+        running configuration and count its resources again."""
+        inventory = self.applier.rejoin(robot)
+        if inventory is None:
+            return
+        placed = set() if self.current is None else self._instances_on(robot)
+        modules = {module.name for module in self.database.modules()}
+        for name in inventory.running():
+            if name in modules and name not in placed:
+                self.applier.stop(robot, name)
+        self.database.rejoin(robot)
+        del self._tried[robot]
+        self.log.record(
+            "node_rejoined",
+            f"robot {robot}: node back with modules {', '.join(inventory.modules) or 'none'}; "
+            f"PBOs {', '.join(f'{n} {s}' for n, s in inventory.pbos) or 'none'}",
+            robot=robot,
+            modules=list(inventory.modules),
+            pbos=dict(inventory.pbos),
+        )
+
+    def _instances_on(self, robot: str) -> set[str]:
+        assert self.current is not None
+        return {
+            instance
+            for placement, instance in zip(
+                self.current.placements, self.current.instances, strict=True
+            )
+            if placement.robot == robot
+        }
 
     def _switch(self, target: Configuration) -> None:
         """Apply the Maintainer's plan from what runs to `target`."""

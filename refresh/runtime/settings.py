@@ -4,7 +4,9 @@ The defaults are the visual-servoing experiment's, chosen for a camera task at 3
 every 0.1 s, a fault declared after 5 violating looks in a row (0.5 s: a target lost for a turn is
 no fault), half a second after a switch before a detection is acted on (the new configuration's
 evaluators still hold values of the old one), half a second of P_T = 1 to count a repair as a
-recovery, and 10 estimator steps per shadow run (enough to fill a matcher's window of frames).
+recovery, 10 estimator steps per shadow run (enough to fill a matcher's window of frames), and a
+node declared lost after 1 s without a word from it (it pushes a report every 0.05 s or less
+while watched: twenty in a row lost is no stall), tried again every 1 s while it is lost.
 """
 
 from __future__ import annotations
@@ -29,11 +31,15 @@ class RuntimeSettings:
     """Seconds P_T must stay 1 after a reconfiguration for the task to count as recovered."""
     estimate_steps: int = 10
     """Estimator steps per shadow run before its reports are read."""
+    lost_after: float = 1.0
+    """Seconds without a word from a node (no report, heartbeat or answer) before it is lost;
+    also how often a lost node is tried again (`rejoin`)."""
 
     def __post_init__(self) -> None:
         _seconds("decision_period", self.decision_period, positive=True)
         _seconds("settle", self.settle, positive=False)
         _seconds("recovery_hold", self.recovery_hold, positive=False)
+        _seconds("lost_after", self.lost_after, positive=True)
         _count("debounce", self.debounce)
         _count("estimate_steps", self.estimate_steps)
 

@@ -23,6 +23,7 @@ from hexmanipulator.servo_bus import ServoBus
 from refresh.database import Module
 from refresh.node_applier import NodeApplier
 from refresh.runtime import RuntimeApplier
+from visual_servoing.experiment.scenarios import Outage
 from visual_servoing.experiment.world import World
 
 
@@ -67,9 +68,16 @@ class ExperimentWorld(Protocol):
 
 
 class ExperimentApplier(RuntimeApplier, Protocol):
-    """The runtime's applier, which keeps the migrations' figures for the report."""
+    """The runtime's applier, which keeps the migrations' figures for the report, and makes a
+    scenario's node outage happen (the runtime must find it on its own)."""
 
     migrations: list[Migration]
+
+    def lose_node(self, outage: Outage) -> None:
+        """The outage strikes its robot's node."""
+
+    def restore_node(self, outage: Outage) -> None:
+        """The outage ends: the node is back (restarted, or reachable again)."""
 
 
 class VirtualTimeApplier(NodeApplier):
@@ -109,3 +117,11 @@ class VirtualTimeApplier(NodeApplier):
         )
         self.migrations.append(Migration(module.name, robot, start, run))
         self.wait(run.seconds)
+
+    def lose_node(self, outage: Outage) -> None:
+        """In process a killed node and a cut one alike are switched off."""
+        self.power_off(outage.robot, "killed" if outage.kind == "kill" else "its link cut")
+
+    def restore_node(self, outage: Outage) -> None:
+        """Switched on again, its flash kept, its PBOs off."""
+        self.power_on(outage.robot)

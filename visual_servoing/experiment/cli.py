@@ -97,6 +97,8 @@ def cmd_node(args: argparse.Namespace) -> int:
         args.servos,
         args.lock_step,
         lambda line: print(line, flush=True),
+        flash=args.flash,
+        restarted=args.restarted,
     )
 
 
@@ -178,6 +180,17 @@ def build_parser() -> argparse.ArgumentParser:
         default=[],
         metavar="URL",
         help="the CAN buses to the servos, can1 then can2 (the HexManipulator's node)",
+    )
+    node.add_argument(
+        "--flash",
+        type=_folder,
+        metavar="FILE",
+        help="the node's flash file: the modules it holds survive a restart",
+    )
+    node.add_argument(
+        "--restarted",
+        action="store_true",
+        help="the node restarts after the scenario killed it: it is not killed again",
     )
     manager = add_command(
         commands,

@@ -257,13 +257,41 @@ class Experiment:
 
     def _scheduled(self) -> list[tuple[float, Callable[[], None]]]:
         """The scenario's events besides camera faults, by time: a servo link cut, a power
-        drop."""
+        drop, a node's outage and its return."""
         events: list[tuple[float, Callable[[], None]]] = []
         if self.scenario.servo_link_cut is not None:
             events.append((self.scenario.servo_link_cut, self._cut_servo_link))
         if self.scenario.power_drop is not None:
             events.append((self.scenario.power_drop.time, self._drop_power))
+        outage = self.scenario.outage
+        if outage is not None:
+            events.append((outage.time, self._lose_node))
+            if outage.back is not None:
+                events.append((outage.back, self._restore_node))
         return sorted(events, key=lambda event: event[0])
+
+    def _lose_node(self) -> None:
+        outage = self.scenario.outage
+        assert outage is not None
+        self.log.record(
+            "outage",
+            f"robot {outage.robot}: its node is {'killed' if outage.kind == 'kill' else 'cut off'}",
+            robot=outage.robot,
+            outage=outage.kind,
+        )
+        self.applier.lose_node(outage)
+
+    def _restore_node(self) -> None:
+        outage = self.scenario.outage
+        assert outage is not None
+        self.applier.restore_node(outage)
+        self.log.record(
+            "node_back",
+            f"robot {outage.robot}: its node "
+            f"{'restarted from its flash file' if outage.kind == 'kill' else 'reachable again'}",
+            robot=outage.robot,
+            outage=outage.kind,
+        )
 
     def _cut_servo_link(self) -> None:
         self.world.cut_servo_link("can1")

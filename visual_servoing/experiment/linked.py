@@ -24,15 +24,26 @@ the servos a ``python -m firmware_sim.servos can`` process on two python-can-rem
 - **The plate's yaw on the rotation robot.** Its camera turns with the plate: a bridge (number
   `PLATE_BRIDGE`, over TCP, no wire delay) carries ``Plate.yaw`` from the HexManipulator's node
   to the rotation robot's ``Plate.yaw`` input.
+- **Outages** (docs/experiment.md, "Outages across processes"). A killed node kills itself on
+  its clock (`visual_servoing.experiment.node`); in lock-step time its next Advance fails and the
+  runtime declares it lost, while the other nodes run on. A cut link is a `Relay` between the
+  manager and the node, cut and restored at the scenario's times. The launcher restarts a killed
+  node as soon as it died (wall time), but the node counts as down until the outage's end in the
+  run's time (`rejoin` finds nothing before); then the manager waits (bounded, `BACK_TIMEOUT`)
+  until the node can be reached, so that the runtime's next try finds it back at the same
+  virtual time on every run. A node that rejoins with its ``Plate`` off (restarted) has it
+  started again and the plate's yaw bridged to it anew.
 """
 
 from __future__ import annotations
 
 import contextlib
 import functools
+import socket
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
+from urllib.parse import urlsplit
 
 from firmware_sim.servos.bus_off import BusOffController
 from firmware_sim.wire_sim.transfer import run_transfer
@@ -42,15 +53,17 @@ from hexmigrate.errors import HexmigrateError
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.time_master import TimeMaster
 from refresh.database import Module
-from refresh.errors import RefreshError
+from refresh.errors import NodeLinkError, RefreshError
 from refresh.remote import LinkApplier
+from refresh.runtime.applier import Inventory
 from visual_servoing.dehazer_guest import NAME
 from visual_servoing.errors import ExperimentError
 from visual_servoing.experiment.applier import ExperimentApplier, Migration
 from visual_servoing.experiment.experiment import Experiment, Outcome
 from visual_servoing.experiment.firmware import MANIPULATORS
 from visual_servoing.experiment.node import HEXMAN_ROBOT, PLATE
-from visual_servoing.experiment.scenarios import Scenario
+from visual_servoing.experiment.relay import Relay
+from visual_servoing.experiment.scenarios import Outage, Scenario
 
 PLATE_BRIDGE = 65535
 """The number of the bridge that carries the plate's yaw (a LinkApplier numbers its own from 0)."""
@@ -65,6 +78,9 @@ SERVOS = "servos"
 """The servo emulator's name for the time master."""
 MIGRATION_WIRE = "serial"
 """The wire a migration's time is modelled on (115200 baud 8N1, wire_sim's default)."""
+BACK_TIMEOUT = 60.0
+"""Seconds the manager waits at most for a node to be reachable when its outage ends (a
+restarted node imports numpy and Unicorn first)."""
 
 
 class LockStep:
@@ -106,11 +122,17 @@ class RealTime:
 
 class LinkedApplier(LinkApplier):
     """A `LinkApplier` whose migrations take the modelled wire's time: after the image is on
-    the node, `wait(seconds)` lets the world run on (the experiment's `run_for`)."""
+    the node, `wait(seconds)` lets the world run on (the experiment's `run_for`). `relays`
+    are the robots reached through a `Relay` (a scenario that cuts their link); `rejoined(robot)`
+    is told of a node back whose ``Plate`` is off."""
 
     migrations: list[Migration]
     wait: Callable[[float], None]
     clock: Callable[[], float]
+    relays: dict[str, Relay]
+    rejoined: Callable[[str], None]
+    down: set[str]
+    """The robots whose outage has not ended yet in the run's time."""
 
     def migrate(self, robot: str, module: Module) -> None:
         if module.name in self.node(robot).modules():
@@ -120,6 +142,39 @@ class LinkedApplier(LinkApplier):
         run = run_transfer(self.image_of(module), MIGRATION_WIRE)
         self.migrations.append(Migration(module.name, robot, start, run))
         self.wait(run.seconds)
+
+    def lose_node(self, outage: Outage) -> None:
+        """A cut: the robot's relay drops the link. A kill needs nothing: the node kills
+        itself at that time on its own clock."""
+        self.down.add(outage.robot)
+        if outage.kind == "cut":
+            self._relay(outage.robot).cut()
+
+    def restore_node(self, outage: Outage) -> None:
+        """The link restored, or the restarted node listening: wait until it can be reached."""
+        if outage.kind == "cut":
+            self._relay(outage.robot).restore()
+        reachable(self.node(outage.robot).url, BACK_TIMEOUT)
+        self.down.discard(outage.robot)
+
+    def _relay(self, robot: str) -> Relay:
+        relay = self.relays.get(robot)
+        if relay is None:
+            raise ExperimentError(
+                f"cut the link to {robot}: expected its node reached through a relay, got "
+                f"{self.node(robot).url}"
+            )
+        return relay
+
+    def rejoin(self, robot: str) -> Inventory | None:
+        """Nothing while the robot's outage lasts; then as a `LinkApplier`, and a node back
+        with its ``Plate`` off has it started and bridged again."""
+        if robot in self.down:
+            return None
+        inventory = super().rejoin(robot)
+        if inventory is not None and (PLATE, "ON") not in inventory.pbos:
+            self.rejoined(robot)
+        return inventory
 
 
 class LinkedWorld:
@@ -145,6 +200,9 @@ class LinkedWorld:
             master = TimeMaster(applier.controls(), quantum, first={SERVOS: servos})
             applier.router = master
             self._clock = LockStep(master)
+            applier.use_clock(self.now)  # silence timed in virtual time: a stall cannot show
+        applier.rejoined = self._restart_plate
+        self._plate_bridges = 0
         self._controllers: dict[str, BusOffController] = {}
         self.servo_buses: dict[str, CanServoBus] = {}
         for _name, link in MANIPULATORS:
@@ -163,21 +221,46 @@ class LinkedWorld:
         self.time = self._clock.start()
 
     def _bridge_plate(self, robot: str) -> None:
-        """``Plate.yaw`` of the HexManipulator's node feeds `robot`'s ``Plate.yaw``."""
+        """``Plate.yaw`` of the HexManipulator's node feeds `robot`'s ``Plate.yaw``, over a
+        bridge numbered down from PLATE_BRIDGE (a new one each time a node comes back)."""
         applier = self.applier
+        number = PLATE_BRIDGE - self._plate_bridges
+        self._plate_bridges += 1
         importer, exporter = applier.node(robot), applier.node(HEXMAN_ROBOT)
         port = f"{PLATE}.yaw"
         listen = f"tcp-listen://{applier.host(robot)}:0"
         url = importer.ask(
-            f"IMPORT bridge{PLATE_BRIDGE} into {port}",
-            lambda: importer.control.import_port(PLATE_BRIDGE, port, listen),
+            f"IMPORT bridge{number} into {port}",
+            lambda: importer.control.import_port(number, port, listen),
         )
         exporter.ask(
-            f"EXPORT bridge{PLATE_BRIDGE} from {port}",
-            lambda: exporter.control.export_port(PLATE_BRIDGE, port, url),
+            f"EXPORT bridge{number} from {port}",
+            lambda: exporter.control.export_port(number, port, url),
         )
         if applier.router is not None:
-            applier.router.route(PLATE_BRIDGE, HEXMAN_ROBOT, robot)
+            applier.router.route(number, HEXMAN_ROBOT, robot)
+
+    def _restart_plate(self, robot: str) -> None:
+        """A node back with its ``Plate`` off (restarted): the old bridge of the plate's yaw to
+        it taken down, its ``Plate`` started and bridged anew."""
+        if robot == HEXMAN_ROBOT:
+            raise ExperimentError(
+                f"robot {robot} came back with its {PLATE} off: the plate's yaw comes from it, "
+                "so a restarted HexManipulator node cannot rejoin the run"
+            )
+        exporter = self.applier.node(HEXMAN_ROBOT)
+        for number in range(PLATE_BRIDGE - self._plate_bridges + 1, PLATE_BRIDGE + 1):
+            with contextlib.suppress(NodeLinkError):  # taken down before
+                exporter.ask(
+                    f"STOP bridge{number}_tx",
+                    functools.partial(exporter.control.stop, f"bridge{number}_tx"),
+                )
+            if self.applier.router is not None:
+                self.applier.router.unroute(number)
+        node = self.applier.node(robot)
+        node.ask(f"RATE {PLATE}", functools.partial(node.control.set_rate, PLATE, PLATE_MHZ))
+        node.ask(f"START {PLATE}", functools.partial(node.control.start, PLATE))
+        self._bridge_plate(robot)
 
     def now(self) -> float:
         """The run's time in seconds."""
@@ -190,8 +273,7 @@ class LinkedWorld:
             self._clock.run_until(self.time)
         except HexmigrateError as error:
             raise ExperimentError(f"advancing to {self.time:.6f} s: {error}") from error
-        for node in self.applier.nodes.values():
-            node.ask("PING", node.sender.ping)
+        self.applier.sync()
 
     def plate_yaw(self) -> float:
         """Where the cameras on the plate look: the HexManipulator's ``Plate.yaw``."""
@@ -237,3 +319,23 @@ class LinkedExperiment(Experiment):
         except RefreshError as error:
             raise ExperimentError(f"starting the plates: {error}") from error
         return super().run(progress)
+
+
+def reachable(url: str, timeout: float) -> None:
+    """Return once a TCP connection to `url` (``socket://HOST:PORT``) is accepted and stays
+    open a moment (a relay that is down accepts and closes at once); an ExperimentError after
+    `timeout` seconds."""
+    parts = urlsplit(url)
+    address = (parts.hostname or "127.0.0.1", parts.port or 0)
+    deadline = time.monotonic() + timeout
+    while True:
+        with contextlib.suppress(OSError), socket.create_connection(address, 0.5) as probe:
+            probe.settimeout(0.1)
+            try:
+                if probe.recv(1) != b"":  # anything but an orderly close: the link is up
+                    return
+            except TimeoutError:
+                return
+        if time.monotonic() >= deadline:
+            raise ExperimentError(f"the node at {url}: not reachable after {timeout:g} s")
+        time.sleep(0.1)

@@ -5,7 +5,8 @@ NAME --out DIR --node ROBOT=URL ... --servos URL --servos URL [--servo-control U
 It opens the robots' nodes (``python -m visual_servoing node``) over their links, the servo
 emulator's control link (lock-step time; without one, real time) and its own connections to the
 two CAN buses to the servos, then runs the scenario as in process (`LinkedExperiment`) and writes
-the same report, timeline and plot into DIR.
+the same report, timeline and plot into DIR. A scenario that cuts a node's link reaches that
+node through a `Relay` it can cut.
 """
 
 from __future__ import annotations
@@ -13,11 +14,13 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable, Mapping
 from pathlib import Path
+from urllib.parse import urlsplit
 
 from hexmanipulator.geometry import load as load_geometry
 from hexmigrate.links import open_link
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.sender import Sender
+from visual_servoing.errors import ExperimentError
 from visual_servoing.experiment.experiment import ROBOT_LINK_BAUD, Outcome
 from visual_servoing.experiment.firmware import MANIPULATORS
 from visual_servoing.experiment.linked import (
@@ -27,6 +30,7 @@ from visual_servoing.experiment.linked import (
     LinkedExperiment,
     LinkedWorld,
 )
+from visual_servoing.experiment.relay import Relay
 from visual_servoing.experiment.scenarios import Scenario
 
 BRIDGE_WIRE = "serial"
@@ -52,9 +56,15 @@ def run_manager(
         if servo_control is not None:
             link = stack.enter_context(open_link(servo_control))
             servos = NodeControl(Sender(link))
+        relays = _relays(scenario, nodes, stack)
+        reached = {
+            robot: relays[robot].url if robot in relays else url for robot, url in nodes.items()
+        }
         applier = LinkedApplier.open(
-            nodes, wire=BRIDGE_WIRE, rate=ROBOT_LINK_BAUD, period=REPORT_PERIOD
+            reached, wire=BRIDGE_WIRE, rate=ROBOT_LINK_BAUD, period=REPORT_PERIOD
         )
+        applier.relays = relays
+        applier.down = set()
         try:
             world = LinkedWorld(applier, load_geometry(None), links, servos, quantum)
         except BaseException:
@@ -63,3 +73,21 @@ def run_manager(
         with LinkedExperiment(scenario, out, world) as experiment:
             outcome = experiment.run(progress)
     return outcome
+
+
+def _relays(
+    scenario: Scenario, nodes: Mapping[str, str], stack: contextlib.ExitStack
+) -> dict[str, Relay]:
+    """A relay to the node whose link `scenario` cuts (closed with `stack`), by robot."""
+    outage = scenario.outage
+    if outage is None or outage.kind != "cut":
+        return {}
+    parts = urlsplit(nodes[outage.robot])
+    if parts.scheme != "socket" or parts.hostname is None or parts.port is None:
+        raise ExperimentError(
+            f"scenario {scenario.name}: expected robot {outage.robot}'s node on a "
+            f"socket://HOST:PORT URL, to cut its link, got {nodes[outage.robot]}"
+        )
+    relay = Relay(parts.hostname, parts.port)
+    stack.callback(relay.close)
+    return {outage.robot: relay}

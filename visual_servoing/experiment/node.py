@@ -17,14 +17,20 @@ robot also has a ``Plate`` native, which the manager starts at the run's time 0:
 The devices' clock is the node's, counted from when the manager started ``Plate`` (0 in
 lock-step time), read from the PBO call under way: the scenario's faults strike at the run's
 time, as in process. A scenario that cuts the first servo bus cuts it on the node's clock (the
-host controller goes bus-off), and the manager cuts its own at the same time.
+host controller goes bus-off), and the manager cuts its own at the same time. A scenario that
+kills this robot's node has its ``Plate`` send the process SIGKILL at the outage's time on the
+node's clock (in lock-step time, in the same quantum on every run); a node started again
+(``--restarted``, from its ``--flash`` file) is not killed twice.
 """
 
 from __future__ import annotations
 
 import contextlib
+import os
+import signal
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import ClassVar
 
 import can
@@ -146,17 +152,33 @@ def servo_buses(
     return buses
 
 
-class _PlateSource(NativePBO):
-    """The HexManipulator's plate yaw (degrees) on ``yaw``."""
+class _Plate(NativePBO):
+    """A robot's ``Plate``: it starts the run's clock, and kills its node's process at
+    `kill_at` seconds of it (None: never)."""
 
-    ports = (PortSpec.output("yaw", dtype="<f8"),)
-    tracker: ClassVar[PlateTracker]
     time: ClassVar[NodeTime]
+    kill_at: ClassVar[float | None] = None
 
     def on(self, io: PortIO) -> None:
         self.time.epoch = io.now
 
     def cycle(self, io: PortIO) -> None:
+        if self.kill_at is not None and self.time.run_time() >= self.kill_at - 1e-9:
+            os.kill(os.getpid(), signal.SIGKILL)
+        self.carry(io)
+
+    def carry(self, io: PortIO) -> None:
+        """Carry the plate's yaw."""
+        raise NotImplementedError
+
+
+class _PlateSource(_Plate):
+    """The HexManipulator's plate yaw (degrees) on ``yaw``."""
+
+    ports = (PortSpec.output("yaw", dtype="<f8"),)
+    tracker: ClassVar[PlateTracker]
+
+    def carry(self, io: PortIO) -> None:
         io["yaw"] = self.tracker.yaw
 
 
@@ -167,24 +189,25 @@ class PlateView:
     yaw: float = 0.0
 
 
-class _PlateFollower(NativePBO):
+class _PlateFollower(_Plate):
     """The plate's yaw (degrees) from ``yaw``, for the rotation robot's camera."""
 
     ports = (PortSpec.input("yaw", dtype="<f8"),)
     view: ClassVar[PlateView]
-    time: ClassVar[NodeTime]
 
-    def on(self, io: PortIO) -> None:
-        self.time.epoch = io.now
-
-    def cycle(self, io: PortIO) -> None:
+    def carry(self, io: PortIO) -> None:
         self.view.yaw = float(io["yaw"])
 
 
 def firmware(
-    robot: str, scenario: Scenario, urls: Sequence[str], stack: contextlib.ExitStack
+    robot: str,
+    scenario: Scenario,
+    urls: Sequence[str],
+    stack: contextlib.ExitStack,
+    restarted: bool = False,
 ) -> dict[str, ModuleCode]:
-    """`robot`'s natives for `scenario`, by the name the node gives their PBOs."""
+    """`robot`'s natives for `scenario`, by the name the node gives their PBOs (`restarted`:
+    the scenario's kill of this node is behind it)."""
     loaded = loads(scenario.database.read_text() + scenario.extra, scenario.database.name)
     database = loaded.database
     if robot not in database.robots:
@@ -195,19 +218,26 @@ def firmware(
     geometry = load_geometry(None)
     time = NodeTime()
     tracker = PlateTracker(geometry)
+    outage = scenario.outage
+    killed = outage is not None and outage.kind == "kill" and outage.robot == robot
+    common = {
+        "name": PLATE,
+        "time": time,
+        "kill_at": outage.time if killed and not restarted else None,
+    }
     plate: type[NativePBO]
     if robot == HEXMAN_ROBOT:
         buses = servo_buses(urls, geometry, scenario.servo_link_cut, time.run_time, stack)
         tapped = {link: Readings(bus, tracker) for link, bus in buses.items()}
         yaw: Callable[[], float] = lambda: tracker.yaw  # noqa: E731
-        plate = type(PLATE, (_PlateSource,), {"name": PLATE, "tracker": tracker, "time": time})
+        plate = type(PLATE, (_PlateSource,), {**common, "tracker": tracker})
     else:
         if urls:
             raise ExperimentError(f"--servos: robot {robot} drives no servos, got {list(urls)}")
         tapped = {}
         view = PlateView()
         yaw = lambda: view.yaw  # noqa: E731
-        plate = type(PLATE, (_PlateFollower,), {"name": PLATE, "view": view, "time": time})
+        plate = type(PLATE, (_PlateFollower,), {**common, "view": view})
     devices = camera_devices(scenario, database, Scene(), yaw, time.run_time, robot=robot)
     natives = task_natives(database, Scene(), devices, tapped, geometry, robot=robot)
     codes = {key.partition("@")[0]: stamped(code, time) for key, code in natives.items()}
@@ -222,10 +252,13 @@ def run_node(
     servos: Sequence[str],
     lock_step: bool,
     say: Callable[[str], None],
+    flash: Path | None = None,
+    restarted: bool = False,
 ) -> int:
-    """Make `robot`'s node and serve it on `url` until interrupted; the exit status."""
+    """Make `robot`'s node and serve it on `url` until interrupted, its flash in `flash` (a
+    file that outlives the process; None: in memory only); the exit status."""
     with contextlib.ExitStack() as stack:
-        codes = firmware(robot, scenario, servos, stack)
+        codes = firmware(robot, scenario, servos, stack, restarted)
         config = ListenConfig(
             listen=url,
             name=robot,
@@ -233,5 +266,6 @@ def run_node(
             switch_on=False,
             lock_step=lock_step,
             budget=INSTRUCTION_BUDGET,
+            flash=flash,
         )
         return listen(config, say, firmware=codes)

@@ -18,6 +18,11 @@ Each process says where it listens in its first line, which the launcher waits f
 Whatever happens (a process that exits early, one that does not answer, Ctrl-C), every process
 the launcher started is stopped before it returns (SIGINT, then SIGKILL; the last started
 first, so the CAN servers last); an error names the process and its log.
+
+The rotation robot's node listens on a port the launcher picks, with its flash in
+``rotation.flash``: in a scenario that kills it (it sends itself SIGKILL on its clock), its end
+is no error, and when the scenario brings it back the launcher starts it again at once, on the
+same port and from the same flash file (``--restarted``, its output in ``rotation-2.log``).
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ import contextlib
 import json
 import re
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -104,10 +110,13 @@ class Launch:
     children: list[Child] = field(default_factory=list)
     urls: dict[str, str] = field(default_factory=dict)
     """Each process's role -> its URL."""
+    restarted: dict[str, int] = field(default_factory=dict)
+    """Each process started again after it ended -> the exit status of its first run."""
 
-    def start(self, role: str, *arguments: str) -> Child:
-        """Start ``python ARGUMENTS`` as `role`, its output into ``ROLE.log``."""
-        log = self.out / f"{role}.log"
+    def start(self, role: str, *arguments: str, log_name: str | None = None) -> Child:
+        """Start ``python ARGUMENTS`` as `role`, its output into ``ROLE.log`` (or
+        `log_name`)."""
+        log = self.out / (log_name or f"{role}.log")
         with log.open("wb") as output:
             process = subprocess.Popen(
                 [sys.executable, *arguments], stdout=output, stderr=subprocess.STDOUT
@@ -116,11 +125,21 @@ class Launch:
         self.children.append(child)
         return child
 
-    def check(self) -> None:
-        """An error when a process of the run has ended."""
+    def check(self, mortal: str | None = None) -> None:
+        """An error when a process of the run has ended (but the manager, and `mortal`, whose
+        end the scenario brings about)."""
         for child in self.children:
-            if child.role != "manager" and child.process.poll() is not None:
+            if child.role not in ("manager", mortal) and child.process.poll() is not None:
                 raise child.error(f"ended early with status {child.process.returncode}")
+
+    def ended(self) -> dict[str, int]:
+        """The processes of the run that ended before the manager (a node the scenario killed,
+        brought back or not), with their exit status (-9: SIGKILL)."""
+        return self.restarted | {
+            child.role: child.process.returncode
+            for child in self.children
+            if child.role != "manager" and child.process.poll() is not None
+        }
 
     def stop(self) -> None:
         """Stop every process, the last started first."""
@@ -132,7 +151,8 @@ def run_processes(
     scenario: Scenario, out: Path, real_time: bool = False, quantum: float = QUANTUM
 ) -> dict[str, Any]:
     """Run `scenario` across processes; the summary of the report the manager wrote in `out`,
-    with ``processes``: each process's role -> its URL."""
+    with ``processes``: each process's role -> its URL, and ``ended``: each process that ended
+    before the manager -> its exit status."""
     out.mkdir(parents=True, exist_ok=True)
     launch = Launch(out)
     with contextlib.ExitStack() as stack:
@@ -159,9 +179,9 @@ def run_processes(
             node.append("--lock-step")
         servo_urls = [a for url in buses for a in ("--servos", url)]
         hexman = launch.start("hexman", *node, "--robot", "hexman", "--listen", "pty", *servo_urls)
-        rotation = launch.start(
-            "rotation", *node, "--robot", "rotation", "--listen", f"tcp-listen://{HOST}:0"
-        )
+        rotation_node = [*node, "--robot", "rotation", "--flash", str(out / "rotation.flash")]
+        rotation_node += ["--listen", f"tcp-listen://{HOST}:{free_port()}"]
+        rotation = launch.start("rotation", *rotation_node)
         control = None
         if not real_time:
             control = servos.wait_for(CONNECT)[1]
@@ -180,18 +200,66 @@ def run_processes(
             manager_args += ["--servo-control", control]
         manager = launch.start("manager", *manager_args)
         launch.urls["manager"] = (out / "report.json").resolve().as_uri()
-        _wait_for_manager(launch, manager)
+        _wait_for_manager(launch, manager, _restart(scenario, launch, rotation_node))
+        ended = launch.ended()
     report = json.loads((out / "report.json").read_text())
     summary: dict[str, Any] = report["summary"]
     summary["processes"] = launch.urls
+    summary["ended"] = ended
     return summary
 
 
-def _wait_for_manager(launch: Launch, manager: Child) -> None:
-    """Wait for the manager's run to end, watching the other processes meanwhile."""
+def free_port() -> int:
+    """A TCP port on HOST that nothing listens on now."""
+    with socket.socket() as probe:
+        probe.bind((HOST, 0))
+        port: int = probe.getsockname()[1]
+        return port
+
+
+class _Restart:
+    """What the launcher does about a node the scenario kills: nothing, or start it again once
+    it ended (once)."""
+
+    def __init__(self, launch: Launch, role: str, arguments: list[str], again: bool) -> None:
+        self.launch = launch
+        self.role = role
+        self.arguments = arguments
+        self.again = again
+
+    def __call__(self) -> None:
+        if not self.again:
+            return
+        (child,) = [c for c in self.launch.children if c.role == self.role]
+        if child.process.poll() is None:
+            return
+        self.again = False
+        self.launch.children.remove(child)
+        self.launch.restarted[self.role] = child.process.returncode
+        self.launch.start(self.role, *self.arguments, "--restarted", log_name=f"{self.role}-2.log")
+
+
+def _restart(scenario: Scenario, launch: Launch, rotation: list[str]) -> _Restart | None:
+    """The rotation node's restart, for a scenario that kills it (None: it must not end)."""
+    outage = scenario.outage
+    if outage is None or outage.kind != "kill":
+        return None
+    if outage.robot != "rotation":
+        raise ExperimentError(
+            f"scenario {scenario.name}: across processes, expected the rotation robot's node "
+            f"killed (the HexManipulator's is on a pty), got {outage.robot}"
+        )
+    return _Restart(launch, "rotation", rotation, outage.back is not None)
+
+
+def _wait_for_manager(launch: Launch, manager: Child, restart: _Restart | None = None) -> None:
+    """Wait for the manager's run to end, watching the other processes meanwhile (and starting
+    a killed node again, if the scenario brings it back)."""
     deadline = time.monotonic() + RUN_TIMEOUT
     while manager.process.poll() is None:
-        launch.check()
+        if restart is not None:
+            restart()
+        launch.check(None if restart is None else restart.role)
         if time.monotonic() >= deadline:
             raise manager.error(f"did not finish its run in {RUN_TIMEOUT:g} s")
         time.sleep(POLL)

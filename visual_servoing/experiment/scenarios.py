@@ -1,8 +1,9 @@
 """The scenarios: the paper's experiment, and faults beyond it.
 
-A scenario names the module database, the faults each camera device suffers and when, and how
-long the task runs. Every scenario starts from the task's preprogrammed configuration on the
-HexManipulator robot; `expected` says what ReFrESH should end up doing, in words, for the report.
+A scenario names the module database, the faults each camera device suffers and when, a node's
+outage (killed or cut off, and when it comes back), and how long the task runs. Every scenario
+starts from the task's preprogrammed configuration on the HexManipulator robot; `expected` says
+what ReFrESH should end up doing, in words, for the report.
 """
 
 from __future__ import annotations
@@ -27,6 +28,19 @@ class PowerDrop:
 
 
 @dataclass(frozen=True)
+class Outage:
+    """Robot `robot`'s node is lost at `time`: ``kill`` (its process ends on SIGKILL, sent on
+    its own clock; in process, it is switched off) or ``cut`` (the manager's link to it is cut;
+    in process, switched off too). At `back` (None: never) it comes back: a killed node restarts
+    from its flash file, a cut link is restored."""
+
+    time: float
+    robot: str
+    kind: str = "kill"
+    back: float | None = None
+
+
+@dataclass(frozen=True)
 class Scenario:
     """What to run: `database` (a TOML file, plus `extra`), camera faults by camera
     (``Module@robot``, or ``Module`` for all its robots), a power drop, the time the first CAN
@@ -39,6 +53,7 @@ class Scenario:
     faults: dict[str, tuple[Fault, ...]] = field(default_factory=dict)
     power_drop: PowerDrop | None = None
     servo_link_cut: float | None = None
+    outage: Outage | None = None
     extra: str = ""
     """TOML appended to the database file: more modules, more metrics."""
     duration: float = 10.0
@@ -121,6 +136,70 @@ NO_REPAIR = Scenario(
     },
 )
 
+HEXMAN_CAMERAS = ("CamReader@hexman", "CamReader_alt@hexman")
+BLACKOUT_END = 6.5
+"""When the HexManipulator's cameras see again in the outage scenarios."""
+KILL_AT = 7.0
+"""When the rotation robot's node is lost in the outage scenarios (it serves the coalition)."""
+SECOND_FAULT = 11.0
+"""When the HexManipulator's battery sags in the rejoin scenario (the rejoined node helps)."""
+
+
+def _dark(*spans: tuple[float, float]) -> dict[str, tuple[Fault, ...]]:
+    """The HexManipulator's two cameras black during each span (start, end)."""
+    return {
+        camera: tuple(Fault(FaultKind.BLACKOUT, 1.0, start, end) for start, end in spans)
+        for camera in HEXMAN_CAMERAS
+    }
+
+
+NODE_OUTAGE = Scenario(
+    "node-outage",
+    "the rotation robot's node is killed (SIGKILL) while its camera serves the task",
+    "blackout of the HexManipulator's cameras from 4.3 to 6.5 s: the blackout's coalition "
+    "{CamReader@rotation, SSD, TrajGen, HexMan}; at 7 s the rotation robot's node dies: lost, "
+    "CamReader located, the task moves back: {CamReader, SSD, TrajGen, HexMan}",
+    database=TWO_ROBOTS,
+    faults=_dark((FAULT_AT, BLACKOUT_END)),
+    outage=Outage(KILL_AT, "rotation"),
+)
+
+LINK_CUT = Scenario(
+    "link-cut",
+    "the link to the rotation robot is cut while its camera serves the task, then restored",
+    "as node-outage, the link cut at 7 s instead (the node lives on); the task moves back: "
+    "{CamReader, SSD, TrajGen, HexMan}; the link restored at 9 s, the node rejoins and its "
+    "CamReader, still running, is stopped",
+    database=TWO_ROBOTS,
+    faults=_dark((FAULT_AT, BLACKOUT_END)),
+    outage=Outage(KILL_AT, "rotation", kind="cut", back=9.0),
+    duration=11.0,
+)
+
+REJOIN = Scenario(
+    "rejoin",
+    "the rotation robot's node is killed, restarts from its flash file and is used again",
+    "as node-outage; the node restarts at 8.5 s and rejoins; at 11 s the HexManipulator's "
+    "battery sags to 28 of 100 (as power-drop): SSD moves onto the rejoined node, "
+    "{CamReader, SSD@rotation, TrajGen, HexMan}",
+    database=TWO_ROBOTS,
+    faults=_dark((FAULT_AT, BLACKOUT_END)),
+    outage=Outage(KILL_AT, "rotation", back=8.5),
+    power_drop=PowerDrop(SECOND_FAULT, "hexman", 28.0),
+    duration=13.0,
+)
+
 SCENARIOS = {
-    scenario.name: scenario for scenario in (PAPER, FOG, BLACKOUT, POWER_DROP, SERVO_CUT, NO_REPAIR)
+    scenario.name: scenario
+    for scenario in (
+        PAPER,
+        FOG,
+        BLACKOUT,
+        POWER_DROP,
+        SERVO_CUT,
+        NO_REPAIR,
+        NODE_OUTAGE,
+        LINK_CUT,
+        REJOIN,
+    )
 }
