@@ -177,7 +177,8 @@ def open_applier(
 
 class Manager:
     """The runtime driven on the wall clock: every PERIOD, every node's pushes filed, then a
-    step of the runtime."""
+    step of the runtime. A tick that comes late (after a repair) is not made up for with a
+    burst of ticks: the next one is a PERIOD later."""
 
     def __init__(self, runtime: Runtime, applier: LinkApplier, start: float) -> None:
         self.runtime = runtime
@@ -189,7 +190,7 @@ class Manager:
         end = time.perf_counter() + seconds
         while time.perf_counter() < end:
             time.sleep(max(0.0, self.next - time.perf_counter()))
-            self.next += PERIOD
+            self.next = max(self.next, time.perf_counter()) + PERIOD
             for node in self.applier.nodes.values():
                 node.poll()
             self.runtime.step()
