@@ -396,6 +396,8 @@ def print_table(rows: Sequence[Row]) -> None:
             cells.append(f"{form.format(getattr(row, name) * scale):>{width}}")
         print(f"{row.nodes:>5}" + "".join(cells))
     sizes = [row.nodes for row in rows]
+    if len(sizes) < 2:
+        return
     slopes = [exponent(sizes, [getattr(row, name) for row in rows]) for name in names]
     print(f"{'b':>5}" + "".join(f"{s:>{w}.2f}" for s, w in zip(slopes, widths, strict=True)))
     print(f"(b: the exponent of y = a n^b fitted over {', '.join(map(str, sizes))} nodes)")
