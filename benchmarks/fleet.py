@@ -2,23 +2,24 @@
 as the fleet grows from 10 to 50 nodes (issue 15, point 4; the model beyond: docs/fleet.md).
 
 For each size N, N ``firmware-sim listen`` processes run on this machine, node i on 127.0.0.(2+i),
-each with two small native E-PBOs of `fleet_natives` (a four-stage pipeline task whose
+each with --per-node (2) small native E-PBOs of `fleet_natives` (a four-stage pipeline task whose
 alternatives are dealt round the robots, `fleet_task`). The manager runs in this process: a
 `Runtime` over a `LinkApplier`, estimating in shadow runs on a host kernel, every node watched
 at a report every PERIOD s (10 reports/s per node, plus a heartbeat every second). Every PERIOD
 the manager files every node's pushes (as a loss detector must) and steps the runtime. Measured:
 
 - steady state, over a window of --seconds: the manager's CPU share (`time.process_time` over
-  wall time), the node processes' CPU (from /proc), the bytes per second per node the nodes push
-  (reports and heartbeats, framed) and the manager sends (control requests), counted on each link;
+  wall time), the node processes' CPU (from /proc), and the bytes per second per node the nodes
+  push (reports and heartbeats, framed, counted on each link); the bytes per second per node the
+  manager sends (control requests) are counted over the whole managed run (deploy and repair);
 - a fault: the running sensor's `fault` constant is set over its link (a node takes constants
   only while a PBO is off: STOP, SET, START), and its estimator is told so (the host's live
-  input): the time from the START to the Decider's detection (the
-  runtime's debounce of 5 looks, 0.5 s, is most of it), the decision (locate + synthesize +
-  choose, with estimation in shadow runs: the runtime's own timing of `decide`; then the same
-  decision again once the nodes are stopped, "quiet", and the shadow runs it made) and the time
-  to apply the plan (from the decision's choice to the new configuration running: start, rate,
-  constants, a bridge between two nodes);
+  input): the time from the START to the Decider's detection (the runtime's debounce of 5 looks,
+  0.5 s, is most of it), the decision (locate + synthesize + choose, with estimation in shadow
+  runs: the runtime's own timing of `decide`; then the same decision again once the nodes are
+  stopped, "quiet", and the shadow runs it made) and the time to apply the plan (from the
+  decision's choice to the new configuration running: the old bridge down, a stop, a start with
+  rate and constants, a bridge between two nodes);
 - a killed node: one node the task does not use is SIGKILLed; it counts as lost once no push of
   it has been seen for SILENCE report periods (the criterion until the runtime declares lost
   nodes itself), checked every PERIOD / 10.
