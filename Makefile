@@ -43,6 +43,7 @@ bench: tools $(INSTALLED)
 	$(PY) benchmarks/dehazer.py
 	$(PY) benchmarks/servoing_task.py
 	$(PY) benchmarks/control.py
+	$(PY) benchmarks/fleet.py
 
 clean:
 	rm -rf $(BUILD) .pytest_cache .ruff_cache .hypothesis

@@ -27,17 +27,18 @@ against a baseline of the same run:
 from __future__ import annotations
 
 import argparse
-import re
 import statistics
 import subprocess
 import sys
 import tempfile
 import threading
 import time
-from collections.abc import Callable, Iterator
-from contextlib import ExitStack, contextmanager
+from collections.abc import Callable
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from nodes import node_process
 
 from firmware_sim.sdk.build import EXAMPLES_DIR, build_module
 from hexmigrate.elf import image_from_elf
@@ -57,8 +58,6 @@ CPU_GOAL = 0.10  # of one core, for NODES nodes at REPORT_HZ reports/s each
 PROCESSES_GOAL = 3.0  # the scenario's run across processes / in process
 SCENARIO_TIMEOUT = 900.0
 REPORT_PERIOD_MS = 100
-START_TIMEOUT = 30.0  # a node imports Unicorn and python-can before it says where it listens
-CONNECT_WITH = re.compile(r"\(connect with: hexmigrate send FILE\.hex --to (\S+)\)$")
 NODE_OPTIONS = ("--native", "signal", "--set", "signal.amplitude=3")
 REPORTING = (*NODE_OPTIONS, "--set", "gain.k=0x20000", "--wire", "signal.y=gain.x")
 """A reporting node: the signal feeds the gain it is sent, which starts once installed."""
@@ -66,40 +65,6 @@ WATCHED = ("signal.y", "gain.y")
 
 
 # The nodes.
-
-
-@contextmanager
-def node_process(listen: str, *options: str) -> Iterator[str]:
-    """A ``firmware-sim listen`` process on `listen`; yields the URL a host opens to reach it,
-    and terminates the process (kills it if it hangs) on the way out."""
-    command = [sys.executable, "-m", "firmware_sim.cli", "listen", "--listen", listen, *options]
-    process = subprocess.Popen(
-        command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True
-    )
-    try:
-        yield _connect_url(process, listen)
-    finally:
-        process.terminate()
-        try:
-            process.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait(timeout=5)
-        assert process.stdout is not None
-        process.stdout.close()
-
-
-def _connect_url(process: subprocess.Popen[str], listen: str) -> str:
-    """The URL from the node's first line, read within START_TIMEOUT."""
-    assert process.stdout is not None
-    line: list[str] = []
-    reader = threading.Thread(target=lambda: line.append(process.stdout.readline()), daemon=True)
-    reader.start()
-    reader.join(START_TIMEOUT)
-    found = CONNECT_WITH.search(line[0].rstrip("\n")) if line else None
-    if found is None:
-        raise SystemExit(f"the node on {listen} said no connect URL: {line or 'nothing'}")
-    return found[1]
 
 
 def gain_image() -> ModuleImage:
