@@ -20,9 +20,9 @@ the manager files every node's pushes (as a loss detector must) and steps the ru
   stopped, "quiet", and the shadow runs it made) and the time to apply the plan (from the
   decision's choice to the new configuration running: the old bridge down, a stop, a start with
   rate and constants, a bridge between two nodes);
-- a killed node: one node the task does not use is SIGKILLed; it counts as lost once no push of
-  it has been seen for SILENCE report periods (the criterion until the runtime declares lost
-  nodes itself), checked every PERIOD / 10.
+- a killed node: one node the task does not use is SIGKILLed; the time until the manager's
+  own loss detection (`LinkApplier.lost`, what the runtime asks every look) declares it lost
+  with `lost_after` = SILENCE report periods, asked every PERIOD / 10.
 
 Then the exponent b of a power law y = a n^b fitted (least squares on the logs) to each figure
 over the sizes, and the goals at the largest size: a killed node lost within 0.5 s, a decision
@@ -41,7 +41,7 @@ import signal
 import statistics
 import time
 from collections.abc import Callable, Mapping, Sequence
-from contextlib import ExitStack, suppress
+from contextlib import ExitStack
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -56,7 +56,6 @@ from hexmigrate.links.base import Link, LinkBase
 from hexmigrate.links.framing import frame
 from refresh.adaptation import decide
 from refresh.configuration import Configuration
-from refresh.errors import NodeLinkError
 from refresh.events import EventLog
 from refresh.manager.codes import host_estimators
 from refresh.remote import LinkApplier, RemoteNode
@@ -67,7 +66,7 @@ SIZES = (10, 25, 50)
 PERIOD = 0.1
 """Seconds between two reports of a node, and between two looks of the Decider."""
 SILENCE = 2
-"""Report periods without a push after which a node counts as lost."""
+"""Report periods without a word from a node after which the manager declares it lost."""
 WARM_UP = 1.0
 REPAIR_TIMEOUT = 10.0
 QUIET_REPEATS = 5
@@ -123,7 +122,10 @@ class Row:
     node_cpu: float
     """One node process's mean CPU share of one core, in the steady window."""
     lost: float
-    """Seconds from a node's SIGKILL to its silence criterion."""
+    """Seconds from a node's SIGKILL to the manager declaring it lost (its link closes)."""
+    silent: float
+    """Seconds from a node's SIGSTOP (a node that hangs or loses power: nothing closes) to the
+    manager declaring it lost, after SILENCE report periods of silence."""
 
 
 COLUMNS = {
@@ -137,6 +139,7 @@ COLUMNS = {
     "manager": ("manager %", 100.0, "{:.1f}"),
     "node_cpu": ("node %", 100.0, "{:.2f}"),
     "lost": ("lost s", 1.0, "{:.3f}"),
+    "silent": ("silent s", 1.0, "{:.3f}"),
 }
 
 
@@ -282,41 +285,33 @@ def quiet_decision(task: Fleet, faults: Mapping[str, object], repaired: Repair) 
     return statistics.median(times)
 
 
-def time_to_lost(node: RemoteNode, kill: Callable[[], None]) -> float:
-    """Seconds from `kill()` until no push of `node` has been seen for SILENCE report periods
-    (its link polled every PERIOD / 10; a link the dead node's host closed counts as silent).
-    The one place to switch to the runtime's own lost-node event once it has one."""
-    last = _seen(node)
-    seen_at = time.perf_counter()
-    for _ in range(2 * SILENCE * 10):  # a last push seen before the kill
-        time.sleep(PERIOD / 10)
-        if (now := _seen(node)) != last:
-            last, seen_at = now, time.perf_counter()
+def time_to_lost(applier: LinkApplier, robot: str, kill: Callable[[], None]) -> float:
+    """Seconds from `kill()` until the manager's loss detection (`LinkApplier.lost`, with
+    SILENCE report periods of silence allowed, the runtime's `lost_after`) declares `robot`'s
+    node lost, asked every PERIOD / 10 as the runtime's looks would."""
+    after = SILENCE * PERIOD
+    assert robot not in applier.lost(after), f"{robot} counts as lost before the kill"
     kill()
     killed_at = time.perf_counter()
-    while (now_time := time.perf_counter()) - seen_at <= SILENCE * PERIOD:
+    while robot not in applier.lost(after):
         time.sleep(PERIOD / 10)
-        if (now := _seen(node)) != last:
-            last, seen_at = now, time.perf_counter()
-    return now_time - killed_at
+    return time.perf_counter() - killed_at
 
 
-def _seen(node: RemoteNode) -> tuple[int, int | None]:
-    """What of `node`'s pushes has been filed: its reports and its last heartbeat's number."""
-    with suppress(NodeLinkError):
-        node.poll()
-    beat = node.source.beat
-    return node.source.reports, None if beat is None else beat.seq
-
-
-def killable(runtime: Runtime, processes: Mapping[str, NodeProcess]) -> str:
-    """A robot the running configuration does not use (the last such)."""
+def spares(runtime: Runtime, processes: Mapping[str, NodeProcess]) -> tuple[str, str]:
+    """Two robots the running configuration does not use (the last two): one to kill, one to
+    stop."""
     assert runtime.current is not None
     used = {placement.robot for placement in runtime.current.placements}
     spare = [robot for robot in processes if robot not in used]
-    if not spare:
-        raise SystemExit(f"expected a robot the task does not use, got all of {len(used)} used")
-    return spare[-1]
+    if len(spare) < 2:
+        raise SystemExit(f"expected two robots the task does not use, got {len(spare)}")
+    return spare[-1], spare[-2]
+
+
+def signal_to(node: NodeProcess, number: signal.Signals) -> Callable[[], None]:
+    """A call that sends `number` to `node`'s process."""
+    return lambda: os.kill(node.process.pid, number)
 
 
 # One size.
@@ -351,9 +346,10 @@ def measure(size: int, seconds: float, per_node: int) -> Row:
         repaired = repair(manager, applier, faults)
         control = sum(link.sent for link in links.values())
         control /= (time.perf_counter() - start) * size
-        spare = killable(runtime, processes)
-        process = processes[spare].process
-        lost = time_to_lost(applier.node(spare), lambda: os.kill(process.pid, signal.SIGKILL))
+        killed, stopped = spares(runtime, processes)
+        lost = time_to_lost(applier, killed, signal_to(processes[killed], signal.SIGKILL))
+        silent = time_to_lost(applier, stopped, signal_to(processes[stopped], signal.SIGSTOP))
+        os.kill(processes[stopped].process.pid, signal.SIGCONT)
     quiet = quiet_decision(task, faults, repaired)
     return Row(
         size,
@@ -367,6 +363,7 @@ def measure(size: int, seconds: float, per_node: int) -> Row:
         share,
         node_share,
         lost,
+        silent,
     )
 
 
@@ -436,8 +433,8 @@ def main() -> None:
         parser.error(f"--sizes: expected at least {len(STAGES) + 1} nodes each, got {args.sizes}")
     print(
         f"a {'-'.join(STAGES)} task, {args.per_node} native modules per node, a report every "
-        f"{PERIOD * 1e3:g} ms per node, a decision look every {PERIOD * 1e3:g} ms; a killed node "
-        f"counts as lost after {SILENCE} report periods without a push"
+        f"{PERIOD * 1e3:g} ms per node, a decision look every {PERIOD * 1e3:g} ms; the manager "
+        f"declares a node lost after {SILENCE} report periods without a word"
     )
     rows = []
     for size in args.sizes:
