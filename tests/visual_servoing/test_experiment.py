@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import re
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,7 @@ from tests.commandline.hostile_input import hostile_numbers, run_main
 from tests.commandline.terminal import stderr_on_a_terminal
 from tests.visual_servoing.pixels import TAB, pixels_of
 from visual_servoing.experiment.cli import build_parser, main
-from visual_servoing.experiment.experiment import Experiment, Outcome
+from visual_servoing.experiment.experiment import Outcome
 from visual_servoing.experiment.report import summary
 from visual_servoing.experiment.scenarios import PAPER, SCENARIOS
 
@@ -34,9 +35,8 @@ PAPER_CANDIDATES = [
 
 
 @pytest.fixture(scope="module")
-def paper(tmp_path_factory: pytest.TempPathFactory) -> Outcome:
-    with Experiment(PAPER, tmp_path_factory.mktemp("paper")) as experiment:
-        return experiment.run()
+def paper(scenario_outcome: Callable[[str], Outcome]) -> Outcome:
+    return scenario_outcome(PAPER.name)
 
 
 def test_the_fault_is_detected_soon_after_it_strikes(paper):

@@ -10,12 +10,10 @@ import signal
 import threading
 import time
 from pathlib import Path
-from typing import Any
 
 import pytest
 
 from visual_servoing.errors import ExperimentError
-from visual_servoing.experiment.experiment import Experiment
 from visual_servoing.experiment.linked import QUANTUM
 from visual_servoing.experiment.processes import PTY, Launch, run_processes
 from visual_servoing.experiment.report import summary
@@ -26,15 +24,12 @@ TIMES = ("detected_at", "applied_at", "recovered_at")
 """The times of a reconfiguration that must agree to the quantum."""
 
 
-def in_process(name: str, out: Path) -> dict[str, Any]:
-    with Experiment(SCENARIOS[name], out) as experiment:
-        return summary(experiment.run())
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["paper", "blackout", "fog", "servo-cut"])
-def test_across_processes_in_lock_step_a_scenario_ends_as_in_process(name, tmp_path) -> None:
-    expected = in_process(name, tmp_path / "in-process")
+def test_across_processes_in_lock_step_a_scenario_ends_as_in_process(
+    name, tmp_path, scenario_outcome
+) -> None:
+    expected = summary(scenario_outcome(name))
     got = run_processes(SCENARIOS[name], tmp_path / "processes")
     assert set(got["processes"]) == ROLES
     assert got["processes"]["hexman"].startswith("/dev/pts/")  # a serial line: migration

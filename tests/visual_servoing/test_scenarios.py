@@ -4,15 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from visual_servoing.experiment.experiment import Experiment, Outcome
-from visual_servoing.experiment.scenarios import SCENARIOS
+from visual_servoing.experiment.experiment import Outcome
 
 DEHAZED = "{CamReader, Dehazer, SSD, TrajGen, HexMan}"
-
-
-def run(name: str, tmp_path_factory: pytest.TempPathFactory) -> Outcome:
-    with Experiment(SCENARIOS[name], tmp_path_factory.mktemp(name)) as experiment:
-        return experiment.run()
 
 
 def recovered(outcome: Outcome) -> None:
@@ -23,16 +17,16 @@ def recovered(outcome: Outcome) -> None:
 
 
 @pytest.mark.slow
-def test_fog_is_cleared_by_the_dehazer(tmp_path_factory):
-    outcome = run("fog", tmp_path_factory)
+def test_fog_is_cleared_by_the_dehazer(scenario_outcome):
+    outcome = scenario_outcome("fog")
     recovered(outcome)
     assert outcome.reconfigurations[0].decision.location.module == "CamReader"
     assert outcome.configurations[-1][1] == DEHAZED
     assert [m.module for m in outcome.migrations] == ["Dehazer"]
 
 
-def test_a_blackout_is_repaired_by_a_coalition_with_the_other_robot_s_camera(tmp_path_factory):
-    outcome = run("blackout", tmp_path_factory)
+def test_a_blackout_is_repaired_by_a_coalition_with_the_other_robot_s_camera(scenario_outcome):
+    outcome = scenario_outcome("blackout")
     recovered(outcome)
     cases = outcome.log.of_kind("test_case")
     # The other camera on the same robot is dark too: its test case fails, the other robot's
@@ -47,8 +41,8 @@ def test_a_blackout_is_repaired_by_a_coalition_with_the_other_robot_s_camera(tmp
     assert sum(abs(s.reported) <= 30 for s in after) / len(after) > 0.85  # frames cross the link
 
 
-def test_a_battery_sag_moves_a_module_to_the_other_robot(tmp_path_factory):
-    outcome = run("power-drop", tmp_path_factory)
+def test_a_battery_sag_moves_a_module_to_the_other_robot(scenario_outcome):
+    outcome = scenario_outcome("power-drop")
     recovered(outcome)
     detection = outcome.log.of_kind("detection")[0]
     assert detection.data["failing"] == ["power@hexman"]
@@ -56,8 +50,8 @@ def test_a_battery_sag_moves_a_module_to_the_other_robot(tmp_path_factory):
     assert outcome.configurations[-1][1] == "{CamReader, SSD@rotation, TrajGen, HexMan}"
 
 
-def test_with_every_camera_dark_the_task_stops_safely(tmp_path_factory):
-    outcome = run("no-repair", tmp_path_factory)
+def test_with_every_camera_dark_the_task_stops_safely(scenario_outcome):
+    outcome = scenario_outcome("no-repair")
     (record,) = outcome.reconfigurations
     assert record.decision.location.module == "more than one fault suspected"
     assert record.decision.location.tried == record.test_cases == 6
@@ -66,8 +60,8 @@ def test_with_every_camera_dark_the_task_stops_safely(tmp_path_factory):
     assert all(s.time <= outcome.stopped_at for s in outcome.samples)
 
 
-def test_a_cut_servo_bus_is_repaired_by_the_servos_second_bus(tmp_path_factory):
-    outcome = run("servo-cut", tmp_path_factory)
+def test_a_cut_servo_bus_is_repaired_by_the_servos_second_bus(scenario_outcome):
+    outcome = scenario_outcome("servo-cut")
     recovered(outcome)
     detection = outcome.log.of_kind("detection")[0]
     assert detection.data["failing"] == ["servos"]
