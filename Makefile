@@ -30,8 +30,10 @@ lint: $(INSTALLED)
 	$(PY) -m ruff check .
 	$(PY) -m ruff format --check .
 
+# The suite on every core (pytest-xdist), a test file per worker: the files that share a build
+# folder (the HDL simulations' per-parameter builds) or a fixture never run at once.
 test: tools $(INSTALLED) lint
-	$(PY) -m pytest
+	$(PY) -m pytest -n auto --dist loadfile
 
 bench: tools $(INSTALLED)
 	$(PY) benchmarks/hex_codec.py
