@@ -25,7 +25,7 @@ from firmware_sim.memory_map import FLASH_BASE
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
 from hexmigrate.links import open_link
-from hexmigrate.links.framing import Deframer, frame
+from hexmigrate.links.framing import frame
 from hexmigrate.transfer.messages import (
     Abort,
     Ack,
@@ -41,7 +41,7 @@ from hexmigrate.transfer.messages import (
     encode,
 )
 from hexmigrate.transfer.sender import Sender
-from tests.firmware_sim.node_process import NodeProcess
+from tests.firmware_sim.node_process import NodeProcess, exchange
 
 ANSWER_TIMEOUT = 10.0
 QUIET = 0.3
@@ -78,21 +78,7 @@ class Hostile:
 
     def exchange(self, data: bytes) -> list[bytes]:
         """Send `data` on a connection of its own; the messages answered within QUIET s."""
-        deframer = Deframer()
-        answers: list[bytes] = []
-        with socket.create_connection((self.host, self.port), timeout=ANSWER_TIMEOUT) as client:
-            client.sendall(data)
-            client.settimeout(QUIET)
-            deadline = time.monotonic() + ANSWER_TIMEOUT
-            while time.monotonic() < deadline:
-                try:
-                    chunk = client.recv(1 << 16)
-                except (TimeoutError, ConnectionResetError):
-                    break
-                if not chunk:
-                    break
-                answers += deframer.feed(chunk)
-        return answers
+        return exchange(self.url, data, QUIET, ANSWER_TIMEOUT)
 
     def check(self, answers: list[bytes]) -> None:
         """The node lives, refused or ignored everything, and its module is untouched."""

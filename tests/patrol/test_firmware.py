@@ -2,37 +2,19 @@
 
 from __future__ import annotations
 
-from collections.abc import MutableMapping
-
 import pytest
 
 from firmware_sim.node import Node
 from patrol.firmware import natives
 from patrol.firmware.control import RINGING
 from patrol.firmware.filters import CORRUPTED
-from pbort import NativeModule, NativePBO, PerformanceKind, PortIO, PortSpec
+from pbort import PerformanceKind
+from tests.patrol.feeding import feed
 
 F, NF = PerformanceKind.FUNCTIONAL, PerformanceKind.NON_FUNCTIONAL
 CODES = natives()
 CHASSIS = {"x0": 0.0, "y0": -1000.0, "theta0": 0.0, "width": 200.0, "period": 0.02}
 DRIVE = {"speed": 300, "width": 200, "limit": 1500}
-
-
-def feed(node: Node, target: str, values: MutableMapping[str, int]) -> None:
-    """A PBO that writes `values` (changed by the test as it goes) into `target`'s inputs, run
-    before it in each period."""
-
-    class Source(NativePBO):
-        name = f"source_{target}"
-        ports = tuple(PortSpec.output(port) for port in values)
-
-        def cycle(self, io: PortIO) -> None:
-            for port, value in values.items():
-                io[port] = value
-
-    source = node.start(NativeModule(Source), 50, priority=-1)
-    for port in values:
-        node.kernel.connect(f"{source}.{port}", f"{target}.{port}")
 
 
 def latest(node: Node, name: str, kind: PerformanceKind, index: int = 0) -> float | None:

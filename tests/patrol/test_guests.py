@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import MutableMapping
 from pathlib import Path
 
 import pytest
@@ -10,28 +9,13 @@ import pytest
 from firmware_sim.node import Node
 from hexmigrate.image import ModuleImage
 from patrol.scenarios import DATABASE
-from pbort import NativeModule, NativePBO, PerformanceKind, PortIO, PortSpec
+from pbort import PerformanceKind
 from pbort.errors import MethodFailedError
 from refresh.images import check_images
 from refresh.load import loads
+from tests.patrol.feeding import feed
 
 F, NF = PerformanceKind.FUNCTIONAL, PerformanceKind.NON_FUNCTIONAL
-
-
-def feed(node: Node, target: str, values: MutableMapping[str, int]) -> None:
-    """A PBO writing `values` (changed by the test) into `target`'s inputs before it runs."""
-
-    class Source(NativePBO):
-        name = f"source_{target}"
-        ports = tuple(PortSpec.output(port) for port in values)
-
-        def cycle(self, io: PortIO) -> None:
-            for port, value in values.items():
-                io[port] = value
-
-    source = node.start(NativeModule(Source), 50, priority=-1)
-    for port in values:
-        node.kernel.connect(f"{source}.{port}", f"{target}.{port}")
 
 
 def test_the_images_agree_with_the_module_database(guest_dir: Path):
