@@ -329,10 +329,14 @@ def test_the_sender_authenticates_again_when_its_session_lapsed():
 
 
 def test_a_node_that_trusts_no_key_guards_nothing():
+    """And a host that brings a key anyway (``hexmigrate --key``) is told so, not refused."""
     recording = Recording()
     receiver = Receiver(recording, recording)  # type: ignore[arg-type]
     assert isinstance(answer(receiver, Remove("gain")), Ack)
-    assert recording.changes == ["remove gain"]
+    sender = Sender(DirectLink(receiver.handle), timeout=0.05)
+    assert "trusts no key" in sender.authenticate(OTHER)
+    sender.remove("gain")
+    assert recording.changes == ["remove gain", "remove gain"]
 
 
 def test_a_strangers_watch_does_not_touch_another_connections_watch():
