@@ -31,9 +31,11 @@ lint: $(INSTALLED)
 	$(PY) -m ruff format --check .
 
 # The suite on every core (pytest-xdist), a test file per worker: the files that share a build
-# folder (the HDL simulations' per-parameter builds) or a fixture never run at once.
+# folder (the HDL simulations' per-parameter builds) or a fixture never run at once. The tests
+# that judge processes on their real-time clocks (`serial`) run alone afterwards.
 test: tools $(INSTALLED) lint
-	$(PY) -m pytest -n auto --dist loadfile
+	$(PY) -m pytest -n auto --dist loadfile -m "not serial"
+	$(PY) -m pytest -m serial
 
 bench: tools $(INSTALLED)
 	$(PY) benchmarks/hex_codec.py

@@ -123,6 +123,7 @@ def events(path: Path) -> list[dict[str, object]]:
     return [json.loads(line) for line in path.read_text().splitlines()]
 
 
+@pytest.mark.serial
 def test_a_killed_node_is_lost_the_task_moves_back_and_the_restarted_node_rejoins(
     database, tmp_path
 ):
@@ -146,6 +147,7 @@ def test_a_killed_node_is_lost_the_task_moves_back_and_the_restarted_node_rejoin
     assert rejoined["data"]["pbos"] == {"Sensor_alt": "OFF"}  # the restarted node runs nothing
 
 
+@pytest.mark.serial
 def test_a_short_pause_is_a_stall_a_long_one_an_outage(database, tmp_path):
     with managed(database, tmp_path, "--real-time") as (run, manager):
         at, _ = manager.wait_for(r" deployed ")

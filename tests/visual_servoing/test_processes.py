@@ -108,6 +108,7 @@ def test_a_node_killed_mid_run_fails_the_run_by_name_and_every_process_is_stoppe
 
 
 @pytest.mark.slow
+@pytest.mark.serial
 def test_in_real_time_the_processes_run_on_their_clocks_and_repair_the_paper_fault(tmp_path):
     got = run_processes(SCENARIOS["paper"], tmp_path, real_time=True)
     assert got["processes"]["servos"].startswith("can://remote/127.0.0.1:")  # no time master
