@@ -177,12 +177,13 @@ class RemoteNode:
 
     def close(self) -> None:
         """Stop the pushes and end the authenticated session (if the node still answers at the
-        first try: a lost node is not asked), and close the link."""
+        first try; a lost node, or one whose link failed, is not asked: a rejoin must not wait
+        on a dead link), and close the link."""
         with self._lock:
             self.sender.retries = 0
             with contextlib.suppress(NodeLinkError):
                 self.watch(0)
-            if self.sender.key is not None and self.lost is None:
+            if self.sender.key is not None and self.lost is None and self.failed is None:
                 with contextlib.suppress(HexmigrateError, OSError):
                     self.sender.end_session()
             self.link.close()
