@@ -4,7 +4,7 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 INSTALLED := $(VENV)/.installed
-SYSTEM_TOOLS := riscv64-unknown-elf-gcc=gcc-riscv64-unknown-elf iverilog=iverilog yosys=yosys \
+SYSTEM_TOOLS := gcc=gcc riscv64-unknown-elf-gcc=gcc-riscv64-unknown-elf iverilog=iverilog yosys=yosys \
 	ccache=ccache /usr/include/lz4.h=liblz4-dev
 BUILD := build
 
@@ -13,7 +13,8 @@ BUILD := build
 tools:
 	@scripts/ensure-tools.sh $(SYSTEM_TOOLS)
 
-$(INSTALLED): pyproject.toml | tools
+# The install compiles the CPU's block counter (C): a change to it installs again.
+$(INSTALLED): pyproject.toml firmware_sim/block_counter.c | tools
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[all,dev]'

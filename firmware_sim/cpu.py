@@ -7,15 +7,20 @@ every system instruction but ecall is illegal, so no guest can change what the n
 trampoline. Four things can end it early, each reported as a fault text naming the addresses
 involved, after which the next call works as usual:
 
-- the watchdog: every call runs with an instruction budget (Unicorn's ``count``);
+- the watchdog: every call runs with an instruction budget;
 - a memory fault: Unicorn enforces the memory map's guest permissions on every access, so a write
   outside the task window and the stack stops the guest without a per-access Python hook;
 - an instruction fetch outside the code the call was given (the module's own image);
 - an illegal instruction, or a kernel service that refuses its arguments (`ServiceFault`).
 
-Executed instructions are counted exactly with a block hook (RV32IM without the C extension:
-every instruction is 4 bytes) and converted to virtual time at a fixed clock with one cycle per
-instruction (docs/memory-map.md, "The CPU").
+Executed instructions are counted exactly by a block hook written in C (block_counter.c; RV32IM
+without the C extension: every instruction is 4 bytes), which also keeps the budget and the code
+range, and are converted to virtual time at a fixed clock with one cycle per instruction
+(docs/memory-map.md, "The CPU"). No Python runs per block and Unicorn's own budget (`count=`, a
+hook per instruction) is not used: a tight guest loop keeps about 0.6 of Unicorn's speed with no
+hook. When the next block would run past the budget, the hook stops before it and the CPU runs
+exactly the instructions left, in that block's straight-line code, so the watchdog stops the guest
+at the very instruction where the budget ran out.
 
 Unicorn translates guest code into blocks once and caches them, and a hook or budget added after
 a block was translated does not apply to it. So the hooks are installed before anything runs,
@@ -57,6 +62,7 @@ from unicorn.riscv_const import (
 )
 from unicorn.unicorn_py3 import unicorn as _binding
 
+from firmware_sim.block_counter import Counter, Stop, hook_address
 from firmware_sim.errors import CpuClosedError, KernelAccessError, ServiceFault
 from firmware_sim.memory_map import TRAMPOLINE, MemoryMap, Permission, Region
 from firmware_sim.services import GuestServices, dispatch, signed32
@@ -79,12 +85,8 @@ _ILLEGAL_INSTRUCTION = 2
 _FETCHES = frozenset({UC_MEM_FETCH_PROT, UC_MEM_FETCH_UNMAPPED})
 _READS = frozenset({UC_MEM_READ_PROT, UC_MEM_READ_UNMAPPED})
 
-# The C signatures of the three hooks (unicorn.h: uc_cb_hookcode_t, uc_cb_hookintr_t,
+# The C signatures of the two hooks written in Python (unicorn.h: uc_cb_hookintr_t,
 # uc_cb_eventmem_t); the first argument is the engine, the last the user data.
-_BLOCK_HOOK = ctypes.CFUNCTYPE(
-    None, ctypes.c_void_p, ctypes.c_uint64, ctypes.c_uint32, ctypes.c_void_p
-)
-_BlockCallback = Callable[[int, int, int, int], None]
 _INTERRUPT_HOOK = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_uint32, ctypes.c_void_p)
 _MEMORY_HOOK = ctypes.CFUNCTYPE(
     ctypes.c_bool,
@@ -156,8 +158,9 @@ class _Engine:
         self._handle = uc._uch
         self._value = ctypes.c_uint32()
         self._reference = ctypes.byref(self._value)
-        # The C callbacks must stay alive as long as Unicorn may call them.
-        self._hooks: list[tuple[ctypes._CFunctionType, ctypes.c_size_t]] = []
+        self._hooks: list[ctypes.c_size_t] = []
+        # The C wrappers of Python hooks must stay alive as long as Unicorn may call them.
+        self._keep: list[ctypes._CFunctionType] = []
         self._error: BaseException | None = None
 
     def read(self, register: int) -> int:
@@ -179,11 +182,11 @@ class _Engine:
         call costs about as much as the Python around it, so several registers go at once)."""
         return _Registers(self._lib, self._handle, ids)
 
-    def start(self, begin: int, until: int, count: int) -> None:
-        """Run from `begin` until `until` or `count` instructions; raises UcError or what a
-        hook raised."""
+    def start(self, begin: int, until: int) -> None:
+        """Run from `begin` until `until` or a hook stops it; raises UcError or what a hook
+        raised."""
         self._error = None
-        status = self._lib.uc_emu_start(self._handle, begin, until, 0, count)
+        status = self._lib.uc_emu_start(self._handle, begin, until, 0, 0)
         if self._error is not None:
             raise self._error
         if status != UC_ERR_OK:
@@ -193,18 +196,20 @@ class _Engine:
         """Stop the running guest at the next instruction (from a hook)."""
         self._lib.uc_emu_stop(self._handle)  # cannot fail while a guest runs
 
-    def hook_block(self, callback: _BlockCallback) -> None:
-        """Call `callback(engine, address, size, data)` as each translated block starts.
+    def hook_block(self, function: int, data: ctypes.Structure) -> None:
+        """Call the C function at address `function` with a pointer to `data` as each translated
+        block starts (uc_cb_hookcode_t); `data` must live as long as the hook."""
+        self._add(UC_HOOK_BLOCK, ctypes.c_void_p(function), ctypes.byref(data))
 
-        The hottest hook runs unguarded and with Unicorn's own arguments (no wrapper: one Python
-        frame less per block): `callback` must not raise (an exception would be printed by
-        ctypes and ignored).
-        """
-        self._add(UC_HOOK_BLOCK, _BLOCK_HOOK(callback))
+    def stop_function(self) -> int:
+        """The address of uc_emu_stop, for a C hook to call."""
+        address = ctypes.cast(self._lib.uc_emu_stop, ctypes.c_void_p).value
+        assert address is not None  # a function the library exports has an address
+        return address
 
     def hook_interrupt(self, callback: Callable[[int], None]) -> None:
         """Call `callback(cause)` on an exception or ecall."""
-        self._add(
+        self._add_python(
             UC_HOOK_INTR, _INTERRUPT_HOOK(lambda _uc, cause, _data: self._guard(callback, cause))
         )
 
@@ -216,23 +221,28 @@ class _Engine:
             self._guard(callback, access, address, size)
             return False
 
-        self._add(UC_HOOK_MEM_INVALID, _MEMORY_HOOK(hook))
+        self._add_python(UC_HOOK_MEM_INVALID, _MEMORY_HOOK(hook))
 
     def remove_hooks(self) -> None:
         """Delete every hook (before the engine is closed)."""
-        for _, handle in self._hooks:
+        for handle in self._hooks:
             self._lib.uc_hook_del(self._handle, handle)
         self._hooks.clear()
+        self._keep.clear()
 
-    def _add(self, kind: int, function: ctypes._CFunctionType) -> None:
+    def _add_python(self, kind: int, function: ctypes._CFunctionType) -> None:
+        """Add a hook written in Python; its C wrapper stays alive with the hook."""
+        self._keep.append(function)
+        self._add(kind, ctypes.cast(function, ctypes.c_void_p), None)
+
+    def _add(self, kind: int, function: ctypes.c_void_p, data: object) -> None:
         handle = _binding.uc_hook_h()
-        pointer = ctypes.cast(function, ctypes.c_void_p)
         status = self._lib.uc_hook_add(
-            self._handle, ctypes.byref(handle), kind, pointer, None, 1, 0
+            self._handle, ctypes.byref(handle), kind, function, data, 1, 0
         )
         if status != UC_ERR_OK:
             raise UcError(status)
-        self._hooks.append((function, handle))
+        self._hooks.append(handle)
 
     def _guard(self, callback: Callable[..., None], *args: int) -> None:
         """Run a hook; an exception must not unwind through C, so keep it and stop the guest."""
@@ -320,23 +330,22 @@ class Cpu:
         self._engine.write(UC_RISCV_REG_PRIV, _USER_MODE)
         self._result_registers = registers(UC_RISCV_REG_PC, UC_RISCV_REG_A0)
         self._service_registers = registers(UC_RISCV_REG_A7, *_ARGUMENT_REGISTERS)
+        # The count, the budget and the code range the block hook keeps for the running call.
+        self._counter = Counter(stop=self._engine.stop_function())
         # Before the first run, so that every translated block carries them.
-        self._engine.hook_block(self._on_block)
+        self._engine.hook_block(hook_address(), self._counter)
         self._engine.hook_invalid_memory(self._on_invalid_memory)
         self._engine.hook_interrupt(self._on_interrupt)
         self._running = False
-        self._count = 0  # instructions of the blocks entered in this call
-        self._block_end = 0  # the address after the latest block entered
         self._fault: str | None = None
         self._completed: int | None = None  # the exact count when the last block did not finish
         self._code = _ANYWHERE  # where the running call may fetch instructions
-        self._code_start, self._code_end = _ANYWHERE.start, _ANYWHERE.stop
         self._services: GuestServices | None = None
 
     @property
     def instructions(self) -> int:
         """Instructions the running call has executed so far (for TIME_US inside a call)."""
-        return self._count
+        return int(self._counter.count)
 
     def call(
         self,
@@ -360,31 +369,59 @@ class Cpu:
         arguments = [value & WORD_MASK for value in args]
         arguments += [0] * (len(_ARGUMENT_REGISTERS) - len(arguments))
         self._call_registers.write_from(_A0, arguments)
-        self._count, self._fault, self._completed = 0, None, None
+        self._fault, self._completed = None, None
         self._code = _ANYWHERE if code is None else code
-        self._code_start, self._code_end = self._code.start, self._code.stop  # for the block hook
+        counter = self._counter
+        counter.count, counter.budget, counter.stopped = 0, budget, Stop.RAN
+        counter.code_start, counter.code_end = self._code.start, self._code.stop
         self._services, self._running = services, True
         try:
-            self._engine.start(entry, TRAMPOLINE, budget)
-        except UcError as error:
-            if self._fault is None:  # not described by a hook: say what Unicorn says
-                pc = self._engine.read(UC_RISCV_REG_PC)
-                self._fault_at(pc, self._describe_stop(error, pc))
+            self._run(entry, TRAMPOLINE)
+            if self._fault is None and counter.stopped == Stop.BUDGET:
+                self._run_out(budget)
         finally:
             self._services, self._running = None, False
-        return self._result(budget)
+        return self._result()
 
-    def _result(self, budget: int) -> GuestRun:
+    def _run(self, begin: int, until: int) -> None:
+        """Run the guest; a stop of Unicorn's that no hook described becomes the fault."""
+        try:
+            self._engine.start(begin, until)
+        except UcError as error:
+            if self._fault is None:
+                pc = self._engine.read(UC_RISCV_REG_PC)
+                self._fault_at(pc, self._describe_stop(error, pc))
+        if self._fault is None and self._counter.stopped == Stop.REFUSED:
+            self._refuse_block(self._counter.block_start, self._counter.block_end)
+
+    def _run_out(self, budget: int) -> None:
+        """The block hook stopped the guest before a block that would run past the budget: run
+        exactly the instructions left, the head of that block (straight-line code), and stop.
+
+        Unicorn ends a translation at the stop address only when it translates, so the block is
+        translated again ending there, and that short translation is dropped after it ran.
+        """
+        counter = self._counter
+        start = int(counter.block_start)
+        end = start + (budget - counter.count) * INSTRUCTION_SIZE
+        if end > start:
+            uc = self._open()
+            uc.ctl_remove_cache(start, int(counter.block_end))
+            counter.stopped = Stop.RAN
+            self._run(start, end)
+            uc.ctl_remove_cache(start, end)
+        if self._fault is None:
+            self._fault = f"watchdog: instruction budget of {budget} exhausted at 0x{end:08X}"
+
+    def _result(self) -> GuestRun:
         pc, a0 = self._result_registers.read()
-        instructions = self._count if self._completed is None else self._completed
+        instructions = self._counter.count if self._completed is None else self._completed
         if self._fault is None and pc != TRAMPOLINE:
-            # Only the budget ends emu_start early without an error (a wfi could, in machine
-            # mode; in user mode it is illegal), inside a block the guest entered.
-            self._fault = f"watchdog: instruction budget of {budget} exhausted at 0x{pc:08X}"
-            instructions = budget
+            # Only the block hook and a fault end emu_start early, and both say why.
+            raise AssertionError(f"the guest stopped at 0x{pc:08X} with no reason recorded")
         return GuestRun(
             a0=a0,
-            instructions=instructions,
+            instructions=int(instructions),
             fault=self._fault,
             duration=instructions / self.frequency_hz,
         )
@@ -467,20 +504,9 @@ class Cpu:
 
     # Hooks: Unicorn calls them during a call; they record what happened for _result.
 
-    def _on_block(self, _uc: int, address: int, size: int, _data: int) -> None:
-        end = address + size
-        if (
-            (address | size) % INSTRUCTION_SIZE
-            or address < self._code_start
-            or end > self._code_end
-        ):
-            self._refuse_block(address, end)
-            return
-        self._count += size // INSTRUCTION_SIZE
-        self._block_end = end
-
     def _refuse_block(self, address: int, end: int) -> None:
-        """Stop before a block runs (which keeps the count exact) and say why."""
+        """Say why the block hook refused a block (it stopped the guest before the block ran,
+        which keeps the count exact)."""
         code = self._code
         if address not in code or end > code.stop:
             outside = address if address not in code else code.stop
@@ -495,7 +521,6 @@ class Cpu:
                 f"instruction fetch at 0x{address:08X}: expected 4-byte aligned RV32IM "
                 "instructions, got a misaligned address or a compressed instruction"
             )
-        self._engine.stop()
 
     def _on_invalid_memory(self, access: int, address: int, size: int) -> None:
         where = self._note(address)
@@ -547,7 +572,8 @@ class Cpu:
     def _fault_at(self, pc: int, text: str) -> None:
         """Record a fault of the instruction at `pc`; it and the rest of its block did not run."""
         self._fault = text
-        self._completed = self._count - (self._block_end - pc) // INSTRUCTION_SIZE
+        counter = self._counter
+        self._completed = counter.count - (counter.block_end - pc) // INSTRUCTION_SIZE
 
     def _note(self, address: int) -> str:
         """Where an address lies and what a guest may do there: 'SRAM, guest r--'."""

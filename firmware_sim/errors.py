@@ -20,6 +20,7 @@ Tree::
     │                                   unknown key, a broken signature, a downgrade
     ├── OutOfSramError (MemoryError)    no free SRAM block is large enough
     ├── CpuClosedError (RuntimeError)   the CPU was used after it was closed
+    ├── NativeLibraryError (ImportError) the CPU's compiled block counter is not installed
     ├── KernelAccessError (ValueError)  a kernel read or write outside the memory map (a bug)
     ├── ServiceFault (ValueError)       a kernel service refuses a guest's arguments: the guest
     │                                   call ends with a fault, the module goes to ERROR
@@ -92,6 +93,11 @@ class OutOfSramError(FirmwareSimError, MemoryError):
 
 class CpuClosedError(FirmwareSimError, RuntimeError):
     """The CPU was closed; its memory and code are gone."""
+
+
+class NativeLibraryError(FirmwareSimError, ImportError):
+    """The CPU's compiled block counter (firmware_sim/block_counter.c) is missing: the package was
+    not built or installed whole."""
 
 
 class KernelAccessError(FirmwareSimError, ValueError):

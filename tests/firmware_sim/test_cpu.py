@@ -252,6 +252,24 @@ def test_budget_applies_to_code_translated_before(cpu: Cpu, guest: Guest) -> Non
     assert cpu.call(guest["count_down"], (100,), 302).fault is None  # exactly enough
 
 
+def test_watchdog_stops_at_the_exact_instruction_inside_a_block(cpu: Cpu, guest: Guest) -> None:
+    # `straight` is one block of ten `addi a0, a0, 1` and a `ret`: a budget that ends inside it
+    # must run exactly that many of them (a0 counts them), and the fault names the next one.
+    for translated_first in (False, True):
+        if translated_first:
+            assert cpu.call(guest["straight"], (0,), 100).status == 10
+        for budget in range(1, 11):
+            run = cpu.call(guest["straight"], (0,), budget)
+            address = guest["straight"] + 4 * budget
+            assert (
+                run.fault
+                == f"watchdog: instruction budget of {budget} exhausted at 0x{address:08X}"
+            )
+            assert (run.instructions, run.a0) == (budget, budget)
+        # the short translations made to stop inside the block are gone: whole calls run on
+        assert cpu.call(guest["straight"], (5,), 11).status == 15
+
+
 @pytest.mark.parametrize(
     ("address", "where"),
     [

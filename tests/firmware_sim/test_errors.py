@@ -19,8 +19,13 @@ CONTROL_FLOW = {PowerCut}
 
 
 def exception_classes() -> set[type[BaseException]]:
-    """Every exception class defined in firmware_sim's own modules (private ones aside)."""
-    names = [f"firmware_sim.{info.name}" for info in pkgutil.iter_modules(firmware_sim.__path__)]
+    """Every exception class defined in firmware_sim's own modules (private ones aside: the
+    compiled block counter, `_block_counter`, is a C library with no Python API)."""
+    names = [
+        f"firmware_sim.{info.name}"
+        for info in pkgutil.iter_modules(firmware_sim.__path__)
+        if not info.name.startswith("_")
+    ]
     for package in OWN_SUBPACKAGES:
         path = importlib.import_module(package).__path__
         names += [f"{package}.{info.name}" for info in pkgutil.iter_modules(path)]
