@@ -118,6 +118,10 @@ class HexMan(NativePBO):
     servo_bus: ClassVar[ServoBus]
     geometry: ClassVar[Geometry]
 
+    def init(self, io: PortIO) -> None:
+        self.sensed: tuple[float, np.ndarray] | None = None
+        """The estimator's latest servo angles and the time it read them."""
+
     def on(self, io: PortIO) -> None:
         self.move: Move | None = None
         self.reading: Reading | None = None
@@ -158,7 +162,7 @@ class HexMan(NativePBO):
         target is reachable and the servos answer, `NO_FEEDBACK_ERROR` and 0 when not."""
         try:
             io["angles"] = inverse(self.geometry, _target_pose(io))
-            io["feedback"] = self.servo_bus.read().angles
+            io["feedback"] = self._sense(io.now)
         except (UnreachablePoseError, ServoBusError) as error:
             io.log(f"hexman (estimator): {error}")
             io.report(F, 0, NO_FEEDBACK_ERROR)
@@ -166,6 +170,13 @@ class HexMan(NativePBO):
             return
         io.report(F, 0, 0.0)
         io.report(F, 1, 1.0)
+
+    def _sense(self, now: float) -> np.ndarray:
+        """The servos' angles at `now`, read once per instant: the estimate steps of one decision
+        share its instant (the world stands still meanwhile), when the servos cannot move."""
+        if self.sensed is None or self.sensed[0] != now:
+            self.sensed = (now, self.servo_bus.read().angles)
+        return self.sensed[1]
 
     def tracking_error(self, now: float) -> float:
         """The largest gap (deg) between the feedback and where the planned move is now."""

@@ -11,6 +11,10 @@ them to its executor: an estimate of a module configured otherwise than it would
 evidence. Estimators read the kernel's clock; given `at`, the kernel is first run to that time
 (never back), so that an estimator that asks the time (which frame of a recording, which fault is
 on) sees the time of the decision, not the host kernel's own, which may still be at 0.
+
+An estimator answers for one decision: the world stands still meanwhile, so the same configuration
+estimated twice gives the same values, and the second estimate is not run again (Base Choice's
+test case is often a candidate of the synthesis too).
 """
 
 from __future__ import annotations
@@ -56,9 +60,16 @@ class KernelEstimator:
         self.inputs = dict(inputs or {})
         self.steps = steps
         self.at = at
+        self._estimated: dict[Configuration, Values] = {}
 
     def estimate(self, configuration: Configuration) -> Values:
-        """Run the configuration's estimators and read each metric's latest functional report."""
+        """Run the configuration's estimators and read each metric's latest functional report;
+        a configuration estimated before gets the values it got then."""
+        if configuration not in self._estimated:
+            self._estimated[configuration] = self._run(configuration)
+        return dict(self._estimated[configuration])
+
+    def _run(self, configuration: Configuration) -> Values:
         modules = []
         for placement, instance in zip(
             configuration.placements, configuration.instances, strict=True

@@ -242,3 +242,19 @@ def test_the_estimator_judges_a_target_without_moving_the_servos(can_rig: Rig) -
     can_rig.kernel.run(until=1.0)  # time for the servos to follow any move that was sent
     can_rig.emulator.due()  # the nodes step their servos to the kernel's clock now
     assert np.array_equal(can_rig.crank_truth(), before)  # nothing moved
+
+
+def test_the_estimator_reads_the_servos_once_per_instant(can_rig: Rig) -> None:
+    can_rig.kernel.run(until=0.5)
+    bus = CanServoBus(can_rig.bus, GEOMETRY)
+    reads = []
+    real_read = bus.read
+    bus.read = lambda: reads.append(can_rig.kernel.now) or real_read()  # type: ignore[method-assign]
+    with can_rig.kernel.shadow(
+        [hexman_module(bus, GEOMETRY)], inputs={"hexman.target": list(POSE)}
+    ) as run:
+        run.run(5)  # five estimate steps of one decision: the world stands still
+        assert reads == [0.5]
+        can_rig.kernel.run(until=0.6)
+        run.run(1)  # a later instant: the servos may have moved
+        assert reads == [0.5, 0.6]

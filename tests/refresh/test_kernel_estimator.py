@@ -61,3 +61,21 @@ def test_a_combo_that_uses_a_module_twice_is_estimated_with_both(loaded):
     with Kernel() as kernel:
         estimator = KernelEstimator(kernel, natives(FAULT_AT), database, loaded.task, steps=4)
         assert estimator.estimate(twice)["error"] == pytest.approx((2 + 10) / 4)  # halved twice
+
+
+def test_a_configuration_estimated_twice_in_one_decision_runs_once(loaded):
+    with Kernel() as kernel:
+        estimator = KernelEstimator(kernel, natives(FAULT_AT), loaded.database, loaded.task)
+        configuration = initial_configuration(loaded.task, loaded.database)
+        shadows = []
+        real_shadow = kernel.shadow
+
+        def counted(*args, **kwargs):
+            shadows.append(args)
+            return real_shadow(*args, **kwargs)
+
+        kernel.shadow = counted
+        first = estimator.estimate(configuration)
+        first["error"] = None  # the caller's copy: the next answer must not see this
+        assert estimator.estimate(configuration)["error"] == pytest.approx(2 + 10)
+        assert len(shadows) == 1
