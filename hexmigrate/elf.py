@@ -7,7 +7,9 @@ also maps the ELF and program headers, which are no part of the module.
 
 With ``-mcmodel=medany`` the code is position-independent, so the only words that hold absolute
 addresses are the ``R_RISCV_32`` relocations that ``--emit-relocs`` keeps; each becomes a 07
-record. The 08 record targets the init symbol.
+record. Every other relocation must keep its meaning when the module moves
+(`hexmigrate.relocations`); one that does not is refused with its type, its symbol and the fix.
+The 08 record targets the init symbol.
 
 Before building the image the ELF must show it is a module a node can run: no compressed (RVC)
 code (the ``EF_RISCV_RVC`` flag), init a function in code, and relocations whenever the image
@@ -24,25 +26,21 @@ from elftools.common.exceptions import ELFError
 from elftools.elf.constants import SH_FLAGS
 from elftools.elf.elffile import ELFFile
 from elftools.elf.relocation import Relocation, RelocationSection
-from elftools.elf.sections import Section, SymbolTableSection
+from elftools.elf.sections import Section, Symbol, SymbolTableSection
 
 from hexmigrate.checks import RV32IM_FIX, check_module
 from hexmigrate.errors import (
-    AbsoluteCodeError,
     CompressedCodeError,
     HexError,
+    ImmovableRelocationError,
     InitAlignmentError,
     MissingRelocationsError,
     ModuleSourceError,
 )
 from hexmigrate.image import ModuleImage
 from hexmigrate.records import Segment
+from hexmigrate.relocations import R_RISCV_32, SUBTRACTIONS, Refusal, pc_relative, refusal
 
-R_RISCV_32 = 1
-ABSOLUTE_CODE_RELOCATIONS = {26: "R_RISCV_HI20", 27: "R_RISCV_LO12_I", 28: "R_RISCV_LO12_S"}
-"""Instruction fields that hold parts of an absolute address (``lui``/``addi`` pairs, as
-``-mcmodel=medlow`` writes): no record fixes them, so the code works only at its link base."""
-MEDANY_FIX = "compile with -mcmodel=medany, as firmware_sim/sdk/build.py does"
 EF_RISCV_RVC = 0x0001
 """The e_flags bit that says the code uses compressed (16-bit) instructions."""
 DEFAULT_INIT_SYMBOL = "module_init"
@@ -60,7 +58,7 @@ def image_from_elf(path: str | Path, init_symbol: str = DEFAULT_INIT_SYMBOL) -> 
             _check_not_compressed(elf)
             segments = _allocated_sections(elf, path)
             relocations = _pointer_relocations(elf)
-            _check_position_independent(elf)
+            _check_movable(elf)
             functions, symbols = _symbols(elf)
             if init_symbol in symbols:
                 _check_init_in_code(elf, init_symbol)
@@ -156,17 +154,89 @@ def _pointer_relocations(elf: ELFFile) -> list[int]:
     ]
 
 
-def _check_position_independent(elf: ELFFile) -> None:
-    """No instruction of the image may hold part of an absolute address."""
-    for relocation, target in _image_relocations(elf):
-        kind = ABSOLUTE_CODE_RELOCATIONS.get(relocation["r_info_type"])
-        if kind is not None:
-            raise AbsoluteCodeError(
-                f"expected position-independent code, got a {kind} relocation at "
-                f"0x{relocation['r_offset']:08X} ({target.name}): an instruction holds part "
-                "of an absolute address, which no 07 record fixes, so the module would run "
-                f"wrongly anywhere but at its link base: {MEDANY_FIX}"
-            )
+def _check_movable(elf: ELFFile) -> None:
+    """Every relocation of the image keeps its meaning at any load address, or is a 07 word."""
+    table = elf.get_section_by_name(".symtab")
+    for section in elf.iter_sections():
+        if not isinstance(section, RelocationSection):
+            continue
+        target = elf.get_section(section["sh_info"])
+        if not target["sh_flags"] & SH_FLAGS.SHF_ALLOC:
+            continue
+        relocations = list(section.iter_relocations())
+        subtracted = {r["r_offset"] for r in relocations if r["r_info_type"] in SUBTRACTIONS}
+        for relocation in relocations:
+            kind = relocation["r_info_type"]
+            symbol = _relocation_symbol(table, relocation)
+            why = refusal(kind, relocation["r_offset"] in subtracted)
+            if why is None and pc_relative(kind) and not _moves_with_image(elf, symbol):
+                why = Refusal(
+                    f"PC-relative relocation type {kind}",
+                    "its target lies outside the image (absolute or undefined), so the distance "
+                    "changes when the module moves",
+                    "reach fixed addresses through a pointer word, or a kernel service",
+                )
+            if why is not None:
+                raise ImmovableRelocationError(
+                    f"expected relocations that a 07 record fixes or that keep their meaning "
+                    f"when the module moves, got {why.name} against "
+                    f"{_describe_target(elf, table, relocation, symbol)} at "
+                    f"0x{relocation['r_offset']:08X} ({_place(table, target, relocation)}): "
+                    f"{why.reason}, so the module would run wrongly anywhere but at its link "
+                    f"base: {why.fix}"
+                )
+
+
+def _relocation_symbol(table: Section | None, relocation: Relocation) -> Symbol | None:
+    """The symbol a relocation refers to (None without a symbol table or for index 0)."""
+    index = relocation["r_info_sym"]
+    if not isinstance(table, SymbolTableSection) or index == 0:
+        return None
+    return table.get_symbol(index)
+
+
+def _moves_with_image(elf: ELFFile, symbol: Symbol | None) -> bool:
+    """True when the symbol is defined in an allocated section (it moves with the module)."""
+    if symbol is None:
+        return False
+    index = symbol["st_shndx"]
+    return isinstance(index, int) and bool(elf.get_section(index)["sh_flags"] & SH_FLAGS.SHF_ALLOC)
+
+
+def _describe_target(
+    elf: ELFFile, table: Section | None, relocation: Relocation, symbol: Symbol | None
+) -> str:
+    """The relocation's symbol by name: a section symbol or a local label (as the compiler
+    writes references to statics) is named by the object it points into, when there is one."""
+    if symbol is None:
+        return "no symbol"
+    local_label = symbol.name.startswith(".L")  # an assembler label, such as .LANCHOR0
+    if symbol.name and not local_label and symbol["st_info"]["type"] != "STT_SECTION":
+        return f"symbol '{symbol.name}'"
+    address = symbol["st_value"] + relocation["r_addend"]
+    inside = _symbol_at(table, address, ("STT_OBJECT", "STT_FUNC"))
+    if inside is not None:
+        return f"symbol '{inside}'"
+    index = symbol["st_shndx"]
+    section = elf.get_section(index).name if isinstance(index, int) else str(index)
+    return f"{section}+0x{relocation['r_addend']:X}"
+
+
+def _place(table: Section | None, target: Section, relocation: Relocation) -> str:
+    """Where the relocated bytes are: the function holding them, and the section."""
+    function = _symbol_at(table, relocation["r_offset"], ("STT_FUNC",))
+    return f"in {function}, {target.name}" if function is not None else target.name
+
+
+def _symbol_at(table: Section | None, address: int, types: tuple[str, ...]) -> str | None:
+    """The name of the symbol of one of `types` whose extent holds `address`."""
+    if not isinstance(table, SymbolTableSection):
+        return None
+    for symbol in table.iter_symbols():
+        start, size = symbol["st_value"], symbol["st_size"]
+        if symbol.name and symbol["st_info"]["type"] in types and start <= address < start + size:
+            return symbol.name
+    return None
 
 
 def _symbols(elf: ELFFile) -> tuple[dict[int, str], dict[str, int]]:

@@ -46,7 +46,8 @@ Tree::
     │           ├── InitAlignmentError         an init off a 4-byte instruction boundary
     │           ├── CompressedCodeError        RVC code for a node that runs RV32IM
     │           ├── MissingRelocationsError    an ELF linked without --emit-relocs
-    │           ├── AbsoluteCodeError          code that holds absolute addresses (medlow)
+    │           ├── ImmovableRelocationError   a relocation no 07 record fixes (medlow code,
+    │           │                              a global offset table, thread-local storage)
     │           ├── MapMismatchError           a map file from another build than the binary
     │           └── NameLengthError            a descriptor name longer than 15 characters
     ├── DescriptorError (ValueError)   bytes that are not a PBO module descriptor
@@ -242,9 +243,10 @@ class MissingRelocationsError(ModuleCheckError):
     descriptor method pointer without its 07 record."""
 
 
-class AbsoluteCodeError(ModuleCheckError):
-    """Instructions that hold parts of absolute addresses (``-mcmodel=medlow``): no record
-    fixes them, so the module runs right only at its link base."""
+class ImmovableRelocationError(ModuleCheckError):
+    """A relocation that pins the module to its link base: no 07 record fixes it (instructions
+    that hold parts of absolute addresses, as ``-mcmodel=medlow`` writes, a GOT entry,
+    thread-local storage, an absolute value that is not a pointer word)."""
 
 
 class MapMismatchError(ModuleCheckError):

@@ -30,12 +30,19 @@ OBJCOPY = "riscv64-unknown-elf-objcopy"
 # The Debian package that provides each tool (objcopy comes with the compiler's binutils).
 _PACKAGES = {GCC: "gcc-riscv64-unknown-elf", OBJCOPY: "binutils-riscv64-unknown-elf"}
 
+LIBGCC = "-lgcc"
+"""The compiler's support library for the rv32im/ilp32 multilib (the linker picks it from TARGET):
+soft float, 64-bit division and the like. Debian's is built position-independent (PC-relative
+references only, tables reached with auipc), so a module that links it still loads anywhere;
+`hexmigrate pack` refuses any relocation that would pin a module to its link base."""
+
 # Both steps must agree on the ISA and ABI: the linker refuses to mix them.
 TARGET = ["-march=rv32im", "-mabi=ilp32"]
 COMPILE_FLAGS = [
     *TARGET,
     "-mcmodel=medany",  # PC-relative code: only descriptor words need fixing when the image moves
     "-Os",
+    "-g",  # DWARF for fault messages and gdb: debug sections are not loaded, the image is unchanged
     "-nostdlib",
     "-ffreestanding",
     "-ffunction-sections",  # one .text.<function> input section each, named in the map file
@@ -102,12 +109,18 @@ def build_module(source: Path, out_dir: Path) -> ModuleBuild:
     name = source.stem
     obj, elf, map_file = f"{name}.o", f"{name}.elf", f"{name}.map"
     binary, hex_file = f"{name}.bin", f"{name}.objcopy.hex"
-    # The file symbol would otherwise hold the source's absolute path.
-    source_prefix = f"-ffile-prefix-map={source.parent}/="
-    compile_command = [gcc, *COMPILE_FLAGS, f"-I{SDK_DIR}", source_prefix, "-c", str(source)]
+    # The file symbol and the DWARF would otherwise hold the source's, the SDK's and the output
+    # directory's absolute paths.
+    prefixes = [
+        f"-ffile-prefix-map={source.parent}/=",
+        f"-ffile-prefix-map={SDK_DIR}/=sdk/",
+        f"-ffile-prefix-map={out_dir}=.",
+    ]
+    compile_command = [gcc, *COMPILE_FLAGS, f"-I{SDK_DIR}", *prefixes, "-c", str(source)]
     _run([*compile_command, "-o", obj], f"compiling {source.name}", out_dir)
     link_flags = ["-nostdlib", "-T", str(LINKER_SCRIPT), "-Wl,--emit-relocs"]
-    link_outputs = [f"-Wl,-Map={map_file}", "-Wl,--build-id=none", obj, "-o", elf]
+    # libgcc after the object: soft float, 64-bit division (LIBGCC says why it may move).
+    link_outputs = [f"-Wl,-Map={map_file}", "-Wl,--build-id=none", obj, LIBGCC, "-o", elf]
     _run([gcc, *TARGET, *link_flags, *link_outputs], f"linking {elf}", out_dir)
     _run([objcopy, "-O", "binary", elf, binary], f"writing {binary}", out_dir)
     _run([objcopy, "-O", "ihex", elf, hex_file], f"writing {hex_file}", out_dir)

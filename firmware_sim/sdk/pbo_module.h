@@ -236,8 +236,8 @@ static inline int32_t pbo_sys_perf_report(struct pbo_context *ctx, enum pbo_perf
 
 /*
  * Q16.16 fixed point: an int32_t holding value * 2^16, the format of the examples' ports. A
- * module has no floating point (it would call libgcc, which no module links), so it computes in
- * fixed point with these helpers. The rule for the Q16.16 ones: a result is rounded to nearest
+ * module may use float (soft float from libgcc, slow and some kilobytes), but the examples compute
+ * in fixed point with these helpers. The rule for the Q16.16 ones: a result is rounded to nearest
  * with halves towards +infinity, floor(v + 1/2), and saturates to INT32_MIN or INT32_MAX outside
  * the int32 range; pbo_milli_from_fixed, for reports, rounds down. (Right shifts of negative
  * values are arithmetic in GCC.)

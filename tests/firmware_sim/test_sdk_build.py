@@ -24,11 +24,10 @@ from hexmigrate.descriptor import (
     PortSpec,
 )
 from hexmigrate.errors import AbiMismatchError, DescriptorError
+from hexmigrate.relocations import SUBTRACTIONS, refusal
 
 LINK_BASE = 0x00010000
 R_RISCV_32 = 1
-# Absolute addressing in code (lui/addi pairs): never allowed, the image must move as it is.
-ABSOLUTE_CODE_RELOCATIONS = {26, 27, 28}  # R_RISCV_HI20, R_RISCV_LO12_I, R_RISCV_LO12_S
 
 # The descriptor layout is hexmigrate.descriptor's: decoding the images built from
 # pbo_module.h with it checks that the C header and the Python decoder agree.
@@ -207,7 +206,12 @@ def check_image(module: ModuleBuild) -> Descriptor:
             symtab = elf.get_section(section["sh_link"])
             for relocation in section.iter_relocations():
                 kind = relocation["r_info_type"]
-                assert kind not in ABSOLUTE_CODE_RELOCATIONS, (target.name, relocation)
+                paired = any(
+                    other["r_offset"] == relocation["r_offset"]
+                    and other["r_info_type"] in SUBTRACTIONS
+                    for other in section.iter_relocations()
+                )
+                assert refusal(kind, paired) is None, (target.name, relocation)
                 if kind != R_RISCV_32:
                     continue
                 symbol = symtab.get_symbol(relocation["r_info_sym"])
