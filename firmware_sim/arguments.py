@@ -11,9 +11,17 @@ import argparse
 from dataclasses import dataclass
 from pathlib import Path
 
-from commandline.arguments import address, input_file, integer, output_file, real
+from commandline.arguments import (
+    address,
+    input_file,
+    integer,
+    output_file,
+    output_file_ending,
+    real,
+)
 from firmware_sim.memory_map import DEFAULT_FLASH_SIZE
 from firmware_sim.settings import Setting, setting
+from pbort.trace import TraceFormatError, check_trace_name
 
 MODULE_FILE_LIMIT = 4 * DEFAULT_FLASH_SIZE
 """Bytes of the largest module file read: an Intel HEX text is under 3 characters per byte of
@@ -38,6 +46,16 @@ window = integer(1, WINDOW_MAX)
 slots = integer(1, SLOTS_MAX)
 module_file = input_file(MODULE_FILE_LIMIT)
 flash_file = output_file
+plot_file = output_file_ending(".png")
+
+
+def trace_file(text: str) -> Path:
+    """A trace to write: a .csv or .mcap file in an existing folder."""
+    path = output_file(text)
+    try:
+        return check_trace_name(path)
+    except TraceFormatError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from commandline import UsageError, add_command, command_parser, run
 from commandline.arguments import input_file, integer
 from firmware_sim import arguments
-from firmware_sim.errors import FirmwareSimError
+from firmware_sim.errors import FirmwareSimError, PboFailedError
 from firmware_sim.guest import DEFAULT_BUDGET
 from firmware_sim.kernel_log import into_node_log
 from firmware_sim.listen import ListenConfig, listen
@@ -35,6 +35,7 @@ from hexmigrate.transfer.sender import MODES
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
 from pbort.native import NativeModule
+from pbort.trace import recording
 
 ERRORS = (FirmwareSimError, HexmigrateError, KernelError)
 """What a command of the node reports as one error line: firmware_sim's root and the roots of the
@@ -65,7 +66,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     """Load modules into one node, start and wire its PBOs, run it, and report."""
     if not args.module and not args.native:
         raise UsageError("run: expected at least one --module or --native")
-    with Node(config=NodeConfig(budget=args.budget)) as node, into_node_log(node, echo=args.debug):
+    config = NodeConfig(budget=args.budget, elves=tuple(args.elf))
+    with Node(config=config) as node, into_node_log(node, echo=args.debug):
         codes: dict[str, ModuleCode] = {}
         for argument in args.module:
             module = node.load(argument.path, argument.address)
@@ -74,9 +76,16 @@ def cmd_run(args: argparse.Namespace) -> int:
             codes[native] = NativeModule(NATIVES[native])
         _start(node, codes, args)
         seconds = DEFAULT_SECONDS if args.cycles is None and args.seconds is None else args.seconds
-        jobs = node.run(until=seconds, cycles=args.cycles)
+        with recording(node.kernel, args.trace, args.plot):
+            jobs = node.run(until=seconds, cycles=args.cycles)
         report = run_report(node, codes, jobs)
     print(json.dumps(report, indent=2) if args.json else render(report))
+    failed = [name for name, stats in report["stats"].items() if stats["state"] == "ERROR"]
+    if failed:
+        raise PboFailedError(
+            f"PBO(s) {', '.join(failed)} ended in ERROR: "
+            + "; ".join(f"{name}: {report['stats'][name]['last_failure']}" for name in failed)
+        )
     return 0
 
 
@@ -132,6 +141,8 @@ def cmd_listen(args: argparse.Namespace) -> int:
         switch_on=not args.no_start,
         lock_step=args.lock_step,
         budget=args.budget,
+        elves=tuple(args.elf),
+        traces=tuple(args.trace),
         trust=TrustPolicy(
             tuple(load_public(path) for path in args.trust or ()), args.allow_downgrade
         ),
@@ -275,6 +286,26 @@ def _add_pbo_options(
         help="guest instructions one method call may run before the watchdog stops its PBO "
         f"(default {DEFAULT_BUDGET:,}: 1 ms at 100 MHz)",
     )
+    command.add_argument(
+        "--elf",
+        action="append",
+        type=input_file(),
+        default=[],
+        metavar="FILE.elf",
+        help="a module's ELF (the SDK builds with -g): a fault, a watchdog stop or a refused "
+        "`on` of that module names its function, source file and line; the ELF beside a "
+        "--module file is found without it; repeatable",
+    )
+    command.add_argument(
+        "--trace",
+        action="append",
+        type=arguments.trace_file,
+        default=[],
+        metavar="FILE",
+        help="record every port of every PBO after each of its jobs, with the kernel's time: "
+        "FILE.csv (time,pbo,port,value rows) or FILE.mcap (one channel per PBO, for Foxglove "
+        "and PlotJuggler); repeatable (docs/traces.md)",
+    )
 
 
 def _add_run(commands: argparse._SubParsersAction) -> None:
@@ -296,6 +327,12 @@ def _add_run(commands: argparse._SubParsersAction) -> None:
         default=[],
         metavar="FILE.hex[@ADDR]",
         help="a module file, optionally at a flash address",
+    )
+    command.add_argument(
+        "--plot",
+        type=arguments.plot_file,
+        metavar="FILE.png",
+        help="draw every numeric port of the run over time (needs the vision extra)",
     )
     _add_pbo_options(
         command,

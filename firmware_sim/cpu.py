@@ -107,12 +107,16 @@ class GuestRun:
     `instructions` counts the instructions that completed: on a fault the faulting one is not
     counted, and a call stopped by the watchdog ran exactly its budget. `fault` is None when the
     guest returned to the trampoline. `duration` is the virtual time, instructions / frequency.
+    `pc` is the address of the instruction a fault names (the one that faulted, the ecall whose
+    service refused, where the budget ran out), for source lines; None when the guest returned,
+    or when it fetched outside its code (the jump that led there is not known).
     """
 
     a0: int
     instructions: int
     fault: str | None
     duration: float
+    pc: int | None = None
 
     @property
     def status(self) -> int:
@@ -338,6 +342,7 @@ class Cpu:
         self._engine.hook_interrupt(self._on_interrupt)
         self._running = False
         self._fault: str | None = None
+        self._fault_pc: int | None = None  # the instruction the fault names, when one does
         self._completed: int | None = None  # the exact count when the last block did not finish
         self._code = _ANYWHERE  # where the running call may fetch instructions
         self._services: GuestServices | None = None
@@ -369,7 +374,7 @@ class Cpu:
         arguments = [value & WORD_MASK for value in args]
         arguments += [0] * (len(_ARGUMENT_REGISTERS) - len(arguments))
         self._call_registers.write_from(_A0, arguments)
-        self._fault, self._completed = None, None
+        self._fault, self._fault_pc, self._completed = None, None, None
         self._code = _ANYWHERE if code is None else code
         counter = self._counter
         counter.count, counter.budget, counter.stopped = 0, budget, Stop.RAN
@@ -412,6 +417,7 @@ class Cpu:
             uc.ctl_remove_cache(start, end)
         if self._fault is None:
             self._fault = f"watchdog: instruction budget of {budget} exhausted at 0x{end:08X}"
+            self._fault_pc = end
 
     def _result(self) -> GuestRun:
         pc, a0 = self._result_registers.read()
@@ -423,6 +429,7 @@ class Cpu:
             a0=a0,
             instructions=int(instructions),
             fault=self._fault,
+            pc=self._fault_pc,
             duration=instructions / self.frequency_hz,
         )
 
@@ -545,7 +552,7 @@ class Cpu:
             word = int.from_bytes(self.read(faulting, INSTRUCTION_SIZE), "little")
             self._fault_at(faulting, f"illegal instruction 0x{word:08X} at 0x{faulting:08X}")
         else:
-            self._fault = f"exception (cause {cause}), pc 0x{pc:08X}"
+            self._fault, self._fault_pc = f"exception (cause {cause}), pc 0x{pc:08X}", pc
         self._engine.stop()
 
     def _ecall(self) -> None:
@@ -556,7 +563,7 @@ class Cpu:
             result = dispatch(self._services, number, *arguments)
         except ServiceFault as fault:
             ecall = self._engine.read(UC_RISCV_REG_PC) - INSTRUCTION_SIZE  # pc is past it
-            self._fault = f"{fault} (ecall at 0x{ecall:08X})"
+            self._fault, self._fault_pc = f"{fault} (ecall at 0x{ecall:08X})", ecall
             self._engine.stop()
             return
         self._engine.write(UC_RISCV_REG_A0, result & WORD_MASK)
@@ -571,7 +578,7 @@ class Cpu:
 
     def _fault_at(self, pc: int, text: str) -> None:
         """Record a fault of the instruction at `pc`; it and the rest of its block did not run."""
-        self._fault = text
+        self._fault, self._fault_pc = text, pc
         counter = self._counter
         self._completed = counter.count - (counter.block_end - pc) // INSTRUCTION_SIZE
 

@@ -27,6 +27,7 @@ Tree::
     ├── PortValueError (ValueError)     a value (``--set PBO.port=VALUE``) the port's declared
     │                                   type cannot hold exactly
     ├── StartError (RuntimeError)       a PBO that did not start, with what its module logged
+    ├── PboFailedError (RuntimeError)   a run that ended with a PBO in ERROR
     ├── PowerReportError (ValueError)   a module reported a power draw the budget cannot take
     ├── ReconfigurationPortError (LookupError)
     │                                   no FPGA reconfiguration port is installed, or the one
@@ -117,6 +118,11 @@ class PortValueError(FirmwareSimError, ValueError):
 class StartError(FirmwareSimError, RuntimeError):
     """A PBO did not start (registration, constants, init or on failed); the text carries the
     kernel's reason and the lines the module logged while it tried."""
+
+
+class PboFailedError(FirmwareSimError, RuntimeError):
+    """A run ended with a PBO in ERROR (a fault, the watchdog, a method that failed): the run
+    printed its report, and the command exits non-zero."""
 
 
 class PowerReportError(FirmwareSimError, ValueError):

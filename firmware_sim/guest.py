@@ -30,6 +30,7 @@ from firmware_sim.services import (
     check_guest_writable,
     check_log_length,
 )
+from firmware_sim.source_lines import SourceLines
 from firmware_sim.sram import SramAllocator, align_up
 from hexmigrate import descriptor as abi
 from hexmigrate.errors import AbiMismatchError, DescriptorError
@@ -284,6 +285,17 @@ class GuestModule:
         self._ports = tuple(port_spec(port) for port in descriptor.ports)
         # Byte sizes, kept apart: PortSpec.size_bytes asks numpy, too slow for every ecall.
         self.port_sizes = tuple(port.size_bytes for port in descriptor.ports)
+        self.source: SourceLines | None = None
+        """The module's ELF, when the node has the build that was installed."""
+        self.link_base = load_address
+        """Where `source` has the image (its link base)."""
+
+    def where(self, address: int) -> str | None:
+        """'gain_cycle (gain.c:42)' for an address of this module's code, when its ELF is known."""
+        if self.source is None or address not in self.image:
+            return None
+        location = self.source.locate(address - self.load_address + self.link_base)
+        return None if location is None else str(location)
 
     @property
     def name(self) -> str:
@@ -367,8 +379,13 @@ class GuestInstance:
         module = self.module
         run = cpu.call(entry, (self.window,), module.budget, self._services, module.image)
         cpu.copy(self.area + CONTEXT_SIZE, self.window + CONTEXT_SIZE, body)
-        fault = None if run.fault is None else f"{self.label}, {method.value}: {run.fault}"
-        return CallResult(run.status, fault, run.duration, run.instructions)
+        if run.fault is not None:
+            where = None if run.pc is None else module.where(run.pc)
+            place = f" in {where}" if where is not None else ""
+            fault = f"{self.label}, {method.value}: {run.fault}{place}"
+            return CallResult(run.status, fault, run.duration, run.instructions)
+        where = module.where(entry) if run.status != 0 else None
+        return CallResult(run.status, None, run.duration, run.instructions, where)
 
     def release(self) -> None:
         """Free the area in SRAM; the instance cannot be used afterwards (a second release is a

@@ -15,8 +15,11 @@ the pty) resumes. The node's bridges to other nodes are closed when it ends.
 
 from __future__ import annotations
 
+import signal
+import threading
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -37,6 +40,7 @@ from pbort.clock import Clock, RealTimeClock, VirtualClock
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
 from pbort.native import NativeModule
+from pbort.trace import recording
 
 SHOW_INTERVAL = 1.0
 """Seconds between two lines of `show` values."""
@@ -47,8 +51,9 @@ class ListenConfig:
     """Everything ``firmware-sim listen`` is told: where to listen, the node's hardware (flash
     file, FPGA slots, the guest instructions a method call may take), which PBOs to start and
     how, what to show and for how long (None: until interrupted), and whether its clock is
-    virtual and moved by Advance only (`lock_step`), and which signed modules it admits
-    (`trust`, firmware_sim/trust.py)."""
+    virtual and moved by Advance only (`lock_step`), which signed modules it admits
+    (`trust`, firmware_sim/trust.py), the module ELFs its faults find source lines in
+    (`elves`), and the trace files it records its ports in (`traces`, pbort/trace)."""
 
     listen: str
     name: str = "node"
@@ -65,6 +70,8 @@ class ListenConfig:
     lock_step: bool = False
     budget: int = DEFAULT_BUDGET
     trust: TrustPolicy = field(default_factory=TrustPolicy)
+    elves: tuple[Path, ...] = ()
+    traces: tuple[Path, ...] = ()
 
 
 def listen(
@@ -84,7 +91,9 @@ def listen(
     clock: Clock = VirtualClock() if config.lock_step else RealTimeClock()
     with Node(
         config.name,
-        NodeConfig(flash_file=config.flash, budget=config.budget, trust=config.trust),
+        NodeConfig(
+            flash_file=config.flash, budget=config.budget, trust=config.trust, elves=config.elves
+        ),
         clock,
     ) as node:
         pbos = ListeningNode(
@@ -118,12 +127,32 @@ def listen(
             control = KernelControl(node, lock_step=config.lock_step)
             receiver = Receiver(target, control, trusted=config.trust.keys)
             try:
-                serve(node, link, receiver=receiver, stop=_stopper(node, config, say))
+                with recording(node.kernel, config.traces), _terminate_as_interrupt():
+                    serve(node, link, receiver=receiver, stop=_stopper(node, config, say))
             except KeyboardInterrupt:
                 say("stopped")
             finally:
                 control.close()
     return 0
+
+
+@contextmanager
+def _terminate_as_interrupt() -> Iterator[None]:
+    """SIGTERM stops the node as Ctrl-C does (KeyboardInterrupt), so that what it was writing,
+    its traces, is closed whole; the handler before is back afterwards. Only the main thread
+    receives signals: elsewhere nothing changes."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(_signal: int, _frame: object) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _native(codes: Mapping[str, ModuleCode], name: str) -> ModuleCode:

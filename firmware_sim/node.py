@@ -48,6 +48,7 @@ from firmware_sim.memory_map import (
     MemoryMap,
 )
 from firmware_sim.power import PowerModel
+from firmware_sim.source_lines import source_lines
 from firmware_sim.sram import SramAllocator
 from firmware_sim.trust import TrustPolicy, linked_image, version_of, version_word
 from hexmigrate.image import ModuleImage
@@ -68,6 +69,9 @@ class NodeConfig:
 
     `flash_file` makes the flash non-volatile: a raw image of `flash_size` bytes (created when
     missing) and its ".blocks" sidecar of wear counters; None keeps the flash in memory only.
+    `elves` are module ELFs (built with -g) the node may find an installed module's source
+    lines in: a fault then names the function, file and line (a module loaded from a file also
+    finds the ELF beside it).
     """
 
     flash_size: int = DEFAULT_FLASH_SIZE
@@ -80,6 +84,7 @@ class NodeConfig:
     base_draw: float = 50.0
     flash_file: Path | None = None
     trust: TrustPolicy = field(default_factory=TrustPolicy)
+    elves: tuple[Path, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -164,6 +169,7 @@ class Node:
         self.space = FlashSpace(self.flash.block_count)
         self.space.place(DIRECTORY_OWNER, self.directory.first_block, SLOT_COUNT)
         self.sram = SramAllocator(SRAM_BASE, self.config.sram_size)
+        self._elves: list[Path] = list(self.config.elves)  # where _find_source looks
         self.kernel = Kernel(clock)
         self.power = PowerModel(self.config.energy, self.config.base_draw)
         self.modules: dict[str, InstalledModule] = {}
@@ -390,6 +396,8 @@ class Node:
     def load(self, source: ModuleImage | str | Path, address: int | None = None) -> InstalledModule:
         """Load a whole module (an image or a module file) through the streaming path."""
         image = source if isinstance(source, ModuleImage) else ModuleImage.read(source)
+        if not isinstance(source, ModuleImage):
+            self._elves.append(Path(source).with_suffix(".elf"))
         session = self.begin_load(f"loading:{image.name}", image.size, address)
         with session:
             session.feed_image(image)
@@ -409,9 +417,32 @@ class Node:
             taken=taken,
             budget=self.config.budget,
         )
-        return GuestModule(
+        module = GuestModule(
             self.cpu, self.sram, descriptor, image.load_base, image.size, budget=self.config.budget
         )
+        self._find_source(module)
+        return module
+
+    def _find_source(self, module: GuestModule) -> None:
+        """Give a module the source lines of the first known ELF that is its installed build; an
+        ELF of its name that is another build is named in the log, never used."""
+        installed = self.cpu.read(module.load_address, len(module.image))
+        for path in dict.fromkeys(self._elves):
+            if not path.is_file():
+                continue
+            try:
+                lines = source_lines(path.resolve(), path.stat().st_mtime)
+            except ValueError as error:
+                self._note(f"no source lines from {error}")
+                continue
+            if lines.matches(installed, module.load_address):
+                module.source, module.link_base = lines, lines.image.link_base
+                return
+            if lines.image.name == module.name:
+                self._note(
+                    f"{path} is not the build of module {module.name!r} that is installed: "
+                    "its faults are reported without source lines"
+                )
 
     def unload(self, name: str) -> None:
         """Write the directory without the module, then stop and remove it and free (and erase)

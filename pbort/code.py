@@ -53,13 +53,16 @@ class CallResult:
     `fault` is set when the call was stopped by the node instead (a protection fault, the
     watchdog, an illegal instruction); the kernel then puts the PBO into its error state.
     `duration` is the virtual time the call took, in seconds; `instructions` the guest
-    instructions executed (0 for native code).
+    instructions executed (0 for native code). `where` names the function and source line a
+    failing status came from (``gain_on (gain.c:57)``), when the code knows its source; a fault
+    names its own place in its text.
     """
 
     status: int = 0
     fault: str | None = None
     duration: float = 0.0
     instructions: int = 0
+    where: str | None = None
 
     @property
     def ok(self) -> bool:

@@ -138,4 +138,5 @@ def describe_failure(method: str, result: CallResult) -> str:
     """One phrase for a failed call: ``cycle returned -3`` or ``cycle faulted: <text>``."""
     if result.fault is not None:
         return f"{method} faulted: {result.fault}"
-    return f"{method} returned {result.status}"
+    where = f" in {result.where}" if result.where is not None else ""
+    return f"{method} returned {result.status}{where}"

@@ -23,7 +23,7 @@ A typical session::
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from types import TracebackType
 from typing import Self
 
@@ -195,6 +195,15 @@ class Kernel:
             )
         require(name, pbo.state, "trigger", _RUNNING)
         pbo.wake()
+
+    def observe(self, observer: Callable[[str, float], None]) -> None:
+        """Call `observer(pbo, time)` after each job, once its outputs are written (a trace
+        reads the PBO's ports then); `unobserve` stops it."""
+        self._scheduler.observers.append(observer)
+
+    def unobserve(self, observer: Callable[[str, float], None]) -> None:
+        """Stop calling an observer `observe` added."""
+        self._scheduler.observers.remove(observer)
 
     def run(self, until: float | None = None, cycles: int | None = None) -> int:
         """Run the scheduler until time `until` (absolute, in seconds) or for `cycles` jobs.

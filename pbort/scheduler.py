@@ -90,6 +90,8 @@ class Scheduler:
         self._timeline: list[tuple[float, int, int, int, Job]] = []
         self._ready: list[tuple[int, int, int, float, Job]] = []
         self._sequence = count()
+        self.observers: list[Callable[[str, float], None]] = []
+        """Called with (PBO name, finish time) after each job completed (its outputs written)."""
 
     def start(self, job: Job) -> None:
         """Make a job runnable; a periodic job is released now and then on its grid."""
@@ -163,6 +165,8 @@ class Scheduler:
             clock.wait_until(start + duration)
         finish = clock.now()
         job.complete()
+        for observer in self.observers:
+            observer(job.name, finish)
         counters = job.counters
         counters.cycles += 1
         counters.busy_time += finish - start

@@ -1,0 +1,58 @@
+"""A trace as CSV: one row per port per sample, `time,pbo,port,value`.
+
+Long rows suit pandas (`pd.read_csv(...).pivot_table(index="time", columns=["pbo", "port"])`)
+and spreadsheets alike. A vector or frame port's value is one JSON array in its cell. Rows reach
+the file at least every `FLUSH_SECONDS` of host time and when the trace closes, so a process
+killed outright leaves whole rows up to its last flush.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from types import TracebackType
+
+from pbort.ports import PortSpec
+from pbort.trace.recorder import Sample
+
+FLUSH_SECONDS = 0.5
+HEADER = ("time", "pbo", "port", "value")
+
+
+class CsvTrace:
+    """Writes samples to a CSV file; use it as a context manager."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self._file = path.open("w", newline="", encoding="utf-8")
+        self._rows = csv.writer(self._file)
+        self._rows.writerow(HEADER)
+        self._flushed = time.monotonic()
+
+    def write(self, sample: Sample, ports: Sequence[PortSpec]) -> None:
+        """One row per port of the sample."""
+        for name, value in sample.values.items():
+            cell = json.dumps(value) if isinstance(value, list) else repr(value)
+            self._rows.writerow((repr(sample.time), sample.pbo, name, cell))
+        if time.monotonic() - self._flushed >= FLUSH_SECONDS:
+            self._file.flush()
+            self._flushed = time.monotonic()
+
+    def close(self) -> None:
+        """Flush and close the file; calling it again does nothing."""
+        if not self._file.closed:
+            self._file.close()
+
+    def __enter__(self) -> CsvTrace:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.close()

@@ -1,0 +1,34 @@
+"""One recording: trace files and a plot for a kernel, opened together and closed together."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from contextlib import ExitStack, contextmanager
+from pathlib import Path
+
+from pbort.kernel import Kernel
+from pbort.trace.files import open_trace
+from pbort.trace.plot import PlotTrace
+from pbort.trace.recorder import Recorder, TraceWriter
+
+
+@contextmanager
+def recording(kernel: Kernel, traces: Sequence[Path], plot: Path | None = None) -> Iterator[None]:
+    """Record every job of `kernel` into each of `traces` (by suffix) while the block runs, then
+    close them, whatever ended the block, and draw `plot`. Nothing is opened when there is
+    nothing to record."""
+    if not traces and plot is None:
+        yield
+        return
+    with ExitStack() as files:
+        writers: list[TraceWriter] = [files.enter_context(open_trace(path)) for path in traces]
+        drawing = PlotTrace() if plot is not None else None
+        if drawing is not None:
+            writers.append(drawing)
+        recorder = Recorder(kernel, writers)
+        try:
+            yield
+        finally:
+            recorder.stop()
+        if drawing is not None and plot is not None:
+            drawing.save(plot)

@@ -1,0 +1,135 @@
+"""`firmware-sim run --trace` and `--plot`, `firmware-sim listen --trace`: every port of every
+PBO after each of its jobs, with the kernel's time, in CSV and MCAP that read back the same."""
+
+from __future__ import annotations
+
+import csv
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import matplotlib.image
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+
+from hexmigrate.elf import image_from_elf
+
+RUN = (
+    "--native",
+    "signal",
+    "--set",
+    "signal.amplitude=3",
+    "--set",
+    "gain.k=0x20000",
+    "--wire",
+    "signal.y=gain.x",
+    "--seconds",
+    "0.1",
+)
+
+
+def firmware_sim(*args: object, timeout: float = 60) -> subprocess.CompletedProcess[str]:
+    command = [sys.executable, "-m", "firmware_sim.cli", *map(str, args)]
+    return subprocess.run(command, capture_output=True, text=True, timeout=timeout, check=False)
+
+
+@pytest.fixture(scope="module")
+def gain(example_builds, tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("trace") / "gain.hex"
+    image_from_elf(example_builds["gain"].elf).write(path)
+    return path
+
+
+def csv_samples(path: Path) -> dict[tuple[float, str], dict[str, object]]:
+    """(time, pbo) -> {port: value} from a CSV trace."""
+    samples: dict[tuple[float, str], dict[str, object]] = {}
+    with path.open(newline="") as stream:
+        rows = csv.DictReader(stream)
+        assert rows.fieldnames == ["time", "pbo", "port", "value"]
+        for row in rows:
+            samples.setdefault((float(row["time"]), row["pbo"]), {})[row["port"]] = json.loads(
+                row["value"]
+            )
+    return samples
+
+
+def mcap_samples(path: Path) -> tuple[dict[tuple[float, str], dict[str, object]], dict]:
+    """(time, pbo) -> {port: value} from an MCAP trace, and each topic's JSON schema."""
+    samples, schemas = {}, {}
+    with path.open("rb") as stream:
+        for schema, channel, message in make_reader(stream).iter_messages():
+            assert channel.message_encoding == "json" and schema.encoding == "jsonschema"
+            schemas[channel.topic] = json.loads(schema.data)
+            values = json.loads(message.data)
+            seconds = values.pop("time")
+            assert message.log_time == round(seconds * 1e9)
+            samples[(seconds, channel.topic.lstrip("/"))] = values
+    return samples, schemas
+
+
+def test_a_csv_and_an_mcap_trace_hold_the_same_samples(gain, tmp_path):
+    csv_path, mcap_path, png = tmp_path / "run.csv", tmp_path / "run.mcap", tmp_path / "run.png"
+    result = firmware_sim(
+        "run", "--module", gain, *RUN, "--trace", csv_path, "--trace", mcap_path, "--plot", png
+    )
+    assert result.returncode == 0, result.stderr
+    from_csv = csv_samples(csv_path)
+    from_mcap, schemas = mcap_samples(mcap_path)
+    assert from_csv == from_mcap
+    assert len([key for key in from_csv if key[1] == "gain"]) == 10  # 100 Hz for 0.1 s
+    assert sorted(schemas) == ["/gain", "/signal"]  # one channel per PBO
+    assert set(schemas["/gain"]["properties"]) == {"time", "x", "k", "y"}
+    for (_, pbo), values in from_csv.items():
+        if pbo == "gain":
+            assert values["y"] == 2 * values["x"]  # k = 2.0 in Q16.16
+    ramp = [values["y"] for (_, pbo), values in sorted(from_csv.items()) if pbo == "signal"]
+    assert ramp == [3 * n for n in range(1, 11)]
+
+
+def test_the_plot_draws_the_ports(gain, tmp_path):
+    png = tmp_path / "run.png"
+    assert firmware_sim("run", "--module", gain, *RUN, "--plot", png).returncode == 0
+    pixels = matplotlib.image.imread(png)[:, :, :3].reshape(-1, 3)
+    colours = np.unique((pixels * 255).astype(int), axis=0)
+    assert len(colours) > 20  # lines, legends and grid, not a blank canvas
+
+
+@pytest.mark.parametrize(
+    ("option", "message"),
+    [
+        (("--trace", "run.txt"), "expected a file name ending in .csv or .mcap, got .txt"),
+        (("--plot", "run.jpg"), "expected a file name ending in .png"),
+    ],
+)
+def test_a_trace_name_of_no_known_format_is_a_usage_error(gain, tmp_path, option, message):
+    flag, name = option
+    result = firmware_sim("run", "--module", gain, *RUN, flag, tmp_path / name)
+    assert result.returncode == 2
+    assert message in result.stderr
+    assert not (tmp_path / name).exists()
+
+
+def test_a_listening_node_stopped_by_sigterm_leaves_whole_traces(tmp_path):
+    csv_path, mcap_path = tmp_path / "node.csv", tmp_path / "node.mcap"
+    command = [sys.executable, "-m", "firmware_sim.cli", "listen", "--listen"]
+    command += ["tcp-listen://127.0.0.1:0", "--native", "signal", "--set", "signal.amplitude=2"]
+    command += ["--trace", str(csv_path), "--trace", str(mcap_path)]
+    node = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        time.sleep(2.0)  # listening, and the signal running on the real-time clock
+        node.send_signal(signal.SIGTERM)
+        output, errors = node.communicate(timeout=20)
+    finally:
+        node.kill()
+        node.wait(timeout=10)
+    assert "stopped" in output
+    assert node.returncode == 0, errors
+    from_csv = csv_samples(csv_path)
+    from_mcap, _ = mcap_samples(mcap_path)
+    assert from_csv == from_mcap and from_csv
+    ramp = [values["y"] for (_, pbo), values in sorted(from_csv.items()) if pbo == "signal"]
+    assert ramp == [2 * n for n in range(1, len(ramp) + 1)]
