@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from matplotlib.image import imread
+from mcap.reader import make_reader
 
 from tests.commandline.documented import undocumented
 from tests.commandline.hostile_input import hostile_numbers, run_main
@@ -19,7 +20,7 @@ from tests.commandline.terminal import stderr_on_a_terminal
 from tests.visual_servoing.pixels import TAB, pixels_of
 from visual_servoing.experiment.cli import build_parser, main
 from visual_servoing.experiment.experiment import Outcome
-from visual_servoing.experiment.report import summary
+from visual_servoing.experiment.report import summary, write_mcap
 from visual_servoing.experiment.scenarios import PAPER, SCENARIOS
 
 PAPER_CASES = [
@@ -96,6 +97,22 @@ def test_the_summary_gives_the_demo_s_figures(paper):
     assert r["migrations"][0]["wire"] == "serial 115200"
     assert 0 < r["recovery_seconds"] < 1.0
     assert figures["final"] == PAPER_CANDIDATES[1]
+
+
+def test_the_mcap_export_holds_every_sample_and_event_on_the_run_s_time(paper, tmp_path):
+    write_mcap(paper, tmp_path / "report.mcap")
+    topics: dict[str, list[dict]] = {"/samples": [], "/events": []}
+    with (tmp_path / "report.mcap").open("rb") as stream:
+        for schema, channel, message in make_reader(stream).iter_messages():
+            assert schema.encoding == "jsonschema" and channel.message_encoding == "json"
+            values = json.loads(message.data)
+            assert message.log_time == round(values["time"] * 1e9)
+            topics[channel.topic].append(values)
+    assert [s["reported"] for s in topics["/samples"]] == [s.reported for s in paper.samples]
+    assert [s["yaw"] for s in topics["/samples"]] == [s.yaw for s in paper.samples]
+    events = [e.as_dict() for e in paper.log]
+    assert sorted(topics["/events"], key=lambda e: e["time"]) == events
+    assert any(e["kind"] == "detection" for e in topics["/events"])
 
 
 @pytest.mark.slow

@@ -10,7 +10,8 @@ Examples:
 run prints the summary table (detection delay, decision time, test cases against brute force,
 the migration's time and bytes, the recovery) and writes into DIR (default
 build/visual_servoing/NAME): report.json (summary, every ReFrESH event, the configurations and a
-sample per camera frame), timeline.txt (the events with their virtual times) and deviation.png
+sample per camera frame), report.mcap (the samples and events for Foxglove and PlotJuggler),
+timeline.txt (the events with their virtual times) and deviation.png
 (the target's deviation over time, like the paper's figure 8). On a terminal, a bar shows the
 run's progress in virtual seconds. Errors print one line "error: ..." and exit 1; usage errors
 exit 2; --debug shows the traceback.
@@ -42,7 +43,14 @@ from visual_servoing.experiment.linked import QUANTUM
 from visual_servoing.experiment.manager import run_manager
 from visual_servoing.experiment.node import run_node
 from visual_servoing.experiment.processes import run_processes
-from visual_servoing.experiment.report import plot, summary, table, write_json, write_timeline
+from visual_servoing.experiment.report import (
+    plot,
+    summary,
+    table,
+    write_json,
+    write_mcap,
+    write_timeline,
+)
 from visual_servoing.experiment.scenarios import SCENARIOS
 
 DEFAULT_OUT = Path("build") / "visual_servoing"
@@ -71,6 +79,7 @@ def cmd_run(args: argparse.Namespace) -> None:
 def _written(outcome: Outcome, out: Path) -> dict[str, Any]:
     """Write the run's report, timeline and plot into `out`; the summary."""
     write_json(outcome, out / "report.json")
+    write_mcap(outcome, out / "report.mcap")
     write_timeline(outcome, out / "timeline.txt")
     plot(outcome, out / "deviation.png")
     return summary(outcome)
@@ -83,7 +92,7 @@ def _print(figures: dict[str, Any], out: Path, as_json: bool) -> None:
     print(table(figures))
     for role, url in figures.get("processes", {}).items():
         print(f"process {role}: {url}")
-    print(f"report: {out / 'report.json'}")
+    print(f"report: {out / 'report.json'} (and {out / 'report.mcap'} for Foxglove)")
     print(f"timeline: {out / 'timeline.txt'}")
     print(f"plot: {out / 'deviation.png'}")
 

@@ -17,6 +17,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
+from pbort.trace.mcap_trace import McapTrace
 from refresh.runtime import Reconfiguration
 from visual_servoing.experiment.applier import Migration
 from visual_servoing.experiment.experiment import Outcome, deviation_series
@@ -171,6 +172,38 @@ def write_json(outcome: Outcome, path: Path) -> None:
         ],
     }
     path.write_text(json.dumps(document, indent=1))
+
+
+SAMPLE_FIELDS = {
+    "target": {"type": "integer", "description": "index of the current target"},
+    "reported": {"type": "number", "description": "deviation SSD reports (pixels)"},
+    "true": {"type": "number", "description": "true deviation (pixels)"},
+    "yaw": {"type": "number", "description": "the plate's yaw (degrees)"},
+    "command": {"type": "number", "description": "the yaw commanded (degrees)"},
+}
+EVENT_FIELDS = {
+    "kind": {"type": "string"},
+    "message": {"type": "string"},
+    "data": {"type": "object", "description": "the event's figures"},
+}
+
+
+def write_mcap(outcome: Outcome, path: Path) -> None:
+    """The samples (topic /samples, one message a camera frame) and the ReFrESH events
+    (/events) as MCAP, on the run's virtual time, for Foxglove and PlotJuggler."""
+    with McapTrace(path) as trace:
+        trace.channel("/samples", "visual servoing sample", SAMPLE_FIELDS)
+        trace.channel("/events", "ReFrESH event", EVENT_FIELDS)
+        messages = [
+            (s.time, "/samples", {name: getattr(s, name) for name in SAMPLE_FIELDS})
+            for s in outcome.samples
+        ]
+        messages += [
+            (event.time, "/events", {k: v for k, v in event.as_dict().items() if k != "time"})
+            for event in (outcome.log or ())
+        ]
+        for time, topic, values in sorted(messages, key=lambda message: message[0]):
+            trace.message(topic, time, values)
 
 
 def write_timeline(outcome: Outcome, path: Path) -> None:
