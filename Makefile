@@ -5,7 +5,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 INSTALLED := $(VENV)/.installed
 SYSTEM_TOOLS := gcc=gcc riscv64-unknown-elf-gcc=gcc-riscv64-unknown-elf iverilog=iverilog yosys=yosys \
-	ccache=ccache /usr/include/lz4.h=liblz4-dev
+	ccache=ccache /usr/include/lz4.h=liblz4-dev gdb-multiarch=gdb-multiarch
 BUILD := build
 
 .PHONY: demo test lint tools modules bench clean

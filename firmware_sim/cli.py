@@ -15,6 +15,7 @@ from commandline import UsageError, add_command, command_parser, run
 from commandline.arguments import input_file, integer
 from firmware_sim import arguments
 from firmware_sim.errors import FirmwareSimError, PboFailedError
+from firmware_sim.gdb import debugging
 from firmware_sim.guest import DEFAULT_BUDGET
 from firmware_sim.kernel_log import into_node_log
 from firmware_sim.listen import ListenConfig, listen
@@ -76,7 +77,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             codes[native] = NativeModule(NATIVES[native])
         _start(node, codes, args)
         seconds = DEFAULT_SECONDS if args.cycles is None and args.seconds is None else args.seconds
-        with recording(node.kernel, args.trace, args.plot):
+        with (
+            debugging(node, args.gdb, _say, wait=True),
+            recording(node.kernel, args.trace, args.plot),
+        ):
             jobs = node.run(until=seconds, cycles=args.cycles)
         report = run_report(node, codes, jobs)
     print(json.dumps(report, indent=2) if args.json else render(report))
@@ -87,6 +91,11 @@ def cmd_run(args: argparse.Namespace) -> int:
             + "; ".join(f"{name}: {report['stats'][name]['last_failure']}" for name in failed)
         )
     return 0
+
+
+def _say(line: str) -> None:
+    """A line for the user, out at once (a gdb user waits for it)."""
+    print(line, flush=True)
 
 
 def _start(node: Node, codes: dict[str, ModuleCode], args: argparse.Namespace) -> None:
@@ -143,12 +152,13 @@ def cmd_listen(args: argparse.Namespace) -> int:
         budget=args.budget,
         elves=tuple(args.elf),
         traces=tuple(args.trace),
+        gdb=args.gdb,
         trust=TrustPolicy(
             tuple(load_public(path) for path in args.trust or ()), args.allow_downgrade
         ),
     )
     firmware = {name: NativeModule(native) for name, native in load_natives(args.natives).items()}
-    return listen(config, lambda line: print(line, flush=True), firmware=firmware)
+    return listen(config, _say, firmware=firmware)
 
 
 def cmd_info(args: argparse.Namespace) -> int:
@@ -295,6 +305,14 @@ def _add_pbo_options(
         help="a module's ELF (the SDK builds with -g): a fault, a watchdog stop or a refused "
         "`on` of that module names its function, source file and line; the ELF beside a "
         "--module file is found without it; repeatable",
+    )
+    command.add_argument(
+        "--gdb",
+        type=arguments.gdb_address,
+        metavar="HOST:PORT",
+        help="serve the GDB remote protocol for the node's CPU there (port 0: any free one; "
+        "the node prints where, and each module's add-symbol-file line): run waits for gdb "
+        "before it starts, listen takes gdb between jobs (docs/debugging.md)",
     )
     command.add_argument(
         "--trace",

@@ -34,18 +34,23 @@ import ctypes
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from types import TracebackType
+from typing import Protocol
 
 from unicorn import (
     UC_ARCH_RISCV,
     UC_ERR_INSN_INVALID,
     UC_ERR_OK,
     UC_HOOK_BLOCK,
+    UC_HOOK_CODE,
     UC_HOOK_INTR,
     UC_HOOK_MEM_INVALID,
+    UC_HOOK_MEM_READ,
+    UC_HOOK_MEM_WRITE,
     UC_MEM_FETCH_PROT,
     UC_MEM_FETCH_UNMAPPED,
     UC_MEM_READ_PROT,
     UC_MEM_READ_UNMAPPED,
+    UC_MEM_WRITE,
     UC_MODE_RISCV32,
     Uc,
     UcError,
@@ -88,6 +93,18 @@ _READS = frozenset({UC_MEM_READ_PROT, UC_MEM_READ_UNMAPPED})
 # The C signatures of the two hooks written in Python (unicorn.h: uc_cb_hookintr_t,
 # uc_cb_eventmem_t); the first argument is the engine, the last the user data.
 _INTERRUPT_HOOK = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_uint32, ctypes.c_void_p)
+_CODE_HOOK = ctypes.CFUNCTYPE(
+    None, ctypes.c_void_p, ctypes.c_uint64, ctypes.c_uint32, ctypes.c_void_p
+)
+_ACCESS_HOOK = ctypes.CFUNCTYPE(
+    None,
+    ctypes.c_void_p,
+    ctypes.c_int,
+    ctypes.c_uint64,
+    ctypes.c_int,
+    ctypes.c_int64,
+    ctypes.c_void_p,
+)
 _MEMORY_HOOK = ctypes.CFUNCTYPE(
     ctypes.c_bool,
     ctypes.c_void_p,
@@ -97,6 +114,17 @@ _MEMORY_HOOK = ctypes.CFUNCTYPE(
     ctypes.c_int64,
     ctypes.c_void_p,
 )
+
+
+class Debugger(Protocol):
+    """What the CPU asks of an attached debugger (firmware_sim/gdb/stub.py)."""
+
+    def before_call(self) -> None:
+        """Before each guest call, while no guest runs: put pending hooks in place."""
+
+    def take_restart(self) -> int | None:
+        """After the guest stopped: the address to start it again at, when the debugger stopped
+        it (before that instruction ran), else None."""
 
 
 @dataclass(frozen=True)
@@ -227,6 +255,31 @@ class _Engine:
 
         self._add_python(UC_HOOK_MEM_INVALID, _MEMORY_HOOK(hook))
 
+    def hook_code(self, callback: Callable[[int], None], begin: int, end: int) -> int:
+        """Call `callback(address)` before each instruction in [begin, end]; the handle."""
+        hook = _CODE_HOOK(lambda _uc, address, _size, _data: self._guard(callback, address))
+        return self._add_python(UC_HOOK_CODE, hook, begin, end)
+
+    def hook_access(
+        self, callback: Callable[[int, int, bool], None], begin: int, end: int, *, write: bool,
+        read: bool,
+    ) -> int:  # fmt: skip
+        """Call `callback(address, size, is_write)` on guest accesses in [begin, end]."""
+
+        def hook(_uc: int, access: int, address: int, size: int, _value: int, _data: int) -> None:
+            self._guard(callback, address, size, access == UC_MEM_WRITE)
+
+        kinds = (UC_HOOK_MEM_WRITE if write else 0) | (UC_HOOK_MEM_READ if read else 0)
+        return self._add_python(kinds, _ACCESS_HOOK(hook), begin, end)
+
+    def remove_hook(self, handle: int) -> None:
+        """Delete one hook by the handle `hook_code` or `hook_access` gave."""
+        for index, added in enumerate(self._hooks):
+            if added.value == handle:
+                self._lib.uc_hook_del(self._handle, added)
+                del self._hooks[index]
+                return
+
     def remove_hooks(self) -> None:
         """Delete every hook (before the engine is closed)."""
         for handle in self._hooks:
@@ -234,19 +287,24 @@ class _Engine:
         self._hooks.clear()
         self._keep.clear()
 
-    def _add_python(self, kind: int, function: ctypes._CFunctionType) -> None:
-        """Add a hook written in Python; its C wrapper stays alive with the hook."""
+    def _add_python(
+        self, kind: int, function: ctypes._CFunctionType, begin: int = 1, end: int = 0
+    ) -> int:
+        """Add a hook written in Python; its C wrapper stays alive as long as the engine."""
         self._keep.append(function)
-        self._add(kind, ctypes.cast(function, ctypes.c_void_p), None)
+        return self._add(kind, ctypes.cast(function, ctypes.c_void_p), None, begin, end)
 
-    def _add(self, kind: int, function: ctypes.c_void_p, data: object) -> None:
+    def _add(
+        self, kind: int, function: ctypes.c_void_p, data: object, begin: int = 1, end: int = 0
+    ) -> int:
         handle = _binding.uc_hook_h()
         status = self._lib.uc_hook_add(
-            self._handle, ctypes.byref(handle), kind, function, data, 1, 0
+            self._handle, ctypes.byref(handle), kind, function, data, begin, end
         )
         if status != UC_ERR_OK:
             raise UcError(status)
         self._hooks.append(handle)
+        return int(handle.value)
 
     def _guard(self, callback: Callable[..., None], *args: int) -> None:
         """Run a hook; an exception must not unwind through C, so keep it and stop the guest."""
@@ -334,6 +392,7 @@ class Cpu:
         self._engine.write(UC_RISCV_REG_PRIV, _USER_MODE)
         self._result_registers = registers(UC_RISCV_REG_PC, UC_RISCV_REG_A0)
         self._service_registers = registers(UC_RISCV_REG_A7, *_ARGUMENT_REGISTERS)
+        self._debug_registers = registers(*_CALL_REGISTERS, UC_RISCV_REG_PC)
         # The count, the budget and the code range the block hook keeps for the running call.
         self._counter = Counter(stop=self._engine.stop_function())
         # Before the first run, so that every translated block carries them.
@@ -346,6 +405,12 @@ class Cpu:
         self._completed: int | None = None  # the exact count when the last block did not finish
         self._code = _ANYWHERE  # where the running call may fetch instructions
         self._services: GuestServices | None = None
+        self._debugger: Debugger | None = None
+
+    @property
+    def running(self) -> bool:
+        """True while a guest call runs (a debugger's hooks are then inside it)."""
+        return self._running
 
     @property
     def instructions(self) -> int:
@@ -379,9 +444,16 @@ class Cpu:
         counter = self._counter
         counter.count, counter.budget, counter.stopped = 0, budget, Stop.RAN
         counter.code_start, counter.code_end = self._code.start, self._code.stop
+        if self._debugger is not None:
+            self._debugger.before_call()
         self._services, self._running = services, True
         try:
             self._run(entry, TRAMPOLINE)
+            while self._debugger is not None and self._fault is None:
+                restart = self._debugger.take_restart()
+                if restart is None:
+                    break
+                self._restart_at(restart)
             if self._fault is None and counter.stopped == Stop.BUDGET:
                 self._run_out(budget)
         finally:
@@ -398,6 +470,14 @@ class Cpu:
                 self._fault_at(pc, self._describe_stop(error, pc))
         if self._fault is None and self._counter.stopped == Stop.REFUSED:
             self._refuse_block(self._counter.block_start, self._counter.block_end)
+
+    def _restart_at(self, pc: int) -> None:
+        """Run the guest on from `pc`, where a debugger stopped it before that instruction ran:
+        the rest of its block was counted when the block was entered, and is counted again when
+        the restarted block is."""
+        counter = self._counter
+        counter.count -= (counter.block_end - pc) // INSTRUCTION_SIZE
+        self._run(pc, TRAMPOLINE)
 
     def _run_out(self, budget: int) -> None:
         """The block hook stopped the guest before a block that would run past the budget: run
@@ -458,6 +538,46 @@ class Cpu:
         grew by 8 KiB of native memory per install; the node calls this when an image leaves
         or replaces another, and the next call translates what runs again."""
         self._open().ctl_flush_tb()
+
+    # Debugging: a GDB stub (firmware_sim/gdb) attaches here.
+
+    def attach_debugger(self, debugger: Debugger | None) -> None:
+        """Let `debugger` act before each call and start a stopped guest again (None: detach)."""
+        self._debugger = debugger
+
+    def debug_hook_code(self, callback: Callable[[int], None], begin: int, end: int) -> int:
+        """Call `callback(address)` before each instruction in [begin, end] (begin > end: every
+        instruction) of code translated from now on; returns the hook's handle."""
+        return self._engine.hook_code(callback, begin, end)
+
+    def debug_hook_access(
+        self,
+        callback: Callable[[int, int, bool], None],
+        begin: int,
+        end: int,
+        *,
+        write: bool,
+        read: bool,
+    ) -> int:
+        """Call `callback(address, size, is_write)` on each guest write and/or read in [begin,
+        end] of code translated from now on; returns the hook's handle."""
+        return self._engine.hook_access(callback, begin, end, write=write, read=read)
+
+    def debug_remove_hook(self, handle: int) -> None:
+        """Remove a hook `debug_hook_code` or `debug_hook_access` added."""
+        self._engine.remove_hook(handle)
+
+    def debug_registers(self) -> list[int]:
+        """x0..x31 and pc, as gdb numbers them."""
+        return [0, *self._debug_registers.read()]
+
+    def debug_write_register(self, index: int, value: int) -> None:
+        """Set x`index` (1..31) of the halted guest."""
+        self._engine.write(_CALL_REGISTERS[index - 1], value & WORD_MASK)
+
+    def stop_guest(self) -> None:
+        """Stop the running guest before its next instruction (from a hook)."""
+        self._engine.stop()
 
     def close(self) -> None:
         """Free the emulator and its memory; calling it again does nothing."""

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from firmware_sim.errors import StartError
 from firmware_sim.fpga_port import open_port
+from firmware_sim.gdb import GdbServer, debugging
 from firmware_sim.guest import DEFAULT_BUDGET
 from firmware_sim.kernel_control import KernelControl
 from firmware_sim.listen_link import open_listening
@@ -72,6 +73,7 @@ class ListenConfig:
     trust: TrustPolicy = field(default_factory=TrustPolicy)
     elves: tuple[Path, ...] = ()
     traces: tuple[Path, ...] = ()
+    gdb: tuple[str, int] | None = None
 
 
 def listen(
@@ -106,12 +108,20 @@ def listen(
             switch_on=config.switch_on,
         )
 
+        gdb: list[GdbServer] = []  # the server, once there is one
+
         def installed(name: str, address: int) -> None:
             say(f"registered {name} at 0x{address:08X}")
+            for server in gdb:
+                server.symbol_line(node.modules[name].code, name)
             pbos.start(name, name)
 
         # The link first: its "listening on" line is the first line out, before any other.
-        with open_listening(config.listen, say) as link:
+        with (
+            open_listening(config.listen, say) as link,
+            debugging(node, config.gdb, say, wait=False) as server,
+        ):
+            gdb += [server] if server is not None else []
             for name, code in natives:
                 pbos.start(code, name)
             for module in list(node.modules.values()):
@@ -128,7 +138,8 @@ def listen(
             receiver = Receiver(target, control, trusted=config.trust.keys)
             try:
                 with recording(node.kernel, config.traces), _terminate_as_interrupt():
-                    serve(node, link, receiver=receiver, stop=_stopper(node, config, say))
+                    stop = _stopper(node, config, say, gdb)
+                    serve(node, link, receiver=receiver, stop=stop)
             except KeyboardInterrupt:
                 say("stopped")
             finally:
@@ -172,13 +183,18 @@ def _configured(say: Callable[[str], None]) -> Callable[[str, int, int], None]:
     return configured
 
 
-def _stopper(node: Node, config: ListenConfig, say: Callable[[str], None]) -> Callable[[], bool]:
-    """`serve`'s stop test: shows the ports every second, true once `config.seconds` passed."""
+def _stopper(
+    node: Node, config: ListenConfig, say: Callable[[str], None], gdb: list[GdbServer]
+) -> Callable[[], bool]:
+    """`serve`'s stop test: shows the ports every second, takes gdb when it connects, true once
+    `config.seconds` passed."""
     deadline = None if config.seconds is None else time.monotonic() + config.seconds
     next_show = time.monotonic() + SHOW_INTERVAL
 
     def stop() -> bool:
         nonlocal next_show
+        for server in gdb:
+            server.poll()
         now = time.monotonic()
         if config.show and now >= next_show:
             next_show = now + SHOW_INTERVAL

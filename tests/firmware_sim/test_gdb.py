@@ -1,0 +1,179 @@
+"""`firmware-sim run --gdb`: gdb-multiarch breaks in a guest module's cycle, reads an argument
+register and a port buffer, steps, watches a port and continues; an interrupt halts a running
+guest; the node's virtual clock stands still while gdb holds it; gdb leaving lets it run on."""
+
+from __future__ import annotations
+
+import json
+import re
+import select
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from firmware_sim.gdb.packets import PacketConnection
+from hexmigrate.elf import image_from_elf
+
+GDB = shutil.which("gdb-multiarch")
+pytestmark = pytest.mark.skipif(GDB is None, reason="needs gdb-multiarch (make test installs it)")
+LOAD_AT = 0x0800_4000  # away from the link base 0x00010000: gdb needs the offset
+RUN = (
+    "--native", "signal", "--wire", "signal.y=gain.x", "--set", "gain.k=0x20000",
+    "--set", "signal.amplitude=3", "--seconds", "0.05",
+)  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def gain(example_builds, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("gdb")
+    elf = out / "gain.elf"
+    shutil.copy(example_builds["gain"].elf, elf)
+    image_from_elf(elf).write(out / "gain.hex")
+    return out / "gain.hex"
+
+
+class Node:
+    """`firmware-sim run --gdb 127.0.0.1:0` in a process, its lines read with a deadline."""
+
+    def __init__(self, *args: object) -> None:
+        command = [sys.executable, "-m", "firmware_sim.cli", "run", *map(str, args)]
+        command += ["--gdb", "127.0.0.1:0"]
+        # Unbuffered: select() must see every line still to read.
+        pipes = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "bufsize": 0}
+        self.process = subprocess.Popen(command, **pipes)
+        self.lines: list[str] = []
+
+    def line(self, pattern: str, timeout: float = 20) -> re.Match[str]:
+        """The first line matching `pattern` (re.search), waiting at most `timeout` s."""
+        deadline = time.monotonic() + timeout
+        assert self.process.stdout is not None
+        while time.monotonic() < deadline:
+            for line in self.lines:
+                found = re.search(pattern, line)
+                if found:
+                    return found
+            ready, _, _ = select.select([self.process.stdout], [], [], 0.1)
+            if ready:
+                text = self.process.stdout.readline().decode()
+                if not text:
+                    break
+                self.lines.append(text.rstrip("\n"))
+        raise AssertionError(f"no line matching {pattern!r} from the node: {self.lines}")
+
+    def finish(self, timeout: float = 60) -> tuple[int, str, str]:
+        out, err = self.process.communicate(timeout=timeout)
+        return self.process.returncode, "\n".join(self.lines) + out.decode(), err.decode()
+
+    def stop(self) -> None:
+        if self.process.poll() is None:
+            self.process.kill()
+        self.process.wait(timeout=10)
+
+
+@pytest.fixture
+def nodes() -> Iterator[list[Node]]:
+    started: list[Node] = []
+    yield started
+    for node in started:
+        node.stop()
+
+
+def start(nodes: list[Node], *args: object) -> tuple[Node, str, str]:
+    """A node waiting for gdb: it, its address and its add-symbol-file command."""
+    node = Node(*args)
+    nodes.append(node)
+    where = node.line(r"gdb: listening on (127\.0\.0\.1:\d+)").group(1)
+    symbols = node.line(r"gdb: (add-symbol-file \S+ -o 0x[0-9A-F]+)").group(1)
+    return node, where, symbols
+
+
+def gdb(where: str, *commands: str) -> str:
+    """gdb-multiarch in batch mode on the node: what it printed."""
+    argv = [str(GDB), "-batch", "-nx", "-ex", f"target remote {where}"]
+    for command in commands:
+        argv += ["-ex", command]
+    result = subprocess.run(argv, capture_output=True, text=True, timeout=60, check=False)
+    return result.stdout + result.stderr
+
+
+def report_of(output: str) -> dict:
+    return json.loads(output[output.index("{") :])
+
+
+def test_gdb_breaks_in_a_module_reads_steps_watches_and_continues(gain, nodes):
+    node, where, symbols = start(nodes, "--module", f"{gain}@0x{LOAD_AT:08X}", *RUN, "--json")
+    assert symbols == f"add-symbol-file {gain.with_suffix('.elf')} -o 0x{LOAD_AT - 0x10000:X}"
+    output = gdb(
+        where,
+        symbols,
+        "break gain_cycle",
+        "continue",
+        "info registers a0 pc",
+        "print *(int *)((struct pbo_context *)$a0)->ports[0]",
+        "set $y = (int *)((struct pbo_context *)$a0)->ports[1]",
+        "stepi",
+        "info registers pc",
+        "shell sleep 1",  # the target stays halted a while: its virtual clock must not move
+        "delete 1",
+        "watch *$y",
+        "continue",
+        "print *$y",
+        "delete 2",
+        "continue",
+    )
+    assert "Breakpoint 1, gain_cycle (ctx=0x3000" in output
+    a0 = int(re.search(r"^a0\s+(0x[0-9a-f]+)", output, re.M).group(1), 16)
+    pcs = [int(pc, 16) for pc in re.findall(r"^pc\s+(0x[0-9a-f]+)", output, re.M)]
+    assert 0x3000_0000 <= a0 < 0x3001_0000  # the context in the task window (the argument)
+    assert pcs[1] == pcs[0] + 4  # stepi: one RV32IM instruction
+    assert LOAD_AT <= pcs[0] < LOAD_AT + 0x1000
+    assert "$1 = 3" in output  # gain.x in its port buffer: signal's first ramp value
+    assert re.search(r"Hardware watchpoint 2: \*\$y\s+Old value = 0\s+New value = 6", output)
+    status, printed, _ = node.finish()
+    assert status == 0
+    debugged = report_of(printed)
+    module = f"{gain}@0x{LOAD_AT:08X}"
+    plain = subprocess.run(
+        [sys.executable, "-m", "firmware_sim.cli", "run", "--module", module, *RUN, "--json"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    undebugged = report_of(plain.stdout)
+    assert debugged["time"] == undebugged["time"] == pytest.approx(0.05)
+    assert debugged["ports"] == undebugged["ports"]
+    assert debugged["stats"] == undebugged["stats"]  # same cycles, instructions, busy time
+
+
+def rsp(where: str) -> PacketConnection:
+    host, port = where.split(":")
+    return PacketConnection(socket.create_connection((host, int(port)), timeout=20))
+
+
+def test_an_interrupt_halts_a_running_guest_and_a_vanished_gdb_lets_the_node_run_on(gain, nodes):
+    node, where, _ = start(nodes, "--module", f"{gain}@0x{LOAD_AT:08X}", *RUN[:-1], "300")
+    client = rsp(where)
+    client.send("?")
+    assert client.receive(timeout=20) == b"T05"  # halted on connection
+    client.send("c")
+    time.sleep(0.2)  # running (300 s of virtual time take some seconds)
+    client.socket.sendall(b"\x03")
+    stop = client.receive(timeout=20)
+    assert stop is not None and stop.startswith(b"T02")  # SIGINT
+    client.send("p20")  # pc: a guest instruction of gain
+    assert (
+        LOAD_AT
+        <= int.from_bytes(bytes.fromhex(client.receive(timeout=20).decode()), "little")
+        < LOAD_AT + 0x1000
+    )
+    client.close()  # gdb vanishes while the target is halted
+    status, output, _ = node.finish(timeout=120)
+    assert status == 0
+    assert "gdb: gdb disconnected; the node runs on" in output
+    assert "ran 300.000 s of virtual time" in output
