@@ -288,13 +288,13 @@ class GuestModule:
         self.source: SourceLines | None = None
         """The module's ELF, when the node has the build that was installed."""
         self.link_base = load_address
-        """Where `source` has the image (its link base)."""
+        """Where the image was linked, as its module file says (the node sets it)."""
 
     def where(self, address: int) -> str | None:
         """'gain_cycle (gain.c:42)' for an address of this module's code, when its ELF is known."""
         if self.source is None or address not in self.image:
             return None
-        location = self.source.locate(address - self.load_address + self.link_base)
+        location = self.source.locate(address - self.load_address + self.source.image.link_base)
         return None if location is None else str(location)
 
     @property

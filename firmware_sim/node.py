@@ -420,6 +420,7 @@ class Node:
         module = GuestModule(
             self.cpu, self.sram, descriptor, image.load_base, image.size, budget=self.config.budget
         )
+        module.link_base = image.link_base
         self._find_source(module)
         return module
 
@@ -436,7 +437,7 @@ class Node:
                 self._note(f"no source lines from {error}")
                 continue
             if lines.matches(installed, module.load_address):
-                module.source, module.link_base = lines, lines.image.link_base
+                module.source = lines
                 return
             if lines.image.name == module.name:
                 self._note(

@@ -29,10 +29,11 @@ class GdbServer:
 
     def symbol_line(self, module: GuestModule, name: str) -> None:
         """Say the add-symbol-file line of a guest module, with its load offset."""
-        offset = module.load_address - module.link_base
         if module.source is not None:
+            offset = module.load_address - module.source.image.link_base
             self.say(f"gdb: add-symbol-file {module.source.path} -o 0x{offset:X}")
         else:
+            offset = module.load_address - module.link_base
             self.say(
                 f"gdb: add-symbol-file {name}.elf -o 0x{offset:X}  (module {name!r}: the node "
                 "has not found its ELF; give the build's, with --elf)"
