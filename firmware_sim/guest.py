@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 from firmware_sim.cpu import Cpu
 from firmware_sim.errors import RegistrationError, ServiceFault
+from firmware_sim.repeated_calls import RepeatedCalls
 from firmware_sim.services import (
     MILLI,
     Service,
@@ -343,6 +344,10 @@ class GuestInstance:
                 module.ports, layout.ports, module.port_sizes, strict=True
             )
         }
+        # An estimator's repeated calls are replayed (firmware_sim/repeated_calls.py).
+        self._repeats = RepeatedCalls(services) if role is Role.ESTIMATOR else None
+        if self._repeats is not None:
+            services = self._repeats.services
         self._services = _InstanceServices(module, self.window, services, self.label)
         self._released = False
         self._cpu.write(self.area, self._context + bytes(layout.size - CONTEXT_SIZE))
@@ -372,6 +377,22 @@ class GuestInstance:
         entry = self.module.entry(method)
         if not entry:
             return CallResult()
+        repeats = self._repeats
+        if repeats is None:
+            return self._run(method, entry)
+        key = repeats.key(method, self._cpu.read(self.area, self._size))
+        replayed = repeats.replay(key)
+        if replayed is not None:
+            area_after, result = replayed
+            self._cpu.write(self.area, area_after)
+            return result
+        repeats.start()
+        result = self._run(method, entry)
+        repeats.finish(key, self._cpu.read(self.area, self._size), result)
+        return result
+
+    def _run(self, method: Method, entry: int) -> CallResult:
+        """Run the method on the CPU: the area into the task window, the call, and back."""
         cpu, body = self._cpu, self._size - CONTEXT_SIZE
         # A fresh context every call: the guest may have overwritten its own in the window.
         cpu.write(self.window, self._context)
