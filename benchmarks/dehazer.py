@@ -75,8 +75,9 @@ def guest_figures(frames: list[np.ndarray], builds: Path, count: int) -> dict[st
         node.kernel.connect(f"player.{OUTPUT_PORT}", f"{NAME}.{INPUT_PORT}")
         job = per_call(lambda: node.run(cycles=2), count)
         stats = node.kernel.stats(NAME)
+        # An executor: an estimator's repeated calls on one frame would be replayed, not run.
         instance = node.modules[NAME].code.instantiate(
-            Role.ESTIMATOR, Services(report=lambda *_: None, now=lambda: 0.0, log=lambda _: None)
+            Role.EXECUTOR, Services(report=lambda *_: None, now=lambda: 0.0, log=lambda _: None)
         )
         try:
             instance.put(INPUT_PORT, frames[0])
