@@ -5,8 +5,7 @@ from __future__ import annotations
 
 import socket
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from types import TracebackType
+from contextlib import closing, contextmanager
 
 from firmware_sim.cpu import Cpu
 from firmware_sim.gdb.packets import PacketConnection
@@ -64,17 +63,6 @@ class GdbServer:
         self.cpu.attach_debugger(None)
         self._listener.close()
 
-    def __enter__(self) -> GdbServer:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
-        self.close()
-
     def _attach(self, connection: socket.socket, peer: tuple) -> None:
         connection.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self.say(f"gdb: connected from {peer[0]}:{peer[1]}; the node is halted")
@@ -93,7 +81,7 @@ def debugging(
     if address is None:
         yield None
         return
-    with GdbServer(node.cpu, *address, say) as server:
+    with closing(GdbServer(node.cpu, *address, say)) as server:
         for name, module in node.modules.items():
             server.symbol_line(module.code, name)
 

@@ -13,7 +13,6 @@ import json
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from types import TracebackType
 
 from pbort.ports import PortSpec
 from pbort.trace.recorder import Sample
@@ -23,7 +22,7 @@ HEADER = ("time", "pbo", "port", "value")
 
 
 class CsvTrace:
-    """Writes samples to a CSV file; use it as a context manager."""
+    """Writes samples to a CSV file until `close`."""
 
     def __init__(self, path: Path) -> None:
         self.path = path
@@ -45,14 +44,3 @@ class CsvTrace:
         """Flush and close the file; calling it again does nothing."""
         if not self._file.closed:
             self._file.close()
-
-    def __enter__(self) -> CsvTrace:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
-        self.close()

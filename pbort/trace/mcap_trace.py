@@ -13,7 +13,6 @@ from __future__ import annotations
 import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from types import TracebackType
 from typing import Any
 
 from mcap.writer import Writer
@@ -27,7 +26,7 @@ CHUNK_SIZE = 64 * 1024
 
 
 class McapTrace:
-    """Writes messages to an MCAP file; use it as a context manager."""
+    """Writes messages to an MCAP file until `close`."""
 
     def __init__(self, path: Path) -> None:
         self.path = path
@@ -79,17 +78,6 @@ class McapTrace:
             self._closed = True
             self._writer.finish()
             self._stream.close()
-
-    def __enter__(self) -> McapTrace:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
-        self.close()
 
 
 def _port_schema(port: PortSpec) -> dict[str, Any]:

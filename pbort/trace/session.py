@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
-from contextlib import ExitStack, contextmanager
+from contextlib import ExitStack, closing, contextmanager
 from pathlib import Path
 
 from pbort.kernel import Kernel
@@ -21,7 +21,9 @@ def recording(kernel: Kernel, traces: Sequence[Path], plot: Path | None = None) 
         yield
         return
     with ExitStack() as files:
-        writers: list[TraceWriter] = [files.enter_context(open_trace(path)) for path in traces]
+        writers: list[TraceWriter] = [
+            files.enter_context(closing(open_trace(path))) for path in traces
+        ]
         drawing = PlotTrace() if plot is not None else None
         if drawing is not None:
             writers.append(drawing)

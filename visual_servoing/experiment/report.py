@@ -9,6 +9,7 @@ once the runtime has seen P_T = 1 hold for its recovery hold (`SETTINGS.recovery
 from __future__ import annotations
 
 import json
+from contextlib import closing
 from pathlib import Path
 from typing import Any
 
@@ -191,7 +192,7 @@ EVENT_FIELDS = {
 def write_mcap(outcome: Outcome, path: Path) -> None:
     """The samples (topic /samples, one message a camera frame) and the ReFrESH events
     (/events) as MCAP, on the run's virtual time, for Foxglove and PlotJuggler."""
-    with McapTrace(path) as trace:
+    with closing(McapTrace(path)) as trace:
         trace.channel("/samples", "visual servoing sample", SAMPLE_FIELDS)
         trace.channel("/events", "ReFrESH event", EVENT_FIELDS)
         messages = [
