@@ -90,14 +90,14 @@ _ILLEGAL_INSTRUCTION = 2
 _FETCHES = frozenset({UC_MEM_FETCH_PROT, UC_MEM_FETCH_UNMAPPED})
 _READS = frozenset({UC_MEM_READ_PROT, UC_MEM_READ_UNMAPPED})
 
-# The C signatures of the two hooks written in Python (unicorn.h: uc_cb_hookintr_t,
-# uc_cb_eventmem_t); the first argument is the engine, the last the user data.
+# The C signatures of the hooks written in Python (unicorn.h: uc_cb_hookintr_t, uc_cb_hookcode_t,
+# uc_cb_hookmem_t, uc_cb_eventmem_t); the first argument is the engine, the last the user data.
 _INTERRUPT_HOOK = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_uint32, ctypes.c_void_p)
 _CODE_HOOK = ctypes.CFUNCTYPE(
     None, ctypes.c_void_p, ctypes.c_uint64, ctypes.c_uint32, ctypes.c_void_p
 )
-_ACCESS_HOOK = ctypes.CFUNCTYPE(
-    None,
+# uc_cb_hookmem_t and uc_cb_eventmem_t: (engine, access, address, size, value, user data).
+_MEMORY_ARGUMENTS = (
     ctypes.c_void_p,
     ctypes.c_int,
     ctypes.c_uint64,
@@ -105,15 +105,8 @@ _ACCESS_HOOK = ctypes.CFUNCTYPE(
     ctypes.c_int64,
     ctypes.c_void_p,
 )
-_MEMORY_HOOK = ctypes.CFUNCTYPE(
-    ctypes.c_bool,
-    ctypes.c_void_p,
-    ctypes.c_int,
-    ctypes.c_uint64,
-    ctypes.c_int,
-    ctypes.c_int64,
-    ctypes.c_void_p,
-)
+_ACCESS_HOOK = ctypes.CFUNCTYPE(None, *_MEMORY_ARGUMENTS)
+_MEMORY_HOOK = ctypes.CFUNCTYPE(ctypes.c_bool, *_MEMORY_ARGUMENTS)
 
 
 class Debugger(Protocol):
