@@ -39,10 +39,11 @@ def gain(example_builds, tmp_path_factory) -> Path:
 
 
 class Node:
-    """`firmware-sim run --gdb 127.0.0.1:0` in a process, its lines read with a deadline."""
+    """`firmware-sim COMMAND ... --gdb 127.0.0.1:0` in a process, its lines read with a
+    deadline."""
 
     def __init__(self, *args: object) -> None:
-        command = [sys.executable, "-m", "firmware_sim.cli", "run", *map(str, args)]
+        command = [sys.executable, "-m", "firmware_sim.cli", *map(str, args)]
         command += ["--gdb", "127.0.0.1:0"]
         # Unbuffered: select() must see every line still to read.
         pipes = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "bufsize": 0}
@@ -86,7 +87,7 @@ def nodes() -> Iterator[list[Node]]:
 
 def start(nodes: list[Node], *args: object) -> tuple[Node, str, str]:
     """A node waiting for gdb: it, its address and its add-symbol-file command."""
-    node = Node(*args)
+    node = Node("run", *args)
     nodes.append(node)
     where = node.line(r"gdb: listening on (127\.0\.0\.1:\d+)").group(1)
     symbols = node.line(r"gdb: (add-symbol-file \S+ -o 0x[0-9A-F]+)").group(1)
@@ -177,3 +178,26 @@ def test_an_interrupt_halts_a_running_guest_and_a_vanished_gdb_lets_the_node_run
     assert status == 0
     assert "gdb: gdb disconnected; the node runs on" in output
     assert "ran 300.000 s of virtual time" in output
+
+
+def test_a_listening_node_takes_gdb_between_jobs_for_a_module_that_arrived(gain, nodes):
+    node = Node(
+        "listen", "--listen", "tcp-listen://127.0.0.1:0", "--native", "signal",
+        "--wire", "signal.y=gain.x", "--set", "gain.k=0x20000", "--set", "signal.amplitude=3",
+        "--elf", gain.with_suffix(".elf"), "--seconds", "60",
+    )  # fmt: skip
+    nodes.append(node)
+    link = node.line(r"--to (socket://127\.0\.0\.1:\d+)").group(1)
+    where = node.line(r"gdb: listening on (127\.0\.0\.1:\d+)").group(1)
+    sent = subprocess.run(
+        [sys.executable, "-m", "hexmigrate.cli", "send", str(gain), "--to", link],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert sent.returncode == 0, sent.stderr
+    symbols = node.line(r"gdb: (add-symbol-file \S+ -o 0x[0-9A-F]+)").group(1)
+    output = gdb(where, symbols, "break gain_cycle", "continue", "info registers pc", "detach")
+    assert "Breakpoint 1, gain_cycle (ctx=0x3000" in output
+    node.line(r"gdb: gdb detached; the node runs on")
