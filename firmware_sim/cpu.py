@@ -22,10 +22,11 @@ hook. When the next block would run past the budget, the hook stops before it an
 exactly the instructions left, in that block's straight-line code, so the watchdog stops the guest
 at the very instruction where the budget ran out.
 
-Unicorn translates guest code into blocks once and caches them, and a hook or budget added after
-a block was translated does not apply to it. So the hooks are installed before anything runs,
-every call passes a budget, and kernel writes into executable memory drop the cached blocks of
-the bytes they change.
+Unicorn translates guest code into blocks once and caches them, and a hook added after a block
+was translated does not apply to it. So the hooks are installed before anything runs (the budget
+is data the C hook reads, set for each call), kernel writes into executable memory drop the
+cached blocks of the bytes they change, and a debugger's hooks (firmware_sim/gdb) are put in
+place between calls or by stopping the guest and starting it again where it was.
 """
 
 from __future__ import annotations
