@@ -51,7 +51,7 @@ class GdbServer:
         self._listener.setblocking(False)
         try:
             connection, peer = self._listener.accept()
-        except BlockingIOError:
+        except OSError:  # none waiting, or one that went away before it was taken
             return
         finally:
             self._listener.setblocking(True)

@@ -191,7 +191,11 @@ class GdbStub:
             "q": lambda: self._query(packet),
             "v": lambda: self._v_packet(packet),
         }.get(command)
-        self._send(handler() if handler is not None else "")
+        try:
+            reply = handler() if handler is not None else ""
+        except (ValueError, IndexError, OverflowError):
+            reply = "E01"  # a malformed packet: gdb's error reply, and the node runs on
+        self._send(reply)
         return None
 
     def _send(self, data: str) -> None:
