@@ -396,8 +396,9 @@ class Node:
     def load(self, source: ModuleImage | str | Path, address: int | None = None) -> InstalledModule:
         """Load a whole module (an image or a module file) through the streaming path."""
         image = source if isinstance(source, ModuleImage) else ModuleImage.read(source)
-        if not isinstance(source, ModuleImage):
-            self._elves.append(Path(source).with_suffix(".elf"))
+        beside = None if isinstance(source, ModuleImage) else Path(source).with_suffix(".elf")
+        if beside is not None and beside not in self._elves:
+            self._elves.append(beside)
         session = self.begin_load(f"loading:{image.name}", image.size, address)
         with session:
             session.feed_image(image)
@@ -428,7 +429,7 @@ class Node:
         """Give a module the source lines of the first known ELF that is its installed build; an
         ELF of its name that is another build is named in the log, never used."""
         installed = self.cpu.read(module.load_address, len(module.image))
-        for path in dict.fromkeys(self._elves):
+        for path in self._elves:
             if not path.is_file():
                 continue
             try:
