@@ -137,9 +137,11 @@ def listen(
             control = KernelControl(node, lock_step=config.lock_step)
             receiver = Receiver(target, control, trusted=config.trust.keys)
             try:
-                with recording(node.kernel, config.traces), _terminate_as_interrupt():
-                    stop = _stopper(node, config, say, gdb)
+                with recording(node.kernel, config.traces), _stop_requests() as requested:
+                    stop = _stopper(node, config, say, gdb, requested)
                     serve(node, link, receiver=receiver, stop=stop)
+                if requested():
+                    say("stopped")
             except KeyboardInterrupt:
                 say("stopped")
             finally:
@@ -148,22 +150,29 @@ def listen(
 
 
 @contextmanager
-def _terminate_as_interrupt() -> Iterator[None]:
-    """SIGTERM stops the node as Ctrl-C does (KeyboardInterrupt), so that what it was writing,
-    its traces, is closed whole; the handler before is back afterwards. Only the main thread
-    receives signals: elsewhere nothing changes."""
+def _stop_requests() -> Iterator[Callable[[], bool]]:
+    """Ctrl-C and SIGTERM ask the node to stop between two turns of its loop (the callable yielded
+    turns true), rather than raising wherever it is: a job half-recorded into one trace but not
+    the other, or a record cut in the middle, cannot happen. A second signal while the first is
+    pending raises KeyboardInterrupt, for a node that does not come back to its loop (a guest
+    call halted in gdb). The handlers before are back afterwards. Only the main thread receives
+    signals: elsewhere nothing changes (Ctrl-C raises as usual)."""
+    asked: list[int] = []
     if threading.current_thread() is not threading.main_thread():
-        yield
+        yield lambda: False
         return
 
-    def interrupt(_signal: int, _frame: object) -> None:
-        raise KeyboardInterrupt
+    def ask(number: int, _frame: object) -> None:
+        if asked:
+            raise KeyboardInterrupt
+        asked.append(number)
 
-    previous = signal.signal(signal.SIGTERM, interrupt)
+    previous = {number: signal.signal(number, ask) for number in (signal.SIGINT, signal.SIGTERM)}
     try:
-        yield
+        yield lambda: bool(asked)
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for number, handler in previous.items():
+            signal.signal(number, handler)
 
 
 def _native(codes: Mapping[str, ModuleCode], name: str) -> ModuleCode:
@@ -184,10 +193,14 @@ def _configured(say: Callable[[str], None]) -> Callable[[str, int, int], None]:
 
 
 def _stopper(
-    node: Node, config: ListenConfig, say: Callable[[str], None], gdb: list[GdbServer]
+    node: Node,
+    config: ListenConfig,
+    say: Callable[[str], None],
+    gdb: list[GdbServer],
+    requested: Callable[[], bool],
 ) -> Callable[[], bool]:
     """`serve`'s stop test: shows the ports every second, takes gdb when it connects, true once
-    `config.seconds` passed."""
+    `config.seconds` passed or a stop was `requested` (a signal)."""
     deadline = None if config.seconds is None else time.monotonic() + config.seconds
     next_show = time.monotonic() + SHOW_INTERVAL
 
@@ -199,7 +212,7 @@ def _stopper(
         if config.show and now >= next_show:
             next_show = now + SHOW_INTERVAL
             say("  ".join(f"{port}={_value(node, port)}" for port in config.show))
-        return deadline is not None and now >= deadline
+        return requested() or (deadline is not None and now >= deadline)
 
     return stop
 
