@@ -43,6 +43,7 @@ bench: tools $(INSTALLED)
 	$(PY) benchmarks/scheduler.py
 	$(PY) benchmarks/migration.py
 	$(PY) benchmarks/decision.py
+	$(PY) benchmarks/location.py
 	$(PY) benchmarks/crossbar.py
 	$(PY) benchmarks/hostile.py
 	$(PY) benchmarks/dehazer.py

@@ -24,7 +24,7 @@ from refresh.configuration import Configuration, initial_configuration
 from refresh.estimator import FunctionEstimator, Values
 from refresh.events import EventLog
 from refresh.load import load
-from refresh.locator import base_choice_count, brute_force_count
+from refresh.location import base_choice, brute_force
 from refresh.synthetic import current_module, faultable_slots, planted_fault, random_scenario
 
 SIZES = (5, 10, 25, 50, 100, 200)
@@ -47,8 +47,8 @@ def random_decisions(modules: int, databases: int, seed: int) -> dict[str, float
         decision = decide(*args, estimator, EventLog())
         times.append(time.perf_counter() - start)
         assert decision.location.module == faulty and decision.target is not None
-        cases.append(base_choice_count(scenario.configuration, scenario.database))
-        brute.append(brute_force_count(scenario.configuration, scenario.database))
+        cases.append(base_choice.count(scenario.configuration, scenario.database))
+        brute.append(brute_force.count(scenario.configuration, scenario.database))
         tried.append(decision.location.tried)
         assessed.append(len(decision.choice.candidates))
     return {

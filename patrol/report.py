@@ -54,7 +54,9 @@ def _reconfiguration(outcome: Outcome, record: Reconfiguration) -> dict[str, Any
         "test_cases_estimated": location.tried,
         "test_cases": record.test_cases,
         "brute_force": record.brute_force,
+        "strategy": location.strategy,
         "located": location.module,
+        "located_modules": list(location.modules),
         "chosen": None if target is None else target.label(),
         "robots": robots,
         "migrations": [
@@ -83,7 +85,7 @@ def table(figures: dict[str, Any]) -> str:
             f"  fault {number}      {_struck(r['fault_at'])}, "
             f"detected at {r['detected_at']:.2f} s{delay}",
             f"    located    {r['located']} after {r['test_cases_estimated']} of "
-            f"{r['test_cases']} Base Choice cases (brute force: {r['brute_force']}), "
+            f"{r['test_cases']} {r['strategy']} cases (brute force: {r['brute_force']}), "
             f"decided in {r['decision_ms']:.1f} ms",
         ]
         if r["chosen"] is None:

@@ -14,7 +14,7 @@ One concept per module:
 ``estimator``         the Estimator protocol and its plain-function back end
 ``kernel_estimator``  the Estimator back end on pbort shadow runs
 ``decider``           phase 1: evaluator buffers -> violation, with debounce
-``locator``           phase 2: Base Choice fault location, and brute force for comparison
+``location``          phase 2: fault location, Base Choice and three other strategies
 ``generator``         phase 3: alternatives, combo modules, placements, greedy choice
 ``adaptation``        the three phases in a row: one decision
 ``maintainer``        the plan from one configuration to another, applied step by step

@@ -1,8 +1,9 @@
-"""One decision: locate the fault, synthesize candidates around it and choose (phases 2 and 3).
+"""One decision: locate the faults, synthesize candidates around them and choose (phases 2, 3).
 
-The Decider's detection triggers `decide`; its result says which module was found faulty and which
-configuration to run instead, or why there is none: more than one fault suspected (the Locator
-found no single replacement that helps), or no candidate satisfies P_T.
+The Decider's detection triggers `decide`; its result says which modules were found faulty (by
+the task's location strategy, `refresh.location`) and which configuration to run instead, or why
+there is none: nothing located (Base Choice suspects more than one fault, or no test
+configuration satisfied P_T), or no candidate satisfies P_T.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from refresh.database import ModuleDatabase
 from refresh.estimator import Estimator
 from refresh.events import EventLog
 from refresh.generator import DEFAULT_MAX_MODULES, Choice, synthesize
-from refresh.locator import Location, locate
+from refresh.location import Location, locate
 from refresh.task import TaskSpec
 
 
@@ -42,9 +43,10 @@ def decide(
     log: EventLog,
     max_modules: int = DEFAULT_MAX_MODULES,
 ) -> Decision:
-    """Locate with Base Choice, then, seeded by the faulty module, synthesize and choose."""
+    """Locate with the task's strategy, then, seeded by each faulty module, synthesize and
+    choose."""
     location = locate(configuration, database, task, estimator, log)
-    if location.slot is None:
+    if not location.located:
         return Decision(location, None)
-    choice = synthesize(configuration, location.slot, database, task, estimator, log, max_modules)
+    choice = synthesize(configuration, location.slots, database, task, estimator, log, max_modules)
     return Decision(location, choice)

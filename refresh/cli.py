@@ -30,7 +30,7 @@ from refresh.errors import DatabaseError, RefreshError
 from refresh.generator import DEFAULT_MAX_MODULES, candidates
 from refresh.images import check_images
 from refresh.load import MAX_FILE_BYTES, Loaded, load
-from refresh.locator import base_choice_cases, brute_force_count
+from refresh.location import DEFAULT_STRATEGY, STRATEGIES, base_choice, brute_force
 from refresh.manager import LockStep, ManagerConfig, RealTime, manage
 from refresh.runtime import RuntimeSettings
 from refresh.task import TaskSpec
@@ -83,12 +83,12 @@ def cases(options: argparse.Namespace) -> None:
     loaded = load(options.file)
     database, task = loaded.database, _task_with_initial(loaded, str(options.file))
     current = initial_configuration(task, database)
-    found = list(base_choice_cases(current, database))
+    found = [current.replace(slot, option) for slot, option in base_choice.cases(current, database)]
     print(f"current {current.label()}")
-    brute = brute_force_count(current, database)
+    brute = brute_force.count(current, database)
     print(f"Base Choice: {len(found)} test case(s); brute force: {brute}")
-    for case in found:
-        print(f"  {case.number}. {case.configuration}")
+    for number, configuration in enumerate(found, start=1):
+        print(f"  {number}. {configuration}")
     for slot, schema in enumerate(current.schemas):
         made = candidates(current, slot, database, options.k)
         print(f"if {current.chains[slot][0].module} ({schema}) is faulty: {len(made)} candidate(s)")
@@ -138,8 +138,21 @@ def manage_command(options: argparse.Namespace) -> None:
         seconds=options.seconds,
         events=options.events,
         settings=settings,
+        location=options.location,
     )
     manage(config, lambda line: print(line, flush=True))
+
+
+def add_location_option(command: argparse.ArgumentParser) -> None:
+    """``--location NAME``: the fault-location strategy, over the database's choice; the one
+    option every command that decides shares."""
+    command.add_argument(
+        "--location",
+        choices=list(STRATEGIES),
+        metavar="NAME",
+        help=f"the fault-location strategy: {', '.join(STRATEGIES)} (default: the database's "
+        f"[task] location, else {DEFAULT_STRATEGY})",
+    )
 
 
 def robot_url(text: str) -> tuple[str, str]:
@@ -193,6 +206,7 @@ def _add_manage(commands: argparse._SubParsersAction) -> None:
         "NativePBO subclasses with a name are the native modules' code, to estimate with: the "
         "one the nodes were started with (firmware-sim listen --natives)",
     )
+    add_location_option(command)
     time_mode = command.add_mutually_exclusive_group()
     time_mode.add_argument(
         "--lock-step",

@@ -1,6 +1,7 @@
-"""Phase 3: synthesize candidates around the faulty module and choose one (section 4.4, Alg. 2).
+"""Phase 3: synthesize candidates around the faulty modules and choose one (section 4.4, Alg. 2).
 
-The faulty module found by the Locator is the seed: only its slot changes. The candidates are
+Each faulty module found by the Locator is a seed: only the seeds' slots change. For one seed (the
+paper's single fault) the candidates are
 - its alternatives: every other placement under the seed's schema (another module, or the same
   module on another robot, a coalition when that robot is not the task's);
 - combo modules: chains of 2..K modules of the whole database with the seed's interface, where the
@@ -11,7 +12,10 @@ The faulty module found by the Locator is the seed: only its slot changes. The c
   module may appear more than once (a Dehazer feeding a Dehazer), so K keeps the search finite;
 - each combo on every robot combination its modules allow.
 
-Each candidate is estimated; the choice is greedy, as in the paper: the least Util among those
+With several seeds, a candidate fills every seed's slot at once, one of that slot's candidates in
+each: the product of the per-slot lists, in slot order (the paper assumes a single fault and
+leaves several to future work; the Locator's other strategies can name several). Each candidate
+is estimated; the choice is greedy, as in the paper: the least Util among those
 that satisfy P_T (equation (5)).
 """
 
@@ -35,13 +39,20 @@ DEFAULT_MAX_MODULES = 2
 
 @dataclass(frozen=True)
 class Candidate:
-    """One configuration candidate: the seed's slot filled by `chain`; `kind` is
-    ``alternative``, ``placement`` (the seed's module elsewhere) or ``combo``."""
+    """One configuration candidate: each seed's slot of `slots` filled by the chain at the same
+    position of `chains`; `kind` is ``alternative``, ``placement`` (the seed's module elsewhere)
+    or ``combo``, joined by ``+`` when there are several seeds."""
 
     number: int
     kind: str
-    chain: Chain
+    slots: tuple[int, ...]
+    chains: tuple[Chain, ...]
     configuration: Configuration
+
+    @property
+    def chain(self) -> Chain:
+        """The placements the candidate puts in the seeds' slots, in slot order."""
+        return tuple(p for chain in self.chains for p in chain)
 
 
 @dataclass(frozen=True)
@@ -101,7 +112,30 @@ def candidates(
 def _candidate(
     number: int, kind: str, chain: Chain, configuration: Configuration, slot: int
 ) -> Candidate:
-    return Candidate(number, kind, chain, configuration.replace(slot, chain))
+    return Candidate(number, kind, (slot,), (chain,), configuration.replace(slot, chain))
+
+
+def seeded(
+    configuration: Configuration,
+    slots: Sequence[int],
+    database: ModuleDatabase,
+    max_modules: int,
+) -> list[Candidate]:
+    """Every candidate around the seeds in `slots`: for one seed, `candidates`; for several,
+    each combination of one candidate per seed's slot, in slot order."""
+    slots = sorted(slots)
+    if len(slots) == 1:
+        return candidates(configuration, slots[0], database, max_modules)
+    per_slot = [candidates(configuration, slot, database, max_modules) for slot in slots]
+    found: list[Candidate] = []
+    for picks in itertools.product(*per_slot):
+        target = configuration
+        for slot, pick in zip(slots, picks, strict=True):
+            target = target.replace(slot, pick.chains[0])
+        kind = "+".join(pick.kind for pick in picks)
+        chains = tuple(pick.chains[0] for pick in picks)
+        found.append(Candidate(len(found) + 1, kind, tuple(slots), chains, target))
+    return found
 
 
 def _placed(combo: tuple[Module, ...], database: ModuleDatabase) -> Iterator[Chain]:
@@ -111,28 +145,32 @@ def _placed(combo: tuple[Module, ...], database: ModuleDatabase) -> Iterator[Cha
 
 def synthesize(
     configuration: Configuration,
-    slot: int,
+    slots: Sequence[int],
     database: ModuleDatabase,
     task: TaskSpec,
     estimator: Estimator,
     log: EventLog,
     max_modules: int = DEFAULT_MAX_MODULES,
 ) -> Choice:
-    """Algorithm 2: generate, estimate and assess every candidate, then choose greedily."""
-    seed = configuration.chains[slot]
-    found = candidates(configuration, slot, database, max_modules)
-    seed_label = " + ".join(p.module for p in seed)
+    """Algorithm 2, seeded by the chains of `slots`: generate, estimate and assess every
+    candidate, then choose greedily."""
+    found = seeded(configuration, slots, database, max_modules)
+    seeds = [configuration.chains[slot] for slot in sorted(slots)]
+    seed_label = " and ".join(" + ".join(p.module for p in seed) for seed in seeds)
     log.record(
         "synthesize",
-        f"seed {seed_label}: {len(found)} candidate(s), K = {max_modules}",
-        seed=[str(p) for p in seed],
+        f"seed{'s' if len(seeds) > 1 else ''} {seed_label}: {len(found)} candidate(s), "
+        f"K = {max_modules}",
+        seed=[str(p) for seed in seeds for p in seed],
         candidates=len(found),
         max_modules=max_modules,
     )
     base_usage = usage(configuration, database)
     assessed = []
     for candidate in found:
-        used = usage_replaced(base_usage, seed, candidate.chain, database)
+        used = base_usage
+        for slot, chain in zip(candidate.slots, candidate.chains, strict=True):
+            used = usage_replaced(used, configuration.chains[slot], chain, database)
         target = candidate.configuration
         assessment = assess(used, estimator.estimate(target), task, database, target.robots)
         assessed.append((candidate, assessment))
@@ -148,6 +186,11 @@ def synthesize(
             util=assessment.util,
             failing=assessment.failing(),
         )
+    return _chosen(assessed, log)
+
+
+def _chosen(assessed: list[tuple[Candidate, Assessment]], log: EventLog) -> Choice:
+    """Equation (5) over the assessed candidates, logged."""
     chosen = best(assessed)
     if chosen is None:
         log.record("choice", "no candidate satisfies P_T", configuration=None)

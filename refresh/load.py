@@ -21,6 +21,7 @@ from typing import Any
 from refresh.configuration import initial_configuration
 from refresh.database import CodeSource, Module, ModuleDatabase, Resource, Robot, Schema, SchemaKind
 from refresh.errors import ConfigurationError, DatabaseError
+from refresh.location import DEFAULT_STRATEGY
 from refresh.schema import describe, validate
 from refresh.task import Direction, Metric, StateMachine, TaskSpec
 
@@ -211,6 +212,7 @@ def _task(body: Mapping[str, Any], database: ModuleDatabase, file: str) -> TaskS
         metrics=metrics,
         alpha=float(body.get("alpha", 0.5)),
         initial=tuple(body.get("initial", ())),
+        location=body.get("location", DEFAULT_STRATEGY),
     )
     if task.initial:
         try:

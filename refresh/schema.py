@@ -16,6 +16,7 @@ from jsonschema import Draft202012Validator
 from jsonschema.exceptions import ValidationError
 
 from refresh.errors import DatabaseError
+from refresh.location import STRATEGIES
 
 NAME = r"^[A-Za-z_][A-Za-z0-9_]*$"
 """Names of robots, schemas, modules, ports, resources and metrics: kernel-safe (no '.')."""
@@ -131,6 +132,7 @@ _TASK = {
             "additionalProperties": _METRIC,
         },
         "initial": {"type": "array", "items": {"type": "string", "minLength": 1}},
+        "location": {"enum": list(STRATEGIES)},
     },
     "required": ["name", "robot", "states", "schemas"],
     "additionalProperties": False,

@@ -1,10 +1,12 @@
-"""Random module databases with a planted fault: for property tests and the decision benchmark.
+"""Random module databases with planted faults: for property tests and the decision and location
+benchmarks.
 
 A synthetic task is a pipeline: slot i's modules consume type ``t<i>`` and produce ``t<i+1>`` (the
 first slot's modules are sources), so every alternative fits its slot and connections follow. Some
 modules are filters (``t<i>`` to ``t<i>``) under schemas of their own, outside the task, which the
 Generator can combine into combo modules. Modules run on 1 to 3 random robots; power is ample, so
-only the planted fault makes P_T = 0.
+only a planted fault makes P_T = 0: a configuration that holds any planted faulty module misses
+the metric, wherever the module runs.
 """
 
 from __future__ import annotations
@@ -79,21 +81,23 @@ def _module(
     )
 
 
-def planted_fault(faulty: str) -> FunctionEstimator:
-    """An estimator for which every configuration holding module `faulty` misses the metric."""
+def planted_fault(*faulty: str) -> FunctionEstimator:
+    """An estimator for which every configuration holding any module of `faulty` misses the
+    metric."""
+    modules = frozenset(faulty)
 
     def estimate(configuration: Configuration) -> Values:
-        return {METRIC: 5.0 if _holds(configuration, faulty) else 0.5}
+        return {METRIC: 5.0 if _holds(configuration, modules) else 0.5}
 
     return FunctionEstimator(estimate)
 
 
-def _holds(configuration: Configuration, module: str) -> bool:
-    return any(p.module == module for p in configuration.placements)
+def _holds(configuration: Configuration, modules: frozenset[str]) -> bool:
+    return any(p.module in modules for p in configuration.placements)
 
 
 def faultable_slots(scenario: Scenario) -> list[int]:
-    """Slots with at least two modules: where a single planted fault can be located."""
+    """Slots with at least two modules: where a planted fault can be located (and repaired)."""
     return [
         slot
         for slot, schema in enumerate(scenario.task.schemas)

@@ -4,7 +4,8 @@ The state machine SM runs its states in order and back to the first (S1 -> ... -
 schemas are the slots a configuration fills, listed in data-flow order (a module's inputs are fed
 by the modules before it). The designer's functional metrics say which schema's evaluator (and
 estimator) reports each value, its threshold and whether the value must stay at most or at least
-that threshold; `alpha` weighs resources against function in Util (equation (4)).
+that threshold; `alpha` weighs resources against function in Util (equation (4)); `location`
+names the strategy that locates faults (section 4.3's Base Choice by default).
 """
 
 from __future__ import annotations
@@ -80,3 +81,6 @@ class TaskSpec:
     alpha: float = 0.5
     initial: tuple[str, ...] = ()
     """The preprogrammed configuration: one ``Module`` or ``Module@robot`` per schema."""
+    location: str = "base-choice"
+    """The fault-location strategy's name (`refresh.location.STRATEGIES`): the paper's Base
+    Choice unless the database or a command line says otherwise."""

@@ -13,7 +13,7 @@ from __future__ import annotations
 import contextlib
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from firmware_sim.errors import FirmwareSimError
@@ -35,8 +35,9 @@ from refresh.runtime import Runtime, RuntimeSettings
 class ManagerConfig:
     """What ``python -m refresh manage`` is told: the database and its task, the node of each
     robot by URL, the Python modules of the natives, the time mode, how long to run (None:
-    until interrupted), where to write the events as JSON lines, the runtime's settings, and
-    the key that authenticates the manager to nodes that trust keys."""
+    until interrupted), where to write the events as JSON lines, the runtime's settings, the
+    key that authenticates the manager to nodes that trust keys, and the fault-location strategy
+    (None: the database's)."""
 
     database: Path
     task: str
@@ -47,12 +48,16 @@ class ManagerConfig:
     events: Path | None = None
     settings: RuntimeSettings = field(default_factory=RuntimeSettings)
     key: PrivateKey | None = None
+    location: str | None = None
 
 
 def manage(config: ManagerConfig, say: Callable[[str], None]) -> Runtime:
     """Run the manager (see the module's docstring); each line of output goes to `say`. Returns
     the runtime, with its history and log, once the run's time is over."""
     loaded = load_task(config.database, config.task, config.nodes)
+    task = loaded.task
+    if config.location is not None:
+        task = replace(task, location=config.location)
     try:
         natives = load_natives(config.natives)
     except FirmwareSimError as error:
@@ -63,7 +68,7 @@ def manage(config: ManagerConfig, say: Callable[[str], None]) -> Runtime:
         if config.events is not None:
             out = stack.enter_context(config.events.open("w", encoding="utf-8"))
         host = stack.enter_context(Node("manager"))
-        estimators = host_estimators(loaded.database, loaded.task, host, natives)
+        estimators = host_estimators(loaded.database, task, host, natives)
         applier = stack.enter_context(
             LinkApplier.open(dict(config.nodes), period=period, key=config.key)
         )
@@ -73,7 +78,7 @@ def manage(config: ManagerConfig, say: Callable[[str], None]) -> Runtime:
         applier.use_clock(config.time.clock)
         runtime = Runtime(
             loaded.database,
-            loaded.task,
+            task,
             applier,
             estimators,
             config.time.clock,
@@ -83,8 +88,8 @@ def manage(config: ManagerConfig, say: Callable[[str], None]) -> Runtime:
         stream = EventStream(runtime.log, say, out)
         stack.callback(stream.flush)  # what came before an error or Ctrl-C is written too
         say(
-            f"task {loaded.task.name}: {config.time.describe()}, a decision every "
-            f"{config.settings.decision_period:g} s"
+            f"task {task.name}: {config.time.describe()}, a decision every "
+            f"{config.settings.decision_period:g} s, faults located by {task.location}"
         )
         runtime.deploy()
         stream.flush()

@@ -5,15 +5,15 @@ period has passed: either it advances the world itself and calls `step()` once p
 `decision_period` (the visual-servoing experiment does, sampling every camera frame in between),
 or it hands `run(until, advance)` a function that lets the world run on for some seconds.
 
-`deploy()` starts the task's initial configuration through the Maintainer's plan, as any later
-one. At each `step()` the Decider reads the evaluators' reports (`applier.sources()`) and judges
-the period; a declared fault is acted on unless the configuration switched less than `settle`
-seconds ago. Acting on it is one decision (`refresh.adaptation.decide`: locate with Base Choice,
-synthesize, choose), estimated by a fresh estimator from the caller's factory, then the plan to
-the chosen configuration applied (images migrate first, while the old configuration runs on), or,
-when nothing helps, a safe stop: every module of the task is stopped and nothing runs. After a
-switch, the task counts as recovered once P_T has stayed 1 for `recovery_hold` seconds; the
-recovery is dated from when P_T first came back.
+`deploy()` starts the task's initial configuration through the Maintainer's plan, as any later one.
+At each `step()` the Decider reads the evaluators' reports (`applier.sources()`) and judges the
+period; a declared fault is acted on unless the configuration switched less than `settle` seconds
+ago. Acting on it is one decision (`refresh.adaptation.decide`: locate with the task's strategy,
+Base Choice by default; synthesize around each faulty module; choose), estimated by a fresh
+estimator from the caller's factory, then the plan to the chosen configuration applied (images
+migrate first, while the old configuration runs on), or, when nothing helps, a safe stop: every
+module of the task is stopped and nothing runs. After a switch, the task counts as recovered once
+P_T has stayed 1 for `recovery_hold` seconds; the recovery is dated from when P_T first came back.
 
 The applier may let the world run while it works (a migration over a slow wire): a `step()` that
 comes meanwhile judges as usual but starts no second decision. Every event goes to `log`, on the
@@ -41,7 +41,7 @@ from refresh.database import ModuleDatabase
 from refresh.decider import Decider, Detection
 from refresh.errors import ConfigurationError, NodeLinkError, RefreshError
 from refresh.events import EventLog
-from refresh.locator import brute_force_count
+from refresh.location import brute_force
 from refresh.maintainer import Maintainer
 from refresh.runtime.applier import RuntimeApplier
 from refresh.runtime.estimators import EstimatorFactory
@@ -251,7 +251,7 @@ class Runtime:
             decision,
             seconds,
             test_cases=decision.location.total,
-            brute_force=brute_force_count(current, self.database),
+            brute_force=brute_force.count(current, self.database),
         )
         self.history.reconfigurations.append(record)
         if decision.target is None:

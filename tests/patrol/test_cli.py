@@ -24,7 +24,7 @@ def test_run_prints_the_summary_and_writes_the_report_timeline_and_figure(tmp_pa
     assert main(["run", "--scenario", "glare", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "scenario glare: glare blinds rover1's line camera at 1 s" in out
-    assert "located    LineCam after 1 of 9 Base Choice cases (brute force: 162)" in out
+    assert "located    LineCam after 1 of 9 base-choice cases (brute force: 162)" in out
     assert "chosen     {MastCam@mast, Gyro, Median, PID, Drive, Chassis} on mast, rover1" in out
     report = json.loads((tmp_path / "report.json").read_text())
     (record,) = report["summary"]["reconfigurations"]

@@ -4,7 +4,9 @@ three candidates and chooses {CamReader, Dehazer, SSD, TrajGen, HexMan}."""
 
 from __future__ import annotations
 
+import itertools
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -15,13 +17,8 @@ from refresh.estimator import FunctionEstimator, Values
 from refresh.events import EventLog
 from refresh.generator import candidates, combos
 from refresh.load import Loaded, load
-from refresh.locator import (
-    base_choice_cases,
-    base_choice_count,
-    brute_force_count,
-    locate,
-    locate_brute_force,
-)
+from refresh.location import STRATEGIES, adaptive, base_choice, brute_force, pairwise
+from refresh.location.trials import all_options
 from refresh.performance import assess, usage
 
 DATABASE = Path(__file__).parents[2] / "refresh" / "data" / "visual_servoing.toml"
@@ -63,30 +60,60 @@ def test_initial_configuration_leaves_the_papers_90_power_units(scenario, curren
 
 
 def test_base_choice_generates_the_papers_three_test_cases_in_order(scenario, current):
-    cases = [c.configuration.label() for c in base_choice_cases(current, scenario.database)]
+    cases = [
+        current.replace(slot, option).label()
+        for slot, option in base_choice.cases(current, scenario.database)
+    ]
     assert cases == [
         "{CamReader_alt, SSD, TrajGen, HexMan}",
         "{CamReader, SSD_alt, TrajGen, HexMan}",
         "{CamReader, SSD, TrajGen_alt, HexMan}",
     ]
-    assert base_choice_count(current, scenario.database) == 3
-    assert brute_force_count(current, scenario.database) == 8  # section 6.5
+    assert base_choice.count(current, scenario.database) == 3
+    assert brute_force.count(current, scenario.database) == 8  # section 6.5
 
 
 def test_base_choice_names_camreader_after_the_first_case(scenario, current):
     estimator = FunctionEstimator(noisy_camera)
-    location = locate(current, scenario.database, scenario.task, estimator, EventLog())
+    location = base_choice.locate(current, scenario.database, scenario.task, estimator, EventLog())
     assert location.module == "CamReader"
     assert location.tried == 1
     assert estimator.calls == 1
-    assert location.case.configuration.label() == "{CamReader_alt, SSD, TrajGen, HexMan}"
+    assert location.passing.label() == "{CamReader_alt, SSD, TrajGen, HexMan}"
 
 
 def test_brute_force_agrees_at_eight_estimates(scenario, current):
     estimator = FunctionEstimator(noisy_camera)
-    location = locate_brute_force(current, scenario.database, scenario.task, estimator, EventLog())
+    location = brute_force.locate(current, scenario.database, scenario.task, estimator, EventLog())
     assert location.module == "CamReader"
     assert estimator.calls == 8
+
+
+@pytest.mark.parametrize("name", list(STRATEGIES))
+def test_every_strategy_names_camreader_and_the_decision_is_the_papers(scenario, current, name):
+    task = replace(scenario.task, location=name)
+    estimator = FunctionEstimator(noisy_camera)
+    decision = decide(current, scenario.database, task, estimator, EventLog())
+    assert decision.location.strategy == name
+    assert decision.location.modules == ("CamReader",)
+    assert decision.target.label() == "{CamReader, Dehazer, SSD, TrajGen, HexMan}"
+
+
+def test_adaptive_needs_fewer_estimates_than_brute_force(scenario, current):
+    estimator = FunctionEstimator(noisy_camera)
+    location = adaptive.locate(current, scenario.database, scenario.task, estimator, EventLog())
+    assert location.module == "CamReader"
+    # every slot replaced, then {camera, matching} kept, then the camera alone: 3 against 8
+    assert location.tried == estimator.calls == 3
+
+
+def test_pairwise_covers_every_pair_in_fewer_cases_than_brute_force(scenario, current):
+    found = pairwise.cases(current, scenario.database)
+    assert len(found) < brute_force.count(current, scenario.database)
+    options = all_options(current, scenario.database)
+    for first, second in itertools.combinations(range(len(options)), 2):
+        covered = {(chains[first], chains[second]) for chains in found}
+        assert covered == set(itertools.product(options[first], options[second]))
 
 
 def test_generator_builds_the_papers_two_combos(scenario):

@@ -119,7 +119,7 @@ def test_the_mcap_export_holds_every_sample_and_event_on_the_run_s_time(paper, t
 def test_the_command_writes_report_timeline_and_plot(tmp_path: Path, capsys):
     assert main(["run", "--scenario", "paper", "--out", str(tmp_path)]) == 0
     printed = capsys.readouterr().out
-    assert "3 by Base Choice (1 estimated) against 8 by brute force" in printed
+    assert "3 by base-choice (1 estimated) against 8 by brute force" in printed
     assert f"plot: {tmp_path / 'deviation.png'}" in printed
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["summary"]["final"] == PAPER_CANDIDATES[1]

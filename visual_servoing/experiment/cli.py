@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import json
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +37,7 @@ from commandline.arguments import real
 from commandline.progress import progress_bar
 from firmware_sim.errors import FirmwareSimError
 from hexmigrate.errors import HexmigrateError
+from refresh.cli import add_location_option
 from refresh.errors import RefreshError
 from visual_servoing.errors import ServoingError
 from visual_servoing.experiment.experiment import Experiment, Outcome
@@ -51,14 +53,14 @@ from visual_servoing.experiment.report import (
     write_mcap,
     write_timeline,
 )
-from visual_servoing.experiment.scenarios import SCENARIOS
+from visual_servoing.experiment.scenarios import SCENARIOS, Scenario
 
 DEFAULT_OUT = Path("build") / "visual_servoing"
 
 
 def cmd_run(args: argparse.Namespace) -> None:
     """Run one scenario and write its report, timeline and plot."""
-    scenario = SCENARIOS[args.scenario]
+    scenario = _scenario(args)
     out = args.out or DEFAULT_OUT / scenario.name
     if not args.processes and (args.real_time or args.quantum is not None):
         raise UsageError("--real-time and --quantum go with --processes")
@@ -113,7 +115,7 @@ def cmd_node(args: argparse.Namespace) -> int:
 
 def cmd_manager(args: argparse.Namespace) -> None:
     """Run a scenario on nodes in other processes and write its report, timeline and plot."""
-    scenario = SCENARIOS[args.scenario]
+    scenario = _scenario(args)
     out = args.out or DEFAULT_OUT / scenario.name
     out.mkdir(parents=True, exist_ok=True)
     nodes = dict(_robot_url(text) for text in args.node)
@@ -121,6 +123,14 @@ def cmd_manager(args: argparse.Namespace) -> None:
         scenario, out, nodes, tuple(args.servos), args.servo_control, args.quantum
     )
     _print(_written(outcome, out), out, as_json=False)
+
+
+def _scenario(args: argparse.Namespace) -> Scenario:
+    """The scenario named by ``--scenario``, located by ``--location``'s strategy if given."""
+    scenario = SCENARIOS[args.scenario]
+    if args.location is None:
+        return scenario
+    return replace(scenario, location=args.location)
 
 
 def _robot_url(text: str) -> tuple[str, str]:
@@ -155,6 +165,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--out", type=_folder, metavar="DIR", help=f"output folder (default {DEFAULT_OUT}/NAME)"
     )
     running.add_argument("--json", action="store_true", help="print the summary as JSON")
+    add_location_option(running)
     running.add_argument(
         "--processes",
         action="store_true",
@@ -208,6 +219,7 @@ def build_parser() -> argparse.ArgumentParser:
         "run a scenario on nodes in other processes (a process of run --processes)",
     )
     _scenario_option(manager)
+    add_location_option(manager)
     manager.add_argument(
         "--out", type=_folder, metavar="DIR", help=f"output folder (default {DEFAULT_OUT}/NAME)"
     )

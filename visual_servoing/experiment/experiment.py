@@ -17,7 +17,7 @@ are stopped and the platform holds its pose.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -120,6 +120,9 @@ class Experiment:
         self.image = ModuleImage.read(hex_file)  # what migrates is what the HEX file says
         text = scenario.database.read_text() + scenario.extra
         self.loaded: Loaded = loads(text, scenario.database.name, work)
+        if scenario.location is not None and self.loaded.task is not None:
+            task = replace(self.loaded.task, location=scenario.location)
+            self.loaded = Loaded(self.loaded.database, task)
         self.devices = camera_devices(
             scenario,
             self.loaded.database,

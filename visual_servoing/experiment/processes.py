@@ -193,6 +193,8 @@ def run_processes(
         launch.urls["rotation"] = rotation.wait_for(CONNECT)[1]
         manager_args = ["-m", "visual_servoing", "manager", "--scenario", scenario.name]
         manager_args += ["--out", str(out), "--quantum", repr(quantum)]
+        if scenario.location is not None:
+            manager_args += ["--location", scenario.location]
         for robot in ("hexman", "rotation"):
             manager_args += ["--node", f"{robot}={launch.urls[robot]}"]
         manager_args += servo_urls

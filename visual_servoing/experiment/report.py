@@ -59,7 +59,9 @@ def _reconfiguration(outcome: Outcome, record: Reconfiguration) -> dict[str, Any
         "test_cases": record.test_cases,
         "test_cases_estimated": location.tried,
         "brute_force": record.brute_force,
+        "strategy": location.strategy,
         "located": location.module,
+        "located_modules": list(location.modules),
         "candidates": [
             {
                 "configuration": candidate.configuration.label(),
@@ -123,7 +125,7 @@ def table(figures: dict[str, Any]) -> str:
             ),
             (
                 f"{prefix}test cases",
-                f"{r['test_cases']} by Base Choice ({r['test_cases_estimated']} estimated) "
+                f"{r['test_cases']} by {r['strategy']} ({r['test_cases_estimated']} estimated) "
                 f"against {r['brute_force']} by brute force",
             ),
             (f"{prefix}faulty module", r["located"]),

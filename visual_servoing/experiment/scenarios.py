@@ -58,6 +58,8 @@ class Scenario:
     """TOML appended to the database file: more modules, more metrics."""
     duration: float = 10.0
     fault_at: float = FAULT_AT
+    location: str | None = None
+    """The fault-location strategy, over the database's (`refresh.location.STRATEGIES`)."""
 
 
 PAPER = Scenario(
