@@ -134,6 +134,12 @@ def error_of(text: str) -> DatabaseError:
             "db.toml: robots.r2.resources.power.capacity: expected a number >= 0, "
             "got the number -1",
         ),
+        (
+            'initial = ["Cam"]',
+            'initial = ["Cam"]\nlocation = "bisect"',
+            "db.toml: task.location: expected one of 'base-choice', 'brute-force', 'pairwise', "
+            "'adaptive', got the string 'bisect'",
+        ),
     ],
 )
 def test_bad_input_says_where_what_was_expected_and_what_came(old, new, message):
@@ -206,3 +212,9 @@ def test_the_shipped_scenario_loads():
         "manipulator",
     ]
     assert loaded.task.schemas == ("camera", "matching", "trajectory", "manipulator")
+
+
+def test_the_task_names_its_location_strategy_base_choice_by_default():
+    assert loads(MINIMAL, "db.toml").task.location == "base-choice"
+    chosen = MINIMAL.replace('initial = ["Cam"]', 'initial = ["Cam"]\nlocation = "adaptive"')
+    assert loads(chosen, "db.toml").task.location == "adaptive"

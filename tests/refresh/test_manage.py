@@ -160,6 +160,7 @@ def test_in_real_time_it_repairs_and_runs_until_interrupted(database, tmp_path):
     out = tmp_path / "events.jsonl"
     command = [sys.executable, "-m", "refresh", "manage", "--db", str(database), "--task"]
     command += ["levels", "--natives", NATIVES, "--real-time", *SETTINGS, "--events", str(out)]
+    command += ["--location", "adaptive"]
     with nodes("", "") as (_started, options):
         manager = subprocess.Popen(
             [*command, *options], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
@@ -179,6 +180,10 @@ def test_in_real_time_it_repairs_and_runs_until_interrupted(database, tmp_path):
     # Times are the run's clock, from 0 at the start, not the host's wall clock.
     assert all(0 <= event["time"] < MANAGER_TIMEOUT for event in events(out))
     assert any(line.endswith("running {Sensor_alt@b, gain, Check}") for line in lines)
+    assert any(line.endswith("faults located by adaptive") for line in lines)
+    location = next(event for event in events(out) if event["kind"] == "location")
+    assert location["data"]["strategy"] == "adaptive"
+    assert location["data"]["modules"] == ["Sensor"]
 
 
 def read_until(process: subprocess.Popen[str], pattern: re.Pattern[str]) -> list[str]:
