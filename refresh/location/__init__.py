@@ -50,6 +50,21 @@ def strategy(name: str) -> Strategy:
         ) from None
 
 
+def compare(
+    configuration: Configuration,
+    database: ModuleDatabase,
+    task: TaskSpec,
+    estimators: Callable[[], Estimator],
+) -> dict[str, Location]:
+    """Every strategy's answer for the same configuration, each estimating with a fresh
+    estimator from `estimators` and logging to a log of its own (the comparison is not part of
+    the decision)."""
+    return {
+        name: locate(configuration, database, task, estimators(), EventLog())
+        for name, locate in STRATEGIES.items()
+    }
+
+
 def locate(
     configuration: Configuration,
     database: ModuleDatabase,
@@ -68,6 +83,7 @@ __all__ = [
     "STRATEGIES",
     "Location",
     "Strategy",
+    "compare",
     "locate",
     "strategy",
 ]

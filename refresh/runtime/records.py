@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 from refresh.adaptation import Decision
 from refresh.configuration import Configuration
+from refresh.location import Location
 
 
 @dataclass
@@ -26,6 +27,8 @@ class Reconfiguration:
     recovered_at: float | None = None
     test_cases: int = 0
     brute_force: int = 0
+    comparison: dict[str, Location] = field(default_factory=dict)
+    """Every strategy's answer at this decision, when the settings compare them."""
 
 
 @dataclass

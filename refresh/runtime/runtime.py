@@ -41,7 +41,7 @@ from refresh.database import ModuleDatabase
 from refresh.decider import Decider, Detection
 from refresh.errors import ConfigurationError, NodeLinkError, RefreshError
 from refresh.events import EventLog
-from refresh.location import brute_force
+from refresh.location import brute_force, compare
 from refresh.maintainer import Maintainer
 from refresh.runtime.applier import RuntimeApplier
 from refresh.runtime.estimators import EstimatorFactory
@@ -253,6 +253,11 @@ class Runtime:
             test_cases=decision.location.total,
             brute_force=brute_force.count(current, self.database),
         )
+        if self.settings.compare_locations:
+            steps = self.settings.estimate_steps
+            record.comparison = compare(
+                current, self.database, self.task, lambda: self.estimators(detected_at, steps)
+            )
         self.history.reconfigurations.append(record)
         if decision.target is None:
             self._stop_safely(current, decision)

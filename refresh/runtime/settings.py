@@ -34,6 +34,10 @@ class RuntimeSettings:
     lost_after: float = 1.0
     """Seconds without a word from a node (no report, heartbeat or answer) before it is lost;
     also how often a lost node is tried again (`rejoin`)."""
+    compare_locations: bool = False
+    """At each decision, every fault-location strategy also locates the fault in shadow, each
+    with a fresh estimator, and the reconfiguration keeps their answers (campaigns compare the
+    strategies on the same runs); what the runtime does stays its task's strategy's."""
 
     def __post_init__(self) -> None:
         _seconds("decision_period", self.decision_period, positive=True)

@@ -7,12 +7,14 @@ faster Decider."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 
 from firmware_sim.node import Node
 from pbort import Kernel
 from refresh.errors import ApplyError, ConfigurationError, RateError
+from refresh.location import STRATEGIES
 from refresh.node_applier import NodeApplier
 from refresh.runtime import HostEstimators, Runtime, RuntimeSettings
 from tests.refresh.line_follower import (
@@ -86,6 +88,21 @@ def test_the_fault_is_detected_located_and_repaired_and_the_task_recovers():
         assert runtime.history.stopped_at is None
         (recovered,) = runtime.log.of_kind("recovered")
         assert recovered.time == pytest.approx(1.6)  # held for 0.3 s
+
+
+def test_compared_strategies_locate_in_shadow_and_the_decision_stays_the_task_s():
+    settings = replace(SETTINGS, compare_locations=True)
+    with rover(FAULT_AT, settings=settings) as (runtime, node):
+        runtime.deploy()
+        runtime.run(3.0, advance(node))
+        (record,) = runtime.history.reconfigurations
+        assert list(record.comparison) == list(STRATEGIES)
+        for name, location in record.comparison.items():
+            assert location.strategy == name
+            assert location.modules == ("Sensor",)
+        assert record.decision.location.strategy == "base-choice"
+        assert record.target is not None and record.target.label() == REPAIRED
+        assert [e.kind for e in runtime.log].count("location") == 1  # shadows log elsewhere
 
 
 def test_estimators_judge_the_time_of_the_decision_not_the_host_s_own():
