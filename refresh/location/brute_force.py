@@ -1,9 +1,10 @@
 """Brute force: every combination of options, the exhaustive baseline.
 
 It estimates all prod(a_i) configurations (the base included, as the paper counts them) and
-names the slots changed by the passing configuration that changes fewest (the first such in
-generation order): when every fault must be replaced for P_T to hold, the smallest passing change
-is exactly the set of faulty slots, however many there are. Its cost is what the other strategies
+names the slots changed by the passing configuration that changes fewest (of several, the one
+changing the earliest slots, in task order as Base Choice tries them): when every fault must be
+replaced for P_T to hold, the smallest passing change is exactly the set of faulty slots, however
+many there are. Its cost is what the other strategies
 are measured against.
 """
 
@@ -17,7 +18,7 @@ from refresh.database import ModuleDatabase
 from refresh.estimator import Estimator
 from refresh.events import EventLog
 from refresh.location.result import NO_PASSING_CONFIGURATION, Location
-from refresh.location.trials import Chains, Trials, all_options
+from refresh.location.trials import Trials, all_options
 from refresh.task import TaskSpec
 
 NAME = "brute-force"
@@ -40,12 +41,12 @@ def locate(
     total = math.prod(len(o) for o in options)
     log.record("locate", f"brute force: {total} configuration(s)", strategy=NAME, cases=total)
     trials = Trials(configuration, database, task, estimator, log)
-    smallest: Chains | None = None
-    fewest = len(options) + 1
-    for chains in itertools.product(*options):
-        changed = len(trials.changed(chains))
-        if trials.passes(chains) and 0 < changed < fewest:
-            smallest, fewest = chains, changed
-    if smallest is None:
+    passing = [
+        chains
+        for chains in itertools.product(*options)
+        if trials.passes(chains) and trials.changed(chains)
+    ]
+    if not passing:
         return trials.conclude(NAME, (), None, total, NO_PASSING_CONFIGURATION)
+    smallest = trials.smallest(passing)
     return trials.conclude(NAME, trials.changed(smallest), smallest, total, "")

@@ -6,7 +6,10 @@ pairwise already. Every case is estimated. When every faulty slot must be replac
 hold, each passing case changes all of them, so the slots changed in every passing case are the
 faults; with one or two faults a passing case exists whenever each faulty slot has a sound
 option (every pair of replacements is covered), with three or more it may not. The evidence is
-the passing case that changes fewest slots.
+the passing case that changes fewest slots. When the passing cases change no slot in common
+(replacing either of two modules repairs the task, as a camera's fog is repaired by another
+camera or by a matcher that sees through it), the slots of that smallest case are named, as brute
+force would.
 """
 
 from __future__ import annotations
@@ -25,7 +28,6 @@ from refresh.location.trials import Chains, Trials, all_options
 from refresh.task import TaskSpec
 
 NAME = "pairwise"
-NO_COMMON_SLOT = "the passing test cases change no slot in common"
 
 
 def cases(configuration: Configuration, database: ModuleDatabase) -> list[Chains]:
@@ -55,7 +57,6 @@ def locate(
     if not passing:
         return trials.conclude(NAME, (), None, total, NO_PASSING_CONFIGURATION)
     common = set.intersection(*(set(trials.changed(chains)) for chains in passing))
-    if not common:
-        return trials.conclude(NAME, (), None, total, NO_COMMON_SLOT)
-    evidence = min(passing, key=lambda chains: len(trials.changed(chains)))
-    return trials.conclude(NAME, tuple(sorted(common)), evidence, total, "")
+    evidence = trials.smallest(passing)
+    faulty = tuple(sorted(common)) if common else trials.changed(evidence)
+    return trials.conclude(NAME, faulty, evidence, total, "")

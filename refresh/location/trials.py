@@ -65,6 +65,12 @@ class Trials:
         """The slots where `chains` differs from the base."""
         return tuple(s for s, chain in enumerate(chains) if chain != self.base.chains[s])
 
+    def smallest(self, passing: list[Chains]) -> Chains:
+        """Of `passing` configurations, the one that changes fewest slots, the earliest slots
+        first when several change as few (task order, upstream first, as Base Choice tries
+        them)."""
+        return min(passing, key=lambda chains: (len(self.changed(chains)), self.changed(chains)))
+
     def replaced(self, replacements: dict[int, Chain]) -> Chains:
         """The base's chains with the slots of `replacements` replaced."""
         return tuple(replacements.get(s, chain) for s, chain in enumerate(self.base.chains))

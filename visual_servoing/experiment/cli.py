@@ -6,6 +6,7 @@ Examples:
   python -m visual_servoing run --scenario fog --out build/fog --json
   python -m visual_servoing run --processes              # the nodes, servos, manager apart
   python -m visual_servoing scenarios                    # what each scenario does and expects
+  python -m visual_servoing campaign --runs 200 --seed 7 # 200 randomised runs on every core
 
 run prints the summary table (detection delay, decision time, test cases against brute force,
 the migration's time and bytes, the recovery) and writes into DIR (default
@@ -21,6 +22,11 @@ processes on loopback links (TCP between the robots, a pty for migration, CAN th
 python-can-remote servers), in lock-step virtual time unless --real-time; each process's output
 goes to ROLE.log in DIR, and the summary adds "processes" (each role's URL). The commands node
 and manager are the programs it starts.
+
+campaign draws --runs runs from --seed (a fault of each drawn scenario's family, its time and
+strength, sometimes a second fault at once, sometimes none), runs them on a local Dask cluster or
+on --scheduler's, and writes into DIR (default build/visual_servoing/campaign) runs.jsonl (one
+record per run), summary.json, the plots and index.html; --resume finishes an interrupted one.
 """
 
 from __future__ import annotations
@@ -32,6 +38,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from campaign.cli import add_campaign_arguments, run_campaign
+from campaign.errors import CampaignError
 from commandline import UsageError, add_command, command_parser, run
 from commandline.arguments import real
 from commandline.progress import progress_bar
@@ -40,6 +48,7 @@ from hexmigrate.errors import HexmigrateError
 from refresh.cli import add_location_option
 from refresh.errors import RefreshError
 from visual_servoing.errors import ServoingError
+from visual_servoing.experiment.campaign import APPLICATION
 from visual_servoing.experiment.experiment import Experiment, Outcome
 from visual_servoing.experiment.linked import QUANTUM
 from visual_servoing.experiment.manager import run_manager
@@ -140,6 +149,11 @@ def _robot_url(text: str) -> tuple[str, str]:
     return robot, url
 
 
+def cmd_campaign(args: argparse.Namespace) -> None:
+    """Run a campaign of randomised runs and write its records, summary, plots and page."""
+    run_campaign(args, APPLICATION)
+
+
 def cmd_scenarios(args: argparse.Namespace) -> None:
     """List the scenarios."""
     for scenario in SCENARIOS.values():
@@ -183,6 +197,13 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"with --processes: the lock-step quantum in seconds (default {QUANTUM:g})",
     )
     add_command(commands, "scenarios", cmd_scenarios, "list the scenarios")
+    campaign = add_command(
+        commands,
+        "campaign",
+        cmd_campaign,
+        "draw many runs with random faults, run them on Dask, and write their statistics",
+    )
+    add_campaign_arguments(campaign, APPLICATION)
     node = add_command(
         commands, "node", cmd_node, "serve one robot's node (a process of run --processes)"
     )
@@ -277,5 +298,7 @@ def _folder(text: str) -> Path:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; the exit status."""
     return run(
-        build_parser(), (ServoingError, RefreshError, HexmigrateError, FirmwareSimError), argv
+        build_parser(),
+        (ServoingError, RefreshError, HexmigrateError, FirmwareSimError, CampaignError),
+        argv,
     )

@@ -87,16 +87,22 @@ class Outcome:
 
 class Experiment:
     """A scenario set up on a new world; `run()` runs it once. `work` receives the Dehazer's
-    build and HEX file; a Dehazer that cannot be built here is an `ExperimentError`.
+    build and HEX file; a Dehazer that cannot be built here is an `ExperimentError`. `settings`
+    are the runtime's (a campaign's compare the location strategies).
 
     The world is the in-process `World` unless given: the manager of the experiment across
     processes gives its world over links (`visual_servoing.experiment.linked`), which overrides
     `_applier` too; the run is the same."""
 
     def __init__(
-        self, scenario: Scenario, work: Path, world: ExperimentWorld | None = None
+        self,
+        scenario: Scenario,
+        work: Path,
+        world: ExperimentWorld | None = None,
+        settings: RuntimeSettings = SETTINGS,
     ) -> None:
         self.scenario = scenario
+        self.settings = settings
         self.scene = Scene()
         self.world: ExperimentWorld = world if world is not None else World(load_geometry(None))
         try:
@@ -154,7 +160,7 @@ class Experiment:
             self.applier,
             estimators,
             self.world.now,
-            SETTINGS,
+            self.settings,
             on_switch=self._switched,
         )
         self.log: EventLog = self.runtime.log
@@ -209,7 +215,7 @@ class Experiment:
         """Advance the world frame by frame, sampling each and stepping the runtime every
         decision period."""
         end = self.world.time + seconds
-        decider_every = round(SETTINGS.decision_period / FRAME)
+        decider_every = round(self.settings.decision_period / FRAME)
         while self.world.time < end - 1e-9:
             while self._events and self._events[0][0] <= self.world.time + 1e-9:
                 self._events.pop(0)[1]()

@@ -50,7 +50,7 @@ def _reconfiguration(outcome: Outcome, record: Reconfiguration) -> dict[str, Any
     decision = record.decision
     location = decision.location
     choice = decision.choice
-    migrations = _migrations_of(outcome, record)
+    migrations = migrations_of(outcome, record)
     first_good = _first_good_frame(outcome, record)
     return {
         "detected_at": record.detected_at,
@@ -93,7 +93,7 @@ def _reconfiguration(outcome: Outcome, record: Reconfiguration) -> dict[str, Any
     }
 
 
-def _migrations_of(outcome: Outcome, record: Reconfiguration) -> list[Migration]:
+def migrations_of(outcome: Outcome, record: Reconfiguration) -> list[Migration]:
     """The images a reconfiguration sent: between its detection and its switch."""
     if record.applied_at is None:
         return []
@@ -231,7 +231,7 @@ def plot(outcome: Outcome, path: Path) -> None:
         marks.append((record.detected_at, "detection + decision", "tab:orange"))
         marks += [
             (m.start + m.run.seconds, "migrated", "tab:purple")
-            for m in _migrations_of(outcome, record)
+            for m in migrations_of(outcome, record)
         ]
         if record.recovered_at is not None:
             marks.append((record.recovered_at, "recovered", "tab:green"))

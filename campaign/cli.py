@@ -1,0 +1,171 @@
+"""The ``campaign`` command every application shares: its options, and the campaign from draw to
+page.
+
+An application (``python -m visual_servoing campaign``, ``python -m patrol campaign``) describes
+itself with an `Application`: its name, the scenarios a campaign may draw from, its draw and its
+runner. `add_campaign_arguments` gives its command the options, `run_campaign` does the rest:
+plan the runs from the seed, skip those a resumed campaign finished, run the others on Dask with
+a progress bar (runs done, ETA), then write ``summary.json``, the plots and ``index.html`` and
+print the summary.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import random
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from campaign import store
+from campaign.engine import Runner, default_workers, execute
+from campaign.html import write_page
+from campaign.plan import plan
+from campaign.plots import draw_plots
+from campaign.summary import lines, summarize
+from commandline import UsageError
+from commandline.arguments import integer
+from commandline.progress import progress_bar
+from refresh.cli import add_location_option
+
+MAX_RUNS = 1_000_000
+SUMMARY = "summary.json"
+PAGE = "index.html"
+
+
+@dataclass(frozen=True)
+class Application:
+    """What a campaign of one application draws and runs. `draw(rng, scenarios, location)`
+    gives a run's parameters (`campaign.record` says which keys every draw holds); `runner` runs
+    one (a module-level function: Dask sends it to the workers by reference)."""
+
+    name: str
+    scenarios: Sequence[str]
+    draw: Callable[[random.Random, Sequence[str], str | None], Mapping[str, Any]]
+    runner: Runner
+    default_out: Path
+
+
+def add_campaign_arguments(command: argparse.ArgumentParser, application: Application) -> None:
+    """The campaign's options on `command`."""
+    command.add_argument(
+        "--runs",
+        type=integer(1, MAX_RUNS),
+        metavar="N",
+        help="how many runs to draw (required unless --resume)",
+    )
+    command.add_argument(
+        "--seed", type=integer(0, 2**63 - 1), metavar="S", help="the campaign's seed (default 1)"
+    )
+    command.add_argument(
+        "--scenarios",
+        type=_scenarios(application.scenarios),
+        metavar="A,B,...",
+        help=f"the scenarios to draw from (default: all of {','.join(application.scenarios)})",
+    )
+    add_location_option(command)
+    command.add_argument(
+        "--workers",
+        type=integer(1, 1024),
+        default=default_workers(),
+        metavar="W",
+        help="worker processes of the local Dask cluster (default: one per core, "
+        f"{default_workers()} here)",
+    )
+    command.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="an existing Dask cluster's scheduler (tcp://HOST:8786) instead of a local cluster",
+    )
+    command.add_argument(
+        "--out",
+        type=Path,
+        metavar="DIR",
+        help=f"the campaign's folder (default {application.default_out})",
+    )
+    command.add_argument(
+        "--resume",
+        action="store_true",
+        help="finish the campaign in DIR: run only what it has not recorded yet",
+    )
+
+
+def _scenarios(known: Sequence[str]) -> Callable[[str], list[str]]:
+    def parse(text: str) -> list[str]:
+        names = [name.strip() for name in text.split(",") if name.strip()]
+        unknown = [name for name in names if name not in known]
+        if not names or unknown:
+            raise argparse.ArgumentTypeError(
+                f"expected scenario names among {','.join(known)}, got {text!r}"
+            )
+        return list(dict.fromkeys(names))
+
+    return parse
+
+
+def run_campaign(options: argparse.Namespace, application: Application) -> None:
+    """Plan, run (or resume), summarize, plot and write the page; print the summary."""
+    out: Path = options.out or application.default_out
+    parameters = _parameters(options, application, out)
+    records = store.start(out, parameters, options.resume)
+    specs = plan(
+        parameters["runs"],
+        parameters["seed"],
+        lambda rng: application.draw(rng, parameters["scenarios"], parameters["location"]),
+    )
+    pending = [spec for spec in specs if spec["index"] not in records]
+    where = options.scheduler or f"a local cluster of {options.workers} worker(s)"
+    print(
+        f"campaign of {len(specs)} run(s), seed {parameters['seed']}: {len(pending)} to run on "
+        f"{where}",
+        flush=True,
+    )
+    with (
+        store.Records(out) as sink,
+        progress_bar(len(specs), application.name, unit="run") as bar,
+    ):
+        bar.update(len(specs) - len(pending))
+
+        def keep(record: dict[str, Any]) -> None:
+            sink.add(record)
+            records[record["index"]] = record
+            bar.update(1)
+
+        execute(pending, application.runner, keep, options.workers, options.scheduler)
+    finish(out, parameters, [records[spec["index"]] for spec in specs])
+
+
+def _parameters(options: argparse.Namespace, application: Application, out: Path) -> dict[str, Any]:
+    """What decides the runs. Resuming, what the options leave out comes from the campaign."""
+    given = {
+        "runs": options.runs,
+        "seed": options.seed,
+        "scenarios": options.scenarios,
+        "location": options.location,
+    }
+    if options.resume:
+        held = store.read_manifest(out)
+        return {"application": application.name} | {
+            key: held.get(key) if value is None else value for key, value in given.items()
+        }
+    if options.runs is None:
+        raise UsageError("--runs: expected the number of runs of a new campaign, got none")
+    defaults = {"seed": 1, "scenarios": list(application.scenarios)}
+    return {"application": application.name} | {
+        key: defaults.get(key) if value is None else value for key, value in given.items()
+    }
+
+
+def finish(out: Path, parameters: Mapping[str, Any], records: Sequence[dict[str, Any]]) -> None:
+    """Write the summary, the plots and the page of a finished campaign; print the summary."""
+    summary = summarize(records)
+    (out / SUMMARY).write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
+    plots = draw_plots(summary, out)
+    write_page(summary, parameters, out / PAGE)
+    print("\n".join(lines(summary)))
+    print(f"records: {out / store.RECORDS}")
+    print(f"summary: {out / SUMMARY}")
+    print(f"plots:   {', '.join(str(p) for p in plots)}")
+    print(f"page:    {out / PAGE}")

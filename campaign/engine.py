@@ -1,0 +1,110 @@
+"""Running a campaign's runs on Dask: a `LocalCluster` here, or an existing cluster's scheduler.
+
+Each run is one Dask task, `guarded(runner, spec)`, that calls the application's runner in a
+worker process and returns its record: a run that raises is recorded as crashed with its
+traceback, and the campaign goes on. A worker that dies under a run (a crash of native code, the
+OOM killer) makes Dask retry the run elsewhere and at last give up on it; that too is recorded as
+crashed. Records come back in the order runs finish and go to `on_record` at once, so an
+interrupted campaign keeps every finished run. The runner must be a module-level function of a
+package the workers can import (Dask sends it by reference): on another machine, the toolchain
+must be installed there too.
+
+The local cluster runs one single-threaded worker process per core (`--workers`): the runs hold
+the GIL (the emulated CPU, the kernel, NumPy between calls) and a worker's process owns its
+emulator. Its scheduler and workers listen on 127.0.0.1 only, without the dashboard.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import time
+import traceback
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
+
+from campaign.errors import CampaignError
+from campaign.plan import Spec
+from campaign.record import OK, TIMING, Record, crashed
+
+Runner = Callable[[Spec], dict[str, Any]]
+"""An application's run: its spec in, its outcome out (``decisions``, ``stopped_at``, and
+``timing`` for what the host's clocks measured)."""
+
+
+def guarded(runner: Runner, spec: Spec) -> Record:
+    """Run `spec` with `runner` in a worker; its record, crashed if it raised."""
+    started = time.perf_counter()
+    try:
+        outcome = runner(spec)
+    except Exception:
+        return crashed(spec, traceback.format_exc(), time.perf_counter() - started)
+    timing = {**outcome.pop(TIMING, {}), "run_seconds": time.perf_counter() - started}
+    return {**spec, "status": OK, **outcome, TIMING: timing}
+
+
+def default_workers() -> int:
+    """One worker per core."""
+    return os.cpu_count() or 1
+
+
+@contextlib.contextmanager
+def client(workers: int, scheduler: str | None) -> Iterator[Any]:
+    """A Dask client on the scheduler at `scheduler`, or on a new local cluster of `workers`
+    single-threaded worker processes (closed on leaving)."""
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        try:
+            connected = Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError) as error:
+            raise CampaignError(
+                f"--scheduler: expected a Dask scheduler at {scheduler}, got {error}"
+            ) from None
+        with connected:
+            yield connected
+        return
+    cluster = LocalCluster(
+        n_workers=workers,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        dashboard_address=None,
+        silence_logs=logging.ERROR,
+    )
+    with cluster, Client(cluster) as local:
+        yield local
+
+
+def execute(
+    specs: Sequence[Spec],
+    runner: Runner,
+    on_record: Callable[[Record], None],
+    workers: int,
+    scheduler: str | None = None,
+) -> None:
+    """Run every spec on Dask and hand each record to `on_record` as it comes."""
+    if not specs:
+        return
+    from distributed import as_completed
+
+    with client(workers, scheduler) as dask:
+        futures = {
+            dask.submit(guarded, runner, spec, key=f"run-{spec['index']}-{spec['seed']}"): spec
+            for spec in specs
+        }
+        try:
+            for future in as_completed(futures):
+                on_record(_record(future, futures[future]))
+        finally:
+            dask.cancel(list(futures))
+
+
+def _record(future: Any, spec: Spec) -> Record:
+    """The future's record, or a crashed one when its worker died (Dask gave up on the run)."""
+    try:
+        return future.result()
+    except Exception as error:
+        text = "".join(traceback.format_exception_only(error)).strip()
+        return crashed(spec, f"the run's worker failed: {text}", 0.0)

@@ -1,0 +1,66 @@
+"""One run's record: what the application drew, what ReFrESH did, and how long it took.
+
+A record is one JSON object (a line of ``runs.jsonl``):
+
+- ``index``, ``seed``: the run's place in the campaign and its own seed (`campaign.plan`);
+- ``draw``: the parameters the application drew; every application's draw holds ``fault_type``
+  (``none`` for a control run without a fault; two faults joined by ``+``), ``fault_at`` (the
+  virtual second the first fault strikes, None for a control run) and ``truth`` (the faulty
+  modules the task runs, which a location should name; empty when the fault is not a module's,
+  such as a power drop);
+- ``status``: ``ok``, or ``crashed`` with ``error``, the traceback (a run that raised, or whose
+  worker died);
+- ``decisions``: one object per ReFrESH decision (`decision`), in time order, and
+  ``stopped_at``, when the task was stopped safely (None: it ran to the end);
+- ``timing``: what the host's clocks measured (``run_seconds``, the decisions'
+  ``decision_seconds``), the only part that differs between two runs of one seed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from refresh.location import Location
+from refresh.runtime import Reconfiguration
+
+Record = dict[str, Any]
+
+OK = "ok"
+CRASHED = "crashed"
+TIMING = "timing"
+
+
+def decision(reconfiguration: Reconfiguration, moved: Sequence[int]) -> dict[str, Any]:
+    """A decision as the record keeps it; `moved` holds the bytes of each image it migrated."""
+    location = reconfiguration.decision.location
+    target = reconfiguration.target
+    return {
+        "detected_at": reconfiguration.detected_at,
+        **_located(location),
+        "chosen": None if target is None else target.label(),
+        "applied_at": reconfiguration.applied_at,
+        "recovered_at": reconfiguration.recovered_at,
+        "migrations": len(moved),
+        "bytes": sum(moved),
+        "comparison": {name: _located(other) for name, other in reconfiguration.comparison.items()},
+    }
+
+
+def _located(location: Location) -> dict[str, Any]:
+    return {
+        "strategy": location.strategy,
+        "located": list(location.modules),
+        "tried": location.tried,
+        "generated": location.total,
+    }
+
+
+def crashed(spec: Mapping[str, Any], error: str, seconds: float) -> Record:
+    """The record of a run that did not finish."""
+    return {**spec, "status": CRASHED, "error": error, TIMING: {"run_seconds": seconds}}
+
+
+def reproducible(record: Mapping[str, Any]) -> Record:
+    """The record without what the host's clocks measured: equal for two runs of one seed."""
+    return {key: value for key, value in record.items() if key != TIMING}

@@ -1,0 +1,117 @@
+"""A campaign's folder: its parameters, its records as JSON lines, and resuming.
+
+``campaign.json`` holds the parameters that decide the runs (the application, the number of
+runs, the seed and the application's own choices); ``runs.jsonl`` one record per finished run,
+in the order the runs finished, each line written whole and flushed to disk before the next
+(`Records.add`). A campaign interrupted midway (Ctrl-C, a killed process, a lost machine) leaves
+every finished run's line and at most one torn line after them: `--resume` drops the torn line
+and runs what is missing. A folder that holds another campaign's records is refused rather than
+mixed with them.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import IO, Any
+
+from campaign.errors import CampaignFolderError
+from campaign.record import Record
+
+MANIFEST = "campaign.json"
+RECORDS = "runs.jsonl"
+
+
+def start(out: Path, parameters: Mapping[str, Any], resume: bool) -> dict[int, Record]:
+    """Make `out` ready for the campaign of `parameters`; the records already there (by index)
+    when resuming, none for a new campaign."""
+    manifest, records = out / MANIFEST, out / RECORDS
+    if resume:
+        if not manifest.is_file():
+            raise CampaignFolderError(
+                f"{out}: expected a campaign to resume ({MANIFEST}), got none: run it without "
+                "--resume first"
+            )
+        _same(manifest, parameters)
+        return read_records(records) if records.exists() else {}
+    if manifest.exists() or records.exists():
+        raise CampaignFolderError(
+            f"{out}: expected a folder without a campaign, got one holding {MANIFEST} or "
+            f"{RECORDS}: --resume to finish it, or another --out"
+        )
+    out.mkdir(parents=True, exist_ok=True)
+    manifest.write_text(json.dumps(dict(parameters), indent=1) + "\n", encoding="utf-8")
+    return {}
+
+
+def read_manifest(out: Path) -> dict[str, Any]:
+    """The parameters of the campaign in `out` (empty when there is none)."""
+    manifest = out / MANIFEST
+    try:
+        held = json.loads(manifest.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return {}
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise CampaignFolderError(f"{manifest}: expected a campaign's JSON, got {error}") from None
+    if not isinstance(held, dict):
+        raise CampaignFolderError(f"{manifest}: expected a JSON object, got {held!r:.60}")
+    return held
+
+
+def _same(manifest: Path, parameters: Mapping[str, Any]) -> None:
+    held = read_manifest(manifest.parent)
+    for key, value in parameters.items():
+        if held.get(key) != value:
+            got = held.get(key)
+            raise CampaignFolderError(
+                f"{manifest}: {key}: expected {value!r} (as this command asks), got {got!r}: a "
+                "campaign resumes with the parameters it started with"
+            )
+
+
+def read_records(path: Path) -> dict[int, Record]:
+    """The records of `path` by index. A torn last line (a run being written when the campaign
+    stopped) is cut off the file; any other line that is not a record is an error."""
+    data = path.read_bytes()
+    whole = data[: data.rfind(b"\n") + 1]
+    if len(whole) != len(data):
+        with path.open("r+b") as file:
+            file.truncate(len(whole))
+    records: dict[int, Record] = {}
+    for number, line in enumerate(whole.splitlines(), start=1):
+        try:
+            record = json.loads(line)
+        except (UnicodeDecodeError, json.JSONDecodeError) as error:
+            raise CampaignFolderError(
+                f"{path}:{number}: expected a run's record (JSON), got {error}"
+            ) from None
+        if not isinstance(record, dict) or not isinstance(record.get("index"), int):
+            raise CampaignFolderError(
+                f"{path}:{number}: expected a run's record with an integer index, got {line[:60]!r}"
+            )
+        records.setdefault(record["index"], record)
+    return records
+
+
+class Records:
+    """``runs.jsonl`` open for appending, one whole line per record."""
+
+    def __init__(self, out: Path) -> None:
+        self._file: IO[str] = (out / RECORDS).open("a", encoding="utf-8")
+
+    def add(self, record: Record) -> None:
+        """Append `record` and put it on disk before the next."""
+        self._file.write(json.dumps(record, sort_keys=True) + "\n")
+        self._file.flush()
+        os.fsync(self._file.fileno())
+
+    def close(self) -> None:
+        self._file.close()
+
+    def __enter__(self) -> Records:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
