@@ -4,9 +4,10 @@ page.
 An application (``python -m visual_servoing campaign``, ``python -m patrol campaign``) describes
 itself with an `Application`: its name, the scenarios a campaign may draw from, its draw and its
 runner. `add_campaign_arguments` gives its command the options, `run_campaign` does the rest:
-plan the runs from the seed, skip those a resumed campaign finished, run the others on Dask with
-a progress bar (runs done, ETA), then write ``summary.json``, the plots and ``index.html`` and
-print the summary.
+connect to the Dask cluster (before the folder is touched: a scheduler that is not there leaves
+nothing behind), plan the runs from the seed, skip those a resumed campaign finished, run the
+others with a progress bar (runs done, ETA), then write ``summary.json``, the plots and
+``index.html`` and print the summary.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from campaign import store
-from campaign.engine import Runner, default_workers, execute
+from campaign.engine import Runner, client, default_workers, execute
 from campaign.html import write_page
 from campaign.plan import plan
 from campaign.plots import draw_plots
@@ -109,7 +110,20 @@ def run_campaign(options: argparse.Namespace, application: Application) -> None:
     """Plan, run (or resume), summarize, plot and write the page; print the summary."""
     out: Path = options.out or application.default_out
     parameters = _parameters(options, application, out)
-    records = store.start(out, parameters, options.resume)
+    with client(options.workers, options.scheduler) as dask:
+        records = store.start(out, parameters, options.resume)
+        _run(dask, out, parameters, records, options, application)
+
+
+def _run(
+    dask: Any,
+    out: Path,
+    parameters: Mapping[str, Any],
+    records: dict[int, dict[str, Any]],
+    options: argparse.Namespace,
+    application: Application,
+) -> None:
+    """The campaign's runs that `records` lacks, on `dask`'s cluster; then `finish`."""
     specs = plan(
         parameters["runs"],
         parameters["seed"],
@@ -133,7 +147,7 @@ def run_campaign(options: argparse.Namespace, application: Application) -> None:
             records[record["index"]] = record
             bar.update(1)
 
-        execute(pending, application.runner, keep, options.workers, options.scheduler)
+        execute(dask, pending, application.runner, keep)
     finish(out, parameters, [records[spec["index"]] for spec in specs])
 
 

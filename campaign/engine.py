@@ -11,7 +11,8 @@ must be installed there too.
 
 The local cluster runs one single-threaded worker process per core (`--workers`): the runs hold
 the GIL (the emulated CPU, the kernel, NumPy between calls) and a worker's process owns its
-emulator. Its scheduler and workers listen on 127.0.0.1 only, without the dashboard.
+emulator. Its scheduler and workers listen on 127.0.0.1 only (the scheduler's HTTP routes on a
+free port of it), without the dashboard.
 """
 
 from __future__ import annotations
@@ -70,7 +71,8 @@ def client(workers: int, scheduler: str | None) -> Iterator[Any]:
         threads_per_worker=1,
         processes=True,
         host="127.0.0.1",
-        dashboard_address=None,
+        dashboard_address="127.0.0.1:0",  # the scheduler's HTTP routes (health), on loopback
+        scheduler_kwargs={"dashboard": False},
         silence_logs=logging.ERROR,
     )
     with cluster, Client(cluster) as local:
@@ -78,27 +80,21 @@ def client(workers: int, scheduler: str | None) -> Iterator[Any]:
 
 
 def execute(
-    specs: Sequence[Spec],
-    runner: Runner,
-    on_record: Callable[[Record], None],
-    workers: int,
-    scheduler: str | None = None,
+    dask: Any, specs: Sequence[Spec], runner: Runner, on_record: Callable[[Record], None]
 ) -> None:
-    """Run every spec on Dask and hand each record to `on_record` as it comes."""
-    if not specs:
-        return
+    """Run every spec on the cluster of the client `dask` and hand each record to `on_record`
+    as it comes."""
     from distributed import as_completed
 
-    with client(workers, scheduler) as dask:
-        futures = {
-            dask.submit(guarded, runner, spec, key=f"run-{spec['index']}-{spec['seed']}"): spec
-            for spec in specs
-        }
-        try:
-            for future in as_completed(futures):
-                on_record(_record(future, futures[future]))
-        finally:
-            dask.cancel(list(futures))
+    futures = {
+        dask.submit(guarded, runner, spec, key=f"run-{spec['index']}-{spec['seed']}"): spec
+        for spec in specs
+    }
+    try:
+        for future in as_completed(futures):
+            on_record(_record(future, futures[future]))
+    finally:
+        dask.cancel(list(futures))
 
 
 def _record(future: Any, spec: Spec) -> Record:

@@ -1,4 +1,12 @@
-"""The exception tree of campaigns: everything a campaign refuses is a `CampaignError`."""
+"""The exception tree of campaigns: everything a campaign refuses is a `CampaignError`, whose
+message says what was expected, what came and where.
+
+Tree::
+
+    CampaignError (RuntimeError)     a campaign cannot start: no scheduler at --scheduler
+    └── CampaignFolderError          the folder holds another campaign, unreadable records, or
+                                     no campaign to resume
+"""
 
 from __future__ import annotations
 

@@ -8,7 +8,7 @@ Layers, bottom to top (docs/README.md):
     hexmigrate, pbort                    the HEX codec, links and transfer; the kernel
     firmware_sim, morphing_crossbar      the emulated node; the FPGA fabric's Python side
     refresh                              the decision making
-    hexmanipulator                       the paper's robot
+    hexmanipulator, campaign             the paper's robot; campaigns of many runs
     visual_servoing                      the paper's task and experiment
 """
 
@@ -27,6 +27,7 @@ LAYERS: dict[str, int] = {
     "morphing_crossbar": 2,
     "refresh": 3,
     "hexmanipulator": 4,
+    "campaign": 4,
     "visual_servoing": 5,
     "patrol": 5,
 }

@@ -1,0 +1,129 @@
+"""The campaign engine on a toy application: the same seed draws the same runs, a crashing run
+is recorded with its traceback and the campaign goes on, an interrupted campaign resumes from
+its records (a torn last line cut off), a folder holding another campaign is refused, and the
+summary, plots and page say what the records hold."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib import image
+
+from campaign import store
+from campaign.cli import Application, add_campaign_arguments, run_campaign
+from campaign.errors import CampaignFolderError
+from campaign.plan import plan
+from campaign.record import reproducible
+from campaign.summary import distribution, summarize
+from tests.campaign import toy
+
+TOY = Application("toy", ("a", "b"), toy.draw, toy.run, Path("unused"))
+
+
+def options(*argv: str) -> argparse.Namespace:
+    parser = argparse.ArgumentParser()
+    add_campaign_arguments(parser, TOY)
+    return parser.parse_args(["--workers", "2", *argv])
+
+
+def records(out: Path) -> list[dict]:
+    lines = (out / store.RECORDS).read_text().splitlines()
+    return sorted((json.loads(line) for line in lines), key=lambda r: r["index"])
+
+
+def test_the_same_seed_draws_the_same_runs_and_a_longer_campaign_extends_a_shorter():
+    def draw(rng):
+        return toy.draw(rng, ["a", "b"], None)
+
+    assert plan(20, 5, draw) == plan(20, 5, draw)
+    assert plan(20, 5, draw)[:10] == plan(10, 5, draw)
+    assert plan(20, 5, draw) != plan(20, 6, draw)
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory) -> Path:
+    """A toy campaign of 12 runs on a local Dask cluster of two workers."""
+    out = tmp_path_factory.mktemp("toy")
+    run_campaign(options("--runs", "12", "--seed", "3", "--out", str(out)), TOY)
+    return out
+
+
+def test_a_crashing_run_is_recorded_with_its_traceback_and_the_others_finish(finished):
+    found = records(finished)
+    assert [r["index"] for r in found] == list(range(12))
+    crashed = [r for r in found if r["status"] == "crashed"]
+    assert crashed and len(crashed) < 12
+    for record in crashed:
+        assert record["draw"]["crash"]
+        assert "Traceback" in record["error"] and toy.CRASH in record["error"]
+    for record in found:
+        assert record["status"] == ("crashed" if record["draw"]["crash"] else "ok")
+        assert record["timing"]["run_seconds"] >= 0
+
+
+def test_the_summary_plots_and_page_say_what_the_records_hold(finished):
+    found = records(finished)
+    ok = [r for r in found if r["status"] == "ok"]
+    summary = json.loads((finished / "summary.json").read_text())
+    assert summary == json.loads(json.dumps(summarize(found)))
+    assert summary["finished"] == len(ok) and len(summary["crashed"]) == 12 - len(ok)
+    assert summary["detection"]["rate"] == 1.0
+    assert summary["detection"]["latency"]["median"] == pytest.approx(0.5)
+    assert summary["recovery"]["time"]["max"] == pytest.approx(0.7)
+    assert summary["location"]["accuracy"]["base-choice"]["all"] == 1.0
+    assert summary["cost"]["bytes"] == 100 * len(ok)
+    for name in ("detection_latency.png", "recovery_time.png", "location_accuracy.png"):
+        pixels = image.imread(finished / name)
+        assert np.std(pixels) > 0.01, name  # not a blank canvas
+    page = (finished / "index.html").read_text()
+    for name in ("detection_latency.png", "recovery_time.png", "location_accuracy.png"):
+        assert f"src='{name}'" in page
+    assert toy.CRASH in page and "<table>" in page
+
+
+def test_an_interrupted_campaign_resumes_where_it_stopped(finished, tmp_path):
+    whole = (finished / store.RECORDS).read_bytes().splitlines(keepends=True)
+    (tmp_path / store.MANIFEST).write_bytes((finished / store.MANIFEST).read_bytes())
+    # Five runs finished, a sixth was being written when the campaign was killed.
+    (tmp_path / store.RECORDS).write_bytes(b"".join(whole[:5]) + whole[5][:17])
+    run_campaign(options("--resume", "--out", str(tmp_path)), TOY)
+    resumed = records(tmp_path)
+    assert [reproducible(r) for r in resumed] == [reproducible(r) for r in records(finished)]
+    assert len((tmp_path / store.RECORDS).read_text().splitlines()) == 12
+
+
+def test_a_folder_holding_a_campaign_is_refused_unless_resumed(finished, tmp_path):
+    with pytest.raises(CampaignFolderError, match="--resume to finish it"):
+        run_campaign(options("--runs", "12", "--out", str(finished)), TOY)
+    with pytest.raises(CampaignFolderError, match="expected a campaign to resume"):
+        run_campaign(options("--resume", "--out", str(tmp_path)), TOY)
+    with pytest.raises(CampaignFolderError, match=r"seed: expected 4 .*, got 3"):
+        run_campaign(options("--resume", "--seed", "4", "--out", str(finished)), TOY)
+
+
+def test_a_record_line_that_is_not_a_record_is_named_by_its_line(tmp_path):
+    path = tmp_path / store.RECORDS
+    path.write_text('{"index": 0}\nnot json\n{"index": 2}\n')
+    with pytest.raises(CampaignFolderError, match=r"runs.jsonl:2: expected a run's record"):
+        store.read_records(path)
+    path.write_text('{"index": 0}\n["a list"]\n')
+    with pytest.raises(CampaignFolderError, match=r"runs.jsonl:2: .*integer index"):
+        store.read_records(path)
+
+
+def test_a_bad_option_is_a_usage_error(capsys):
+    for argv in (["--runs", "0"], ["--runs", "nan"], ["--scenarios", "a,zz"], ["--seed", "-1"]):
+        with pytest.raises(SystemExit) as exited:
+            options(*argv)
+        assert exited.value.code == 2
+    assert "expected scenario names among a,b, got 'a,zz'" in capsys.readouterr().err
+
+
+def test_distribution_of_nothing_and_of_values():
+    assert distribution([])["median"] is None
+    spread = distribution([3.0, 1.0, 2.0, 10.0])
+    assert (spread["min"], spread["median"], spread["p90"], spread["max"]) == (1.0, 2.5, 10.0, 10.0)
