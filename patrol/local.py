@@ -12,9 +12,10 @@ from pathlib import Path
 
 from firmware_sim.node import Node
 from patrol.firmware import natives
-from patrol.mission import LINK_BAUD, ROBOTS, Mission
+from patrol.mission import LINK_BAUD, ROBOTS, SETTINGS, Mission
 from patrol.scenarios import Scenario
 from refresh.node_applier import NodeApplier
+from refresh.runtime import RuntimeSettings
 
 STEP = 0.005
 """Seconds the three nodes advance together: a quarter of the modules' 50 Hz period."""
@@ -23,10 +24,12 @@ STEP = 0.005
 class Patrol(Mission):
     """A scenario on three new in-process nodes."""
 
-    def __init__(self, scenario: Scenario, work: Path) -> None:
+    def __init__(
+        self, scenario: Scenario, work: Path, settings: RuntimeSettings = SETTINGS
+    ) -> None:
         self.time = 0.0
         self.nodes: dict[str, Node] = {}
-        super().__init__(scenario, work)
+        super().__init__(scenario, work, settings)
 
     def _open(self) -> NodeApplier:
         self.nodes = {robot: Node(robot) for robot in ROBOTS}

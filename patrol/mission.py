@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from firmware_sim.node import Node
@@ -88,6 +88,12 @@ class Outcome:
     stopped_at: float | None = None
     log: EventLog | None = None
 
+    def migrations_of(self, record: Reconfiguration) -> list[Migration]:
+        """The images `record`'s plan sent: a plan is applied at once, at its `applied_at`."""
+        if record.applied_at is None:
+            return []
+        return [m for m in self.migrations if abs(m.time - record.applied_at) < 1e-6]
+
 
 @dataclass(frozen=True)
 class Prepared:
@@ -107,16 +113,23 @@ def prepare(scenario: Scenario, work: Path) -> Prepared:
     (work / DATABASE.name).write_text(text, encoding="utf-8")
     loaded = loads(text, DATABASE.name, work)
     assert loaded.task is not None  # the file holds the task
-    return Prepared(with_faults(loaded.database, scenario.faults), loaded.task, images)
+    task = loaded.task
+    if scenario.location is not None:
+        task = replace(task, location=scenario.location)
+    return Prepared(with_faults(loaded.database, scenario.faults), task, images)
 
 
 class Mission:
     """The run on `applier` (made by the subclass in `_open`), on the subclass's clock; `run()`
-    runs it once. `work` receives the guest modules' builds and HEX files."""
+    runs it once. `work` receives the guest modules' builds and HEX files; `settings` are the
+    runtime's (a campaign's compare the location strategies)."""
 
-    def __init__(self, scenario: Scenario, work: Path) -> None:
+    def __init__(
+        self, scenario: Scenario, work: Path, settings: RuntimeSettings = SETTINGS
+    ) -> None:
         self.scenario = scenario
         self.work = work
+        self.settings = settings
         self.prepared = prepare(scenario, work)
         self.host = Node("host")
         try:
@@ -152,7 +165,7 @@ class Mission:
             self.host.kernel, codes, prepared.database, prepared.task, inputs=self._live_pose
         )
         self.runtime = Runtime(
-            prepared.database, prepared.task, self.applier, estimators, self.now, SETTINGS
+            prepared.database, prepared.task, self.applier, estimators, self.now, self.settings
         )
         history = self.runtime.history
         self.outcome = Outcome(

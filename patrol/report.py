@@ -61,8 +61,7 @@ def _reconfiguration(outcome: Outcome, record: Reconfiguration) -> dict[str, Any
         "robots": robots,
         "migrations": [
             {"module": m.module, "robot": m.robot, "bytes": m.size}
-            for m in outcome.migrations
-            if record.applied_at is not None and abs(m.time - record.applied_at) < 1e-6
+            for m in outcome.migrations_of(record)
         ],
         "applied_at": record.applied_at,
         "recovered_at": record.recovered_at,

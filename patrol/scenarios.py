@@ -21,13 +21,16 @@ DATABASE = Path(__file__).resolve().parent / "patrol.toml"
 @dataclass(frozen=True)
 class Scenario:
     """What to run: `faults` maps a module to the second its fault strikes; the run lasts
-    `duration` seconds; `expected` says in words what ReFrESH should end up doing."""
+    `duration` seconds; `expected` says in words what ReFrESH should end up doing; `location`
+    chooses another strategy than the database's."""
 
     name: str
     title: str
     expected: str
     faults: Mapping[str, float] = field(default_factory=dict)
     duration: float = 15.0
+    location: str | None = None
+    """The fault-location strategy, over the database's (`refresh.location.STRATEGIES`)."""
 
 
 GLARE = Scenario(
