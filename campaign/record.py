@@ -18,7 +18,7 @@ A record is one JSON object (a line of ``runs.jsonl``):
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from refresh.location import Location
@@ -44,6 +44,20 @@ def decision(reconfiguration: Reconfiguration, moved: Sequence[int]) -> dict[str
         "migrations": len(moved),
         "bytes": sum(moved),
         "comparison": {name: _located(other) for name, other in reconfiguration.comparison.items()},
+    }
+
+
+def outcome(
+    reconfigurations: Sequence[Reconfiguration],
+    moved: Callable[[Reconfiguration], Sequence[int]],
+    stopped_at: float | None,
+) -> dict[str, Any]:
+    """What a runner returns for a run whose runtime made `reconfigurations` (`moved` gives the
+    bytes of each image one migrated) and stopped the task at `stopped_at` (None: it did not)."""
+    return {
+        "decisions": [decision(r, moved(r)) for r in reconfigurations],
+        "stopped_at": stopped_at,
+        TIMING: {"decision_seconds": [r.decision_seconds for r in reconfigurations]},
     }
 
 

@@ -26,8 +26,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from campaign import record
 from campaign.cli import Application
-from campaign.record import decision
 from patrol.local import Patrol
 from patrol.mission import SETTINGS
 from patrol.scenarios import Scenario
@@ -82,14 +82,11 @@ def run(spec: Mapping[str, Any]) -> dict[str, Any]:
     settings = replace(SETTINGS, compare_locations=True)
     with Patrol(scenario, Path(_WORK.name), settings) as patrol:
         outcome = patrol.run()
-    return {
-        "decisions": [
-            decision(r, [m.size for m in outcome.migrations_of(r)])
-            for r in outcome.reconfigurations
-        ],
-        "stopped_at": outcome.stopped_at,
-        "timing": {"decision_seconds": [r.decision_seconds for r in outcome.reconfigurations]},
-    }
+    return record.outcome(
+        outcome.reconfigurations,
+        lambda r: [m.size for m in outcome.migrations_of(r)],
+        outcome.stopped_at,
+    )
 
 
 APPLICATION = Application(

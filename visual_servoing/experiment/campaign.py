@@ -34,8 +34,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from campaign import record
 from campaign.cli import Application
-from campaign.record import decision
 from visual_servoing.experiment.experiment import SETTINGS, Experiment
 from visual_servoing.experiment.report import migrations_of
 from visual_servoing.experiment.scenarios import (
@@ -144,14 +144,11 @@ def run(spec: Mapping[str, Any]) -> dict[str, Any]:
     settings = replace(SETTINGS, compare_locations=True)
     with Experiment(scenario, Path(_WORK.name), settings=settings) as experiment:
         outcome = experiment.run()
-    return {
-        "decisions": [
-            decision(r, [m.run.size for m in migrations_of(outcome, r)])
-            for r in outcome.reconfigurations
-        ],
-        "stopped_at": outcome.stopped_at,
-        "timing": {"decision_seconds": [r.decision_seconds for r in outcome.reconfigurations]},
-    }
+    return record.outcome(
+        outcome.reconfigurations,
+        lambda r: [m.run.size for m in migrations_of(outcome, r)],
+        outcome.stopped_at,
+    )
 
 
 APPLICATION = Application(
