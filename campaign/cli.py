@@ -24,7 +24,6 @@ from campaign import store
 from campaign.engine import Runner, client, default_workers, execute
 from campaign.html import write_page
 from campaign.plan import plan
-from campaign.plots import draw_plots
 from campaign.summary import lines, summarize
 from commandline import UsageError
 from commandline.arguments import integer
@@ -174,10 +173,12 @@ def _parameters(options: argparse.Namespace, application: Application, out: Path
 
 def finish(out: Path, parameters: Mapping[str, Any], records: Sequence[dict[str, Any]]) -> None:
     """Write the summary, the plots and the page of a finished campaign; print the summary."""
+    from campaign.plots import PLOTS, draw_plots  # matplotlib: the campaign extra's
+
     summary = summarize(records)
     (out / SUMMARY).write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
     plots = draw_plots(summary, out)
-    write_page(summary, parameters, out / PAGE)
+    write_page(summary, parameters, PLOTS, out / PAGE)
     print("\n".join(lines(summary)))
     print(f"records: {out / store.RECORDS}")
     print(f"summary: {out / SUMMARY}")

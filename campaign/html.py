@@ -9,7 +9,6 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from campaign.plots import PLOTS
 from campaign.summary import percent
 
 STYLE = (
@@ -20,8 +19,14 @@ STYLE = (
 )
 
 
-def write_page(summary: Mapping[str, Any], parameters: Mapping[str, Any], path: Path) -> None:
-    """Write the page for `summary` of the campaign of `parameters` to `path`."""
+def write_page(
+    summary: Mapping[str, Any],
+    parameters: Mapping[str, Any],
+    plots: Mapping[str, str],
+    path: Path,
+) -> None:
+    """Write the page for `summary` of the campaign of `parameters` to `path`, showing the
+    `plots` (file name beside the page -> caption)."""
     title = f"Campaign: {parameters.get('application', '')}, {summary['runs']} runs"
     parts = [
         f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{_e(title)}</title>"
@@ -39,7 +44,7 @@ def write_page(summary: Mapping[str, Any], parameters: Mapping[str, Any], path: 
         "<h2>Location accuracy</h2>",
         _accuracy_table(summary["location"]),
         "<h2>Plots</h2>",
-        *(f"<p><img src='{_e(name)}' alt='{_e(caption)}'></p>" for name, caption in PLOTS.items()),
+        *(f"<p><img src='{_e(name)}' alt='{_e(caption)}'></p>" for name, caption in plots.items()),
     ]
     if summary["crashed"]:
         parts += [

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from commandline.extras import EXTRA_OF_MODULE
+from commandline.extras import EXTRA_OF_MODULE, missing_extra
 
 REFUSE_EXTRAS = textwrap.dedent(
     f"""
@@ -93,3 +93,9 @@ def test_refresh_checks_a_database_without_extras():
     done = bare("refresh", "check", database)
     assert done.returncode == 0, done.stderr
     assert "task " in done.stdout
+
+
+@pytest.mark.parametrize("module", ["dask", "distributed"])
+def test_a_campaign_without_dask_names_the_campaign_extra(module):
+    said = missing_extra(ModuleNotFoundError(f"No module named {module!r}", name=module))
+    assert said is not None and said.endswith("pip install 'refresh-toolchain[campaign]'")
