@@ -9,7 +9,7 @@ location = "..."``) or a command line's ``--location`` does:
 | ``base-choice`` | `base_choice` | one fault (the paper's, the default) | at most sum(a_i) - n |
 | ``brute-force`` | `brute_force` | any number of faults | prod(a_i) |
 | ``pairwise`` | `pairwise` | one or two faults | the all-pairs covering array |
-| ``adaptive`` | `adaptive` | any number of faults | about 2 f log2(n) for f faults |
+| ``adaptive`` | `adaptive` | any number of faults | about 2 f log2(n) for f faults, plus options |
 
 The `Location` names the faulty slots; the Generator then seeds from each of them.
 """

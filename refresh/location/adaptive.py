@@ -9,9 +9,12 @@ replacements and the test is P_T. It runs in two steps:
    k = 1, 2, ...), until one satisfies P_T. Every fault is then replaced, whatever their number.
 2. ddmin over the replaced slots: split them into n parts, keep a part (or the complement of a
    part) whose replacements alone still satisfy P_T, otherwise split finer; the result is
-   1-minimal (undoing any one of its replacements fails P_T). When a configuration fails exactly
+   1-minimal (undoing any one of its replacements fails P_T). A single slot whose step-1
+   replacement fails alone is given its other options too, so that, as in Base Choice, the
+   earliest slot that some replacement repairs alone is named. When a configuration fails exactly
    while one of its faulty modules is in it, 1-minimal is exactly the faulty slots, found in
-   about 2·f·log2(n) estimates for f faults among n slots, where brute force needs prod(a_i).
+   about 2·f·log2(n) estimates for f faults among n slots (plus the options of the single slots
+   tried alone), where brute force needs prod(a_i).
 
 When no configuration of step 1 passes (a resource fault that any single move repairs, but that
 the many moves of step 1 break elsewhere, such as power on another robot), the strategy falls
@@ -58,11 +61,28 @@ def locate(
         return _single_slot_fallback(trials, configuration, database, log)
 
     def passes(slots: Sequence[int]) -> bool:
-        return trials.passes(trials.replaced({s: replacements[s] for s in slots}))
+        if trials.passes(trials.replaced({s: replacements[s] for s in slots})):
+            return True
+        return len(slots) == 1 and _other_option_repairs(trials, options, slots[0], replacements)
 
     faulty = tuple(sorted(ddmin(sorted(replacements), passes)))
     evidence = trials.replaced({s: replacements[s] for s in faulty})
     return trials.conclude(NAME, faulty, evidence, trials.tried, "")
+
+
+def _other_option_repairs(
+    trials: Trials, options: list[list[Chain]], slot: int, replacements: dict[int, Chain]
+) -> bool:
+    """Whether another option of `slot` than step 1's repairs the task alone; if one does, it
+    becomes the slot's replacement. Step 1 gave each slot one replacement, which may fail where
+    another would not (another module on the same dark robot, where the same module elsewhere
+    sees): without this, a later slot that also repairs alone would be named instead (a
+    matcher that sees through the dark), where Base Choice names the earlier one."""
+    for option in _replacements(options[slot]):
+        if option != replacements[slot] and trials.passes(trials.replaced({slot: option})):
+            replacements[slot] = option
+            return True
+    return False
 
 
 def _everything_replaced(

@@ -16,7 +16,7 @@ from refresh.configuration import Configuration, initial_configuration
 from refresh.estimator import FunctionEstimator, Values
 from refresh.events import EventLog
 from refresh.generator import candidates, combos
-from refresh.load import Loaded, load
+from refresh.load import Loaded, load, loads
 from refresh.location import STRATEGIES, adaptive, base_choice, brute_force, pairwise
 from refresh.location.trials import all_options
 from refresh.performance import assess, usage
@@ -174,3 +174,66 @@ def test_state_machine_cycles_through_the_task_states(scenario):
     machine = scenario.task.state_machine
     assert machine.successor("detect_target") == "plan_trajectory"
     assert machine.successor("move_to_target") == "detect_target"
+
+
+DARK_ROBOT = """
+[robots.a]
+resources.power = { capacity = 100 }
+[robots.b]
+resources.power = { capacity = 100 }
+
+[schemas.camera]
+kind = "sensor"
+[schemas.camera.modules.Cam]
+robots = ["a", "b"]
+outputs = { image = "frame" }
+source = "native"
+[schemas.camera.modules.Cam_alt]
+robots = ["a"]
+outputs = { image = "frame" }
+source = "native"
+
+[schemas.matching]
+kind = "computation"
+[schemas.matching.modules.SSD]
+robots = ["a"]
+inputs = { image = "frame" }
+outputs = { deviation = "pixels" }
+source = "native"
+[schemas.matching.modules.NCC]
+robots = ["a"]
+inputs = { image = "frame" }
+outputs = { deviation = "pixels" }
+source = "native"
+
+[task]
+name = "look"
+robot = "a"
+states = ["look"]
+schemas = ["camera", "matching"]
+initial = ["Cam@a", "SSD"]
+[task.metrics.diff]
+schema = "matching"
+threshold = 30
+direction = "at_most"
+"""
+
+
+def dark_robot_a(configuration: Configuration) -> Values:
+    """Robot a's cameras are dim: a camera on b sees, and NCC sees through the dark as well."""
+    sees = any(p.robot == "b" for p in configuration.placements if p.module.startswith("Cam"))
+    sees = sees or any(p.module == "NCC" for p in configuration.placements)
+    return {"diff": 5.0 if sees else 80.0}
+
+
+def test_adaptive_names_the_earliest_slot_a_replacement_repairs_alone_as_base_choice_does():
+    """Step 1 replaces the camera by Cam_alt (another module first), dark too; ddmin then found
+    the camera alone failing and named the matcher, though the camera on robot b repairs alone."""
+    loaded = loads(DARK_ROBOT, "dark.toml")
+    current = initial_configuration(loaded.task, loaded.database)
+    found = {}
+    for strategy in (base_choice, adaptive, brute_force):
+        estimator = FunctionEstimator(dark_robot_a)
+        location = strategy.locate(current, loaded.database, loaded.task, estimator, EventLog())
+        found[location.strategy] = (location.modules, location.passing.label())
+    assert set(found.values()) == {(("Cam",), "{Cam@b, SSD}")}
