@@ -22,6 +22,7 @@ from typing import Any
 
 from campaign import store
 from campaign.engine import Runner, client, default_workers, execute
+from campaign.errors import CampaignFolderError
 from campaign.html import write_page
 from campaign.plan import plan
 from campaign.summary import lines, summarize
@@ -29,6 +30,7 @@ from commandline import UsageError
 from commandline.arguments import integer
 from commandline.progress import progress_bar
 from refresh.cli import add_location_option
+from refresh.location import STRATEGIES
 
 MAX_RUNS = 1_000_000
 SUMMARY = "summary.json"
@@ -160,15 +162,35 @@ def _parameters(options: argparse.Namespace, application: Application, out: Path
     }
     if options.resume:
         held = store.read_manifest(out)
-        return {"application": application.name} | {
+        resumed = {"application": application.name} | {
             key: held.get(key) if value is None else value for key, value in given.items()
         }
+        if held:
+            _check(resumed, application, out / store.MANIFEST)
+        return resumed
     if options.runs is None:
         raise UsageError("--runs: expected the number of runs of a new campaign, got none")
     defaults = {"seed": 1, "scenarios": list(application.scenarios)}
     return {"application": application.name} | {
         key: defaults.get(key) if value is None else value for key, value in given.items()
     }
+
+
+def _check(parameters: Mapping[str, Any], application: Application, manifest: Path) -> None:
+    """Parameters read back from a campaign's file are what the options would have given."""
+    checks = {
+        "runs": lambda v: isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= MAX_RUNS,
+        "seed": lambda v: isinstance(v, int) and not isinstance(v, bool) and 0 <= v < 2**63,
+        "scenarios": lambda v: (
+            isinstance(v, list) and bool(v) and all(name in application.scenarios for name in v)
+        ),
+        "location": lambda v: v is None or v in STRATEGIES,
+    }
+    for key, valid in checks.items():
+        if not valid(parameters[key]):
+            raise CampaignFolderError(
+                f"{manifest}: {key}: expected what --{key} takes, got {parameters[key]!r:.60}"
+            )
 
 
 def finish(out: Path, parameters: Mapping[str, Any], records: Sequence[dict[str, Any]]) -> None:

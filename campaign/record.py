@@ -30,6 +30,73 @@ OK = "ok"
 CRASHED = "crashed"
 TIMING = "timing"
 
+_NUMBER = {"type": "number"}
+_TIME = {"type": ["number", "null"]}
+_LOCATED = {
+    "type": "object",
+    "required": ["located", "tried", "generated"],
+    "properties": {
+        "located": {"type": "array", "items": {"type": "string"}},
+        "tried": {"type": "integer", "minimum": 0},
+        "generated": {"type": "integer", "minimum": 0},
+    },
+}
+SCHEMA: dict[str, Any] = {
+    "type": "object",
+    "required": ["index", "seed", "draw", "status", TIMING],
+    "properties": {
+        "index": {"type": "integer", "minimum": 0},
+        "seed": {"type": "integer", "minimum": 0},
+        "draw": {
+            "type": "object",
+            "required": ["fault_type", "fault_at", "truth"],
+            "properties": {
+                "fault_type": {"type": "string"},
+                "fault_at": _TIME,
+                "truth": {"type": "array", "items": {"type": "string"}},
+            },
+        },
+        "status": {"enum": [OK, CRASHED]},
+        "error": {"type": "string"},
+        "decisions": {
+            "type": "array",
+            "items": {
+                **_LOCATED,
+                "required": [
+                    *_LOCATED["required"],
+                    "detected_at",
+                    "recovered_at",
+                    "migrations",
+                    "bytes",
+                    "comparison",
+                ],
+                "properties": {
+                    **_LOCATED["properties"],
+                    "detected_at": _NUMBER,
+                    "recovered_at": _TIME,
+                    "migrations": {"type": "integer", "minimum": 0},
+                    "bytes": {"type": "integer", "minimum": 0},
+                    "comparison": {"type": "object", "additionalProperties": _LOCATED},
+                },
+            },
+        },
+        "stopped_at": _TIME,
+        TIMING: {
+            "type": "object",
+            "required": ["run_seconds"],
+            "properties": {
+                "run_seconds": _NUMBER,
+                "decision_seconds": {"type": "array", "items": _NUMBER},
+            },
+        },
+    },
+    "if": {"properties": {"status": {"const": OK}}},
+    "then": {"required": ["decisions", "stopped_at"]},
+    "else": {"required": ["error"]},
+}
+"""What a record must hold for the summary to read it (a record written by hand or by another
+version is checked against it when a campaign resumes)."""
+
 
 def decision(reconfiguration: Reconfiguration, moved: Sequence[int]) -> dict[str, Any]:
     """A decision as the record keeps it; `moved` holds the bytes of each image it migrated."""

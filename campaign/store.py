@@ -17,9 +17,12 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import IO, Any
 
-from campaign.errors import CampaignFolderError
-from campaign.record import Record
+from jsonschema import Draft202012Validator
 
+from campaign.errors import CampaignFolderError
+from campaign.record import SCHEMA, Record
+
+_VALIDATOR = Draft202012Validator(SCHEMA)
 MANIFEST = "campaign.json"
 RECORDS = "runs.jsonl"
 
@@ -87,9 +90,11 @@ def read_records(path: Path) -> dict[int, Record]:
             raise CampaignFolderError(
                 f"{path}:{number}: expected a run's record (JSON), got {error}"
             ) from None
-        if not isinstance(record, dict) or not isinstance(record.get("index"), int):
+        problem = next(iter(_VALIDATOR.iter_errors(record)), None)
+        if problem is not None:
+            where = "".join(f"[{p!r}]" for p in problem.absolute_path) or "the record"
             raise CampaignFolderError(
-                f"{path}:{number}: expected a run's record with an integer index, got {line[:60]!r}"
+                f"{path}:{number}: {where}: expected a run's record, got {problem.message:.120}"
             )
         records.setdefault(record["index"], record)
     return records

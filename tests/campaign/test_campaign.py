@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -105,14 +106,25 @@ def test_a_folder_holding_a_campaign_is_refused_unless_resumed(finished, tmp_pat
         run_campaign(options("--resume", "--seed", "4", "--out", str(finished)), TOY)
 
 
-def test_a_record_line_that_is_not_a_record_is_named_by_its_line(tmp_path):
+def test_a_record_line_that_is_not_a_record_is_named_by_its_line(finished, tmp_path):
+    records_of_finished = (finished / store.RECORDS).read_text().splitlines()
     path = tmp_path / store.RECORDS
-    path.write_text('{"index": 0}\nnot json\n{"index": 2}\n')
+    path.write_text(f"{records_of_finished[0]}\nnot json\n{records_of_finished[1]}\n")
     with pytest.raises(CampaignFolderError, match=r"runs.jsonl:2: expected a run's record"):
         store.read_records(path)
-    path.write_text('{"index": 0}\n["a list"]\n')
-    with pytest.raises(CampaignFolderError, match=r"runs.jsonl:2: .*integer index"):
+    path.write_text('["a list"]\n')
+    with pytest.raises(CampaignFolderError, match=r"runs.jsonl:1: the record: expected a run"):
         store.read_records(path)
+    good = json.loads(records_of_finished[0])
+    for key, value, where in [
+        ("status", "fine", "['status']"),
+        ("index", -1, "['index']"),
+        ("decisions", [{"located": "Cam"}], "['decisions'][0]"),
+        ("timing", {}, "['timing']"),
+    ]:
+        path.write_text(json.dumps({**good, key: value}) + "\n")
+        with pytest.raises(CampaignFolderError, match=re.escape(f"runs.jsonl:1: {where}: ")):
+            store.read_records(path)
 
 
 def test_a_bad_option_is_a_usage_error(capsys):
@@ -127,3 +139,15 @@ def test_distribution_of_nothing_and_of_values():
     assert distribution([])["median"] is None
     spread = distribution([3.0, 1.0, 2.0, 10.0])
     assert (spread["min"], spread["median"], spread["p90"], spread["max"]) == (1.0, 2.5, 10.0, 10.0)
+
+
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [("runs", "many"), ("runs", -3), ("seed", 1.5), ("scenarios", ["zz"]), ("location", "guess")],
+)
+def test_a_hostile_campaign_file_is_refused_on_resume_naming_the_key(tmp_path, key, value):
+    parameters = {"application": "toy", "runs": 2, "seed": 1, "scenarios": ["a"], "location": None}
+    (tmp_path / store.MANIFEST).write_text(json.dumps({**parameters, key: value}))
+    with pytest.raises(CampaignFolderError, match=rf"campaign.json: {key}: expected what --{key}"):
+        run_campaign(options("--resume", "--out", str(tmp_path)), TOY)
+    assert not (tmp_path / store.RECORDS).exists()
