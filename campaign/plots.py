@@ -48,7 +48,8 @@ def _cdf(values: Sequence[float], label: str, path: Path) -> None:
 
 
 def _accuracy(accuracy: Mapping[str, Mapping[str, float | None]], path: Path) -> None:
-    """Grouped bars: one group per fault type, one bar per strategy."""
+    """Grouped bars: one group per fault type (and per number of faulty modules), one bar per
+    strategy."""
     names = [name for name in accuracy if name != "decided"] or list(accuracy)
     groups = sorted({g for name in names for g in accuracy[name] if g != "all"})
     figure, axes = plt.subplots(figsize=(max(6.4, 1.2 * len(groups) + 2), 4), dpi=100)
@@ -56,7 +57,8 @@ def _accuracy(accuracy: Mapping[str, Mapping[str, float | None]], path: Path) ->
     for offset, name in enumerate(names):
         heights = [100 * (accuracy[name].get(g) or 0.0) for g in groups]
         axes.bar(np.arange(len(groups)) + offset * width, heights, width, label=name)
-    axes.set_xticks(np.arange(len(groups)) + width * (len(names) - 1) / 2, groups, fontsize=8)
+    ticks = np.arange(len(groups)) + width * (len(names) - 1) / 2
+    axes.set_xticks(ticks, groups, fontsize=8, rotation=30, ha="right")
     axes.set_ylabel("runs located exactly (%)")
     axes.set_ylim(0, 105)
     axes.set_title(PLOTS[path.name])

@@ -163,36 +163,51 @@ def _mean(values: Sequence[float]) -> float | None:
 def lines(summary: Mapping[str, Any]) -> list[str]:
     """The summary as the lines a terminal shows."""
     detection, recovery, cost = summary["detection"], summary["recovery"], summary["cost"]
-    accuracy = summary["location"]["accuracy"]
-    result = [
-        f"runs            {summary['runs']} ({summary['finished']} finished, "
-        f"{len(summary['crashed'])} crashed; {summary['fault_runs']} with faults, "
-        f"{summary['control_runs']} control)",
-        f"detected        {percent(detection['rate'])}, latency median "
-        f"{_seconds(detection['latency']['median'])}, p90 {_seconds(detection['latency']['p90'])}",
-        f"false detections {summary['false_detections']['decisions']} in "
-        f"{summary['false_detections']['runs']} run(s)",
-        f"located         {percent(accuracy.get('decided', {}).get('all'))} by the deciding "
-        f"strategy ({summary['location']['judged_runs']} runs with a faulty module)",
+    location, false = summary["location"], summary["false_detections"]
+    rows = [
+        (
+            "runs",
+            f"{summary['runs']} ({summary['finished']} finished, {len(summary['crashed'])} "
+            f"crashed; {summary['fault_runs']} with faults, {summary['control_runs']} control)",
+        ),
+        (
+            "detected",
+            f"{percent(detection['rate'])}, latency median "
+            f"{_seconds(detection['latency']['median'])}, p90 "
+            f"{_seconds(detection['latency']['p90'])}",
+        ),
+        ("false detections", f"{false['decisions']} in {false['runs']} run(s)"),
+        (
+            "located",
+            f"{percent(location['accuracy'].get('decided', {}).get('all'))} by the deciding "
+            f"strategy ({location['judged_runs']} detected runs with a faulty module)",
+        ),
     ]
-    for name, groups in accuracy.items():
+    for name, groups in location["accuracy"].items():
         if name != "decided":
-            estimates = summary["location"]["estimates"].get(name, {})
-            result.append(
-                f"  {name:<13} {percent(groups.get('all'))} "
-                f"(single {percent(groups.get('1 faulty'))}, double "
-                f"{percent(groups.get('2 faulty'))}), {_number(estimates.get('tried'))} "
-                "estimates per decision"
+            estimates = location["estimates"].get(name, {})
+            rows.append(
+                (
+                    f"  {name}",
+                    f"{percent(groups.get('all'))} (single {percent(groups.get('1 faulty'))}, "
+                    f"double {percent(groups.get('2 faulty'))}), "
+                    f"{_number(estimates.get('tried'))} estimates per decision",
+                )
             )
-    result += [
-        f"recovered       {percent(recovery['rate'])}, median "
-        f"{_seconds(recovery['time']['median'])} after the fault; {recovery['stopped']} stopped "
-        "safely",
-        f"decisions       {cost['decisions']}, median "
-        f"{_milliseconds(cost['decision_seconds']['median'])} of host CPU; "
-        f"{cost['migrations']} migration(s), {cost['bytes']} B",
+    rows += [
+        (
+            "recovered",
+            f"{percent(recovery['rate'])}, median {_seconds(recovery['time']['median'])} after "
+            f"the fault; {recovery['stopped']} stopped safely",
+        ),
+        (
+            "decisions",
+            f"{cost['decisions']}, median {_milliseconds(cost['decision_seconds']['median'])} "
+            f"of host CPU; {cost['migrations']} migration(s), {cost['bytes']} B",
+        ),
     ]
-    return result
+    width = max(len(label) for label, _ in rows)
+    return [f"{label:<{width}}  {value}" for label, value in rows]
 
 
 def percent(value: float | None) -> str:
