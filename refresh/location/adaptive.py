@@ -145,12 +145,15 @@ def _reduce(
     parts: list[list[int]], changes: list[int], passes: Callable[[Sequence[int]], bool]
 ) -> tuple[list[int], int] | None:
     """A part that passes alone (granularity back to 2), or a complement of a part that does
-    (granularity one less), or None."""
+    (granularity one less), or None. Parts are tried from the first slot on and complements
+    from the last part's: of two sets of slots that both repair (fog repaired by another
+    camera or by a matcher that sees through it), the one of earlier slots is kept, as Base
+    Choice and brute force prefer them."""
     for part in parts:
         if passes(part):
             return part, 2
     if len(parts) > 2:
-        for part in parts:
+        for part in reversed(parts):
             complement = [c for c in changes if c not in part]
             if passes(complement):
                 return complement, max(len(parts) - 1, 2)

@@ -206,12 +206,23 @@ inputs = { image = "frame" }
 outputs = { deviation = "pixels" }
 source = "native"
 
+[schemas.arm]
+kind = "actuator"
+[schemas.arm.modules.Arm]
+robots = ["a"]
+inputs = { deviation = "pixels" }
+source = "native"
+[schemas.arm.modules.Arm_alt]
+robots = ["a"]
+inputs = { deviation = "pixels" }
+source = "native"
+
 [task]
 name = "look"
 robot = "a"
 states = ["look"]
-schemas = ["camera", "matching"]
-initial = ["Cam@a", "SSD"]
+schemas = ["camera", "matching", "arm"]
+initial = ["Cam@a", "SSD", "Arm"]
 [task.metrics.diff]
 schema = "matching"
 threshold = 30
@@ -236,4 +247,24 @@ def test_adaptive_names_the_earliest_slot_a_replacement_repairs_alone_as_base_ch
         estimator = FunctionEstimator(dark_robot_a)
         location = strategy.locate(current, loaded.database, loaded.task, estimator, EventLog())
         found[location.strategy] = (location.modules, location.passing.label())
-    assert set(found.values()) == {(("Cam",), "{Cam@b, SSD}")}
+    assert set(found.values()) == {(("Cam",), "{Cam@b, SSD, Arm}")}
+
+
+def fog_on_cam_and_a_stuck_arm(configuration: Configuration) -> Values:
+    """Cam is fogged wherever it runs (Cam_alt is clear), NCC sees through fog, Arm is stuck."""
+    modules = {p.module for p in configuration.placements}
+    sees = "Cam" not in modules or "NCC" in modules
+    return {"diff": 5.0 if sees and "Arm" not in modules else 80.0}
+
+
+def test_of_two_sets_of_slots_that_repair_adaptive_keeps_the_earlier_as_brute_force_does():
+    """Both {camera, arm} and {matching, arm} repair; ddmin tried the complements from the
+    first part, dropped the camera first and named the matcher."""
+    loaded = loads(DARK_ROBOT, "dark.toml")
+    current = initial_configuration(loaded.task, loaded.database)
+    found = set()
+    for strategy in (adaptive, brute_force):
+        estimator = FunctionEstimator(fog_on_cam_and_a_stuck_arm)
+        location = strategy.locate(current, loaded.database, loaded.task, estimator, EventLog())
+        found.add(location.modules)
+    assert found == {("Cam", "Arm")}
