@@ -29,6 +29,10 @@ from campaign.errors import CampaignError
 from campaign.plan import Spec
 from campaign.record import OK, TIMING, Record, crashed
 
+SATURATION = "distributed.scheduler.worker-saturation"
+"""Runs a worker is given per thread at once: 1, so that a worker dying under a run takes no
+other run down with it (Dask's default, 1.1, queues a second run on a one-thread worker)."""
+
 Runner = Callable[[Spec], dict[str, Any]]
 """An application's run: its spec in, its outcome out (``decisions``, ``stopped_at``, and
 ``timing`` for what the host's clocks measured)."""
@@ -54,6 +58,7 @@ def default_workers() -> int:
 def client(workers: int, scheduler: str | None) -> Iterator[Any]:
     """A Dask client on the scheduler at `scheduler`, or on a new local cluster of `workers`
     single-threaded worker processes (closed on leaving)."""
+    import dask
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
@@ -66,15 +71,16 @@ def client(workers: int, scheduler: str | None) -> Iterator[Any]:
         with connected:
             yield connected
         return
-    cluster = LocalCluster(
-        n_workers=workers,
-        threads_per_worker=1,
-        processes=True,
-        host="127.0.0.1",
-        dashboard_address="127.0.0.1:0",  # the scheduler's HTTP routes (health), on loopback
-        scheduler_kwargs={"dashboard": False},
-        silence_logs=logging.ERROR,
-    )
+    with dask.config.set({SATURATION: 1.0}):
+        cluster = LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address="127.0.0.1:0",  # the scheduler's HTTP routes (health), on loopback
+            scheduler_kwargs={"dashboard": False},
+            silence_logs=logging.ERROR,
+        )
     with cluster, Client(cluster) as local:
         yield local
 

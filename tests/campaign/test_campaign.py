@@ -151,3 +151,11 @@ def test_a_hostile_campaign_file_is_refused_on_resume_naming_the_key(tmp_path, k
     with pytest.raises(CampaignFolderError, match=rf"campaign.json: {key}: expected what --{key}"):
         run_campaign(options("--resume", "--out", str(tmp_path)), TOY)
     assert not (tmp_path / store.RECORDS).exists()
+
+
+def test_a_run_whose_worker_dies_is_recorded_as_crashed_and_the_others_finish(tmp_path):
+    dying = Application("toy", ("a", "b"), toy.draw, toy.die, Path("unused"))
+    run_campaign(options("--runs", "4", "--seed", "3", "--out", str(tmp_path)), dying)
+    found = records(tmp_path)
+    assert [r["status"] for r in found] == ["ok", "crashed", "ok", "ok"]
+    assert found[1]["error"].startswith("the run's worker failed: ")

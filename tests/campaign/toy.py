@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import random
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -41,3 +42,11 @@ def run(spec: Mapping[str, Any]) -> dict[str, Any]:
         "comparison": {"base-choice": {"strategy": "base-choice", **located}},
     }
     return {"decisions": [decision], "stopped_at": None, "timing": {"decision_seconds": [0.01]}}
+
+
+def die(spec: Mapping[str, Any]) -> dict[str, Any]:
+    """`run`, but the worker process itself ends under the run of index 1 (a crash of native
+    code, the OOM killer)."""
+    if spec["index"] == 1:
+        os._exit(3)
+    return run({**spec, "draw": {**spec["draw"], "crash": False}})
