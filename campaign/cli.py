@@ -19,6 +19,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlsplit
 
 from campaign import store
 from campaign.engine import Runner, client, default_workers, execute
@@ -28,6 +29,7 @@ from campaign.plan import plan
 from campaign.summary import lines, summarize
 from commandline import UsageError
 from commandline.arguments import integer
+from commandline.interrupts import stop_requests
 from commandline.progress import progress_bar
 from refresh.cli import add_location_option
 from refresh.location import STRATEGIES
@@ -78,6 +80,7 @@ def add_campaign_arguments(command: argparse.ArgumentParser, application: Applic
     )
     command.add_argument(
         "--scheduler",
+        type=scheduler_address,
         metavar="ADDRESS",
         help="an existing Dask cluster's scheduler (tcp://HOST:8786) instead of a local cluster",
     )
@@ -92,6 +95,19 @@ def add_campaign_arguments(command: argparse.ArgumentParser, application: Applic
         action="store_true",
         help="finish the campaign in DIR: run only what it has not recorded yet",
     )
+
+
+def scheduler_address(text: str) -> str:
+    """``tcp://HOST:PORT``: a Dask scheduler's address (TLS would need certificates the
+    command does not take)."""
+    try:
+        parts = urlsplit(text)
+        port = parts.port
+    except ValueError:
+        port = None
+    if not (parts.scheme == "tcp" and parts.hostname and port and not parts.path.strip("/")):
+        raise argparse.ArgumentTypeError(f"expected tcp://HOST:PORT, got {text!r}")
+    return text
 
 
 def _scenarios(known: Sequence[str]) -> Callable[[str], list[str]]:
@@ -140,6 +156,7 @@ def _run(
     with (
         store.Records(out) as sink,
         progress_bar(len(specs), application.name, unit="run") as bar,
+        stop_requests() as stopping,
     ):
         bar.update(len(specs) - len(pending))
 
@@ -148,7 +165,7 @@ def _run(
             records[record["index"]] = record
             bar.update(1)
 
-        execute(dask, pending, application.runner, keep)
+        execute(dask, pending, application.runner, keep, stopping)
     finish(out, parameters, [records[spec["index"]] for spec in specs])
 
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import signal
 import time
 import traceback
 from collections.abc import Callable, Iterator, Sequence
@@ -32,6 +33,9 @@ from campaign.record import OK, TIMING, Record, crashed
 SATURATION = "distributed.scheduler.worker-saturation"
 """Runs a worker is given per thread at once: 1, so that a worker dying under a run takes no
 other run down with it (Dask's default, 1.1, queues a second run on a one-thread worker)."""
+
+POLL = 0.05
+"""Seconds between two looks for finished runs (and for Ctrl-C)."""
 
 Runner = Callable[[Spec], dict[str, Any]]
 """An application's run: its spec in, its outcome out (``decisions``, ``stopped_at``, and
@@ -64,7 +68,7 @@ def client(workers: int, scheduler: str | None) -> Iterator[Any]:
     if scheduler is not None:
         try:
             connected = Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError) as error:
+        except (OSError, TimeoutError, ValueError) as error:
             raise CampaignError(
                 f"--scheduler: expected a Dask scheduler at {scheduler}, got {error}"
             ) from None
@@ -82,23 +86,50 @@ def client(workers: int, scheduler: str | None) -> Iterator[Any]:
             silence_logs=logging.ERROR,
         )
     with cluster, Client(cluster) as local:
+        local.register_plugin(_interrupts_ignored())
         yield local
 
 
+def _interrupts_ignored() -> Any:
+    """A plugin that makes a local worker ignore SIGINT: Ctrl-C reaches every process of the
+    terminal's group, and the campaign's own process stops the workers (a worker interrupted
+    mid-run would print its traceback). Defined here because `distributed` is the campaign
+    extra's, imported when a cluster starts."""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class InterruptsIgnored(WorkerPlugin):
+        def setup(self, worker: Any) -> None:
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    return InterruptsIgnored()
+
+
 def execute(
-    dask: Any, specs: Sequence[Spec], runner: Runner, on_record: Callable[[Record], None]
+    dask: Any,
+    specs: Sequence[Spec],
+    runner: Runner,
+    on_record: Callable[[Record], None],
+    stopping: Callable[[], bool] = lambda: False,
 ) -> None:
     """Run every spec on the cluster of the client `dask` and hand each record to `on_record`
-    as it comes."""
+    as it comes. When `stopping()` turns true (Ctrl-C), the runs left are cancelled and
+    KeyboardInterrupt raised, between two records rather than inside Dask's own calls."""
     from distributed import as_completed
 
     futures = {
         dask.submit(guarded, runner, spec, key=f"run-{spec['index']}-{spec['seed']}"): spec
         for spec in specs
     }
+    finished = as_completed(futures)
     try:
-        for future in as_completed(futures):
-            on_record(_record(future, futures[future]))
+        while not finished.is_empty():
+            if stopping():
+                raise KeyboardInterrupt
+            ready = finished.next_batch(block=False)
+            for future in ready:
+                on_record(_record(future, futures[future]))
+            if not ready:
+                time.sleep(POLL)
     finally:
         dask.cancel(list(futures))
 

@@ -1,10 +1,12 @@
 """The one command-line convention of the toolchain's entry points.
 
 `hexmigrate`, `firmware-sim`, ``python -m refresh``, ``python -m visual_servoing``,
-``python -m morphing_crossbar`` and ``python -m firmware_sim.servos`` all build their parser with
-`command_parser`, take numbers and files through the types in `commandline.arguments`, show long
-jobs with `commandline.progress`, and hand their parser and their package's error root to
-`run`, which owns ``--debug``, the exit codes and the ``error: ...`` line.
+``python -m patrol``, ``python -m morphing_crossbar`` and ``python -m firmware_sim.servos`` all
+build their parser with `command_parser`, take numbers and files through the types in
+`commandline.arguments`, show long jobs with `commandline.progress`, stop a job that writes as it
+goes between two of its steps on Ctrl-C or SIGTERM with `commandline.interrupts`, and hand their
+parser and their package's error root to `run`, which owns ``--debug``, the exit codes and the
+``error: ...`` line.
 
 This package sits below every other one: it imports none of the toolchain's packages.
 """

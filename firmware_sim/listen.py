@@ -15,14 +15,12 @@ the pty) resumes. The node's bridges to other nodes are closed when it ends.
 
 from __future__ import annotations
 
-import signal
-import threading
 import time
-from collections.abc import Callable, Iterator, Mapping
-from contextlib import contextmanager
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from commandline.interrupts import stop_requests
 from firmware_sim.errors import StartError
 from firmware_sim.fpga_port import open_port
 from firmware_sim.gdb import GdbServer, debugging
@@ -137,7 +135,7 @@ def listen(
             control = KernelControl(node, lock_step=config.lock_step)
             receiver = Receiver(target, control, trusted=config.trust.keys)
             try:
-                with recording(node.kernel, config.traces), _stop_requests() as requested:
+                with recording(node.kernel, config.traces), stop_requests() as requested:
                     stop = _stopper(node, config, say, gdb, requested)
                     serve(node, link, receiver=receiver, stop=stop)
                 if requested():
@@ -147,32 +145,6 @@ def listen(
             finally:
                 control.close()
     return 0
-
-
-@contextmanager
-def _stop_requests() -> Iterator[Callable[[], bool]]:
-    """Ctrl-C and SIGTERM ask the node to stop between two turns of its loop (the callable yielded
-    turns true), rather than raising wherever it is: a job half-recorded into one trace but not
-    the other, or a record cut in the middle, cannot happen. A second signal while the first is
-    pending raises KeyboardInterrupt, for a node that does not come back to its loop (a guest
-    call halted in gdb). The handlers before are back afterwards. Only the main thread receives
-    signals: elsewhere nothing changes (Ctrl-C raises as usual)."""
-    asked: list[int] = []
-    if threading.current_thread() is not threading.main_thread():
-        yield lambda: False
-        return
-
-    def ask(number: int, _frame: object) -> None:
-        if asked:
-            raise KeyboardInterrupt
-        asked.append(number)
-
-    previous = {number: signal.signal(number, ask) for number in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield lambda: bool(asked)
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
 
 
 def _native(codes: Mapping[str, ModuleCode], name: str) -> ModuleCode:

@@ -128,11 +128,15 @@ def test_a_record_line_that_is_not_a_record_is_named_by_its_line(finished, tmp_p
 
 
 def test_a_bad_option_is_a_usage_error(capsys):
-    for argv in (["--runs", "0"], ["--runs", "nan"], ["--scenarios", "a,zz"], ["--seed", "-1"]):
+    bad = [["--runs", "0"], ["--runs", "nan"], ["--scenarios", "a,zz"], ["--seed", "-1"]]
+    bad += [["--scheduler", a] for a in ("garbage", "tls://127.0.0.1:9", "tcp://127.0.0.1", "")]
+    for argv in bad:
         with pytest.raises(SystemExit) as exited:
             options(*argv)
         assert exited.value.code == 2
-    assert "expected scenario names among a,b, got 'a,zz'" in capsys.readouterr().err
+    said = capsys.readouterr().err
+    assert "expected scenario names among a,b, got 'a,zz'" in said
+    assert "--scheduler: expected tcp://HOST:PORT, got 'garbage'" in said
 
 
 def test_distribution_of_nothing_and_of_values():

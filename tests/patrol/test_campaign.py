@@ -5,7 +5,12 @@ stop the task; and ``python -m patrol campaign`` runs drawn runs on a local Dask
 from __future__ import annotations
 
 import json
+import os
 import random
+import signal
+import subprocess
+import sys
+import time
 
 import pytest
 
@@ -68,3 +73,39 @@ def test_the_campaign_command_writes_records_summary_and_page(tmp_path, capsys):
             assert set(decision["comparison"]) == set(STRATEGIES)
     assert json.loads((out / "summary.json").read_text())["runs"] == 3
     assert "located" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_the_campaign_between_records_and_resume_finishes_it(tmp_path):
+    """Ctrl-C reaches every process of the terminal's group: the workers ignore it, the command
+    stops between two records, says "interrupted" and exits 130, without a traceback."""
+    out = tmp_path / "campaign"
+    command = [sys.executable, "-m", "patrol", "campaign", "--runs", "8", "--workers", "2"]
+    campaign = subprocess.Popen(
+        [*command, "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # a process group of its own, as a terminal's job
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and _records(out) < 2:
+            assert campaign.poll() is None, campaign.communicate()
+            time.sleep(0.1)
+        os.killpg(campaign.pid, signal.SIGINT)
+        _, stderr = campaign.communicate(timeout=60)
+    finally:
+        if campaign.poll() is None:
+            os.killpg(campaign.pid, signal.SIGKILL)
+            campaign.wait()
+    assert campaign.returncode == 130
+    assert stderr == "interrupted\n"
+    assert 2 <= _records(out) < 8
+    assert main(["campaign", "--resume", "--workers", "2", "--out", str(out)]) == 0
+    assert _records(out) == 8
+
+
+def _records(out) -> int:
+    path = out / store.RECORDS
+    return len(path.read_text().splitlines()) if path.exists() else 0

@@ -1,0 +1,38 @@
+"""Ctrl-C and SIGTERM as a request to stop between two steps of a long job.
+
+A job that writes as it goes (a node recording traces, a campaign writing records) must not be
+cut wherever the signal finds it: a record half-written, one trace a sample ahead of the other,
+or the signal raised inside a library's own machinery. `stop_requests` turns the first signal
+into a flag the job reads between two steps; a second signal while the first is pending raises
+KeyboardInterrupt, for a job that does not come back to its loop.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+
+
+@contextmanager
+def stop_requests() -> Iterator[Callable[[], bool]]:
+    """Ctrl-C and SIGTERM make the callable yielded turn true; a second one raises
+    KeyboardInterrupt. The handlers before are back afterwards. Only the main thread receives
+    signals: elsewhere nothing changes (Ctrl-C raises as usual)."""
+    asked: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield lambda: False
+        return
+
+    def ask(number: int, _frame: object) -> None:
+        if asked:
+            raise KeyboardInterrupt
+        asked.append(number)
+
+    previous = {number: signal.signal(number, ask) for number in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield lambda: bool(asked)
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
