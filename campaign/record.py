@@ -55,6 +55,8 @@ SCHEMA: dict[str, Any] = {
                 "fault_at": _TIME,
                 "truth": {"type": "array", "items": {"type": "string"}},
             },
+            "if": {"properties": {"fault_type": {"const": "none"}}},
+            "else": {"properties": {"fault_at": _NUMBER}},
         },
         "status": {"enum": [OK, CRASHED]},
         "error": {"type": "string"},

@@ -38,7 +38,7 @@ def summarize(records: Iterable[Record]) -> dict[str, Any]:
         "runs": len(ordered),
         "finished": len(finished),
         "crashed": [
-            {"index": r["index"], "error": r["error"].strip().splitlines()[-1]}
+            {"index": r["index"], "error": (r["error"].strip().splitlines() or [""])[-1]}
             for r in ordered
             if r["status"] == CRASHED
         ],

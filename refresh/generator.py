@@ -22,6 +22,7 @@ that satisfy P_T (equation (5)).
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
@@ -34,6 +35,10 @@ from refresh.performance import Assessment, assess, best, usage, usage_replaced
 from refresh.task import TaskSpec
 
 DEFAULT_MAX_MODULES = 2
+MAX_CANDIDATES = 10_000
+"""The most candidates several seeds make together: their product grows with each seed (three
+slots of 30 candidates each would be 27,000 estimates), so each seed's list is cut to its first
+candidates (alternatives and placements first, then the shortest combos) to stay under it."""
 """K: the paper limits a combo module to two modules."""
 
 
@@ -122,11 +127,15 @@ def seeded(
     max_modules: int,
 ) -> list[Candidate]:
     """Every candidate around the seeds in `slots`: for one seed, `candidates`; for several,
-    each combination of one candidate per seed's slot, in slot order."""
+    each combination of one candidate per seed's slot, in slot order, each seed's list cut to
+    keep the combinations under `MAX_CANDIDATES`."""
     slots = sorted(slots)
     if len(slots) == 1:
         return candidates(configuration, slots[0], database, max_modules)
     per_slot = [candidates(configuration, slot, database, max_modules) for slot in slots]
+    if math.prod(len(made) for made in per_slot) > MAX_CANDIDATES:
+        each = max(1, int(MAX_CANDIDATES ** (1 / len(slots))))
+        per_slot = [made[:each] for made in per_slot]
     found: list[Candidate] = []
     for picks in itertools.product(*per_slot):
         target = configuration

@@ -55,12 +55,15 @@ def compare(
     database: ModuleDatabase,
     task: TaskSpec,
     estimators: Callable[[], Estimator],
+    decided: Location,
 ) -> dict[str, Location]:
-    """Every strategy's answer for the same configuration, each estimating with a fresh
-    estimator from `estimators` and logging to a log of its own (the comparison is not part of
-    the decision)."""
+    """Every strategy's answer for the same configuration: `decided` for the strategy that made
+    it, each other estimating with a fresh estimator from `estimators` and logging to a log of
+    its own (the comparison is not part of the decision)."""
     return {
-        name: locate(configuration, database, task, estimators(), EventLog())
+        name: decided
+        if name == decided.strategy
+        else locate(configuration, database, task, estimators(), EventLog())
         for name, locate in STRATEGIES.items()
     }
 

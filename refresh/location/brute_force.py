@@ -4,8 +4,8 @@ It estimates all prod(a_i) configurations (the base included, as the paper count
 names the slots changed by the passing configuration that changes fewest (of several, the one
 changing the earliest slots, in task order as Base Choice tries them): when every fault must be
 replaced for P_T to hold, the smallest passing change is exactly the set of faulty slots, however
-many there are. Its cost is what the other strategies
-are measured against.
+many there are. Its cost is what the other strategies are measured against; above `LIMIT`
+configurations it estimates none and says so.
 """
 
 from __future__ import annotations
@@ -22,6 +22,9 @@ from refresh.location.trials import Trials, all_options
 from refresh.task import TaskSpec
 
 NAME = "brute-force"
+LIMIT = 100_000
+"""The most configurations brute force estimates: above, it locates nothing rather than run for
+hours (a database of 50 modules has about 1e12)."""
 
 
 def count(configuration: Configuration, database: ModuleDatabase) -> int:
@@ -41,6 +44,9 @@ def locate(
     total = math.prod(len(o) for o in options)
     log.record("locate", f"brute force: {total} configuration(s)", strategy=NAME, cases=total)
     trials = Trials(configuration, database, task, estimator, log)
+    if total > LIMIT:
+        verdict = f"brute force: {total:.3g} configurations, over its limit of {LIMIT}"
+        return trials.conclude(NAME, (), None, total, verdict)
     passing = [
         chains
         for chains in itertools.product(*options)

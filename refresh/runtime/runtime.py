@@ -256,7 +256,11 @@ class Runtime:
         if self.settings.compare_locations:
             steps = self.settings.estimate_steps
             record.comparison = compare(
-                current, self.database, self.task, lambda: self.estimators(detected_at, steps)
+                current,
+                self.database,
+                self.task,
+                lambda: self.estimators(detected_at, steps),
+                decision.location,
             )
         self.history.reconfigurations.append(record)
         if decision.target is None:

@@ -18,7 +18,7 @@ from campaign import store
 from campaign.cli import Application, add_campaign_arguments, run_campaign
 from campaign.errors import CampaignFolderError
 from campaign.plan import plan
-from campaign.record import reproducible
+from campaign.record import crashed, reproducible
 from campaign.summary import distribution, summarize
 from tests.campaign import toy
 
@@ -121,6 +121,7 @@ def test_a_record_line_that_is_not_a_record_is_named_by_its_line(finished, tmp_p
         ("index", -1, "['index']"),
         ("decisions", [{"located": "Cam"}], "['decisions'][0]"),
         ("timing", {}, "['timing']"),
+        ("draw", {**good["draw"], "fault_type": "fog", "fault_at": None}, "['draw']['fault_at']"),
     ]:
         path.write_text(json.dumps({**good, key: value}) + "\n")
         with pytest.raises(CampaignFolderError, match=re.escape(f"runs.jsonl:1: {where}: ")):
@@ -163,3 +164,9 @@ def test_a_run_whose_worker_dies_is_recorded_as_crashed_and_the_others_finish(tm
     found = records(tmp_path)
     assert [r["status"] for r in found] == ["ok", "crashed", "ok", "ok"]
     assert found[1]["error"].startswith("the run's worker failed: ")
+
+
+def test_a_crashed_run_with_a_blank_error_is_summarized():
+    draw = {"fault_type": "fog", "fault_at": 1.0, "truth": ["Cam"]}
+    blank = crashed({"index": 0, "seed": 1, "draw": draw}, "  \n", 0.5)
+    assert summarize([blank])["crashed"] == [{"index": 0, "error": ""}]

@@ -101,6 +101,7 @@ def test_compared_strategies_locate_in_shadow_and_the_decision_stays_the_task_s(
             assert location.strategy == name
             assert location.modules == ("Sensor",)
         assert record.decision.location.strategy == "base-choice"
+        assert record.comparison["base-choice"] is record.decision.location  # not estimated twice
         assert record.target is not None and record.target.label() == REPAIRED
         assert [e.kind for e in runtime.log].count("location") == 1  # shadows log elsewhere
 

@@ -6,20 +6,23 @@ from __future__ import annotations
 
 import itertools
 import json
+import random
 from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
+from refresh import generator
 from refresh.adaptation import decide
 from refresh.configuration import Configuration, initial_configuration
 from refresh.estimator import FunctionEstimator, Values
 from refresh.events import EventLog
-from refresh.generator import candidates, combos
+from refresh.generator import candidates, combos, seeded
 from refresh.load import Loaded, load, loads
 from refresh.location import STRATEGIES, adaptive, base_choice, brute_force, pairwise
 from refresh.location.trials import all_options
 from refresh.performance import assess, usage
+from refresh.synthetic import current_module, faultable_slots, planted_fault, random_scenario
 
 DATABASE = Path(__file__).parents[2] / "refresh" / "data" / "visual_servoing.toml"
 
@@ -268,3 +271,24 @@ def test_of_two_sets_of_slots_that_repair_adaptive_keeps_the_earlier_as_brute_fo
         location = strategy.locate(current, loaded.database, loaded.task, estimator, EventLog())
         found.add(location.modules)
     assert found == {("Cam", "Arm")}
+
+
+def test_several_seeds_keep_their_combinations_under_the_cap(scenario, current, monkeypatch):
+    whole = seeded(current, [0, 1], scenario.database, max_modules=2)
+    camera = candidates(current, 0, scenario.database, max_modules=2)
+    matching = candidates(current, 1, scenario.database, max_modules=2)
+    assert len(whole) == len(camera) * len(matching) > 2
+    monkeypatch.setattr(generator, "MAX_CANDIDATES", 2)
+    (cut,) = seeded(current, [0, 1], scenario.database, max_modules=2)  # one per seed: 1 x 1
+    assert cut.chains == (camera[0].chains[0], matching[0].chains[0])
+
+
+def test_brute_force_over_its_limit_estimates_nothing_and_says_so():
+    scenario = random_scenario(random.Random(3), 50, 4, 4)
+    assert brute_force.count(scenario.configuration, scenario.database) > brute_force.LIMIT
+    estimator = planted_fault(current_module(scenario, faultable_slots(scenario)[0]).module)
+    location = brute_force.locate(
+        scenario.configuration, scenario.database, scenario.task, estimator, EventLog()
+    )
+    assert not location.located and estimator.calls == 0
+    assert "over its limit of 100000" in location.verdict

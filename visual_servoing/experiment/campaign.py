@@ -27,6 +27,7 @@ locates each fault in shadow, beside the one that decides (`--location`, else th
 
 from __future__ import annotations
 
+import functools
 import random
 import tempfile
 from collections.abc import Mapping, Sequence
@@ -128,21 +129,25 @@ def scenario_of(drawn: Mapping[str, Any], index: int) -> Scenario:
         power_drop=power,
         servo_link_cut=cut,
         outage=None,
-        extra=SECOND_SERVO_BUS if cut is not None or base.extra else base.extra,
+        extra=SECOND_SERVO_BUS if cut is not None else base.extra,
         fault_at=base.duration if drawn["fault_at"] is None else drawn["fault_at"],
         location=drawn["location"],
     )
 
 
-_WORK = tempfile.TemporaryDirectory(prefix="visual-servoing-campaign-")
-"""The worker process's build folder: the Dehazer is built once per process, not per run."""
+@functools.cache
+def _work() -> tempfile.TemporaryDirectory[str]:
+    """The worker process's build folder (the Dehazer is built once per process): made at its
+    first run, not when the module is imported (every command of the package imports it), and
+    kept by the cache until the process ends, which removes it."""
+    return tempfile.TemporaryDirectory(prefix="visual-servoing-campaign-")
 
 
 def run(spec: Mapping[str, Any]) -> dict[str, Any]:
     """One run of the campaign: its decisions, with every strategy's location beside."""
     scenario = scenario_of(spec["draw"], spec["index"])
     settings = replace(SETTINGS, compare_locations=True)
-    with Experiment(scenario, Path(_WORK.name), settings=settings) as experiment:
+    with Experiment(scenario, Path(_work().name), settings=settings) as experiment:
         outcome = experiment.run()
     return record.outcome(
         outcome.reconfigurations,
