@@ -127,6 +127,7 @@ def run_campaign(options: argparse.Namespace, application: Application) -> None:
     """Plan, run (or resume), summarize, plot and write the page; print the summary."""
     out: Path = options.out or application.default_out
     parameters = _parameters(options, application, out)
+    store.check_folder(out)
     with client(options.workers, options.scheduler) as dask:
         records = store.start(out, parameters, options.resume)
         _run(dask, out, parameters, records, options, application)

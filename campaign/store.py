@@ -27,6 +27,18 @@ MANIFEST = "campaign.json"
 RECORDS = "runs.jsonl"
 
 
+def check_folder(out: Path) -> None:
+    """Refuse an `out` that cannot hold a campaign, before a cluster starts: a path that is not
+    a folder, or whose nearest existing parent is not a folder."""
+    existing = out
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if existing.exists() and not existing.is_dir():
+        what = "a file" if existing.is_file() else "something other than a folder"
+        where = "" if existing == out else f" at {existing}"
+        raise CampaignFolderError(f"{out}: expected a folder for the campaign, got {what}{where}")
+
+
 def start(out: Path, parameters: Mapping[str, Any], resume: bool) -> dict[int, Record]:
     """Make `out` ready for the campaign of `parameters`; the records already there (by index)
     when resuming, none for a new campaign."""
@@ -44,7 +56,12 @@ def start(out: Path, parameters: Mapping[str, Any], resume: bool) -> dict[int, R
             f"{out}: expected a folder without a campaign, got one holding {MANIFEST} or "
             f"{RECORDS}: --resume to finish it, or another --out"
         )
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise CampaignFolderError(
+            f"{out}: expected a folder the campaign can be written in, got {error.strerror}"
+        ) from None
     manifest.write_text(json.dumps(dict(parameters), indent=1) + "\n", encoding="utf-8")
     return {}
 

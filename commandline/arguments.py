@@ -148,16 +148,21 @@ def _range_text(
     kind: str, minimum: float | None, maximum: float | None, above: float | None, unit: str
 ) -> str:
     suffix = f" {unit}" if unit else ""
-    low = f"above {above:g}" if above is not None else None
+    low = f"above {_shown(above)}" if above is not None else None
     if minimum is not None:
-        low = f"from {minimum:g}"
+        low = f"from {_shown(minimum)}"
     if low and maximum is not None:
-        return f"{kind} {low} to {maximum:g}{suffix}"
+        return f"{kind} {low} to {_shown(maximum)}{suffix}"
     if low:
         return f"{kind} {low}{suffix}"
     if maximum is not None:
-        return f"{kind} up to {maximum:g}{suffix}"
+        return f"{kind} up to {_shown(maximum)}{suffix}"
     return f"a finite {kind.removeprefix('a ')}{suffix}"
+
+
+def _shown(bound: float) -> str:
+    """A bound as a user would type it: whole numbers in full (1000000, not 1e+06)."""
+    return str(bound) if isinstance(bound, int) else f"{bound:g}"
 
 
 def _kind(mode: int) -> str:

@@ -170,3 +170,15 @@ def test_a_crashed_run_with_a_blank_error_is_summarized():
     draw = {"fault_type": "fog", "fault_at": 1.0, "truth": ["Cam"]}
     blank = crashed({"index": 0, "seed": 1, "draw": draw}, "  \n", 0.5)
     assert summarize([blank])["crashed"] == [{"index": 0, "error": ""}]
+
+
+def test_a_folder_that_cannot_be_one_is_refused_before_any_run(tmp_path):
+    taken = tmp_path / "taken"
+    taken.write_text("a file\n")
+    with pytest.raises(
+        CampaignFolderError, match=r"expected a folder for the campaign, got a file$"
+    ):
+        run_campaign(options("--runs", "2", "--out", str(taken)), TOY)
+    with pytest.raises(CampaignFolderError, match=rf"got a file at {re.escape(str(taken))}$"):
+        run_campaign(options("--runs", "2", "--out", str(taken / "below")), TOY)
+    assert taken.read_text() == "a file\n"

@@ -29,6 +29,11 @@ def test_a_real_keeps_to_its_range():
         real(above=0, unit="Hz")("0")
 
 
+def test_a_whole_numbers_range_is_named_in_full():
+    with pytest.raises(argparse.ArgumentTypeError, match=r"from 1 to 1000000, got '0'"):
+        integer(1, 1_000_000)("0")
+
+
 @given(st.floats(allow_nan=True, allow_infinity=True))
 def test_a_real_takes_exactly_the_finite_values_in_range(value):
     parse = real(-10, 10)
