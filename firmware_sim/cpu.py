@@ -110,15 +110,24 @@ _ACCESS_HOOK = ctypes.CFUNCTYPE(None, *_MEMORY_ARGUMENTS)
 _MEMORY_HOOK = ctypes.CFUNCTYPE(ctypes.c_bool, *_MEMORY_ARGUMENTS)
 
 
+@dataclass(frozen=True)
+class Restart:
+    """Where a debugger stopped the guest (`halted`, before that instruction ran) and where it
+    starts again (`at`: the same, unless the debugger moved pc)."""
+
+    halted: int
+    at: int
+
+
 class Debugger(Protocol):
     """What the CPU asks of an attached debugger (firmware_sim/gdb/stub.py)."""
 
     def before_call(self) -> None:
         """Before each guest call, while no guest runs: put pending hooks in place."""
 
-    def take_restart(self) -> int | None:
-        """After the guest stopped: the address to start it again at, when the debugger stopped
-        it (before that instruction ran), else None."""
+    def take_restart(self) -> Restart | None:
+        """After the guest stopped: where it stopped and starts again, when the debugger
+        stopped it, else None."""
 
 
 @dataclass(frozen=True)
@@ -465,13 +474,13 @@ class Cpu:
         if self._fault is None and self._counter.stopped == Stop.REFUSED:
             self._refuse_block(self._counter.block_start, self._counter.block_end)
 
-    def _restart_at(self, pc: int) -> None:
-        """Run the guest on from `pc`, where a debugger stopped it before that instruction ran:
-        the rest of its block was counted when the block was entered, and is counted again when
-        the restarted block is."""
+    def _restart_at(self, restart: Restart) -> None:
+        """Run the guest on where a debugger stopped it, or moved pc to: the rest of the halted
+        block, counted when the block was entered, did not run, and the block the guest starts
+        in is counted when it is entered."""
         counter = self._counter
-        counter.count -= (counter.block_end - pc) // INSTRUCTION_SIZE
-        self._run(pc, TRAMPOLINE)
+        counter.count -= (counter.block_end - restart.halted) // INSTRUCTION_SIZE
+        self._run(restart.at, TRAMPOLINE)
 
     def _run_out(self, budget: int) -> None:
         """The block hook stopped the guest before a block that would run past the budget: run
@@ -564,6 +573,13 @@ class Cpu:
     def debug_registers(self) -> list[int]:
         """x0..x31 and pc, as gdb numbers them."""
         return [0, *self._debug_registers.read()]
+
+    def debug_may_run_at(self, address: int) -> bool:
+        """Whether a halted guest call may go on at `address`: an instruction of the code it may
+        fetch, or the trampoline (the method returns at once, as gdb's `return` asks)."""
+        if not self._running or address % INSTRUCTION_SIZE:
+            return False
+        return address == TRAMPOLINE or address in self._code
 
     def debug_write_register(self, index: int, value: int) -> None:
         """Set x`index` (1..31) of the halted guest."""

@@ -6,9 +6,10 @@ their range. A hook that must halt serves gdb right there, inside the hook, on t
 thread: nothing else of the node runs meanwhile, so its virtual clock stands still. Unicorn
 applies a hook only to code it translates after the hook was added, and must not drop
 translations while it runs one; so when gdb resumes after changing hooks, the stub stops the
-emulation before the halted instruction (`resume_at`), and the CPU starts it again there once
-the hooks are in place (`Cpu.call`), its instruction count corrected to the instructions that
-completed.
+emulation before the halted instruction, and the CPU starts it again there once the hooks are
+in place (`Cpu.call`), its instruction count corrected to the instructions that completed. A pc
+gdb writes while halted (`set $pc`, `jump`, `return`) is where the CPU starts again instead:
+an instruction of the running call's code, or the trampoline, where the call returns at once.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from firmware_sim.cpu import Cpu
+from firmware_sim.cpu import Cpu, Restart
 from firmware_sim.errors import KernelAccessError
 from firmware_sim.gdb.packets import Disconnected, PacketConnection
 from firmware_sim.gdb.target import (
@@ -30,6 +31,8 @@ from firmware_sim.gdb.target import (
 
 MAX_MEMORY_READ = 0x1000
 """Bytes one 'm' packet may read: the reply must fit the packet size we announce."""
+PC = len(REGISTER_NAMES) - 1
+"""pc's number in gdb's register list."""
 WATCH_KINDS = {"2": (True, False), "3": (False, True), "4": (True, True)}
 """Z2 write, Z3 read, Z4 access watchpoints: (on writes, on reads)."""
 
@@ -65,7 +68,9 @@ class GdbStub:
         self._plan = _Plan()
         self._resume_from: int | None = None  # the halted pc: its own hooks do not halt again
         self._resume_visit: int | None = None  # the instruction count of that visit
-        self._restart: int | None = None  # where Cpu.call starts the guest again
+        self._restart: Restart | None = None  # where Cpu.call starts the guest again
+        self._halted_at: int | None = None  # the halted guest's pc, while gdb is served
+        self._moved_to: int | None = None  # a pc gdb wrote meanwhile
         self._watch_hit: tuple[str, int] | None = None
         self._stop_reply = f"S{SIGTRAP:02x}"  # why the target is halted, for '?'
 
@@ -77,9 +82,9 @@ class GdbStub:
         self.poll()
         self._apply()
 
-    def take_restart(self) -> int | None:
-        """Where the guest must start again after the stub stopped the emulation (None: it was
-        not the stub), the hooks put in place first."""
+    def take_restart(self) -> Restart | None:
+        """Where the guest stopped and must start again after the stub stopped the emulation
+        (None: it was not the stub), the hooks put in place first."""
         restart, self._restart = self._restart, None
         if restart is not None:
             self._apply()
@@ -140,11 +145,21 @@ class GdbStub:
         self._stop_reply = f"T{signal:02x}{reason}"
         if announce:
             self._send(self._stop_reply)
-        resumed = self._answer_until_resumed()
+        self._halted_at, self._moved_to = pc, None
+        try:
+            resumed = self._answer_until_resumed()
+            at = pc if self._moved_to is None else self._moved_to
+        finally:
+            self._halted_at = self._moved_to = None
         if pc is not None and self.cpu.running:
-            self._resume_from = pc if resumed != "detach" else None
+            # The instruction gdb resumes at runs without halting again, as after a stop; at a
+            # pc gdb moved to, a breakpoint there halts at once (gdb steps over none it did not
+            # stop at), while a step runs that instruction.
+            moved_onto_breakpoint = at != pc and at in self._plan.breakpoints
+            halts_there = resumed == "detach" or (resumed == "continue" and moved_onto_breakpoint)
+            self._resume_from = None if halts_there else at
             self._resume_visit = None
-            self._restart = pc
+            self._restart = Restart(pc, at)
             self.cpu.stop_guest()
 
     def _answer_until_resumed(self) -> str:
@@ -222,30 +237,47 @@ class GdbStub:
             return "OK"
         return ""
 
+    def _registers(self) -> list[int]:
+        """x0..x31 and pc as gdb sees them: pc where gdb moved it, if it did."""
+        values = self.cpu.debug_registers()
+        if self._moved_to is not None:
+            values[PC] = self._moved_to
+        return values
+
     def _read_registers(self) -> str:
-        return "".join(word_hex(value) for value in self.cpu.debug_registers())
+        return "".join(word_hex(value) for value in self._registers())
 
     def _write_registers(self, body: str) -> str:
-        for index in range(min(len(body) // 8, len(REGISTER_NAMES) - 1)):
-            if index:  # x0 is always 0
-                self.cpu.debug_write_register(index, parse_word(body[8 * index : 8 * index + 8]))
+        words = [parse_word(body[8 * i : 8 * i + 8]) for i in range(len(body) // 8)]
+        if len(words) > PC and words[PC] != self._registers()[PC] and not self._move(words[PC]):
+            return "E01"
+        for index, value in enumerate(words[1:PC], start=1):  # x0 is always 0
+            self.cpu.debug_write_register(index, value)
         return "OK"
 
     def _read_register(self, body: str) -> str:
         index = int(body, 16)
         if index >= len(REGISTER_NAMES):
             return "E01"
-        return word_hex(self.cpu.debug_registers()[index])
+        return word_hex(self._registers()[index])
 
     def _write_register(self, body: str) -> str:
         number, _, value = body.partition("=")
-        index = int(number, 16)
-        if index == 0:
-            return "OK"
-        if index >= len(REGISTER_NAMES) - 1:
-            return "E01"  # pc: a halted instruction stays where it is (see docs/debugging.md)
-        self.cpu.debug_write_register(index, parse_word(value))
+        index, word = int(number, 16), parse_word(value)
+        if index == PC:
+            return "OK" if self._move(word) else "E01"
+        if index >= len(REGISTER_NAMES):
+            return "E01"
+        if index:  # x0 is always 0
+            self.cpu.debug_write_register(index, word)
         return "OK"
+
+    def _move(self, pc: int) -> bool:
+        """Move the halted guest's pc to `pc`, if a halted call may go on there."""
+        if self._halted_at is None or not self.cpu.debug_may_run_at(pc):
+            return False
+        self._moved_to = None if pc == self._halted_at else pc
+        return True
 
     def _read_memory(self, body: str) -> str:
         address, length = (int(x, 16) for x in body.split(","))

@@ -152,6 +152,47 @@ def test_gdb_breaks_in_a_module_reads_steps_watches_and_continues(gain, nodes):
     assert debugged["stats"] == undebugged["stats"]  # same cycles, instructions, busy time
 
 
+def test_gdb_moves_pc_to_skip_an_instruction_jump_or_return_from_a_method(gain, nodes):
+    node, where, symbols = start(nodes, "--module", f"{gain}@0x{LOAD_AT:08X}", *RUN, "--json")
+    output = gdb(
+        where,
+        symbols,
+        "break gain_cycle",
+        "continue",
+        "set $y = (int *)((struct pbo_context *)$a0)->ports[1]",
+        "return 0",  # the first cycle returns before it writes y
+        "info registers pc",
+        "continue",
+        "print *$y",
+        "info registers pc",
+        "set $pc = $pc + 4",
+        "info registers pc",
+        "stepi",
+        "info registers pc",
+        "set $pc = 0x20",  # not the module's code: refused
+        "info registers pc",
+        "jump gain_cycle",  # onto breakpoint 1: it halts there before the cycle runs
+        "print *$y",
+        "info registers pc",
+        "return 0",  # the skipped instruction set up what the rest needs: leave the method
+        "delete",
+        "continue",
+    )
+    pcs = [int(pc, 16) for pc in re.findall(r"^pc\s+(0x[0-9a-f]+)", output, re.M)]
+    assert pcs[0] == 0x1000_0000  # the trampoline: the method returns at once
+    assert "$1 = 0" in output  # at the second cycle y is still unwritten
+    assert pcs[2] == pcs[1] + 4 and pcs[3] == pcs[1] + 8
+    assert "Could not write register \"pc\"; remote failure reply 'E01'" in output
+    assert pcs[4] == pcs[3]
+    assert output.count("Breakpoint 1, gain_cycle") == 3  # two cycles, then the jump
+    assert "$2 = 0" in output and pcs[5] == pcs[1]
+    status, printed, _ = node.finish()
+    assert status == 0, printed
+    report = report_of(printed)
+    assert report["stats"]["gain"]["state"] == "ON" and report["stats"]["gain"]["faults"] == 0
+    assert report["ports"]["gain.y"] == 2 * report["ports"]["gain.x"]  # later cycles ran whole
+
+
 def rsp(where: str) -> PacketConnection:
     host, port = where.split(":")
     return PacketConnection(socket.create_connection((host, int(port)), timeout=20))
