@@ -129,6 +129,10 @@ class Debugger(Protocol):
         """After the guest stopped: where it stopped and starts again, when the debugger
         stopped it, else None."""
 
+    def returned(self) -> None:
+        """A call returned to the trampoline: the debugger may halt there, before the kernel
+        takes the call's result."""
+
 
 @dataclass(frozen=True)
 class GuestRun:
@@ -459,6 +463,8 @@ class Cpu:
                 self._restart_at(restart)
             if self._fault is None and counter.stopped == Stop.BUDGET:
                 self._run_out(budget)
+            if self._debugger is not None and self._fault is None:
+                self._debugger.returned()
         finally:
             self._services, self._running = None, False
         return self._result()

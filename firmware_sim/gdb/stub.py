@@ -28,6 +28,7 @@ from firmware_sim.gdb.target import (
     parse_word,
     word_hex,
 )
+from firmware_sim.memory_map import TRAMPOLINE
 
 MAX_MEMORY_READ = 0x1000
 """Bytes one 'm' packet may read: the reply must fit the packet size we announce."""
@@ -90,6 +91,19 @@ class GdbStub:
             self._apply()
         return restart
 
+    def returned(self) -> None:
+        """A guest call returned to the trampoline: halt there, a0 holding what the method
+        returned, when gdb steps or has a breakpoint there (`finish` puts one on the return
+        address, and so does gdb's own single step of a `ret`). Going on from there, a step, or
+        a continue with that breakpoint still in place (how gdb single-steps the trampoline's
+        `j .`), halts at the first instruction of the next guest call."""
+        plan = self._plan
+        if not self.attached or not (plan.stepping or TRAMPOLINE in plan.breakpoints):
+            return
+        resumed = self._serve(SIGINT if plan.interrupted else SIGTRAP, None)
+        if resumed == "continue" and TRAMPOLINE in self._plan.breakpoints:
+            self._plan.stepping = self._plan.dirty = True
+
     def poll(self) -> None:
         """Between jobs and calls: an interrupt from gdb halts at the next instruction."""
         if not self.attached:
@@ -134,12 +148,12 @@ class GdbStub:
                     kind = {"2": "watch", "3": "rwatch", "4": "awatch"}[watch.kind]
                     self._watch_hit = (kind, watch.address)  # reported after the access
 
-    def _serve(self, signal: int, pc: int | None, reason: str = "", announce: bool = True) -> None:
+    def _serve(self, signal: int, pc: int | None, reason: str = "", announce: bool = True) -> str:
         """Report the stop (the answer to gdb's continue or step) and answer packets until gdb
         resumes; inside a hook, then stop the emulation so that the CPU starts it again at `pc`
-        with the hooks gdb asked for."""
+        with the hooks gdb asked for. How gdb resumed: 'continue', 'step' or 'detach'."""
         if not self.attached:
-            return
+            return "detach"
         self._plan.stepping = self._plan.interrupted = False
         self._plan.dirty = True
         self._stop_reply = f"T{signal:02x}{reason}"
@@ -161,6 +175,7 @@ class GdbStub:
             self._resume_visit = None
             self._restart = Restart(pc, at)
             self.cpu.stop_guest()
+        return resumed
 
     def _answer_until_resumed(self) -> str:
         """'continue', 'step' or 'detach'."""

@@ -193,6 +193,34 @@ def test_gdb_moves_pc_to_skip_an_instruction_jump_or_return_from_a_method(gain, 
     assert report["ports"]["gain.y"] == 2 * report["ports"]["gain.x"]  # later cycles ran whole
 
 
+def test_stepping_past_a_methods_return_halts_at_the_trampoline_then_in_the_next_call(gain, nodes):
+    node, where, symbols = start(nodes, "--module", f"{gain}@0x{LOAD_AT:08X}", *RUN)
+    output = gdb(
+        where,
+        symbols,
+        "break gain_cycle",
+        "continue",
+        "delete",
+        "next",
+        "next",
+        "next",  # past the last line: gdb single-steps the ret with a breakpoint on 0x10000000
+        "info registers pc a0",
+        "stepi",  # the trampoline's j . : on to the next guest call
+        "info registers pc",
+        "finish",
+        "delete",
+        "continue",
+    )
+    pcs = [int(pc, 16) for pc in re.findall(r"^pc\s+(0x[0-9a-f]+)", output, re.M)]
+    a0 = int(re.search(r"^a0\s+(0x[0-9a-f]+)", output, re.M).group(1), 16)
+    assert pcs[0] == 0x1000_0000 and a0 == 0  # gain_cycle returned PBO_OK
+    assert LOAD_AT <= pcs[1] < LOAD_AT + 0x1000  # the first instruction of the next method
+    assert re.search(r"gain_\w+ \(ctx=0x3000", output)  # ... which gdb names
+    assert "Value returned is $1 = 0" in output  # finish: the method returned PBO_OK
+    status, printed, _ = node.finish()
+    assert status == 0, printed
+
+
 def rsp(where: str) -> PacketConnection:
     host, port = where.split(":")
     return PacketConnection(socket.create_connection((host, int(port)), timeout=20))
