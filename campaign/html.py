@@ -99,11 +99,13 @@ def _accuracy_table(location: Mapping[str, Any]) -> str:
             (
                 name,
                 *(percent(found.get(g)) for g in groups),
+                percent(location["blameless"].get(name)),
                 _number(estimates.get("tried")),
                 _number(estimates.get("generated")),
             )
         )
-    return _table(["strategy", *groups, "estimated", "generated"], rows)
+    header = ["strategy", *groups, "only faulty modules named", "estimated", "generated"]
+    return _table(header, rows)
 
 
 def _table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:

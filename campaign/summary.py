@@ -9,7 +9,10 @@ A run's *fault* is what its draw injected from ``fault_at`` on; a control run (`
 - location: the first decision after the fault named exactly the ``truth`` modules, over the
   detected runs whose truth is not empty (a power drop is no module's fault), for the strategy
   that decided and for every strategy compared in shadow, per fault type and per number of
-  faulty modules;
+  faulty modules; and how often it named only faulty modules (some of the truth, nothing
+  else): the truth counts every injected fault, and one may not matter next to another (a
+  little camera noise beside a cut servo bus), so naming only the one that matters blames no
+  sound module, though it is not exact;
 - recovery: the first decision after the fault brought P_T back (its ``recovered_at``) and the
   task was not stopped; the time is from ``fault_at`` to the recovery;
 - cost: decision time (host CPU), migrations and bytes sent.
@@ -84,14 +87,17 @@ def _location(firsts: Sequence[tuple[Record, dict[str, Any] | None]]) -> dict[st
     number of faulty modules, over the detected runs (detection has its own rate)."""
     judged = [(r, d) for r, d in firsts if r["draw"]["truth"] and d is not None]
     tally: dict[str, dict[str, list[bool]]] = defaultdict(lambda: defaultdict(list))
+    blameless: dict[str, list[bool]] = defaultdict(list)
     cost: dict[str, dict[str, list[int]]] = defaultdict(lambda: defaultdict(list))
     for record, first in judged:
         truth = sorted(record["draw"]["truth"])
         groups = ("all", record["draw"]["fault_type"], f"{len(truth)} faulty")
         for name, answer in {"decided": first, **first["comparison"]}.items():
-            right = sorted(answer["located"]) == truth
+            named = set(answer["located"])
+            right = sorted(named) == truth
             for group in groups:
                 tally[name][group].append(right)
+            blameless[name].append(bool(named) and named <= set(truth))
             if name != "decided":
                 cost[name]["tried"].append(answer["tried"])
                 cost[name]["generated"].append(answer["generated"])
@@ -101,6 +107,7 @@ def _location(firsts: Sequence[tuple[Record, dict[str, Any] | None]]) -> dict[st
             name: {group: _rate(found) for group, found in sorted(groups.items())}
             for name, groups in tally.items()
         },
+        "blameless": {name: _rate(found) for name, found in blameless.items()},
         "estimates": {
             name: {what: _mean(values) for what, values in sorted(kinds.items())}
             for name, kinds in cost.items()
@@ -190,7 +197,8 @@ def lines(summary: Mapping[str, Any]) -> list[str]:
                 (
                     f"  {name}",
                     f"{percent(groups.get('all'))} (single {percent(groups.get('1 faulty'))}, "
-                    f"double {percent(groups.get('2 faulty'))}), "
+                    f"double {percent(groups.get('2 faulty'))}; only faulty modules named "
+                    f"{percent(location['blameless'].get(name))}), "
                     f"{_number(estimates.get('tried'))} estimates per decision",
                 )
             )

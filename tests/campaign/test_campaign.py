@@ -83,7 +83,7 @@ def test_the_summary_plots_and_page_say_what_the_records_hold(finished):
     page = (finished / "index.html").read_text()
     for name in ("detection_latency.png", "recovery_time.png", "location_accuracy.png"):
         assert f"src='{name}'" in page
-    assert toy.CRASH in page and "<table>" in page
+    assert toy.CRASH in page and "<table>" in page and "only faulty modules named" in page
 
 
 def test_an_interrupted_campaign_resumes_where_it_stopped(finished, tmp_path):
@@ -182,3 +182,34 @@ def test_a_folder_that_cannot_be_one_is_refused_before_any_run(tmp_path):
     with pytest.raises(CampaignFolderError, match=rf"got a file at {re.escape(str(taken))}$"):
         run_campaign(options("--runs", "2", "--out", str(taken / "below")), TOY)
     assert taken.read_text() == "a file\n"
+
+
+def test_naming_only_faulty_modules_is_told_apart_from_naming_exactly_the_faults():
+    def answer(*named: str) -> dict:
+        return {"located": list(named), "tried": 2, "generated": 4}
+
+    record = toy.run({"draw": {"crash": False, "fault_at": 1.0}})
+    record["timing"]["run_seconds"] = 0.1
+    record["decisions"][0]["comparison"] = {
+        "exact": answer("Cam", "Servo"),
+        "one-of-two": answer("Servo"),
+        "wrong-too": answer("Servo", "Matcher"),
+        "nothing": answer(),
+    }
+    drawn = {"scenario": "a", "fault_type": "two", "fault_at": 1.0, "truth": ["Servo", "Cam"]}
+    location = summarize([{"index": 0, "status": "ok", "draw": drawn, **record}])["location"]
+    exact = {name: rates["all"] for name, rates in location["accuracy"].items()}
+    assert exact == {
+        "decided": 0.0,
+        "exact": 1.0,
+        "one-of-two": 0.0,
+        "wrong-too": 0.0,
+        "nothing": 0.0,
+    }
+    assert location["blameless"] == {
+        "decided": 1.0,  # the toy's decision names Cam alone
+        "exact": 1.0,
+        "one-of-two": 1.0,
+        "wrong-too": 0.0,
+        "nothing": 0.0,
+    }
