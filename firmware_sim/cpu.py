@@ -1,9 +1,10 @@
 """The node's CPU: an RV32IM core on Unicorn that runs one guest function per `call`.
 
 A call hands the guest a CPU in a known state: every register 0 but a0..a3 (the arguments), ra
-(the kernel's return trampoline) and sp (the top of the stack), in user mode, where every CSR and
-every system instruction but ecall is illegal, so no guest can change what the next one gets
-(docs/memory-map.md, "What a guest cannot change"). It runs until the guest returns to the
+(the kernel's return trampoline) and sp (the top of the stack), in user mode, where every CSR but
+the counters and every system instruction but ecall is illegal, so no guest can change what the
+next one gets (docs/memory-map.md, "What a guest cannot change"); the counters read the node's
+counts, not the host's (firmware_sim/counters.py). It runs until the guest returns to the
 trampoline. Four things can end it early, each reported as a fault text naming the addresses
 involved, after which the next call works as usual:
 
@@ -69,6 +70,7 @@ from unicorn.riscv_const import (
 from unicorn.unicorn_py3 import unicorn as _binding
 
 from firmware_sim.block_counter import Counter, Stop, hook_address
+from firmware_sim.counters import CounterKind, CounterRead, counter_reads
 from firmware_sim.errors import CpuClosedError, KernelAccessError, ServiceFault
 from firmware_sim.memory_map import TRAMPOLINE, MemoryMap, Permission, Region
 from firmware_sim.services import GuestServices, dispatch, signed32
@@ -76,6 +78,8 @@ from firmware_sim.services import GuestServices, dispatch, signed32
 DEFAULT_FREQUENCY_HZ = 100e6
 INSTRUCTION_SIZE = 4  # RV32IM without the C extension
 WORD_MASK = 0xFFFF_FFFF
+MAX_COUNTER_HOOKS = 64
+"""Hooks on the counter reads of one code range before one hook covers it (_watch_counter_reads)."""
 # `j .` at the trampoline. The CPU stops before running it; were it ever run, it would spin into
 # the watchdog rather than fall through into whatever follows.
 TRAMPOLINE_CODE = (0x0000_006F).to_bytes(4, "little")
@@ -117,6 +121,17 @@ class Restart:
 
     halted: int
     at: int
+
+
+def _runs(addresses: Sequence[int], step: int) -> list[tuple[int, int]]:
+    """Sorted `addresses` as [start, stop) runs of consecutive `step`-byte words."""
+    runs: list[tuple[int, int]] = []
+    for address in addresses:
+        if runs and runs[-1][1] == address:
+            runs[-1] = (runs[-1][0], address + step)
+        else:
+            runs.append((address, address + step))
+    return runs
 
 
 class Debugger(Protocol):
@@ -199,7 +214,7 @@ class _Engine:
         self._reference = ctypes.byref(self._value)
         self._hooks: list[ctypes.c_size_t] = []
         # The C wrappers of Python hooks must stay alive as long as Unicorn may call them.
-        self._keep: list[ctypes._CFunctionType] = []
+        self._keep: dict[int, ctypes._CFunctionType] = {}
         self._error: BaseException | None = None
 
     def read(self, register: int) -> int:
@@ -285,6 +300,7 @@ class _Engine:
             if added.value == handle:
                 self._lib.uc_hook_del(self._handle, added)
                 del self._hooks[index]
+                self._keep.pop(handle, None)
                 return
 
     def remove_hooks(self) -> None:
@@ -297,9 +313,10 @@ class _Engine:
     def _add_python(
         self, kind: int, function: ctypes._CFunctionType, begin: int = 1, end: int = 0
     ) -> int:
-        """Add a hook written in Python; its C wrapper stays alive as long as the engine."""
-        self._keep.append(function)
-        return self._add(kind, ctypes.cast(function, ctypes.c_void_p), None, begin, end)
+        """Add a hook written in Python; its C wrapper stays alive as long as the hook."""
+        handle = self._add(kind, ctypes.cast(function, ctypes.c_void_p), None, begin, end)
+        self._keep[handle] = function
+        return handle
 
     def _add(
         self, kind: int, function: ctypes.c_void_p, data: object, begin: int = 1, end: int = 0
@@ -387,6 +404,8 @@ class Cpu:
         for bank in self._banks:
             region = bank.region
             self._uc.mem_map_ptr(region.base, region.size, region.guest.value, bank.address)
+        # The counter reads of each code range calls were given, and their hooks' handles.
+        self._counter_reads: dict[range, tuple[dict[int, CounterRead], list[int]]] = {}
         self.write(TRAMPOLINE, TRAMPOLINE_CODE)
         self._engine = _Engine(self._uc)
         registers = self._engine.registers
@@ -413,6 +432,9 @@ class Cpu:
         self._code = _ANYWHERE  # where the running call may fetch instructions
         self._services: GuestServices | None = None
         self._debugger: Debugger | None = None
+        self._pending_read: tuple[CounterRead, int] | None = None  # its value, once it ran
+        self._cycles_at_start = 0  # the cycle counter when the running call began
+        self._retired = 0  # instructions completed by the calls before the running one
 
     @property
     def running(self) -> bool:
@@ -431,11 +453,14 @@ class Cpu:
         budget: int,
         services: GuestServices | None = None,
         code: range | None = None,
+        at: float = 0.0,
     ) -> GuestRun:
         """Run the guest function at `entry` with up to four arguments and at most `budget`
         instructions; `services` answers its ecalls (None: an ecall is a fault). With `code`,
         fetching an instruction outside those addresses is a fault (a module runs only its own
-        image); without it, the memory map's execute permission is the only bound."""
+        image); without it, the memory map's execute permission is the only bound. `at` is the
+        node's time when the call begins, in seconds: the guest's cycle counter starts the call
+        at `at` times the frequency (firmware_sim/counters.py)."""
         self._open()
         if self._running:
             raise RuntimeError("Cpu.call is not reentrant: a guest call is already running")
@@ -451,6 +476,9 @@ class Cpu:
         counter = self._counter
         counter.count, counter.budget, counter.stopped = 0, budget, Stop.RAN
         counter.code_start, counter.code_end = self._code.start, self._code.stop
+        self._watch_counter_reads(self._code)
+        self._pending_read = None
+        self._cycles_at_start = round(at * self.frequency_hz)
         if self._debugger is not None:
             self._debugger.before_call()
         self._services, self._running = services, True
@@ -467,7 +495,9 @@ class Cpu:
                 self._debugger.returned()
         finally:
             self._services, self._running = None, False
-        return self._result()
+        result = self._result()
+        self._retired += result.instructions
+        return result
 
     def _run(self, begin: int, until: int) -> None:
         """Run the guest; a stop of Unicorn's that no hook described becomes the fault."""
@@ -486,6 +516,8 @@ class Cpu:
         in is counted when it is entered."""
         counter = self._counter
         counter.count -= (counter.block_end - restart.halted) // INSTRUCTION_SIZE
+        if restart.at != restart.halted:
+            self._pending_read = None  # the instruction after a counter read may not come
         self._run(restart.at, TRAMPOLINE)
 
     def _run_out(self, budget: int) -> None:
@@ -641,9 +673,61 @@ class Cpu:
 
     def _written(self, bank: _Bank, address: int, size: int) -> None:
         """Unicorn does not see writes to host memory: drop the code it translated from there,
-        so that a module written over another one runs as its new bytes say."""
-        if bank.executable:
-            self._open().ctl_remove_cache(address, address + size)
+        so that a module written over another one runs as its new bytes say, and the counter
+        reads found there, found again at the next call."""
+        if not bank.executable:
+            return
+        self._open().ctl_remove_cache(address, address + size)
+        for code in [
+            c for c in self._counter_reads if address < c.stop and c.start < address + size
+        ]:
+            for handle in self._counter_reads.pop(code)[1]:
+                self._engine.remove_hook(handle)
+
+    # The guest's cycle and instret counters (firmware_sim/counters.py).
+
+    def _watch_counter_reads(self, code: range) -> None:
+        """Find the counter reads of `code` once, and hook each and the word after it (runs of
+        hooked words share one hook). Beyond MAX_COUNTER_HOOKS hooks, one hook covers the code:
+        Unicorn checks every hook's bounds for each instruction it translates, so words that
+        look like reads (a hostile module's table of them) would slow every module's
+        translation, where one hook slows only that code."""
+        if code in self._counter_reads:
+            return
+        reads: dict[int, CounterRead] = {}
+        spans = []
+        for bank in self._banks:
+            start, stop = max(code.start, bank.region.base), min(code.stop, bank.end)
+            if bank.executable and start < stop:
+                offset = start - bank.region.base
+                view = bank.view[offset : offset + stop - start]
+                reads.update((read.address, read) for read in counter_reads(view, start))
+                spans.append((start, stop))
+        hooked = sorted({a for read in reads for a in (read, read + INSTRUCTION_SIZE)})
+        runs = _runs(hooked, INSTRUCTION_SIZE)
+        if len(runs) > MAX_COUNTER_HOOKS:
+            runs = spans
+        handles = []
+        for start, stop in runs:
+            handles.append(self._engine.hook_code(self._on_counter_hook, start, stop - 1))
+            self._open().ctl_remove_cache(start, stop)
+        self._counter_reads[code] = (reads, handles)
+
+    def _on_counter_hook(self, address: int) -> None:
+        """Before a counter read, note the value it must give; before the instruction after
+        one, write that value over the host's."""
+        pending = self._pending_read
+        if pending is not None and pending[0].address + INSTRUCTION_SIZE == address:
+            read, count = pending
+            self._pending_read = None
+            if read.rd:
+                self._engine.write(_CALL_REGISTERS[read.rd - 1], read.value(count))
+        read = self._counter_reads[self._code][0].get(address)
+        if read is not None:
+            counter = self._counter
+            before = int(counter.count) - (int(counter.block_end) - address) // INSTRUCTION_SIZE
+            base = self._cycles_at_start if read.kind is CounterKind.CYCLE else self._retired
+            self._pending_read = (read, base + before)
 
     # Hooks: Unicorn calls them during a call; they record what happened for _result.
 

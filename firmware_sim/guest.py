@@ -241,7 +241,8 @@ def register_module(
     subroutine returned without registering.
     """
     registrar = Registrar(cpu, sram, image_base, image_size, kernel, taken)
-    run = cpu.call(init, (), budget, registrar, range(image_base, image_base + image_size))
+    code = range(image_base, image_base + image_size)
+    run = cpu.call(init, (), budget, registrar, code, at=kernel.now())
     where = f"module image at 0x{image_base:08X}, init subroutine at 0x{init:08X}"
     if run.fault is not None:
         raise RegistrationError(f"{where}: {run.fault}")
@@ -349,6 +350,7 @@ class GuestInstance:
         if self._repeats is not None:
             services = self._repeats.services
         self._services = _InstanceServices(module, self.window, services, self.label)
+        self._now = services.now  # the kernel's clock: where each call's cycle counter starts
         self._released = False
         self._cpu.write(self.area, self._context + bytes(layout.size - CONTEXT_SIZE))
 
@@ -398,7 +400,9 @@ class GuestInstance:
         cpu.write(self.window, self._context)
         cpu.copy(self.window + CONTEXT_SIZE, self.area + CONTEXT_SIZE, body)
         module = self.module
-        run = cpu.call(entry, (self.window,), module.budget, self._services, module.image)
+        run = cpu.call(
+            entry, (self.window,), module.budget, self._services, module.image, at=self._now()
+        )
         cpu.copy(self.area + CONTEXT_SIZE, self.window + CONTEXT_SIZE, body)
         if run.fault is not None:
             where = None if run.pc is None else module.where(run.pc)

@@ -5,8 +5,9 @@ so each estimate step hands an estimator the same inputs, and once its state has
 same call meets the same bytes again (the paper experiment's Dehazer estimator: the same frame
 ten times, the same state from the second step on). A guest call is a function of its code,
 its instance area (context, state and ports), the time it reads and nothing else a module may
-use (docs/module-abi.md: state lives in ctx->state, values come through ports), so the same
-method on the same area at the same time gives the same area, result, reports and log lines:
+use (docs/module-abi.md: state lives in ctx->state, values come through ports; `rdinstret`, the
+node's instructions so far, is the one exception, and a replay reads what the run read), so the
+same method on the same area at the same time gives the same area, result, reports and log lines:
 `RepeatedCalls` keeps the last call's, and gives them back when the next call is the same.
 Only estimators use it (an executor's time moves with every job).
 """

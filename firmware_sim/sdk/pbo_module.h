@@ -202,6 +202,22 @@ static inline uint32_t pbo_sys_time_us(void)
     return pbo_ecall(PBO_SYS_TIME_US, 0, 0, 0, 0);
 }
 
+/* The node's cycle counter, 64 bits: its clock in CPU cycles, one instruction a cycle, exact and
+ * the same on every run (the node answers rdcycle itself: docs/module-abi.md). The difference of
+ * two reads in one call is the instructions between them: a stopwatch for code. */
+static inline uint64_t pbo_cycles(void)
+{
+    uint32_t high;
+    uint32_t low;
+    uint32_t again;
+    do {
+        __asm__ volatile("rdcycleh %0" : "=r"(high));
+        __asm__ volatile("rdcycle %0" : "=r"(low));
+        __asm__ volatile("rdcycleh %0" : "=r"(again));
+    } while (high != again);
+    return ((uint64_t)high << 32) | low;
+}
+
 static inline int32_t pbo_sys_log(const char *text, uint32_t len)
 {
     return (int32_t)pbo_ecall(PBO_SYS_LOG, (uint32_t)(uintptr_t)text, len, 0, 0);
