@@ -29,7 +29,7 @@ over the sizes, and the goals at the largest size: a killed node lost within 0.5
 under 50 ms, the manager under 50% of one core.
 
     python benchmarks/fleet.py [--sizes 10,25,50] [--seconds S] [--per-node M]
-    python benchmarks/fleet.py --sizes 5,10 --seconds 2      # a quick check, about a minute
+    python benchmarks/fleet.py --sizes 6,10 --seconds 2      # a quick check, about a minute
 """
 
 from __future__ import annotations
@@ -311,7 +311,7 @@ def spares(runtime: Runtime, processes: Mapping[str, NodeProcess]) -> tuple[str,
 
 def signal_to(node: NodeProcess, number: signal.Signals) -> Callable[[], None]:
     """A call that sends `number` to `node`'s process."""
-    return lambda: os.kill(node.process.pid, number)
+    return lambda: os.kill(node.pid, number)
 
 
 # One size.
@@ -349,7 +349,7 @@ def measure(size: int, seconds: float, per_node: int) -> Row:
         killed, stopped = spares(runtime, processes)
         lost = time_to_lost(applier, killed, signal_to(processes[killed], signal.SIGKILL))
         silent = time_to_lost(applier, stopped, signal_to(processes[stopped], signal.SIGSTOP))
-        os.kill(processes[stopped].process.pid, signal.SIGCONT)
+        os.kill(processes[stopped].pid, signal.SIGCONT)
     quiet = quiet_decision(task, faults, repaired)
     return Row(
         size,
@@ -429,8 +429,10 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=5.0, help="the steady window (s)")
     parser.add_argument("--per-node", type=int, default=2, help="modules per node (default 2)")
     args = parser.parse_args()
-    if min(args.sizes) < len(STAGES) + 1:
-        parser.error(f"--sizes: expected at least {len(STAGES) + 1} nodes each, got {args.sizes}")
+    # a robot per stage, one the repair moves a stage to, and two spares (one killed, one stopped)
+    fewest = len(STAGES) + 2
+    if min(args.sizes) < fewest:
+        parser.error(f"--sizes: expected at least {fewest} nodes each, got {args.sizes}")
     print(
         f"a {'-'.join(STAGES)} task, {args.per_node} native modules per node, a report every "
         f"{PERIOD * 1e3:g} ms per node, a decision look every {PERIOD * 1e3:g} ms; the manager "

@@ -8,6 +8,7 @@ that connects.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 
 from hexmigrate.links import open_link
@@ -16,6 +17,9 @@ from hexmigrate.links.serial import PtyPair
 from hexmigrate.links.tcp import TcpListenLink
 
 PTY = "pty"
+CONNECT_URL = re.compile(r"\(connect with: hexmigrate send FILE\.hex --to (\S+)\)$")
+"""The end of the listening line: the URL a host opens to reach the node (a pty's path, a
+``tcp-listen://`` node's ``socket://`` URL), which launchers read."""
 
 
 def node_side(url: str) -> str:

@@ -13,15 +13,11 @@ folder; whatever ends the run, every node started is stopped (SIGINT, then SIGKI
 
 from __future__ import annotations
 
-import re
-import signal
-import subprocess
 import sys
-import time
-from dataclasses import dataclass
 from pathlib import Path
 
-from patrol.errors import PatrolSetupError
+from commandline.children import Child
+from firmware_sim.listen_link import CONNECT_URL
 from patrol.mission import LINK_BAUD, ROBOTS, SETTINGS, Mission
 from patrol.scenarios import Scenario
 from refresh.database import ModuleDatabase
@@ -31,71 +27,22 @@ from refresh.remote.node import REPORT_PERIOD
 
 QUANTUM = 0.005
 """Seconds of virtual time granted to every node at once: a quarter of the modules' period."""
-START_TIMEOUT = 60.0
-"""Seconds a node may take to say where it listens (it imports numpy and Unicorn)."""
-STOP_TIMEOUT = 5.0
-"""Seconds a node has to stop on SIGINT before it is killed."""
-CONNECT = re.compile(r"--to (socket://\S+)\)$")
-"""The end of a ``tcp-listen://`` node's first line: the URL to connect to."""
 
 
-@dataclass
-class NodeProcess:
-    """One robot's node: its process, its log, and the URL it listens on."""
-
-    robot: str
-    process: subprocess.Popen[bytes]
-    log: Path
-    url: str = ""
-
-    @classmethod
-    def start(cls, robot: str, natives: list[str], log: Path) -> NodeProcess:
-        """Start the node of `robot` with `natives` in its firmware, and wait until it says
-        where it listens."""
-        command = [
-            *(sys.executable, "-m", "firmware_sim.cli", "listen"),
-            *("--listen", "tcp-listen://127.0.0.1:0", "--name", robot),
-            *("--natives", "patrol.firmware", "--no-start", "--lock-step"),
-            *(word for name in natives for word in ("--native", name)),
-        ]
-        with log.open("wb") as out:
-            process = subprocess.Popen(command, stdout=out, stderr=subprocess.STDOUT)
-        node = cls(robot, process, log)
-        try:
-            node.url = node._listening()
-        except BaseException:
-            node.stop()
-            raise
-        return node
-
-    def _listening(self) -> str:
-        deadline = time.monotonic() + START_TIMEOUT
-        while True:
-            for line in self.log.read_text(errors="replace").splitlines():
-                found = CONNECT.search(line)
-                if found:
-                    return found.group(1)
-            if self.process.poll() is not None:
-                raise PatrolSetupError(
-                    f"node of {self.robot}: expected it to listen, got exit status "
-                    f"{self.process.returncode} (see {self.log})"
-                )
-            if time.monotonic() >= deadline:
-                raise PatrolSetupError(
-                    f"node of {self.robot}: expected its listening line within "
-                    f"{START_TIMEOUT:g} s, got none (see {self.log})"
-                )
-            time.sleep(0.05)
-
-    def stop(self) -> None:
-        """Interrupt the node, and kill it if it does not stop in time."""
-        if self.process.poll() is None:
-            self.process.send_signal(signal.SIGINT)
-            try:
-                self.process.wait(STOP_TIMEOUT)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait()
+def start_node(robot: str, natives: list[str], log: Path) -> tuple[Child, str]:
+    """The node of `robot` with `natives` in its firmware, started, and the URL it listens on."""
+    command = [
+        *(sys.executable, "-m", "firmware_sim.cli", "listen"),
+        *("--listen", "tcp-listen://127.0.0.1:0", "--name", robot),
+        *("--natives", "patrol.firmware", "--no-start", "--lock-step"),
+        *(word for name in natives for word in ("--native", name)),
+    ]
+    node = Child.start(robot, command, log)
+    try:
+        return node, node.wait_for(CONNECT_URL)[1]
+    except BaseException:
+        node.stop()
+        raise
 
 
 def natives_on(database: ModuleDatabase, robot: str) -> list[str]:
@@ -112,7 +59,8 @@ class LinkedPatrol(Mission):
 
     def __init__(self, scenario: Scenario, work: Path, quantum: float = QUANTUM) -> None:
         self.time = LockStep(quantum)
-        self.processes: list[NodeProcess] = []
+        self.processes: list[Child] = []
+        self._urls: dict[str, str] = {}
         self.links: LinkApplier | None = None
         super().__init__(scenario, work)
 
@@ -120,9 +68,10 @@ class LinkedPatrol(Mission):
         database = self.prepared.database
         for robot in ROBOTS:
             log = self.work / f"{robot}.log"
-            self.processes.append(NodeProcess.start(robot, natives_on(database, robot), log))
+            node, self._urls[robot] = start_node(robot, natives_on(database, robot), log)
+            self.processes.append(node)
         self.links = LinkApplier.open(
-            {node.robot: node.url for node in self.processes},
+            dict(self._urls),
             period=min(REPORT_PERIOD, SETTINGS.decision_period),
             images=self.prepared.images,
             wire="serial",  # bridged ports timed as on the in-process robots' radio link
@@ -133,7 +82,7 @@ class LinkedPatrol(Mission):
 
     def urls(self) -> dict[str, str]:
         """Each robot's node, by URL."""
-        return {node.robot: node.url for node in self.processes}
+        return dict(self._urls)
 
     def now(self) -> float:
         return self.time.clock()

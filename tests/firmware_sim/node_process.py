@@ -1,8 +1,10 @@
 """The processes of a migration as a user runs them: the node (``firmware-sim listen``) and the
 host's commands (``hexmigrate``), each a subprocess.
 
-`NodeProcess` is the one place that says how a listening node is started; its stdout is read
-line by line by a thread as it comes, its stderr kept in a file for failure messages. Every wait
+`NodeProcess` is the one place in the tests that says how a listening node is started (the
+toolchain's launchers use `commandline.children.Child`, which reads a log file): its stdout is
+read line by line by a thread as it comes, so that a test can wait for the lines after a given
+one, its stderr kept in a file for failure messages. Every wait
 is bounded; the node is terminated (and killed if need be) when the test leaves it.
 """
 
@@ -17,6 +19,7 @@ import threading
 import time
 from collections.abc import Iterable
 
+from firmware_sim.listen_link import CONNECT_URL
 from hexmigrate.links.framing import Deframer
 
 NODE_SECONDS = 20
@@ -24,8 +27,6 @@ NODE_SECONDS = 20
 LINE_TIMEOUT = 15.0
 """How long to wait for a line of a node subprocess (its start imports Unicorn and python-can)."""
 CLI_TIMEOUT = 30.0
-CONNECT_WITH = re.compile(r"--to (socket://127\.0\.0\.1:\d+)\)$")
-"""The end of a ``tcp-listen://`` node's first line: the URL a host connects to."""
 GAIN_SHOWN = re.compile(r"\bgain\.y=(-?\d+)\b")
 """A ``--show gain.y`` line of the node."""
 
@@ -115,7 +116,7 @@ class NodeProcess:
 
     def connect_url(self) -> str:
         """The ``socket://`` URL of a node that listens on ``tcp-listen://``."""
-        return self.wait_for(CONNECT_WITH)[1][1]
+        return self.wait_for(CONNECT_URL)[1][1]
 
     def output(self) -> str:
         """What the node printed so far, stdout then stderr."""

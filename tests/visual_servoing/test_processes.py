@@ -13,9 +13,10 @@ from pathlib import Path
 
 import pytest
 
-from visual_servoing.errors import ExperimentError
+from commandline.children import ChildError
+from firmware_sim.listen_link import CONNECT_URL
 from visual_servoing.experiment.linked import QUANTUM
-from visual_servoing.experiment.processes import PTY, Launch, run_processes
+from visual_servoing.experiment.processes import Launch, run_processes
 from visual_servoing.experiment.report import summary
 from visual_servoing.experiment.scenarios import SCENARIOS
 
@@ -51,13 +52,14 @@ def test_a_process_that_ends_early_is_an_error_naming_its_log_and_all_are_stoppe
         lasting = launch.start(
             "lasting",
             "-c",
-            "import time; print('listening on /dev/pts/99', flush=True); time.sleep(60)",
+            "import time; print('listening on /dev/pts/99 (connect with: hexmigrate send "
+            "FILE.hex --to /dev/pts/99)', flush=True); time.sleep(60)",
         )
-        assert lasting.wait_for(PTY)[1] == "/dev/pts/99"
+        assert lasting.wait_for(CONNECT_URL)[1] == "/dev/pts/99"
         failing = launch.start("failing", "-c", "import sys; print('no luck'); sys.exit(3)")
-        with pytest.raises(ExperimentError, match=r"process failing exited with status 3 "):
-            failing.wait_for(PTY)
-        with pytest.raises(ExperimentError, match=r"failing.log\): no luck"):
+        with pytest.raises(ChildError, match=r"process failing exited with status 3 "):
+            failing.wait_for(CONNECT_URL)
+        with pytest.raises(ChildError, match=r"failing.log\): no luck"):
             launch.check()
     finally:
         launch.stop()
@@ -87,7 +89,7 @@ def test_a_node_killed_mid_run_fails_the_run_by_name_and_every_process_is_stoppe
     def run() -> None:
         try:
             run_processes(SCENARIOS["paper"], out)
-        except ExperimentError as error:
+        except ChildError as error:
             failure.append(error)
 
     runner = threading.Thread(target=run)

@@ -17,7 +17,8 @@ The processes, each with its output in a log file of the run's folder (``ROLE.lo
 Each process says where it listens in its first line, which the launcher waits for (bounded).
 Whatever happens (a process that exits early, one that does not answer, Ctrl-C), every process
 the launcher started is stopped before it returns (SIGINT, then SIGKILL; the last started
-first, so the CAN servers last); an error names the process and its log.
+first, so the CAN servers last); an error (`commandline.children.ChildError`) names the process
+and its log.
 
 The rotation robot's node listens on a port the launcher picks, with its flash in
 ``rotation.flash``: in a scenario that kills it (it sends itself SIGKILL on its clock), its end
@@ -30,76 +31,27 @@ from __future__ import annotations
 import contextlib
 import json
 import re
-import signal
 import socket
-import subprocess
 import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from commandline.children import POLL, Child
+from firmware_sim.listen_link import CONNECT_URL
 from visual_servoing.errors import ExperimentError
 from visual_servoing.experiment.firmware import MANIPULATORS
 from visual_servoing.experiment.linked import QUANTUM
 from visual_servoing.experiment.scenarios import Scenario
 
 HOST = "127.0.0.1"
-START_TIMEOUT = 60.0
-"""Seconds a process may take to say where it listens (it imports numpy, Unicorn, python-can)."""
 RUN_TIMEOUT = 900.0
 """Seconds the manager may take for a whole run."""
-STOP_TIMEOUT = 5.0
-"""Seconds a process has to stop on SIGINT before it is killed."""
-POLL = 0.05
-CONNECT = re.compile(r"--to (socket://\S+)\)$")
-"""The end of a ``tcp-listen://`` listener's first line: the URL to connect to."""
-PTY = re.compile(r"^listening on (/dev/\S+)")
-"""A pty listener's first line."""
 SERVOS = re.compile(r"CAN servo nodes on ")
 """The servo emulator's line once it serves its buses."""
 CAN_SERVER = re.compile(r"Connect using channel 'ws://localhost:(\d+)/'")
 """The python-can-remote server's line with the port it listens on."""
-
-
-@dataclass
-class Child:
-    """A process of the run: its role, its process and its log file."""
-
-    role: str
-    process: subprocess.Popen[bytes]
-    log: Path
-
-    def wait_for(self, pattern: re.Pattern[str], timeout: float = START_TIMEOUT) -> re.Match[str]:
-        """The first match of `pattern` in the log's lines; an error naming the log when the
-        process exits first or the time is up."""
-        deadline = time.monotonic() + timeout
-        while True:
-            for line in self.log.read_text(errors="replace").splitlines():
-                found = pattern.search(line)
-                if found:
-                    return found
-            if self.process.poll() is not None:
-                raise self.error(f"exited with status {self.process.returncode}")
-            if time.monotonic() >= deadline:
-                raise self.error(f"said nothing matching {pattern.pattern!r} in {timeout:g} s")
-            time.sleep(POLL)
-
-    def error(self, what: str) -> ExperimentError:
-        """An error about this process, naming its log and its last lines."""
-        lines = self.log.read_text(errors="replace").splitlines()[-5:]
-        tail = " | ".join(lines) or "(no output)"
-        return ExperimentError(f"process {self.role} {what} (log {self.log}): {tail}")
-
-    def stop(self) -> None:
-        """SIGINT, as Ctrl-C; SIGKILL if it does not end in STOP_TIMEOUT."""
-        if self.process.poll() is None:
-            self.process.send_signal(signal.SIGINT)
-            try:
-                self.process.wait(timeout=STOP_TIMEOUT)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait(timeout=STOP_TIMEOUT)
 
 
 @dataclass
@@ -116,12 +68,9 @@ class Launch:
     def start(self, role: str, *arguments: str, log_name: str | None = None) -> Child:
         """Start ``python ARGUMENTS`` as `role`, its output into ``ROLE.log`` (or
         `log_name`)."""
-        log = self.out / (log_name or f"{role}.log")
-        with log.open("wb") as output:
-            process = subprocess.Popen(
-                [sys.executable, *arguments], stdout=output, stderr=subprocess.STDOUT
-            )
-        child = Child(role, process, log)
+        child = Child.start(
+            role, [sys.executable, *arguments], self.out / (log_name or f"{role}.log")
+        )
         self.children.append(child)
         return child
 
@@ -184,13 +133,13 @@ def run_processes(
         rotation = launch.start("rotation", *rotation_node)
         control = None
         if not real_time:
-            control = servos.wait_for(CONNECT)[1]
+            control = servos.wait_for(CONNECT_URL)[1]
             launch.urls["servos"] = control
         else:
             servos.wait_for(SERVOS)
             launch.urls["servos"] = " ".join(buses)
-        launch.urls["hexman"] = hexman.wait_for(PTY)[1]
-        launch.urls["rotation"] = rotation.wait_for(CONNECT)[1]
+        launch.urls["hexman"] = hexman.wait_for(CONNECT_URL)[1]
+        launch.urls["rotation"] = rotation.wait_for(CONNECT_URL)[1]
         manager_args = ["-m", "visual_servoing", "manager", "--scenario", scenario.name]
         manager_args += ["--out", str(out), "--quantum", repr(quantum)]
         if scenario.location is not None:
