@@ -4,7 +4,10 @@ Each run is one Dask task, `guarded(runner, spec)`, that calls the application's
 worker process and returns its record: a run that raises is recorded as crashed with its
 traceback, and the campaign goes on. A worker that dies under a run (a crash of native code, the
 OOM killer) makes Dask retry the run elsewhere and at last give up on it; that too is recorded as
-crashed. Records come back in the order runs finish and go to `on_record` at once, so an
+crashed. The campaign keeps only as many runs submitted as the cluster has worker threads,
+topping up as runs finish: no run waits on a worker behind another, so a worker that dies takes
+down only the run it was running, whatever the scheduler's own queueing (its worker
+saturation). Records come back in the order runs finish and go to `on_record` at once, so an
 interrupted campaign keeps every finished run. The runner must be a module-level function of a
 package the workers can import (Dask sends it by reference): on another machine, the toolchain
 must be installed there too.
@@ -29,10 +32,6 @@ from typing import Any
 from campaign.errors import CampaignError
 from campaign.plan import Spec
 from campaign.record import OK, TIMING, Record, crashed
-
-SATURATION = "distributed.scheduler.worker-saturation"
-"""Runs a worker is given per thread at once: 1, so that a worker dying under a run takes no
-other run down with it (Dask's default, 1.1, queues a second run on a one-thread worker)."""
 
 POLL = 0.05
 """Seconds between two looks for finished runs (and for Ctrl-C)."""
@@ -62,7 +61,6 @@ def default_workers() -> int:
 def client(workers: int, scheduler: str | None) -> Iterator[Any]:
     """A Dask client on the scheduler at `scheduler`, or on a new local cluster of `workers`
     single-threaded worker processes (closed on leaving)."""
-    import dask
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
@@ -75,16 +73,15 @@ def client(workers: int, scheduler: str | None) -> Iterator[Any]:
         with connected:
             yield connected
         return
-    with dask.config.set({SATURATION: 1.0}):
-        cluster = LocalCluster(
-            n_workers=workers,
-            threads_per_worker=1,
-            processes=True,
-            host="127.0.0.1",
-            dashboard_address="127.0.0.1:0",  # the scheduler's HTTP routes (health), on loopback
-            scheduler_kwargs={"dashboard": False},
-            silence_logs=logging.ERROR,
-        )
+    cluster = LocalCluster(
+        n_workers=workers,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        dashboard_address="127.0.0.1:0",  # the scheduler's HTTP routes (health), on loopback
+        scheduler_kwargs={"dashboard": False},
+        silence_logs=logging.ERROR,
+    )
     with cluster, Client(cluster) as local:
         local.register_plugin(_interrupts_ignored())
         yield local
@@ -116,22 +113,41 @@ def execute(
     KeyboardInterrupt raised, between two records rather than inside Dask's own calls."""
     from distributed import as_completed
 
-    futures = {
-        dask.submit(guarded, runner, spec, key=f"run-{spec['index']}-{spec['seed']}"): spec
-        for spec in specs
-    }
-    finished = as_completed(futures)
+    waiting = iter(specs)
+    futures: dict[Any, Spec] = {}  # the runs submitted and not yet recorded
+    finished = as_completed()
+
+    def top_up() -> None:
+        """Submit runs until each worker thread has one (at least one run while any is left;
+        workers that join later get theirs as runs finish)."""
+        while len(futures) < max(1, _threads(dask)):
+            spec = next(waiting, None)
+            if spec is None:
+                return
+            future = dask.submit(guarded, runner, spec, key=f"run-{spec['index']}-{spec['seed']}")
+            futures[future] = spec
+            finished.add(future)
+
     try:
+        top_up()
         while not finished.is_empty():
             if stopping():
                 raise KeyboardInterrupt
             ready = finished.next_batch(block=False)
             for future in ready:
-                on_record(_record(future, futures[future]))
-            if not ready:
+                on_record(_record(future, futures.pop(future)))
+            if ready:
+                top_up()
+            else:
                 time.sleep(POLL)
     finally:
         dask.cancel(list(futures))
+
+
+def _threads(dask: Any) -> int:
+    """The worker threads of the client's cluster now (the scheduler's total, one round trip
+    without the per-worker details)."""
+    return int(dask.scheduler_info(n_workers=0).get("total_threads", 0))
 
 
 def _record(future: Any, spec: Spec) -> Record:

@@ -102,11 +102,7 @@ def test_a_scheduler_that_is_not_there_is_one_error_line_and_leaves_no_folder(tm
 def cluster(tmp_path) -> Iterator[str]:
     """A Dask scheduler and two single-threaded workers on 127.0.0.1; its address."""
     address_file = tmp_path / "scheduler.json"
-    environment = {
-        **os.environ,
-        "PYTHONPATH": str(ROOT),
-        "DASK_DISTRIBUTED__SCHEDULER__WORKER_SATURATION": "1.0",  # as docs/campaigns.md says
-    }
+    environment = {**os.environ, "PYTHONPATH": str(ROOT)}  # the scheduler's defaults
     common = {"cwd": ROOT, "env": environment, "stdout": subprocess.DEVNULL}
     scheduler = ["scheduler", "--port", "0", "--scheduler-file", str(address_file)]
     started: list[subprocess.Popen[bytes]] = []
