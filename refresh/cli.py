@@ -118,6 +118,7 @@ def manage_command(options: argparse.Namespace) -> None:
         settle=options.settle,
         recovery_hold=options.recovery_hold,
         estimate_steps=options.estimate_steps,
+        repair_attempts=options.repair_attempts,
         lost_after=options.lost_after,
     )
     if options.quantum is not None and not options.lock_step:
@@ -280,6 +281,14 @@ def _add_manage(commands: argparse._SubParsersAction) -> None:
         default=DEFAULTS.estimate_steps,
         metavar="N",
         help=f"estimator steps per shadow run (default {DEFAULTS.estimate_steps})",
+    )
+    command.add_argument(
+        "--repair-attempts",
+        type=integer(1, MAX_COUNT),
+        default=DEFAULTS.repair_attempts,
+        metavar="N",
+        help="repairs in a row that may fail to bring P_T back before the task is stopped "
+        f"safely (default {DEFAULTS.repair_attempts})",
     )
     command.add_argument(
         "--lost-after",

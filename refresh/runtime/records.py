@@ -52,3 +52,12 @@ class History:
         if last.applied_at is None or last.recovered_at is not None:
             return None
         return last
+
+    def failed_repairs(self) -> int:
+        """The latest reconfigurations in a row that were applied and never brought P_T back."""
+        count = 0
+        for record in reversed(self.reconfigurations):
+            if record.applied_at is None or record.recovered_at is not None:
+                break
+            count += 1
+        return count

@@ -35,7 +35,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
-from refresh.adaptation import Decision, decide
+from refresh.adaptation import decide
 from refresh.configuration import Configuration, initial_configuration
 from refresh.database import ModuleDatabase
 from refresh.decider import Decider, Detection
@@ -240,7 +240,12 @@ class Runtime:
             self._good_since = None
 
     def _repair(self, current: Configuration) -> None:
-        """Locate, synthesize, choose; migrate and switch, or stop the task safely."""
+        """Locate, synthesize, choose; migrate and switch, or stop the task safely (also when
+        the last repairs, as many as the settings allow, all failed to bring P_T back)."""
+        failed = self.history.failed_repairs()
+        if failed >= self.settings.repair_attempts:
+            self._stop_safely(current, f"{failed} repairs in a row did not bring P_T back")
+            return
         detected_at = self.clock()
         estimator = self.estimators(detected_at, self.settings.estimate_steps)
         started = time.perf_counter()
@@ -264,16 +269,17 @@ class Runtime:
             )
         self.history.reconfigurations.append(record)
         if decision.target is None:
-            self._stop_safely(current, decision)
+            reason = decision.location.module if decision.choice is None else "no candidate"
+            self._stop_safely(current, reason)
             return
         self._switch(decision.target)
         record.applied_at = self.clock()
         record.target = decision.target
 
-    def _stop_safely(self, current: Configuration, decision: Decision) -> None:
-        """No configuration satisfies P_T: stop every module of the task. A module the applier
-        cannot stop (it failed on its own) is logged, and the others are stopped all the same."""
-        reason = decision.location.module if decision.choice is None else "no candidate"
+    def _stop_safely(self, current: Configuration, reason: str) -> None:
+        """No configuration repairs the task (`reason`): stop every module of the task. A module
+        the applier cannot stop (it failed on its own) is logged, and the others are stopped all
+        the same."""
         for placement, instance in zip(current.placements, current.instances, strict=True):
             try:
                 self.applier.stop(placement.robot, instance)

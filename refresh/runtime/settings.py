@@ -31,6 +31,12 @@ class RuntimeSettings:
     """Seconds P_T must stay 1 after a reconfiguration for the task to count as recovered."""
     estimate_steps: int = 10
     """Estimator steps per shadow run before its reports are read."""
+    repair_attempts: int = 5
+    """Reconfigurations in a row that may fail to bring P_T back: at the next fault the runtime
+    stops the task safely instead of deciding again. Each was estimated to satisfy P_T, so what
+    the task meets is something no estimator sees (the paper's plate driven to its stop during
+    black frames, the target out of every camera's view), and deciding again would only switch
+    and migrate, every settle time, without end."""
     lost_after: float = 1.0
     """Seconds without a word from a node (no report, heartbeat or answer) before it is lost;
     also how often a lost node is tried again (`rejoin`)."""
@@ -46,6 +52,7 @@ class RuntimeSettings:
         _seconds("lost_after", self.lost_after, positive=True)
         _count("debounce", self.debounce)
         _count("estimate_steps", self.estimate_steps)
+        _count("repair_attempts", self.repair_attempts)
 
     @property
     def decision_rate(self) -> float:

@@ -3,9 +3,10 @@
 Sensor reads the line's offset; from `fault_at` seconds on (by the clock its node gives it, live
 or in a shadow run) it reads 100 px instead of 10, plus its constant `bias`. Sensor_alt reads
 10 px (100 px too after the fault when `alt_broken`); Filter halves the offset; Steer reports the
-offset it steers by as the task's metric `error` (at most 30). With Sensor faulty, only
-{Sensor_alt, Steer} satisfies P_T; {Sensor, Filter, Steer} would be chosen (least Util) by
-estimators that look at a time before the fault.
+offset it steers by as the task's metric `error` (at most 30). With `blind` estimators, the two
+sensors' estimators read 10 px whatever the time: every repair is estimated to work. With Sensor
+faulty, only {Sensor_alt, Steer} satisfies P_T; {Sensor, Filter, Steer} would be chosen (least
+Util) by estimators that look at a time before the fault.
 """
 
 from __future__ import annotations
@@ -92,12 +93,18 @@ class _Flow(NativePBO):
     """Runs `transform` as cycle and estimate; reports power (and the metric, for Steer)."""
 
     power = 0.0
+    estimating = False
+    """True while `transform` runs for the estimator."""
 
     def cycle(self, io: PortIO) -> None:
         self.transform(io)
 
     def estimate(self, io: PortIO) -> None:
-        self.transform(io)
+        self.estimating = True
+        try:
+            self.transform(io)
+        finally:
+            self.estimating = False
         self.report(io)
 
     def evaluate(self, io: PortIO) -> None:
@@ -111,8 +118,13 @@ class _Flow(NativePBO):
         """Functional reports: Steer's only."""
 
 
-def natives(fault_at: float, alt_broken: bool = False) -> dict[str, NativeModule]:
+def natives(
+    fault_at: float, alt_broken: bool = False, blind: bool = False
+) -> dict[str, NativeModule]:
     """The rover's firmware: the four modules, Sensor faulty from `fault_at` seconds."""
+
+    def faulty(pbo: _Flow, io: PortIO) -> bool:
+        return io.now >= fault_at and not (blind and pbo.estimating)
 
     class Sensor(_Flow):
         name = "Sensor"
@@ -120,7 +132,7 @@ def natives(fault_at: float, alt_broken: bool = False) -> dict[str, NativeModule
         ports = (PortSpec.output("line", dtype="<f8"), PortSpec.const("bias", dtype="<f8"))
 
         def transform(self, io: PortIO) -> None:
-            io["line"] = io["bias"] + (100.0 if io.now >= fault_at else 10.0)
+            io["line"] = io["bias"] + (100.0 if faulty(self, io) else 10.0)
 
     class SensorAlt(_Flow):
         name = "Sensor_alt"
@@ -128,7 +140,7 @@ def natives(fault_at: float, alt_broken: bool = False) -> dict[str, NativeModule
         ports = (PortSpec.output("line", dtype="<f8"),)
 
         def transform(self, io: PortIO) -> None:
-            io["line"] = 100.0 if alt_broken and io.now >= fault_at else 10.0
+            io["line"] = 100.0 if alt_broken and faulty(self, io) else 10.0
 
     class Filter(_Flow):
         name = "Filter"
@@ -158,11 +170,12 @@ def rover(
     alt_broken: bool = False,
     settings: RuntimeSettings = SETTINGS,
     applier_class: type[NodeApplier] = NodeApplier,
+    blind: bool = False,
 ) -> Iterator[tuple[Runtime, Node]]:
     """A runtime over the rover's node (through `applier_class`), estimating on a host kernel of
     its own, on the node's virtual clock."""
     loaded = load()
-    codes = natives(fault_at, alt_broken)
+    codes = natives(fault_at, alt_broken, blind)
     with Node(ROBOT) as node, Kernel() as host:
         applier = applier_class({ROBOT: node}, natives=codes)
         estimators = HostEstimators(host, codes, loaded.database, loaded.task)

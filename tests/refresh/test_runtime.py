@@ -157,6 +157,32 @@ def test_when_nothing_helps_the_task_is_stopped_safely():
         assert runtime.step() is None  # nothing runs: nothing to judge
 
 
+def test_repairs_that_keep_failing_stop_the_task_after_the_attempts_allowed():
+    """Estimators that see no fault make every repair look good and none works: without a bound
+    the runtime switched between the two sensors every settle time until the run ended."""
+    settings = replace(SETTINGS, repair_attempts=3)
+    with rover(FAULT_AT, alt_broken=True, settings=settings, blind=True) as (runtime, node):
+        runtime.deploy()
+        runtime.run(6.0, advance(node))
+        records = runtime.history.reconfigurations
+        assert len(records) == 3
+        assert all(r.target is not None and r.recovered_at is None for r in records)
+        assert len(runtime.history.configurations) == 1 + 3  # switched three times, then no more
+        (stopped,) = runtime.log.of_kind("stopped")
+        assert stopped.data["reason"] == "3 repairs in a row did not bring P_T back"
+        assert runtime.history.stopped_at is not None and runtime.current is None
+        assert node.kernel.names == ()
+
+
+def test_a_repair_that_held_counts_no_failed_attempt():
+    settings = replace(SETTINGS, repair_attempts=1)
+    with rover(FAULT_AT, settings=settings) as (runtime, node):
+        runtime.deploy()
+        runtime.run(3.0, advance(node))
+        assert runtime.history.failed_repairs() == 0
+        assert runtime.history.stopped_at is None
+
+
 class UnreachableSensorApplier(NodeApplier):
     """A node applier whose stop of Sensor fails, as over a link that broke."""
 
