@@ -121,6 +121,8 @@ def test_a_node_killed_mid_run_fails_the_run_by_name_and_every_process_is_stoppe
 def test_in_real_time_the_processes_run_on_their_clocks_and_repair_the_paper_fault(tmp_path):
     got = run_processes(SCENARIOS["paper"], tmp_path, real_time=True)
     assert got["processes"]["servos"].startswith("can://remote/127.0.0.1:")  # no time master
-    (record,) = got["reconfigurations"]
+    records = got["reconfigurations"]
+    assert len(records) == 1, f"expected one reconfiguration, got {records}"
+    (record,) = records
     assert record["located"] == "CamReader"
     assert got["final"] is not None and got["stopped_at"] is None
