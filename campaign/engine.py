@@ -21,12 +21,15 @@ free port of it), without the dashboard.
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import os
 import signal
+import tempfile
 import time
 import traceback
 from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
 from typing import Any
 
 from campaign.errors import CampaignError
@@ -50,6 +53,18 @@ def guarded(runner: Runner, spec: Spec) -> Record:
         return crashed(spec, traceback.format_exc(), time.perf_counter() - started)
     timing = {**outcome.pop(TIMING, {}), "run_seconds": time.perf_counter() - started}
     return {**spec, "status": OK, **outcome, TIMING: timing}
+
+
+def worker_folder(prefix: str) -> Path:
+    """A worker process's build folder for an application's runs (its guest modules built once
+    per process): made at the first run that asks, not when the application's module is
+    imported (each of its commands imports it), and removed when the process ends."""
+    return Path(_folder(prefix).name)
+
+
+@functools.cache
+def _folder(prefix: str) -> tempfile.TemporaryDirectory[str]:
+    return tempfile.TemporaryDirectory(prefix=prefix)  # kept by the cache, removed at exit
 
 
 def default_workers() -> int:

@@ -19,9 +19,7 @@ drawn. Each run is the in-process patrol with the runtime's `compare_locations`.
 
 from __future__ import annotations
 
-import functools
 import random
-import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -29,6 +27,7 @@ from typing import Any
 
 from campaign import record
 from campaign.cli import Application
+from campaign.engine import worker_folder
 from patrol.local import Patrol
 from patrol.mission import SETTINGS
 from patrol.scenarios import Scenario
@@ -73,19 +72,11 @@ def scenario_of(drawn: Mapping[str, Any], index: int) -> Scenario:
     )
 
 
-@functools.cache
-def _work() -> tempfile.TemporaryDirectory[str]:
-    """The worker process's build folder (the guests are built once per process): made at its
-    first run, not when the module is imported (every command of the package imports it), and
-    kept by the cache until the process ends, which removes it."""
-    return tempfile.TemporaryDirectory(prefix="patrol-campaign-")
-
-
 def run(spec: Mapping[str, Any]) -> dict[str, Any]:
     """One run of the campaign: its decisions, with every strategy's location beside."""
     scenario = scenario_of(spec["draw"], spec["index"])
     settings = replace(SETTINGS, compare_locations=True)
-    with Patrol(scenario, Path(_work().name), settings) as patrol:
+    with Patrol(scenario, worker_folder("patrol-campaign-"), settings) as patrol:
         outcome = patrol.run()
     return record.outcome(
         outcome.reconfigurations,

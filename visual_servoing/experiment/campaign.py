@@ -27,9 +27,7 @@ locates each fault in shadow, beside the one that decides (`--location`, else th
 
 from __future__ import annotations
 
-import functools
 import random
-import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -37,6 +35,7 @@ from typing import Any
 
 from campaign import record
 from campaign.cli import Application
+from campaign.engine import worker_folder
 from visual_servoing.experiment.experiment import SETTINGS, Experiment
 from visual_servoing.experiment.report import migrations_of
 from visual_servoing.experiment.scenarios import (
@@ -135,19 +134,13 @@ def scenario_of(drawn: Mapping[str, Any], index: int) -> Scenario:
     )
 
 
-@functools.cache
-def _work() -> tempfile.TemporaryDirectory[str]:
-    """The worker process's build folder (the Dehazer is built once per process): made at its
-    first run, not when the module is imported (every command of the package imports it), and
-    kept by the cache until the process ends, which removes it."""
-    return tempfile.TemporaryDirectory(prefix="visual-servoing-campaign-")
-
-
 def run(spec: Mapping[str, Any]) -> dict[str, Any]:
     """One run of the campaign: its decisions, with every strategy's location beside."""
     scenario = scenario_of(spec["draw"], spec["index"])
     settings = replace(SETTINGS, compare_locations=True)
-    with Experiment(scenario, Path(_work().name), settings=settings) as experiment:
+    with Experiment(
+        scenario, worker_folder("visual-servoing-campaign-"), settings=settings
+    ) as experiment:
         outcome = experiment.run()
     return record.outcome(
         outcome.reconfigurations,
