@@ -20,6 +20,7 @@ free port of it), without the dashboard.
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import functools
 import logging
@@ -128,17 +129,16 @@ def execute(
     KeyboardInterrupt raised, between two records rather than inside Dask's own calls."""
     from distributed import as_completed
 
-    waiting = iter(specs)
+    waiting = collections.deque(specs)
     futures: dict[Any, Spec] = {}  # the runs submitted and not yet recorded
     finished = as_completed()
 
     def top_up() -> None:
         """Submit runs until each worker thread has one (at least one run while any is left;
-        workers that join later get theirs as runs finish)."""
-        while len(futures) < max(1, _threads(dask)):
-            spec = next(waiting, None)
-            if spec is None:
-                return
+        workers that join later get theirs as runs finish). Once every run is submitted, the
+        scheduler is not asked again."""
+        while waiting and len(futures) < max(1, _threads(dask)):
+            spec = waiting.popleft()
             future = dask.submit(guarded, runner, spec, key=f"run-{spec['index']}-{spec['seed']}")
             futures[future] = spec
             finished.add(future)

@@ -272,7 +272,7 @@ class GdbStub:
 
     def _read_register(self, body: str) -> str:
         index = int(body, 16)
-        if index >= len(REGISTER_NAMES):
+        if not 0 <= index < len(REGISTER_NAMES):
             return "E01"
         return word_hex(self._registers()[index])
 
@@ -281,7 +281,7 @@ class GdbStub:
         index, word = int(number, 16), parse_word(value)
         if index == PC:
             return "OK" if self._move(word) else "E01"
-        if index >= len(REGISTER_NAMES):
+        if not 0 <= index < len(REGISTER_NAMES):  # "-1" too: it would name x30 from the end
             return "E01"
         if index:  # x0 is always 0
             self.cpu.debug_write_register(index, word)

@@ -59,6 +59,20 @@ def test_any_packet_gets_an_answer_and_never_raises(cpu, text):
         node.close()
 
 
+@pytest.mark.parametrize("packet", ["p-1", "P-1=01000000", "p21", "P21=01000000", "p-21"])
+def test_a_register_number_outside_x0_to_pc_is_refused(cpu, packet):
+    gdb, node = pair()
+    stub = GdbStub(cpu, node, lambda line: None)
+    try:
+        before = cpu.debug_registers()
+        assert stub._answer(packet) is None
+        assert gdb.receive(timeout=5) == b"E01"
+        assert cpu.debug_registers() == before
+    finally:
+        gdb.close()
+        node.close()
+
+
 def test_garbage_instead_of_packets_ends_the_session_not_the_node():
     gdb, node = pair()
     gdb.socket.sendall(b"\xff" * 70_000)
