@@ -155,9 +155,12 @@ def serve(
         raw = None if got is None else got[1]
         if got is not None:
             peer, raw = got
-            _answer(link, server, peer, receiver.handle(raw, peer))
+            answers = receiver.handle(raw, peer)
             if server is not None and peer is not None:
-                _keep_or_let_go(server, receiver, peer, raw)
+                _shelter(server, receiver, peer)
+            _answer(link, server, peer, answers)
+            if server is not None and peer is not None and is_foreign(raw):
+                server.hang_up(peer)  # after its one refusal
         if node.kernel.names and free_running:
             # After a message, only what is due by now: a host that keeps asking must not hold
             # the node's PBOs back, nor wait a poll for each answer.
@@ -175,12 +178,10 @@ def serve(
     return receiver
 
 
-def _keep_or_let_go(server: ClientsLink, receiver: Receiver, peer: int, raw: bytes) -> None:
-    """Hang up on a client whose line cannot be a command (`is_foreign`); shelter one that
-    authenticated from being let go for a newcomer."""
-    if is_foreign(raw):
-        server.hang_up(peer)
-        return
+def _shelter(server: ClientsLink, receiver: Receiver, peer: int) -> None:
+    """Shelter a client that authenticated from being let go for a newcomer: before its answer
+    goes out, since the host may open other connections as soon as it reads it (the listener
+    takes them on its own thread), and an unsheltered quiet host was let go for one of them."""
     session = receiver.sessions.get(peer)
     if session is not None and session.authenticated:
         server.shelter(peer)
