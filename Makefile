@@ -14,14 +14,14 @@ tools:
 	@scripts/ensure-tools.sh $(SYSTEM_TOOLS)
 
 # The install compiles the CPU's block counter (C): a change to it installs again.
-$(INSTALLED): pyproject.toml firmware_sim/block_counter.c | tools
+$(INSTALLED): pyproject.toml firmware_sim/core/block_counter.c | tools
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[all,dev]'
 	touch $@
 
 modules: tools $(INSTALLED)
-	$(PY) -m firmware_sim.sdk.build --out $(BUILD)/modules
+	$(PY) -m module_sdk.build --out $(BUILD)/modules
 
 demo: modules
 	@scripts/demo.sh $(VENV) $(BUILD)/modules

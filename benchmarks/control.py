@@ -40,7 +40,6 @@ from pathlib import Path
 
 from nodes import node_process
 
-from firmware_sim.sdk.build import EXAMPLES_DIR, build_module
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
 from hexmigrate.links import open_link
@@ -51,6 +50,7 @@ from hexmigrate.signing.keys import PrivateKey
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import Heartbeat, PerformanceReport, encode
 from hexmigrate.transfer.sender import Sender
+from module_sdk.build import EXAMPLES_DIR, build_module
 
 ROUND_TRIP_GOAL = 2.0  # a control request's median round trip / the echo's
 UNGOALED = ("echo", "authenticate")  # the baseline, and a figure the issue sets no goal for

@@ -27,8 +27,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from firmware_sim.guest import CONTEXT_SIZE
-from firmware_sim.node import Node, NodeConfig
+from firmware_sim.core.guest import CONTEXT_SIZE
+from firmware_sim.core.node import Node, NodeConfig
 from pbort.code import Method, Role, Services
 from visual_servoing.dehaze import dehaze
 from visual_servoing.dehazer_guest import (

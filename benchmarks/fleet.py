@@ -49,8 +49,8 @@ from fleet_natives import STAGES, module_name
 from fleet_task import Fleet, fleet
 from nodes import NodeProcess, node_processes
 
-from firmware_sim.natives import load_natives
-from firmware_sim.node import Node
+from firmware_sim.core.natives import load_natives
+from firmware_sim.core.node import Node
 from hexmigrate.links import open_link
 from hexmigrate.links.base import Link, LinkBase
 from hexmigrate.links.framing import frame

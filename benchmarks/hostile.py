@@ -26,8 +26,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from firmware_sim.memory_map import FLASH_BASE
-from firmware_sim.sdk.build import build_examples
+from firmware_sim.core.memory_map import FLASH_BASE
 from hexmigrate.elf import image_from_elf
 from hexmigrate.links import open_link
 from hexmigrate.links.framing import Deframer, frame
@@ -47,6 +46,7 @@ from hexmigrate.transfer.messages import (
     encode,
 )
 from hexmigrate.transfer.sender import Sender
+from module_sdk.build import build_examples
 
 QUIET = 0.2
 """Seconds a hostile connection is read after its last byte."""
@@ -157,7 +157,7 @@ def main() -> None:
         command = [
             sys.executable,
             "-m",
-            "firmware_sim.cli",
+            "firmware_sim",
             "listen",
             "--listen",
             "tcp-listen://127.0.0.1:0",

@@ -9,13 +9,13 @@ Prints, for a module of 4 KiB and one of 64 KiB, each against a limit or a basel
   flash model in one process), against copying the same bytes through the same link without
   the protocol.
 
-Wire timing comes from `firmware_sim.wire_sim`, a small discrete-event simulation in virtual
+Wire timing comes from `firmware_sim.wires`, a small discrete-event simulation in virtual
 time that drives the real `Sender`, `Receiver` and `Node` (its docstring says exactly what it
 models: 8N1 serial, CAN frames with their stuffed bits and arbitration, the node's flash time);
-the stack and the copy it is compared with are `firmware_sim.wire_sim.in_process`, timed here.
+the stack and the copy it is compared with are `firmware_sim.wires.unwired`, timed here.
 
 The modules are random data with the compiled `gain` example at their start
-(`firmware_sim.wire_sim.workload`), so that the node's COMMIT, which runs the module's init
+(`firmware_sim.wires.workload`), so that the node's COMMIT, which runs the module's init
 subroutine, succeeds: its descriptor's pointers and 4 more words in the random part are the
 relocations, its init is the module's init.
 
@@ -29,13 +29,15 @@ import tempfile
 import time
 from pathlib import Path
 
-from firmware_sim.node import Node
-from firmware_sim.sdk.build import EXAMPLES_DIR, build_module
-from firmware_sim.wire import CAN_MAX_DATA, UART_BITS_PER_BYTE, can_frame_bits_worst, uart_byte_rate
-from firmware_sim.wire_sim.in_process import copy_transfer, stack_transfer
-from firmware_sim.wire_sim.link import DEFAULT_BAUDRATE
-from firmware_sim.wire_sim.ports import ISOTP_CF_DATA
-from firmware_sim.wire_sim.transfer import (
+from firmware_sim.core.node import Node
+from firmware_sim.wires.link import DEFAULT_BAUDRATE
+from firmware_sim.wires.timing import (
+    CAN_MAX_DATA,
+    UART_BITS_PER_BYTE,
+    can_frame_bits_worst,
+    uart_byte_rate,
+)
+from firmware_sim.wires.transfer import (
     DEFAULT_WINDOW,
     HEX_LINE_CHARS,
     HEX_PAYLOAD_PER_CHAR,
@@ -44,10 +46,13 @@ from firmware_sim.wire_sim.transfer import (
     can_limit,
     run_transfer,
 )
-from firmware_sim.wire_sim.workload import TID, random_module
+from firmware_sim.wires.unwired import copy_transfer, stack_transfer
+from firmware_sim.wires.wire_ends import ISOTP_CF_DATA
+from firmware_sim.wires.workload import TID, random_module
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
 from hexmigrate.links.can_defaults import DEFAULT_BITRATE
+from module_sdk.build import EXAMPLES_DIR, build_module
 
 BAUDRATE = DEFAULT_BAUDRATE  # 115200 8N1
 CAN_BITRATE = DEFAULT_BITRATE  # 500 kbit/s

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from commandline.children import Child
-from firmware_sim.listen_link import CONNECT_URL
+from hexmigrate.links.listening import CONNECT_URL
 
 START_TIMEOUT = 30.0  # a node imports Unicorn and python-can before it says where it listens
 CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
@@ -59,7 +59,7 @@ def node_processes(
     logs = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="nodes-")))
     children = []
     for index, (listen, options) in enumerate(nodes):
-        command = [sys.executable, "-m", "firmware_sim.cli", "listen", "--listen", listen]
+        command = [sys.executable, "-m", "firmware_sim", "listen", "--listen", listen]
         child = Child.start(listen, [*command, *options], logs / f"node-{index}.log", cwd)
         stack.callback(child.stop)
         children.append(child)

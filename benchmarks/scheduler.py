@@ -24,11 +24,11 @@ from pathlib import Path
 from unicorn import UC_ARCH_RISCV, UC_MODE_RISCV32, Uc
 from unicorn.riscv_const import UC_RISCV_REG_A0, UC_RISCV_REG_RA, UC_RISCV_REG_SP
 
-from firmware_sim.guest import GuestModule
-from firmware_sim.memory_map import TRAMPOLINE
-from firmware_sim.node import Node, NodeConfig
-from firmware_sim.sdk.build import build_module
+from firmware_sim.core.guest import GuestModule
+from firmware_sim.core.memory_map import TRAMPOLINE
+from firmware_sim.core.node import Node, NodeConfig
 from hexmigrate.elf import image_from_elf
+from module_sdk.build import build_module
 from pbort.clock import RealTimeClock
 from pbort.code import Method, PerformanceKind, Role, Services
 from pbort.kernel import Kernel
@@ -125,7 +125,7 @@ def build_spin(builds: Path) -> Path:
 
 def guest_figures(builds: Path, calls: int) -> dict[str, float]:
     """Seconds per call: an empty guest method, gain's cycle with its ports, a gain kernel job."""
-    gain = build_module(Path(__file__).parents[1] / "firmware_sim/sdk/examples/gain.c", builds)
+    gain = build_module(Path(__file__).parents[1] / "module_sdk/examples/gain.c", builds)
     with Node() as node:
         spin = node.load(image_from_elf(build_spin(builds))).code.instantiate(Role.EXECUTOR, QUIET)
         spin.put("n", 0)  # the loop runs zero times: a call that does nothing

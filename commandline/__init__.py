@@ -1,7 +1,7 @@
 """The one command-line convention of the toolchain's entry points.
 
 `hexmigrate`, `firmware-sim`, ``python -m refresh``, ``python -m visual_servoing``,
-``python -m patrol``, ``python -m morphing_crossbar`` and ``python -m firmware_sim.servos`` all
+``python -m patrol``, ``python -m morphing_crossbar`` and ``python -m servo_emulators`` all
 build their parser with `command_parser`, take numbers and files through the types in
 `commandline.arguments`, show long jobs with `commandline.progress`, stop a job that writes as it
 goes between two of its steps on Ctrl-C or SIGTERM with `commandline.interrupts`, and hand their

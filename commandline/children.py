@@ -3,7 +3,7 @@ until they say what the caller needs, and stopped as Ctrl-C would stop them, the
 
 The experiment across processes (`visual_servoing.experiment.processes`), the patrol's robots
 (`patrol.linked`) and the benchmarks' nodes (`benchmarks/nodes.py`) start their processes this
-one way. A child's first lines say where it listens (``firmware_sim.listen_link.CONNECT_URL``);
+one way. A child's first lines say where it listens (``hexmigrate.links.listening.CONNECT_URL``);
 `Child.wait_for` reads its log until a line matches, and fails, naming the log and its last
 lines, when the child ends first or the time is up. `Child.stop` sends SIGINT, which every
 program of the toolchain takes as a request to stop cleanly, and SIGKILL after STOP_TIMEOUT.

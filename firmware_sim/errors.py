@@ -32,20 +32,16 @@ Tree::
     ├── ReconfigurationPortError (LookupError)
     │                                   no FPGA reconfiguration port is installed, or the one
     │                                   installed cannot build the fabric asked for
-    ├── BuildError (RuntimeError)       the SDK cannot build a module: a missing tool or source, a
-    │                                   tool that failed
-    ├── BridgeError (RuntimeError)      a port between nodes that cannot be set up, or a lock-step
-    │                                   step that cannot run (a bridge's value did not come)
-    └── ServoEmulatorError              a servo emulator refuses its set-up or a command: its
-                                        branch is drawn in firmware_sim/servos/errors.py
+    └── BridgeError (RuntimeError)      a port between nodes that cannot be set up, or a lock-step
+                                        step that cannot run (a bridge's value did not come)
 
 Two exceptions of firmware_sim stand outside the tree on purpose, because they are control flow
 and not failures a caller should report:
 
-- `firmware_sim.flash.PowerCut` is a ``BaseException`` (like ``KeyboardInterrupt``): it emulates
-  the power failing mid-erase or mid-program, so no ``except Exception`` on the way out may undo
-  anything; after it nothing runs, as on a node without power.
-- `firmware_sim.guest._Refused` carries the negative status the REGISTER service returns to a
+- `firmware_sim.core.flash.PowerCut` is a ``BaseException`` (like ``KeyboardInterrupt``): it
+  emulates the power failing mid-erase or mid-program, so no ``except Exception`` on the way out
+  may undo anything; after it nothing runs, as on a node without power.
+- `firmware_sim.core.guest._Refused` carries the negative status the REGISTER service returns to a
   guest; it never leaves the registrar.
 """
 
@@ -97,8 +93,8 @@ class CpuClosedError(FirmwareSimError, RuntimeError):
 
 
 class NativeLibraryError(FirmwareSimError, ImportError):
-    """The CPU's compiled block counter (firmware_sim/block_counter.c) is missing: the package was
-    not built or installed whole."""
+    """The CPU's compiled block counter (firmware_sim/core/block_counter.c) is missing: the
+    package was not built or installed whole."""
 
 
 class KernelAccessError(FirmwareSimError, ValueError):
@@ -138,7 +134,3 @@ class ReconfigurationPortError(FirmwareSimError, LookupError):
 class BridgeError(FirmwareSimError, RuntimeError):
     """A port between nodes that cannot be set up (a busy bridge number, a port too large for a
     link, an unknown wire), or a lock-step Advance whose imported values did not come."""
-
-
-class BuildError(FirmwareSimError, RuntimeError):
-    """A module could not be built: a missing tool, a missing source, or a tool that failed."""

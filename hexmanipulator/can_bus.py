@@ -1,4 +1,4 @@
-"""The servo bus over CAN: six servo nodes, messages from firmware_sim/servos/servo_can.dbc.
+"""The servo bus over CAN: six servo nodes, messages from servo_emulators/servo_can.dbc.
 
 A move sends ``Command<n>`` to each node (node = channel + 1) with the same move time. A read
 sends ``Sync`` with a fresh counter and waits for every node's ``Feedback<n>`` and ``Status<n>``
@@ -19,7 +19,11 @@ import cantools
 import numpy as np
 from can.bus import BusState
 
-from firmware_sim.servos.can_servo import (
+from hexmanipulator.errors import BusOffError, GeometryError, ServoBusError, ServoSilentError
+from hexmanipulator.geometry import Geometry
+from hexmanipulator.servo_bus import Reading, crank_angles, servo_angles
+from hexmigrate.links.can import parse_url
+from servo_emulators.can_servo import (
     COMMAND_BASE,
     FEEDBACK_BASE,
     NODES,
@@ -27,10 +31,6 @@ from firmware_sim.servos.can_servo import (
     SYNC_ID,
     database,
 )
-from hexmanipulator.errors import BusOffError, GeometryError, ServoBusError, ServoSilentError
-from hexmanipulator.geometry import Geometry
-from hexmanipulator.servo_bus import Reading, crank_angles, servo_angles
-from hexmigrate.links.can import parse_url
 
 REPLY_TIMEOUT = 0.2
 """How long a read waits for every node's answer to a Sync."""

@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from firmware_sim.servos.datasheet import S3003, SSC32_CHANNELS
-from firmware_sim.servos.errors import ServoSpecError
 from hexmanipulator.errors import GeometryError
+from servo_emulators.datasheet import S3003, SSC32_CHANNELS
+from servo_emulators.errors import ServoSpecError
 
 LEGS = 6
 DEFAULT_FILE = "hexman.toml"

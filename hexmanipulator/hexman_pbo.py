@@ -40,7 +40,6 @@ from typing import ClassVar
 
 import numpy as np
 
-from firmware_sim.servos.datasheet import S3003
 from hexmanipulator.errors import (
     BusOffError,
     CableCutError,
@@ -52,6 +51,7 @@ from hexmanipulator.geometry import LEGS, Geometry
 from hexmanipulator.kinematics import Pose, inverse
 from hexmanipulator.servo_bus import Reading, ServoBus
 from pbort import NativeModule, NativePBO, PerformanceKind, PortIO, PortKind, PortSpec
+from servo_emulators.datasheet import S3003
 
 DEFAULT_TOLERANCE = 3.0
 """Degrees: two SSC-32 read-back steps (1.1 deg each) and the servo's lag behind its ramp."""

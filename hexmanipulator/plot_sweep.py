@@ -25,14 +25,14 @@ import numpy as np
 
 from commandline import command_parser, run
 from commandline.arguments import input_file, output_file_ending
-from firmware_sim.servos.can_servo import CanServoNodes
-from firmware_sim.servos.can_servo_server import CanServoServer
 from hexmanipulator.can_bus import CanServoBus
 from hexmanipulator.errors import HexmanipulatorError
 from hexmanipulator.geometry import Geometry, load
 from hexmanipulator.hexman_pbo import hexman_module
 from hexmanipulator.kinematics import Pose, forward
 from pbort import Kernel, NativeModule, NativePBO, PortIO, PortSpec
+from servo_emulators.can_servo import CanServoNodes
+from servo_emulators.can_servo_server import CanServoServer
 
 AMPLITUDE = 20.0
 FREQUENCY = 0.5

@@ -14,8 +14,8 @@ from typing import Protocol
 
 import numpy as np
 
-from firmware_sim.servos.datasheet import S3003
 from hexmanipulator.geometry import Geometry
+from servo_emulators.datasheet import S3003
 
 
 @dataclass(frozen=True)

@@ -16,10 +16,10 @@ import time
 import numpy as np
 import serial  # type: ignore[import-untyped]
 
-from firmware_sim.servos.datasheet import S3003
 from hexmanipulator.errors import CableCutError, ServoSilentError
 from hexmanipulator.geometry import Geometry
 from hexmanipulator.servo_bus import Reading, crank_angles, servo_angles
+from servo_emulators.datasheet import S3003
 
 _PORT_ERRORS = (OSError, serial.SerialException, termios.error)
 """What a port whose far end vanished raises: pyserial's error, the OS's, or termios' (a tty

@@ -39,7 +39,7 @@ from hexmigrate.records import POINTER_SIZE, decode
 INSTRUCTION_SIZE = 4
 """RV32IM has only 32-bit instructions, on 4-byte boundaries."""
 MAX_NAME_CHARACTERS = abi.NAME_LEN - 1
-RV32IM_FIX = "compile with -march=rv32im (no 'c' extension), as firmware_sim/sdk/build.py does"
+RV32IM_FIX = "compile with -march=rv32im (no 'c' extension), as module_sdk/build.py does"
 
 _OPCODE_JAL = 0x6F
 _OPCODE_JALR = 0x67

@@ -26,9 +26,9 @@ from hexmigrate.descriptor import NAME_LEN
 from hexmigrate.elf import DEFAULT_INIT_SYMBOL, image_from_elf
 from hexmigrate.errors import HexmigrateError, LinkError, TransferError, TransferInterrupted
 from hexmigrate.image import ModuleImage, descriptor_name
+from hexmigrate.inspection import build_report, render_text
 from hexmigrate.links import open_link
 from hexmigrate.mapfile import image_from_map
-from hexmigrate.report import build_report, render_text
 from hexmigrate.signing.keys import load_private
 from hexmigrate.signing.verify import examine
 from hexmigrate.signing_cli import (

@@ -1,6 +1,6 @@
 """The PBO module descriptor, read from image bytes.
 
-The layout mirrors `struct pbo_descriptor` in `firmware_sim/sdk/pbo_module.h` (see
+The layout mirrors `struct pbo_descriptor` in `module_sdk/pbo_module.h` (see
 docs/module-abi.md). hexmigrate reads it for two reasons: the map-file route finds the pointer
 words to relocate inside the descriptor section, and `hexmigrate inspect` names each relocated
 word after the method slot that holds it. The emulated node reads the same layout when a module

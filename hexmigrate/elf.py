@@ -44,7 +44,7 @@ from hexmigrate.relocations import R_RISCV_32, SUBTRACTIONS, Refusal, pc_relativ
 EF_RISCV_RVC = 0x0001
 """The e_flags bit that says the code uses compressed (16-bit) instructions."""
 DEFAULT_INIT_SYMBOL = "module_init"
-EMIT_RELOCS_FIX = "link with -Wl,--emit-relocs, as firmware_sim/sdk/build.py does"
+EMIT_RELOCS_FIX = "link with -Wl,--emit-relocs, as module_sdk/build.py does"
 
 
 def image_from_elf(path: str | Path, init_symbol: str = DEFAULT_INIT_SYMBOL) -> ModuleImage:

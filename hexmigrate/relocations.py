@@ -52,7 +52,7 @@ SUBTRACTIONS = {
     61: "R_RISCV_SUB_ULEB128",
 }
 
-MEDANY_FIX = "compile with -mcmodel=medany, as firmware_sim/sdk/build.py does"
+MEDANY_FIX = "compile with -mcmodel=medany, as module_sdk/build.py does"
 _ABSOLUTE_CODE = (
     "an instruction holds part of an absolute address, which no 07 record fixes",
     MEDANY_FIX,

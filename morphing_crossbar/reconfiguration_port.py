@@ -1,7 +1,7 @@
 """The crossbar's reconfiguration port: loads bitstream images into a Morphing Crossbar.
 
 This is the implementation of the node's FPGA reconfiguration port
-(`firmware_sim.fpga_port.ReconfigurationPort`, met only through that protocol): pyproject.toml
+(`firmware_sim.core.fpga_port.ReconfigurationPort`, met only through that protocol): pyproject.toml
 registers `crossbar_port` under the entry-point group ``firmware_sim.reconfiguration_ports``,
 which ``firmware-sim listen --fpga N`` loads. A bitstream arrives as an extended Intel HEX module
 linked at its slot's window (`morphing_crossbar.hex_image`); the port checks the image, shifts

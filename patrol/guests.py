@@ -12,10 +12,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from firmware_sim.errors import BuildError
-from firmware_sim.sdk.build import build_module
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
+from module_sdk.build import build_module
+from module_sdk.errors import BuildError
 from patrol.errors import PatrolSetupError
 
 SOURCES = Path(__file__).resolve().parent / "guest"

@@ -17,13 +17,13 @@ import sys
 from pathlib import Path
 
 from commandline.children import Child
-from firmware_sim.listen_link import CONNECT_URL
+from hexmigrate.links.listening import CONNECT_URL
 from patrol.mission import LINK_BAUD, ROBOTS, SETTINGS, Mission
 from patrol.scenarios import Scenario
 from refresh.database import ModuleDatabase
 from refresh.manager import LockStep
 from refresh.remote import LinkApplier
-from refresh.remote.node import REPORT_PERIOD
+from refresh.remote.remote_node import REPORT_PERIOD
 
 QUANTUM = 0.005
 """Seconds of virtual time granted to every node at once: a quarter of the modules' period."""
@@ -32,7 +32,7 @@ QUANTUM = 0.005
 def start_node(robot: str, natives: list[str], log: Path) -> tuple[Child, str]:
     """The node of `robot` with `natives` in its firmware, started, and the URL it listens on."""
     command = [
-        *(sys.executable, "-m", "firmware_sim.cli", "listen"),
+        *(sys.executable, "-m", "firmware_sim", "listen"),
         *("--listen", "tcp-listen://127.0.0.1:0", "--name", robot),
         *("--natives", "patrol.firmware", "--no-start", "--lock-step"),
         *(word for name in natives for word in ("--native", name)),

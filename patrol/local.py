@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from firmware_sim.node import Node
+from firmware_sim.core.node import Node
 from patrol.firmware import natives
 from patrol.mission import LINK_BAUD, ROBOTS, SETTINGS, Mission
 from patrol.scenarios import Scenario

@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from firmware_sim.node import Node
+from firmware_sim.core.node import Node
 from hexmigrate.image import ModuleImage
 from patrol.firmware import natives
 from patrol.guests import build_guests

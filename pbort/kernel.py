@@ -38,7 +38,7 @@ from pbort.errors import (
 )
 from pbort.lifecycle import CONFIGURABLE, REMOVABLE, State, require
 from pbort.pbo import RegisteredPBO
-from pbort.performance import PerformanceBuffer
+from pbort.performance_buffer import PerformanceBuffer
 from pbort.ports import PortSpec, PortValue
 from pbort.scheduler import Scheduler
 from pbort.shadow import ShadowRun

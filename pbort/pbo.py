@@ -25,7 +25,7 @@ from pbort.errors import (
     describe_failure,
 )
 from pbort.lifecycle import CONFIGURABLE, State, require, transition
-from pbort.performance import PerformanceBuffer
+from pbort.performance_buffer import PerformanceBuffer
 from pbort.ports import Direction, PortSpec, PortValue
 from pbort.scheduler import Job, Scheduler
 from pbort.stats import Counters

@@ -36,7 +36,7 @@ from pbort.errors import (
     UnknownPortError,
     describe_failure,
 )
-from pbort.performance import PerformanceBuffer, Report
+from pbort.performance_buffer import PerformanceBuffer, Report
 from pbort.ports import Direction, PortSpec, PortValue
 from pbort.svt import Input, StateVariableTable, Variable
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from pbort.code import PerformanceKind
-from pbort.performance import PerformanceBuffer
+from pbort.performance_buffer import PerformanceBuffer
 from refresh.configuration import Configuration
 from refresh.database import ModuleDatabase
 from refresh.errors import ConfigurationError

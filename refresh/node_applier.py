@@ -1,6 +1,6 @@
 """The applier on emulated nodes: the Maintainer's plan carried out by firmware_sim and hexmigrate.
 
-Each robot is a `firmware_sim.node.Node`. Migration sends the module image with hexmigrate's
+Each robot is a `firmware_sim.core.node.Node`. Migration sends the module image with hexmigrate's
 `Sender` to the node's `Receiver` (through `NodeTarget`, as `hexmigrate send` does over a serial or
 CAN link); the node writes it to flash block by block, fixes its pointers and registers it. Start
 and stop go through the node (which keeps its power model current) and its pbort kernel; wiring
@@ -25,9 +25,9 @@ import itertools
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
-from firmware_sim.bridge import PortBridge
-from firmware_sim.node import Node
-from firmware_sim.server import NodeTarget
+from firmware_sim.bridge.port_bridge import PortBridge
+from firmware_sim.core.node import Node
+from firmware_sim.core.transfer_target import NodeTarget
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.base import Link
 from hexmigrate.links.direct import DirectLink

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from firmware_sim.sdk.build import ModuleBuild, build_examples
+from module_sdk.build import ModuleBuild, build_examples
 
 
 @pytest.fixture(scope="session")

@@ -16,7 +16,9 @@ from tests.test_layers import LAYERS, ROOT
 ROOTS = {
     "hexmigrate": "HexmigrateError",
     "pbort": "KernelError",
+    "module_sdk": "SdkError",
     "firmware_sim": "FirmwareSimError",
+    "servo_emulators": "ServoEmulatorError",
     "morphing_crossbar": "CrossbarError",
     "refresh": "RefreshError",
     "hexmanipulator": "HexmanipulatorError",

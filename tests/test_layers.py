@@ -1,15 +1,22 @@
 """The layers hold: no package imports one of a higher layer, or a sideways one of its own layer,
-lazily or not. The imports are read from the modules' syntax trees, so an import inside a
-function counts as much as one at the top, and so does ``importlib.import_module("name")``.
+lazily or not; and inside a package built of rooms, no room imports a room above it. The imports
+are read from the modules' syntax trees, so an import inside a function counts as much as one at
+the top, and so does ``importlib.import_module("name")``.
 
-Layers, bottom to top (docs/README.md):
+Layers, bottom to top (docs/architecture.md):
 
-    commandline                          the command-line convention
-    hexmigrate, pbort                    the HEX codec, links and transfer; the kernel
-    firmware_sim, morphing_crossbar      the emulated node; the FPGA fabric's Python side
-    refresh                              the decision making
-    hexmanipulator, campaign             the paper's robot; campaigns of many runs
-    visual_servoing                      the paper's task and experiment
+    commandline                                  the command-line convention
+    hexmigrate, pbort, module_sdk                the HEX codec, links and transfer; the kernel;
+                                                 the C side of modules
+    firmware_sim, morphing_crossbar,             the emulated node; the FPGA fabric's Python
+    servo_emulators                              side; the servo emulators
+    refresh                                      the decision making
+    hexmanipulator, campaign                     the paper's robot; campaigns of many runs
+    visual_servoing, patrol                      the applications
+
+Rooms of firmware_sim, bottom to top: ``errors`` and ``core`` (one node in one process), then
+``wires`` and ``gdb``, ``bridge``, ``serving``, ``cli``. The gdb stub meets the core only through
+its debug port.
 """
 
 from __future__ import annotations
@@ -23,29 +30,47 @@ LAYERS: dict[str, int] = {
     "commandline": 0,
     "hexmigrate": 1,
     "pbort": 1,
+    "module_sdk": 1,
     "firmware_sim": 2,
     "morphing_crossbar": 2,
+    "servo_emulators": 2,
     "refresh": 3,
     "hexmanipulator": 4,
     "campaign": 4,
     "visual_servoing": 5,
     "patrol": 5,
 }
+ROOMS: dict[str, dict[str, int]] = {
+    "firmware_sim": {
+        "errors": 0,
+        "core": 0,
+        "wires": 1,
+        "gdb": 1,
+        "bridge": 2,
+        "serving": 3,
+        "cli": 4,
+        "__main__": 5,
+    },
+}
+"""Per package built of rooms: each room's level. A room imports rooms of lower levels only;
+``errors`` is every room's (level 0 and imported by all)."""
+NARROW: dict[tuple[str, str], set[str]] = {
+    ("firmware_sim.gdb", "firmware_sim.core"): {"firmware_sim.core.debug_port"},
+}
+"""(room, room below it) -> the only modules of the lower room the upper one may import."""
 
 
 @dataclass(frozen=True)
 class Arrow:
-    """One import of package `target` by a module of package `source`."""
+    """One import of `target` by a module of `source` that the layers forbid."""
 
     source: str
     target: str
     where: str
+    why: str
 
     def __str__(self) -> str:
-        return (
-            f"{self.where}: {self.source} (layer {LAYERS[self.source]}) imports {self.target} "
-            f"(layer {LAYERS[self.target]})"
-        )
+        return f"{self.where}: {self.source} imports {self.target} ({self.why})"
 
 
 def imported_names(tree: ast.AST) -> list[tuple[str, int]]:
@@ -67,17 +92,49 @@ def imported_names(tree: ast.AST) -> list[tuple[str, int]]:
     return names
 
 
+def _package_arrow(package: str, name: str) -> str | None:
+    """Why importing `name` from `package` is against the packages' layers (None: it is not)."""
+    target = name.split(".")[0]
+    if target in LAYERS and target != package and LAYERS[target] >= LAYERS[package]:
+        return f"layer {LAYERS[package]} on layer {LAYERS[target]}"
+    return None
+
+
+def _room_arrow(package: str, room: str, name: str) -> str | None:
+    """Why importing `name` from room `room` of `package` is against its rooms (None: it is
+    not)."""
+    rooms = ROOMS.get(package)
+    parts = name.split(".")
+    if rooms is None or parts[0] != package or len(parts) < 2 or room not in rooms:
+        return None
+    target = parts[1]
+    if target == room or target == "errors":
+        return None
+    if target not in rooms:
+        return f"{package}.{target} is no room of {package}"
+    if rooms[target] >= rooms[room]:
+        return f"room {room} (level {rooms[room]}) on room {target} (level {rooms[target]})"
+    allowed = NARROW.get((f"{package}.{room}", f"{package}.{target}"))
+    if allowed is not None and not any(name == a or name.startswith(f"{a}.") for a in allowed):
+        return f"room {room} may import of {target} only {', '.join(sorted(allowed))}"
+    return None
+
+
 def wrong_arrows(root: Path) -> list[Arrow]:
-    """The imports under `root` that point up or sideways between the packages of LAYERS."""
+    """The imports under `root` that point up or sideways between the packages of LAYERS, or
+    between the rooms of a package of ROOMS."""
     arrows = []
-    for package, layer in LAYERS.items():
+    for package in LAYERS:
         for path in sorted((root / package).rglob("*.py")):
+            relative = path.relative_to(root / package)
+            room = relative.parts[0].removesuffix(".py")
             tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+            source = f"{package}.{room}" if package in ROOMS else package
             for name, line in imported_names(tree):
-                target = name.split(".")[0]
-                if target in LAYERS and target != package and LAYERS[target] >= layer:
+                why = _package_arrow(package, name) or _room_arrow(package, room, name)
+                if why is not None:
                     where = f"{path.relative_to(root)}:{line}"
-                    arrows.append(Arrow(package, target, where))
+                    arrows.append(Arrow(source, name, where, why))
     return arrows
 
 
@@ -91,13 +148,22 @@ def test_every_package_of_the_project_has_a_layer():
     assert packages == set(LAYERS)
 
 
+def test_every_room_of_a_package_has_a_level():
+    for package, rooms in ROOMS.items():
+        found = {
+            path.parent.name if path.name == "__init__.py" else path.stem
+            for path in (ROOT / package).glob("*/__init__.py")
+        } | {path.stem for path in (ROOT / package).glob("*.py")}
+        assert found - {"__init__"} == set(rooms), package
+
+
 def test_the_check_sees_lazy_sideways_and_import_module_arrows(tmp_path):
     """The checker itself: a lazy upward import, a sideways one and an import_module call are
     each found; a downward import is not."""
     for package in LAYERS:
         (tmp_path / package).mkdir()
     (tmp_path / "hexmigrate" / "cli.py").write_text(
-        "def node():\n    from firmware_sim.listen import listen\n"
+        "def node():\n    from firmware_sim.serving.listen import listen\n"
     )
     (tmp_path / "firmware_sim" / "port.py").write_text(
         "import morphing_crossbar.model\nimport hexmigrate.records\n"
@@ -107,7 +173,35 @@ def test_the_check_sees_lazy_sideways_and_import_module_arrows(tmp_path):
     )
     found = {(a.source, a.target, a.where) for a in wrong_arrows(tmp_path)}
     assert found == {
-        ("hexmigrate", "firmware_sim", "hexmigrate/cli.py:2"),
-        ("firmware_sim", "morphing_crossbar", "firmware_sim/port.py:1"),
-        ("pbort", "refresh", "pbort/x.py:2"),
+        ("hexmigrate", "firmware_sim.serving.listen", "hexmigrate/cli.py:2"),
+        ("firmware_sim.port", "morphing_crossbar.model", "firmware_sim/port.py:1"),
+        ("pbort", "refresh.cli", "pbort/x.py:2"),
+    }
+
+
+def test_the_check_sees_an_arrow_between_rooms(tmp_path):
+    """A planted arrow up between rooms (the core on the serving side), a gdb stub reaching past
+    the debug port, and a servo emulator on the node are each found; a room's own imports, a
+    downward one and the shared error tree are not."""
+    for package in LAYERS:
+        (tmp_path / package).mkdir()
+    for room in ("core", "serving", "gdb"):
+        (tmp_path / "firmware_sim" / room).mkdir()
+    (tmp_path / "firmware_sim" / "core" / "node.py").write_text(
+        "from firmware_sim.core.cpu import Cpu\nfrom firmware_sim.errors import BootError\n"
+        "def listen():\n    from firmware_sim.serving.listen import listen\n"
+    )
+    (tmp_path / "firmware_sim" / "serving" / "serve.py").write_text(
+        "from firmware_sim.core.node import Node\n"
+    )
+    (tmp_path / "firmware_sim" / "gdb" / "stub.py").write_text(
+        "from firmware_sim.core.debug_port import DebugPort\n"
+        "from firmware_sim.core.cpu import Cpu\n"
+    )
+    (tmp_path / "servo_emulators" / "cli.py").write_text("import firmware_sim.core.node\n")
+    found = {(a.source, a.target, a.where) for a in wrong_arrows(tmp_path)}
+    assert found == {
+        ("firmware_sim.core", "firmware_sim.serving.listen", "firmware_sim/core/node.py:4"),
+        ("firmware_sim.gdb", "firmware_sim.core.cpu", "firmware_sim/gdb/stub.py:2"),
+        ("servo_emulators", "firmware_sim.core.node", "servo_emulators/cli.py:1"),
     }

@@ -16,9 +16,9 @@ from __future__ import annotations
 from enum import IntEnum
 from pathlib import Path
 
-from firmware_sim.sdk.build import ModuleBuild, build_module
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
+from module_sdk.build import ModuleBuild, build_module
 
 SOURCE = Path(__file__).resolve().parent / "guest" / "dehazer.c"
 NAME = "Dehazer"  # the descriptor's name, as the module database names it

@@ -11,7 +11,7 @@ between the robots. A bridge stands for that link, for one port, and has two hal
   port's bytes;
 * the message takes the time the modelled wire gives it: serial 8N1, framed as on any serial link
   (COBS between 0x00 delimiters, 10 bits a byte), or CAN, ISO-TP frames at their exact stuffed
-  length (`firmware_sim.wire_sim`), with the receiver's flow control frame when it takes more
+  length (`firmware_sim.wires`), with the receiver's flow control frame when it takes more
   than one;
 * its importer, a native PBO on the sink node (``NAME_rx``), writes the newest value that has
   arrived by its own cycle.
@@ -23,42 +23,13 @@ behind it.
 Two transports carry the values between the halves: `PortBridge`, both nodes in one process (the
 exporter puts each value straight into the importer's inbox; both nodes must run in step on
 comparable virtual clocks, since the importer compares arrival times with its own `now`), and
-linked.py, the two nodes in two processes, a link given by URL between them
+linked_halves.py, the two nodes in two processes, a link given by URL between them
 (value_message.py: the producer's clock and the arrival time travel with the value).
+
+=================  ==================================================================
+``halves``         the exporting and importing halves, the wire model, the statistics
+``port_bridge``    `PortBridge`: both nodes in one process
+``value_message``  one value on a link between two node processes
+``linked_halves``  the halves over a link given by URL (a node in each process)
+=================  ==================================================================
 """
-
-from __future__ import annotations
-
-from firmware_sim.bridge.halves import BridgeStats, ExportHalf, ImportHalf, WireModel
-from pbort import PortSpec
-
-__all__ = ["BridgeStats", "PortBridge"]
-
-
-class PortBridge:
-    """One port across the link between two robots in one process; `exporter` and `importer`
-    are its two PBOs' code.
-
-    `spec` is the port's type and shape (`Kernel.spec` of the source port); `wire` is "serial"
-    (8N1 at `rate` baud, 115200 unless given) or "CAN" (`rate` bit/s, 500 kbit/s unless given).
-    """
-
-    def __init__(
-        self,
-        name: str,
-        spec: PortSpec,
-        wire: str = "serial",
-        rate: float | None = None,
-        number: int = 0,
-    ) -> None:
-        model = WireModel(name, wire, rate)
-        self.name = name
-        self.spec = spec
-        self.wire = wire
-        self.rate = model.rate
-        self.number = number
-        self.stats = BridgeStats()
-        self._import = ImportHalf(name, spec, self.stats)
-        self._export = ExportHalf(name, spec, number, model, self._import.put, self.stats)
-        self.exporter = self._export.module
-        self.importer = self._import.module

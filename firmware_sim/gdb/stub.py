@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from firmware_sim.cpu import Cpu, Restart
+from firmware_sim.core.debug_port import DebugPort, Restart
 from firmware_sim.errors import KernelAccessError
 from firmware_sim.gdb.packets import Disconnected, PacketConnection
 from firmware_sim.gdb.target import (
@@ -28,7 +28,6 @@ from firmware_sim.gdb.target import (
     parse_word,
     word_hex,
 )
-from firmware_sim.memory_map import TRAMPOLINE
 
 MAX_MEMORY_READ = 0x1000
 """Bytes one 'm' packet may read: the reply must fit the packet size we announce."""
@@ -59,10 +58,12 @@ class _Plan:
 
 
 class GdbStub:
-    """Serves one gdb connection for `cpu`; `say` prints a line for the user."""
+    """Serves one gdb connection for a node's debug `port`; `say` prints a line for the user."""
 
-    def __init__(self, cpu: Cpu, connection: PacketConnection, say: Callable[[str], None]) -> None:
-        self.cpu = cpu
+    def __init__(
+        self, port: DebugPort, connection: PacketConnection, say: Callable[[str], None]
+    ) -> None:
+        self.port = port
         self.connection = connection
         self.say = say
         self.attached = True
@@ -98,10 +99,10 @@ class GdbStub:
         a continue with that breakpoint still in place (how gdb single-steps the trampoline's
         `j .`), halts at the first instruction of the next guest call."""
         plan = self._plan
-        if not self.attached or not (plan.stepping or TRAMPOLINE in plan.breakpoints):
+        if not self.attached or not (plan.stepping or self.port.trampoline in plan.breakpoints):
             return
         resumed = self._serve(SIGINT if plan.interrupted else SIGTRAP, None)
-        if resumed == "continue" and TRAMPOLINE in self._plan.breakpoints:
+        if resumed == "continue" and self.port.trampoline in self._plan.breakpoints:
             self._plan.stepping = self._plan.dirty = True
 
     def poll(self) -> None:
@@ -128,7 +129,7 @@ class GdbStub:
         if address == self._resume_from:
             # The halted instruction runs now: every hook of this one visit lets it. A later
             # visit comes through a new block, which the block counter has counted.
-            visit = self.cpu.instructions
+            visit = self.port.instructions
             if self._resume_visit is None or visit == self._resume_visit:
                 self._resume_visit = visit
                 return
@@ -165,7 +166,7 @@ class GdbStub:
             at = pc if self._moved_to is None else self._moved_to
         finally:
             self._halted_at = self._moved_to = None
-        if pc is not None and self.cpu.running:
+        if pc is not None and self.port.running:
             # The instruction gdb resumes at runs without halting again, as after a stop; at a
             # pc gdb moved to, a breakpoint there halts at once (gdb steps over none it did not
             # stop at), while a step runs that instruction.
@@ -174,7 +175,7 @@ class GdbStub:
             self._resume_from = None if halts_there else at
             self._resume_visit = None
             self._restart = Restart(pc, at)
-            self.cpu.stop_guest()
+            self.port.stop_guest()
         return resumed
 
     def _answer_until_resumed(self) -> str:
@@ -254,7 +255,7 @@ class GdbStub:
 
     def _registers(self) -> list[int]:
         """x0..x31 and pc as gdb sees them: pc where gdb moved it, if it did."""
-        values = self.cpu.debug_registers()
+        values = self.port.registers()
         if self._moved_to is not None:
             values[PC] = self._moved_to
         return values
@@ -267,7 +268,7 @@ class GdbStub:
         if len(words) > PC and words[PC] != self._registers()[PC] and not self._move(words[PC]):
             return "E01"
         for index, value in enumerate(words[1:PC], start=1):  # x0 is always 0
-            self.cpu.debug_write_register(index, value)
+            self.port.write_register(index, value)
         return "OK"
 
     def _read_register(self, body: str) -> str:
@@ -284,12 +285,12 @@ class GdbStub:
         if not 0 <= index < len(REGISTER_NAMES):  # "-1" too: it would name x30 from the end
             return "E01"
         if index:  # x0 is always 0
-            self.cpu.debug_write_register(index, word)
+            self.port.write_register(index, word)
         return "OK"
 
     def _move(self, pc: int) -> bool:
         """Move the halted guest's pc to `pc`, if a halted call may go on there."""
-        if self._halted_at is None or not self.cpu.debug_may_run_at(pc):
+        if self._halted_at is None or not self.port.may_run_at(pc):
             return False
         self._moved_to = None if pc == self._halted_at else pc
         return True
@@ -297,7 +298,7 @@ class GdbStub:
     def _read_memory(self, body: str) -> str:
         address, length = (int(x, 16) for x in body.split(","))
         try:
-            return self.cpu.read(address, min(length, MAX_MEMORY_READ)).hex()
+            return self.port.read(address, min(length, MAX_MEMORY_READ)).hex()
         except KernelAccessError:
             return "E14"  # EFAULT: outside the memory map
 
@@ -305,7 +306,7 @@ class GdbStub:
         where, _, data = body.partition(":")
         address, _ = (int(x, 16) for x in where.split(","))
         try:
-            self.cpu.write(address, bytes.fromhex(data))
+            self.port.write(address, bytes.fromhex(data))
         except KernelAccessError:
             return "E14"
         return "OK"
@@ -326,11 +327,11 @@ class GdbStub:
         if kind in ("0", "1"):
             handle = self._plan.breakpoints.pop(address, None)
             if handle is not None:
-                self.cpu.debug_remove_hook(handle)
+                self.port.remove_hook(handle)
         elif kind in WATCH_KINDS:
             watch = self._plan.watches.pop((address, length, kind), None)
             if watch is not None and watch.handle is not None:
-                self.cpu.debug_remove_hook(watch.handle)
+                self.port.remove_hook(watch.handle)
         else:
             return ""
         self._plan.dirty = True
@@ -346,23 +347,23 @@ class GdbStub:
         plan.dirty = False
         for address, handle in plan.breakpoints.items():
             if handle is None:
-                plan.breakpoints[address] = self.cpu.debug_hook_code(
+                plan.breakpoints[address] = self.port.hook_code(
                     self._on_instruction, address, address
                 )
         for watch in plan.watches.values():
             if watch.handle is None:
                 on_write, on_read = WATCH_KINDS[watch.kind]
-                watch.handle = self.cpu.debug_hook_access(
+                watch.handle = self.port.hook_access(
                     self._on_access, watch.address, watch.address + watch.length - 1,
                     write=on_write, read=on_read,
                 )  # fmt: skip
         every_instruction = plan.stepping or bool(plan.watches)
         if every_instruction and plan.step_hook is None:
-            plan.step_hook = self.cpu.debug_hook_code(self._on_instruction, 1, 0)  # all
+            plan.step_hook = self.port.hook_code(self._on_instruction, 1, 0)  # all
         elif not every_instruction and plan.step_hook is not None:
-            self.cpu.debug_remove_hook(plan.step_hook)
+            self.port.remove_hook(plan.step_hook)
             plan.step_hook = None
-        self.cpu.forget_translations()
+        self.port.forget_translations()
 
     def _detach(self, why: str) -> None:
         """Remove every hook and let the guest run on as if gdb had never come."""
@@ -374,7 +375,7 @@ class GdbStub:
         handles += [w.handle for w in plan.watches.values() if w.handle is not None]
         handles += [plan.step_hook] if plan.step_hook is not None else []
         for handle in handles:
-            self.cpu.debug_remove_hook(handle)
+            self.port.remove_hook(handle)
         self._plan = _Plan(dirty=True)
         self.connection.close()
         self.say(f"gdb: {why}; the node runs on")

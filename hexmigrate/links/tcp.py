@@ -18,8 +18,8 @@ serial line, each with its own deframer: one idle client does not hold up anothe
 that comes when MAX_CLIENTS are connected takes the place of the one silent the longest, so
 idle connections (a hostile client's, or a host's that hung) cannot keep every sender out.
 `receive_from` says which client a message came from and `send_to` answers that one (a node
-keeps one session per client: `firmware_sim.server.serve`); `receive` and `send` are the plain
-`Link`, answering the client of the last message received. The link, and what a node keeps
+keeps one session per client: `firmware_sim.serving.serve.serve`); `receive` and `send` are the
+plain `Link`, answering the client of the last message received. The link, and what a node keeps
 behind it (the transfer protocol's `Receiver`), outlive every connection, so a sender can
 reconnect and RESUME a transfer a cut connection interrupted.
 

@@ -23,7 +23,7 @@ from ..errors import BitstreamError
 from ..fabric import Fabric
 from ..model import Beat, CrossbarModel
 from .scoreboard import Expected, Scoreboard
-from .stream import StreamSink, StreamSource
+from .stream_ends import StreamSink, StreamSource
 
 
 @dataclass

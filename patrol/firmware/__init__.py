@@ -1,14 +1,14 @@
 """The patrol's native E-PBOs: Python classes built into the robots' firmware.
 
 One module per kind of part: `sensors` (line and heading), `filters` (the running median),
-`control` (the PID and the drives), `body` (rover1's chassis, the plant), over `reporting` (what
+`controllers` (the PID and the drives), `body` (rover1's chassis, the plant), over `reporting` (what
 every evaluator and estimator reports). The Kalman filter and the pure-pursuit controller are
 guest modules in C (`patrol/guest/`), which migrate. Every class is importable from here, so a
 node process loads them all with ``firmware-sim listen --natives patrol.firmware``.
 """
 
 from patrol.firmware.body import Chassis
-from patrol.firmware.control import PID, Drive, DriveBackup
+from patrol.firmware.controllers import PID, Drive, DriveBackup
 from patrol.firmware.filters import Median
 from patrol.firmware.sensors import Compass, Gyro, IRArray, LineCam, MastCam, MastTracker
 from pbort import NativeModule

@@ -5,15 +5,15 @@ for why): a candidate may use a module no node holds yet, and a faulty node cann
 its replacement would do. So the host needs the code of every module the database names: each
 guest module's image, loaded into a host `Node` of its own (an emulated CPU runs its estimator
 as a node's would), and each native module's class, from the same Python file the nodes run it
-from (``--natives``, `firmware_sim.natives.load_natives`).
+from (``--natives``, `firmware_sim.core.natives.load_natives`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 
+from firmware_sim.core.node import Node
 from firmware_sim.errors import FirmwareSimError
-from firmware_sim.node import Node
 from hexmigrate.errors import HexmigrateError
 from pbort.code import ModuleCode
 from pbort.native import NativeModule, NativePBO

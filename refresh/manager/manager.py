@@ -16,18 +16,18 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from firmware_sim.core.natives import load_natives
+from firmware_sim.core.node import Node
 from firmware_sim.errors import FirmwareSimError
-from firmware_sim.natives import load_natives
-from firmware_sim.node import Node
 from hexmigrate.signing.keys import PrivateKey
 from refresh.configuration import Configuration
 from refresh.errors import ConfigurationError, DatabaseError
 from refresh.load import Loaded, load
 from refresh.manager.codes import host_estimators
-from refresh.manager.events import EventStream
-from refresh.manager.timing import TimeMode
+from refresh.manager.event_stream import EventStream
+from refresh.manager.time_modes import TimeMode
 from refresh.remote import LinkApplier
-from refresh.remote.node import REPORT_PERIOD
+from refresh.remote.remote_node import REPORT_PERIOD
 from refresh.runtime import Runtime, RuntimeSettings
 
 

@@ -44,7 +44,7 @@ from refresh.database import Module
 from refresh.errors import ApplyError, NodeLinkError
 from refresh.images import migration_image
 from refresh.remote.guard import GuardedControl
-from refresh.remote.node import RemoteNode
+from refresh.remote.remote_node import RemoteNode
 from refresh.remote.reports import ReportSource
 from refresh.runtime.applier import Inventory, node_of
 

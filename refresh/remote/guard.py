@@ -14,7 +14,7 @@ from collections.abc import Callable, Mapping
 
 from hexmigrate.transfer.control_client import NodeControl
 from refresh.errors import NodeLinkError
-from refresh.remote.node import RemoteNode
+from refresh.remote.remote_node import RemoteNode
 
 
 class GuardedControl(NodeControl):

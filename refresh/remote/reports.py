@@ -23,7 +23,7 @@ from hexmigrate.transfer.control import Number, parse_values
 from hexmigrate.transfer.messages import Heartbeat, Message, PerformanceReport
 from hexmigrate.transfer.subscription import WRAP
 from pbort.code import PerformanceKind
-from pbort.performance import PerformanceBuffer
+from pbort.performance_buffer import PerformanceBuffer
 
 KINDS = {"F": PerformanceKind.FUNCTIONAL, "N": PerformanceKind.NON_FUNCTIONAL}
 """The letter of an evaluator output's word (``PBO:F0``) -> its kind."""

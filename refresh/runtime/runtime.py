@@ -45,8 +45,8 @@ from refresh.location import brute_force, compare
 from refresh.maintainer import Maintainer
 from refresh.runtime.applier import RuntimeApplier
 from refresh.runtime.estimators import EstimatorFactory
+from refresh.runtime.history import History, Reconfiguration
 from refresh.runtime.rates import check_rates
-from refresh.runtime.records import History, Reconfiguration
 from refresh.runtime.settings import RuntimeSettings
 from refresh.task import TaskSpec
 

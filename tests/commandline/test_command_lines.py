@@ -10,12 +10,12 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
-from firmware_sim.cli import build_parser as firmware_sim_parser
-from firmware_sim.servos.cli import build_parser as servos_parser
+from firmware_sim.cli.command import build_parser as firmware_sim_parser
 from hexmanipulator.plot_sweep import build_parser as plot_sweep_parser
 from hexmigrate.cli import build_parser as hexmigrate_parser
 from morphing_crossbar.cli import build_parser as crossbar_parser
 from refresh.cli import build_parser as refresh_parser
+from servo_emulators.cli import build_parser as servos_parser
 from tests.commandline.documented import undocumented
 from visual_servoing.experiment.cli import build_parser as servoing_parser
 from visual_servoing.figure import build_parser as figure_parser
@@ -26,7 +26,7 @@ ENTRY_POINTS: dict[str, tuple[Callable[[], argparse.ArgumentParser], str]] = {
     "refresh": (refresh_parser, "## `python -m refresh`"),
     "visual_servoing": (servoing_parser, "## `python -m visual_servoing`"),
     "morphing_crossbar": (crossbar_parser, "## `python -m morphing_crossbar`"),
-    "firmware_sim.servos": (servos_parser, "## `python -m firmware_sim.servos`"),
+    "servo_emulators": (servos_parser, "## `python -m servo_emulators`"),
     "hexmanipulator.plot_sweep": (plot_sweep_parser, "## The figure commands"),
     "visual_servoing.figure": (figure_parser, "## The figure commands"),
 }

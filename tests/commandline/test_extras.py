@@ -54,12 +54,12 @@ def test_hexmigrate_packs_and_inspects_without_extras(gain_hex):
 
 def test_firmware_sim_runs_a_module_and_times_a_can_transfer_without_extras(gain_hex):
     done = bare(
-        "firmware_sim.cli", "run", "--module", gain_hex, "--native", "signal",
+        "firmware_sim", "run", "--module", gain_hex, "--native", "signal",
         "--set", "gain.k=0x20000", "--wire", "signal.y=gain.x", "--cycles", "20",
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert "gain.y = " in done.stdout
-    done = bare("firmware_sim.cli", "transfer", gain_hex, "--medium", "can")
+    done = bare("firmware_sim", "transfer", gain_hex, "--medium", "can")
     assert done.returncode == 0, done.stderr
     assert "B over CAN at 500000 bit/s" in done.stdout
 
@@ -77,7 +77,7 @@ def test_a_can_link_without_the_can_extra_says_what_to_install():
     ("module", "arguments", "extra"),
     [
         ("visual_servoing", ["scenarios"], "can"),
-        ("firmware_sim.servos", ["ssc32", "--pty"], "can"),
+        ("servo_emulators", ["ssc32", "--pty"], "can"),
     ],
 )
 def test_a_command_of_an_extra_says_which_one_and_runs_nothing(module, arguments, extra):

@@ -19,8 +19,8 @@ import threading
 import time
 from collections.abc import Iterable
 
-from firmware_sim.listen_link import CONNECT_URL
 from hexmigrate.links.framing import Deframer
+from hexmigrate.links.listening import CONNECT_URL
 
 NODE_SECONDS = 20
 """How long a node subprocess lives at most; each test ends it much sooner."""
@@ -73,7 +73,7 @@ class NodeProcess:
     """``firmware-sim listen --listen URL --seconds NODE_SECONDS OPTIONS`` in a subprocess."""
 
     def __init__(self, listen: str, *options: str) -> None:
-        command = [sys.executable, "-m", "firmware_sim.cli", "listen", "--listen", listen]
+        command = [sys.executable, "-m", "firmware_sim", "listen", "--listen", listen]
         command += ["--seconds", str(NODE_SECONDS), *options]
         self._stderr = tempfile.TemporaryFile(mode="w+")  # noqa: SIM115 (closed by stop)
         self.lines: list[str] = []

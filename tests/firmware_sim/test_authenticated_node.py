@@ -14,7 +14,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from firmware_sim.memory_map import FLASH_BASE
+from firmware_sim.core.memory_map import FLASH_BASE
 from hexmigrate.elf import image_from_elf
 from hexmigrate.errors import TransferError
 from hexmigrate.image import ModuleImage

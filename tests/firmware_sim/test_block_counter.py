@@ -6,7 +6,7 @@ import importlib.util
 
 import pytest
 
-from firmware_sim import block_counter
+from firmware_sim.core import block_counter
 from firmware_sim.errors import FirmwareSimError, NativeLibraryError
 
 
@@ -17,7 +17,7 @@ def test_the_installed_library_gives_the_hook_address() -> None:
 def test_a_missing_library_says_how_to_build_it(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(importlib.util, "find_spec", lambda name: None)
     with pytest.raises(
-        NativeLibraryError, match=r"firmware_sim\._block_counter.*pip install"
+        NativeLibraryError, match=r"firmware_sim\.core\._block_counter.*pip install"
     ) as info:
         block_counter.hook_address.__wrapped__()
     assert isinstance(info.value, FirmwareSimError)

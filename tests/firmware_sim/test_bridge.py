@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from firmware_sim.bridge import PortBridge
-from firmware_sim.natives import Signal
-from firmware_sim.node import Node
-from firmware_sim.wire_sim.ports import isotp_frames
+from firmware_sim.bridge.port_bridge import PortBridge
+from firmware_sim.core.natives import Signal
+from firmware_sim.core.node import Node
+from firmware_sim.wires.wire_ends import isotp_frames
 from pbort import NativeModule, NativePBO, PortIO, PortKind, PortSpec
 
 FRAME = PortSpec.output("image", kind=PortKind.FRAME, dtype="|u1", shape=(120, 160))

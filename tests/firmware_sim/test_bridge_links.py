@@ -12,14 +12,14 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from firmware_sim import kernel_control
-from firmware_sim.bridge import PortBridge
+from firmware_sim.bridge.port_bridge import PortBridge
 from firmware_sim.bridge.value_message import encode_value
+from firmware_sim.core.natives import Signal
+from firmware_sim.core.node import Node
+from firmware_sim.core.transfer_target import NodeTarget
 from firmware_sim.errors import BridgeError
-from firmware_sim.kernel_control import IMPORTER_PRIORITY, KernelControl
-from firmware_sim.natives import Signal
-from firmware_sim.node import Node
-from firmware_sim.server import NodeTarget
+from firmware_sim.serving import kernel_control
+from firmware_sim.serving.kernel_control import IMPORTER_PRIORITY, KernelControl
 from hexmigrate.errors import TransferError
 from hexmigrate.links import open_link
 from hexmigrate.transfer.control_client import NodeControl

@@ -9,13 +9,13 @@ from pathlib import Path
 
 import pytest
 
-from firmware_sim.cli import data_flow_order
+from firmware_sim.cli.command import data_flow_order
 from hexmigrate.elf import image_from_elf
 
 
 def run(*args: object) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "firmware_sim.cli", *map(str, args)],
+        [sys.executable, "-m", "firmware_sim", *map(str, args)],
         capture_output=True,
         text=True,
         check=False,

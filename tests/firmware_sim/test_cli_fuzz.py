@@ -18,7 +18,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from firmware_sim.cli import main
+from firmware_sim.cli.command import main
 from hexmigrate.elf import image_from_elf
 
 EXAMPLES = 40

@@ -10,14 +10,15 @@ from pathlib import Path
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from unicorn.riscv_const import UC_RISCV_REG_A1
 
-from firmware_sim.counters import COUNTER_CSRS, CounterKind, CounterRead, counter_reads
-from firmware_sim.cpu import MAX_COUNTER_HOOKS, Cpu
-from firmware_sim.memory_map import FLASH_BASE
-from firmware_sim.node import Node
-from firmware_sim.sdk.build import build_module
+from firmware_sim.core.counters import COUNTER_CSRS, CounterKind, CounterRead, counter_reads
+from firmware_sim.core.cpu import MAX_COUNTER_HOOKS, Cpu
+from firmware_sim.core.memory_map import FLASH_BASE
+from firmware_sim.core.node import Node
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
+from module_sdk.build import build_module
 from tests.firmware_sim.test_cpu import Guest, build_guest
 
 GUESTS = Path(__file__).parent / "guests"
@@ -63,7 +64,7 @@ def test_the_cycle_counter_is_the_nodes_clock_in_cycles(cpu: Cpu, guest: Guest) 
 
 def test_a_64_bit_read_takes_both_halves(cpu: Cpu, guest: Guest) -> None:
     run = cpu.call(guest["wide"], (), 100, code=code(guest), at=100.0)  # 1e10 cycles
-    high = cpu.debug_registers()[11]  # a1
+    high = cpu.engine.read(UC_RISCV_REG_A1)
     assert (high << 32) | run.a0 == 10_000_000_000 + 1  # rdcycleh ran first
     assert run.instructions == 5
 

@@ -15,9 +15,8 @@ from pathlib import Path
 import pytest
 from elftools.elf.elffile import ELFFile
 
-from firmware_sim.cpu import Cpu
-from firmware_sim.errors import CpuClosedError, KernelAccessError, ServiceFault
-from firmware_sim.memory_map import (
+from firmware_sim.core.cpu import Cpu
+from firmware_sim.core.memory_map import (
     FLASH_BASE,
     KERNEL_BASE,
     NULL_GUARD_END,
@@ -27,8 +26,9 @@ from firmware_sim.memory_map import (
     WINDOW_BASE,
     MemoryMap,
 )
-from firmware_sim.sdk.build import COMPILE_FLAGS, GCC, OBJCOPY, SDK_DIR, TARGET
-from firmware_sim.services import LOG_LIMIT, Service, Status
+from firmware_sim.core.services import LOG_LIMIT, Service, Status
+from firmware_sim.errors import CpuClosedError, KernelAccessError, ServiceFault
+from module_sdk.build import COMPILE_FLAGS, GCC, OBJCOPY, SDK_DIR, TARGET
 
 GUEST = r"""
 #include "pbo_module.h"

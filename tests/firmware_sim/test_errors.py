@@ -9,10 +9,10 @@ import pkgutil
 
 import firmware_sim
 from firmware_sim import errors
+from firmware_sim.core.flash import PowerCut
 from firmware_sim.errors import FirmwareSimError
-from firmware_sim.flash import PowerCut
 
-OWN_SUBPACKAGES = ("firmware_sim.wire_sim",)
+OWN_SUBPACKAGES = ("firmware_sim.wires",)
 """The subpackages whose errors this tree holds (sdk and servos define their own under it)."""
 CONTROL_FLOW = {PowerCut}
 """Exceptions that are control flow, not failures, and stay outside the tree on purpose."""

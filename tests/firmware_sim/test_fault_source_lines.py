@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from firmware_sim.cli import main
-from firmware_sim.sdk.build import build_module
+from firmware_sim.cli.command import main
 from hexmigrate.elf import image_from_elf
+from module_sdk.build import build_module
 
 GUEST = Path(__file__).parent / "guests" / "faulty.c"
 

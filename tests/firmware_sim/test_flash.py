@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
+from firmware_sim.core.flash import BLOCK_SIZE, Flash, FlashTiming
+from firmware_sim.core.flash_space import FlashSpace
 from firmware_sim.errors import FlashError, FlashFullError
-from firmware_sim.flash import BLOCK_SIZE, Flash, FlashTiming
-from firmware_sim.flash_space import FlashSpace
 
 BASE = 0x0800_0000
 

@@ -43,7 +43,7 @@ class Node:
     deadline."""
 
     def __init__(self, *args: object) -> None:
-        command = [sys.executable, "-m", "firmware_sim.cli", *map(str, args)]
+        command = [sys.executable, "-m", "firmware_sim", *map(str, args)]
         command += ["--gdb", "127.0.0.1:0"]
         # Unbuffered: select() must see every line still to read.
         pipes = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "bufsize": 0}
@@ -141,7 +141,16 @@ def test_gdb_breaks_in_a_module_reads_steps_watches_and_continues(gain, nodes):
     debugged = report_of(printed)
     module = f"{gain}@0x{LOAD_AT:08X}"
     plain = subprocess.run(
-        [sys.executable, "-m", "firmware_sim.cli", "run", "--module", module, *RUN, "--json"],
+        [
+            sys.executable,
+            "-m",
+            "firmware_sim",
+            "run",
+            "--module",
+            module,
+            *RUN,
+            "--json",
+        ],
         capture_output=True,
         text=True,
         check=True,

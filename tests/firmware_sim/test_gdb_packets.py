@@ -9,15 +9,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_sim.cpu import Cpu
+from firmware_sim.core.debug_port import DebugPort
+from firmware_sim.core.node import Node
 from firmware_sim.gdb.packets import Disconnected, PacketConnection
 from firmware_sim.gdb.stub import GdbStub
 
 
 @pytest.fixture(scope="module")
-def cpu():
-    with Cpu() as made:
-        yield made
+def port():
+    with Node("gdb") as node:
+        yield DebugPort(node)
 
 
 def pair() -> tuple[PacketConnection, PacketConnection]:
@@ -47,9 +48,9 @@ def test_any_packet_data_survives_the_framing(data):
                          "qXfer:features:read:target.xml:zz", "G1", "pffffffffff", "m-1,4"]),
     )
 )  # fmt: skip
-def test_any_packet_gets_an_answer_and_never_raises(cpu, text):
+def test_any_packet_gets_an_answer_and_never_raises(port, text):
     gdb, node = pair()
-    stub = GdbStub(cpu, node, lambda line: None)
+    stub = GdbStub(port, node, lambda line: None)
     try:
         outcome = stub._answer(text)
         if outcome is None:  # answered, not resumed: a reply is on its way
@@ -60,14 +61,14 @@ def test_any_packet_gets_an_answer_and_never_raises(cpu, text):
 
 
 @pytest.mark.parametrize("packet", ["p-1", "P-1=01000000", "p21", "P21=01000000", "p-21"])
-def test_a_register_number_outside_x0_to_pc_is_refused(cpu, packet):
+def test_a_register_number_outside_x0_to_pc_is_refused(port, packet):
     gdb, node = pair()
-    stub = GdbStub(cpu, node, lambda line: None)
+    stub = GdbStub(port, node, lambda line: None)
     try:
-        before = cpu.debug_registers()
+        before = port.registers()
         assert stub._answer(packet) is None
         assert gdb.receive(timeout=5) == b"E01"
-        assert cpu.debug_registers() == before
+        assert port.registers() == before
     finally:
         gdb.close()
         node.close()

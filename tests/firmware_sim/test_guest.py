@@ -13,9 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from firmware_sim.cpu import Cpu
-from firmware_sim.errors import OutOfSramError
-from firmware_sim.guest import (
+from firmware_sim.core.cpu import Cpu
+from firmware_sim.core.guest import (
     CONTEXT_SIZE,
     AreaLayout,
     GuestInstance,
@@ -24,13 +23,14 @@ from firmware_sim.guest import (
     RegistrationError,
     register_module,
 )
-from firmware_sim.memory_map import FLASH_BASE, SRAM_BASE, WINDOW_BASE, MemoryMap
-from firmware_sim.sdk.build import ModuleBuild, build_module
-from firmware_sim.services import Status
-from firmware_sim.sram import SramAllocator
+from firmware_sim.core.memory_map import FLASH_BASE, SRAM_BASE, WINDOW_BASE, MemoryMap
+from firmware_sim.core.services import Status
+from firmware_sim.core.sram import SramAllocator
+from firmware_sim.errors import OutOfSramError
 from hexmigrate import descriptor as abi
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
+from module_sdk.build import ModuleBuild, build_module
 from pbort.code import CallResult, Method, PerformanceKind, Role, Services
 from pbort.ports import Direction, PortKind
 

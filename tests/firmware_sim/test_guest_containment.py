@@ -14,12 +14,12 @@ from pathlib import Path
 
 import pytest
 
-from firmware_sim.memory_map import KERNEL_BASE
-from firmware_sim.node import Node, NodeConfig
-from firmware_sim.run_report import render, run_report
-from firmware_sim.sdk.build import build_module
+from firmware_sim.cli.run_report import render, run_report
+from firmware_sim.core.memory_map import KERNEL_BASE
+from firmware_sim.core.node import Node, NodeConfig
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
+from module_sdk.build import build_module
 from pbort.code import Method
 from pbort.lifecycle import State
 

@@ -9,7 +9,7 @@ import threading
 import pytest
 
 from firmware_sim.errors import StartError
-from firmware_sim.listen import ListenConfig, listen
+from firmware_sim.serving.listen import ListenConfig, listen
 from hexmigrate.links import open_link
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.sender import Sender

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from firmware_sim.listen_link import node_side
+from hexmigrate.links.listening import node_side
 
 
 @pytest.mark.parametrize(

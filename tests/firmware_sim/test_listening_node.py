@@ -8,11 +8,11 @@ from collections.abc import Iterator
 
 import pytest
 
-from firmware_sim.listening_node import ListeningNode
-from firmware_sim.natives import Signal
-from firmware_sim.node import Node
-from firmware_sim.server import NodeTarget
-from firmware_sim.settings import Setting, by_pbo
+from firmware_sim.core.natives import Signal
+from firmware_sim.core.node import Node
+from firmware_sim.core.port_values import Setting, by_pbo
+from firmware_sim.core.transfer_target import NodeTarget
+from firmware_sim.serving.pbo_setup import ListeningNode
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.direct import DirectLink

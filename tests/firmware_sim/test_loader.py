@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
+from firmware_sim.core.flash import BLOCK_SIZE, Flash
+from firmware_sim.core.flash_space import FlashSpace
+from firmware_sim.core.loader import InstalledImage, LoadSession, load_image
 from firmware_sim.errors import FlashFullError, LoadError
-from firmware_sim.flash import BLOCK_SIZE, Flash
-from firmware_sim.flash_space import FlashSpace
-from firmware_sim.loader import InstalledImage, LoadSession, load_image
 from hexmigrate.elf import image_from_elf
 from hexmigrate.errors import (
     ChecksumError,

@@ -1,4 +1,4 @@
-"""The virtual-time wires (firmware_sim.wire_sim) and the in-process transfer on a small module:
+"""The virtual-time wires (firmware_sim.wires) and the in-process transfer on a small module:
 the accounting of every byte and frame, and the invariants the figures of
 benchmarks/migration.py rest on. Those figures (speeds, ratios) are the benchmark's to print;
 what is checked here is what each measured run moves."""
@@ -9,14 +9,14 @@ import zlib
 
 import pytest
 
-from firmware_sim.node import Node
-from firmware_sim.wire import can_frame_bits, can_frame_bits_worst
-from firmware_sim.wire_sim.events import Simulation, Transmitter
-from firmware_sim.wire_sim.in_process import copy_transfer, stack_transfer
-from firmware_sim.wire_sim.link import DEFAULT_BAUDRATE, HOST_ID, SimulatedLink, connect
-from firmware_sim.wire_sim.ports import isotp_frames
-from firmware_sim.wire_sim.transfer import DEFAULT_WINDOW, HEX_LINE_CHARS, run_transfer
-from firmware_sim.wire_sim.workload import EXTRA_RELOCATIONS, TID, random_module
+from firmware_sim.core.node import Node
+from firmware_sim.wires.link import DEFAULT_BAUDRATE, HOST_ID, SimulatedLink, connect
+from firmware_sim.wires.simulation import Simulation, Transmitter
+from firmware_sim.wires.timing import can_frame_bits, can_frame_bits_worst
+from firmware_sim.wires.transfer import DEFAULT_WINDOW, HEX_LINE_CHARS, run_transfer
+from firmware_sim.wires.unwired import copy_transfer, stack_transfer
+from firmware_sim.wires.wire_ends import isotp_frames
+from firmware_sim.wires.workload import EXTRA_RELOCATIONS, TID, random_module
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
 from hexmigrate.links.can_defaults import DEFAULT_BITRATE

@@ -6,9 +6,10 @@ CAN through a python-can-remote server, SLCAN on a pty): the node is ``firmware-
 send``/``ls``/``ping``/``rm``, each a subprocess, as a user would run them; the node's output
 (its "listening on" line first, registrations, ``--show`` values) is read as it comes. The pty
 node is restarted on its flash file to boot what it got. In one process (``can://virtual``;
-``loop://``, shared by both as two stations) the node is served by `firmware_sim.server.serve`
-in a thread of its own: the node (and its Unicorn CPU) is made, used and closed in that thread
-only, and the test thread holds nothing but the sender and its link. Then faults: 1 % corruption
+``loop://``, shared by both as two stations) the node is served by
+`firmware_sim.serving.serve.serve` in a thread of its own: the node (and its Unicorn CPU) is
+made, used and closed in that thread only, and the test thread holds nothing but the sender and
+its link. Then faults: 1 % corruption
 and drops in both directions, and a link cut mid-transfer that `Sender.resume` completes on a new
 link while the node keeps its `Receiver`.
 
@@ -33,9 +34,10 @@ from typing import Any
 
 import pytest
 
-from firmware_sim.natives import Signal
-from firmware_sim.node import Node
-from firmware_sim.server import NodeTarget, serve
+from firmware_sim.core.natives import Signal
+from firmware_sim.core.node import Node
+from firmware_sim.core.transfer_target import NodeTarget
+from firmware_sim.serving.serve import serve
 from hexmigrate.elf import image_from_elf
 from hexmigrate.errors import TransferInterrupted
 from hexmigrate.image import ModuleImage

@@ -8,8 +8,8 @@ import sys
 
 import pytest
 
+from firmware_sim.core.natives import NATIVES, Signal, load_natives
 from firmware_sim.errors import StartError
-from firmware_sim.natives import NATIVES, Signal, load_natives
 from tests.firmware_sim.node_process import NodeProcess, hexmigrate
 
 MODULE = "tests.refresh.data.manage_natives"
@@ -53,7 +53,7 @@ def test_listen_runs_a_native_of_the_users_module():
 
 
 def test_listen_refuses_a_native_no_module_gives_in_one_line():
-    command = [sys.executable, "-m", "firmware_sim.cli", "listen", "--listen", "pty"]
+    command = [sys.executable, "-m", "firmware_sim", "listen", "--listen", "pty"]
     done = subprocess.run(
         [*command, "--natives", MODULE, "--native", "Sensr"],
         capture_output=True,

@@ -7,12 +7,12 @@ from pathlib import Path
 
 import pytest
 
+from firmware_sim.core.natives import Signal
+from firmware_sim.core.node import LOG_LINES, Node
 from firmware_sim.errors import DirectoryError, RegistrationError
-from firmware_sim.natives import Signal
-from firmware_sim.node import LOG_LINES, Node
-from firmware_sim.sdk.build import ModuleBuild, build_module
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
+from module_sdk.build import ModuleBuild, build_module
 from pbort.errors import MethodFailedError
 from pbort.lifecycle import State
 from pbort.native import NativeModule

@@ -12,11 +12,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_sim.kernel_control import KernelControl
-from firmware_sim.natives import Signal
-from firmware_sim.node import Node
-from firmware_sim.server import NodeTarget, serve
-from firmware_sim.starting import start_pbo
+from firmware_sim.core.natives import Signal
+from firmware_sim.core.node import Node
+from firmware_sim.core.starting import start_pbo
+from firmware_sim.core.transfer_target import NodeTarget
+from firmware_sim.serving.kernel_control import KernelControl
+from firmware_sim.serving.serve import serve
 from hexmigrate.errors import LinkError, TransferError
 from hexmigrate.transfer.control import parse_values
 from hexmigrate.transfer.control_client import NodeControl

@@ -12,9 +12,9 @@ import can
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_sim.servos.can_servo import CanServoNodes
-from firmware_sim.servos.ssc32 import MAX_LINE, Ssc32
 from hexmigrate.links.slcan_device import BELL, SlcanDevice
+from servo_emulators.can_servo import CanServoNodes
+from servo_emulators.ssc32 import MAX_LINE, Ssc32
 
 FUZZ = settings(max_examples=200, deadline=None, derandomize=True)
 ssc32_text = st.text(alphabet="#PSTLHVQAB0123456789-+ \r\x1b,.:", max_size=300)

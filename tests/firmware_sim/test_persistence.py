@@ -10,9 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from firmware_sim.errors import FlashError, TrustError
-from firmware_sim.flash import BLOCK_SIZE, STATE_SUFFIX, Flash, PowerCut
-from firmware_sim.flash_directory import (
+from firmware_sim.core.flash import BLOCK_SIZE, STATE_SUFFIX, Flash, PowerCut
+from firmware_sim.core.flash_directory import (
     MAX_ENTRIES,
     DirectoryEntry,
     DirectoryError,
@@ -20,15 +19,16 @@ from firmware_sim.flash_directory import (
     KeptVersion,
     ModuleDirectory,
 )
-from firmware_sim.natives import Signal
-from firmware_sim.node import Node, NodeConfig
-from firmware_sim.sdk.build import build_module
-from firmware_sim.trust import TrustPolicy, version_of
+from firmware_sim.core.natives import Signal
+from firmware_sim.core.node import Node, NodeConfig
+from firmware_sim.core.trust import TrustPolicy, version_of
+from firmware_sim.errors import FlashError, TrustError
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
 from hexmigrate.signing import keys
 from hexmigrate.signing.sign import sign_image
 from hexmigrate.signing.tlv import Version
+from module_sdk.build import build_module
 from pbort.native import NativeModule
 
 BASE = 0x0800_0000

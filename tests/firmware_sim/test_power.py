@@ -6,9 +6,9 @@ import math
 
 import pytest
 
+from firmware_sim.core.node import POWER_INDEX, Node
+from firmware_sim.core.power import PowerModel
 from firmware_sim.errors import PowerReportError
-from firmware_sim.node import POWER_INDEX, Node
-from firmware_sim.power import PowerModel
 from pbort.code import PerformanceKind
 from pbort.native import NativeModule, NativePBO, PortIO
 from pbort.ports import PortSpec

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from firmware_sim.node import Node
+from firmware_sim.core.node import Node
 from hexmigrate.elf import image_from_elf
 from pbort.code import Method, PerformanceKind, Role, Services
 

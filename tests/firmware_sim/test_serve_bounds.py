@@ -10,8 +10,9 @@ from collections.abc import Iterator
 
 import pytest
 
-from firmware_sim.node import Node
-from firmware_sim.server import NodeTarget, serve
+from firmware_sim.core.node import Node
+from firmware_sim.core.transfer_target import NodeTarget
+from firmware_sim.serving.serve import serve
 from hexmigrate.links import open_link
 from hexmigrate.links.tcp import TcpListenLink
 from hexmigrate.transfer.receiver import Receiver

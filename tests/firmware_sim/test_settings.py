@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from firmware_sim.core.port_values import Setting, by_pbo, exact, exact_constants, number, setting
 from firmware_sim.errors import PortValueError
-from firmware_sim.settings import Setting, by_pbo, exact, exact_constants, number, setting
 from pbort.ports import PortKind, PortSpec
 
 

@@ -1,9 +1,9 @@
-"""Partial bitstreams follow a trusting node's rules as modules do (firmware_sim/server.py
-`NodeTarget._configure`): a bitstream for the FPGA port is refused unsigned, signed by an
-unknown key, changed after signing or older than the highest version kept of its name, with the
-module's reasons, the flash copy erased and the slot's routing as it was; an admitted one's
-version is kept in the flash directory (per signed name, ``mx_slotN`` for the crossbar), over
-``rm`` and a restart. A node that trusts no key applies any bitstream, as before."""
+"""Partial bitstreams follow a trusting node's rules as modules do
+(firmware_sim/core/transfer_target.py `NodeTarget._configure`): a bitstream for the FPGA port is
+refused unsigned, signed by an unknown key, changed after signing or older than the highest version
+kept of its name, with the module's reasons, the flash copy erased and the slot's routing as it was;
+an admitted one's version is kept in the flash directory (per signed name, ``mx_slotN`` for the
+crossbar), over ``rm`` and a restart. A node that trusts no key applies any bitstream, as before."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from firmware_sim.node import Node, NodeConfig
-from firmware_sim.server import NodeTarget
-from firmware_sim.trust import TrustPolicy, version_of
+from firmware_sim.core.node import Node, NodeConfig
+from firmware_sim.core.transfer_target import NodeTarget
+from firmware_sim.core.trust import TrustPolicy, version_of
 from hexmigrate.errors import TransferError
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.direct import DirectLink

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from firmware_sim.node import Node, NodeConfig
+from firmware_sim.core.node import Node, NodeConfig
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
 from hexmigrate.signing import keys

@@ -9,11 +9,11 @@ from collections.abc import Iterator
 
 import pytest
 
-from firmware_sim import kernel_control
-from firmware_sim.kernel_control import KernelControl
-from firmware_sim.natives import Signal
-from firmware_sim.node import Node
-from firmware_sim.server import NodeTarget
+from firmware_sim.core.natives import Signal
+from firmware_sim.core.node import Node
+from firmware_sim.core.transfer_target import NodeTarget
+from firmware_sim.serving import kernel_control
+from firmware_sim.serving.kernel_control import KernelControl
 from hexmigrate.errors import LockStepError, TransferError
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.receiver import Receiver

@@ -33,7 +33,7 @@ RUN = (
 
 
 def firmware_sim(*args: object, timeout: float = 60) -> subprocess.CompletedProcess[str]:
-    command = [sys.executable, "-m", "firmware_sim.cli", *map(str, args)]
+    command = [sys.executable, "-m", "firmware_sim", *map(str, args)]
     return subprocess.run(command, capture_output=True, text=True, timeout=timeout, check=False)
 
 
@@ -115,7 +115,7 @@ def test_a_trace_name_of_no_known_format_is_a_usage_error(gain, tmp_path, option
 
 def test_a_listening_node_stopped_by_sigterm_leaves_whole_traces(tmp_path):
     csv_path, mcap_path = tmp_path / "node.csv", tmp_path / "node.mcap"
-    command = [sys.executable, "-m", "firmware_sim.cli", "listen", "--listen"]
+    command = [sys.executable, "-m", "firmware_sim", "listen", "--listen"]
     command += ["tcp-listen://127.0.0.1:0", "--native", "signal", "--set", "signal.amplitude=2"]
     command += ["--trace", str(csv_path), "--trace", str(mcap_path)]
     node = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

@@ -1,4 +1,4 @@
-"""The trust policy of a node (firmware_sim/trust.py): which modules a node that trusts keys
+"""The trust policy of a node (firmware_sim/core/trust.py): which modules a node that trusts keys
 admits, with the reason a sender is told for each it refuses, and the signed bytes recovered
 from a relocated image in flash; then on a node (in one process): a refused module leaves it
 exactly as it was, and the installed version outlives a restart."""
@@ -9,9 +9,9 @@ import dataclasses
 
 import pytest
 
+from firmware_sim.core.node import Node, NodeConfig
+from firmware_sim.core.trust import TrustPolicy, linked_image, version_of
 from firmware_sim.errors import DirectoryError, TrustError
-from firmware_sim.node import Node, NodeConfig
-from firmware_sim.trust import TrustPolicy, linked_image, version_of
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
 from hexmigrate.signing import keys

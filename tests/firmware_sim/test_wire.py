@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from firmware_sim.wire import (
+from firmware_sim.wires.timing import (
     CAN_TAIL_BITS,
     WireClock,
     can_crc15,

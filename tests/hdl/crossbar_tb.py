@@ -29,7 +29,7 @@ from morphing_crossbar.routing import (
 )
 from morphing_crossbar.sim.runner import FABRIC_ENV, RESULTS_ENV
 from morphing_crossbar.sim.stimulus import random_configuration
-from morphing_crossbar.sim.stream import random_beats
+from morphing_crossbar.sim.stream_ends import random_beats
 from morphing_crossbar.sim.testbench import CrossbarTB
 
 BEATS_PER_ROUTE = 48

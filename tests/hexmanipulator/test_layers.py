@@ -10,7 +10,7 @@ import pytest
 from tests.test_layers import imported_names
 
 PACKAGE = Path(__file__).parents[2] / "hexmanipulator"
-DATA_SHEET = {"firmware_sim.servos.datasheet", "firmware_sim.servos.errors"}
+DATA_SHEET = {"servo_emulators.datasheet", "servo_emulators.errors"}
 """What a servo bus client may import of the servo package: the figures and their errors."""
 
 

@@ -14,14 +14,6 @@ import can
 import numpy as np
 import pytest
 
-from firmware_sim.servos.bank import ServoBank
-from firmware_sim.servos.bus_off import BusOffController
-from firmware_sim.servos.can_servo import CanServoNodes
-from firmware_sim.servos.can_servo_server import CanServoServer
-from firmware_sim.servos.datasheet import S3003, SSC32_CHANNELS
-from firmware_sim.servos.ports import PtyPort
-from firmware_sim.servos.ssc32 import Ssc32
-from firmware_sim.servos.ssc32_server import Ssc32Server
 from hexmanipulator.can_bus import CanServoBus
 from hexmanipulator.geometry import load
 from hexmanipulator.hexman_pbo import Fault, hexman_module
@@ -29,6 +21,14 @@ from hexmanipulator.kinematics import Pose, inverse
 from hexmanipulator.servo_bus import crank_angles
 from hexmanipulator.ssc32_bus import Ssc32Bus
 from pbort import Kernel, NativeModule, NativePBO, PerformanceKind, PortIO, PortKind, PortSpec
+from servo_emulators.bank import ServoBank
+from servo_emulators.bus_off import BusOffController
+from servo_emulators.byte_ports import PtyPort
+from servo_emulators.can_servo import CanServoNodes
+from servo_emulators.can_servo_server import CanServoServer
+from servo_emulators.datasheet import S3003, SSC32_CHANNELS
+from servo_emulators.ssc32 import Ssc32
+from servo_emulators.ssc32_server import Ssc32Server
 
 GEOMETRY = load()
 RATE = 50.0

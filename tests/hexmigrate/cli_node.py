@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from firmware_sim.node import Node
-from firmware_sim.server import NodeTarget
+from firmware_sim.core.node import Node
+from firmware_sim.core.transfer_target import NodeTarget
 from hexmigrate import cli
 from hexmigrate.links.direct import DirectLink
 from hexmigrate.transfer import messages as m

@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 import hexmigrate
-from firmware_sim.node import Node
+from firmware_sim.core.node import Node
 from hexmigrate import cli
 from tests.hexmigrate.cli_node import route_to
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from firmware_sim.node import Node
+from firmware_sim.core.node import Node
 from hexmigrate import cli
 from hexmigrate.image import ModuleImage
 from tests.hexmigrate.cli_node import route_to

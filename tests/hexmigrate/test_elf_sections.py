@@ -11,11 +11,11 @@ import pytest
 from elftools.elf.elffile import ELFFile
 from intelhex import IntelHex
 
-from firmware_sim.sdk.build import COMPILE_FLAGS, EXAMPLES_DIR, GCC, OBJCOPY, SDK_DIR, TARGET
 from hexmigrate.cli import main
 from hexmigrate.errors import ModuleSourceError
 from hexmigrate.image import ModuleImage
 from hexmigrate.records import Segment
+from module_sdk.build import COMPILE_FLAGS, EXAMPLES_DIR, GCC, OBJCOPY, SDK_DIR, TARGET
 
 UNALIGNED_TEXT = 0x10074
 """Not a page boundary: the default linker script maps the headers into the first segment."""

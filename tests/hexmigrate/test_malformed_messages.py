@@ -12,8 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_sim.node import Node
-from firmware_sim.server import NodeTarget
+from firmware_sim.core.node import Node
+from firmware_sim.core.transfer_target import NodeTarget
 from hexmigrate.errors import MessageError
 from hexmigrate.transfer.messages import ListModules, Message, Nak, decode, encode
 from hexmigrate.transfer.receiver import Receiver

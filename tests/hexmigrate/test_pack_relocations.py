@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from firmware_sim.sdk.build import COMPILE_FLAGS, GCC, LINKER_SCRIPT, SDK_DIR, TARGET
 from hexmigrate.cli import main
 from hexmigrate.relocations import refusal
+from module_sdk.build import COMPILE_FLAGS, GCC, LINKER_SCRIPT, SDK_DIR, TARGET
 
 SOURCE = """\
 #include "pbo_module.h"
@@ -54,9 +54,7 @@ def test_absolute_addressing_is_refused_with_the_symbol_and_the_fix(tmp_path, ca
     status, error = pack(elf, capsys)
     assert status == 1
     assert "got R_RISCV_HI20 against symbol 't_descriptor' at 0x00010000 (in module_init" in error
-    assert error.rstrip().endswith(
-        "compile with -mcmodel=medany, as firmware_sim/sdk/build.py does"
-    )
+    assert error.rstrip().endswith("compile with -mcmodel=medany, as module_sdk/build.py does")
     assert not elf.with_suffix(".hex").exists()
 
 

@@ -12,8 +12,8 @@ from collections.abc import Iterator
 
 import pytest
 
-from firmware_sim.node import Node
-from firmware_sim.server import NodeTarget
+from firmware_sim.core.node import Node
+from firmware_sim.core.transfer_target import NodeTarget
 from hexmigrate.transfer.messages import Ack, Begin, Header, Nak, decode, encode
 from hexmigrate.transfer.receiver import MAX_TRANSFERS, TRANSFER_IDLE, Receiver
 

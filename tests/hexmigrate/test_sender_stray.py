@@ -4,10 +4,10 @@ caller that files the pushes (refresh's manager) loses none of them."""
 
 from __future__ import annotations
 
-from firmware_sim.kernel_control import KernelControl
-from firmware_sim.natives import Signal
-from firmware_sim.node import Node
-from firmware_sim.server import NodeTarget
+from firmware_sim.core.natives import Signal
+from firmware_sim.core.node import Node
+from firmware_sim.core.transfer_target import NodeTarget
+from firmware_sim.serving.kernel_control import KernelControl
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import Heartbeat, Message, PerformanceReport
 from hexmigrate.transfer.receiver import Receiver

@@ -11,9 +11,9 @@ from collections.abc import Iterator
 
 import pytest
 
-from firmware_sim.node import Node, NodeConfig
-from firmware_sim.server import NodeTarget
-from firmware_sim.trust import TrustPolicy, version_of
+from firmware_sim.core.node import Node, NodeConfig
+from firmware_sim.core.transfer_target import NodeTarget
+from firmware_sim.core.trust import TrustPolicy, version_of
 from hexmigrate.elf import image_from_elf
 from hexmigrate.errors import TransferError
 from hexmigrate.image import ModuleImage

@@ -6,9 +6,9 @@ from collections.abc import Iterator
 
 import pytest
 
-from firmware_sim.natives import Signal
-from firmware_sim.node import Node
-from firmware_sim.server import NodeTarget
+from firmware_sim.core.natives import Signal
+from firmware_sim.core.node import Node
+from firmware_sim.core.transfer_target import NodeTarget
 from hexmigrate.elf import image_from_elf
 from hexmigrate.errors import TransferError, TransferInterrupted
 from hexmigrate.image import ModuleImage

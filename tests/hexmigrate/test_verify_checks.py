@@ -12,16 +12,6 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from firmware_sim.sdk.build import (
-    COMPILE_FLAGS,
-    EXAMPLES_DIR,
-    GCC,
-    LINKER_SCRIPT,
-    OBJCOPY,
-    SDK_DIR,
-    TARGET,
-    ModuleBuild,
-)
 from hexmigrate import descriptor as abi
 from hexmigrate.checks import check_module, verify_file
 from hexmigrate.cli import main
@@ -37,6 +27,16 @@ from hexmigrate.errors import (
 )
 from hexmigrate.image import ModuleImage, find_descriptor
 from hexmigrate.mapfile import image_from_map
+from module_sdk.build import (
+    COMPILE_FLAGS,
+    EXAMPLES_DIR,
+    GCC,
+    LINKER_SCRIPT,
+    OBJCOPY,
+    SDK_DIR,
+    TARGET,
+    ModuleBuild,
+)
 
 pytestmark = pytest.mark.skipif(
     shutil.which(GCC) is None or shutil.which(OBJCOPY) is None,
@@ -57,7 +57,7 @@ def build(
     werror: bool = True,
     compile_flags: list[str] = COMPILE_FLAGS,
 ) -> ModuleBuild:
-    """Compile and link `source` as firmware_sim/sdk/build.py does, with one thing changed."""
+    """Compile and link `source` as module_sdk/build.py does, with one thing changed."""
     out.mkdir(parents=True, exist_ok=True)
     name = source.stem
     obj, elf, map_file, binary = (out / f"{name}{ext}" for ext in (".o", ".elf", ".map", ".bin"))
@@ -178,7 +178,7 @@ def test_pack_refuses_code_that_holds_absolute_addresses(tmp_path, capsys):
     assert message.startswith(f"error: {elf}: expected relocations that a 07 record fixes or ")
     assert "got R_RISCV_HI20 against symbol 'gain_descriptor' at 0x00010000" in message
     assert "(in module_init, .text): an instruction holds part of an absolute address" in message
-    assert message.endswith("compile with -mcmodel=medany, as firmware_sim/sdk/build.py does")
+    assert message.endswith("compile with -mcmodel=medany, as module_sdk/build.py does")
 
 
 # A map file from another build than the binary.

@@ -8,10 +8,10 @@ from pathlib import Path
 
 import pytest
 
+from firmware_sim.core.fpga_port import open_port
+from firmware_sim.core.node import Node
+from firmware_sim.core.transfer_target import NodeTarget
 from firmware_sim.errors import ReconfigurationPortError
-from firmware_sim.fpga_port import open_port
-from firmware_sim.node import Node
-from firmware_sim.server import NodeTarget
 from hexmigrate.errors import ChecksumError, TransferError
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.direct import DirectLink

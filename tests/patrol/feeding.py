@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import MutableMapping
 
-from firmware_sim.node import Node
+from firmware_sim.core.node import Node
 from pbort import NativeModule, NativePBO, PortIO, PortSpec
 
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from firmware_sim.node import Node
+from firmware_sim.core.node import Node
 from patrol.firmware import natives
-from patrol.firmware.control import RINGING
+from patrol.firmware.controllers import RINGING
 from patrol.firmware.filters import CORRUPTED
 from pbort import PerformanceKind
 from tests.patrol.feeding import feed

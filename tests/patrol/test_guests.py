@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from firmware_sim.node import Node
+from firmware_sim.core.node import Node
 from hexmigrate.image import ModuleImage
 from patrol.scenarios import DATABASE
 from pbort import PerformanceKind

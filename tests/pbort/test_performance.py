@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from pbort import Kernel, NativeModule, NativePBO, PerformanceBuffer, PerformanceKind, PortSpec
-from pbort.performance import Report
+from pbort.performance_buffer import Report
 
 F, NF = PerformanceKind.FUNCTIONAL, PerformanceKind.NON_FUNCTIONAL
 

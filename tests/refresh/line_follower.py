@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-from firmware_sim.node import Node
+from firmware_sim.core.node import Node
 from pbort import Kernel, NativeModule, NativePBO, PerformanceKind, PortIO, PortSpec
 from refresh.load import Loaded, loads
 from refresh.node_applier import NodeApplier

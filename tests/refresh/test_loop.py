@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from firmware_sim.node import Node
+from firmware_sim.core.node import Node
 from pbort import Kernel, NativeModule, NativePBO, PerformanceKind, PortIO, PortSpec
 from refresh.adaptation import decide
 from refresh.configuration import initial_configuration

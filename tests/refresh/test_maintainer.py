@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from firmware_sim.natives import Signal
-from firmware_sim.node import Node
+from firmware_sim.core.natives import Signal
+from firmware_sim.core.node import Node
 from hexmigrate.elf import image_from_elf
 from pbort import NativeModule, State
 from refresh.configuration import Configuration, initial_configuration, parse_placement

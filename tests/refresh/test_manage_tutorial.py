@@ -24,7 +24,7 @@ COMMAND_TIMEOUT = 60.0
 PROGRAMS = {
     "python": [sys.executable],
     "hexmigrate": [sys.executable, "-m", "hexmigrate"],
-    "firmware-sim": [sys.executable, "-m", "firmware_sim.cli"],
+    "firmware-sim": [sys.executable, "-m", "firmware_sim"],
     "grep": ["grep"],
 }
 """How the test runs each program the page's commands start (this interpreter's)."""

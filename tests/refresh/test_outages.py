@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from pbort.code import PerformanceKind
-from pbort.performance import PerformanceBuffer
+from pbort.performance_buffer import PerformanceBuffer
 from refresh.configuration import initial_configuration, parse_placement
 from refresh.decider import Decider
 from refresh.errors import ConfigurationError

@@ -11,7 +11,7 @@ from dataclasses import replace
 
 import pytest
 
-from firmware_sim.node import Node
+from firmware_sim.core.node import Node
 from pbort import Kernel
 from refresh.errors import ApplyError, ConfigurationError, RateError
 from refresh.location import STRATEGIES

@@ -10,10 +10,10 @@ import cv2
 import numpy as np
 import pytest
 
-from firmware_sim.node import Node, NodeConfig
-from firmware_sim.sdk.build import ModuleBuild
+from firmware_sim.core.node import Node, NodeConfig
 from hexmigrate.cli import main as hexmigrate_main
 from hexmigrate.image import ModuleImage
+from module_sdk.build import ModuleBuild
 from pbort.code import PerformanceKind
 from pbort.lifecycle import State
 from visual_servoing.dehaze import Dehazed, dehaze, median3x3, stretch_table

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from commandline.children import ChildError
-from firmware_sim.listen_link import CONNECT_URL
+from hexmigrate.links.listening import CONNECT_URL
 from visual_servoing.experiment.linked import QUANTUM
 from visual_servoing.experiment.processes import Launch, run_processes
 from visual_servoing.experiment.report import summary

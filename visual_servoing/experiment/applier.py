@@ -2,7 +2,7 @@
 
 `refresh.node_applier.NodeApplier` sends an image through an in-process link, in no virtual time
 at all. Here a migration crosses the serial line from the module database's host to the robot
-(`firmware_sim.wire_sim`, 115200 baud 8N1 unless given), and the world runs on for as long as the
+(`firmware_sim.wires`, 115200 baud 8N1 unless given), and the world runs on for as long as the
 transfer took: the old configuration keeps working while the image travels, as on a real robot.
 Each migration's figures are kept for the report.
 
@@ -17,7 +17,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Protocol
 
-from firmware_sim.wire_sim.transfer import WireRun, run_transfer
+from firmware_sim.wires.transfer import WireRun, run_transfer
 from hexmanipulator.geometry import Geometry
 from hexmanipulator.servo_bus import ServoBus
 from refresh.database import Module

@@ -22,10 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from firmware_sim.errors import BuildError
-from firmware_sim.node import Node, NodeConfig
+from firmware_sim.core.node import Node, NodeConfig
 from hexmanipulator.geometry import load as load_geometry
 from hexmigrate.image import ModuleImage
+from module_sdk.errors import BuildError
 from pbort.code import ModuleCode
 from refresh.configuration import Configuration
 from refresh.events import EventLog

@@ -3,7 +3,7 @@
 The manager (``python -m visual_servoing manager``) runs the same experiment as in process
 (`Experiment`: the run loop, the samples, the runtime, the report) on a `LinkedWorld`: the two
 robots' nodes are ``python -m visual_servoing node`` processes reached by URL (`LinkApplier`),
-the servos a ``python -m firmware_sim.servos can`` process on two python-can-remote buses.
+the servos a ``python -m servo_emulators can`` process on two python-can-remote buses.
 
 - **Time.** In lock-step time (`LockStep`) a hexmigrate `TimeMaster` grants the nodes quanta
   of `quantum` seconds; the servo emulator is granted each quantum first (an ADVANCE on its
@@ -20,7 +20,7 @@ the servos a ``python -m firmware_sim.servos can`` process on two python-can-rem
   over their own connections to the two CAN buses).
 - **Migration.** `LinkedApplier` sends an image over the node's own link (the HexManipulator's
   is a pty: a serial line), then lets the world run on for as long as the transfer takes on a
-  115200 baud 8N1 wire (`firmware_sim.wire_sim`), as in process.
+  115200 baud 8N1 wire (`firmware_sim.wires`), as in process.
 - **The plate's yaw on the rotation robot.** Its camera turns with the plate: a bridge (number
   `PLATE_BRIDGE`, over TCP, no wire delay) carries ``Plate.yaw`` from the HexManipulator's node
   to the rotation robot's ``Plate.yaw`` input.
@@ -45,8 +45,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from urllib.parse import urlsplit
 
-from firmware_sim.servos.bus_off import BusOffController
-from firmware_sim.wire_sim.transfer import run_transfer
+from firmware_sim.wires.transfer import run_transfer
 from hexmanipulator.can_bus import CanServoBus, open_can_bus
 from hexmanipulator.geometry import Geometry
 from hexmigrate.errors import HexmigrateError
@@ -56,6 +55,7 @@ from refresh.database import Module
 from refresh.errors import NodeLinkError, RefreshError
 from refresh.remote import LinkApplier
 from refresh.runtime.applier import Inventory
+from servo_emulators.bus_off import BusOffController
 from visual_servoing.dehazer_guest import NAME
 from visual_servoing.errors import ExperimentError
 from visual_servoing.experiment.applier import ExperimentApplier, Migration

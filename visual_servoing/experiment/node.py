@@ -4,8 +4,8 @@ NAME --listen URL [--lock-step] [--servos URL ...]``.
 The program makes that robot's firmware (`firmware.task_natives` on this robot's devices: its
 cameras with the scenario's faults, the matchers and trajectories it may run, and on the
 HexManipulator HexMan and HexMan_alt on the two CAN buses to the servos) and serves it as a
-listening node (`firmware_sim.listen.listen`), its PBOs off until the manager starts them. Each
-robot also has a ``Plate`` native, which the manager starts at the run's time 0:
+listening node (`firmware_sim.serving.listen.listen`), its PBOs off until the manager starts
+them. Each robot also has a ``Plate`` native, which the manager starts at the run's time 0:
 
 - on the HexManipulator, it puts on its ``yaw`` output where the plate is, from the servos'
   feedback as HexMan (or HexMan_alt) reads it (`PlateTracker`, the forward kinematics the
@@ -36,8 +36,7 @@ from typing import ClassVar
 import can
 import numpy as np
 
-from firmware_sim.listen import ListenConfig, listen
-from firmware_sim.servos.bus_off import BusOffController
+from firmware_sim.serving.listen import ListenConfig, listen
 from hexmanipulator.can_bus import CanServoBus, open_can_bus
 from hexmanipulator.geometry import Geometry
 from hexmanipulator.geometry import load as load_geometry
@@ -45,6 +44,7 @@ from hexmanipulator.servo_bus import Reading, ServoBus
 from pbort import NativeModule, NativePBO, PortIO, PortSpec
 from pbort.code import Method, ModuleCode
 from refresh.load import loads
+from servo_emulators.bus_off import BusOffController
 from visual_servoing.dehazer_guest import INSTRUCTION_BUDGET
 from visual_servoing.errors import ExperimentError
 from visual_servoing.experiment.firmware import MANIPULATORS, camera_devices, task_natives

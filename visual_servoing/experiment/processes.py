@@ -6,7 +6,7 @@ The processes, each with its output in a log file of the run's folder (``ROLE.lo
 =============  ==========================================================================
 ``can1/can2``  python-can-remote servers on 127.0.0.1 (``python -m can_remote``), one per
                CAN bus to the servos, each on a port the system picks
-``servos``     ``python -m firmware_sim.servos can`` on both buses (its lock-step control
+``servos``     ``python -m servo_emulators can`` on both buses (its lock-step control
                link on 127.0.0.1 in lock-step time)
 ``hexman``     ``python -m visual_servoing node --robot hexman`` on a pty (a serial line:
                the manager migrates over it)
@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from commandline.children import POLL, Child
-from firmware_sim.listen_link import CONNECT_URL
+from hexmigrate.links.listening import CONNECT_URL
 from visual_servoing.errors import ExperimentError
 from visual_servoing.experiment.firmware import MANIPULATORS
 from visual_servoing.experiment.linked import QUANTUM
@@ -117,7 +117,7 @@ def run_processes(
             port = server.wait_for(CAN_SERVER)[1]
             url = f"can://remote/{HOST}:{port}/{server.role}?role=host"
             buses.append(launch.urls.setdefault(server.role, url))
-        servo_args = ["-m", "firmware_sim.servos", "can"]
+        servo_args = ["-m", "servo_emulators", "can"]
         for url in buses:
             servo_args += ["--url", url]
         if not real_time:

@@ -3,7 +3,7 @@
 The HexManipulator robot and the rotation robot are two emulated nodes (`firmware_sim.Node`),
 each with its kernel on a virtual clock; `advance` runs both in small steps to the same time, so
 ports bridged between them (`firmware_sim.bridge`) arrive when the link delivers them. The
-HexManipulator's six S3003 servos are CAN servo nodes (`firmware_sim.servos`) stepping on the
+HexManipulator's six S3003 servos are CAN servo nodes (`servo_emulators`) stepping on the
 same clock, each with two CAN interfaces on two in-process virtual buses, as redundant actuators
 have: the HexMan PBO reaches them through `hexmanipulator.can_bus` on the first, HexMan_alt on
 the second; the first bus's host controller can be cut off (`cut_servo_link`: it goes bus-off).
@@ -20,14 +20,14 @@ import os
 import can
 import numpy as np
 
-from firmware_sim.node import Node, NodeConfig
-from firmware_sim.servos.bus_off import BusOffController
-from firmware_sim.servos.can_servo import CanServoNodes
-from firmware_sim.servos.can_servo_server import CanServoServer
+from firmware_sim.core.node import Node, NodeConfig
 from hexmanipulator.can_bus import CanServoBus
 from hexmanipulator.geometry import Geometry
 from hexmanipulator.kinematics import Pose
 from pbort.errors import KernelError
+from servo_emulators.bus_off import BusOffController
+from servo_emulators.can_servo import CanServoNodes
+from servo_emulators.can_servo_server import CanServoServer
 from visual_servoing.dehazer_guest import INSTRUCTION_BUDGET
 from visual_servoing.experiment.plate import PlateTracker
 

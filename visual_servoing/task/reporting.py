@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from firmware_sim.node import POWER_INDEX
+from firmware_sim.core.node import POWER_INDEX
 from pbort import PerformanceKind, PortIO
 
 POWER = POWER_INDEX

@@ -1,0 +1,113 @@
+"""The node's side of a transfer: the `hexmigrate.transfer.receiver.Target` of a `Node`.
+
+`NodeTarget` lets the protocol's `Receiver` (hexmigrate.transfer) load modules into a `Node`,
+and, when the node has an FPGA reconfiguration port, partial bitstreams into its fabric (a
+hardware component sent, listed and removed like a software module). It knows no link: a
+`Receiver` on any link (`firmware_sim.serving.serve`), on an in-process `DirectLink` or on a
+wire in virtual time (`firmware_sim.wires`) hands it what arrives.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from firmware_sim.core.fpga_port import ReconfigurationPort
+from firmware_sim.core.loader import InstalledImage, LoadSession
+from firmware_sim.core.node import Node
+from firmware_sim.core.trust import linked_image
+
+
+class NodeTarget:
+    """The `hexmigrate.transfer.receiver.Target` of an emulated node; `fpga` is its FPGA
+    reconfiguration port, if it has one. `on_install(name, address)` hears of each module
+    committed, `on_configure(name, slot, cycles)` of each bitstream applied. A bitstream
+    follows the node's trust policy as a module does (`_configure`)."""
+
+    def __init__(
+        self,
+        node: Node,
+        on_install: Callable[[str, int], None] | None = None,
+        fpga: ReconfigurationPort | None = None,
+        on_configure: Callable[[str, int, int], None] | None = None,
+    ) -> None:
+        self.node = node
+        self.on_install = on_install
+        self.fpga = fpga
+        self.on_configure = on_configure
+        self.components: dict[str, tuple[int, int, int]] = {}
+        """The hardware components the port took: name -> (slot, link address, size)."""
+
+    def begin(self, owner: str, size: int | None, address: int | None) -> LoadSession:
+        """Reserve flash and open a load session."""
+        return self.node.begin_load(owner, size, address)
+
+    def commit(self, owner: str, image: InstalledImage) -> tuple[str, int]:
+        """Register the verified image as the node's module (replacing one of the same name),
+        or apply it to the fabric when it is a partial bitstream for the FPGA port."""
+        if self.fpga is not None and self.fpga.owns(image.link_base):
+            return self._configure(owner, image)
+        module = self.node.commit(owner, image)
+        self.node.cpu.forget_translations()  # the replaced module's code: see its docstring
+        if self.on_install is not None:
+            self.on_install(module.name, module.load_address)
+        return module.name, module.load_address
+
+    def _configure(self, owner: str, image: InstalledImage) -> tuple[str, int]:
+        """Shift a verified bitstream from flash into its slot; its flash copy is freed either
+        way (the port refuses a corrupt frame, and the slot keeps its old routing).
+
+        On a node that trusts keys the bitstream is admitted first, as a module is
+        (`Node.admit`: signed by a trusted key, unchanged, not older than the highest version
+        kept of the name it was signed under), and its version kept in the flash directory
+        (`Node.keep_version`) before the port is touched: a refused one leaves the slot as it
+        was. An unsigned image is named "bitstream"; a signed one takes its signed name."""
+        assert self.fpga is not None
+        try:
+            bitstream = linked_image(
+                "bitstream",
+                self.node.flash.read(image.load_base, image.size),
+                image.link_base,
+                image.load_base,
+                image.relocations,
+                image.init,
+                image.signature,
+            )
+            self.node.keep_version(bitstream.name, self.node.admit(bitstream))
+            record = self.fpga.load(bitstream)
+        finally:
+            self.node.discard(owner, image)
+        slot, name = record.slot, record.component
+        self.components = {n: c for n, c in self.components.items() if c[0] != slot}
+        self.components[name] = (slot, image.link_base, image.size)
+        if self.on_configure is not None:
+            self.on_configure(name, slot, record.cycles)
+        return name, image.link_base
+
+    def discard(self, owner: str, image: InstalledImage) -> None:
+        """Erase a verified image that will not be committed."""
+        self.node.discard(owner, image)
+
+    def modules(self) -> tuple[tuple[str, int, int], ...]:
+        """(name, load address, size) of each installed module."""
+        software = [(m.name, m.load_address, m.image.size) for m in self.node.modules.values()]
+        hardware = [(name, address, size) for name, (_, address, size) in self.components.items()]
+        return tuple(software + hardware)
+
+    def remove(self, name: str) -> None:
+        """Unload a module, or take a hardware component out of its slot; KeyError when there
+        is none of that name."""
+        if name in self.components and self.fpga is not None:
+            self.fpga.unload(self.components.pop(name)[0])
+            return
+        if name not in self.node.modules:
+            raise KeyError(name)
+        self.node.unload(name)
+        self.node.cpu.forget_translations()
+
+    def describe(self) -> str:
+        """One line about the node."""
+        node = self.node
+        return (
+            f"{node.name}: {len(node.modules)} module(s), {node.space.free_blocks} of "
+            f"{node.flash.block_count} flash blocks free, {node.sram.free_bytes} bytes of SRAM free"
+        )

@@ -1,5 +1,0 @@
-"""The module SDK: the C ABI header, the linker script and example modules for RV32IM guests.
-
-`firmware_sim.sdk.build` compiles a module's C file into the ELF, map, raw binary and plain
-Intel HEX from which `hexmigrate` makes an extended HEX module image.
-"""

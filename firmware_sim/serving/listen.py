@@ -1,0 +1,199 @@
+"""``firmware-sim listen --listen URL``: an emulated node that accepts modules on a link and runs
+them.
+
+It says where it listens (first, so that a script can read it), boots the modules its flash file
+holds, starts the native PBOs asked for, then serves the link: each module installed is started
+(or, with ``--no-start``, created and left off for a host's ``hexmigrate start``) at its rate
+with its constants and wired (`firmware_sim.serving.pbo_setup`), each bitstream is
+handed to the FPGA reconfiguration port, and every second the ports named by `show` are printed.
+On the real-time clock, so a terminal user sees the node live; with `lock_step`
+(``--lock-step``) on a virtual clock that only a host's Advance moves (a time master's quanta,
+`hexmigrate.transfer.time_master`). One `Receiver` serves the node for its whole life, so a
+transfer cut with the connection (a host that reconnects to a ``tcp-listen://`` node, or reopens
+the pty) resumes. The node's bridges to other nodes are closed when it ends.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from commandline.interrupts import stop_requests
+from firmware_sim.core.debug_port import DebugPort
+from firmware_sim.core.fpga_port import open_port
+from firmware_sim.core.guest import DEFAULT_BUDGET
+from firmware_sim.core.natives import NATIVES
+from firmware_sim.core.node import Node, NodeConfig
+from firmware_sim.core.port_values import Setting, by_pbo
+from firmware_sim.core.transfer_target import NodeTarget
+from firmware_sim.core.trust import TrustPolicy
+from firmware_sim.errors import StartError
+from firmware_sim.gdb import GdbServer, debugging
+from firmware_sim.serving.kernel_control import KernelControl
+from firmware_sim.serving.pbo_setup import ListeningNode, Wire
+from firmware_sim.serving.serve import serve
+from hexmigrate.links.listening import open_listening
+from hexmigrate.signing.keys import key_hash
+from hexmigrate.transfer.receiver import Receiver
+from pbort.clock import Clock, RealTimeClock, VirtualClock
+from pbort.code import ModuleCode
+from pbort.errors import KernelError
+from pbort.native import NativeModule
+from pbort.trace import recording
+
+SHOW_INTERVAL = 1.0
+"""Seconds between two lines of `show` values."""
+
+
+@dataclass(frozen=True)
+class ListenConfig:
+    """Everything ``firmware-sim listen`` is told: where to listen, the node's hardware (flash
+    file, FPGA slots, the guest instructions a method call may take), which PBOs to start and
+    how, what to show and for how long (None: until interrupted), and whether its clock is
+    virtual and moved by Advance only (`lock_step`), which signed modules it admits
+    (`trust`, firmware_sim/core/trust.py), the module ELFs its faults find source lines in
+    (`elves`), and the trace files it records its ports in (`traces`, pbort/trace)."""
+
+    listen: str
+    name: str = "node"
+    flash: Path | None = None
+    fpga: int | None = None
+    rates: tuple[tuple[str, float], ...] = ()
+    default_rate: float = 100.0
+    settings: tuple[Setting, ...] = ()
+    natives: tuple[str, ...] = ()
+    wires: tuple[Wire, ...] = ()
+    show: tuple[str, ...] = ()
+    seconds: float | None = None
+    switch_on: bool = True
+    lock_step: bool = False
+    budget: int = DEFAULT_BUDGET
+    trust: TrustPolicy = field(default_factory=TrustPolicy)
+    elves: tuple[Path, ...] = ()
+    traces: tuple[Path, ...] = ()
+    gdb: tuple[str, int] | None = None
+
+
+def listen(
+    config: ListenConfig,
+    say: Callable[[str], None],
+    firmware: Mapping[str, ModuleCode] | None = None,
+) -> int:
+    """Run the node until interrupted or for `config.seconds`; each line of output goes to
+    `say`. Returns the exit status.
+
+    `firmware` is the native code this node's firmware has beyond the built-in natives, by
+    name: a program that makes a node of its own robot (drivers bound to its devices) passes
+    them here, and `config.natives` names which to start."""
+    codes = {name: NativeModule(native) for name, native in NATIVES.items()} | dict(firmware or {})
+    natives = [(name, _native(codes, name)) for name in config.natives]  # refused before listening
+    port = None if config.fpga is None else open_port(config.fpga)
+    clock: Clock = VirtualClock() if config.lock_step else RealTimeClock()
+    with Node(
+        config.name,
+        NodeConfig(
+            flash_file=config.flash, budget=config.budget, trust=config.trust, elves=config.elves
+        ),
+        clock,
+    ) as node:
+        pbos = ListeningNode(
+            node,
+            say,
+            rates=dict(config.rates),
+            default_rate=config.default_rate,
+            constants=by_pbo(config.settings),
+            wires=config.wires,
+            switch_on=config.switch_on,
+        )
+
+        gdb: list[GdbServer] = []  # the server, once there is one
+
+        def installed(name: str, address: int) -> None:
+            say(f"registered {name} at 0x{address:08X}")
+            for server in gdb:
+                server.symbol_line(name)
+            pbos.start(name, name)
+
+        # The link first: its "listening on" line is the first line out, before any other.
+        with (
+            open_listening(config.listen, say) as link,
+            debugging(DebugPort(node), config.gdb, say, wait=False) as server,
+        ):
+            gdb += [server] if server is not None else []
+            for name, code in natives:
+                pbos.start(code, name)
+            for module in list(node.modules.values()):
+                installed(module.name, module.load_address)
+            if port is not None:
+                say(f"fpga: {port.description} on the reconfiguration port")
+            if config.trust.enforced:
+                hashes = " ".join(key_hash(key).hex()[:16] for key in config.trust.keys)
+                say(f"trusting keys {hashes}: changes need a connection authenticated by one")
+            target = NodeTarget(
+                node, on_install=installed, fpga=port, on_configure=_configured(say)
+            )
+            control = KernelControl(node, lock_step=config.lock_step)
+            receiver = Receiver(target, control, trusted=config.trust.keys)
+            try:
+                with recording(node.kernel, config.traces), stop_requests() as requested:
+                    stop = _stopper(node, config, say, gdb, requested)
+                    serve(node, link, receiver=receiver, stop=stop)
+                if requested():
+                    say("stopped")
+            except KeyboardInterrupt:
+                say("stopped")
+            finally:
+                control.close()
+    return 0
+
+
+def _native(codes: Mapping[str, ModuleCode], name: str) -> ModuleCode:
+    """The firmware's native code named `name`."""
+    try:
+        return codes[name]
+    except KeyError:
+        raise StartError(
+            f"--native {name}: expected one of {', '.join(sorted(codes))}, got no such native"
+        ) from None
+
+
+def _configured(say: Callable[[str], None]) -> Callable[[str, int, int], None]:
+    def configured(name: str, slot: int, cycles: int) -> None:
+        say(f"configured {name}: slot {slot} reconfigured in {cycles} fabric cycles")
+
+    return configured
+
+
+def _stopper(
+    node: Node,
+    config: ListenConfig,
+    say: Callable[[str], None],
+    gdb: list[GdbServer],
+    requested: Callable[[], bool],
+) -> Callable[[], bool]:
+    """`serve`'s stop test: shows the ports every second, takes gdb when it connects, true once
+    `config.seconds` passed or a stop was `requested` (a signal)."""
+    deadline = None if config.seconds is None else time.monotonic() + config.seconds
+    next_show = time.monotonic() + SHOW_INTERVAL
+
+    def stop() -> bool:
+        nonlocal next_show
+        for server in gdb:
+            server.poll()
+        now = time.monotonic()
+        if config.show and now >= next_show:
+            next_show = now + SHOW_INTERVAL
+            say("  ".join(f"{port}={_value(node, port)}" for port in config.show))
+        return requested() or (deadline is not None and now >= deadline)
+
+    return stop
+
+
+def _value(node: Node, port: str) -> str:
+    """A port's value, ``?`` while its PBO is not on the node."""
+    try:
+        return str(node.kernel.value(port))
+    except KernelError:
+        return "?"

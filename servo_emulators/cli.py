@@ -1,0 +1,189 @@
+"""Run a servo emulator for a terminal or a host program.
+
+Examples:
+  python -m servo_emulators ssc32 --pty                      # prints the pty to open
+  python -m servo_emulators ssc32 --url /dev/ttyUSB1         # any pyserial URL
+  python -m servo_emulators can --url can://virtual/hexman   # or can://remote/...
+  python -m servo_emulators can --slcan hexman               # an SLCAN adapter on a pty
+  python -m servo_emulators can --url can://remote/127.0.0.1:P1/can1 \
+      --url can://remote/127.0.0.1:P2/can2 --time-master tcp-listen://127.0.0.1:0
+
+The emulator runs in real time until interrupted (Ctrl-C, exit status 130) or for --seconds. It
+prints one line saying where it listens, then nothing until it stops. CAN servo nodes given
+several --url answer on each bus (redundant CAN interfaces). With --time-master URL their clock
+is virtual (lock-step time) and moves only when a time master's ADVANCE on URL says
+(hexmigrate's transfer protocol, as a node started with firmware-sim listen --lock-step); the
+line saying where that link listens comes first. Errors print one line
+"error: ..." and exit with status 1, usage errors exit 2; --debug shows the traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import math
+import time
+from collections.abc import Callable, Sequence
+
+import can
+
+from commandline import add_command, command_parser, run
+from commandline.arguments import integer, real
+from hexmigrate.errors import HexmigrateError
+from hexmigrate.links.can import parse_url
+from hexmigrate.links.listening import open_listening
+from hexmigrate.links.slcan_device import SlcanDevice
+from servo_emulators.bank import ServoBank
+from servo_emulators.byte_ports import BytePort, PtyPort, SerialPort
+from servo_emulators.can_servo import NODES, CanServoNodes
+from servo_emulators.can_servo_server import CanServoServer
+from servo_emulators.datasheet import S3003, SSC32_CHANNELS
+from servo_emulators.errors import ServoEmulatorError, ServoPortError
+from servo_emulators.lock_step import ServoClock, ServoControl, serve_control
+from servo_emulators.ssc32 import Ssc32
+from servo_emulators.ssc32_server import Ssc32Server
+
+PERIOD_MAX_MS = 65535
+"""The DBC's FeedbackPeriod range: 0..65535 ms."""
+BIT_RATE_MAX = 20_000_000
+"""The fastest serial line a pyserial URL may ask for (the same bound as hexmigrate's links)."""
+ERRORS = (ServoEmulatorError, HexmigrateError)
+"""What a command can fail with that the user can fix: the emulators' refusals and a bad
+``can://`` URL (hexmigrate parses those)."""
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; the exit status."""
+    return run(build_parser(), ERRORS, argv)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser, one sub-command per emulator."""
+    top = command_parser("python -m servo_emulators", __doc__)
+    commands = top.add_subparsers(required=True, metavar="COMMAND")
+    ssc32 = add_command(
+        commands,
+        "ssc32",
+        _run_ssc32,
+        f"an SSC-32 with {SSC32_CHANNELS} S3003 servos on a serial port",
+    )
+    where = ssc32.add_mutually_exclusive_group(required=True)
+    where.add_argument("--url", help="a pyserial URL or device path to serve")
+    where.add_argument("--pty", action="store_true", help="serve a new pty; prints its path")
+    ssc32.add_argument(
+        "--bit-rate",
+        type=integer(1, BIT_RATE_MAX, unit="baud"),
+        default=115200,
+        metavar="N",
+        help="the serial line's baud rate, 8N1 (default 115200; a pty ignores it)",
+    )
+    nodes = add_command(commands, "can", _run_can, "CAN servo nodes with S3003 servos")
+    where = nodes.add_mutually_exclusive_group(required=True)
+    where.add_argument(
+        "--url",
+        action="append",
+        help="can://virtual/CH or can://remote/127.0.0.1:PORT/CH; repeat it for a bus more "
+        "(the nodes answer on each)",
+    )
+    where.add_argument("--slcan", metavar="CHANNEL", help="an SLCAN adapter on a new pty")
+    nodes.add_argument(
+        "--time-master",
+        metavar="URL",
+        help="lock-step virtual time, moved only by a time master's ADVANCE on URL "
+        "(tcp-listen://HOST:0, pty, ...)",
+    )
+    nodes.add_argument(
+        "--nodes",
+        type=integer(1, NODES),
+        default=NODES,
+        metavar="N",
+        help=f"servo nodes 1..N (N from 1 to the DBC's {NODES}; default {NODES})",
+    )
+    nodes.add_argument(
+        "--period-ms",
+        type=integer(0, PERIOD_MAX_MS, unit="ms"),
+        default=0,
+        metavar="MS",
+        help="periodic feedback every MS ms (default 0: on Sync only)",
+    )
+    for command in (ssc32, nodes):
+        command.add_argument(
+            "--volts",
+            type=real(S3003.voltage_low, S3003.voltage_high, unit="V"),
+            default=S3003.voltage_high,
+            metavar="V",
+            help=f"servo supply, {S3003.voltage_low:g}-{S3003.voltage_high:g} V "
+            f"(default {S3003.voltage_high:g})",
+        )
+        command.add_argument(
+            "--seconds",
+            type=real(above=0, unit="s"),
+            metavar="S",
+            help="stop after S seconds (default: run until interrupted)",
+        )
+    return top
+
+
+def _run_ssc32(args: argparse.Namespace) -> None:
+    """Serve an SSC-32 on the port until the time is up."""
+    port: BytePort = PtyPort() if args.pty else SerialPort(args.url, args.bit_rate)
+    controller = Ssc32(ServoBank(SSC32_CHANNELS, args.volts))
+    with Ssc32Server(controller, port):
+        _announce(f"SSC-32 listening on {getattr(port, 'path', port.name)}", args.seconds)
+
+
+def _run_can(args: argparse.Namespace) -> None:
+    """Serve the CAN servo nodes on the buses until the time is up."""
+    clock = ServoClock() if args.time_master else None
+    nodes = CanServoNodes(
+        args.nodes,
+        args.volts,
+        now=None if clock is None else clock.now,
+        feedback_period=args.period_ms / 1000,
+    )
+    with contextlib.ExitStack() as stack:
+        link = None
+        if args.time_master:
+            link = stack.enter_context(open_listening(args.time_master, _say))
+        if args.slcan:
+            device = stack.enter_context(SlcanDevice(args.slcan))
+            bus = _open_bus(device.url, interface="virtual", channel=args.slcan, ignore_config=True)
+            stack.enter_context(CanServoServer(nodes, bus))
+            where = [device.url]
+        else:
+            for url in args.url:
+                bus = _open_bus(url, **parse_url(url).bus_config())
+                stack.enter_context(CanServoServer(nodes, bus))
+            where = args.url
+        announced = f"{args.nodes} CAN servo nodes on {' and '.join(where)}"
+        if link is None or clock is None:
+            _announce(announced, args.seconds)
+            return
+        _say(announced)
+        serve_control(link, ServoControl(nodes, clock), _deadline(args.seconds))
+
+
+def _say(line: str) -> None:
+    print(line, flush=True)
+
+
+def _deadline(seconds: float | None) -> Callable[[], bool]:
+    """True once `seconds` have passed (never for None)."""
+    deadline = math.inf if seconds is None else time.monotonic() + seconds
+    return lambda: time.monotonic() >= deadline
+
+
+def _open_bus(url: str, **config: object) -> can.BusABC:
+    """python-can's bus; a refusal names the URL (`ServoPortError`)."""
+    try:
+        return can.Bus(**config)
+    except (can.CanError, ValueError) as error:
+        raise ServoPortError(f"cannot open {url}: {error}") from error
+
+
+def _announce(where: str, seconds: float | None) -> None:
+    """Say where the emulator listens, then serve for `seconds` (None: until interrupted)."""
+    print(where, flush=True)
+    deadline = math.inf if seconds is None else time.monotonic() + seconds
+    while (remaining := deadline - time.monotonic()) > 0:
+        time.sleep(min(0.05, remaining))

@@ -1,0 +1,207 @@
+"""The CAN servo nodes: every DBC message round-trips, and the nodes answer on a virtual bus,
+through a python-can-remote server between processes, and through SLCAN on a pty."""
+
+from __future__ import annotations
+
+import itertools
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from dataclasses import replace
+
+import can
+import numpy as np
+import pytest
+from cantools.database.can import Message
+
+from hexmanipulator.can_bus import CanServoBus, open_can_bus
+from hexmanipulator.errors import GeometryError, ServoSilentError
+from hexmanipulator.geometry import load
+from hexmigrate.links.remote_server import RemoteCanServer
+from hexmigrate.links.slcan_device import SlcanDevice
+from servo_emulators.can_servo import FAULT_RANGE, CanServoNodes, database
+from servo_emulators.can_servo_server import CanServoServer
+from servo_emulators.errors import ServoSetupError
+
+DB = database()
+GEOMETRY = load()
+WAIT = 5.0
+_channels = itertools.count()
+
+
+def extreme_values(message: Message, end: str) -> dict[str, float]:
+    """Every signal of `message` at its minimum, maximum or a value in between."""
+    values = {}
+    for signal in message.signals:
+        low, high = signal.minimum, signal.maximum
+        value = {"min": low, "max": high, "mid": low + (high - low) / 3}[end]
+        values[signal.name] = round(value / signal.scale) * signal.scale
+    return values
+
+
+@pytest.mark.parametrize("end", ["min", "mid", "max"])
+def test_every_dbc_message_round_trips_through_a_can_frame(end: str) -> None:
+    assert len(DB.messages) == 25
+    for message in DB.messages:
+        values = extreme_values(message, end)
+        frame = can.Message(arbitration_id=message.frame_id, data=message.encode(values))
+        assert frame.dlc == message.length
+        decoded = DB.decode_message(frame.arbitration_id, frame.data, decode_choices=False)
+        assert decoded == pytest.approx(values), message.name
+
+
+def frame(name: str, **signals: float) -> can.Message:
+    message = DB.get_message_by_name(name)
+    return can.Message(
+        arbitration_id=message.frame_id, data=message.encode(signals), is_extended_id=False
+    )
+
+
+def decoded(frames: list[can.Message]) -> dict[str, dict]:
+    return {
+        DB.get_message_by_frame_id(f.arbitration_id).name: DB.decode_message(
+            f.arbitration_id, f.data
+        )
+        for f in frames
+    }
+
+
+def test_the_nodes_obey_each_host_message_and_answer_with_theirs() -> None:
+    clock = [0.0]
+    nodes = CanServoNodes(now=lambda: clock[0])
+    nodes.handle(frame("Command2", TargetAngle=0.0, MoveTime=0, Enable=1))
+    clock[0] = 0.1
+    assert nodes.handle(frame("Command2", TargetAngle=-40.0, MoveTime=500, Enable=1)) == []
+    assert nodes.handle(frame("Command5", TargetAngle=120.0, MoveTime=0, Enable=1)) == []
+    clock[0] = 0.35
+    answers = decoded(nodes.handle(frame("Sync", Counter=7)))
+    assert len(answers) == 12
+    assert answers["Feedback2"]["Position"] == pytest.approx(-20.0, abs=0.4)
+    assert answers["Feedback2"]["Moving"] == 1 and answers["Feedback2"]["Counter"] == 7
+    assert answers["Status2"]["State"] == "Moving"
+    assert answers["Status5"]["Fault"] == "OutOfRange"
+    assert answers["Status1"]["State"] == "Limp" and answers["Feedback1"]["Current"] == 0
+    nodes.handle(frame("Config5", FeedbackPeriod=100, ClearFault=1))
+    assert nodes.faults[4] == 0
+    clock[0] = 1.0
+    periodic = decoded(nodes.due())
+    assert set(periodic) == {"Feedback5", "Status5"}
+    assert periodic["Feedback5"]["Position"] == pytest.approx(90.0)
+    assert periodic["Status5"]["Commands"] == 1
+    assert periodic["Feedback5"]["Current"] == pytest.approx(8.0)
+    nodes.handle(frame("Command2", TargetAngle=0.0, MoveTime=0, Enable=0))
+    assert decoded(nodes.handle(frame("Sync", Counter=8)))["Status2"]["State"] == "Limp"
+
+
+def test_frames_the_dbc_does_not_describe_are_ignored_and_counted() -> None:
+    nodes = CanServoNodes(now=lambda: 0.0)
+    assert nodes.handle(can.Message(arbitration_id=0x123, data=b"\x01", is_extended_id=False)) == []
+    short = can.Message(arbitration_id=0x201, data=b"\x01", is_extended_id=False)
+    assert nodes.handle(short) == []
+    assert nodes.ignored == 2
+    assert FAULT_RANGE not in nodes.faults
+
+
+def test_periodic_feedback_arrives_on_a_virtual_bus_in_real_time() -> None:
+    channel = f"servo-can-{next(_channels)}"
+    with (
+        CanServoServer(
+            CanServoNodes(2, feedback_period=0.02), can.Bus(interface="virtual", channel=channel)
+        ),
+        can.Bus(interface="virtual", channel=channel) as host,
+    ):
+        seen, deadline = [], time.monotonic() + WAIT
+        while len(seen) < 20 and time.monotonic() < deadline:
+            received = host.recv(timeout=0.1)
+            if received is not None:
+                seen.append(received.arbitration_id)
+    assert {0x281, 0x282, 0x301, 0x302} <= set(seen)
+
+
+def exercise(bus: CanServoBus) -> None:
+    """Move the six servos by 20 degrees and wait (bounded) until the feedback shows it."""
+    assert np.allclose(bus.read().angles, 0.0)
+    goal = np.full(6, 20.0)
+    bus.move(goal, 0.0)
+    deadline = time.monotonic() + WAIT
+    while time.monotonic() < deadline:
+        reading = bus.read()
+        if np.allclose(reading.angles, goal, atol=0.01):
+            break
+        time.sleep(0.02)
+    assert np.allclose(reading.angles, goal, atol=0.01)
+    assert reading.faults == ("",) * 6
+
+
+@pytest.fixture
+def remote() -> Iterator[RemoteCanServer]:
+    with RemoteCanServer("servos") as server:
+        yield server
+
+
+def test_another_process_serves_the_nodes_through_the_remote_server(
+    remote: RemoteCanServer,
+) -> None:
+    command = [
+        sys.executable,
+        "-m",
+        "servo_emulators",
+        "can",
+        "--url",
+        remote.url("node"),
+        "--seconds",
+        "20",
+    ]
+    with subprocess.Popen(command, stdout=subprocess.PIPE, text=True) as emulator:
+        try:
+            assert "6 CAN servo nodes on can://remote/127.0.0.1" in emulator.stdout.readline()
+            bus = open_can_bus(remote.url())
+            try:
+                exercise(CanServoBus(bus, GEOMETRY))
+            finally:
+                bus.shutdown()
+        finally:
+            emulator.terminate()
+            emulator.wait(timeout=WAIT)
+
+
+def test_the_nodes_answer_through_an_slcan_adapter_on_a_pty() -> None:
+    channel = f"servo-slcan-{next(_channels)}"
+    with (
+        SlcanDevice(channel) as device,
+        CanServoServer(CanServoNodes(), can.Bus(interface="virtual", channel=channel)),
+    ):
+        bus = open_can_bus(device.url)
+        try:
+            exercise(CanServoBus(bus, GEOMETRY))
+        finally:
+            bus.shutdown()
+
+
+@pytest.mark.parametrize("count", [0, 7])
+def test_only_the_nodes_the_dbc_describes_can_be_emulated(count: int) -> None:
+    with pytest.raises(
+        ServoSetupError, match=f"expected 1..6 servo nodes \\(the DBC's\\), got {count}"
+    ):
+        CanServoNodes(count)
+
+
+def test_a_damaged_answer_counts_as_none_and_the_silent_nodes_are_named() -> None:
+    channel = f"servo-damaged-{next(_channels)}"
+    with (
+        can.Bus(interface="virtual", channel=channel) as host,
+        can.Bus(interface="virtual", channel=channel) as node,
+    ):
+        node.send(can.Message(arbitration_id=0x281, data=b"\x01", is_extended_id=False))
+        with pytest.raises(ServoSilentError, match=r"servo node\(s\) \[1, 2, 3, 4, 5, 6\]"):
+            CanServoBus(host, GEOMETRY).read()
+
+
+def test_a_leg_on_a_channel_no_can_node_has_is_refused() -> None:
+    far = replace(GEOMETRY, channels=(0, 1, 2, 3, 4, 9))
+    with (
+        can.Bus(interface="virtual", channel=f"servo-far-{next(_channels)}") as host,
+        pytest.raises(GeometryError, match=r"expected 0-5 for CAN servo nodes 1-6, got \(0, 1"),
+    ):
+        CanServoBus(host, far)
