@@ -21,7 +21,8 @@ from pathlib import Path
 
 from refresh.adaptation import decide
 from refresh.configuration import Configuration, initial_configuration
-from refresh.estimator import FunctionEstimator, Values
+from refresh.estimators.base import Values
+from refresh.estimators.function import FunctionEstimator
 from refresh.events import EventLog
 from refresh.load import load
 from refresh.location import base_choice, brute_force

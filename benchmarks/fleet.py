@@ -55,10 +55,11 @@ from hexmigrate.links import open_link
 from hexmigrate.links.base import Link, LinkBase
 from hexmigrate.links.framing import frame
 from refresh.adaptation import decide
+from refresh.appliers.over_links import LinkApplier
 from refresh.configuration import Configuration
+from refresh.estimators.host import host_estimators
 from refresh.events import EventLog
-from refresh.manager.codes import host_estimators
-from refresh.remote import LinkApplier, RemoteNode
+from refresh.remote.remote_node import RemoteNode
 from refresh.runtime import Runtime, RuntimeSettings
 
 HERE = Path(__file__).parent

@@ -20,9 +20,9 @@ from commandline.children import Child
 from hexmigrate.links.listening import CONNECT_URL
 from patrol.mission import LINK_BAUD, ROBOTS, SETTINGS, Mission
 from patrol.scenarios import Scenario
+from refresh.appliers.over_links import LinkApplier
 from refresh.database import ModuleDatabase
 from refresh.manager import LockStep
-from refresh.remote import LinkApplier
 from refresh.remote.remote_node import REPORT_PERIOD
 
 QUANTUM = 0.005
@@ -78,6 +78,7 @@ class LinkedPatrol(Mission):
             rate=LINK_BAUD,
         )
         self.time.attach(self.links)
+        self.links.use_clock(self.time.clock)
         return self.links
 
     def urls(self) -> dict[str, str]:

@@ -1,9 +1,9 @@
 """The patrol's robots in this process: three emulated nodes in one virtual time.
 
-The nodes (`firmware_sim.Node`) advance together in steps of `STEP`, so the ports bridged between
-them (coalitions, `firmware_sim.bridge`) arrive as the link delivers them. Plans are applied by
-`refresh.node_applier.NodeApplier`: native code from `patrol.firmware`, guest images sent with
-hexmigrate to the node's loader.
+The nodes (`firmware_sim.core.node.Node`) advance together in steps of `STEP`, so the ports
+bridged between them (coalitions, `firmware_sim.bridge`) arrive as the link delivers them. Plans
+are applied by `refresh.appliers.in_process.NodeApplier`: native code from `patrol.firmware`,
+guest images sent with hexmigrate to the node's loader.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from firmware_sim.core.node import Node
 from patrol.firmware import natives
 from patrol.mission import LINK_BAUD, ROBOTS, SETTINGS, Mission
 from patrol.scenarios import Scenario
-from refresh.node_applier import NodeApplier
+from refresh.appliers.in_process import NodeApplier
 from refresh.runtime import RuntimeSettings
 
 STEP = 0.005
@@ -34,7 +34,11 @@ class Patrol(Mission):
     def _open(self) -> NodeApplier:
         self.nodes = {robot: Node(robot) for robot in ROBOTS}
         return NodeApplier(
-            self.nodes, natives=natives(), images=self.prepared.images, rate=LINK_BAUD
+            self.nodes,
+            natives(),
+            images=self.prepared.images,
+            rate=LINK_BAUD,
+            clock=self.now,
         )
 
     def now(self) -> float:

@@ -13,7 +13,6 @@ seconds the run reads rover1's pose and records where it really is against the l
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -25,16 +24,12 @@ from patrol.guests import build_guests
 from patrol.scenarios import DATABASE, Scenario, with_faults
 from patrol.track import deviation
 from pbort.code import ModuleCode
+from refresh.appliers.base import ApplierBase, Migration
 from refresh.database import ModuleDatabase
+from refresh.estimators.host import HostEstimators
 from refresh.events import EventLog
 from refresh.load import loads
-from refresh.runtime import (
-    HostEstimators,
-    Reconfiguration,
-    Runtime,
-    RuntimeApplier,
-    RuntimeSettings,
-)
+from refresh.runtime import Reconfiguration, Runtime, RuntimeSettings
 from refresh.task import TaskSpec
 
 ROBOTS = ("rover1", "rover2", "mast")
@@ -43,8 +38,6 @@ SAMPLE = 0.02
 """Seconds between two samples of rover1's true pose."""
 LINK_BAUD = 1_000_000
 """The robots' radio link (ports of a coalition cross it), modelled as a 1 Mbaud serial line."""
-MIGRATE_STEP = re.compile(r"migrate (\w+) to (\w+)")
-"""A plan's migrate step, as the runtime's log words it."""
 SETTINGS = RuntimeSettings(
     decision_period=0.1, debounce=5, settle=0.5, recovery_hold=0.5, estimate_steps=25
 )
@@ -65,17 +58,6 @@ class Sample:
     heading: float
 
 
-@dataclass(frozen=True)
-class Migration:
-    """A migrate step of a plan: a guest image sent to a robot's node (unless the node held it
-    already), when (run seconds) and the image's size in bytes."""
-
-    time: float
-    module: str
-    robot: str
-    size: int
-
-
 @dataclass
 class Outcome:
     """What a run produced: the samples are the run's, the rest the runtime's history and log."""
@@ -92,7 +74,7 @@ class Outcome:
         """The images `record`'s plan sent: a plan is applied at once, at its `applied_at`."""
         if record.applied_at is None:
             return []
-        return [m for m in self.migrations if abs(m.time - record.applied_at) < 1e-6]
+        return [m for m in self.migrations if abs(m.start - record.applied_at) < 1e-6]
 
 
 @dataclass(frozen=True)
@@ -139,7 +121,7 @@ class Mission:
             self.close()
             raise
 
-    def _open(self) -> RuntimeApplier:
+    def _open(self) -> ApplierBase:
         """The robots, and the applier that runs plans on them."""
         raise NotImplementedError
 
@@ -191,7 +173,7 @@ class Mission:
 
         self.runtime.run(self.scenario.duration, advance)
         self.outcome.stopped_at = self.runtime.history.stopped_at
-        self.outcome.migrations[:] = self._migrations()
+        self.outcome.migrations[:] = self.applier.migrations
         return self.outcome
 
     def pose(self) -> tuple[float, float, float]:
@@ -214,18 +196,6 @@ class Mission:
         """The estimators start the chassis where the rover is now."""
         x, y, theta = self.pose()
         return {"Chassis.x0": x, "Chassis.y0": y, "Chassis.theta0": theta}
-
-    def _migrations(self) -> list[Migration]:
-        """The plans' migrate steps, from the runtime's log."""
-        found = []
-        for event in self.runtime.log:
-            if event.kind == "step" and event.data.get("action") == "migrate":
-                step = MIGRATE_STEP.fullmatch(str(event.data["step"]))
-                assert step is not None, event.data  # refresh.maintainer.Step's own wording
-                module, robot = step.groups()
-                size = len(self.prepared.images[module].data)
-                found.append(Migration(event.time, module, robot, size))
-        return found
 
     def __enter__(self) -> Mission:
         return self

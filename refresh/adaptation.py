@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 from refresh.configuration import Configuration
 from refresh.database import ModuleDatabase
-from refresh.estimator import Estimator
+from refresh.estimators.base import Estimator
 from refresh.events import EventLog
 from refresh.generator import DEFAULT_MAX_MODULES, Choice, synthesize
 from refresh.location import Location, locate

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from refresh.configuration import Chain, Configuration
 from refresh.database import Module, ModuleDatabase
 from refresh.errors import ConfigurationError
-from refresh.estimator import Estimator
+from refresh.estimators.base import Estimator
 from refresh.events import EventLog
 from refresh.performance import Assessment, assess, best, usage, usage_replaced
 from refresh.task import TaskSpec

@@ -7,8 +7,8 @@ still runs, so the switch that follows costs no transfer time. Connections follo
 change on a module that keeps running are taken down first (before the PBO feeding them goes
 away), and every connection of the new configuration that did not exist is made once all its
 modules run. The plan is applied through an `Applier`, a small protocol with one method per kind
-of step, so the same plan drives emulated nodes (`refresh.node_applier`) or an in-memory model
-(`refresh.memory_applier`); each step is timed and logged.
+of step, so the same plan drives any back end of `refresh.appliers` (an in-memory model, emulated
+nodes in this process, nodes over links); each step is timed and logged.
 """
 
 from __future__ import annotations
@@ -16,10 +16,10 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
 
+from refresh.appliers.base import Applier
 from refresh.configuration import Configuration
-from refresh.database import Module, ModuleDatabase, Placement
+from refresh.database import ModuleDatabase, Placement
 from refresh.events import EventLog
 
 ORDER = ("migrate", "disconnect", "stop", "start", "connect")
@@ -54,25 +54,6 @@ class Timing:
 
     step: Step
     seconds: float
-
-
-class Applier(Protocol):
-    """Carries out plan steps on the robots."""
-
-    def disconnect(self, robot: str, sink: str) -> None:
-        """Unbind input port `sink` (``instance.port``) on `robot`."""
-
-    def stop(self, robot: str, instance: str) -> None:
-        """Switch PBO `instance` off, kill it and remove it from `robot`'s kernel."""
-
-    def migrate(self, robot: str, module: Module) -> None:
-        """Make `module`'s image installed on `robot` (nothing to do if it already is)."""
-
-    def start(self, robot: str, instance: str, module: Module) -> None:
-        """Register `module` as PBO `instance` on `robot`, set its constants, init it, switch on."""
-
-    def connect(self, robot: str, source: str, sink: str, source_robot: str) -> None:
-        """Bind input `sink` on `robot` to output `source` on `source_robot`."""
 
 
 @dataclass(frozen=True)

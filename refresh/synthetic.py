@@ -16,7 +16,8 @@ from dataclasses import dataclass
 
 from refresh.configuration import Configuration
 from refresh.database import Module, ModuleDatabase, Placement, Resource, Robot, Schema, SchemaKind
-from refresh.estimator import FunctionEstimator, Values
+from refresh.estimators.base import Values
+from refresh.estimators.function import FunctionEstimator
 from refresh.task import Metric, StateMachine, TaskSpec
 
 METRIC = "error"

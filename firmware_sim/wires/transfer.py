@@ -24,8 +24,10 @@ DEFAULT_WINDOW = 4
 
 @dataclass(frozen=True)
 class WireRun:
-    """One committed transfer in virtual time."""
+    """One committed transfer in virtual time: the module it registered on the node, the
+    wire's figures and the time it took."""
 
+    module: str
     wire: str
     mode: str
     rate: float  # baud for serial, bit/s for CAN
@@ -103,6 +105,7 @@ def run_transfer(
     header_at = next(at for at, ack in acks if isinstance(ack, Ack) and ack.text == "header")
     data_at = max(at for at, ack in acks if _acknowledges_data(ack))
     return WireRun(
+        result.name,
         wire,
         mode,
         rate or (DEFAULT_BAUDRATE if wire == "serial" else DEFAULT_BITRATE),

@@ -21,7 +21,7 @@ from collections.abc import Callable
 from refresh.configuration import Configuration
 from refresh.database import ModuleDatabase
 from refresh.errors import ConfigurationError
-from refresh.estimator import Estimator
+from refresh.estimators.base import Estimator
 from refresh.events import EventLog
 from refresh.location import adaptive, base_choice, brute_force, pairwise
 from refresh.location.result import MORE_THAN_ONE_FAULT, NO_PASSING_CONFIGURATION, Location

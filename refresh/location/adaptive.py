@@ -29,7 +29,7 @@ from collections.abc import Callable, Sequence
 
 from refresh.configuration import Chain, Configuration
 from refresh.database import ModuleDatabase
-from refresh.estimator import Estimator
+from refresh.estimators.base import Estimator
 from refresh.events import EventLog
 from refresh.location import base_choice
 from refresh.location.result import NO_PASSING_CONFIGURATION, Location

@@ -14,7 +14,7 @@ from collections.abc import Iterator
 
 from refresh.configuration import Chain, Configuration
 from refresh.database import ModuleDatabase
-from refresh.estimator import Estimator
+from refresh.estimators.base import Estimator
 from refresh.events import EventLog
 from refresh.location.result import MORE_THAN_ONE_FAULT, Location
 from refresh.location.trials import Trials, slot_options

@@ -15,7 +15,7 @@ import math
 
 from refresh.configuration import Configuration
 from refresh.database import ModuleDatabase
-from refresh.estimator import Estimator
+from refresh.estimators.base import Estimator
 from refresh.events import EventLog
 from refresh.location.result import NO_PASSING_CONFIGURATION, Location
 from refresh.location.trials import Trials, all_options

@@ -21,7 +21,7 @@ from allpairspy import AllPairs
 
 from refresh.configuration import Chain, Configuration
 from refresh.database import ModuleDatabase
-from refresh.estimator import Estimator
+from refresh.estimators.base import Estimator
 from refresh.events import EventLog
 from refresh.location.result import NO_PASSING_CONFIGURATION, Location
 from refresh.location.trials import Chains, Trials, all_options

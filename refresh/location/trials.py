@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from refresh.configuration import Chain, Configuration
 from refresh.database import ModuleDatabase
-from refresh.estimator import Estimator
+from refresh.estimators.base import Estimator
 from refresh.events import EventLog
 from refresh.location.result import Location
 from refresh.performance import assess, usage, usage_replaced

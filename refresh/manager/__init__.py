@@ -13,7 +13,6 @@ runs its own robots across processes builds the same manager from them):
 ================  ===========================================================================
 """
 
-from refresh.manager.codes import host_codes, host_estimators
 from refresh.manager.event_stream import EventStream
 from refresh.manager.manager import ManagerConfig, manage
 from refresh.manager.time_modes import LockStep, RealTime, TimeMode

@@ -20,13 +20,13 @@ from firmware_sim.core.natives import load_natives
 from firmware_sim.core.node import Node
 from firmware_sim.errors import FirmwareSimError
 from hexmigrate.signing.keys import PrivateKey
+from refresh.appliers.over_links import LinkApplier
 from refresh.configuration import Configuration
 from refresh.errors import ConfigurationError, DatabaseError
+from refresh.estimators.host import host_estimators
 from refresh.load import Loaded, load
-from refresh.manager.codes import host_estimators
 from refresh.manager.event_stream import EventStream
 from refresh.manager.time_modes import TimeMode
-from refresh.remote import LinkApplier
 from refresh.remote.remote_node import REPORT_PERIOD
 from refresh.runtime import Runtime, RuntimeSettings
 

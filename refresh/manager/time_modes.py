@@ -25,8 +25,9 @@ from typing import Protocol
 
 from hexmigrate.errors import HexmigrateError, NoAnswer, TransferError, TransferInterrupted
 from hexmigrate.transfer.time_master import TimeMaster
+from refresh.appliers.over_links import LinkApplier
 from refresh.errors import NodeLinkError
-from refresh.remote import LinkApplier, RemoteNode
+from refresh.remote.remote_node import RemoteNode
 
 REAL_TIME_REFUSAL = "real-time clock"
 """What a real-time node's refusal of an Advance says (firmware_sim's `KernelControl.advance`)."""

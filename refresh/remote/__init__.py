@@ -4,15 +4,11 @@ A robot's node runs in another process or on a board (``firmware-sim listen``) a
 a URL (``socket://``, a pty path, ``can://``, ``faulty+...``). On that one link the manager sends
 images and control requests and receives the node's pushed reports:
 
-===============  =====================================================================
+===============  ===================================================================
 ``reports``      `ReportSource`: a robot's performance buffers from its node's reports
 ``remote_node``  `RemoteNode`: one node over its link, its requests and its pushes
-``applier``      `LinkApplier`: the Maintainer's applier over links, with bridges
-===============  =====================================================================
+``guard``        `GuardedControl`: a lock-step time master's view of a node that may be lost
+===============  ===================================================================
+
+The applier over these nodes is `refresh.appliers.over_links.LinkApplier`.
 """
-
-from refresh.remote.applier import LinkApplier
-from refresh.remote.remote_node import RemoteNode
-from refresh.remote.reports import ReportSource
-
-__all__ = ["LinkApplier", "RemoteNode", "ReportSource"]

@@ -36,15 +36,15 @@ import time
 from collections.abc import Callable
 
 from refresh.adaptation import decide
+from refresh.appliers.base import ApplierBase
 from refresh.configuration import Configuration, initial_configuration
 from refresh.database import ModuleDatabase
 from refresh.decider import Decider, Detection
 from refresh.errors import ConfigurationError, NodeLinkError, RefreshError
+from refresh.estimators.base import EstimatorFactory
 from refresh.events import EventLog
 from refresh.location import brute_force, compare
 from refresh.maintainer import Maintainer
-from refresh.runtime.applier import RuntimeApplier
-from refresh.runtime.estimators import EstimatorFactory
 from refresh.runtime.history import History, Reconfiguration
 from refresh.runtime.rates import check_rates
 from refresh.runtime.settings import RuntimeSettings
@@ -67,7 +67,7 @@ class Runtime:
         self,
         database: ModuleDatabase,
         task: TaskSpec,
-        applier: RuntimeApplier,
+        applier: ApplierBase,
         estimators: EstimatorFactory,
         clock: Callable[[], float],
         settings: RuntimeSettings | None = None,

@@ -57,7 +57,7 @@ def test_each_fault_is_located_and_repaired_as_the_scenario_expects(name, tmp_pa
     got = []
     for record in outcome.reconfigurations:
         assert record.target is not None and record.recovered_at is not None
-        moved = [(m.module, m.robot) for m in outcome.migrations if m.time == record.applied_at]
+        moved = [(m.module, m.robot) for m in outcome.migrations if m.start == record.applied_at]
         got.append(
             (record.decision.location.module, record.decision.location.tried,
              record.target.label(), moved)

@@ -16,9 +16,10 @@ from contextlib import contextmanager
 
 from firmware_sim.core.node import Node
 from pbort import Kernel, NativeModule, NativePBO, PerformanceKind, PortIO, PortSpec
+from refresh.appliers.in_process import NodeApplier
+from refresh.estimators.host import HostEstimators
 from refresh.load import Loaded, loads
-from refresh.node_applier import NodeApplier
-from refresh.runtime import HostEstimators, Runtime, RuntimeSettings
+from refresh.runtime import Runtime, RuntimeSettings
 
 F, NF = PerformanceKind.FUNCTIONAL, PerformanceKind.NON_FUNCTIONAL
 ROBOT = "rover"

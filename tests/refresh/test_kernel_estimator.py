@@ -7,7 +7,7 @@ import pytest
 
 from pbort import Kernel
 from refresh.configuration import Configuration, initial_configuration, parse_placement
-from refresh.kernel_estimator import KernelEstimator
+from refresh.estimators.kernel import KernelEstimator
 from tests.refresh.line_follower import load, natives
 
 FAULT_AT = 1.0

@@ -12,13 +12,13 @@ import pytest
 from firmware_sim.core.node import Node
 from pbort import Kernel, NativeModule, NativePBO, PerformanceKind, PortIO, PortSpec
 from refresh.adaptation import decide
+from refresh.appliers.in_process import NodeApplier
 from refresh.configuration import initial_configuration
 from refresh.decider import Decider
+from refresh.estimators.kernel import KernelEstimator
 from refresh.events import EventLog
-from refresh.kernel_estimator import KernelEstimator
 from refresh.load import load
 from refresh.maintainer import Maintainer
-from refresh.node_applier import NodeApplier
 from refresh.performance import assess, usage
 
 DATABASE = Path(__file__).parents[2] / "refresh" / "data" / "visual_servoing.toml"

@@ -11,13 +11,13 @@ from firmware_sim.core.natives import Signal
 from firmware_sim.core.node import Node
 from hexmigrate.elf import image_from_elf
 from pbort import NativeModule, State
+from refresh.appliers.in_memory import MemoryApplier
+from refresh.appliers.in_process import NodeApplier
 from refresh.configuration import Configuration, initial_configuration, parse_placement
 from refresh.errors import ApplyError
 from refresh.events import EventLog
 from refresh.load import Loaded, loads
 from refresh.maintainer import Maintainer, plan
-from refresh.memory_applier import MemoryApplier
-from refresh.node_applier import NodeApplier
 
 DATABASE = """
 [robots.a]
@@ -96,7 +96,7 @@ def test_replacing_a_module_keeps_the_rest_running():
     loaded = loads(DATABASE)
     current = configuration(loaded, "signal@b", "gain@b")
     target = configuration(loaded, "signal@b", "moving_average@b")
-    applier = MemoryApplier()
+    applier = MemoryApplier(["a", "b"])
     maintainer = Maintainer(loaded.database, applier, EventLog())
     maintainer.apply(maintainer.plan(None, current))
     applier.applied.clear()
@@ -114,14 +114,14 @@ def test_replacing_a_module_keeps_the_rest_running():
 def test_a_coalition_wires_across_robots_in_the_model():
     loaded = loads(DATABASE)
     target = configuration(loaded, "signal@a", "moving_average@b")
-    applier = MemoryApplier()
+    applier = MemoryApplier(["a", "b"])
     Maintainer(loaded.database, applier, EventLog()).apply(plan(None, target, loaded.database))
     assert applier.robot("b").wiring == {"moving_average.x": ("signal.y", "a")}
 
 
 def test_the_memory_applier_refuses_what_a_node_would():
     loaded = loads(DATABASE)
-    applier = MemoryApplier()
+    applier = MemoryApplier(["a", "b"])
     with pytest.raises(ApplyError, match="expected image 'gain' installed, got none"):
         applier.start("a", "gain", loaded.database.module("gain"))
     with pytest.raises(ApplyError, match="expected a running PBO, got none"):
@@ -185,7 +185,7 @@ def test_a_coalition_carries_the_port_between_nodes_over_a_bridge(loaded: Loaded
         # The ramp's value read at one period reaches gain at the next (115200 baud: 0.9 ms).
         sent, doubled = node_a.kernel.value("signal.y"), node_b.kernel.value("gain.y")
         assert doubled == 2 * (sent - 3) > 0
-        bridge = applier.bridges["b", "gain.x"].bridge
+        bridge = applier.port_bridges[applier.bridges["b", "gain.x"].number]
         assert bridge.stats.skipped == 0 and bridge.stats.latency == pytest.approx(100 / 115200)
 
         back = configuration(loaded, "signal@a", "gain@a")

@@ -13,10 +13,11 @@ import pytest
 
 from firmware_sim.core.node import Node
 from pbort import Kernel
+from refresh.appliers.in_process import NodeApplier
 from refresh.errors import ApplyError, ConfigurationError, RateError
+from refresh.estimators.host import HostEstimators
 from refresh.location import STRATEGIES
-from refresh.node_applier import NodeApplier
-from refresh.runtime import HostEstimators, Runtime, RuntimeSettings
+from refresh.runtime import Runtime, RuntimeSettings
 from tests.refresh.line_follower import (
     ROBOT,
     SETTINGS,

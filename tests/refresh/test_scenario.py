@@ -15,7 +15,8 @@ import pytest
 from refresh import generator
 from refresh.adaptation import decide
 from refresh.configuration import Configuration, initial_configuration
-from refresh.estimator import FunctionEstimator, Values
+from refresh.estimators.base import Values
+from refresh.estimators.function import FunctionEstimator
 from refresh.events import EventLog
 from refresh.generator import candidates, combos, seeded
 from refresh.load import Loaded, load, loads

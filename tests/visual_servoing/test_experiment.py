@@ -68,10 +68,10 @@ def test_the_dehazer_migrates_and_the_task_recovers(paper):
     record = paper.reconfigurations[0]
     (migration,) = paper.migrations
     assert (migration.module, migration.robot) == ("Dehazer", "hexman")
-    assert migration.run.size > 1000 and migration.run.retransmissions == 0
+    assert migration.size > 1000 and migration.wire == "serial 115200"
     # 115200 baud: at most what 10 bits a payload byte and the flash allow, at least the bits.
-    assert migration.run.size * 10 / 115200 < migration.run.seconds < 1.0
-    assert record.applied_at == pytest.approx(record.detected_at + migration.run.seconds)
+    assert migration.size * 10 / 115200 < migration.seconds < 1.0
+    assert record.applied_at == pytest.approx(record.detected_at + migration.seconds)
     assert record.recovered_at is not None and record.recovered_at - record.applied_at < 1.0
     assert paper.stopped_at is None
     assert paper.configurations[-1][1] == PAPER_CANDIDATES[1]

@@ -144,7 +144,7 @@ def run(spec: Mapping[str, Any]) -> dict[str, Any]:
         outcome = experiment.run()
     return record.outcome(
         outcome.reconfigurations,
-        lambda r: [m.run.size for m in migrations_of(outcome, r)],
+        lambda r: [m.size for m in migrations_of(outcome, r)],
         outcome.stopped_at,
     )
 

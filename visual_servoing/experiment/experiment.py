@@ -27,18 +27,15 @@ from hexmanipulator.geometry import load as load_geometry
 from hexmigrate.image import ModuleImage
 from module_sdk.errors import BuildError
 from pbort.code import ModuleCode
+from refresh.appliers.base import Migration
 from refresh.configuration import Configuration
+from refresh.estimators.host import HostEstimators
 from refresh.events import EventLog
 from refresh.load import Loaded, loads
-from refresh.runtime import HostEstimators, Reconfiguration, Runtime, RuntimeSettings
+from refresh.runtime import Reconfiguration, Runtime, RuntimeSettings
 from visual_servoing.dehazer_guest import INSTRUCTION_BUDGET, NAME, dehazer_image
 from visual_servoing.errors import ExperimentError
-from visual_servoing.experiment.applier import (
-    ExperimentApplier,
-    ExperimentWorld,
-    Migration,
-    VirtualTimeApplier,
-)
+from visual_servoing.experiment.applier import ExperimentApplier, ExperimentWorld, WorldApplier
 from visual_servoing.experiment.firmware import camera_devices, task_natives
 from visual_servoing.experiment.scenarios import Scenario
 from visual_servoing.experiment.world import World
@@ -179,12 +176,14 @@ class Experiment:
     def _applier(self) -> ExperimentApplier:
         """The Maintainer's applier on the world's nodes, migrations in virtual time."""
         assert isinstance(self.world, World)
-        return VirtualTimeApplier(
-            self.world,
-            natives=self.natives,
+        return WorldApplier(
+            self.world.nodes,
+            self.natives,
             images={NAME: self.image},
             rate=ROBOT_LINK_BAUD,
+            migration_wire="serial",
             wait=self.run_for,
+            clock=self.world.now,
         )
 
     def _intent(self) -> float:

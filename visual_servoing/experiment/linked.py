@@ -45,20 +45,18 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from urllib.parse import urlsplit
 
-from firmware_sim.wires.transfer import run_transfer
 from hexmanipulator.can_bus import CanServoBus, open_can_bus
 from hexmanipulator.geometry import Geometry
 from hexmigrate.errors import HexmigrateError
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.time_master import TimeMaster
-from refresh.database import Module
+from refresh.appliers.base import Inventory
+from refresh.appliers.over_links import LinkApplier
 from refresh.errors import NodeLinkError, RefreshError
-from refresh.remote import LinkApplier
-from refresh.runtime.applier import Inventory
 from servo_emulators.bus_off import BusOffController
 from visual_servoing.dehazer_guest import NAME
 from visual_servoing.errors import ExperimentError
-from visual_servoing.experiment.applier import ExperimentApplier, Migration
+from visual_servoing.experiment.applier import ExperimentApplier
 from visual_servoing.experiment.experiment import Experiment, Outcome
 from visual_servoing.experiment.firmware import MANIPULATORS
 from visual_servoing.experiment.node import HEXMAN_ROBOT, PLATE
@@ -121,27 +119,14 @@ class RealTime:
 
 
 class LinkedApplier(LinkApplier):
-    """A `LinkApplier` whose migrations take the modelled wire's time: after the image is on
-    the node, `wait(seconds)` lets the world run on (the experiment's `run_for`). `relays`
-    are the robots reached through a `Relay` (a scenario that cuts their link); `rejoined(robot)`
-    is told of a node back whose ``Plate`` is off."""
+    """A `LinkApplier` whose migrations take the modelled wire's time (the experiment's
+    `run_for` waits). `relays` are the robots reached through a `Relay` (a scenario that cuts
+    their link); `rejoined(robot)` is told of a node back whose ``Plate`` is off."""
 
-    migrations: list[Migration]
-    wait: Callable[[float], None]
-    clock: Callable[[], float]
     relays: dict[str, Relay]
     rejoined: Callable[[str], None]
     down: set[str]
     """The robots whose outage has not ended yet in the run's time."""
-
-    def migrate(self, robot: str, module: Module) -> None:
-        if module.name in self.node(robot).modules():
-            return
-        start = self.clock()
-        super().migrate(robot, module)
-        run = run_transfer(self.image_of(module), MIGRATION_WIRE)
-        self.migrations.append(Migration(module.name, robot, start, run))
-        self.wait(run.seconds)
 
     def lose_node(self, outage: Outage) -> None:
         """A cut: the robot's relay drops the link. A kill needs nothing: the node kills
@@ -307,7 +292,7 @@ class LinkedExperiment(Experiment):
     def _applier(self) -> ExperimentApplier:
         applier = self.world.applier
         applier.images[NAME] = self.image
-        applier.migrations = []
+        applier.migration_wire = MIGRATION_WIRE
         applier.wait = self.run_for
         applier.clock = self.world.now
         return applier

@@ -19,8 +19,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 from pbort.trace.mcap_trace import McapTrace
+from refresh.appliers.base import Migration
 from refresh.runtime import Reconfiguration
-from visual_servoing.experiment.applier import Migration
 from visual_servoing.experiment.experiment import Outcome, deviation_series
 
 THRESHOLD = 30.0
@@ -77,10 +77,10 @@ def _reconfiguration(outcome: Outcome, record: Reconfiguration) -> dict[str, Any
                 "module": m.module,
                 "robot": m.robot,
                 "start": m.start,
-                "seconds": m.run.seconds,
-                "bytes": m.run.size,
-                "wire": f"{m.run.wire} {m.run.rate:g}",
-                "wire_bits": m.run.host.total_bits() + m.run.node.total_bits(),
+                "seconds": m.seconds,
+                "bytes": m.size,
+                "wire": m.wire,
+                "wire_bits": m.bits,
             }
             for m in migrations
         ],
@@ -230,8 +230,7 @@ def plot(outcome: Outcome, path: Path) -> None:
     for record in outcome.reconfigurations:
         marks.append((record.detected_at, "detection + decision", "tab:orange"))
         marks += [
-            (m.start + m.run.seconds, "migrated", "tab:purple")
-            for m in migrations_of(outcome, record)
+            (m.start + m.seconds, "migrated", "tab:purple") for m in migrations_of(outcome, record)
         ]
         if record.recovered_at is not None:
             marks.append((record.recovered_at, "recovered", "tab:green"))

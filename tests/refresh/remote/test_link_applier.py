@@ -22,13 +22,13 @@ from hexmigrate.signing.tlv import Version
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.time_master import TimeMaster
 from pbort.code import PerformanceKind
+from refresh.appliers.over_links import LinkApplier
 from refresh.configuration import Configuration, initial_configuration, parse_placement
 from refresh.decider import Decider
 from refresh.errors import NodeLinkError
 from refresh.events import EventLog
 from refresh.load import Loaded, loads
 from refresh.maintainer import Maintainer
-from refresh.remote.applier import LinkApplier
 from tests.firmware_sim.node_process import NodeProcess
 
 DATABASE = """

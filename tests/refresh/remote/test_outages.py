@@ -10,11 +10,11 @@ import time
 
 import pytest
 
+from refresh.appliers.over_links import LinkApplier
 from refresh.configuration import initial_configuration
 from refresh.errors import NodeLinkError
 from refresh.events import EventLog
 from refresh.maintainer import Maintainer
-from refresh.remote.applier import LinkApplier
 from tests.firmware_sim.node_process import NodeProcess
 
 from .test_link_applier import NODE, QUICK, loaded  # noqa: F401 (a fixture)

@@ -8,7 +8,7 @@ from __future__ import annotations
 from hexmigrate.transfer.messages import Ack, Heartbeat, PerformanceReport
 from hexmigrate.transfer.subscription import WRAP
 from pbort.code import PerformanceKind
-from refresh.remote.applier import url_host
+from refresh.appliers.over_links import url_host
 from refresh.remote.reports import ReportSource
 
 F, N = PerformanceKind.FUNCTIONAL, PerformanceKind.NON_FUNCTIONAL

@@ -17,8 +17,10 @@ Each step becomes requests of the transfer protocol on the node's own link:
   (listening on the sink node's host, port 0), then EXPORT on the source's node to the URL the
   importer answered. Taking it down is a STOP of ``bridge{N}_rx`` and ``bridge{N}_tx``.
 
-`sources()` gives the runtime each robot's `ReportSource` (the node's pushed evaluator outputs)
-and `read(robot, port)` a live port value (READ).
+With a modelled migration wire, a migration then takes, in the run's time, what the same image
+takes on that wire (`firmware_sim.wires.transfer`, a model of the wire alone). `sources()` gives
+the runtime each robot's `ReportSource` (the node's pushed evaluator outputs) and `read(robot,
+port)` a live port value (READ).
 
 Outages (docs/refresh.md, "Outages"): `lost(after)` names the robots whose node is lost, by a
 link failure or by silence (nothing heard for `after` seconds once what arrived is filed);
@@ -30,55 +32,28 @@ forgets it (the node is gone, or has restarted with its PBOs off).
 from __future__ import annotations
 
 import contextlib
-import itertools
 import re
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Mapping
 from typing import Protocol
 from urllib.parse import urlsplit
 
-from hexmigrate.image import ModuleImage
+from firmware_sim.wires.transfer import WireRun, run_transfer
 from hexmigrate.transfer.control import PboRow
 from hexmigrate.transfer.control_client import NodeControl
+from refresh.appliers.base import ApplierBase, Bridge, Inventory, owner
 from refresh.database import Module
 from refresh.errors import ApplyError, NodeLinkError
-from refresh.images import migration_image
 from refresh.remote.guard import GuardedControl
 from refresh.remote.remote_node import RemoteNode
 from refresh.remote.reports import ReportSource
-from refresh.runtime.applier import Inventory, node_of
 
 BRIDGE_PBO = re.compile(r"bridge(\d+)_(?:tx|rx)")
 """The name of a bridge's half on a node."""
 LOCAL_HOST = "127.0.0.1"
 """Where a bridge's importer listens when its node's URL names no host (a pty, a serial device,
 CAN): such a node is reached from the manager's own machine."""
-
-
-@dataclass(frozen=True)
-class Bridge:
-    """A bridge the applier put up: `source` on `source_robot` feeds `sink` on `sink_robot`
-    through PBOs ``bridge{number}_tx`` and ``bridge{number}_rx``."""
-
-    number: int
-    source_robot: str
-    source: str
-    sink_robot: str
-    sink: str
-
-    def ends(self) -> tuple[tuple[str, str], tuple[str, str]]:
-        """(robot, PBO) of the importer, then of the exporter."""
-        return (
-            (self.sink_robot, f"bridge{self.number}_rx"),
-            (self.source_robot, f"bridge{self.number}_tx"),
-        )
-
-    def touches(self, robot: str, instance: str) -> bool:
-        """Whether PBO `instance` on `robot` is one of the two ports' owners."""
-        return (robot, instance) in (
-            (self.source_robot, _owner(self.source)),
-            (self.sink_robot, _owner(self.sink)),
-        )
+NODE_OPTIONS = ("mode", "period", "timeout", "retries", "key")
+"""The options of `LinkApplier.open` that go to each `RemoteNode`."""
 
 
 class Router(Protocol):
@@ -92,46 +67,41 @@ class Router(Protocol):
         """Bridge `number` was taken down."""
 
 
-class LinkApplier:
+class LinkApplier(ApplierBase):
     """Applies plan steps to `nodes` (robot name -> RemoteNode), which it owns (`close`).
 
-    `images` may give a module's image instead of the file the database names; `hosts` the host
-    a robot's node listens on for bridges, where its URL names none (default LOCAL_HOST); `wire`
-    and `rate` what a bridge models: ``tcp`` (no delay), ``serial`` or ``can`` at `rate` bit/s
-    (0: the wire's default).
+    `hosts` gives the host a robot's node listens on for bridges, where its URL names none
+    (default LOCAL_HOST); `wire` and `rate` what a bridge models: ``tcp`` (no delay),
+    ``serial`` or ``can`` at `rate` bit/s (0: the wire's default). The other options are
+    `ApplierBase`'s.
     """
 
     def __init__(
         self,
         nodes: Mapping[str, RemoteNode],
         *,
-        images: Mapping[str, ModuleImage] | None = None,
         hosts: Mapping[str, str] | None = None,
         wire: str = "tcp",
         rate: float = 0,
+        **options: object,
     ) -> None:
+        super().__init__(**options)  # type: ignore[arg-type]
         self.nodes = dict(nodes)
-        self.images = dict(images or {})
         self.hosts = dict(hosts or {})
         self.wire = wire
         self.rate = rate
-        self.bridges: dict[tuple[str, str], Bridge] = {}
-        """The bridges by (sink robot, sink port)."""
         self.wires: dict[tuple[str, str], str] = {}
         """The wires made on one node: (robot, sink port) -> source port."""
         self.router: Router | None = None
         """In lock-step time, the `TimeMaster` of the nodes (built on `controls()`, set before
         the first bridge), told of every bridge put up or taken down."""
-        self._numbers = itertools.count()
-        self._issued = 0  # the bridges numbered so far
 
     @classmethod
     def open(cls, urls: Mapping[str, str], **options: object) -> LinkApplier:
         """The applier of the nodes at `urls` (robot -> URL), each checked now: a node that
         cannot be reached fails here, before any step. `options` go to `RemoteNode` (mode,
-        period, timeout, retries) or to the constructor (images, hosts, wire, rate)."""
-        mine = {"images", "hosts", "wire", "rate"}
-        node_options = {k: v for k, v in options.items() if k not in mine}
+        period, timeout, retries, key) or to the constructor."""
+        node_options = {k: v for k, v in options.items() if k in NODE_OPTIONS}
         nodes: dict[str, RemoteNode] = {}
         try:
             for robot, url in urls.items():
@@ -140,13 +110,21 @@ class LinkApplier:
             for node in nodes.values():
                 node.close()
             raise
-        return cls(nodes, **{k: v for k, v in options.items() if k in mine})  # type: ignore[arg-type]
+        mine = {k: v for k, v in options.items() if k not in NODE_OPTIONS}
+        return cls(nodes, **mine)
 
     def node(self, robot: str) -> RemoteNode:
-        """The node of `robot`."""
-        return node_of(self.nodes, robot)
+        """The node of `robot` (lost or not)."""
+        if robot not in self.nodes:
+            raise ApplyError(
+                f"robot {robot!r}: expected one of {', '.join(self.nodes)}, got no such node"
+            )
+        return self.nodes[robot]
 
     # The runtime's view.
+
+    def robots(self) -> Iterable[str]:
+        return self.nodes
 
     def sources(self) -> Mapping[str, ReportSource]:
         """Each robot's performance source, filled by its node's reports."""
@@ -163,7 +141,9 @@ class LinkApplier:
         return lambda: self.nodes[robot]
 
     def use_clock(self, clock: Callable[[], float]) -> None:
-        """Time the nodes' silence on `clock` (a lock-step master's time) from now on."""
+        """Date the migrations and time the nodes' silence on `clock` (the run's: a lock-step
+        master's time) from now on."""
+        self.clock = clock
         for node in self.nodes.values():
             node.clock = clock
             node.heard = clock()
@@ -175,6 +155,11 @@ class LinkApplier:
             if node.lost is None:
                 with contextlib.suppress(NodeLinkError):
                     node.ask("PING", node.sender.ping)
+
+    def _read(self, robot: str, port: str) -> object:
+        node = self.nodes[robot]
+        ((_name, value),) = node.ask(f"READ {port}", lambda: node.control.read((port,)))
+        return value
 
     # Outages.
 
@@ -191,11 +176,14 @@ class LinkApplier:
                 node.lose(f"nothing heard for {silent:.3f} s (at most {after:g} s allowed)")
         return {robot: node.lost for robot, node in self.nodes.items() if node.lost is not None}
 
-    def rejoin(self, robot: str) -> Inventory | None:
+    def is_lost(self, robot: str) -> bool:
+        return self.node(robot).lost is not None
+
+    def _reach(self, robot: str) -> Inventory | None:
         """Open lost `robot`'s link again (one try, its node's options otherwise); what its node
-        has (modules in flash, PBOs and their states) once it answers, else None. What this
-        applier had made on the node before (wires, bridges' halves) is forgotten, and a half of
-        a bridge taken down meanwhile that the node still runs is stopped."""
+        has (modules in flash, PBOs and their states) once it answers, else None. The wires this
+        applier had made on the node are forgotten, and a half of a bridge taken down meanwhile
+        that the node still runs is stopped."""
         old = self.node(robot)
         options = {**old.options, "retries": 0}
         old.close()
@@ -207,7 +195,8 @@ class LinkApplier:
         assert isinstance(retries, int)
         node.sender.retries = retries
         self.nodes[robot] = node
-        self._forget(robot)
+        for key in [key for key in self.wires if key[0] == robot]:
+            del self.wires[key]
         try:
             rows = node.ask("PS", node.control.pbos)
             modules = node.modules()
@@ -219,56 +208,36 @@ class LinkApplier:
     def _stop_stale_bridges(self, node: RemoteNode, running: list[str]) -> None:
         """Stop the halves of this applier's bridges that `node` still runs though they were
         taken down while it was lost (a node whose link was cut lived on)."""
-        issued = self._issued
         live = {bridge.number for bridge in self.bridges.values()}
         for name in running:
             found = BRIDGE_PBO.fullmatch(name)
-            if found and int(found[1]) < issued and int(found[1]) not in live:
+            if found and int(found[1]) < self.issued and int(found[1]) not in live:
                 _stop(node, name)
 
-    def _forget(self, robot: str) -> None:
-        """Drop the wires on `robot` and take down the bridges with a half on it."""
-        for key in [key for key in self.wires if key[0] == robot]:
-            del self.wires[key]
-        for key, bridge in list(self.bridges.items()):
-            if robot in (bridge.source_robot, bridge.sink_robot):
-                del self.bridges[key]
-                with contextlib.suppress(NodeLinkError):
-                    self._take_down(bridge)
+    # The hooks.
 
-    def read(self, robot: str, port: str) -> float:
-        """The live value of scalar port `port` (``PBO.port``) on `robot`'s node."""
-        node = self.node(robot)
-        ((_name, value),) = node.ask(f"READ {port}", lambda: node.control.read((port,)))
-        return float(value)
+    def _installed(self, robot: str, module: str) -> bool:
+        return module in self.nodes[robot].modules()
 
-    # The plan's steps.
-
-    def migrate(self, robot: str, module: Module) -> None:
-        """Send the module's image to the node unless the node lists it already."""
-        node = self.node(robot)
-        if module.name in node.modules():
-            return
+    def _send(self, robot: str, module: Module) -> tuple[str, int, WireRun | None]:
+        """SEND the image over the node's link; with a modelled migration wire, the time the
+        same image takes on it."""
+        node = self.nodes[robot]
         image = self.image_of(module)
         result = node.ask(f"SEND {module.name}", lambda: node.sender.send(image))
-        if result.name != module.name:
-            raise node.error(
-                f"SEND {module.name}",
-                f"expected the image to register {module.name!r}, got {result.name!r}",
-            )
+        run = None
+        if self.migration_wire is not None:
+            run = run_transfer(image, self.migration_wire, rate=self.migration_rate)
+        return result.name, image.size, run
 
-    def image_of(self, module: Module) -> ModuleImage:
-        """The image to migrate: the one given for the module, else the file the database names."""
-        return migration_image(module, self.images)
-
-    def start(self, robot: str, instance: str, module: Module) -> None:
+    def _start(self, robot: str, instance: str, module: Module) -> None:
         """Set the PBO's rate and constants from the database while it is off, then start it."""
         if instance != module.name:
             raise ApplyError(
                 f"start {instance} ({module.name}) on {robot}: a node over a link runs a module "
                 f"as one PBO named after it; expected the instance {module.name!r}"
             )
-        node = self.node(robot)
+        node = self.nodes[robot]
         row = self._row(node, module)
         control = node.control
         if row.state == "ERROR":
@@ -305,46 +274,31 @@ class LinkApplier:
         listed = ", ".join(row.name for row in rows) or "none"
         raise node.error(f"start {module.name}", f"expected {expected}, got PBOs {listed}")
 
-    def stop(self, robot: str, instance: str) -> None:
-        """Take down the bridges and wires of the PBO, then switch it off; its image stays
-        installed for a later start."""
-        for key, bridge in list(self.bridges.items()):
-            if bridge.touches(robot, instance):
-                self._take_down(bridge)
-                del self.bridges[key]
-        node = self.node(robot)
+    def _stop(self, robot: str, instance: str) -> None:
+        """Undo the wires into and out of the PBO, then switch it off (a lost node's are only
+        forgotten)."""
+        node = self.nodes[robot]
         for (wired_robot, sink), source in list(self.wires.items()):
-            if wired_robot == robot and instance in (_owner(source), _owner(sink)):
+            if wired_robot == robot and instance in (owner(source), owner(sink)):
                 self._unwire(node, source, sink)
         if node.lost is None:
             node.ask(f"STOP {instance}", lambda: node.control.stop(instance))
         node.source.forget(instance)
 
-    def connect(self, robot: str, source: str, sink: str, source_robot: str) -> None:
-        """Wire the input to the output: on the node when both are on one robot, else through a
-        bridge from the source's node to the sink's."""
-        if source_robot != robot:
-            self._bridge(source_robot, source, robot, sink)
-            return
-        node = self.node(robot)
+    def _connect(self, robot: str, source: str, sink: str) -> None:
+        node = self.nodes[robot]
         wire = f"{source}={sink}"
         node.ask(f"CONNECT {wire}", lambda: node.control.connect(wire))
         self.wires[robot, sink] = source
 
-    def disconnect(self, robot: str, sink: str) -> None:
-        """Unwire input `sink`: take down its bridge, or undo the wire into it."""
-        bridge = self.bridges.get((robot, sink))
-        if bridge is not None:
-            self._take_down(bridge)
-            del self.bridges[robot, sink]
-            return
+    def _disconnect(self, robot: str, sink: str) -> None:
         source = self.wires.get((robot, sink))
         if source is None:
             raise ApplyError(
                 f"disconnect {sink} on {robot}: expected a wire or bridge this applier made into "
                 "it, got none"
             )
-        self._unwire(self.node(robot), source, sink)
+        self._unwire(self.nodes[robot], source, sink)
 
     def _unwire(self, node: RemoteNode, source: str, sink: str) -> None:
         wire = f"{source}={sink}"
@@ -354,30 +308,29 @@ class LinkApplier:
 
     # Bridges.
 
-    def _bridge(self, source_robot: str, source: str, sink_robot: str, sink: str) -> None:
+    def _bridge(self, bridge: Bridge) -> None:
         """IMPORT on the sink's node, then EXPORT on the source's node to the URL it answered;
         an export that fails takes the importer down again."""
-        number = next(self._numbers)
-        self._issued = number + 1
-        bridge = Bridge(number, source_robot, source, sink_robot, sink)
-        importer, exporter = self.node(sink_robot), self.node(source_robot)
-        listen = f"tcp-listen://{self.host(sink_robot)}:0"
+        number = bridge.number
+        importer, exporter = self.nodes[bridge.sink_robot], self.nodes[bridge.source_robot]
+        listen = f"tcp-listen://{self.host(bridge.sink_robot)}:0"
         url = importer.ask(
-            f"IMPORT bridge{number} into {sink} on {listen}",
-            lambda: importer.control.import_port(number, sink, listen, self.wire, self.rate),
+            f"IMPORT bridge{number} into {bridge.sink} on {listen}",
+            lambda: importer.control.import_port(number, bridge.sink, listen, self.wire, self.rate),
         )
         try:
             exporter.ask(
-                f"EXPORT bridge{number} from {source} to {url}",
-                lambda: exporter.control.export_port(number, source, url, self.wire, self.rate),
+                f"EXPORT bridge{number} from {bridge.source} to {url}",
+                lambda: exporter.control.export_port(
+                    number, bridge.source, url, self.wire, self.rate
+                ),
             )
         except NodeLinkError:
             with contextlib.suppress(NodeLinkError):  # the export's failure is the one to tell
                 _stop(importer, f"bridge{number}_rx")
             raise
-        self.bridges[sink_robot, sink] = bridge
         if self.router is not None:
-            self.router.route(number, source_robot, sink_robot)
+            self.router.route(number, bridge.source_robot, bridge.sink_robot)
 
     def host(self, robot: str) -> str:
         """The host `robot`'s node listens on for a bridge: given in `hosts`, else the one its
@@ -385,21 +338,13 @@ class LinkApplier:
         host = self.hosts.get(robot) or url_host(self.node(robot).url) or LOCAL_HOST
         return f"[{host}]" if ":" in host else host
 
-    def _take_down(self, bridge: Bridge) -> None:
-        """Stop the bridge's two PBOs, both tried even if the first fails (whose error is
-        raised then); a half on a lost node is gone with it."""
-        failed: NodeLinkError | None = None
-        for robot, pbo in bridge.ends():
-            if self.node(robot).lost is not None:
-                continue  # gone with its node
-            try:
-                _stop(self.node(robot), pbo)
-            except NodeLinkError as error:
-                failed = failed or error
-        if self.router is not None:  # a half that would not stop carries nothing either
+    def _stop_pbo(self, robot: str, pbo: str) -> None:
+        _stop(self.nodes[robot], pbo)
+
+    def _bridge_down(self, bridge: Bridge) -> None:
+        """A half that would not stop carries nothing either: the router forgets the bridge."""
+        if self.router is not None:
             self.router.unroute(bridge.number)
-        if failed is not None:
-            raise failed
 
     # Closing.
 
@@ -431,7 +376,3 @@ def _stop(node: RemoteNode, pbo: str) -> None:
 def _number(value: float) -> str:
     """A constant as SET writes it (a boolean as 0 or 1)."""
     return repr(int(value)) if isinstance(value, bool) else repr(value)
-
-
-def _owner(port: str) -> str:
-    return port.partition(".")[0]

@@ -26,7 +26,7 @@ from pbort.kernel import Kernel
 from refresh.configuration import Configuration
 from refresh.database import ModuleDatabase
 from refresh.errors import EstimationError
-from refresh.estimator import Values
+from refresh.estimators.base import Values
 from refresh.task import TaskSpec
 
 

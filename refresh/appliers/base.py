@@ -1,0 +1,356 @@
+"""The appliers' base: what every applier does, whatever runs the robots.
+
+The Maintainer's plan is carried out by an applier, one public method per kind of step
+(`Applier`: disconnect, stop, migrate, start, connect); the runtime also reads through it what
+runs (`sources`, `read`) and the robots' outages (`lost`, `rejoin`). `ApplierBase` holds what
+every back end does alike, as python-can's `BusABC` does for its interfaces: each public method
+does the bookkeeping and calls one protected hook that the back end implements.
+
+- **Bridges.** A connection between two robots (a coalition) is a bridge: an exporting PBO
+  ``bridge{N}_tx`` on the source robot and an importing one ``bridge{N}_rx`` on the sink's, each
+  at its module's rate, numbered by the applier. The base numbers them, keeps them by sink, takes
+  down the bridges of a PBO that stops or of an input that is disconnected, and forgets those with
+  a half on a robot that was lost; the back end puts up and stops the halves (`_bridge`,
+  `_stop_pbo`).
+- **Outages.** A robot is lost (its node gone, silent, or switched off) when `lost` names it; a
+  step on a lost robot asks nothing of its node: stopping what ran there, or taking down a
+  bridge's half there, only forgets it, and adding anything there is refused. `rejoin` reaches a
+  lost robot's node again and says what it has (`Inventory`).
+- **Images and migrations.** The image to migrate is the one given for the module, else the file
+  the database names. Each migration is recorded (`Migration`); with a modelled wire
+  (`migration_wire`), the transfer takes that wire's time in the run: the back end says how long
+  (`_send`), and `wait(seconds)` lets the world run on meanwhile (the old configuration keeps
+  working while the image travels, as on a real robot).
+- **Reads.** `read` gives a live scalar port's value as a float, or an ApplyError naming the port.
+
+The back ends live beside this module: `in_memory` (a model of the robots, for tests of plans),
+`in_process` (emulated nodes in this process) and `over_links` (node processes or boards reached
+by URL).
+"""
+
+from __future__ import annotations
+
+import itertools
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
+from typing import Protocol
+
+from firmware_sim.wires.transfer import WireRun
+from hexmigrate.image import ModuleImage
+from refresh.database import Module
+from refresh.decider import PerformanceSource
+from refresh.errors import ApplyError, NodeLinkError
+from refresh.images import migration_image
+
+
+class Applier(Protocol):
+    """Carries out plan steps on the robots (what the Maintainer needs)."""
+
+    def disconnect(self, robot: str, sink: str) -> None:
+        """Unbind input port `sink` (``instance.port``) on `robot`."""
+
+    def stop(self, robot: str, instance: str) -> None:
+        """Switch PBO `instance` off, kill it and remove it from `robot`'s kernel."""
+
+    def migrate(self, robot: str, module: Module) -> None:
+        """Make `module`'s image installed on `robot` (nothing to do if it already is)."""
+
+    def start(self, robot: str, instance: str, module: Module) -> None:
+        """Register `module` as PBO `instance` on `robot`, set its constants, init it, switch on."""
+
+    def connect(self, robot: str, source: str, sink: str, source_robot: str) -> None:
+        """Bind input `sink` on `robot` to output `source` on `source_robot`."""
+
+
+@dataclass(frozen=True)
+class Inventory:
+    """What a node that rejoined has: its modules (in flash) and its PBOs with their states
+    (``ON``, ``OFF``, ``ERROR``)."""
+
+    modules: tuple[str, ...]
+    pbos: tuple[tuple[str, str], ...]
+
+    def running(self) -> tuple[str, ...]:
+        """The PBOs that are on."""
+        return tuple(name for name, state in self.pbos if state == "ON")
+
+
+@dataclass(frozen=True)
+class Bridge:
+    """A bridge an applier put up: `source` on `source_robot` feeds `sink` on `sink_robot`
+    through PBOs ``bridge{number}_tx`` and ``bridge{number}_rx``."""
+
+    number: int
+    source_robot: str
+    source: str
+    sink_robot: str
+    sink: str
+
+    def halves(self) -> tuple[tuple[str, str], tuple[str, str]]:
+        """(robot, PBO) of the importer, then of the exporter."""
+        return (
+            (self.sink_robot, f"bridge{self.number}_rx"),
+            (self.source_robot, f"bridge{self.number}_tx"),
+        )
+
+    def touches(self, robot: str, instance: str) -> bool:
+        """Whether PBO `instance` on `robot` owns one of the two ports."""
+        return (robot, instance) in (
+            (self.source_robot, owner(self.source)),
+            (self.sink_robot, owner(self.sink)),
+        )
+
+    def robots(self) -> tuple[str, str]:
+        """The robots of the source and of the sink."""
+        return self.source_robot, self.sink_robot
+
+
+@dataclass(frozen=True)
+class Migration:
+    """One image sent to a robot: when it started (seconds of the run), its size, and, on a
+    modelled wire, the time the transfer took there, the wire and its rate (``serial 115200``)
+    and the bits it put on the wire both ways."""
+
+    module: str
+    robot: str
+    start: float
+    size: int
+    seconds: float = 0.0
+    wire: str = ""
+    bits: int = 0
+
+    @classmethod
+    def of(cls, module: str, robot: str, start: float, size: int, run: WireRun | None) -> Migration:
+        """The record of a transfer, timed on the modelled wire `run` went over (if any)."""
+        if run is None:
+            return cls(module, robot, start, size)
+        bits = run.host.total_bits() + run.node.total_bits()
+        return cls(module, robot, start, size, run.seconds, f"{run.wire} {run.rate:g}", bits)
+
+
+class ApplierBase(ABC):
+    """What every applier does; a back end implements the protected hooks.
+
+    `images` may give a module's image instead of the file the database names;
+    `migration_wire` (``serial``, ``can``; None: no wire time) and `migration_rate` (bit/s,
+    None: the wire's default) model the wire a migration crosses, and `wait(seconds)` lets the
+    world run on while it does; `clock()` dates each migration (seconds of the run).
+    """
+
+    def __init__(
+        self,
+        *,
+        images: Mapping[str, ModuleImage] | None = None,
+        migration_wire: str | None = None,
+        migration_rate: float | None = None,
+        wait: Callable[[float], None] = lambda seconds: None,
+        clock: Callable[[], float] = lambda: 0.0,
+    ) -> None:
+        self.images = dict(images or {})
+        self.migration_wire = migration_wire
+        self.migration_rate = migration_rate
+        self.wait = wait
+        self.clock = clock
+        self.bridges: dict[tuple[str, str], Bridge] = {}
+        """The bridges by (sink robot, sink port)."""
+        self.migrations: list[Migration] = []
+        """Every image sent, in order."""
+        self.frequencies: dict[tuple[str, str], float] = {}
+        """(robot, PBO) -> the rate it was started at, for the bridges that carry its ports."""
+        self._numbers = itertools.count()
+        self.issued = 0
+        """How many bridges were numbered so far."""
+
+    # What the runtime reads.
+
+    @abstractmethod
+    def robots(self) -> Iterable[str]:
+        """The robots this applier drives."""
+
+    @abstractmethod
+    def sources(self) -> Mapping[str, PerformanceSource]:
+        """Each robot's performance source (the evaluators' reports), by robot."""
+
+    def read(self, robot: str, port: str) -> float:
+        """The live value of scalar port `port` (``instance.port``) on `robot`; a lost robot's
+        back end says why it has none."""
+        self._known(robot)
+        value = self._read(robot, port)
+        try:
+            return float(value)  # type: ignore[arg-type]
+        except (TypeError, ValueError):
+            raise ApplyError(
+                f"read {port} on {robot}: expected a scalar value, got {type(value).__name__}"
+            ) from None
+
+    @abstractmethod
+    def _read(self, robot: str, port: str) -> object:
+        """The live value of `port` on `robot`, as the node holds it."""
+
+    # Outages.
+
+    @abstractmethod
+    def lost(self, after: float) -> Mapping[str, str]:
+        """The robots whose node is lost, with why: gone (a link that failed, a node powered
+        off) or silent for `after` seconds."""
+
+    @abstractmethod
+    def is_lost(self, robot: str) -> bool:
+        """Whether `robot`'s node is lost (a step there asks nothing of it)."""
+
+    def rejoin(self, robot: str) -> Inventory | None:
+        """Reach lost `robot`'s node again: what it has once it answers, else None. What this
+        applier had made with a half on the robot (bridges) is forgotten, and their other halves
+        taken down."""
+        inventory = self._reach(robot)
+        if inventory is None:
+            return None
+        for key, bridge in list(self.bridges.items()):
+            if robot in bridge.robots():
+                del self.bridges[key]
+                self._take_down(bridge, quiet=True)
+        return inventory
+
+    @abstractmethod
+    def _reach(self, robot: str) -> Inventory | None:
+        """Reach `robot`'s node again; what it has, else None."""
+
+    def require(self, robot: str) -> None:
+        """Refuse a robot this applier does not drive, or one whose node is lost."""
+        self._known(robot)
+        if self.is_lost(robot):
+            raise ApplyError(f"robot {robot!r}: its node is lost")
+
+    def _known(self, robot: str) -> None:
+        """Refuse a robot this applier does not drive."""
+        robots = list(self.robots())
+        if robot not in robots:
+            raise ApplyError(
+                f"robot {robot!r}: expected one of {', '.join(robots)}, got no such node"
+            )
+
+    # The plan's steps.
+
+    def disconnect(self, robot: str, sink: str) -> None:
+        """Unbind input `sink` on `robot`: take down the bridge that fed it, or undo the wire."""
+        bridge = self.bridges.pop((robot, sink), None)
+        if bridge is not None:
+            self._take_down(bridge)
+            return
+        self._disconnect(robot, sink)
+
+    def stop(self, robot: str, instance: str) -> None:
+        """Take down the bridges to and from PBO `instance`, then stop it; its image stays
+        installed for a later start. On a lost robot it is only forgotten."""
+        for key, bridge in list(self.bridges.items()):
+            if bridge.touches(robot, instance):
+                del self.bridges[key]
+                self._take_down(bridge)
+        self.frequencies.pop((robot, instance), None)
+        self._stop(robot, instance)
+
+    def migrate(self, robot: str, module: Module) -> None:
+        """Send the module's image to the robot unless it is installed there already; with a
+        modelled wire, let the world run on for as long as the transfer takes."""
+        self.require(robot)
+        if module.source.native:
+            raise ApplyError(
+                f"migrate {module.name} to {robot}: expected an image, got native code"
+            )
+        if self._installed(robot, module.name):
+            return
+        start = self.clock()
+        registered, size, run = self._send(robot, module)
+        if registered != module.name:
+            raise ApplyError(
+                f"migrate {module.name} to {robot}: expected the image to register "
+                f"{module.name!r}, got {registered!r}"
+            )
+        migration = Migration.of(module.name, robot, start, size, run)
+        self.migrations.append(migration)
+        if migration.seconds > 0:
+            self.wait(migration.seconds)
+
+    def image_of(self, module: Module) -> ModuleImage:
+        """The image to migrate: the one given for the module, else the file the database names."""
+        return migration_image(module, self.images)
+
+    def start(self, robot: str, instance: str, module: Module) -> None:
+        """Start PBO `instance` of `module` with the database's rate and constants."""
+        self.require(robot)
+        self._start(robot, instance, module)
+        self.frequencies[robot, instance] = module.frequency
+
+    def connect(self, robot: str, source: str, sink: str, source_robot: str) -> None:
+        """Bind the input to the output: on the robot's node when both are on one robot, else
+        through a new bridge from the source's node to the sink's."""
+        if source_robot == robot:
+            self.require(robot)
+            self._connect(robot, source, sink)
+            return
+        self.require(source_robot)
+        self.require(robot)
+        number = next(self._numbers)
+        self.issued = number + 1
+        bridge = Bridge(number, source_robot, source, robot, sink)
+        self._bridge(bridge)
+        self.bridges[robot, sink] = bridge
+
+    def _take_down(self, bridge: Bridge, *, quiet: bool = False) -> None:
+        """Stop a bridge's two halves (a half on a lost robot went with its node), both tried
+        even if the first fails, whose error is raised then (unless `quiet`)."""
+        failed: ApplyError | NodeLinkError | None = None
+        for robot, pbo in bridge.halves():
+            if robot in self.robots() and not self.is_lost(robot):
+                try:
+                    self._stop_pbo(robot, pbo)
+                except (ApplyError, NodeLinkError) as error:
+                    failed = failed or error
+        self._bridge_down(bridge)
+        if failed is not None and not quiet:
+            raise failed
+
+    # The back end's hooks.
+
+    @abstractmethod
+    def _disconnect(self, robot: str, sink: str) -> None:
+        """Undo the wire into `sink` on one robot (a lost one's only forgotten)."""
+
+    @abstractmethod
+    def _stop(self, robot: str, instance: str) -> None:
+        """Stop PBO `instance` (its bridges are down already; a lost robot's only forgotten)."""
+
+    @abstractmethod
+    def _installed(self, robot: str, module: str) -> bool:
+        """Whether `robot`'s node holds `module`'s image."""
+
+    @abstractmethod
+    def _send(self, robot: str, module: Module) -> tuple[str, int, WireRun | None]:
+        """Install `module`'s image (`image_of`) on `robot`: the name it registered, its size in
+        bytes, and the transfer on the modelled migration wire (None without one)."""
+
+    @abstractmethod
+    def _start(self, robot: str, instance: str, module: Module) -> None:
+        """Start PBO `instance` with the module's rate and constants."""
+
+    @abstractmethod
+    def _connect(self, robot: str, source: str, sink: str) -> None:
+        """Wire `source` into `sink`, both on `robot`."""
+
+    @abstractmethod
+    def _bridge(self, bridge: Bridge) -> None:
+        """Put up `bridge`'s two halves."""
+
+    @abstractmethod
+    def _stop_pbo(self, robot: str, pbo: str) -> None:
+        """Stop a bridge's half `pbo` on `robot` (not lost)."""
+
+    @abstractmethod
+    def _bridge_down(self, bridge: Bridge) -> None:
+        """`bridge` was taken down: forget what the back end kept of it."""
+
+
+def owner(port: str) -> str:
+    """The PBO of ``PBO.port``."""
+    return port.partition(".")[0]
