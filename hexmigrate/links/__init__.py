@@ -6,7 +6,7 @@ URL                               what                                      modu
 ``serial:///dev/ttyUSB0``         a serial device, ``?baudrate=`` (115200)  `serial`
 ``/dev/pts/5``                    a bare device path (a pty's far end)      `serial`
 ``loop://``                       pyserial's loopback                       `serial`
-``socket://HOST:PORT``            a raw TCP byte stream (a client)          `serial`
+``socket://HOST:PORT``            a raw TCP byte stream (a client)          `tcp_client`
 ``tcp-listen://HOST:PORT``        its server end, for a node, bound to      `tcp`
                                   HOST only; port 0: any
 ``can://virtual/CHANNEL``         python-can's in-process bus, ISO-TP       `can`
@@ -21,11 +21,11 @@ so that nodes, hosts and CAN servers may sit on different machines (python-can-r
 listens on IPv4 only).
 
 Each module documents its grammar at its top. `framing` says how messages travel on a byte
-stream; `tcp` is the listening end a ``socket://`` client connects to, for a node that serves one
-host after another; `remote_server` runs a python-can-remote server that puts processes, on one
-machine or several, on one CAN channel, and `slcan_device` makes a node's CAN controller look
-like an SLCAN adapter on a pty. Scheme modules are imported when first used, so a machine without
-python-can can still use serial links.
+stream; `tcp` is the listening end a ``socket://`` client (`tcp_client`) connects to, for a node
+that serves one host after another; `remote_server` runs a python-can-remote server that puts
+processes, on one machine or several, on one CAN channel, and `slcan_device` makes a node's CAN
+controller look like an SLCAN adapter on a pty. Scheme modules are imported when first used, so
+a machine without python-can can still use serial links.
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ _SCHEMES: dict[str, tuple[str, str]] = {
     "": ("serial", "pyserial"),
     "serial": ("serial", "pyserial"),
     "loop": ("serial", "pyserial"),
-    "socket": ("serial", "pyserial"),
+    "socket": ("tcp_client", "nothing beyond Python's standard library"),
     "tcp-listen": ("tcp", "nothing beyond Python's standard library"),
     "can": ("can", "python-can, can-isotp and (for can://remote) python-can-remote"),
     "faulty": ("faulty", "nothing more than its inner link"),

@@ -6,12 +6,11 @@ URL grammar::
                                     serial:///dev/ttyUSB0?baudrate=115200 (three slashes)
     DEVICE                          a bare absolute device path, for example /dev/pts/5
     loop://                         pyserial's loopback: every message sent comes back
-    socket://HOST:PORT              a raw TCP byte stream (pyserial's socket:// handler), for
-                                    example socket://127.0.0.1:7000
 
 A device runs 8N1 (one start bit, 8 data bits, no parity, one stop bit: 10 bits on the wire per
-byte) at `baudrate`, 115200 unless given. Messages are framed as `framing` describes; a pty or a
-socket ignores the baud rate and moves bytes as fast as the processes do.
+byte) at `baudrate`, 115200 unless given. Messages are framed as `framing` describes; a pty
+ignores the baud rate and moves bytes as fast as the processes do. pyserial's ``socket://`` is
+not used: tcp_client.py is the link of that scheme.
 
 `PtyPair.open()` makes a pseudo-terminal: its far end is a path such as ``/dev/pts/5`` that
 another process opens as its URL, its near end a link in this process.
@@ -27,7 +26,7 @@ from typing import TYPE_CHECKING
 
 from hexmigrate.errors import LinkError
 from hexmigrate.links.stream import POLL_INTERVAL, StreamLink
-from hexmigrate.links.url import integer, network_host, parse_parameters, split_url, url_error
+from hexmigrate.links.url import integer, parse_parameters, split_url, url_error
 
 if TYPE_CHECKING:
     from serial import SerialBase  # type: ignore[import-untyped]
@@ -40,11 +39,10 @@ a pty buffers about 20 KiB, and nobody may have the far end open."""
 
 DEVICE_FORM = "serial:///dev/ttyUSB0?baudrate=115200 or a bare device path such as /dev/pts/5"
 LOOP_FORM = "loop:// (no host, path or parameters)"
-SOCKET_FORM = "socket://HOST:PORT such as socket://127.0.0.1:7000 or socket://[::1]:7000"
 
 
 def open_url(url: str, **options: object) -> SerialLink:
-    """A serial link for a ``serial://``, ``loop://`` or ``socket://`` URL or a device path."""
+    """A serial link for a ``serial://`` or ``loop://`` URL or a device path."""
     target, settings = _pyserial_target(url, options)
     return SerialLink(url, target, settings)
 
@@ -54,7 +52,7 @@ def _pyserial_target(url: str, options: dict[str, object]) -> tuple[str, dict[st
     if url.startswith("/"):
         parsed = parse_parameters(url, "", _DEVICE_PARAMETERS, DEVICE_FORM, options)
         return url, {"baudrate": DEFAULT_BAUDRATE, **parsed}
-    parts = split_url(url, SOCKET_FORM if url.startswith("socket:") else DEVICE_FORM)
+    parts = split_url(url, DEVICE_FORM)
     if parts.scheme == "serial":
         if parts.netloc or not parts.path.startswith("/"):
             got = parts.netloc + parts.path
@@ -68,32 +66,14 @@ def _pyserial_target(url: str, options: dict[str, object]) -> tuple[str, dict[st
             got = url[len("loop://") :] or ", ".join(options)
             raise url_error(url, f"expected nothing after loop://, got {got!r}", LOOP_FORM)
         return url, {}
-    if parts.scheme == "socket":
-        _check_socket(url, parts.netloc, parts.path + parts.query + parts.fragment, options)
-        return url, {}
-    raise url_error(url, f"expected serial, loop or socket, got {parts.scheme!r}", DEVICE_FORM)
-
-
-def _check_socket(url: str, netloc: str, rest: str, options: dict[str, object]) -> None:
-    host, _, port = netloc.rpartition(":")
-    if not host or rest or options:
-        got = url[len("socket://") :] or ", ".join(options)
-        raise url_error(url, f"expected HOST:PORT after socket://, got {got!r}", SOCKET_FORM)
-    try:
-        network_host(host)
-    except ValueError as error:
-        raise url_error(url, f"host: {error}", SOCKET_FORM) from None
-    try:
-        integer(1, 65535)(port)
-    except ValueError as error:
-        raise url_error(url, f"port: {error}", SOCKET_FORM) from None
+    raise url_error(url, f"expected serial or loop, got {parts.scheme!r}", DEVICE_FORM)
 
 
 _DEVICE_PARAMETERS = {"baudrate": integer(1, 20_000_000)}
 
 
 class SerialLink(StreamLink):
-    """A link over anything pyserial opens: a device, ``loop://``, ``socket://``."""
+    """A link over anything pyserial opens: a device, ``loop://``."""
 
     def __init__(self, url: str, target: str, settings: dict[str, int]) -> None:
         super().__init__(url)

@@ -33,7 +33,8 @@ class StreamLink(LinkBase):
     """Framing and deframing on top of a byte stream given by three protected hooks.
 
     A back end implements `_read_chunk` (wait at most POLL_INTERVAL, return what arrived),
-    `_write` (all the bytes, or raise) and `_close_stream`. Errors of the stream become a
+    `_write` (all the bytes, or raise) and `_close_stream`, and may implement `_wake`, so that
+    `close` need not wait for the reader's poll to end. Errors of the stream become a
     LinkError naming the URL; messages that arrived before a read error are still delivered.
     """
 
@@ -81,6 +82,7 @@ class StreamLink(LinkBase):
 
     def _close(self) -> None:
         self._stopping.set()
+        self._wake()
         if self._reader.is_alive():
             self._reader.join(timeout=10 * POLL_INTERVAL + 1.0)
         self._close_stream()
@@ -118,3 +120,8 @@ class StreamLink(LinkBase):
     @abstractmethod
     def _close_stream(self) -> None:
         """Close the stream (the reader has stopped)."""
+
+    def _wake(self) -> None:
+        """End the reader's wait for bytes now, as `close` begins; a back end that cannot
+        leaves it to end within POLL_INTERVAL (the reader stops without a failure either way,
+        since the link is closing)."""

@@ -9,7 +9,7 @@ URL grammar::
                                     Port 0 picks any free port (`port` and `connect_url` say
                                     which)
 
-pyserial's ``socket://HOST:PORT`` (serial.py) is a client; this is the end it connects to. The
+``socket://HOST:PORT`` (tcp_client.py) is a client; this is the end it connects to. The
 link binds the address its URL names and nothing else: a node on 127.0.0.2 does not answer on
 127.0.0.1, and only an address other machines can reach makes it reachable from them.
 
@@ -165,6 +165,10 @@ class TcpListenLink(LinkBase):
         self._messages: queue.SimpleQueue[tuple[_Client, bytes] | None] = queue.SimpleQueue()
         self._failure: LinkError | None = None
         self._stopping = threading.Event()
+        self._waker, self._wake_up = socket.socketpair()
+        """A byte on `_wake_up` ends the server thread's wait at once (`_wake`)."""
+        self._waker.setblocking(False)
+        self._wake_up.setblocking(False)
         self._reader = threading.Thread(target=self._serve, name=f"server {url}", daemon=True)
         self._reader.start()
 
@@ -175,7 +179,7 @@ class TcpListenLink(LinkBase):
 
     @property
     def connect_url(self) -> str:
-        """The URL a client opens to reach this link (pyserial's ``socket://``)."""
+        """The URL a client opens to reach this link (``socket://``, tcp_client.py)."""
         return f"socket://{url_host(self.host)}:{self.port}"
 
     @property
@@ -242,11 +246,14 @@ class TcpListenLink(LinkBase):
                     self.lost += 1
                     self._end(client)
                     return
+            if not data:
+                return
             client.pending += data
             if len(client.pending) > MAX_PENDING:  # it does not read: let it go, unheard
                 self.lost += 1
                 client.hung_up = True
                 self._end(client)
+        self._wake()  # the server thread writes what waits without finishing its wait first
 
     def shelter(self, peer: int) -> None:
         """Never let client `peer` go to make room for a newcomer: a node shelters the host
@@ -304,12 +311,15 @@ class TcpListenLink(LinkBase):
                 c.connection for c in clients if c.waiting < MAX_WAITING
             ]
             writers = [c.connection for c in clients if c.pending]
-        readers.append(self._listener)
+        readers += [self._listener, self._waker]
         readable, writable, _ = select.select(readers, writers, [], POLL_INTERVAL)
         by_socket = {c.connection: c for c in clients}
         for sock in readable:
             if sock is self._listener:
                 self._accept()
+            elif sock is self._waker:
+                with suppress(BlockingIOError, InterruptedError):
+                    self._waker.recv(READ_SIZE)
             else:
                 self._read(by_socket[sock])
         for sock in writable:
@@ -370,11 +380,20 @@ class TcpListenLink(LinkBase):
         self._dropped_before += client.deframer.dropped
         client.connection.close()
 
+    def _wake(self) -> None:
+        """End the server thread's wait now (it waits at most POLL_INTERVAL otherwise): for a
+        close, or an answer that waits to be written."""
+        with suppress(BlockingIOError, InterruptedError):  # a wake-up waits already
+            self._wake_up.send(b"\0")
+
     def _close(self) -> None:
         self._stopping.set()
+        self._wake()
         if self._reader.is_alive():
             self._reader.join(timeout=10 * POLL_INTERVAL + 1.0)
         with self._lock:
             for client in list(self._clients.values()):
                 self._close_client(client)
         self._listener.close()
+        self._waker.close()
+        self._wake_up.close()

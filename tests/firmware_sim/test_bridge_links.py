@@ -2,11 +2,14 @@
 control (`KernelControl.export_port`/`import_port`, as ExportPort and ImportPort do): the same
 bridge halves as in one process, so a modelled serial wire gives the same arrival times; a
 160 x 120 frame crosses; garbage on an import link is dropped and counted; refusals name the
-bridge or the port; StopPbo takes a bridge down; lock-step Advance waits for what it expects."""
+bridge or the port; StopPbo takes a bridge down, closing its links without waiting on a poll or
+a sleep; lock-step Advance waits for what it expects."""
 
 from __future__ import annotations
 
 import socket
+import threading
+import time
 from collections.abc import Iterator
 
 import numpy as np
@@ -21,7 +24,7 @@ from firmware_sim.errors import BridgeError
 from firmware_sim.serving import kernel_control
 from firmware_sim.serving.kernel_control import IMPORTER_PRIORITY, KernelControl
 from hexmigrate.errors import TransferError
-from hexmigrate.links import open_link
+from hexmigrate.links import open_link, stream, tcp, tcp_client
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import PerformanceReport, Watch, decode, encode
 from hexmigrate.transfer.receiver import Receiver
@@ -32,6 +35,8 @@ from tests.firmware_sim.test_bridge import Camera
 from tests.hexmigrate.transfer_harness import DirectLink
 
 LISTEN = "tcp-listen://127.0.0.1:0"
+TAKE_DOWN_BOUND = 10.0
+"""Seconds a bridge's take-down may take in a test whose links would poll for a minute."""
 
 
 class Viewer(NativePBO):
@@ -212,6 +217,28 @@ def test_stopping_a_bridge_pbo_takes_the_bridge_down(pair) -> None:
     assert on_a.stop("bridge7_tx") == "stopped bridge7_tx: bridge 7 is down"
     assert "bridge7_tx" not in a.kernel.names and not on_a.exports
     linked((on_a, on_b), "tcp", 0, number=7)  # the number is free again
+
+
+def test_a_bridge_is_taken_down_without_waiting_for_a_poll_or_a_sleep(pair, monkeypatch) -> None:
+    # Links that would poll for a minute and a clock that must not sleep: a take-down that
+    # waited for either would not end within TAKE_DOWN_BOUND.
+    for module in (stream, tcp, tcp_client):
+        monkeypatch.setattr(module, "POLL_INTERVAL", 60.0)
+    _, _, on_a, on_b = pair
+    linked((on_a, on_b), "tcp", 0, number=4)
+    slept: list[float] = []
+    monkeypatch.setattr(time, "sleep", slept.append)
+    done = threading.Event()
+
+    def take_down() -> None:
+        on_a.stop("bridge4_tx")  # the exporter's reader waits on a live connection
+        on_b.stop("bridge4_rx")  # the importer's server thread waits on its listener
+        done.set()
+
+    threading.Thread(target=take_down, daemon=True).start()
+    assert done.wait(TAKE_DOWN_BOUND), "the take-down waited on a link's poll"
+    assert slept == []
+    assert not on_a.exports and not on_b.imports
 
 
 @pytest.mark.parametrize("mode", ["binary", "hex"])
