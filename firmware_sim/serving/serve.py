@@ -29,8 +29,10 @@ def serve(
 
     Pass the `receiver` of an earlier call to keep transfers across a new link (resume). A new
     receiver also takes the node's control requests (`KernelControl`); what a host's watch
-    asks for is pushed between messages. A push the link refuses (a host that stopped reading a
-    pty) ends the watch, so the node is not held up by every later one; the host watches again.
+    asks for is pushed between messages, and after an Advance before its answer (the
+    receiver's replies begin with it), so that the answer closes the quantum. A push the link
+    refuses (a host that stopped reading a pty) ends the watch, so the node is not held up by
+    every later one; the host watches again.
     Between messages the values that came on the node's import links are taken, and the node
     runs (after a message, the releases due by then; when the link is quiet, a poll on), unless
     its control is in lock-step time: then only an Advance runs it. Transfers idle too long are

@@ -8,6 +8,11 @@ part of a block received in order kept), keeps transfers across link cuts (``RES
 final CRC (``END``) and only makes the module the node's on an explicit ``COMMIT``. Until then the
 node's modules are untouched; ``ABORT`` or any fatal error erases what the transfer wrote.
 
+A watched node's pushes (`due`) go out between messages, and those due once an ``ADVANCE`` has
+run its clock go out before the Advance's answer, on the same connection: in lock-step time the
+answer is then the barrier after which the host has every report of the quantum (a time master
+needs no round trip more to know it).
+
 A node given `trusted` keys takes requests that change it (`CHANGING`: a transfer, ``RM``, the
 control requests that start, stop, set or wire) only from a connection that proved it holds
 one of them (``CHALLENGE`` then ``AUTH``, hexmigrate/signing/challenge.py); reading stays open
@@ -204,7 +209,9 @@ class Receiver:
         on a message: one that does not decode is refused with the reason, and a reply that
         cannot be written in the mode asked (a module whose name has a blank, listed in hex
         mode) becomes a refusal that says why. `peer` names the connection it came on (one of
-        a ``tcp-listen://`` link's clients): record lines go to a transfer of that connection."""
+        a ``tcp-listen://`` link's clients): record lines go to a transfer of that connection.
+        An Advance's answer comes after what that connection's watch pushes once it has run
+        (the quantum's reports)."""
         self.expire()
         self._peer = peer
         self._session = self.sessions.heard(peer, self.clock())
@@ -213,11 +220,15 @@ class Receiver:
             message = decode(raw)
         except MessageError as error:
             return [_encoded(Nak(0, 0, f"bad message: {error}"), text)]
-        return [_encoded(reply, text) for reply in self.dispatch(message)]
+        replies = [_encoded(reply, text) for reply in self.dispatch(message)]
+        if isinstance(message, Advance):  # the quantum's pushes, then its answer
+            return self.due(peer) + replies
+        return replies
 
     def due(self, peer: Hashable = None) -> list[bytes]:
         """What the watch of connection `peer` pushes now (reports, heartbeats), encoded in the
-        mode of the watch; the node's serve loop sends them between messages."""
+        mode of the watch; the node's serve loop sends them between messages, and `handle` puts
+        them before an Advance's answer."""
         session = self.sessions.get(peer)
         if session is None or session.subscription is None or self.control is None:
             return []

@@ -10,6 +10,11 @@ takes none beyond it (firmware_sim's `KernelControl.advance`). So what each node
 depend on when TCP delivered it, and a run is reproducible; messages between nodes are delivered
 at quantum boundaries, as Renode synchronises its machines.
 
+A node sends the reports and heartbeats its watch made due by the quantum's end before it
+answers the Advance, on the same link (`Receiver.handle`): once the master has every node's
+answer, a host that reads those links (refresh's manager, whose sender files what comes before
+an answer) holds every report of the quantum, with no round trip more to make sure.
+
 A process whose clock the nodes read synchronously during a quantum (a servo emulator on a CAN
 bus: a node sends it a command and waits for its answer) is granted each quantum `first`, before
 the nodes: what a node sends it during the quantum then meets it at the quantum's end, whatever
@@ -17,11 +22,16 @@ the order in which the processes run.
 
 Times are counted in whole microseconds (what an Advance carries), so that the nodes' clocks
 and the master's `now` are the same numbers.
+
+The master's threads (one per node) live as long as it does, not one `run_until`: a caller that
+runs the world a frame at a time would otherwise start two threads a frame. `close` ends them,
+and so does the master's collection.
 """
 
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 
@@ -33,7 +43,7 @@ from hexmigrate.transfer.control_client import NodeControl
 class TimeMaster:
     """Lock-step time for the nodes `controls` (name -> its control), `quantum` seconds at a
     time. Each NodeControl is used by the master's threads while `run_until` runs: nothing else
-    may use it then."""
+    may use it then. A context manager; `close` may be called twice."""
 
     def __init__(
         self,
@@ -57,6 +67,9 @@ class TimeMaster:
         """Bridge number -> values its exporter had sent at the end of the last quantum."""
         self.clocks: dict[str, float] = dict.fromkeys(self.controls, 0.0)
         """Node name -> the clock it acknowledged at the end of the last quantum."""
+        self._pool = ThreadPoolExecutor(len(self.controls), thread_name_prefix="time master")
+        self._release = weakref.finalize(self, self._pool.shutdown, wait=False)
+        """Ends the threads, idle between quanta: on `close`, or when the master is collected."""
 
     @property
     def now(self) -> float:
@@ -82,14 +95,26 @@ class TimeMaster:
     def run_until(self, t: float) -> None:
         """Grant quanta to every node until they all reached `t` (the last quantum is cut short
         when `t` is not a whole number of them)."""
+        if not self._release.alive:
+            raise LockStepError(f"run to {t:g} s: expected an open time master, got a closed one")
         target = round(t * MICROSECONDS)
-        with ThreadPoolExecutor(len(self.controls), thread_name_prefix="time master") as pool:
-            while self._now_us < target:
-                until = min(self._now_us + self._quantum_us, target)
-                self._grant(pool, until)
-                self._now_us = until
+        while self._now_us < target:
+            until = min(self._now_us + self._quantum_us, target)
+            self._grant(until)
+            self._now_us = until
 
-    def _grant(self, pool: ThreadPoolExecutor, until_us: int) -> None:
+    def close(self) -> None:
+        """Let the master's threads end (each as soon as it is idle: between two `run_until`
+        calls, at once); a closed master grants no more quanta."""
+        self._release()
+
+    def __enter__(self) -> TimeMaster:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def _grant(self, until_us: int) -> None:
         """Run every node to `until_us`, each expecting the values sent by the last quantum's
         end; then note what the exporters sent during this one."""
         until = until_us / MICROSECONDS
@@ -99,7 +124,7 @@ class TimeMaster:
             except HexmigrateError as error:
                 raise TransferError(f"quantum to {until:g} s: {name}: {error}") from error
         futures = {
-            name: pool.submit(control.advance, until, self._expected(name))
+            name: self._pool.submit(control.advance, until, self._expected(name))
             for name, control in self.controls.items()
         }
         results: dict[str, tuple[float, dict[int, int]]] = {}

@@ -148,14 +148,6 @@ class LinkApplier(ApplierBase):
             node.clock = clock
             node.heard = clock()
 
-    def sync(self) -> None:
-        """PING every node that is not lost, so that every push it made by now is filed (a
-        node answers after its pushes); a node that does not answer is lost, not an error."""
-        for node in self.nodes.values():
-            if node.lost is None:
-                with contextlib.suppress(NodeLinkError):
-                    node.ask("PING", node.sender.ping)
-
     def _read(self, robot: str, port: str) -> object:
         node = self.nodes[robot]
         ((_name, value),) = node.ask(f"READ {port}", lambda: node.control.read((port,)))

@@ -4,9 +4,9 @@ runs on for some seconds, and a check that every node runs in the mode asked for
 - `LockStep`: every node runs ``firmware-sim listen --lock-step``, on a virtual clock that only
   the manager's `TimeMaster` moves, one quantum at a time for all of them (values between nodes
   are delivered at quantum boundaries). The runtime's clock is the master's `now`. A run is
-  reproducible: the same events at the same times. After each wait the manager asks every node
-  for a PING, whose answer comes after the reports the node pushed at the end of its last
-  quantum, so the Decider always reads the same reports, whenever TCP delivered them. A node
+  reproducible: the same events at the same times. A node sends the reports of a quantum
+  before it answers the quantum's Advance, and the master returns once every node answered, so
+  the Decider always reads the same reports, whenever TCP delivered them. A node
   whose Advance fails through its tries (killed, its link cut) is lost, and the others run on
   (`refresh.remote.guard`); silence is timed on the master's clock, which stands still while
   the manager thinks.
@@ -77,7 +77,6 @@ class LockStep:
     def __init__(self, quantum: float) -> None:
         self.quantum = quantum
         self.master: TimeMaster | None = None
-        self.applier: LinkApplier | None = None
 
     def attach(self, applier: LinkApplier) -> None:
         """Refuse a node that is not in lock-step at 0 s, then route the applier's bridges
@@ -94,7 +93,6 @@ class LockStep:
                     f"{said} (expected a node in lock-step at 0 s, as a run starts: start the "
                     "node again)"
                 )
-        self.applier = applier
         self.master = TimeMaster(applier.controls(), self.quantum)
         applier.router = self.master
 
@@ -102,15 +100,15 @@ class LockStep:
         return 0.0 if self.master is None else self.master.now
 
     def advance(self, seconds: float) -> None:
-        """Grant quanta to `seconds` further, then file every report the nodes pushed by then."""
-        if self.master is None or self.applier is None:
+        """Grant quanta to `seconds` further; every report of them is filed once the last
+        Advance's answer is in (a node answers after the quantum's reports)."""
+        if self.master is None:
             raise NodeLinkError("lock-step time: expected the nodes attached, got none")
         until = self.master.now + seconds
         try:
             self.master.run_until(until)
         except HexmigrateError as error:
             raise NodeLinkError(f"lock-step time: {error}") from error
-        self.applier.sync()
 
     def describe(self) -> str:
         return f"lock-step virtual time, quantum {self.quantum:g} s"

@@ -1,11 +1,13 @@
 """The time master in one process: two lock-step nodes, their control over in-memory links, a
 bridge between them over TCP. Quanta are granted to every node (the last one cut short), a
-value sent during one quantum is taken at the start of the next, and a node that cannot advance
-fails the quantum with its name."""
+value sent during one quantum is taken at the start of the next, a quantum's reports reach the
+host before its Advance is answered, and a node that cannot advance fails the quantum with its
+name. The master's threads serve every run until it is closed."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import threading
+from collections.abc import Iterator, Mapping
 
 import pytest
 
@@ -16,11 +18,15 @@ from firmware_sim.serving import kernel_control
 from firmware_sim.serving.kernel_control import KernelControl
 from hexmigrate.errors import LockStepError, TransferError
 from hexmigrate.transfer.control_client import NodeControl
+from hexmigrate.transfer.messages import Message, PerformanceReport
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from hexmigrate.transfer.time_master import TimeMaster
 from pbort import NativeModule, NativePBO, PortSpec
 from tests.hexmigrate.transfer_harness import DirectLink
+
+Advanced = tuple[float, dict[int, int]]
+"""What an Advance answers: the node's clock, and the values each export sent."""
 
 
 class Sink(NativePBO):
@@ -61,6 +67,45 @@ def test_every_node_runs_each_quantum_and_values_cross_at_its_end(nodes) -> None
     assert a.kernel.now == b.kernel.now == 0.1
     assert master.counts == {1: 10}
     assert b.kernel.value("sink.x") == 9  # what a had sent by 0.09, the last quantum's start
+
+
+def test_a_quantum_s_report_reaches_the_host_before_its_advance_is_answered(nodes) -> None:
+    _, _, controls = nodes
+    reports: list[PerformanceReport] = []
+
+    def pushed(message: Message) -> None:
+        if isinstance(message, PerformanceReport):
+            reports.append(message)
+
+    controls["a"].sender.stray = pushed
+    controls["a"].watch(10)
+    master = TimeMaster(controls, 0.02)
+    master.route(1, "a", "b")
+    for end_ms in (20, 40, 60):
+        master.run_until(end_ms / 1000)
+        # Filed while the Advance waited for its answer: a report sent after the answer would
+        # wait on the link until the next request.
+        assert reports[-1].clock_ms == end_ms
+
+
+def test_the_master_keeps_its_threads_from_one_run_to_the_next_until_closed(nodes) -> None:
+    _, _, controls = nodes
+    threads: set[threading.Thread] = set()
+    for control in controls.values():
+        advance = control.advance
+
+        def noted(until: float, expect: Mapping[int, int], advance=advance) -> Advanced:
+            threads.add(threading.current_thread())
+            return advance(until, expect)
+
+        control.advance = noted  # type: ignore[method-assign]
+    with TimeMaster(controls, 0.01) as master:
+        for end in (0.01, 0.02, 0.03):
+            master.run_until(end)
+    assert len(threads) <= len(controls)  # not a new pair of threads for every run
+    master.close()
+    with pytest.raises(LockStepError, match="expected an open time master, got a closed one"):
+        master.run_until(0.04)
 
 
 def test_a_node_that_cannot_advance_fails_the_quantum_by_name(nodes, monkeypatch) -> None:
