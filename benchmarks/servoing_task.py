@@ -1,12 +1,13 @@
 """The visual-servoing task's own speed: frames per second of the whole task, with and without
 the Dehazer running as guest code, against the camera's 30 frames per second.
 
-The task runs as in the experiment (python -m visual_servoing): two emulated robots advancing
-together in 1 ms steps, CamReader rendering the scene, SSD matching, TrajGen, HexMan driving six
-CAN servo nodes over a virtual bus, the evaluators reporting; in the second configuration the
-Dehazer's guest image (RV32IM on Unicorn) cleans every frame between CamReader and SSD. Each
-configuration runs `--seconds` of virtual time after a second of warm-up; the figure is camera
-frames per second of real time. The task can run in real time when it is at least 30.
+The task runs as in the experiment (python -m visual_servoing run, in process): two emulated
+robots advancing together in 1 ms steps, CamReader rendering the scene, SSD matching, TrajGen,
+HexMan driving six CAN servo nodes over a virtual bus, the evaluators reporting, the world sampled
+every frame; in the second configuration the Dehazer's guest image (RV32IM on Unicorn) cleans
+every frame between CamReader and SSD. Each configuration is deployed by the Maintainer and runs
+`--seconds` of virtual time after a second of warm-up; the figure is camera frames per second of
+real time. The task can run in real time when it is at least 30.
 
     python benchmarks/servoing_task.py [--seconds S]
 """
@@ -18,35 +19,36 @@ import tempfile
 import time
 from pathlib import Path
 
+from application.runs import in_process
+from application.scenario import Scenario
 from refresh.configuration import Configuration, initial_configuration
+from refresh.runtime import Runtime
+from visual_servoing.declaration import APPLICATION, FRAME
 from visual_servoing.dehazer_guest import NAME
-from visual_servoing.experiment.experiment import FRAME, Experiment
-from visual_servoing.experiment.scenarios import Scenario
 
 GOAL = 30.0
-CLEAN = Scenario("clean", "no fault", "nothing happens", faults={})
+CLEAN = Scenario("clean", "no fault", "nothing happens")
 
 
-def with_dehazer(experiment: Experiment) -> Configuration:
-    """The paper's chosen configuration: CamReader + Dehazer in the camera slot."""
-    current = initial_configuration(experiment.loaded.task, experiment.loaded.database)
-    database = experiment.loaded.database
-    chain = (*current.chains[0], *database.placements_of(NAME))
+def configuration(runtime: Runtime, dehazed: bool) -> Configuration:
+    """The task's initial configuration, or the paper's chosen one: CamReader + Dehazer in the
+    camera slot."""
+    current = initial_configuration(runtime.task, runtime.database)
+    if not dehazed:
+        return current
+    chain = (*current.chains[0], *runtime.database.placements_of(NAME))
     return current.replace(0, chain)
 
 
 def frames_per_second(dehazed: bool, seconds: float) -> tuple[str, float]:
     """Real-time frames per second of the task in one configuration."""
-    with tempfile.TemporaryDirectory() as work, Experiment(CLEAN, Path(work)) as experiment:
-        target = (
-            with_dehazer(experiment)
-            if dehazed
-            else initial_configuration(experiment.loaded.task, experiment.loaded.database)
-        )
-        experiment.deploy(target)
-        experiment.run_for(1.0)
+    with tempfile.TemporaryDirectory() as work, in_process(APPLICATION, CLEAN, Path(work)) as run:
+        target = configuration(run.runtime, dehazed)
+        maintainer = run.runtime.maintainer
+        maintainer.apply(maintainer.plan(None, target))
+        run.session.wait(1.0)
         start = time.perf_counter()
-        experiment.run_for(seconds)
+        run.session.wait(seconds)
         elapsed = time.perf_counter() - start
     return target.label(), seconds / FRAME / elapsed
 

@@ -10,7 +10,7 @@ One concept per module:
 ``summary``   detection, false detections, location accuracy per strategy, recovery, cost
 ``plots``     the CDFs of detection latency and recovery time, accuracy per fault type (PNG)
 ``html``      the page that puts the tables and plots together
-``cli``       the ``campaign`` command an application adds (`Application`)
+``cli``       the ``campaign`` command an application adds (`CampaignSpec`)
 ``errors``    `CampaignError` and its kinds
 ============  ================================================================================
 

@@ -1,8 +1,8 @@
 """The ``campaign`` command every application shares: its options, and the campaign from draw to
 page.
 
-An application (``python -m visual_servoing campaign``, ``python -m patrol campaign``) describes
-itself with an `Application`: its name, the scenarios a campaign may draw from, its draw and its
+An application (``python -m APP campaign``, made by the application framework) describes
+itself with a `CampaignSpec`: its name, the scenarios a campaign may draw from, its draw and its
 runner. `add_campaign_arguments` gives its command the options, `run_campaign` does the rest:
 connect to the Dask cluster (before the folder is touched: a scheduler that is not there leaves
 nothing behind), plan the runs from the seed, skip those a resumed campaign finished, run the
@@ -40,7 +40,7 @@ PAGE = "index.html"
 
 
 @dataclass(frozen=True)
-class Application:
+class CampaignSpec:
     """What a campaign of one application draws and runs. `draw(rng, scenarios, location)`
     gives a run's parameters (`campaign.record` says which keys every draw holds); `runner` runs
     one (a module-level function: Dask sends it to the workers by reference)."""
@@ -52,7 +52,7 @@ class Application:
     default_out: Path
 
 
-def add_campaign_arguments(command: argparse.ArgumentParser, application: Application) -> None:
+def add_campaign_arguments(command: argparse.ArgumentParser, application: CampaignSpec) -> None:
     """The campaign's options on `command`."""
     command.add_argument(
         "--runs",
@@ -123,7 +123,7 @@ def _scenarios(known: Sequence[str]) -> Callable[[str], list[str]]:
     return parse
 
 
-def run_campaign(options: argparse.Namespace, application: Application) -> None:
+def run_campaign(options: argparse.Namespace, application: CampaignSpec) -> None:
     """Plan, run (or resume), summarize, plot and write the page; print the summary."""
     out: Path = options.out or application.default_out
     parameters = _parameters(options, application, out)
@@ -139,7 +139,7 @@ def _run(
     parameters: Mapping[str, Any],
     records: dict[int, dict[str, Any]],
     options: argparse.Namespace,
-    application: Application,
+    application: CampaignSpec,
 ) -> None:
     """The campaign's runs that `records` lacks, on `dask`'s cluster; then `finish`."""
     specs = plan(
@@ -170,7 +170,7 @@ def _run(
     finish(out, parameters, [records[spec["index"]] for spec in specs])
 
 
-def _parameters(options: argparse.Namespace, application: Application, out: Path) -> dict[str, Any]:
+def _parameters(options: argparse.Namespace, application: CampaignSpec, out: Path) -> dict[str, Any]:
     """What decides the runs. Resuming, what the options leave out comes from the campaign."""
     given = {
         "runs": options.runs,
@@ -194,7 +194,7 @@ def _parameters(options: argparse.Namespace, application: Application, out: Path
     }
 
 
-def _check(parameters: Mapping[str, Any], application: Application, manifest: Path) -> None:
+def _check(parameters: Mapping[str, Any], application: CampaignSpec, manifest: Path) -> None:
     """Parameters read back from a campaign's file are what the options would have given."""
     checks = {
         "runs": lambda v: isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= MAX_RUNS,

@@ -21,16 +21,11 @@ from __future__ import annotations
 
 import random
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
-from pathlib import Path
 from typing import Any
 
-from campaign import record
-from campaign.cli import Application
-from campaign.engine import worker_folder
-from patrol.local import Patrol
-from patrol.mission import SETTINGS
-from patrol.scenarios import Scenario
+from application.declaration import Campaign
+from application.scenario import Scenario
+from patrol.scenarios import DURATION
 
 CONTROL = 0.1
 """The share of runs without a fault."""
@@ -67,28 +62,10 @@ def scenario_of(drawn: Mapping[str, Any], index: int) -> Scenario:
         f"{drawn['scenario']}-run{index}",
         f"{drawn['fault_type']} at {drawn['fault_at']} s",
         "the faulty modules located and replaced",
+        duration=DURATION,
         faults=faults,
         location=drawn["location"],
     )
 
 
-def run(spec: Mapping[str, Any]) -> dict[str, Any]:
-    """One run of the campaign: its decisions, with every strategy's location beside."""
-    scenario = scenario_of(spec["draw"], spec["index"])
-    settings = replace(SETTINGS, compare_locations=True)
-    with Patrol(scenario, worker_folder("patrol-campaign-"), settings) as patrol:
-        outcome = patrol.run()
-    return record.outcome(
-        outcome.reconfigurations,
-        lambda r: [m.size for m in outcome.migrations_of(r)],
-        outcome.stopped_at,
-    )
-
-
-APPLICATION = Application(
-    name="patrol",
-    scenarios=tuple(FAMILY),
-    draw=draw,
-    runner=run,
-    default_out=Path("build") / "patrol" / "campaign",
-)
+CAMPAIGN = Campaign(families=tuple(FAMILY), draw=draw, scenario_of=scenario_of)

@@ -31,7 +31,9 @@ from refresh.generator import DEFAULT_MAX_MODULES, candidates
 from refresh.images import check_images
 from refresh.load import MAX_FILE_BYTES, Loaded, load
 from refresh.location import DEFAULT_STRATEGY, STRATEGIES, base_choice, brute_force
-from refresh.manager import LockStep, ManagerConfig, RealTime, manage
+from refresh.manager.manager import ManagerConfig, load_plant, load_task, manage
+from refresh.manager.plant import Plant
+from refresh.manager.time_modes import LockStep, RealTime
 from refresh.runtime import RuntimeSettings
 from refresh.task import TaskSpec
 
@@ -129,10 +131,9 @@ def manage_command(options: argparse.Namespace) -> None:
         key = None if options.key is None else load_private(options.key)
     except KeyFileError as error:
         raise CommandLineError(f"--key: {error}") from None
+    loaded = load_task(options.db, options.task, nodes)
     config = ManagerConfig(
         key=key,
-        database=options.db,
-        task=options.task,
         nodes=nodes,
         time=mode,
         natives=tuple(options.natives),
@@ -140,8 +141,9 @@ def manage_command(options: argparse.Namespace) -> None:
         events=options.events,
         settings=settings,
         location=options.location,
+        plant=Plant() if options.plant is None else load_plant(options.plant),
     )
-    manage(config, lambda line: print(line, flush=True))
+    manage(loaded, config, lambda line: print(line, flush=True))
 
 
 def add_location_option(command: argparse.ArgumentParser) -> None:
@@ -206,6 +208,13 @@ def _add_manage(commands: argparse._SubParsersAction) -> None:
         help="a Python module (imported by name, from the current directory first) whose "
         "NativePBO subclasses with a name are the native modules' code, to estimate with: the "
         "one the nodes were started with (firmware-sim listen --natives)",
+    )
+    command.add_argument(
+        "--plant",
+        metavar="MODULE",
+        help="a Python module (imported by name, from the current directory first) whose "
+        "plant() returns the model of the world around the task (refresh.manager.plant.Plant): "
+        "the live inputs the estimators start from, a look at the world every sample period",
     )
     add_location_option(command)
     time_mode = command.add_mutually_exclusive_group()

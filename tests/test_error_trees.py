@@ -22,8 +22,8 @@ ROOTS = {
     "morphing_crossbar": "CrossbarError",
     "refresh": "RefreshError",
     "hexmanipulator": "HexmanipulatorError",
+    "application": "ApplicationError",
     "visual_servoing": "ServoingError",
-    "patrol": "PatrolError",
 }
 
 

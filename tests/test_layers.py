@@ -12,7 +12,8 @@ Layers, bottom to top (docs/architecture.md):
     servo_emulators                              side; the servo emulators
     refresh                                      the decision making
     hexmanipulator, campaign                     the paper's robot; campaigns of many runs
-    visual_servoing, patrol                      the applications
+    application                                  the application framework
+    visual_servoing, patrol, tank                the applications
 
 Rooms of firmware_sim, bottom to top: ``errors`` and ``core`` (one node in one process), then
 ``wires`` and ``gdb``, ``bridge``, ``serving``, ``cli``. The gdb stub meets the core only through
@@ -37,8 +38,10 @@ LAYERS: dict[str, int] = {
     "refresh": 3,
     "hexmanipulator": 4,
     "campaign": 4,
-    "visual_servoing": 5,
-    "patrol": 5,
+    "application": 5,
+    "visual_servoing": 6,
+    "patrol": 6,
+    "tank": 6,
 }
 ROOMS: dict[str, dict[str, int]] = {
     "firmware_sim": {

@@ -1,10 +1,12 @@
-"""``python -m visual_servoing``: see `visual_servoing.experiment.cli`."""
+"""``python -m visual_servoing``: the application framework's command (`application.cli`) for the
+paper's experiment."""
 
 import sys
 
 from commandline import importing_command
 
 with importing_command():
-    from visual_servoing.experiment.cli import main
+    from application.cli import main
+    from visual_servoing.declaration import APPLICATION
 
-sys.exit(main())
+sys.exit(main(APPLICATION))

@@ -16,8 +16,9 @@ Tree::
     │   └── UnknownFaultError               a fault kind that is not one of FaultKind's
     ├── TaskSetupError (ValueError)         a task module asked for with parameters it cannot
     │                                       run with (a scene of another size, an unknown method)
-    └── ExperimentError (RuntimeError)      a scenario that cannot be set up here (the Dehazer's
-                                            build failed)
+    └── ExperimentError (RuntimeError)      the experiment's world that cannot be set up (a servo
+                                            bus missing) or a run it cannot go on with (a
+                                            restarted HexManipulator node)
 """
 
 from __future__ import annotations
@@ -55,4 +56,5 @@ class TaskSetupError(ServoingError, ValueError):
 
 
 class ExperimentError(ServoingError, RuntimeError):
-    """A scenario that cannot be set up on this machine; the message says why."""
+    """The experiment's world that cannot be set up, or a run it cannot go on with; the message
+    says why."""

@@ -8,6 +8,8 @@
                     WATCH, bridges to other node processes, lock-step Advance
 ``pbo_setup``       what a listening node does with each PBO that arrives: its rate,
                     constants and wires
+``node_process``    ``firmware-sim listen`` in a process of its own, as the benchmarks and
+                    the tests start a node: its URL read from its log, stopped on the way out
 ==================  ========================================================================
 
 Where a node listens and the line that says so are the link's business:

@@ -32,7 +32,7 @@ from firmware_sim.core.trust import TrustPolicy
 from firmware_sim.errors import StartError
 from firmware_sim.gdb import GdbServer, debugging
 from firmware_sim.serving.kernel_control import KernelControl
-from firmware_sim.serving.pbo_setup import ListeningNode, Wire
+from firmware_sim.serving.pbo_setup import PboSetup, Wire
 from firmware_sim.serving.serve import serve
 from hexmigrate.links.listening import open_listening
 from hexmigrate.signing.keys import key_hash
@@ -80,13 +80,15 @@ def listen(
     config: ListenConfig,
     say: Callable[[str], None],
     firmware: Mapping[str, ModuleCode] | None = None,
+    started: Callable[[Node], None] | None = None,
 ) -> int:
     """Run the node until interrupted or for `config.seconds`; each line of output goes to
     `say`. Returns the exit status.
 
     `firmware` is the native code this node's firmware has beyond the built-in natives, by
     name: a program that makes a node of its own robot (drivers bound to its devices) passes
-    them here, and `config.natives` names which to start."""
+    them here, and `config.natives` names which to start. `started(node)` is called once the
+    node is made, before it serves anything: such a program may watch its kernel's jobs."""
     codes = {name: NativeModule(native) for name, native in NATIVES.items()} | dict(firmware or {})
     natives = [(name, _native(codes, name)) for name in config.natives]  # refused before listening
     port = None if config.fpga is None else open_port(config.fpga)
@@ -98,7 +100,9 @@ def listen(
         ),
         clock,
     ) as node:
-        pbos = ListeningNode(
+        if started is not None:
+            started(node)
+        pbos = PboSetup(
             node,
             say,
             rates=dict(config.rates),

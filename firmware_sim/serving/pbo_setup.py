@@ -31,7 +31,7 @@ def owner(port: str) -> str:
     return port.partition(".")[0]
 
 
-class ListeningNode:
+class PboSetup:
     """Starts the PBOs of `node` with their `rates` (`default_rate` for the others) and
     `constants`, and keeps the `wires` made between the PBOs that run; without `switch_on`
     each PBO is created but left OFF, for a host to start (``hexmigrate start``)."""

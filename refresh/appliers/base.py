@@ -161,6 +161,10 @@ class ApplierBase(ABC):
         self._numbers = itertools.count()
         self.issued = 0
         """How many bridges were numbered so far."""
+        self.down: set[str] = set()
+        """Robots known to be down, for an outage the caller knows of that is not over yet:
+        `rejoin` does not try them (a node restarted early in wall time must not rejoin a run
+        in virtual time before its outage ends)."""
 
     # What the runtime reads.
 
@@ -202,7 +206,9 @@ class ApplierBase(ABC):
     def rejoin(self, robot: str) -> Inventory | None:
         """Reach lost `robot`'s node again: what it has once it answers, else None. What this
         applier had made with a half on the robot (bridges) is forgotten, and their other halves
-        taken down."""
+        taken down. A robot known to be `down` is not tried."""
+        if robot in self.down:
+            return None
         inventory = self._reach(robot)
         if inventory is None:
             return None

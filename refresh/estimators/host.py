@@ -62,38 +62,32 @@ class HostEstimators:
 
 
 def host_codes(
-    database: ModuleDatabase, host: Node, natives: Mapping[str, type[NativePBO]]
+    database: ModuleDatabase, host: Node, natives: Mapping[str, ModuleCode]
 ) -> dict[str, ModuleCode]:
-    """Every module's code by name: each image the database names loaded into `host`, each
-    native module's class from `natives` (by PBO name). A native the database names that
+    """Every module's code: the natives' (by name, or ``Module@robot`` where a robot's differs)
+    and each image the database names, loaded into `host`. A native the database names that
     `natives` lacks, or an image that does not load, is refused by the module's name."""
-    codes: dict[str, ModuleCode] = {}
-    for schema in database.schemas.values():
-        for module in schema.modules:
-            if module.name in codes:
-                continue
-            image = module.source.image
-            if image is None:
-                codes[module.name] = NativeModule(_native(module.name, natives))
-                continue
-            try:
-                codes[module.name] = host.load(image).code
-            except (FirmwareSimError, HexmigrateError, OSError) as error:
+    codes: dict[str, ModuleCode] = dict(natives)
+    for module in database.modules():
+        image = module.source.image
+        if image is None:
+            if not any(key.partition("@")[0] == module.name for key in natives):
                 raise ConfigurationError(
-                    f"module {module.name!r}: cannot load its image {image} on the manager's "
-                    f"host to estimate with: {error}"
-                ) from error
+                    f"module {module.name!r} is native: expected its code among the natives "
+                    f"({', '.join(sorted(natives)) or 'none'}; add yours with --natives MODULE), "
+                    "got none"
+                )
+            continue
+        if module.name in codes:
+            continue
+        try:
+            codes[module.name] = host.load(image).code
+        except (FirmwareSimError, HexmigrateError, OSError) as error:
+            raise ConfigurationError(
+                f"module {module.name!r}: cannot load its image {image} on the manager's "
+                f"host to estimate with: {error}"
+            ) from error
     return codes
-
-
-def _native(name: str, natives: Mapping[str, type[NativePBO]]) -> type[NativePBO]:
-    native = natives.get(name)
-    if native is None:
-        raise ConfigurationError(
-            f"module {name!r} is native: expected its NativePBO class among the natives "
-            f"({', '.join(sorted(natives))}; add yours with --natives MODULE), got none"
-        )
-    return native
 
 
 def host_estimators(
@@ -104,7 +98,7 @@ def host_estimators(
     inputs: Callable[[], Mapping[str, object]] = dict,
 ) -> HostEstimators:
     """The runtime's estimator factory on `host`'s kernel, with every module's code
-    (`host_codes`); `inputs()` the live values estimators start from, at each decision."""
-    return HostEstimators(
-        host.kernel, host_codes(database, host, natives), database, task, inputs=inputs
-    )
+    (`host_codes`, the natives' classes as `NativeModule`s); `inputs()` the live values
+    estimators start from, at each decision."""
+    codes = host_codes(database, host, {name: NativeModule(cls) for name, cls in natives.items()})
+    return HostEstimators(host.kernel, codes, database, task, inputs=inputs)

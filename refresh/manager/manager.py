@@ -1,31 +1,42 @@
 """`manage`: ReFrESH managing a task over the links to its robots' nodes, to the end of the run.
 
-The order is the one a user can follow in its output: the database's task is checked, the native
-code loaded, the nodes opened (each one checked reachable and in the time mode asked for) and
-the manager's host given every module's code to estimate with; then the runtime deploys the
-task's initial configuration and, every decision period, lets the world run, judges, and repairs
-a fault. Each event is printed as it comes and written as a JSON line. The links are closed at the
-end, whatever ended the run (its time, an error, Ctrl-C); the nodes keep running what they run.
+The order is the one a user can follow in its output: the native code is loaded, the nodes
+opened (each one checked reachable and in the time mode asked for) and the manager's host given
+every module's code to estimate with; then a `Session` deploys the task's initial configuration
+and, every decision period, lets the world run, judges, and repairs a fault, consulting the
+caller's plant model (`refresh.manager.plant`) as it goes. Each event is printed as it comes and
+written as a JSON line. The links are closed at the end, whatever ended the run (its time, an
+error, Ctrl-C); the nodes keep running what they run.
+
+``python -m refresh manage`` reads the database file (`load_task`, which checks it holds the task
+and a node for each robot) and hands it here; an application that prepares its own database (a
+scenario's faults, guest modules it built) calls `manage` with it directly: one manager either
+way.
 """
 
 from __future__ import annotations
 
 import contextlib
+import importlib
 import math
+import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from firmware_sim.core.natives import load_natives
-from firmware_sim.core.node import Node
+from firmware_sim.core.node import Node, NodeConfig
 from firmware_sim.errors import FirmwareSimError
 from hexmigrate.signing.keys import PrivateKey
+from pbort.code import ModuleCode
+from pbort.native import NativeModule
 from refresh.appliers.over_links import LinkApplier
-from refresh.configuration import Configuration
 from refresh.errors import ConfigurationError, DatabaseError
-from refresh.estimators.host import host_estimators
+from refresh.estimators.host import HostEstimators, host_codes
 from refresh.load import Loaded, load
 from refresh.manager.event_stream import EventStream
+from refresh.manager.plant import Plant
+from refresh.manager.session import Session
 from refresh.manager.time_modes import TimeMode
 from refresh.remote.remote_node import REPORT_PERIOD
 from refresh.runtime import Runtime, RuntimeSettings
@@ -33,14 +44,15 @@ from refresh.runtime import Runtime, RuntimeSettings
 
 @dataclass(frozen=True)
 class ManagerConfig:
-    """What ``python -m refresh manage`` is told: the database and its task, the node of each
-    robot by URL, the Python modules of the natives, the time mode, how long to run (None:
-    until interrupted), where to write the events as JSON lines, the runtime's settings, the
-    key that authenticates the manager to nodes that trust keys, and the fault-location strategy
-    (None: the database's)."""
+    """What the manager is told: the node of each robot by URL, the time mode, the Python
+    modules of the natives, how long to run (None: until interrupted), where to write the events
+    as JSON lines, the runtime's settings, the key that authenticates the manager to nodes that
+    trust keys, the fault-location strategy (None: the database's), the caller's plant model,
+    what a bridge between two robots models (`wire` at `rate` bit/s: ``tcp`` models none), the
+    wire a migration's time is modelled on (None: it takes none), the manager's host node (the
+    instruction budget its estimators run with) and how often each node reports (None: a few
+    times per decision period)."""
 
-    database: Path
-    task: str
     nodes: Mapping[str, str]
     time: TimeMode
     natives: tuple[str, ...] = ()
@@ -49,58 +61,79 @@ class ManagerConfig:
     settings: RuntimeSettings = field(default_factory=RuntimeSettings)
     key: PrivateKey | None = None
     location: str | None = None
+    plant: Plant = field(default_factory=Plant)
+    wire: str = "tcp"
+    rate: float = 0
+    migration_wire: str | None = None
+    host: NodeConfig = field(default_factory=NodeConfig)
+    report_period: float | None = None
 
 
-def manage(config: ManagerConfig, say: Callable[[str], None]) -> Runtime:
-    """Run the manager (see the module's docstring); each line of output goes to `say`. Returns
-    the runtime, with its history and log, once the run's time is over."""
-    loaded = load_task(config.database, config.task, config.nodes)
+def manage(
+    loaded: Loaded,
+    config: ManagerConfig,
+    say: Callable[[str], None],
+    progress: Callable[[float], None] = lambda now: None,
+) -> Runtime:
+    """Manage `loaded`'s task (see the module's docstring); each line of output goes to `say`,
+    the run's time after every sample period to `progress`. Returns the runtime, with its
+    history and log, once the run's time is over."""
     task = loaded.task
+    if task is None:
+        raise ConfigurationError("manage: expected a database with a [task] table, got none")
     if config.location is not None:
         task = replace(task, location=config.location)
-    try:
-        natives = load_natives(config.natives)
-    except FirmwareSimError as error:
-        raise ConfigurationError(str(error)) from error
-    period = min(REPORT_PERIOD, config.settings.decision_period)
+    natives = _natives(config)
+    period = config.report_period or min(REPORT_PERIOD, config.settings.decision_period)
     with contextlib.ExitStack() as stack:
         out = None
         if config.events is not None:
             out = stack.enter_context(config.events.open("w", encoding="utf-8"))
-        host = stack.enter_context(Node("manager"))
-        estimators = host_estimators(loaded.database, task, host, natives)
+        host = stack.enter_context(Node("manager", config.host))
+        codes = host_codes(loaded.database, host, natives)
+        estimators = HostEstimators(
+            host.kernel,
+            codes,
+            loaded.database,
+            task,
+            inputs=lambda: config.plant.inputs(session.view),  # once the session is made
+        )
         applier = stack.enter_context(
-            LinkApplier.open(dict(config.nodes), period=period, key=config.key)
+            LinkApplier.open(
+                dict(config.nodes),
+                period=period,
+                key=config.key,
+                wire=config.wire,
+                rate=config.rate,
+                migration_wire=config.migration_wire,
+            )
         )
         for robot, node in applier.nodes.items():
             say(f"robot {robot}: {node.description} at {node.url}")
         config.time.attach(applier)
         applier.use_clock(config.time.clock)
         runtime = Runtime(
-            loaded.database,
-            task,
-            applier,
-            estimators,
-            config.time.clock,
-            config.settings,
+            loaded.database, task, applier, estimators, config.time.clock, config.settings
         )
-        runtime.on_switch = _announcing(runtime)
         stream = EventStream(runtime.log, say, out)
         stack.callback(stream.flush)  # what came before an error or Ctrl-C is written too
+        session = Session(runtime, config.time, config.plant, flush=stream.flush, progress=progress)
         say(
             f"task {task.name}: {config.time.describe()}, a decision every "
             f"{config.settings.decision_period:g} s, faults located by {task.location}"
         )
-        runtime.deploy()
-        stream.flush()
-
-        def advance(seconds: float) -> None:
-            stream.flush()
-            config.time.advance(seconds)
-
-        until = math.inf if config.seconds is None else config.seconds
-        runtime.run(until, advance)
+        session.run(math.inf if config.seconds is None else config.seconds)
     return runtime
+
+
+def _natives(config: ManagerConfig) -> dict[str, ModuleCode]:
+    """The natives' code to estimate with: the classes of the modules `config.natives` names,
+    then the plant's own (bound to its devices), which take precedence."""
+    try:
+        classes = load_natives(config.natives)
+    except FirmwareSimError as error:
+        raise ConfigurationError(str(error)) from error
+    return {name: NativeModule(cls) for name, cls in classes.items()} | dict(config.plant.natives())
 
 
 def load_task(file: Path, task: str, nodes: Mapping[str, str]) -> Loaded:
@@ -129,15 +162,25 @@ def load_task(file: Path, task: str, nodes: Mapping[str, str]) -> Loaded:
     return loaded
 
 
-def _announcing(runtime: Runtime) -> Callable[[Configuration], None]:
-    """The runtime's `on_switch`: an event for each configuration once it runs (``deployed``
-    for the first, ``switch`` for a repair's)."""
-
-    def announce(configuration: Configuration) -> None:
-        first = not runtime.history.configurations
-        kind = "deployed" if first else "switch"
-        runtime.log.record(
-            kind, f"running {configuration.label()}", configuration=configuration.label()
+def load_plant(module: str) -> Plant:
+    """The plant model of Python module `module` (imported by name, from the current directory
+    first, as natives are): what its ``plant()`` returns."""
+    if "" not in sys.path:
+        sys.path.insert(0, "")
+    try:
+        imported = importlib.import_module(module)
+    except ImportError as error:
+        raise ConfigurationError(f"--plant {module}: cannot import it: {error}") from error
+    make = getattr(imported, "plant", None)
+    if not callable(make):
+        raise ConfigurationError(
+            f"--plant {module}: expected a function plant() returning the plant model, got "
+            f"{'nothing of that name' if make is None else type(make).__name__}"
         )
-
-    return announce
+    made = make()
+    if not isinstance(made, Plant):
+        raise ConfigurationError(
+            f"--plant {module}: expected plant() to return a refresh.manager.plant.Plant, got "
+            f"{type(made).__name__}"
+        )
+    return made

@@ -21,9 +21,11 @@ for an Advance to 0 s, which a lock-step node at its start takes and a real-time
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from typing import Protocol
 
 from hexmigrate.errors import HexmigrateError, NoAnswer, TransferError, TransferInterrupted
+from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.time_master import TimeMaster
 from refresh.appliers.over_links import LinkApplier
 from refresh.errors import NodeLinkError
@@ -72,11 +74,16 @@ def mode_of(node: RemoteNode) -> tuple[str, str]:
 
 
 class LockStep:
-    """Lock-step virtual time, `quantum` seconds at a time, granted by a `TimeMaster`."""
+    """Lock-step virtual time, `quantum` seconds at a time, granted by a `TimeMaster`; `first`
+    are processes besides the nodes that the master grants each quantum before them (a servo
+    emulator the nodes talk to during a quantum: `TimeMaster`), by name."""
 
-    def __init__(self, quantum: float) -> None:
+    def __init__(self, quantum: float, first: Mapping[str, NodeControl] | None = None) -> None:
         self.quantum = quantum
+        self.first = dict(first or {})
         self.master: TimeMaster | None = None
+        self.until = 0.0
+        """The run's time every node is granted to, as the advances add up."""
 
     def attach(self, applier: LinkApplier) -> None:
         """Refuse a node that is not in lock-step at 0 s, then route the applier's bridges
@@ -93,7 +100,7 @@ class LockStep:
                     f"{said} (expected a node in lock-step at 0 s, as a run starts: start the "
                     "node again)"
                 )
-        self.master = TimeMaster(applier.controls(), self.quantum)
+        self.master = TimeMaster(applier.controls(), self.quantum, first=self.first)
         applier.router = self.master
 
     def clock(self) -> float:
@@ -101,12 +108,14 @@ class LockStep:
 
     def advance(self, seconds: float) -> None:
         """Grant quanta to `seconds` further; every report of them is filed once the last
-        Advance's answer is in (a node answers after the quantum's reports)."""
+        Advance's answer is in (a node answers after the quantum's reports). The run's time is
+        summed as asked (`until`) and rounded to the master's microseconds only when granted, so
+        that many short advances (a camera's frames) do not drift from where they add up to."""
         if self.master is None:
             raise NodeLinkError("lock-step time: expected the nodes attached, got none")
-        until = self.master.now + seconds
+        self.until += seconds
         try:
-            self.master.run_until(until)
+            self.master.run_until(self.until)
         except HexmigrateError as error:
             raise NodeLinkError(f"lock-step time: {error}") from error
 

@@ -36,7 +36,7 @@ import time
 from collections.abc import Callable
 
 from refresh.adaptation import decide
-from refresh.appliers.base import ApplierBase
+from refresh.appliers.base import ApplierBase, Inventory
 from refresh.configuration import Configuration, initial_configuration
 from refresh.database import ModuleDatabase
 from refresh.decider import Decider, Detection
@@ -58,7 +58,9 @@ class Runtime:
     """ReFrESH's run loop for `task` over `database`, applying plans through `applier`,
     estimating with what `estimators` makes per decision, on `clock` (seconds of the run).
 
-    `on_switch(configuration)` is told each configuration once it runs (the caller may need to
+    `on_rejoin(robot, inventory)` is told of each lost robot once it is back and counted again
+    (what its node had when it answered). `on_switch(configuration)` is told each configuration
+    once it runs (the caller may need to
     know which module now drives what). A database whose metric modules report slower than the
     Decider looks is refused (`RateError`, see `refresh.runtime.rates`).
     """
@@ -72,6 +74,7 @@ class Runtime:
         clock: Callable[[], float],
         settings: RuntimeSettings | None = None,
         on_switch: Callable[[Configuration], None] | None = None,
+        on_rejoin: Callable[[str, Inventory], None] | None = None,
     ) -> None:
         self.settings = settings if settings is not None else RuntimeSettings()
         check_rates(database, task, self.settings.decision_period)
@@ -81,6 +84,7 @@ class Runtime:
         self.estimators = estimators
         self.clock = clock
         self.on_switch = on_switch
+        self.on_rejoin = on_rejoin
         self.log = EventLog(clock=clock, start=0.0)
         """Every event, dated by the runtime's clock."""
         self.maintainer = Maintainer(database, applier, self.log)
@@ -195,6 +199,8 @@ class Runtime:
             modules=list(inventory.modules),
             pbos=dict(inventory.pbos),
         )
+        if self.on_rejoin is not None:
+            self.on_rejoin(robot, inventory)
 
     def _instances_on(self, robot: str) -> set[str]:
         assert self.current is not None

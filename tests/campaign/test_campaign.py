@@ -15,14 +15,14 @@ import pytest
 from matplotlib import image
 
 from campaign import store
-from campaign.cli import Application, add_campaign_arguments, run_campaign
+from campaign.cli import CampaignSpec, add_campaign_arguments, run_campaign
 from campaign.errors import CampaignFolderError
 from campaign.plan import plan
 from campaign.record import crashed, reproducible
 from campaign.summary import distribution, summarize
 from tests.campaign import toy
 
-TOY = Application("toy", ("a", "b"), toy.draw, toy.run, Path("unused"))
+TOY = CampaignSpec("toy", ("a", "b"), toy.draw, toy.run, Path("unused"))
 
 
 def options(*argv: str) -> argparse.Namespace:
@@ -159,7 +159,7 @@ def test_a_hostile_campaign_file_is_refused_on_resume_naming_the_key(tmp_path, k
 
 
 def test_a_run_whose_worker_dies_is_recorded_as_crashed_and_the_others_finish(tmp_path):
-    dying = Application("toy", ("a", "b"), toy.draw, toy.die, Path("unused"))
+    dying = CampaignSpec("toy", ("a", "b"), toy.draw, toy.die, Path("unused"))
     run_campaign(options("--runs", "4", "--seed", "3", "--out", str(tmp_path)), dying)
     found = records(tmp_path)
     assert [r["status"] for r in found] == ["ok", "crashed", "ok", "ok"]

@@ -10,21 +10,34 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
+from application.cli import build_parser as application_parser
 from firmware_sim.cli.command import build_parser as firmware_sim_parser
 from hexmanipulator.plot_sweep import build_parser as plot_sweep_parser
 from hexmigrate.cli import build_parser as hexmigrate_parser
 from morphing_crossbar.cli import build_parser as crossbar_parser
+from patrol.declaration import APPLICATION as PATROL
 from refresh.cli import build_parser as refresh_parser
 from servo_emulators.cli import build_parser as servos_parser
+from tank.declaration import APPLICATION as TANK
 from tests.commandline.documented import undocumented
-from visual_servoing.experiment.cli import build_parser as servoing_parser
+from visual_servoing.declaration import APPLICATION as SERVOING
 from visual_servoing.figure import build_parser as figure_parser
+
+APPLICATIONS = (
+    "## The applications: `python -m visual_servoing`, `python -m patrol`, `python -m tank`"
+)
 
 ENTRY_POINTS: dict[str, tuple[Callable[[], argparse.ArgumentParser], str]] = {
     "hexmigrate": (hexmigrate_parser, "## `hexmigrate`"),
     "firmware-sim": (firmware_sim_parser, "## `firmware-sim`"),
     "refresh": (refresh_parser, "## `python -m refresh`"),
-    "visual_servoing": (servoing_parser, "## `python -m visual_servoing`"),
+    **{
+        application.name: (
+            lambda application=application: application_parser(application),
+            APPLICATIONS,
+        )
+        for application in (SERVOING, PATROL, TANK)
+    },
     "morphing_crossbar": (crossbar_parser, "## `python -m morphing_crossbar`"),
     "servo_emulators": (servos_parser, "## `python -m servo_emulators`"),
     "hexmanipulator.plot_sweep": (plot_sweep_parser, "## The figure commands"),

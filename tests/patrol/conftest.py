@@ -1,4 +1,4 @@
-"""The patrol's guest modules, built once per test session."""
+"""The patrol's guest modules, built once per test session (as a run builds them)."""
 
 from __future__ import annotations
 
@@ -6,21 +6,25 @@ from pathlib import Path
 
 import pytest
 
+from application.prepared import Prepared, prepare
 from hexmigrate.image import ModuleImage
-from patrol.guests import build_guests
+from patrol.declaration import APPLICATION
 
 
 @pytest.fixture(scope="session")
-def guest_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def prepared(tmp_path_factory: pytest.TempPathFactory) -> Prepared:
+    """The patrol's glare scenario prepared: the guests built into a folder, the database
+    written beside them."""
+    return prepare(APPLICATION, APPLICATION.scenario("glare"), tmp_path_factory.mktemp("patrol"))
+
+
+@pytest.fixture(scope="session")
+def guest_dir(prepared: Prepared) -> Path:
     """A directory holding kalman.hex and pursuit.hex, as the module database names them."""
-    out = tmp_path_factory.mktemp("patrol-guests")
-    build_guests(out)
-    return out
+    return prepared.file.parent
 
 
 @pytest.fixture(scope="session")
-def guest_images(guest_dir: Path) -> dict[str, ModuleImage]:
+def guest_images(prepared: Prepared) -> dict[str, ModuleImage]:
     """The guest images read back from their HEX files, by module name."""
-    return {
-        name: ModuleImage.read(guest_dir / f"{name.lower()}.hex") for name in ("Kalman", "Pursuit")
-    }
+    return prepared.images

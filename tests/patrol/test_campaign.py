@@ -14,9 +14,11 @@ import time
 
 import pytest
 
+from application.campaign_runs import run_drawn
+from application.cli import main
 from campaign import store
-from patrol.campaign import FAMILY, draw, run
-from patrol.cli import main
+from patrol.campaign import FAMILY, draw
+from patrol.declaration import APPLICATION
 from refresh.location import STRATEGIES
 
 DOUBLE = {
@@ -32,7 +34,9 @@ DOUBLE = {
 
 
 def test_two_faults_at_once_are_located_by_the_adaptive_strategy_and_repaired():
-    outcome = run({"index": 0, "seed": 1, "draw": {**DOUBLE, "location": "adaptive"}})
+    outcome = run_drawn(
+        "patrol", {"index": 0, "seed": 1, "draw": {**DOUBLE, "location": "adaptive"}}
+    )
     (first,) = outcome["decisions"]
     assert first["located"] == ["LineCam", "Median"]
     assert first["chosen"] == "{MastCam@mast, Gyro, Kalman, PID, Drive, Chassis}"
@@ -44,7 +48,8 @@ def test_two_faults_at_once_are_located_by_the_adaptive_strategy_and_repaired():
 
 
 def test_base_choice_stops_the_task_on_the_same_two_faults():
-    outcome = run({"index": 0, "seed": 1, "draw": {**DOUBLE, "location": None}})
+    drawn = {**DOUBLE, "location": None}
+    outcome = run_drawn("patrol", {"index": 0, "seed": 1, "draw": drawn})
     (first,) = outcome["decisions"]
     assert first["located"] == [] and first["chosen"] is None
     assert outcome["stopped_at"] == pytest.approx(first["detected_at"])
@@ -63,7 +68,7 @@ def test_draws_name_the_faulty_modules_as_truth():
 def test_the_campaign_command_writes_records_summary_and_page(tmp_path, capsys):
     out = tmp_path / "campaign"
     argv = ["campaign", "--runs", "3", "--seed", "4", "--workers", "2", "--out", str(out)]
-    assert main([*argv, "--location", "adaptive"]) == 0
+    assert main(APPLICATION, [*argv, "--location", "adaptive"]) == 0
     records = [json.loads(line) for line in (out / store.RECORDS).read_text().splitlines()]
     assert sorted(r["index"] for r in records) == [0, 1, 2]
     assert all(r["status"] == "ok" for r in records)
@@ -102,7 +107,7 @@ def test_ctrl_c_stops_the_campaign_between_records_and_resume_finishes_it(tmp_pa
     assert campaign.returncode == 130
     assert stderr == "interrupted\n"
     assert 2 <= _records(out) < 8
-    assert main(["campaign", "--resume", "--workers", "2", "--out", str(out)]) == 0
+    assert main(APPLICATION, ["campaign", "--resume", "--workers", "2", "--out", str(out)]) == 0
     assert _records(out) == 8
 
 

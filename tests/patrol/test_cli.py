@@ -6,26 +6,30 @@ import json
 
 import pytest
 
-from patrol.cli import main
-from patrol.scenarios import SCENARIOS
+from application.cli import main
+from patrol.declaration import APPLICATION
 from refresh.images import check_images
 from refresh.load import load
 
 
+def patrol(*argv: str) -> int:
+    return main(APPLICATION, argv)
+
+
 def test_scenarios_lists_each_with_what_it_expects(capsys):
-    assert main(["scenarios"]) == 0
+    assert patrol("scenarios") == 0
     out = capsys.readouterr().out
-    for name, scenario in SCENARIOS.items():
-        assert f"{name:<11} {scenario.title}" in out
+    for scenario in APPLICATION.scenarios:
+        assert f"{scenario.name:<11} {scenario.title}" in out
         assert f"expected: {scenario.expected}" in out
 
 
 def test_run_prints_the_summary_and_writes_the_report_timeline_and_figure(tmp_path, capsys):
-    assert main(["run", "--scenario", "glare", "--out", str(tmp_path)]) == 0
+    assert patrol("run", "--scenario", "glare", "--out", str(tmp_path)) == 0
     out = capsys.readouterr().out
     assert "scenario glare: glare blinds rover1's line camera at 1 s" in out
-    assert "located    LineCam after 1 of 9 base-choice cases (brute force: 162)" in out
-    assert "chosen     {MastCam@mast, Gyro, Median, PID, Drive, Chassis} on mast, rover1" in out
+    assert "test cases           9 by base-choice (1 estimated) against 162 by brute force" in out
+    assert "chosen               {MastCam@mast, Gyro, Median, PID, Drive, Chassis} on mast, " in out
     report = json.loads((tmp_path / "report.json").read_text())
     (record,) = report["summary"]["reconfigurations"]
     assert record["fault_at"] == 1.0 and record["detection_delay"] == pytest.approx(0.5)
@@ -33,19 +37,33 @@ def test_run_prints_the_summary_and_writes_the_report_timeline_and_figure(tmp_pa
     assert len(report["samples"]) == 750
     assert "choice       chosen: {MastCam@mast" in (tmp_path / "timeline.txt").read_text()
     assert (tmp_path / "patrol.png").read_bytes().startswith(b"\x89PNG")
+    assert (tmp_path / "report.mcap").stat().st_size > 0
     database = tmp_path / "patrol.toml"  # beside the guests' HEX files, as it names them
     check_images(load(database).database, str(database))
 
 
 def test_run_as_json_prints_the_summary_only(tmp_path, capsys):
-    assert main(["run", "--scenario", "controller", "--out", str(tmp_path), "--json"]) == 0
+    assert patrol("run", "--scenario", "controller", "--out", str(tmp_path), "--json") == 0
     figures = json.loads(capsys.readouterr().out)
     (record,) = figures["reconfigurations"]
-    assert record["migrations"] == [{"module": "Pursuit", "robot": "rover1", "bytes": 884}]
+    ((migration,),) = [record["migrations"]]
+    assert (migration["module"], migration["robot"], migration["bytes"]) == (
+        "Pursuit",
+        "rover1",
+        884,
+    )
+    assert figures["worst"]["offset"] < figures["worst"]["limit"] == 100
 
 
 def test_an_unknown_scenario_is_a_usage_error(capsys):
     with pytest.raises(SystemExit) as caught:
-        main(["run", "--scenario", "flood"])
+        patrol("run", "--scenario", "flood")
     assert caught.value.code == 2
     assert "invalid choice: 'flood'" in capsys.readouterr().err
+
+
+def test_quantum_goes_with_processes(capsys):
+    with pytest.raises(SystemExit) as caught:
+        patrol("run", "--quantum", "0.01")
+    assert caught.value.code == 2
+    assert "--real-time and --quantum go with --processes" in capsys.readouterr().err

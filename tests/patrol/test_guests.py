@@ -8,7 +8,7 @@ import pytest
 
 from firmware_sim.core.node import Node
 from hexmigrate.image import ModuleImage
-from patrol.scenarios import DATABASE
+from patrol.declaration import APPLICATION
 from pbort import PerformanceKind
 from pbort.errors import MethodFailedError
 from refresh.images import check_images
@@ -19,8 +19,9 @@ F, NF = PerformanceKind.FUNCTIONAL, PerformanceKind.NON_FUNCTIONAL
 
 
 def test_the_images_agree_with_the_module_database(guest_dir: Path):
-    loaded = loads(DATABASE.read_text(encoding="utf-8"), DATABASE.name, guest_dir)
-    check_images(loaded.database, DATABASE.name)  # raises on a disagreement
+    database = APPLICATION.database
+    loaded = loads(database.read_text(encoding="utf-8"), database.name, guest_dir)
+    check_images(loaded.database, database.name)  # raises on a disagreement
 
 
 def test_kalman_settles_on_a_noisy_offset_and_reports_its_resources(guest_images):

@@ -1,6 +1,6 @@
-"""Each scenario end to end on three emulated robots: the fault detected, located, repaired by
-the configuration the scenario expects (coalitions and migrations included), and rover1 kept on
-the line throughout; and a run without faults that ReFrESH leaves alone."""
+"""Each scenario end to end on three emulated robots in process: the fault detected, located,
+repaired by the configuration the scenario expects (coalitions and migrations included), and
+rover1 kept on the line throughout; and a run without faults that ReFrESH leaves alone."""
 
 from __future__ import annotations
 
@@ -8,9 +8,11 @@ from pathlib import Path
 
 import pytest
 
-from patrol.errors import ScenarioError
-from patrol.local import Patrol
-from patrol.scenarios import SCENARIOS, Scenario, with_faults
+from application.errors import ScenarioError
+from application.records import Outcome
+from application.runs import run_in_process
+from application.scenario import Scenario, with_faults
+from patrol.declaration import APPLICATION
 from refresh.load import load
 
 INITIAL = "{LineCam, Gyro, Median, PID, Drive, Chassis}"
@@ -44,14 +46,13 @@ EXPECTED = {
 }
 
 
-def run(scenario: Scenario, work: Path):
-    with Patrol(scenario, work) as patrol:
-        return patrol.run()
+def run(scenario: Scenario, work: Path) -> Outcome:
+    return run_in_process(APPLICATION, scenario, work)
 
 
 @pytest.mark.parametrize("name", sorted(EXPECTED))
 def test_each_fault_is_located_and_repaired_as_the_scenario_expects(name, tmp_path):
-    scenario = SCENARIOS[name]
+    scenario = APPLICATION.scenario(name)
     outcome = run(scenario, tmp_path)
     assert outcome.configurations[0] == (0.0, INITIAL)
     got = []
@@ -66,18 +67,15 @@ def test_each_fault_is_located_and_repaired_as_the_scenario_expects(name, tmp_pa
         assert record.detected_at == pytest.approx(fault + 0.5)  # 5 looks, 0.1 s apart
     assert got == EXPECTED[name]
     assert outcome.stopped_at is None
-    assert max(abs(sample.offset) for sample in outcome.samples) < 100  # mm: on the line
+    assert max(abs(sample["offset"]) for sample in outcome.samples) < 100  # mm: on the line
 
 
 def test_with_every_line_sensor_blind_the_task_is_stopped_safely(tmp_path):
-    with Patrol(SCENARIOS["blind"], tmp_path) as patrol:
-        outcome = patrol.run()
-        running = {robot: set(node.kernel.names) for robot, node in patrol.nodes.items()}
+    outcome = run(APPLICATION.scenario("blind"), tmp_path)
     (record,) = outcome.reconfigurations
     assert not record.decision.location.located  # more than one fault suspected
     assert record.decision.location.tried == record.test_cases == 9
     assert record.target is None and outcome.stopped_at == pytest.approx(1.5)
-    assert running == {"rover1": set(), "rover2": set(), "mast": set()}
     assert outcome.samples[-1].time == pytest.approx(1.5)  # rover1 halted: nothing to sample
 
 
@@ -86,7 +84,7 @@ def test_without_a_fault_nothing_is_reconfigured(tmp_path):
     assert outcome.reconfigurations == []
     assert [label for _, label in outcome.configurations] == [INITIAL]
     assert len(outcome.samples) == 750  # one every 20 ms
-    assert max(abs(sample.offset) for sample in outcome.samples) < 60
+    assert max(abs(sample["offset"]) for sample in outcome.samples) < 60
 
 
 def test_the_scenarios_fault_modules_of_the_database():
@@ -95,7 +93,7 @@ def test_the_scenarios_fault_modules_of_the_database():
     assert faulty.module("Median").constants == {"fault_at": 2.5}
     assert database.module("Median").constants == {"fault_at": 1e6}  # the original is kept
     assert faulty.module("PID").constants == database.module("PID").constants
-    for scenario in SCENARIOS.values():
+    for scenario in APPLICATION.scenarios:
         with_faults(database, scenario.faults)
 
 

@@ -162,13 +162,26 @@ def test_in_real_time_it_repairs_and_runs_until_interrupted(database, tmp_path):
     command += ["levels", "--natives", NATIVES, "--real-time", *SETTINGS, "--events", str(out)]
     command += ["--location", "adaptive"]
     with nodes("", "") as (_started, options):
+        import time as _t
+        _t0 = _t.monotonic()
         manager = subprocess.Popen(
-            [*command, *options], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+            [*command, *options], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            env=dict(os.environ, PYTHONFAULTHANDLER="1"),
         )
         try:
             lines = read_until(manager, re.compile(r"^ *\d+\.\d{3} s  recovered "))
+            _t1 = _t.monotonic()
             manager.send_signal(signal.SIGINT)
-            _, stderr = manager.communicate(timeout=MANAGER_TIMEOUT)
+            try:
+                _, stderr = manager.communicate(timeout=MANAGER_TIMEOUT)
+            except subprocess.TimeoutExpired as _e:
+                _o1 = _e.stdout
+                manager.send_signal(signal.SIGABRT)
+                _o, _err = manager.communicate(timeout=20)
+                import glob as _g
+                with open(f"/tmp/repro/hang-{os.getpid()}-{_t.time():.0f}.txt", "w") as _f:
+                    _f.write(f"recovered read after {_t1-_t0:.2f}s\nLINES\n" + "\n".join(lines) + f"\nOUT1\n{_o1}\nOUT\n{_o}\nERR\n{_err}\nCHILDREN {os.listdir('/proc/self/task')}\n")
+                raise
         finally:
             if manager.poll() is None:
                 manager.kill()
@@ -263,7 +276,7 @@ def test_a_node_that_does_not_answer_and_an_unknown_task_are_one_error_line(data
     )
     assert done.returncode == 1
     assert done.stderr == (
-        "error: module 'Sensor' is native: expected its NativePBO class among the natives "
+        "error: module 'Sensor' is native: expected its code among the natives "
         "(signal; add yours with --natives MODULE), got none\n"
     )
     command.append("x")

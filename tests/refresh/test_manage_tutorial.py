@@ -1,5 +1,5 @@
-"""docs/tutorial.md works as written: its files are the ones in docs/tutorial/, and its commands,
-run in order on the files as the page shows them, build and pack the guest, start the two
+"""docs/tutorial.md works as written: its files are the tank application's (tank/), and its
+commands, run in order on the files as the page shows them, build and pack the guest, start the two
 nodes, and let the manager repair the fault as the page says (the ports it names replaced by free
 ones, so that tests run side by side)."""
 
@@ -53,10 +53,10 @@ def unused_port() -> str:
         return str(probe.getsockname()[1])
 
 
-def test_the_pages_files_are_the_ones_in_docs_tutorial():
+def test_the_pages_files_are_the_tank_applications():
     for language, name in FILES.items():
         (shown,) = blocks(language)
-        assert shown == (ROOT / "docs" / "tutorial" / name).read_text(), name
+        assert shown == (ROOT / "tank" / name).read_text(), name
 
 
 def test_the_tutorials_commands_repair_the_fault(tmp_path, monkeypatch):

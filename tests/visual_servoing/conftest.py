@@ -6,8 +6,9 @@ from collections.abc import Callable
 
 import pytest
 
-from visual_servoing.experiment.experiment import Experiment, Outcome
-from visual_servoing.experiment.scenarios import SCENARIOS
+from application.records import Outcome
+from application.runs import run_in_process
+from visual_servoing.declaration import APPLICATION
 
 
 @pytest.fixture(scope="session")
@@ -22,8 +23,8 @@ def scenario_outcome(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str]
 
     def outcome(name: str) -> Outcome:
         if name not in outcomes:
-            with Experiment(SCENARIOS[name], tmp_path_factory.mktemp(name)) as experiment:
-                outcomes[name] = experiment.run()
+            scenario = APPLICATION.scenario(name)
+            outcomes[name] = run_in_process(APPLICATION, scenario, tmp_path_factory.mktemp(name))
         return outcomes[name]
 
     return outcome

@@ -16,17 +16,22 @@ from pathlib import Path
 
 import pytest
 
+from application import cli
 from campaign import store
 from campaign.record import reproducible
 from refresh.location import STRATEGIES
+from visual_servoing.declaration import APPLICATION
 from visual_servoing.experiment.campaign import FAMILY, draw, scenario_of
-from visual_servoing.experiment.cli import main
 from visual_servoing.experiment.scenarios import SECOND_SERVO_BUS
 
 ROOT = Path(__file__).resolve().parents[2]
 DASK = Path(sys.executable).parent / "dask"
 STARTUP = 60.0
 """Seconds a scheduler may take to write its address, workers to join."""
+
+
+def main(argv: list[str]) -> int:
+    return cli.main(APPLICATION, argv)
 
 
 def records(out: Path) -> list[dict]:

@@ -14,20 +14,26 @@ from hypothesis import given, settings
 from matplotlib.image import imread
 from mcap.reader import make_reader
 
-from tests.commandline.documented import undocumented
+from application import cli
+from application.records import Outcome
+from application.report import summary, write_mcap
 from tests.commandline.hostile_input import hostile_numbers, run_main
 from tests.commandline.terminal import stderr_on_a_terminal
 from tests.visual_servoing.pixels import TAB, pixels_of
-from visual_servoing.experiment.cli import build_parser, main
-from visual_servoing.experiment.experiment import Outcome
-from visual_servoing.experiment.report import summary, write_mcap
-from visual_servoing.experiment.scenarios import PAPER, SCENARIOS
+from visual_servoing.declaration import APPLICATION
+from visual_servoing.experiment.scenarios import FAULT_AT, PAPER
 
 PAPER_CASES = [
     "{CamReader_alt, SSD, TrajGen, HexMan}",
     "{CamReader, SSD_alt, TrajGen, HexMan}",
     "{CamReader, SSD, TrajGen_alt, HexMan}",
 ]
+
+
+def main(argv: list[str]) -> int:
+    return cli.main(APPLICATION, argv)
+
+
 PAPER_CANDIDATES = [
     "{CamReader_alt, SSD, TrajGen, HexMan}",
     "{CamReader, Dehazer, SSD, TrajGen, HexMan}",
@@ -43,7 +49,7 @@ def paper(scenario_outcome: Callable[[str], Outcome]) -> Outcome:
 def test_the_fault_is_detected_soon_after_it_strikes(paper):
     detections = paper.log.of_kind("detection")
     assert len(detections) == 1
-    assert PAPER.fault_at < detections[0].time < PAPER.fault_at + 1.5
+    assert FAULT_AT < detections[0].time < FAULT_AT + 1.5
     assert detections[0].data["failing"] == ["diff"]
 
 
@@ -76,8 +82,8 @@ def test_the_dehazer_migrates_and_the_task_recovers(paper):
     assert paper.stopped_at is None
     assert paper.configurations[-1][1] == PAPER_CANDIDATES[1]
     # As often within the threshold as before the fault (the turns between targets aside).
-    before = within([s for s in paper.samples if 0.5 < s.time < PAPER.fault_at])
-    during = within([s for s in paper.samples if PAPER.fault_at < s.time < record.detected_at])
+    before = within([s for s in paper.samples if 0.5 < s.time < FAULT_AT])
+    during = within([s for s in paper.samples if FAULT_AT < s.time < record.detected_at])
     after = within([s for s in paper.samples if s.time > record.recovered_at])
     assert during < before - 0.2
     assert after > before - 0.05
@@ -85,11 +91,11 @@ def test_the_dehazer_migrates_and_the_task_recovers(paper):
 
 def within(samples) -> float:
     """The share of samples whose reported deviation is within the paper's 30 pixels."""
-    return sum(abs(s.reported) <= 30 for s in samples) / len(samples)
+    return sum(abs(s["reported"]) <= 30 for s in samples) / len(samples)
 
 
 def test_the_summary_gives_the_demo_s_figures(paper):
-    figures = summary(paper)
+    figures = summary(APPLICATION, paper)
     (r,) = figures["reconfigurations"]
     assert r["located"] == "CamReader"
     assert r["chosen"] == PAPER_CANDIDATES[1]
@@ -100,7 +106,7 @@ def test_the_summary_gives_the_demo_s_figures(paper):
 
 
 def test_the_mcap_export_holds_every_sample_and_event_on_the_run_s_time(paper, tmp_path):
-    write_mcap(paper, tmp_path / "report.mcap")
+    write_mcap(APPLICATION, paper, tmp_path / "report.mcap")
     topics: dict[str, list[dict]] = {"/samples": [], "/events": []}
     with (tmp_path / "report.mcap").open("rb") as stream:
         for schema, channel, message in make_reader(stream).iter_messages():
@@ -108,8 +114,8 @@ def test_the_mcap_export_holds_every_sample_and_event_on_the_run_s_time(paper, t
             values = json.loads(message.data)
             assert message.log_time == round(values["time"] * 1e9)
             topics[channel.topic].append(values)
-    assert [s["reported"] for s in topics["/samples"]] == [s.reported for s in paper.samples]
-    assert [s["yaw"] for s in topics["/samples"]] == [s.yaw for s in paper.samples]
+    assert [s["reported"] for s in topics["/samples"]] == [s["reported"] for s in paper.samples]
+    assert [s["yaw"] for s in topics["/samples"]] == [s["yaw"] for s in paper.samples]
     events = [e.as_dict() for e in paper.log]
     assert sorted(topics["/events"], key=lambda e: e["time"]) == events
     assert any(e["kind"] == "detection" for e in topics["/events"])
@@ -120,7 +126,7 @@ def test_the_command_writes_report_timeline_and_plot(tmp_path: Path, capsys):
     assert main(["run", "--scenario", "paper", "--out", str(tmp_path)]) == 0
     printed = capsys.readouterr().out
     assert "3 by base-choice (1 estimated) against 8 by brute force" in printed
-    assert f"plot: {tmp_path / 'deviation.png'}" in printed
+    assert f"figure: {tmp_path / 'deviation.png'}" in printed
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["summary"]["final"] == PAPER_CANDIDATES[1]
     assert len(report["samples"]) > 250  # a sample per frame over 10 s
@@ -156,7 +162,7 @@ def test_an_output_folder_name_the_system_cannot_take_is_a_usage_error(capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["run", "--out", "build/a\0b"])
     assert exit_.value.code == 2
-    assert "argument --out: expected a folder name, got 'build/a\\x00b'" in capsys.readouterr().err
+    assert "argument --out: expected a path, got 'build/a\\x00b'" in capsys.readouterr().err
 
 
 def test_an_unknown_scenario_is_a_usage_error(capsys):
@@ -173,7 +179,7 @@ QUICKEST = "no-repair"
 def test_a_terminal_sees_the_run_s_progress_in_virtual_seconds(tmp_path: Path, monkeypatch):
     with stderr_on_a_terminal(monkeypatch) as screen:
         assert main(["run", "--scenario", QUICKEST, "--out", str(tmp_path)]) == 0
-    total = re.escape(f"{SCENARIOS[QUICKEST].duration:g}".encode()) + rb"(\.0)?"
+    total = re.escape(f"{APPLICATION.scenario(QUICKEST).duration:g}".encode()) + rb"(\.0)?"
     drawn = rb"\rno-repair: +[1-9]\d*%\|.*\| [\d.]+/" + total + rb" \["
     assert re.search(drawn, screen.data), screen.data
 
@@ -206,9 +212,5 @@ def test_a_machine_without_the_cross_compiler_gets_one_error_line(tmp_path, monk
     monkeypatch.setenv("PATH", str(tmp_path / "empty"))
     assert main(["run", "--scenario", QUICKEST, "--out", str(tmp_path)]) == 1
     err = capsys.readouterr().err
-    assert err.startswith("error: scenario no-repair: cannot build the Dehazer: ")
+    assert err.startswith("error: cannot build guest module Dehazer: ")
     assert "not found on PATH" in err and err.count("\n") == 1
-
-
-def test_docs_cli_md_names_every_command_and_option() -> None:
-    assert undocumented(build_parser(), "## `python -m visual_servoing`") == []

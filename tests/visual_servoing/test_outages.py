@@ -13,11 +13,13 @@ from typing import Any
 
 import pytest
 
-from visual_servoing.experiment.experiment import Experiment
-from visual_servoing.experiment.linked import QUANTUM
-from visual_servoing.experiment.processes import run_processes
-from visual_servoing.experiment.report import summary
-from visual_servoing.experiment.scenarios import KILL_AT, SCENARIOS
+from application.launch import run_processes
+from application.report import summary
+from application.runs import run_in_process
+from visual_servoing.declaration import APPLICATION
+from visual_servoing.experiment.scenarios import KILL_AT
+
+QUANTUM = APPLICATION.quantum
 
 COALITION = "{CamReader@rotation, SSD, TrajGen, HexMan}"
 BACK_HOME = "{CamReader, SSD, TrajGen, HexMan}"
@@ -32,9 +34,8 @@ LOOK = 0.1
 
 def outcome(name: str, out: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """The summary and the events of `name` run in process."""
-    with Experiment(SCENARIOS[name], out) as experiment:
-        result = experiment.run()
-        return summary(result), [event.as_dict() for event in result.log]
+    result = run_in_process(APPLICATION, APPLICATION.scenario(name), out)
+    return summary(APPLICATION, result), [event.as_dict() for event in result.log]
 
 
 def of_kind(events: list[dict[str, Any]], kind: str) -> list[dict[str, Any]]:
@@ -55,7 +56,7 @@ def check(name: str, got: dict[str, Any], events: list[dict[str, Any]]) -> None:
     assert moved["recovered_at"] is not None
     assert got["final"] == FINAL[name] and got["stopped_at"] is None
     rejoined = of_kind(events, "node_rejoined")
-    if SCENARIOS[name].outage.back is None:  # type: ignore[union-attr]
+    if APPLICATION.scenario(name).outage.back is None:  # type: ignore[union-attr]
         assert rejoined == [] and later == []
         return
     (back,) = of_kind(events, "node_back")
@@ -79,7 +80,7 @@ def test_across_processes_the_node_is_really_lost_and_the_run_ends_as_in_process
     name, tmp_path
 ) -> None:
     expected, _ = outcome(name, tmp_path / "in-process")
-    got = run_processes(SCENARIOS[name], tmp_path / "processes")
+    got = run_processes(APPLICATION, APPLICATION.scenario(name), tmp_path / "processes")
     events = json.loads((tmp_path / "processes" / "report.json").read_text())["events"]
     check(name, got, events)
     (lost,) = of_kind(events, "node_lost")

@@ -13,12 +13,13 @@ from pathlib import Path
 
 import pytest
 
+from application.launch import Launch, run_processes
+from application.report import summary
 from commandline.children import ChildError
 from hexmigrate.links.listening import CONNECT_URL
-from visual_servoing.experiment.linked import QUANTUM
-from visual_servoing.experiment.processes import Launch, run_processes
-from visual_servoing.experiment.report import summary
-from visual_servoing.experiment.scenarios import SCENARIOS
+from visual_servoing.declaration import APPLICATION
+
+QUANTUM = APPLICATION.quantum
 
 ROLES = {"can1", "can2", "servos", "hexman", "rotation", "manager"}
 TIMES = ("detected_at", "applied_at", "recovered_at")
@@ -30,8 +31,8 @@ TIMES = ("detected_at", "applied_at", "recovered_at")
 def test_across_processes_in_lock_step_a_scenario_ends_as_in_process(
     name, tmp_path, scenario_outcome
 ) -> None:
-    expected = summary(scenario_outcome(name))
-    got = run_processes(SCENARIOS[name], tmp_path / "processes")
+    expected = summary(APPLICATION, scenario_outcome(name))
+    got = run_processes(APPLICATION, APPLICATION.scenario(name), tmp_path / "processes")
     assert set(got["processes"]) == ROLES
     assert got["processes"]["hexman"].startswith("/dev/pts/")  # a serial line: migration
     assert got["processes"]["rotation"].startswith("socket://127.0.0.1:")
@@ -88,7 +89,7 @@ def test_a_node_killed_mid_run_fails_the_run_by_name_and_every_process_is_stoppe
 
     def run() -> None:
         try:
-            run_processes(SCENARIOS["paper"], out)
+            run_processes(APPLICATION, APPLICATION.scenario("paper"), out)
         except ChildError as error:
             failure.append(error)
 
@@ -119,7 +120,7 @@ def test_a_node_killed_mid_run_fails_the_run_by_name_and_every_process_is_stoppe
 @pytest.mark.slow
 @pytest.mark.serial
 def test_in_real_time_the_processes_run_on_their_clocks_and_repair_the_paper_fault(tmp_path):
-    got = run_processes(SCENARIOS["paper"], tmp_path, real_time=True)
+    got = run_processes(APPLICATION, APPLICATION.scenario("paper"), tmp_path, real_time=True)
     assert got["processes"]["servos"].startswith("can://remote/127.0.0.1:")  # no time master
     records = got["reconfigurations"]
     assert len(records) == 1, f"expected one reconfiguration, got {records}"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from visual_servoing.experiment.experiment import Outcome
+from application.records import Outcome
 
 DEHAZED = "{CamReader, Dehazer, SSD, TrajGen, HexMan}"
 
@@ -12,7 +12,8 @@ DEHAZED = "{CamReader, Dehazer, SSD, TrajGen, HexMan}"
 def recovered(outcome: Outcome) -> None:
     """One reconfiguration, detected after the fault, confirmed recovered, nothing stopped."""
     (record,) = outcome.reconfigurations
-    assert outcome.scenario.fault_at < record.detected_at < outcome.scenario.fault_at + 1.5
+    (fault_at,) = outcome.scenario.fault_times()
+    assert fault_at < record.detected_at < fault_at + 1.5
     assert record.recovered_at is not None and outcome.stopped_at is None
 
 
@@ -38,7 +39,7 @@ def test_a_blackout_is_repaired_by_a_coalition_with_the_other_robot_s_camera(sce
     assert outcome.configurations[-1][1] == "{CamReader@rotation, SSD, TrajGen, HexMan}"
     assert outcome.migrations == []  # native code on both robots: nothing to send
     after = [s for s in outcome.samples if s.time > outcome.reconfigurations[0].recovered_at]
-    assert sum(abs(s.reported) <= 30 for s in after) / len(after) > 0.85  # frames cross the link
+    assert sum(abs(s["reported"]) <= 30 for s in after) / len(after) > 0.85  # frames cross the link
 
 
 def test_a_battery_sag_moves_a_module_to_the_other_robot(scenario_outcome):

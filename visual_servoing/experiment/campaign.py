@@ -21,7 +21,7 @@ servos' second bus (`scenarios.SECOND_SERVO_BUS`, which gives HexMan an alternat
 `CONTROL` of the runs inject nothing: they measure false detections. The truth is the modules
 the task runs whose fault a location should name (a power drop is no module's).
 
-Each run is the in-process experiment with the runtime's `compare_locations`: every strategy
+The framework runs each in process with the runtime's `compare_locations`: every strategy
 locates each fault in shadow, beside the one that decides (`--location`, else the database's).
 """
 
@@ -30,20 +30,15 @@ from __future__ import annotations
 import random
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
-from pathlib import Path
 from typing import Any
 
-from campaign import record
-from campaign.cli import Application
-from campaign.engine import worker_folder
-from visual_servoing.experiment.experiment import SETTINGS, Experiment
-from visual_servoing.experiment.report import migrations_of
+from application.declaration import Campaign
+from application.scenario import PowerDrop, Scenario
 from visual_servoing.experiment.scenarios import (
     HEXMAN_CAMERAS,
     SCENARIOS,
     SECOND_SERVO_BUS,
-    PowerDrop,
-    Scenario,
+    Faults,
 )
 from visual_servoing.image_faults import Fault
 
@@ -109,7 +104,7 @@ def _drawn(
 
 def scenario_of(drawn: Mapping[str, Any], index: int) -> Scenario:
     """The scenario a run's draw describes."""
-    base = SCENARIOS[drawn["scenario"]]
+    base = next(scenario for scenario in SCENARIOS if scenario.name == drawn["scenario"])
     cameras: dict[str, tuple[Fault, ...]] = {}
     power, cut = None, None
     for fault in drawn["faults"]:
@@ -121,38 +116,17 @@ def scenario_of(drawn: Mapping[str, Any], index: int) -> Scenario:
         else:
             for camera in fault["targets"]:
                 cameras[camera] = (*cameras.get(camera, ()), Fault(kind, strength, at))
+    strikes = {fault["at"] for fault in drawn["faults"] if fault["kind"] != "power-drop"}
     return replace(
         base,
         name=f"{base.name}-run{index}",
-        faults=cameras,
+        plant=Faults(cameras, servo_link_cut=cut),
+        strikes=tuple(sorted(strikes)),
         power_drop=power,
-        servo_link_cut=cut,
         outage=None,
         extra=SECOND_SERVO_BUS if cut is not None else base.extra,
-        fault_at=base.duration if drawn["fault_at"] is None else drawn["fault_at"],
         location=drawn["location"],
     )
 
 
-def run(spec: Mapping[str, Any]) -> dict[str, Any]:
-    """One run of the campaign: its decisions, with every strategy's location beside."""
-    scenario = scenario_of(spec["draw"], spec["index"])
-    settings = replace(SETTINGS, compare_locations=True)
-    with Experiment(
-        scenario, worker_folder("visual-servoing-campaign-"), settings=settings
-    ) as experiment:
-        outcome = experiment.run()
-    return record.outcome(
-        outcome.reconfigurations,
-        lambda r: [m.size for m in migrations_of(outcome, r)],
-        outcome.stopped_at,
-    )
-
-
-APPLICATION = Application(
-    name="visual_servoing",
-    scenarios=tuple(FAMILY),
-    draw=draw,
-    runner=run,
-    default_out=Path("build") / "visual_servoing" / "campaign",
-)
+CAMPAIGN = Campaign(families=tuple(FAMILY), draw=draw, scenario_of=scenario_of)

@@ -1,11 +1,11 @@
 """The robots' firmware for a scenario: the task's native modules bound to their devices.
 
-One place builds them, for every process that needs them: the in-process experiment (both
-robots' natives on the world's devices), a robot's node in its own process (that robot's
-natives on its own devices, `visual_servoing.experiment.node`) and the manager, whose host
-estimates with camera devices that suffer the same faults (`HostEstimators`). A camera module
-on a robot reads that robot's camera (``Module@robot``), which suffers the scenario's faults for
-``Module@robot`` or, failing that, for ``Module``; SSD and SSD_alt match with squared
+One place builds them, for every process that needs them: the in-process world (both robots'
+natives on the world's devices), a robot's node in its own process (that robot's natives on its
+own devices, `visual_servoing.experiment.node_firmware`) and the manager, whose host estimates
+with camera devices that suffer the same faults (`visual_servoing.experiment.world`). A camera
+module on a robot reads that robot's camera (``Module@robot``), which suffers the scenario's
+faults for ``Module@robot`` or, failing that, for ``Module``; SSD and SSD_alt match with squared
 differences and normalized correlation; TrajGen and TrajGen_alt follow their laws; HexMan drives
 the servos over the first CAN bus, HexMan_alt over the second.
 """
@@ -19,7 +19,7 @@ from hexmanipulator.hexman_pbo import hexman_module
 from hexmanipulator.servo_bus import ServoBus
 from pbort import NativeModule
 from refresh.database import ModuleDatabase
-from visual_servoing.experiment.scenarios import Scenario
+from visual_servoing.experiment.scenarios import Faults
 from visual_servoing.image_faults import Fault, FaultSchedule
 from visual_servoing.scene import Scene
 from visual_servoing.task.camera import CameraDevice, camera_module
@@ -41,14 +41,14 @@ def cameras(database: ModuleDatabase) -> list[tuple[str, str]]:
     return [(module.name, robot) for module in schema.modules for robot in module.robots]
 
 
-def camera_faults(scenario: Scenario, module: str, robot: str) -> tuple[Fault, ...]:
-    """The faults the camera of `module` on `robot` suffers in `scenario`."""
-    faults = scenario.faults
-    return faults.get(f"{module}@{robot}", faults.get(module, ()))
+def camera_faults(faults: Faults, module: str, robot: str) -> tuple[Fault, ...]:
+    """The faults the camera of `module` on `robot` suffers."""
+    cameras = faults.cameras
+    return cameras.get(f"{module}@{robot}", cameras.get(module, ()))
 
 
 def camera_devices(
-    scenario: Scenario,
+    faults: Faults,
     database: ModuleDatabase,
     scene: Scene,
     yaw: Callable[[], float],
@@ -57,10 +57,10 @@ def camera_devices(
     robot: str | None = None,
 ) -> dict[str, CameraDevice]:
     """The camera devices by ``Module@robot`` (only `robot`'s when given), looking along
-    `yaw()` at `clock()` through the scenario's faults; `intent` for estimators."""
+    `yaw()` at `clock()` through `faults`; `intent` for estimators."""
     return {
         f"{module}@{where}": CameraDevice(
-            scene, yaw, clock, FaultSchedule(list(camera_faults(scenario, module, where))), intent
+            scene, yaw, clock, FaultSchedule(list(camera_faults(faults, module, where))), intent
         )
         for module, where in cameras(database)
         if robot is None or where == robot

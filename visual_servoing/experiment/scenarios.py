@@ -1,9 +1,11 @@
 """The scenarios: the paper's experiment, and faults beyond it.
 
-A scenario names the module database, the faults each camera device suffers and when, a node's
-outage (killed or cut off, and when it comes back), and how long the task runs. Every scenario
-starts from the task's preprogrammed configuration on the HexManipulator robot; `expected` says
-what ReFrESH should end up doing, in words, for the report.
+A scenario (`application.scenario.Scenario`) names the module database, a power drop, a node's
+outage (killed or cut off, and when it comes back), how long the task runs and, as what the
+world injects (`Faults`, the scenario's `plant`), the faults each camera device suffers and when
+the first CAN bus to the servos is cut. Every scenario starts from the task's preprogrammed
+configuration on the HexManipulator robot; `expected` says what ReFrESH should end up doing, in
+words, for the report.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from application.scenario import Outage, PowerDrop, Scenario
 from visual_servoing.image_faults import Fault, FaultKind
 
 DATA = Path(__file__).resolve().parent
@@ -19,47 +22,12 @@ FAULT_AT = 4.3
 
 
 @dataclass(frozen=True)
-class PowerDrop:
-    """A robot's power capacity falls to `capacity` at `time` (a battery sagging)."""
+class Faults:
+    """What the world injects: the faults of each camera (by ``Module@robot``, or ``Module`` for
+    all its robots), and when the first CAN bus to the servos is cut (None: never)."""
 
-    time: float
-    robot: str
-    capacity: float
-
-
-@dataclass(frozen=True)
-class Outage:
-    """Robot `robot`'s node is lost at `time`: ``kill`` (its process ends on SIGKILL, sent on
-    its own clock; in process, it is switched off) or ``cut`` (the manager's link to it is cut;
-    in process, switched off too). At `back` (None: never) it comes back: a killed node restarts
-    from its flash file, a cut link is restored."""
-
-    time: float
-    robot: str
-    kind: str = "kill"
-    back: float | None = None
-
-
-@dataclass(frozen=True)
-class Scenario:
-    """What to run: `database` (a TOML file, plus `extra`), camera faults by camera
-    (``Module@robot``, or ``Module`` for all its robots), a power drop, the time the first CAN
-    bus to the servos is cut, `duration` seconds."""
-
-    name: str
-    title: str
-    expected: str
-    database: Path = DATA / "paper.toml"
-    faults: dict[str, tuple[Fault, ...]] = field(default_factory=dict)
-    power_drop: PowerDrop | None = None
+    cameras: dict[str, tuple[Fault, ...]] = field(default_factory=dict)
     servo_link_cut: float | None = None
-    outage: Outage | None = None
-    extra: str = ""
-    """TOML appended to the database file: more modules, more metrics."""
-    duration: float = 10.0
-    fault_at: float = FAULT_AT
-    location: str | None = None
-    """The fault-location strategy, over the database's (`refresh.location.STRATEGIES`)."""
 
 
 PAPER = Scenario(
@@ -67,7 +35,8 @@ PAPER = Scenario(
     "noise injected into CamReader (the paper's section 6)",
     "CamReader located by Base Choice; {CamReader, Dehazer, SSD, TrajGen, HexMan} chosen; "
     "the Dehazer migrated and started; the task back within 30 pixels",
-    faults={"CamReader": (Fault(FaultKind.SALT_PEPPER, 0.3, FAULT_AT),)},
+    plant=Faults({"CamReader": (Fault(FaultKind.SALT_PEPPER, 0.3, FAULT_AT),)}),
+    strikes=(FAULT_AT,),
 )
 
 FOG = Scenario(
@@ -75,7 +44,8 @@ FOG = Scenario(
     "fog on CamReader's lens",
     "CamReader located; the Dehazer restores the contrast: {CamReader, Dehazer, SSD, TrajGen, "
     "HexMan}",
-    faults={"CamReader": (Fault(FaultKind.FOG, 0.6, FAULT_AT),)},
+    plant=Faults({"CamReader": (Fault(FaultKind.FOG, 0.6, FAULT_AT),)}),
+    strikes=(FAULT_AT,),
 )
 
 TWO_ROBOTS = DATA / "robots.toml"
@@ -86,10 +56,13 @@ BLACKOUT = Scenario(
     "no camera of that robot helps (CamReader_alt fails its test case); a coalition with the "
     "rotation robot's camera: {CamReader@rotation, SSD, TrajGen, HexMan}, frames over the link",
     database=TWO_ROBOTS,
-    faults={
-        camera: (Fault(FaultKind.BLACKOUT, 1.0, FAULT_AT),)
-        for camera in ("CamReader@hexman", "CamReader_alt@hexman")
-    },
+    plant=Faults(
+        {
+            camera: (Fault(FaultKind.BLACKOUT, 1.0, FAULT_AT),)
+            for camera in ("CamReader@hexman", "CamReader_alt@hexman")
+        }
+    ),
+    strikes=(FAULT_AT,),
 )
 
 POWER_DROP = Scenario(
@@ -123,7 +96,8 @@ SERVO_CUT = Scenario(
     "the CAN bus from HexMan to its servos is cut",
     "HexMan's evaluator and estimator see the servos silent; HexMan located; HexMan_alt, on the "
     "servos' second CAN bus, takes over: {CamReader, SSD, TrajGen, HexMan_alt}",
-    servo_link_cut=FAULT_AT,
+    plant=Faults(servo_link_cut=FAULT_AT),
+    strikes=(FAULT_AT,),
     extra=SECOND_SERVO_BUS,
 )
 
@@ -132,10 +106,13 @@ NO_REPAIR = Scenario(
     "blackout of every camera on both robots",
     "no single replacement helps: more than one fault suspected; the task is stopped safely",
     database=TWO_ROBOTS,
-    faults={
-        "CamReader": (Fault(FaultKind.BLACKOUT, 1.0, FAULT_AT),),
-        "CamReader_alt": (Fault(FaultKind.BLACKOUT, 1.0, FAULT_AT),),
-    },
+    plant=Faults(
+        {
+            "CamReader": (Fault(FaultKind.BLACKOUT, 1.0, FAULT_AT),),
+            "CamReader_alt": (Fault(FaultKind.BLACKOUT, 1.0, FAULT_AT),),
+        }
+    ),
+    strikes=(FAULT_AT,),
 )
 
 HEXMAN_CAMERAS = ("CamReader@hexman", "CamReader_alt@hexman")
@@ -162,7 +139,8 @@ NODE_OUTAGE = Scenario(
     "{CamReader@rotation, SSD, TrajGen, HexMan}; at 7 s the rotation robot's node dies: lost, "
     "CamReader located, the task moves back: {CamReader, SSD, TrajGen, HexMan}",
     database=TWO_ROBOTS,
-    faults=_dark((FAULT_AT, BLACKOUT_END)),
+    plant=Faults(_dark((FAULT_AT, BLACKOUT_END))),
+    strikes=(FAULT_AT,),
     outage=Outage(KILL_AT, "rotation"),
 )
 
@@ -173,7 +151,8 @@ LINK_CUT = Scenario(
     "{CamReader, SSD, TrajGen, HexMan}; the link restored at 9 s, the node rejoins and its "
     "CamReader, still running, is stopped",
     database=TWO_ROBOTS,
-    faults=_dark((FAULT_AT, BLACKOUT_END)),
+    plant=Faults(_dark((FAULT_AT, BLACKOUT_END))),
+    strikes=(FAULT_AT,),
     outage=Outage(KILL_AT, "rotation", kind="cut", back=9.0),
     duration=11.0,
 )
@@ -185,23 +164,21 @@ REJOIN = Scenario(
     "battery sags to 28 of 100 (as power-drop): SSD moves onto the rejoined node, "
     "{CamReader, SSD@rotation, TrajGen, HexMan}",
     database=TWO_ROBOTS,
-    faults=_dark((FAULT_AT, BLACKOUT_END)),
+    plant=Faults(_dark((FAULT_AT, BLACKOUT_END))),
+    strikes=(FAULT_AT,),
     outage=Outage(KILL_AT, "rotation", back=8.5),
     power_drop=PowerDrop(SECOND_FAULT, "hexman", 28.0),
     duration=13.0,
 )
 
-SCENARIOS = {
-    scenario.name: scenario
-    for scenario in (
-        PAPER,
-        FOG,
-        BLACKOUT,
-        POWER_DROP,
-        SERVO_CUT,
-        NO_REPAIR,
-        NODE_OUTAGE,
-        LINK_CUT,
-        REJOIN,
-    )
-}
+SCENARIOS = (
+    PAPER,
+    FOG,
+    BLACKOUT,
+    POWER_DROP,
+    SERVO_CUT,
+    NO_REPAIR,
+    NODE_OUTAGE,
+    LINK_CUT,
+    REJOIN,
+)

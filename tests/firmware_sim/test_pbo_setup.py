@@ -12,7 +12,7 @@ from firmware_sim.core.natives import Signal
 from firmware_sim.core.node import Node
 from firmware_sim.core.port_values import Setting, by_pbo
 from firmware_sim.core.transfer_target import NodeTarget
-from firmware_sim.serving.pbo_setup import ListeningNode
+from firmware_sim.serving.pbo_setup import PboSetup
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.direct import DirectLink
@@ -25,12 +25,12 @@ SETTINGS = (Setting("signal", "amplitude", 3), Setting("gain", "k", 0x20000))
 
 
 class Listening:
-    """A node, its `ListeningNode` (said lines kept) and a sender talking to it directly."""
+    """A node, its `PboSetup` (said lines kept) and a sender talking to it directly."""
 
     def __init__(self, node: Node, settings: tuple[Setting, ...] = SETTINGS) -> None:
         self.node = node
         self.said: list[str] = []
-        self.pbos = ListeningNode(
+        self.pbos = PboSetup(
             node,
             self.said.append,
             rates={},

@@ -1,11 +1,10 @@
-"""A robot's node in its own process: ``python -m visual_servoing node --robot NAME --scenario
-NAME --listen URL [--lock-step] [--servos URL ...]``.
+"""A robot's firmware in its own node process (``python -m visual_servoing node``): the task's
+natives bound to that robot's devices, and its ``Plate``.
 
-The program makes that robot's firmware (`firmware.task_natives` on this robot's devices: its
-cameras with the scenario's faults, the matchers and trajectories it may run, and on the
-HexManipulator HexMan and HexMan_alt on the two CAN buses to the servos) and serves it as a
-listening node (`firmware_sim.serving.listen.listen`), its PBOs off until the manager starts
-them. Each robot also has a ``Plate`` native, which the manager starts at the run's time 0:
+The firmware is `firmware.task_natives` on this robot's devices: its cameras with the scenario's
+faults, the matchers and trajectories it may run, and on the HexManipulator HexMan and HexMan_alt
+on the two CAN buses to the servos (the devices ``can1`` and ``can2``). Each robot also has a
+``Plate`` native, which the manager starts at the run's time 0 (`visual_servoing.experiment.world`):
 
 - on the HexManipulator, it puts on its ``yaw`` output where the plate is, from the servos'
   feedback as HexMan (or HexMan_alt) reads it (`PlateTracker`, the forward kinematics the
@@ -17,39 +16,30 @@ them. Each robot also has a ``Plate`` native, which the manager starts at the ru
 The devices' clock is the node's, counted from when the manager started ``Plate`` (0 in
 lock-step time), read from the PBO call under way: the scenario's faults strike at the run's
 time, as in process. A scenario that cuts the first servo bus cuts it on the node's clock (the
-host controller goes bus-off), and the manager cuts its own at the same time. A scenario that
-kills this robot's node has its ``Plate`` send the process SIGKILL at the outage's time on the
-node's clock (in lock-step time, in the same quantum on every run); a node started again
-(``--restarted``, from its ``--flash`` file) is not killed twice.
+host controller goes bus-off), and the manager cuts its own at the same time.
 """
 
 from __future__ import annotations
 
 import contextlib
-import os
-import signal
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from pathlib import Path
 from typing import ClassVar
 
 import can
 import numpy as np
 
-from firmware_sim.serving.listen import ListenConfig, listen
 from hexmanipulator.can_bus import CanServoBus, open_can_bus
 from hexmanipulator.geometry import Geometry
-from hexmanipulator.geometry import load as load_geometry
 from hexmanipulator.servo_bus import Reading, ServoBus
 from pbort import NativeModule, NativePBO, PortIO, PortSpec
 from pbort.code import Method, ModuleCode
-from refresh.load import loads
+from refresh.database import ModuleDatabase
 from servo_emulators.bus_off import BusOffController
-from visual_servoing.dehazer_guest import INSTRUCTION_BUDGET
 from visual_servoing.errors import ExperimentError
 from visual_servoing.experiment.firmware import MANIPULATORS, camera_devices, task_natives
 from visual_servoing.experiment.plate import PlateTracker
-from visual_servoing.experiment.scenarios import Scenario
+from visual_servoing.experiment.scenarios import Faults
 from visual_servoing.scene import Scene
 
 PLATE = "Plate"
@@ -132,39 +122,39 @@ class ScheduledCut(BusOffController):
 
 
 def servo_buses(
-    urls: Sequence[str],
+    devices: Mapping[str, str],
     geometry: Geometry,
     cut_at: float | None,
     clock: Callable[[], float],
     stack: contextlib.ExitStack,
 ) -> dict[str, CanServoBus]:
-    """The servo buses ``can1``, ``can2`` at `urls` (in that order); the first is cut at
-    `cut_at` on `clock`. Each is shut down when `stack` closes."""
-    if len(urls) != len(MANIPULATORS):
+    """The servo buses ``can1``, ``can2`` at their devices' URLs; the first is cut at `cut_at`
+    on `clock`. Each is shut down when `stack` closes."""
+    missing = [link for _name, link in MANIPULATORS if link not in devices]
+    if missing:
         raise ExperimentError(
-            f"expected {len(MANIPULATORS)} servo bus URLs (can1, can2), got {len(urls)}"
+            f"--device: expected the servo buses {', '.join(link for _, link in MANIPULATORS)}, "
+            f"got none for {', '.join(missing)}"
         )
     buses: dict[str, CanServoBus] = {}
-    for (_name, link), url in zip(MANIPULATORS, urls, strict=True):
-        controller = ScheduledCut(open_can_bus(url), cut_at if link == "can1" else None, clock)
+    for _name, link in MANIPULATORS:
+        controller = ScheduledCut(
+            open_can_bus(devices[link]), cut_at if link == "can1" else None, clock
+        )
         stack.callback(controller.shutdown)
         buses[link] = CanServoBus(controller, geometry)
     return buses
 
 
 class _Plate(NativePBO):
-    """A robot's ``Plate``: it starts the run's clock, and kills its node's process at
-    `kill_at` seconds of it (None: never)."""
+    """A robot's ``Plate``: it starts the run's clock when the manager starts it."""
 
     time: ClassVar[NodeTime]
-    kill_at: ClassVar[float | None] = None
 
     def on(self, io: PortIO) -> None:
         self.time.epoch = io.now
 
     def cycle(self, io: PortIO) -> None:
-        if self.kill_at is not None and self.time.run_time() >= self.kill_at - 1e-9:
-            os.kill(os.getpid(), signal.SIGKILL)
         self.carry(io)
 
     def carry(self, io: PortIO) -> None:
@@ -199,73 +189,31 @@ class _PlateFollower(_Plate):
         self.view.yaw = float(io["yaw"])
 
 
-def firmware(
+def node_firmware(
     robot: str,
-    scenario: Scenario,
-    urls: Sequence[str],
+    faults: Faults,
+    database: ModuleDatabase,
+    geometry: Geometry,
+    devices: Mapping[str, str],
     stack: contextlib.ExitStack,
-    restarted: bool = False,
 ) -> dict[str, ModuleCode]:
-    """`robot`'s natives for `scenario`, by the name the node gives their PBOs (`restarted`:
-    the scenario's kill of this node is behind it)."""
-    loaded = loads(scenario.database.read_text() + scenario.extra, scenario.database.name)
-    database = loaded.database
-    if robot not in database.robots:
-        raise ExperimentError(
-            f"--robot {robot}: expected one of {', '.join(database.robots)} (scenario "
-            f"{scenario.name}), got no such robot"
-        )
-    geometry = load_geometry(None)
+    """`robot`'s natives, by the name the node gives their PBOs, with its ``Plate``; the servo
+    buses it opens close with `stack`."""
     time = NodeTime()
     tracker = PlateTracker(geometry)
-    outage = scenario.outage
-    killed = outage is not None and outage.kind == "kill" and outage.robot == robot
-    common = {
-        "name": PLATE,
-        "time": time,
-        "kill_at": outage.time if killed and not restarted else None,
-    }
     plate: type[NativePBO]
     if robot == HEXMAN_ROBOT:
-        buses = servo_buses(urls, geometry, scenario.servo_link_cut, time.run_time, stack)
+        buses = servo_buses(devices, geometry, faults.servo_link_cut, time.run_time, stack)
         tapped = {link: Readings(bus, tracker) for link, bus in buses.items()}
         yaw: Callable[[], float] = lambda: tracker.yaw  # noqa: E731
-        plate = type(PLATE, (_PlateSource,), {**common, "tracker": tracker})
+        plate = type(PLATE, (_PlateSource,), {"name": PLATE, "time": time, "tracker": tracker})
     else:
-        if urls:
-            raise ExperimentError(f"--servos: robot {robot} drives no servos, got {list(urls)}")
         tapped = {}
         view = PlateView()
         yaw = lambda: view.yaw  # noqa: E731
-        plate = type(PLATE, (_PlateFollower,), {**common, "view": view})
-    devices = camera_devices(scenario, database, Scene(), yaw, time.run_time, robot=robot)
-    natives = task_natives(database, Scene(), devices, tapped, geometry, robot=robot)
+        plate = type(PLATE, (_PlateFollower,), {"name": PLATE, "time": time, "view": view})
+    cameras = camera_devices(faults, database, Scene(), yaw, time.run_time, robot=robot)
+    natives = task_natives(database, Scene(), cameras, tapped, geometry, robot=robot)
     codes = {key.partition("@")[0]: stamped(code, time) for key, code in natives.items()}
     codes[PLATE] = NativeModule(plate)
     return codes
-
-
-def run_node(
-    robot: str,
-    scenario: Scenario,
-    url: str,
-    servos: Sequence[str],
-    lock_step: bool,
-    say: Callable[[str], None],
-    flash: Path | None = None,
-    restarted: bool = False,
-) -> int:
-    """Make `robot`'s node and serve it on `url` until interrupted, its flash in `flash` (a
-    file that outlives the process; None: in memory only); the exit status."""
-    with contextlib.ExitStack() as stack:
-        codes = firmware(robot, scenario, servos, stack, restarted)
-        config = ListenConfig(
-            listen=url,
-            name=robot,
-            natives=tuple(codes),
-            switch_on=False,
-            lock_step=lock_step,
-            budget=INSTRUCTION_BUDGET,
-            flash=flash,
-        )
-        return listen(config, say, firmware=codes)

@@ -1,11 +1,11 @@
 """A TCP relay the manager reaches a node through, so that a scenario can cut the link and
 restore it: `Relay`.
 
-The manager of the link-cut scenario opens the rotation robot's node at the relay's URL instead
-of the node's own. `cut()` is a pulled cable: every connection through the relay is closed at
-both ends (the manager's link fails, the node sees its host leave and waits for the next), and
-until `restore()` a new connection is accepted and closed at once, as a link that is down. The
-node itself lives on, with what it runs.
+The manager of a scenario that cuts a node's link (`Outage` of kind ``cut``) opens that node at the
+relay's URL instead of the node's own. `cut()` is a pulled cable: every connection through the relay
+is closed at both ends (the manager's link fails, the node sees its host leave and waits for the
+next), and until `restore()` a new connection is accepted and closed at once, as a link that is
+down. The node itself lives on, with what it runs.
 """
 
 from __future__ import annotations

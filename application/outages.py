@@ -1,0 +1,104 @@
+"""A node's outage, as each side of a run makes it happen (`application.recording.Outages`).
+
+- In process (`SwitchedOff`): a killed node and a cut one alike are switched off, every PBO
+  stopped, and come back switched on, their flash kept and their PBOs off; the runtime finds
+  them lost, then back, on its own.
+- Across processes (`OverLinks`): a cut is a `Relay` between the manager and the node, cut and
+  restored at the scenario's times (`relays`, made before the nodes are opened); a kill is the
+  node's own doing (it sends itself SIGKILL at the outage's time on its clock:
+  `application.node`), and the launcher starts it again as soon as it died (wall time) when the
+  scenario brings it back. Either way the node counts as down until the outage's end in the run's
+  time (`ApplierBase.down`: the runtime does not try it before); then the manager waits (bounded,
+  `BACK_TIMEOUT`) until the node can be reached, so that the runtime's next try finds it back at
+  the same time of the run on every run.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import socket
+import time
+from collections.abc import Mapping
+from urllib.parse import urlsplit
+
+from application.errors import RunError, ScenarioError
+from application.relay import Relay
+from application.scenario import Outage, Scenario
+from refresh.appliers.in_process import NodeApplier
+from refresh.manager.plant import View
+
+BACK_TIMEOUT = 60.0
+"""Seconds the manager waits at most for a node to be reachable when its outage ends (a
+restarted node imports numpy and Unicorn first)."""
+
+
+class SwitchedOff:
+    """Outages in process: the node is switched off, then on (`NodeApplier.power_off`)."""
+
+    def __init__(self, applier: NodeApplier) -> None:
+        self.applier = applier
+
+    def lose(self, view: View, outage: Outage) -> None:
+        self.applier.power_off(outage.robot, "killed" if outage.kind == "kill" else "its link cut")
+
+    def restore(self, view: View, outage: Outage) -> None:
+        self.applier.power_on(outage.robot)
+
+
+class OverLinks:
+    """Outages across processes: `urls` is where the manager reaches each robot's node (a
+    relay's URL for one whose link a scenario cuts), `relays` the relays by robot."""
+
+    def __init__(self, urls: Mapping[str, str], relays: Mapping[str, Relay]) -> None:
+        self.urls = dict(urls)
+        self.relays = dict(relays)
+
+    def lose(self, view: View, outage: Outage) -> None:
+        view.applier.down.add(outage.robot)
+        if outage.kind == "cut":
+            self.relays[outage.robot].cut()
+
+    def restore(self, view: View, outage: Outage) -> None:
+        if outage.kind == "cut":
+            self.relays[outage.robot].restore()
+        reachable(self.urls[outage.robot], BACK_TIMEOUT)
+        view.applier.down.discard(outage.robot)
+
+
+def relays(
+    scenario: Scenario, nodes: Mapping[str, str], stack: contextlib.ExitStack
+) -> dict[str, Relay]:
+    """A relay to the node whose link `scenario` cuts (closed with `stack`), by robot."""
+    outage = scenario.outage
+    if outage is None or outage.kind != "cut":
+        return {}
+    url = nodes.get(outage.robot)
+    parts = urlsplit(url or "")
+    if parts.scheme != "socket" or parts.hostname is None or parts.port is None:
+        raise ScenarioError(
+            f"scenario {scenario.name}: expected robot {outage.robot}'s node on a "
+            f"socket://HOST:PORT URL, to cut its link, got {url}"
+        )
+    relay = Relay(parts.hostname, parts.port)
+    stack.callback(relay.close)
+    return {outage.robot: relay}
+
+
+def reachable(url: str, timeout: float) -> None:
+    """Return once a TCP connection to `url` (``socket://HOST:PORT``) is accepted and stays
+    open a moment (a relay that is down accepts and closes at once); a RunError after `timeout`
+    seconds."""
+    parts = urlsplit(url)
+    address = (parts.hostname or "127.0.0.1", parts.port or 0)
+    deadline = time.monotonic() + timeout
+    while True:
+        with contextlib.suppress(OSError), socket.create_connection(address, 0.5) as probe:
+            probe.settimeout(0.1)
+            try:
+                if probe.recv(1) != b"":  # anything but an orderly close: the link is up
+                    return
+            except TimeoutError:
+                return
+        if time.monotonic() >= deadline:
+            raise RunError(f"the node at {url}: not reachable after {timeout:g} s")
+        time.sleep(0.1)

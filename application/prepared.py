@@ -1,0 +1,87 @@
+"""A scenario made ready to run: its guest modules built, its module database loaded.
+
+The guests are built from their C sources with the SDK into the work folder, each written as the
+extended Intel HEX file the database names for it (what a migration sends is what the file
+says), and the database file is copied beside them with the scenario's extra TOML (``python -m
+refresh check WORK/NAME.toml`` checks what ran). Then the database is loaded from there, the
+scenario's module faults set as the modules' ``fault_at`` constants, and its task given the
+scenario's fault-location strategy, if it names one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from application.declaration import Application
+from application.errors import ApplicationSetupError
+from application.scenario import Scenario, with_faults
+from hexmigrate.elf import image_from_elf
+from hexmigrate.image import ModuleImage
+from module_sdk.build import build_module
+from module_sdk.errors import BuildError
+from refresh.database import ModuleDatabase
+from refresh.errors import ConfigurationError, DatabaseError
+from refresh.load import Loaded, loads
+from refresh.task import TaskSpec
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """A scenario's database (its faults set) with its task, the guests' images by module
+    name, and the database file written in the work folder."""
+
+    loaded: Loaded
+    images: dict[str, ModuleImage]
+    file: Path
+
+    @property
+    def task(self) -> TaskSpec:
+        assert self.loaded.task is not None  # `prepare` refuses a database without one
+        return self.loaded.task
+
+
+def database_of(application: Application, scenario: Scenario) -> ModuleDatabase:
+    """The scenario's module database (its faults set), for a process that builds nothing (a
+    robot's node: which natives its firmware has)."""
+    source = scenario.database or application.database
+    loaded = loads(source.read_text(encoding="utf-8") + scenario.extra, source.name)
+    return with_faults(loaded.database, scenario.faults)
+
+
+def prepare(application: Application, scenario: Scenario, work: Path) -> Prepared:
+    """Build `application`'s guests into `work`, write its database (plus the scenario's extra
+    TOML) there and load it with the scenario's faults and location."""
+    source = scenario.database or application.database
+    text = source.read_text(encoding="utf-8") + scenario.extra
+    work.mkdir(parents=True, exist_ok=True)
+    file = work / source.name
+    file.write_text(text, encoding="utf-8")
+    loaded = loads(text, source.name, work)
+    if loaded.task is None:
+        raise DatabaseError(str(source), "task", "a [task] table", "none")
+    images = {name: _build(name, path, loaded, work) for name, path in application.guests.items()}
+    task = (
+        loaded.task
+        if scenario.location is None
+        else replace(loaded.task, location=scenario.location)
+    )
+    database = with_faults(loaded.database, scenario.faults)
+    return Prepared(Loaded(database, task), images, file)
+
+
+def _build(name: str, source: Path, loaded: Loaded, work: Path) -> ModuleImage:
+    """Build guest `name` from `source` into ``work/build`` and write it where the database
+    names its image; the image read back from that file."""
+    try:
+        module = loaded.database.module(name)
+    except ConfigurationError as error:
+        raise ApplicationSetupError(f"guest {name}: expected a module of the database, got none") from error
+    if module.source.image is None:
+        raise ApplicationSetupError(f"guest {name}: expected the database to name its image, got native code")
+    try:
+        build = build_module(source, work / "build")
+    except BuildError as error:
+        raise ApplicationSetupError(f"cannot build guest module {name}: {error}") from error
+    image_from_elf(build.elf).write(module.source.image)
+    return ModuleImage.read(module.source.image)

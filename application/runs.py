@@ -1,0 +1,186 @@
+"""One run of a scenario, whatever runs the robots: in this process, or managing node processes.
+
+Both are the same ReFrESH: `refresh.manager.session.Session` drives the runtime over an applier
+on a time mode with the run's plant (`application.recording.RunPlant`), and the run's outcome
+holds what the session recorded. They differ only in what runs the robots:
+
+- `run_in_process`: a node per robot in this process (`LocalWorld`, its time mode), plans applied
+  by `refresh.appliers.in_process.NodeApplier` (guest images sent over an in-process link, or
+  across the modelled migration wire in virtual time), the estimators on a host node here;
+- `run_managed`: the robots' nodes are processes reached by URL (``python -m APP node``), managed
+  by `refresh.manager.manage` (the manager of ``python -m refresh manage``) in lock-step time
+  (the plant's peers granted each quantum first) or real time.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from application.declaration import Application
+from application.local_world import LocalWorld
+from application.outages import OverLinks, SwitchedOff, relays
+from application.plant import Setting
+from application.prepared import prepare
+from application.recording import RunPlant
+from application.records import Outcome
+from application.scenario import Scenario
+from firmware_sim.core.node import Node, NodeConfig
+from hexmigrate.links import open_link
+from hexmigrate.transfer.control_client import NodeControl
+from hexmigrate.transfer.sender import Sender
+from refresh.appliers.in_process import NodeApplier
+from refresh.estimators.host import HostEstimators, host_codes
+from refresh.manager.manager import ManagerConfig, manage
+from refresh.manager.session import Session
+from refresh.manager.time_modes import LockStep, RealTime, TimeMode
+from refresh.runtime import Runtime, RuntimeSettings
+
+
+@dataclass
+class InProcess:
+    """A run in process, set up and not started: its session (`run(until)`, `wait(seconds)`),
+    its runtime, its applier, its world and the outcome it records into."""
+
+    session: Session
+    runtime: Runtime
+    applier: NodeApplier
+    world: LocalWorld
+    outcome: Outcome
+
+
+@contextlib.contextmanager
+def in_process(
+    application: Application,
+    scenario: Scenario,
+    work: Path,
+    settings: RuntimeSettings | None = None,
+    progress: Callable[[float], None] = lambda now: None,
+) -> Iterator[InProcess]:
+    """`scenario` set up on a node per robot in this process; guests are built into `work`;
+    `settings` are the runtime's (the application's unless given); `progress` hears the run's
+    time after every sample. Everything is closed on leaving."""
+    prepared = prepare(application, scenario, work)
+    database, task = prepared.loaded.database, prepared.task
+    config = NodeConfig(budget=application.budget)
+    outcome = Outcome(scenario)
+    with contextlib.ExitStack() as stack:
+        world = stack.enter_context(LocalWorld(database.robots, config, application.step))
+        setting = Setting(application, scenario, database, world.clock, nodes=world.nodes)
+        plant = application.plant(setting)
+        stack.callback(plant.close)
+        natives = plant.natives()
+        host = stack.enter_context(Node("host", config))
+        codes = host_codes(database, host, natives)
+        wire, rate = application.link
+        applier = NodeApplier(
+            world.nodes,
+            natives,
+            images=prepared.images,
+            wire=wire,
+            rate=rate,
+            migration_wire=application.migration_wire,
+            clock=world.clock,
+        )
+        run_plant = RunPlant(plant, outcome, SwitchedOff(applier))
+        estimators = HostEstimators(
+            host.kernel,
+            codes,
+            database,
+            task,
+            inputs=lambda: run_plant.inputs(session.view),  # once the session is made
+        )
+        runtime = Runtime(
+            database, task, applier, estimators, world.clock, settings or application.settings
+        )
+        session = Session(runtime, world, run_plant, progress=progress)
+        yield InProcess(session, runtime, applier, world, outcome)
+
+
+def run_in_process(
+    application: Application,
+    scenario: Scenario,
+    work: Path,
+    settings: RuntimeSettings | None = None,
+    progress: Callable[[float], None] = lambda now: None,
+) -> Outcome:
+    """Run `scenario` on a node per robot in this process (see `in_process`); its outcome."""
+    with in_process(application, scenario, work, settings, progress) as run:
+        run.session.run(scenario.duration)
+        return finished(run.outcome, run.runtime)
+
+
+def run_managed(
+    application: Application,
+    scenario: Scenario,
+    out: Path,
+    nodes: Mapping[str, str],
+    *,
+    devices: Mapping[str, str] | None = None,
+    peers: Mapping[str, str] | None = None,
+    real_time: bool = False,
+    quantum: float | None = None,
+    say: Callable[[str], None] = lambda line: None,
+    progress: Callable[[float], None] = lambda now: None,
+) -> Outcome:
+    """Run `scenario` on the robots' node processes at `nodes` (robot -> URL); the plant's
+    devices are at `devices`; in real time, or in lock-step time of `quantum` seconds (the
+    application's by default), the `peers` (name -> control URL) granted each quantum first.
+    Guests are built and the events written (``events.jsonl``) into `out`."""
+    prepared = prepare(application, scenario, out)
+    database = prepared.loaded.database
+    outcome = Outcome(scenario)
+    with contextlib.ExitStack() as stack:
+        cut = relays(scenario, nodes, stack)
+        reached = {robot: cut[robot].url if robot in cut else url for robot, url in nodes.items()}
+        time = _time_mode(application, real_time, quantum, peers or {}, stack)
+        setting = Setting(application, scenario, database, time.clock, devices=dict(devices or {}))
+        plant = application.plant(setting)
+        stack.callback(plant.close)
+        wire, rate = application.link
+        config = ManagerConfig(
+            nodes=reached,
+            time=time,
+            seconds=scenario.duration,
+            settings=application.settings,
+            plant=RunPlant(plant, outcome, OverLinks(reached, cut)),
+            wire=wire,
+            rate=rate,
+            migration_wire=application.migration_wire,
+            host=NodeConfig(budget=application.budget),
+            report_period=application.report_period,
+            events=out / "events.jsonl",
+        )
+        runtime = manage(prepared.loaded, config, say, progress)
+    return finished(outcome, runtime)
+
+
+def _time_mode(
+    application: Application,
+    real_time: bool,
+    quantum: float | None,
+    peers: Mapping[str, str],
+    stack: contextlib.ExitStack,
+) -> TimeMode:
+    """Real time, or lock-step time with the peers' controls (their links closed with
+    `stack`)."""
+    if real_time:
+        return RealTime()
+    first = {
+        name: NodeControl(Sender(stack.enter_context(open_link(url))))
+        for name, url in peers.items()
+    }
+    return LockStep(quantum or application.quantum, first=first)
+
+
+def finished(outcome: Outcome, runtime: Runtime) -> Outcome:
+    """`outcome` with what `runtime` did: its history, its log and its applier's migrations."""
+    history = runtime.history
+    outcome.configurations = history.configurations
+    outcome.reconfigurations = history.reconfigurations
+    outcome.stopped_at = history.stopped_at
+    outcome.log = runtime.log
+    outcome.migrations = runtime.applier.migrations
+    return outcome
