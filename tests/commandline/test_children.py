@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 import signal
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -52,3 +53,62 @@ def test_a_child_that_ignores_sigint_is_killed(tmp_path: Path, monkeypatch) -> N
     stubborn.wait_for(LISTENING)
     stubborn.stop()
     assert stubborn.process.returncode == -signal.SIGKILL
+
+
+def test_lines_are_read_as_the_log_grows_and_a_wait_starts_where_it_is_told(tmp_path: Path):
+    go = tmp_path / "go"
+    code = (
+        "import pathlib, sys, time\n"
+        f"go = pathlib.Path({str(go)!r})\n"
+        "print('listening on first', flush=True)\n"
+        "while not go.exists(): time.sleep(0.01)\n"
+        "print('listening on second', flush=True)\n"
+        "print('half', end='', flush=True)\n"
+        "while go.exists(): time.sleep(0.01)\n"
+    )
+    with Child.start("grower", python(code), tmp_path / "grower.log") as child:
+        index, found = child.wait_for_line(LISTENING)
+        assert (index, found[1]) == (0, "first")
+        go.touch()
+        assert child.wait_for(LISTENING, start=index + 1)[1] == "second"
+        assert child.lines() == ["listening on first", "listening on second"]  # not half yet
+        go.unlink()
+        assert child.wait() == 0
+        assert child.lines()[-1] == "half"  # the process ended: its last line is whole
+    assert child.lines()[-1] == "half"  # read once more without the log, once all was read
+
+
+def test_a_child_still_running_when_waited_for_is_an_error_and_stop_ends_it(tmp_path: Path):
+    sleeping = python("import time; time.sleep(60)")
+    with (
+        Child.start("sleeper", sleeping, tmp_path / "s") as child,
+        pytest.raises(ChildError, match=r"^process sleeper still running after 0\.2 s "),
+    ):
+        child.wait(0.2)
+    assert child.process.returncode is not None  # leaving the context stopped it
+
+
+def test_a_child_of_a_process_that_ignores_sigint_is_interrupted_not_killed(tmp_path, monkeypatch):
+    """As when the suite runs as a background job of a shell: the child must not inherit the
+    ignored SIGINT, or stop could only kill it."""
+    monkeypatch.setattr(children, "STOP_TIMEOUT", 5.0)
+    code = "import time; print('listening on here', flush=True); time.sleep(60)"
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        child = Child.start("server", python(code), tmp_path / "server.log")
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    child.wait_for(LISTENING)
+    child.stop()
+    assert child.process.returncode == -signal.SIGINT  # KeyboardInterrupt, not SIGKILL
+
+
+def test_a_busy_child_is_charged_its_cpu_time_and_an_idle_one_nothing(tmp_path: Path) -> None:
+    idle = Child.start("idle", python("import time; time.sleep(60)"), tmp_path / "idle.log")
+    busy = Child.start("busy", python("while True: pass"), tmp_path / "busy.log")
+    with idle, busy:
+        deadline = time.monotonic() + 30
+        while busy.cpu_seconds() < 0.5:
+            assert time.monotonic() < deadline, f"{busy.cpu_seconds()} s of CPU in 30 s"
+            time.sleep(0.05)
+        assert idle.cpu_seconds() < 0.5
