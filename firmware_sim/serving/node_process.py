@@ -1,0 +1,89 @@
+"""A listening node in a process of its own, as a user starts one: ``python -m firmware_sim
+listen --listen LISTEN OPTIONS``, a `commandline.children.Child`.
+
+This is how the benchmarks and the tests start a node (a robot's own program calls
+`firmware_sim.serving.listen` in its process instead). The node's output goes to a log, a file
+of the caller's or one in a temporary folder removed when the node stops; its listening line
+gives the URL a host opens (``hexmigrate.links.listening.CONNECT_URL``), read when it is first
+asked for, so that many nodes can start at once and be waited for after: each imports Unicorn
+and python-can before it listens, and fifty started one after another would take minutes.
+Leaving the context stops the node as Ctrl-C would (SIGINT, then SIGKILL).
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+import tempfile
+from pathlib import Path
+
+from commandline.children import START_TIMEOUT, Child
+from hexmigrate.links.listening import CONNECT_URL
+
+
+class NodeProcess:
+    """``firmware-sim listen --listen LISTEN OPTIONS`` started now in `cwd` (where ``--natives``
+    finds a module of the current folder), its output and errors into `log` (None: a temporary
+    one)."""
+
+    def __init__(
+        self, listen: str, *options: str, log: Path | None = None, cwd: Path | None = None
+    ) -> None:
+        self._folder: tempfile.TemporaryDirectory[str] | None = None
+        if log is None:
+            self._folder = tempfile.TemporaryDirectory(prefix="node-")
+            log = Path(self._folder.name) / "node.log"
+        command = [sys.executable, "-m", "firmware_sim", "listen", "--listen", listen, *options]
+        self.child = Child.start(f"firmware-sim listen --listen {listen}", command, log, cwd)
+        self._url: str | None = None
+
+    @property
+    def url(self) -> str:
+        """The URL a host opens to reach the node (a ``tcp-listen://`` node's ``socket://`` URL,
+        a pty's path), from its listening line, waited for the first time (a
+        `commandline.children.ChildError` when the node ends first or says nothing in time).
+        A node on a CAN bus names no such URL: a host opens the bus with its own role."""
+        if self._url is None:
+            self._url = self.child.wait_for(CONNECT_URL)[1]
+        return self._url
+
+    @property
+    def pid(self) -> int:
+        """The node's process id."""
+        return self.child.process.pid
+
+    def cpu_seconds(self) -> float:
+        """The CPU time (user + system) the node's process has used so far."""
+        return self.child.cpu_seconds()
+
+    def lines(self) -> list[str]:
+        """What the node printed so far, a line at a time."""
+        return self.child.lines()
+
+    def wait_for(
+        self, pattern: re.Pattern[str] | str, timeout: float = START_TIMEOUT, start: int = 0
+    ) -> re.Match[str]:
+        """The first match of `pattern` in the node's lines from line `start` on
+        (`commandline.children.Child.wait_for`)."""
+        return self.child.wait_for(pattern, timeout, start)
+
+    def wait_for_line(
+        self, pattern: re.Pattern[str] | str, timeout: float = START_TIMEOUT, start: int = 0
+    ) -> tuple[int, re.Match[str]]:
+        """As `wait_for`, with the index of the line that matched."""
+        return self.child.wait_for_line(pattern, timeout, start)
+
+    def stop(self) -> None:
+        """Stop the node (SIGINT, SIGKILL if it does not end) and remove a temporary log; what
+        it printed stays readable through `lines`. Idempotent."""
+        self.child.stop()
+        self.child.lines()  # read to the end while the log is there
+        folder, self._folder = self._folder, None
+        if folder is not None:
+            folder.cleanup()
+
+    def __enter__(self) -> NodeProcess:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.stop()
