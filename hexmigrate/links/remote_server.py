@@ -8,33 +8,30 @@ own bus on the server's CHANNEL, so two processes on one server share a CAN chan
         host = open_link(server.url())              # this process
         # another process: open_link(server.url(role="node")), a URL it is given
 
-The server runs as ``python -m can_remote -i virtual -c CHANNEL -H HOST -p PORT`` in a
-subprocess (it only stops on a signal), on a port free on HOST. HOST is the address it listens
-on, 127.0.0.1 unless given: the loopback address keeps the bus on this machine, one of the
-machine's network addresses (or 0.0.0.0) lets nodes on other machines join it. The server
-listens on IPv4 only (python-can-remote's HTTP server), so an IPv6 address is refused. It logs every
-connection, so its output goes to a file; an error shows the file's last lines.
+The server runs as ``python -m can_remote -i virtual -c CHANNEL -H HOST -p PORT``, a
+`commandline.children.Child` (it only stops on a signal), on a port free on HOST. HOST is the
+address it listens on, 127.0.0.1 unless given: the loopback address keeps the bus on this
+machine, one of the machine's network addresses (or 0.0.0.0) lets nodes on other machines join
+it. The server listens on IPv4 only (python-can-remote's HTTP server), so an IPv6 address is
+refused. It logs every connection, so its output goes to a file, read until the server says it
+listens; an error shows the file's last lines.
 """
 
 from __future__ import annotations
 
-import os
-import signal
+import re
 import socket
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
+from commandline.children import Child, ChildError
 from hexmigrate.errors import LinkError
 from hexmigrate.links.url import network_host
 
 HOST = "127.0.0.1"
 START_TIMEOUT = 10.0
-"""How long the server may take to accept connections: it imports python-can first."""
-STOP_TIMEOUT = 5.0
-_POLL = 0.05
+"""How long the server may take to listen: it imports python-can first."""
 
 
 class RemoteCanServer:
@@ -55,8 +52,8 @@ class RemoteCanServer:
         self.channel = channel
         self.port = 0
         """The TCP port, known once started."""
-        self._process: subprocess.Popen[bytes] | None = None
-        self._log: Path | None = None
+        self._child: Child | None = None
+        self._folder: tempfile.TemporaryDirectory[str] | None = None
 
     def url(self, role: str = "host") -> str:
         """The ``can://remote`` URL of this server's channel for a link of `role`."""
@@ -65,34 +62,31 @@ class RemoteCanServer:
         return f"can://remote/{self.host}:{self.port}/{self.channel}?role={role}"
 
     def start(self) -> None:
-        """Start the server and wait until it accepts connections; LinkError if it does not."""
+        """Start the server and wait until it listens; LinkError, quoting its log, if it does
+        not within START_TIMEOUT."""
         self.port = _free_port(self.host)
-        descriptor, name = tempfile.mkstemp(prefix="can-remote-", suffix=".log")
-        os.close(descriptor)
-        self._log = Path(name)
+        self._folder = tempfile.TemporaryDirectory(prefix="can-remote-")
         command = [sys.executable, "-m", "can_remote", "-i", "virtual", "-c", self.channel]
         command += ["-H", self.host, "-p", str(self.port)]
-        with self._log.open("wb") as log:
-            self._process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT)
+        log = Path(self._folder.name) / "server.log"
+        self._child = Child.start("python-can-remote server", command, log)
+        listening = re.compile(rf"Server listening on {re.escape(self.host)}:{self.port}$")
         try:
-            self._wait_until_listening()
-        except LinkError:
+            self._child.wait_for(listening, START_TIMEOUT)
+        except ChildError as error:
             self.stop()
-            raise
+            raise LinkError(
+                f"cannot serve CAN channel {self.channel!r} on {self.host}:{self.port}: {error}"
+            ) from None
 
     def stop(self) -> None:
         """Stop the server (SIGINT, as Ctrl-C would; SIGKILL if it hangs). Idempotent."""
-        process, self._process = self._process, None
-        if process is not None and process.poll() is None:
-            process.send_signal(signal.SIGINT)
-            try:
-                process.wait(timeout=STOP_TIMEOUT)
-            except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait(timeout=STOP_TIMEOUT)
-        if self._log is not None:
-            self._log.unlink(missing_ok=True)
-            self._log = None
+        child, self._child = self._child, None
+        if child is not None:
+            child.stop()
+        folder, self._folder = self._folder, None
+        if folder is not None:
+            folder.cleanup()
 
     def __enter__(self) -> RemoteCanServer:
         self.start()
@@ -100,28 +94,6 @@ class RemoteCanServer:
 
     def __exit__(self, *exc_info: object) -> None:
         self.stop()
-
-    def _wait_until_listening(self) -> None:
-        assert self._process is not None
-        deadline = time.monotonic() + START_TIMEOUT
-        while time.monotonic() < deadline:
-            if self._process.poll() is not None:
-                raise LinkError(f"python-can-remote server exited: {self._log_tail()}")
-            try:
-                socket.create_connection((self.host, self.port), timeout=_POLL).close()
-            except OSError:
-                time.sleep(_POLL)
-            else:
-                return
-        raise LinkError(
-            f"python-can-remote server on {self.host}:{self.port} not listening after "
-            f"{START_TIMEOUT:g} s: {self._log_tail()}"
-        )
-
-    def _log_tail(self) -> str:
-        assert self._log is not None
-        lines = self._log.read_text(errors="replace").splitlines()
-        return " | ".join(lines[-5:]) or "(no output)"
 
 
 def _free_port(host: str) -> int:

@@ -111,7 +111,7 @@ def test_the_remote_server_reports_a_start_failure_from_its_log(
         monkeypatch.setattr(remote_server, "_free_port", lambda host: taken.getsockname()[1])
         server = RemoteCanServer()
         try:
-            with pytest.raises(LinkError, match=r"server exited: .*Address already in use"):
+            with pytest.raises(LinkError, match=r"server exited with status 1 \(log .*Address already in use"):
                 server.start()
         finally:
             server.stop()
