@@ -15,6 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from firmware_sim.core.memory_map import FLASH_BASE
+from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
 from hexmigrate.errors import TransferError
 from hexmigrate.image import ModuleImage
@@ -39,8 +40,7 @@ from hexmigrate.transfer.messages import (
     encode,
 )
 from hexmigrate.transfer.sender import Sender
-from tests.firmware_sim.node_process import (
-    NodeProcess,
+from tests.firmware_sim.host_side import (
     check_node_output,
     exchange,
     hexmigrate,
@@ -73,10 +73,7 @@ def files(example_builds, tmp_path_factory) -> dict[str, Path]:
 def test_only_a_connection_with_a_trusted_key_changes_the_node(files, listen):
     node_options = ("--set", "gain.k=0x20000", "--show", "gain.y", "--trust", files["pub"])
     with NodeProcess(listen, *node_options) as node:
-        if listen == "pty":
-            to = node.wait_for(r"^listening on (/dev/pts/\d+) ")[1][1]
-        else:
-            to = node.connect_url()
+        to = node.url  # a pty's path, a tcp-listen node's socket:// URL
         send = ("send", files["gain"], "--to", to, "--quiet", "--mode", "hex")
         assert REQUIRED in hexmigrate_refused(*send)
         assert "signed by an unknown key" in hexmigrate_refused(*send, "--key", files["other"])
@@ -99,7 +96,7 @@ def test_a_tcp_clients_authentication_is_its_own(files, listen):
     """Also behind a fault wrapper, which once made every client one connection."""
     key = keys.load_private(files["key"])
     with NodeProcess(listen, "--trust", files["pub"]) as node:
-        url = node.connect_url()
+        url = node.url
         with open_link(url) as first, open_link(url) as second:
             trusted, stranger = (
                 Sender(first, "hex", timeout=2.0),
@@ -124,7 +121,7 @@ class Trusting:
     def __init__(self, node: NodeProcess, flash: Path, files: dict[str, Path]) -> None:
         self.node = node
         self.flash = flash
-        self.url = node.connect_url()
+        self.url = node.url
         self.key = keys.load_private(files["key"])
         with open_link(self.url) as link:
             sender = Sender(link, "hex", timeout=5.0)
@@ -206,7 +203,7 @@ def test_nothing_a_stranger_sends_changes_a_trusting_node(trusting, transfers):
         for raw in exchange(trusting.url, b"".join(parts)):
             answer = decode(raw)
             assert not (isinstance(answer, Ack) and answer.text.startswith(CHANGED)), answer
-        assert trusting.node.process.poll() is None, trusting.node.output()
+        assert trusting.node.child.process.poll() is None, trusting.node.lines()
 
     one()
     assert trusting.observe() == trusting.state
@@ -219,7 +216,7 @@ def test_strangers_opening_connections_do_not_push_out_an_authenticated_host(fil
     hung up on at once."""
     key = keys.load_private(files["key"])
     with NodeProcess("tcp-listen://127.0.0.1:0", "--trust", files["pub"]) as node:
-        url = node.connect_url()
+        url = node.url
         host, port = url.removeprefix("socket://").rsplit(":", 1)
         with open_link(url) as link, contextlib.ExitStack() as stack:
             host_sender = Sender(link, "hex", timeout=2.0)

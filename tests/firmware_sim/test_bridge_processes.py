@@ -13,13 +13,14 @@ from pathlib import Path
 
 import pytest
 
+from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
 from hexmigrate.links import open_link
 from hexmigrate.transfer.control import Number
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.sender import Sender
 from hexmigrate.transfer.time_master import TimeMaster
-from tests.firmware_sim.node_process import NodeProcess, hexmigrate
+from tests.firmware_sim.host_side import hexmigrate
 
 LISTEN = "tcp-listen://127.0.0.1:0"
 READS = 100
@@ -45,11 +46,11 @@ def two_nodes(gain_hex: Path, *options: str) -> Iterator[tuple[NodeControl, Node
             )
         )
         b = stack.enter_context(NodeProcess(LISTEN, "--no-start", *options))
-        hexmigrate("send", gain_hex, "--to", b.connect_url(), "--quiet")
+        hexmigrate("send", gain_hex, "--to", b.url, "--quiet")
         b.wait_for(r"^registered gain at ")
         controls = []
         for node in (a, b):
-            link = stack.enter_context(open_link(node.connect_url()))
+            link = stack.enter_context(open_link(node.url))
             controls.append(NodeControl(Sender(link, "binary")))
         on_a, on_b = controls
         on_b.set("gain.k=0x20000")

@@ -8,10 +8,12 @@ from __future__ import annotations
 
 import csv
 import re
+from contextlib import ExitStack
 
 import pytest
 
-from tests.firmware_sim.node_process import NodeProcess, hexmigrate
+from firmware_sim.serving.node_process import NodeProcess
+from tests.firmware_sim.host_side import hexmigrate
 
 NODES = {"127.0.0.2": "3", "127.0.0.3": "5"}
 """Each node's address and the amplitude of its signal (a ramp: +amplitude every cycle)."""
@@ -20,7 +22,7 @@ NODES = {"127.0.0.2": "3", "127.0.0.3": "5"}
 def connect_url(node: NodeProcess, address: str) -> str:
     """The ``socket://`` URL the node's first line gives, checked to name `address`."""
     escaped = re.escape(address)
-    _, found = node.wait_for(
+    found = node.wait_for(
         rf"^listening on tcp-listen://{escaped}:(\d+) \(connect with: hexmigrate send FILE\.hex "
         rf"--to (socket://{escaped}:(\d+))\)$"
     )
@@ -43,13 +45,14 @@ def state(to: str, name: str) -> str:
 
 @pytest.mark.slow
 def test_nodes_on_two_addresses_are_controlled_from_a_third() -> None:
-    nodes: dict[str, NodeProcess] = {}
-    try:
+    with ExitStack() as stack:
+        nodes: dict[str, NodeProcess] = {}
         for address, amplitude in NODES.items():
-            nodes[address] = NodeProcess(
+            node = NodeProcess(
                 f"tcp-listen://{address}:0",
                 "--native", "signal", "--set", f"signal.amplitude={amplitude}", "--no-start",
             )  # fmt: skip
+            nodes[address] = stack.enter_context(node)
         urls = {address: connect_url(node, address) for address, node in nodes.items()}
         first, second = urls["127.0.0.2"], urls["127.0.0.3"]
 
@@ -67,7 +70,4 @@ def test_nodes_on_two_addresses_are_controlled_from_a_third() -> None:
         assert "stopped signal" in hexmigrate("stop", "signal", "--to", first)
         assert state(first, "signal") == "OFF"
         assert state(second, "signal") == "ON"
-        assert all(node.process.poll() is None for node in nodes.values())
-    finally:
-        for node in nodes.values():
-            node.stop()
+        assert all(node.child.process.poll() is None for node in nodes.values())

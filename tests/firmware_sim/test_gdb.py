@@ -4,24 +4,30 @@ guest; the node's virtual clock stands still while gdb holds it; gdb leaving let
 
 from __future__ import annotations
 
+import itertools
 import json
 import re
-import select
 import shutil
 import socket
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from contextlib import ExitStack
 from pathlib import Path
 
 import pytest
 
+from commandline.children import Child
 from firmware_sim.gdb.packets import PacketConnection
 from hexmigrate.elf import image_from_elf
 
 GDB = shutil.which("gdb-multiarch")
 pytestmark = pytest.mark.skipif(GDB is None, reason="needs gdb-multiarch (make test installs it)")
+LINE_TIMEOUT = 20.0
+"""Seconds a node may take to print a line waited for."""
+RUNNING_CPU = 0.1
+"""CPU seconds a node uses once gdb let it run, which a halted node does not."""
 LOAD_AT = 0x0800_4000  # away from the link base 0x00010000: gdb needs the offset
 RUN = (
     "--native", "signal", "--wire", "signal.y=gain.x", "--set", "gain.k=0x20000",
@@ -38,60 +44,34 @@ def gain(example_builds, tmp_path_factory) -> Path:
     return out / "gain.hex"
 
 
-class Node:
-    """`firmware-sim COMMAND ... --gdb 127.0.0.1:0` in a process, its lines read with a
-    deadline."""
-
-    def __init__(self, *args: object) -> None:
-        command = [sys.executable, "-m", "firmware_sim", *map(str, args)]
-        command += ["--gdb", "127.0.0.1:0"]
-        # Unbuffered: select() must see every line still to read.
-        pipes = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "bufsize": 0}
-        self.process = subprocess.Popen(command, **pipes)
-        self.lines: list[str] = []
-
-    def line(self, pattern: str, timeout: float = 20) -> re.Match[str]:
-        """The first line matching `pattern` (re.search), waiting at most `timeout` s."""
-        deadline = time.monotonic() + timeout
-        assert self.process.stdout is not None
-        while time.monotonic() < deadline:
-            for line in self.lines:
-                found = re.search(pattern, line)
-                if found:
-                    return found
-            ready, _, _ = select.select([self.process.stdout], [], [], 0.1)
-            if ready:
-                text = self.process.stdout.readline().decode()
-                if not text:
-                    break
-                self.lines.append(text.rstrip("\n"))
-        raise AssertionError(f"no line matching {pattern!r} from the node: {self.lines}")
-
-    def finish(self, timeout: float = 60) -> tuple[int, str, str]:
-        out, err = self.process.communicate(timeout=timeout)
-        return self.process.returncode, "\n".join(self.lines) + out.decode(), err.decode()
-
-    def stop(self) -> None:
-        if self.process.poll() is None:
-            self.process.kill()
-        self.process.wait(timeout=10)
-
-
 @pytest.fixture
-def nodes() -> Iterator[list[Node]]:
-    started: list[Node] = []
-    yield started
-    for node in started:
-        node.stop()
+def nodes(tmp_path: Path) -> Iterator[Callable[..., Child]]:
+    """Start `firmware-sim COMMAND ... --gdb 127.0.0.1:0` as a child process, its output in a
+    log of the test's; each is stopped when the test ends."""
+    numbers = itertools.count()
+    with ExitStack() as stack:
+
+        def start_node(*args: object) -> Child:
+            command = [sys.executable, "-m", "firmware_sim", *map(str, args)]
+            command += ["--gdb", "127.0.0.1:0"]
+            log = tmp_path / f"node-{next(numbers)}.log"
+            return stack.enter_context(Child.start(f"firmware-sim {args[0]}", command, log))
+
+        yield start_node
 
 
-def start(nodes: list[Node], *args: object) -> tuple[Node, str, str]:
+def start(nodes: Callable[..., Child], *args: object) -> tuple[Child, str, str]:
     """A node waiting for gdb: it, its address and its add-symbol-file command."""
-    node = Node("run", *args)
-    nodes.append(node)
-    where = node.line(r"gdb: listening on (127\.0\.0\.1:\d+)").group(1)
-    symbols = node.line(r"gdb: (add-symbol-file \S+ -o 0x[0-9A-F]+)").group(1)
+    node = nodes("run", *args)
+    where = node.wait_for(r"gdb: listening on (127\.0\.0\.1:\d+)", LINE_TIMEOUT)[1]
+    symbols = node.wait_for(r"gdb: (add-symbol-file \S+ -o 0x[0-9A-F]+)", LINE_TIMEOUT)[1]
     return node, where, symbols
+
+
+def finish(node: Child, timeout: float = 60) -> tuple[int, str]:
+    """The node's exit status once its run is over, and what it printed."""
+    status = node.wait(timeout)
+    return status, "\n".join(node.lines())
 
 
 def gdb(where: str, *commands: str) -> str:
@@ -136,7 +116,7 @@ def test_gdb_breaks_in_a_module_reads_steps_watches_and_continues(gain, nodes):
     assert LOAD_AT <= pcs[0] < LOAD_AT + 0x1000
     assert "$1 = 3" in output  # gain.x in its port buffer: signal's first ramp value
     assert re.search(r"Hardware watchpoint 2: \*\$y\s+Old value = 0\s+New value = 6", output)
-    status, printed, _ = node.finish()
+    status, printed = finish(node)
     assert status == 0
     debugged = report_of(printed)
     module = f"{gain}@0x{LOAD_AT:08X}"
@@ -195,7 +175,7 @@ def test_gdb_moves_pc_to_skip_an_instruction_jump_or_return_from_a_method(gain, 
     assert pcs[4] == pcs[3]
     assert output.count("Breakpoint 1, gain_cycle") == 3  # two cycles, then the jump
     assert "$2 = 0" in output and pcs[5] == pcs[1]
-    status, printed, _ = node.finish()
+    status, printed = finish(node)
     assert status == 0, printed
     report = report_of(printed)
     assert report["stats"]["gain"]["state"] == "ON" and report["stats"]["gain"]["faults"] == 0
@@ -226,8 +206,17 @@ def test_stepping_past_a_methods_return_halts_at_the_trampoline_then_in_the_next
     assert LOAD_AT <= pcs[1] < LOAD_AT + 0x1000  # the first instruction of the next method
     assert re.search(r"gain_\w+ \(ctx=0x3000", output)  # ... which gdb names
     assert "Value returned is $1 = 0" in output  # finish: the method returned PBO_OK
-    status, printed, _ = node.finish()
+    status, printed = finish(node)
     assert status == 0, printed
+
+
+def running(node: Child, before: float, timeout: float = LINE_TIMEOUT) -> None:
+    """Wait until the node has used RUNNING_CPU seconds of CPU more than `before`: halted, it
+    waits for gdb without any."""
+    deadline = time.monotonic() + timeout
+    while node.cpu_seconds() - before < RUNNING_CPU:
+        assert time.monotonic() < deadline, f"the node used no CPU in {timeout:g} s: it is halted"
+        time.sleep(0.02)
 
 
 def rsp(where: str) -> PacketConnection:
@@ -240,8 +229,9 @@ def test_an_interrupt_halts_a_running_guest_and_a_vanished_gdb_lets_the_node_run
     client = rsp(where)
     client.send("?")
     assert client.receive(timeout=20) == b"T05"  # halted on connection
+    busy = node.cpu_seconds()
     client.send("c")
-    time.sleep(0.2)  # running (300 s of virtual time take some seconds)
+    running(node, busy)  # 300 s of virtual time take some seconds
     client.socket.sendall(b"\x03")
     stop = client.receive(timeout=20)
     assert stop is not None and stop.startswith(b"T02")  # SIGINT
@@ -252,21 +242,20 @@ def test_an_interrupt_halts_a_running_guest_and_a_vanished_gdb_lets_the_node_run
         < LOAD_AT + 0x1000
     )
     client.close()  # gdb vanishes while the target is halted
-    status, output, _ = node.finish(timeout=120)
+    status, output = finish(node, timeout=120)
     assert status == 0
     assert "gdb: gdb disconnected; the node runs on" in output
     assert "ran 300.000 s of virtual time" in output
 
 
 def test_a_listening_node_takes_gdb_between_jobs_for_a_module_that_arrived(gain, nodes):
-    node = Node(
+    node = nodes(
         "listen", "--listen", "tcp-listen://127.0.0.1:0", "--native", "signal",
         "--wire", "signal.y=gain.x", "--set", "gain.k=0x20000", "--set", "signal.amplitude=3",
         "--elf", gain.with_suffix(".elf"), "--seconds", "60",
     )  # fmt: skip
-    nodes.append(node)
-    link = node.line(r"--to (socket://127\.0\.0\.1:\d+)").group(1)
-    where = node.line(r"gdb: listening on (127\.0\.0\.1:\d+)").group(1)
+    link = node.wait_for(r"--to (socket://127\.0\.0\.1:\d+)", LINE_TIMEOUT)[1]
+    where = node.wait_for(r"gdb: listening on (127\.0\.0\.1:\d+)", LINE_TIMEOUT)[1]
     sent = subprocess.run(
         [sys.executable, "-m", "hexmigrate.cli", "send", str(gain), "--to", link],
         capture_output=True,
@@ -275,7 +264,7 @@ def test_a_listening_node_takes_gdb_between_jobs_for_a_module_that_arrived(gain,
         check=False,
     )
     assert sent.returncode == 0, sent.stderr
-    symbols = node.line(r"gdb: (add-symbol-file \S+ -o 0x[0-9A-F]+)").group(1)
+    symbols = node.wait_for(r"gdb: (add-symbol-file \S+ -o 0x[0-9A-F]+)", LINE_TIMEOUT)[1]
     output = gdb(where, symbols, "break gain_cycle", "continue", "info registers pc", "detach")
     assert "Breakpoint 1, gain_cycle (ctx=0x3000" in output
-    node.line(r"gdb: gdb detached; the node runs on")
+    node.wait_for(r"gdb: gdb detached; the node runs on", LINE_TIMEOUT)

@@ -2,7 +2,7 @@
 
 Two processes where the transport joins processes (a pty pair, TCP to a ``tcp-listen://`` node,
 CAN through a python-can-remote server, SLCAN on a pty): the node is ``firmware-sim listen
---listen URL`` (started by tests/firmware_sim/node_process.py) or the host is ``hexmigrate
+--listen URL`` (a `firmware_sim.serving.node_process.NodeProcess`) or the host is ``hexmigrate
 send``/``ls``/``ping``/``rm``, each a subprocess, as a user would run them; the node's output
 (its "listening on" line first, registrations, ``--show`` values) is read as it comes. The pty
 node is restarted on its flash file to boot what it got. In one process (``can://virtual``;
@@ -37,6 +37,7 @@ import pytest
 from firmware_sim.core.natives import Signal
 from firmware_sim.core.node import Node
 from firmware_sim.core.transfer_target import NodeTarget
+from firmware_sim.serving.node_process import NodeProcess
 from firmware_sim.serving.serve import serve
 from hexmigrate.elf import image_from_elf
 from hexmigrate.errors import TransferInterrupted
@@ -51,13 +52,7 @@ from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from pbort.errors import KernelError
 from pbort.native import NativeModule
-from tests.firmware_sim.node_process import (
-    CLI_TIMEOUT,
-    GAIN_SHOWN,
-    NodeProcess,
-    check_node_output,
-    hexmigrate,
-)
+from tests.firmware_sim.host_side import CLI_TIMEOUT, GAIN_SHOWN, check_node_output, hexmigrate
 
 THREAD_TIMEOUT = 10.0
 RUN_TIMEOUT = 10.0
@@ -267,11 +262,11 @@ def test_a_pty_pair_between_two_processes(hex_files, tmp_path):
     with NodeProcess(
         "pty", *GAIN_SET, "--show", "gain.y", "--show", "moving_average.y", *flash
     ) as node:
-        index, listening = node.wait_for(r"^listening on (/dev/pts/\d+) ")
+        index, listening = node.wait_for_line(r"^listening on (/dev/pts/\d+) ")
         pty = listening[1]
         assert index == 0
         assert (
-            node.lines[0]
+            node.lines()[0]
             == f"listening on {pty} (connect with: hexmigrate send FILE.hex --to {pty})"
         )
         sent = hexmigrate("send", hex_files["gain"], "--to", pty, "--quiet", "--mode", "hex")
@@ -286,20 +281,20 @@ def test_a_pty_pair_between_two_processes(hex_files, tmp_path):
         removed = hexmigrate("rm", "moving_average", "--to", pty, "--mode", "hex")
         assert removed == f"removed moving_average from {pty}\n"
         assert [line.split()[0] for line in hexmigrate("ls", "--to", pty).splitlines()] == ["gain"]
-        index, _ = node.wait_for(r"moving_average\.y=\?$", start=len(node.lines))
+        index, _ = node.wait_for_line(r"moving_average\.y=\?$", start=len(node.lines()))
         node.wait_for(GAIN_SHOWN, start=index)  # gain still runs once moving_average is gone
 
     # The node again on the same flash: it says where it listens first, then boots gain.
     with NodeProcess("pty", *GAIN_SET, "--show", "gain.y", *flash) as node:
         node.wait_for(GAIN_SHOWN)
-        assert re.fullmatch(r"listening on /dev/pts/\d+ \(connect with: .*\)", node.lines[0])
-        assert node.lines[1] == f"registered gain at 0x{addresses['gain']:08X}"
+        assert re.fullmatch(r"listening on /dev/pts/\d+ \(connect with: .*\)", node.lines()[0])
+        assert node.lines()[1] == f"registered gain at 0x{addresses['gain']:08X}"
         assert check_node_output(node, ["gain"]) == {"gain": addresses["gain"]}
 
 
 def test_tcp_listen_between_two_processes_and_resume_after_a_cut(hex_files, images):
     with NodeProcess("tcp-listen://127.0.0.1:0", *GAIN_SET, "--show", "gain.y") as node:
-        _, listening = node.wait_for(
+        listening = node.wait_for(
             r"^listening on tcp-listen://127\.0\.0\.1:(\d+) \(connect with: hexmigrate send "
             r"FILE\.hex --to (socket://127\.0\.0\.1:(\d+))\)$"
         )
@@ -331,7 +326,7 @@ def test_faults_on_both_ends_of_a_tcp_link_between_processes(hex_files):
     with NodeProcess(
         f"faulty+tcp-listen://127.0.0.1:0#{FAULTS}&seed=5", *GAIN_SET, "--show", "gain.y"
     ) as node:
-        _, listening = node.wait_for(
+        listening = node.wait_for(
             rf"^listening on faulty\+tcp-listen://127\.0\.0\.1:(\d+)#{FAULTS}&seed=5 "
             r"\(connect with: hexmigrate send FILE\.hex --to (socket://127\.0\.0\.1:\d+)\)$"
         )
@@ -488,7 +483,7 @@ def test_send_reconnects_and_resumes_by_itself(hex_files, images):
     """`hexmigrate send` over a link that dies after 700 bytes each time it is opened: it opens
     the link again and resumes where the node got to, until the module is installed."""
     with NodeProcess("tcp-listen://127.0.0.1:0", *GAIN_SET, "--show", "gain.y") as node:
-        to = node.connect_url()
+        to = node.url
         flaky = f"faulty+{to}#cut_after=700"
         result = subprocess.run(
             [
@@ -521,21 +516,21 @@ def test_a_listening_node_wires_a_module_each_time_it_arrives(hex_files):
     once more."""
     wired = ("--native", "signal", "--set", "signal.amplitude=3", "--wire", "signal.y=gain.x")
     with NodeProcess("tcp-listen://127.0.0.1:0", *GAIN_SET, *wired, "--show", "gain.y") as node:
-        to = node.connect_url()
+        to = node.url
 
         def send_and_see_gain_run() -> None:
-            start = len(node.lines)
+            start = len(node.lines())
             hexmigrate("send", hex_files["gain"], "--to", to, "--quiet")
-            index, _ = node.wait_for(r"^registered gain at 0x", start)
-            _, shown = node.wait_for(r"gain\.y=([1-9]\d*)", index)  # 0 until the first cycles
+            index, _ = node.wait_for_line(r"^registered gain at 0x", start=start)
+            shown = node.wait_for(r"gain\.y=([1-9]\d*)", start=index)  # 0 until the first cycles
             assert int(shown[1]) % 6 == 0  # 2 x k=2.0 x a ramp of +3 per cycle
 
         send_and_see_gain_run()
         send_and_see_gain_run()  # gain replaced
         hexmigrate("rm", "gain", "--to", to)
-        node.wait_for(r"gain\.y=\?$", len(node.lines))
+        node.wait_for(r"gain\.y=\?$", start=len(node.lines()))
         send_and_see_gain_run()  # gain back after it was removed
-        assert not any("cannot wire" in line for line in node.lines), node.output()
+        assert not any("cannot wire" in line for line in node.lines()), node.lines()
 
 
 def test_a_bitstream_configures_a_listening_node_s_fabric(tmp_path):
@@ -545,7 +540,7 @@ def test_a_bitstream_configures_a_listening_node_s_fabric(tmp_path):
     command = [sys.executable, "-m", "morphing_crossbar", "pack", "4", "2", "bypass"]
     subprocess.run([*command, "-o", str(bitstream)], check=True, timeout=CLI_TIMEOUT)
     with NodeProcess("tcp-listen://127.0.0.1:0", "--fpga", "4") as node:
-        url = node.connect_url()
+        url = node.url
         node.wait_for(r"^fpga: a 4-slot Morphing Crossbar on the reconfiguration port$")
         sent = hexmigrate("send", bitstream, "--to", url)
         assert "module mx_slot2 installed at 0x40000200" in sent

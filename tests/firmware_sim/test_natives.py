@@ -10,7 +10,8 @@ import pytest
 
 from firmware_sim.core.natives import NATIVES, Signal, load_natives
 from firmware_sim.errors import StartError
-from tests.firmware_sim.node_process import NodeProcess, hexmigrate
+from firmware_sim.serving.node_process import NodeProcess
+from tests.firmware_sim.host_side import hexmigrate
 
 MODULE = "tests.refresh.data.manage_natives"
 
@@ -44,7 +45,7 @@ def test_a_module_that_cannot_be_used_is_refused_by_name(tmp_path, monkeypatch):
 def test_listen_runs_a_native_of_the_users_module():
     options = ("--natives", MODULE, "--native", "Sensor", "--set", "Sensor.level=42")
     with NodeProcess("tcp-listen://127.0.0.1:0", *options, "--set", "Sensor.fault_at=1e9") as node:
-        url = node.connect_url()
+        url = node.url
         assert "Sensor" in hexmigrate("ps", "--to", url)
         watched = hexmigrate("watch", "--port", "Sensor.y", "--seconds", "1", "--csv", "--to", url)
         header, *rows = watched.splitlines()

@@ -13,8 +13,9 @@ from pathlib import Path
 
 import pytest
 
+from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
-from tests.firmware_sim.node_process import CLI_TIMEOUT, NodeProcess, hexmigrate
+from tests.firmware_sim.host_side import CLI_TIMEOUT, hexmigrate
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +38,7 @@ def refused(*arguments: str) -> str:
 def test_a_host_sets_wires_and_starts_a_module_then_watches_it(gain_hex: Path) -> None:
     node_options = ("--native", "signal", "--set", "signal.amplitude=3", "--no-start")
     with NodeProcess("tcp-listen://127.0.0.1:0", *node_options) as node:
-        to = node.connect_url()
+        to = node.url
         hexmigrate("send", gain_hex, "--to", to, "--quiet")
         node.wait_for(r"^registered gain at ")
         assert "started signal" in hexmigrate("start", "signal", "--to", to)
@@ -60,4 +61,4 @@ def test_a_host_sets_wires_and_starts_a_module_then_watches_it(gain_hex: Path) -
         assert "'nope'" in refused("start", "nope", "--to", to)
         assert "'gain': cannot configure 'k'" in refused("set", "gain.k=2", "--to", to)
         assert "stopped gain" in hexmigrate("stop", "gain", "--to", to)  # the node goes on
-        assert node.process.poll() is None
+        assert node.child.process.poll() is None

@@ -1,5 +1,5 @@
 """A listening node process (``firmware-sim listen``) that hostile clients cannot crash, wear out
-or reprogram: each case of issue 14 point 4 over a real ``socket://`` link.
+or reprogram: each hostile case below over a real ``socket://`` link.
 
 Every case failed before the node bounded it: an HTTP request's body lines removed modules, one
 idle client kept every other sender out, a client that never read its answers grew the node by
@@ -22,6 +22,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from firmware_sim.core.memory_map import FLASH_BASE
+from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
 from hexmigrate.links import open_link
@@ -41,7 +42,7 @@ from hexmigrate.transfer.messages import (
     encode,
 )
 from hexmigrate.transfer.sender import Sender
-from tests.firmware_sim.node_process import NodeProcess, exchange
+from tests.firmware_sim.host_side import exchange
 
 ANSWER_TIMEOUT = 10.0
 QUIET = 0.3
@@ -51,7 +52,7 @@ FLASH_END = FLASH_BASE + (1 << 18)
 
 def _rss_mb(node: NodeProcess) -> float:
     """The node process's resident memory in MiB."""
-    status = Path(f"/proc/{node.process.pid}/status").read_text()
+    status = Path(f"/proc/{node.pid}/status").read_text()
     line = next(line for line in status.splitlines() if line.startswith("VmRSS:"))
     return int(line.split()[1]) / 1024
 
@@ -62,7 +63,7 @@ class Hostile:
     def __init__(self, node: NodeProcess, flash: Path, image: ModuleImage) -> None:
         self.node = node
         self.flash = flash
-        self.url = node.connect_url()
+        self.url = node.url
         self.host, port = self.url.removeprefix("socket://").rsplit(":", 1)
         self.port = int(port)
         with open_link(self.url) as link:
@@ -87,7 +88,7 @@ class Hostile:
             assert not (
                 isinstance(answer, Ack) and answer.text.startswith(("installed", "removed"))
             ), answer
-        assert self.node.process.poll() is None, self.node.output()
+        assert self.node.child.process.poll() is None, self.node.lines()
         with open_link(self.url) as link:
             listing = Sender(link, "binary", timeout=ANSWER_TIMEOUT, retries=0).modules()
         assert [name for name, _, _ in listing] == ["gain"], listing
@@ -226,7 +227,7 @@ def test_fuzz_the_node_over_a_real_link(hostile, mode):
             assert isinstance(answer, Nak) or (
                 isinstance(answer, Ack) and not answer.text.startswith(("installed", "removed"))
             ), answer
-        assert hostile.node.process.poll() is None, hostile.node.output()
+        assert hostile.node.child.process.poll() is None, hostile.node.lines()
 
     one()
     hostile.check([])

@@ -1,8 +1,9 @@
 """A listening node process that hears malformed messages refuses them and keeps serving.
 
 A blank line typed on a terminal, or a frame whose CRC is right but whose body is garbage, used
-to end the node process. The node is started by the end-to-end tests' launcher (`NodeProcess`,
-in tests/firmware_sim/test_migration_e2e.py), so a change of the node command is made there once.
+to end the node process. The node is started as every node process of the project is
+(`firmware_sim.serving.node_process.NodeProcess`), so a change of the node command is made there
+once.
 """
 
 from __future__ import annotations
@@ -10,11 +11,12 @@ from __future__ import annotations
 import struct
 import zlib
 
+from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
 from hexmigrate.links import open_link
 from hexmigrate.transfer.messages import Nak, decode
 from hexmigrate.transfer.sender import Sender
-from tests.firmware_sim.node_process import NodeProcess, check_node_output
+from tests.firmware_sim.host_side import check_node_output
 
 ANSWER_TIMEOUT = 10.0
 CONNECT_LINE = r"\(connect with: hexmigrate send FILE\.hex --to (socket://127\.0\.0\.1:\d+)\)$"
@@ -28,12 +30,12 @@ def test_a_listening_node_refuses_a_blank_line_and_a_garbage_listing_and_keeps_s
     with NodeProcess(
         "tcp-listen://127.0.0.1:0", "--set", "gain.k=0x20000", "--show", "gain.y"
     ) as node:
-        _, listening = node.wait_for(CONNECT_LINE)
+        listening = node.wait_for(CONNECT_LINE)
         with open_link(listening[1]) as link:
             for raw in (b"   ", GARBAGE_LISTING + struct.pack("<I", zlib.crc32(GARBAGE_LISTING))):
                 link.send(raw)
                 reply = link.receive(ANSWER_TIMEOUT)
-                assert reply is not None, f"no answer to {raw!r}:\n{node.output()}"
+                assert reply is not None, f"no answer to {raw!r}:\n{node.lines()}"
                 refusal = decode(reply, checked=True)
                 assert isinstance(refusal, Nak), refusal
                 assert refusal.reason.startswith("bad message: "), refusal.reason
@@ -41,4 +43,4 @@ def test_a_listening_node_refuses_a_blank_line_and_a_garbage_listing_and_keeps_s
             assert sender.ping().startswith("node: 0 module(s)")
             assert sender.send(image).name == "gain"
         check_node_output(node, ["gain"])
-        assert node.process.poll() is None, node.output()
+        assert node.child.process.poll() is None, node.lines()

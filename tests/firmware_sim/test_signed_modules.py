@@ -12,13 +12,13 @@ from pathlib import Path
 import pytest
 
 from firmware_sim.core.node import Node, NodeConfig
+from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
 from hexmigrate.signing import keys
 from hexmigrate.signing.sign import sign_image
 from hexmigrate.signing.tlv import Version
-from tests.firmware_sim.node_process import (
-    NodeProcess,
+from tests.firmware_sim.host_side import (
     check_node_output,
     hexmigrate,
     hexmigrate_refused,
@@ -53,10 +53,10 @@ def test_a_node_that_trusts_no_key_loads_a_signed_file(signed_gain):
 def test_a_signed_file_sends_and_runs_on_a_listening_node(signed_gain, mode):
     _, path = signed_gain
     with NodeProcess("tcp-listen://127.0.0.1:0", *GAIN_SET, "--show", "gain.y") as node:
-        sent = hexmigrate("send", path, "--to", node.connect_url(), "--quiet", "--mode", mode)
+        sent = hexmigrate("send", path, "--to", node.url, "--quiet", "--mode", mode)
         assert "module gain installed at 0x" in sent
         check_node_output(node, ["gain"])
-        assert "gain" in hexmigrate("ls", "--to", node.connect_url())
+        assert "gain" in hexmigrate("ls", "--to", node.url)
 
 
 @pytest.fixture(scope="module")
@@ -106,10 +106,7 @@ def test_a_trusting_node_installs_only_what_its_key_signed(modules, listen, mode
     09 lines do): each refusal comes back with its reason and leaves the node as it was (its
     modules and its free flash blocks); the module signed by the trusted key runs."""
     with NodeProcess(listen, *GAIN_SET, "--show", "gain.y", "--trust", modules["key"]) as node:
-        if listen == "pty":
-            to = node.wait_for(r"^listening on (/dev/pts/\d+) ")[1][1]
-        else:
-            to = node.connect_url()
+        to = node.url  # a pty's path, a tcp-listen node's socket:// URL
         send = ("--to", to, "--quiet", "--mode", mode, "--key", modules["signer"])
         sent = hexmigrate("send", modules["v1.2.0"], *send)
         assert "module gain installed at 0x" in sent

@@ -16,7 +16,11 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
+from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
+from hexmigrate.links import open_link
+from hexmigrate.transfer.control_client import NodeControl
+from hexmigrate.transfer.sender import Sender
 
 RUN = (
     "--native",
@@ -113,21 +117,26 @@ def test_a_trace_name_of_no_known_format_is_a_usage_error(gain, tmp_path, option
     assert not (tmp_path / name).exists()
 
 
+def ramp_running(url: str, timeout: float = 20.0) -> None:
+    """Wait until the node at `url` reads back a signal.y above 0: the ramp has run a cycle."""
+    deadline = time.monotonic() + timeout
+    with open_link(url) as link:
+        control = NodeControl(Sender(link))
+        while (value := control.read(("signal.y",))[0][1]) == 0:
+            assert time.monotonic() < deadline, f"signal.y still {value} after {timeout:g} s"
+            time.sleep(0.05)
+
+
 def test_a_listening_node_stopped_by_sigterm_leaves_whole_traces(tmp_path):
     csv_path, mcap_path = tmp_path / "node.csv", tmp_path / "node.mcap"
-    command = [sys.executable, "-m", "firmware_sim", "listen", "--listen"]
-    command += ["tcp-listen://127.0.0.1:0", "--native", "signal", "--set", "signal.amplitude=2"]
-    command += ["--trace", str(csv_path), "--trace", str(mcap_path)]
-    node = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        time.sleep(2.0)  # listening, and the signal running on the real-time clock
-        node.send_signal(signal.SIGTERM)
-        output, errors = node.communicate(timeout=20)
-    finally:
-        node.kill()
-        node.wait(timeout=10)
-    assert "stopped" in output
-    assert node.returncode == 0, errors
+    options = ("--native", "signal", "--set", "signal.amplitude=2")
+    traces = ("--trace", str(csv_path), "--trace", str(mcap_path))
+    with NodeProcess("tcp-listen://127.0.0.1:0", *options, *traces) as node:
+        ramp_running(node.url)  # listening, and the signal running on the real-time clock
+        node.child.process.send_signal(signal.SIGTERM)
+        status = node.child.wait(timeout=20)
+    assert "stopped" in node.lines()
+    assert status == 0, node.lines()
     from_csv = csv_samples(csv_path)
     from_mcap, _ = mcap_samples(mcap_path)
     assert from_csv == from_mcap and from_csv

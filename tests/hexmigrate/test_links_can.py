@@ -111,7 +111,8 @@ def test_the_remote_server_reports_a_start_failure_from_its_log(
         monkeypatch.setattr(remote_server, "_free_port", lambda host: taken.getsockname()[1])
         server = RemoteCanServer()
         try:
-            with pytest.raises(LinkError, match=r"server exited with status 1 \(log .*Address already in use"):
+            refused = r"server exited with status 1 \(log .*Address already in use"
+            with pytest.raises(LinkError, match=refused):
                 server.start()
         finally:
             server.stop()

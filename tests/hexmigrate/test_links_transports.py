@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import os
 import socket
-import subprocess
 import sys
 import textwrap
 import threading
@@ -21,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from hexmigrate.errors import LinkError
+from commandline.children import Child
 from hexmigrate.links import LinkBase, open_link
 from hexmigrate.links.direct import DirectLink
 from hexmigrate.links.remote_server import RemoteCanServer
@@ -99,25 +98,17 @@ class ByteEchoServer:
 
 def start_echo_peer(stack: ExitStack, link: LinkBase, url: str, log: Path) -> None:
     """Run the echo peer on `url` in another process until the stack closes; wait until ready."""
-    with log.open("wb") as stderr:
-        peer = subprocess.Popen(
-            [sys.executable, "-c", ECHO_PEER, url, "1000", "30"],
-            stdout=subprocess.DEVNULL,
-            stderr=stderr,
-        )
-    stack.callback(stop_echo_peer, peer, link, log)
+    peer = Child.start("echo peer", [sys.executable, "-c", ECHO_PEER, url, "1000", "30"], log)
+    stack.callback(stop_echo_peer, peer, link)
     ready = link.receive(PEER_START_TIMEOUT)
-    assert ready == b"READY", f"echo peer on {url} not ready: {log.read_text()}"
+    assert ready == b"READY", f"echo peer on {url} not ready: {peer.lines()}"
 
 
-def stop_echo_peer(peer: subprocess.Popen[bytes], link: LinkBase, log: Path) -> None:
-    try:
+def stop_echo_peer(peer: Child, link: LinkBase) -> None:
+    """BYE: the peer ends by itself, with status 0 (and is stopped if it does not)."""
+    with peer:
         link.send(b"BYE")
-        peer.wait(timeout=10)
-    except (LinkError, subprocess.TimeoutExpired):
-        peer.kill()
-        peer.wait(timeout=10)
-    assert peer.returncode == 0, log.read_text()
+        assert peer.wait(10) == 0, peer.lines()
 
 
 def echo_thread(stack: ExitStack, peer: LinkBase) -> None:
@@ -197,7 +188,7 @@ def echo_link(
     request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
 ) -> Iterator[LinkBase]:
     """A link on each transport whose messages come back."""
-    log = tmp_path_factory.mktemp("peer") / "stderr.txt"
+    log = tmp_path_factory.mktemp("peer") / "peer.log"
     with ExitStack() as stack:
         yield TRANSPORTS[request.param](stack, log)
 

@@ -12,21 +12,20 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import re
 import shutil
 import signal
 import socket
 import subprocess
 import sys
-import threading
 from collections.abc import Iterator
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
 import pytest
 
+from commandline.children import Child
+from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
-from tests.firmware_sim.node_process import NodeProcess
 
 DATA = Path(__file__).parent / "data"
 NATIVES = "tests.refresh.data.manage_natives"
@@ -76,7 +75,7 @@ def nodes(*modes: str) -> Iterator[tuple[dict[str, NodeProcess], list[str]]]:
         }
         options = []
         for robot, node in started.items():
-            url = node.wait_for(rf"--to (socket://{HOSTS[robot]}:\d+)\)$")[1][1]
+            url = node.wait_for(rf"--to (socket://{HOSTS[robot]}:\d+)\)$")[1]
             options += ["--node", f"{robot}={url}"]
         yield started, options
 
@@ -124,11 +123,11 @@ def test_in_lock_step_the_fault_is_repaired_by_a_coalition_across_hosts(database
         with nodes("--lock-step", "--lock-step") as (started, options):
             out = tmp_path / f"events{run}.jsonl"
             done = manage(database, *options, *RUN, "--events", str(out))
-            assert done.returncode == 0, done.stderr + started["a"].output()
+            assert done.returncode == 0, (done.stderr, started["a"].lines())
             # The nodes keep running the repair: b's node feeds a's over a connection to a's
             # host (the bridge's importer listens on its sink node's host), and each node
             # listens on its own host only.
-            sockets = {robot: tcp_sockets(node.process.pid) for robot, node in started.items()}
+            sockets = {robot: tcp_sockets(node.pid) for robot, node in started.items()}
             assert "127.0.0.2" in {remote for _, remote in sockets["b"]}
             for robot, found in sockets.items():
                 assert {local for local, remote in found if remote == ANY} == {HOSTS[robot]}
@@ -161,33 +160,16 @@ def test_in_real_time_it_repairs_and_runs_until_interrupted(database, tmp_path):
     command = [sys.executable, "-m", "refresh", "manage", "--db", str(database), "--task"]
     command += ["levels", "--natives", NATIVES, "--real-time", *SETTINGS, "--events", str(out)]
     command += ["--location", "adaptive"]
-    with nodes("", "") as (_started, options):
-        import time as _t
-        _t0 = _t.monotonic()
-        manager = subprocess.Popen(
-            [*command, *options], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-            env=dict(os.environ, PYTHONFAULTHANDLER="1"),
-        )
-        try:
-            lines = read_until(manager, re.compile(r"^ *\d+\.\d{3} s  recovered "))
-            _t1 = _t.monotonic()
-            manager.send_signal(signal.SIGINT)
-            try:
-                _, stderr = manager.communicate(timeout=MANAGER_TIMEOUT)
-            except subprocess.TimeoutExpired as _e:
-                _o1 = _e.stdout
-                manager.send_signal(signal.SIGABRT)
-                _o, _err = manager.communicate(timeout=20)
-                import glob as _g
-                with open(f"/tmp/repro/hang-{os.getpid()}-{_t.time():.0f}.txt", "w") as _f:
-                    _f.write(f"recovered read after {_t1-_t0:.2f}s\nLINES\n" + "\n".join(lines) + f"\nOUT1\n{_o1}\nOUT\n{_o}\nERR\n{_err}\nCHILDREN {os.listdir('/proc/self/task')}\n")
-                raise
-        finally:
-            if manager.poll() is None:
-                manager.kill()
-                manager.wait()
-    assert manager.returncode == 130, stderr
-    assert stderr.endswith("interrupted\n") and "Traceback" not in stderr
+    with (
+        nodes("", "") as (_started, options),
+        Child.start("manager", [*command, *options], tmp_path / "manager.log") as manager,
+    ):
+        manager.wait_for(r"^ *\d+\.\d{3} s  recovered ", MANAGER_TIMEOUT)
+        manager.process.send_signal(signal.SIGINT)
+        status = manager.wait(MANAGER_TIMEOUT)
+    lines = manager.lines()
+    assert status == 130, lines
+    assert lines[-1] == "interrupted" and not any("Traceback" in line for line in lines)
     kinds = [event["kind"] for event in events(out)]
     assert kinds.index("deployed") < kinds.index("switch") < kinds.index("recovered")
     # Times are the run's clock, from 0 at the start, not the host's wall clock.
@@ -197,26 +179,6 @@ def test_in_real_time_it_repairs_and_runs_until_interrupted(database, tmp_path):
     location = next(event for event in events(out) if event["kind"] == "location")
     assert location["data"]["strategy"] == "adaptive"
     assert location["data"]["modules"] == ["Sensor"]
-
-
-def read_until(process: subprocess.Popen[str], pattern: re.Pattern[str]) -> list[str]:
-    """The lines `process` printed up to the first that `pattern` finds (within
-    MANAGER_TIMEOUT s, else the test fails)."""
-    assert process.stdout is not None
-    lines: list[str] = []
-    found = threading.Event()
-
-    def read() -> None:
-        assert process.stdout is not None
-        for line in process.stdout:
-            lines.append(line.rstrip("\n"))
-            if pattern.search(line):
-                found.set()
-                return
-
-    threading.Thread(target=read, daemon=True).start()
-    assert found.wait(MANAGER_TIMEOUT), "\n".join(lines)
-    return lines
 
 
 def test_a_node_in_the_other_time_mode_is_refused_before_anything_is_deployed(database):
@@ -233,7 +195,7 @@ def test_a_node_in_the_other_time_mode_is_refused_before_anything_is_deployed(da
         assert "Traceback" not in said and said.count("\n") == 1
         # Nothing was deployed on either node.
         for node in started.values():
-            assert not any(line.startswith("registered ") for line in node.lines)
+            assert not any(line.startswith("registered ") for line in node.lines())
 
 
 def unused_port() -> int:

@@ -13,7 +13,7 @@ import sys
 from contextlib import ExitStack
 from pathlib import Path
 
-from tests.firmware_sim.node_process import NodeProcess
+from firmware_sim.serving.node_process import NodeProcess
 
 ROOT = Path(__file__).parents[2]
 PAGE = ROOT / "docs" / "tutorial.md"

@@ -4,17 +4,18 @@ through a python-can-remote server between processes, and through SLCAN on a pty
 from __future__ import annotations
 
 import itertools
-import subprocess
 import sys
 import time
 from collections.abc import Iterator
 from dataclasses import replace
+from pathlib import Path
 
 import can
 import numpy as np
 import pytest
 from cantools.database.can import Message
 
+from commandline.children import Child
 from hexmanipulator.can_bus import CanServoBus, open_can_bus
 from hexmanipulator.errors import GeometryError, ServoSilentError
 from hexmanipulator.geometry import load
@@ -141,29 +142,18 @@ def remote() -> Iterator[RemoteCanServer]:
 
 
 def test_another_process_serves_the_nodes_through_the_remote_server(
-    remote: RemoteCanServer,
+    remote: RemoteCanServer, tmp_path: Path
 ) -> None:
-    command = [
-        sys.executable,
-        "-m",
-        "servo_emulators",
-        "can",
-        "--url",
-        remote.url("node"),
-        "--seconds",
-        "20",
-    ]
-    with subprocess.Popen(command, stdout=subprocess.PIPE, text=True) as emulator:
+    command = [sys.executable, "-m", "servo_emulators", "can", "--url", remote.url("node")]
+    command += ["--seconds", "20"]
+    with Child.start("CAN servo emulator", command, tmp_path / "servos.log") as emulator:
+        index, _ = emulator.wait_for_line(r"6 CAN servo nodes on can://remote/127\.0\.0\.1")
+        assert index == 0
+        bus = open_can_bus(remote.url())
         try:
-            assert "6 CAN servo nodes on can://remote/127.0.0.1" in emulator.stdout.readline()
-            bus = open_can_bus(remote.url())
-            try:
-                exercise(CanServoBus(bus, GEOMETRY))
-            finally:
-                bus.shutdown()
+            exercise(CanServoBus(bus, GEOMETRY))
         finally:
-            emulator.terminate()
-            emulator.wait(timeout=WAIT)
+            bus.shutdown()
 
 
 def test_the_nodes_answer_through_an_slcan_adapter_on_a_pty() -> None:

@@ -5,12 +5,14 @@ from __future__ import annotations
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 import serial
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from commandline.children import Child
 from servo_emulators.cli import build_parser, main
 from tests.commandline.documented import undocumented
 from tests.commandline.hostile_input import hostile_numbers, run_main
@@ -18,21 +20,17 @@ from tests.commandline.hostile_input import hostile_numbers, run_main
 WAIT = 10.0
 
 
-def test_a_program_drives_the_ssc32_emulator_through_its_pty() -> None:
+def test_a_program_drives_the_ssc32_emulator_through_its_pty(tmp_path: Path) -> None:
     command = [sys.executable, "-m", "servo_emulators", "ssc32", "--pty", "--seconds", "20"]
-    with subprocess.Popen(command, stdout=subprocess.PIPE, text=True) as emulator:
-        try:
-            line = emulator.stdout.readline()
-            assert line.startswith("SSC-32 listening on /dev/pts/")
-            with serial.serial_for_url(line.split()[-1], baudrate=9600, timeout=0.1) as port:
-                port.write(b"VER\r#0P1500\rQP0\r")
-                answer, deadline = b"", time.monotonic() + WAIT
-                while len(answer) < 16 and time.monotonic() < deadline:
-                    answer += port.read(16 - len(answer))
-            assert answer == b"SSC32-V2.50USB\r\x96"
-        finally:
-            emulator.terminate()
-            emulator.wait(timeout=WAIT)
+    with Child.start("ssc32 emulator", command, tmp_path / "ssc32.log") as emulator:
+        pty = emulator.wait_for(r"^SSC-32 listening on (/dev/pts/\d+)", WAIT)[1]
+        assert emulator.lines()[0].startswith("SSC-32 listening on /dev/pts/")
+        with serial.serial_for_url(pty, baudrate=9600, timeout=0.1) as port:
+            port.write(b"VER\r#0P1500\rQP0\r")
+            answer, deadline = b"", time.monotonic() + WAIT
+            while len(answer) < 16 and time.monotonic() < deadline:
+                answer += port.read(16 - len(answer))
+        assert answer == b"SSC32-V2.50USB\r\x96"
 
 
 def test_a_supply_outside_the_data_sheet_is_a_usage_error_naming_the_range() -> None:

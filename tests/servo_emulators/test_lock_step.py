@@ -5,13 +5,14 @@ says, over the transfer protocol, in process and as ``python -m servo_emulators 
 from __future__ import annotations
 
 import re
-import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from commandline.children import Child
 from firmware_sim.core.node import Node
 from firmware_sim.core.transfer_target import NodeTarget
 from firmware_sim.serving.kernel_control import KernelControl
@@ -83,35 +84,30 @@ def test_a_time_master_grants_the_servos_each_quantum_before_the_nodes() -> None
     assert master.clocks["servos"] == 0.1
 
 
-def test_a_move_runs_in_virtual_time_between_processes() -> None:
+def test_a_move_runs_in_virtual_time_between_processes(tmp_path: Path) -> None:
     """A move commanded over a python-can-remote bus progresses only as ADVANCE says."""
     with RemoteCanServer("lockstep") as server:
         command = [sys.executable, "-m", "servo_emulators", "can", "--url", server.url()]
         command += ["--time-master", "tcp-listen://127.0.0.1:0", "--seconds", "60"]
-        with subprocess.Popen(command, stdout=subprocess.PIPE, text=True) as emulator:
-            try:
-                assert emulator.stdout is not None
-                found = CONNECT.search(emulator.stdout.readline().strip())
-                assert found, "expected the control link's line first"
-                assert "CAN servo nodes on can://remote/" in emulator.stdout.readline()
-                with open_link(found[1]) as link:
-                    master = NodeControl(Sender(link))
-                    bus = open_can_bus(server.url())
-                    try:
-                        servos = CanServoBus(bus, GEOMETRY)
-                        start = servos.read().angles
-                        servos.move(start, 0.0)  # the servos hold: a ramp starts from here
-                        master.advance(0.1, {})
-                        servos.move(start + 20.0, 1.0)  # one second for 20 degrees
-                        time.sleep(0.3)  # real time: nothing moves
-                        np.testing.assert_allclose(servos.read().angles, start, atol=1.2)
-                        assert master.advance(0.6, {}) == (0.6, {})
-                        halfway = servos.read().angles - start
-                        assert np.all((halfway > 6.0) & (halfway < 14.0))
-                        master.advance(2.0, {})
-                        np.testing.assert_allclose(servos.read().angles, start + 20.0, atol=1.2)
-                    finally:
-                        bus.shutdown()
-            finally:
-                emulator.terminate()
-                emulator.wait(timeout=WAIT)
+        with Child.start("CAN servo emulator", command, tmp_path / "servos.log") as emulator:
+            index, found = emulator.wait_for_line(CONNECT, WAIT)
+            assert index == 0, "expected the control link's line first"
+            emulator.wait_for(r"CAN servo nodes on can://remote/", WAIT, start=1)
+            with open_link(found[1]) as link:
+                master = NodeControl(Sender(link))
+                bus = open_can_bus(server.url())
+                try:
+                    servos = CanServoBus(bus, GEOMETRY)
+                    start = servos.read().angles
+                    servos.move(start, 0.0)  # the servos hold: a ramp starts from here
+                    master.advance(0.1, {})
+                    servos.move(start + 20.0, 1.0)  # one second for 20 degrees
+                    time.sleep(0.3)  # real time: nothing moves
+                    np.testing.assert_allclose(servos.read().angles, start, atol=1.2)
+                    assert master.advance(0.6, {}) == (0.6, {})
+                    halfway = servos.read().angles - start
+                    assert np.all((halfway > 6.0) & (halfway < 14.0))
+                    master.advance(2.0, {})
+                    np.testing.assert_allclose(servos.read().angles, start + 20.0, atol=1.2)
+                finally:
+                    bus.shutdown()

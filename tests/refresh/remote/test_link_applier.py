@@ -15,6 +15,7 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
+from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
 from hexmigrate.signing import keys
 from hexmigrate.signing.sign import sign_image
@@ -29,7 +30,6 @@ from refresh.errors import NodeLinkError
 from refresh.events import EventLog
 from refresh.load import Loaded, loads
 from refresh.maintainer import Maintainer
-from tests.firmware_sim.node_process import NodeProcess
 
 DATABASE = """
 [robots.a]
@@ -120,7 +120,7 @@ def node_a() -> Iterator[NodeProcess]:
 
 def test_a_plan_deploys_over_the_link_and_the_decider_reads_the_reports(loaded, node_a):
     database = loaded.database
-    url = node_a.connect_url()
+    url = node_a.url
     current = initial_configuration(loaded.task, database)
     with LinkApplier.open({"a": url}) as applier:
         maintainer = Maintainer(database, applier, EventLog())
@@ -167,7 +167,7 @@ def test_a_plan_deploys_over_the_link_and_the_decider_reads_the_reports(loaded, 
     with LinkApplier.open({"a": url}) as again:
         again.migrate("a", database.module("gain"))
         again.migrate("a", database.module("moving_average"))
-    registered = [line for line in node_a.lines if line.startswith("registered ")]
+    registered = [line for line in node_a.lines() if line.startswith("registered ")]
     assert [line.split()[1] for line in registered] == ["gain", "moving_average"]
 
 
@@ -181,22 +181,22 @@ def test_a_node_that_cannot_be_reached_fails_before_any_step(node_a):
     url = f"socket://127.0.0.1:{unused_port()}"
     unreachable = f"robot 'b': cannot open the link to its node at {url}: "
     with pytest.raises(NodeLinkError, match=unreachable):
-        LinkApplier.open({"a": node_a.connect_url(), "b": url}, **QUICK)
+        LinkApplier.open({"a": node_a.url, "b": url}, **QUICK)
     # Nothing half-done: the link to a was closed, so its node (one host at a time) serves the
     # next manager.
-    with LinkApplier.open({"a": node_a.connect_url()}, **QUICK) as applier:
+    with LinkApplier.open({"a": node_a.url}, **QUICK) as applier:
         assert applier.node("a").description.startswith("a: ")
 
 
 def test_a_node_that_stops_answering_fails_the_request_after_the_tries(loaded, node_a):
-    url = node_a.connect_url()
+    url = node_a.url
     with LinkApplier.open({"a": url}, **QUICK) as applier:
-        node_a.process.send_signal(signal.SIGSTOP)  # the link stays up, nobody answers
+        node_a.child.process.send_signal(signal.SIGSTOP)  # the link stays up, nobody answers
         try:
             with pytest.raises(NodeLinkError) as silent:
                 applier.migrate("a", loaded.database.module("gain"))
         finally:
-            node_a.process.send_signal(signal.SIGCONT)
+            node_a.child.process.send_signal(signal.SIGCONT)
     said = str(silent.value)
     assert said.startswith(f"robot 'a', node at {url}: LS: no answer to ListModules after 3 tries")
     assert "waiting 0.3 s after each (0.9 s in all)" in said  # a report pushed just before
@@ -204,7 +204,7 @@ def test_a_node_that_stops_answering_fails_the_request_after_the_tries(loaded, n
 
 
 def test_refusals_name_the_robot_the_url_and_what_the_node_said(loaded, node_a):
-    url = node_a.connect_url()
+    url = node_a.url
     gain = loaded.database.module("gain")
     with LinkApplier.open({"a": url}) as applier:
         with pytest.raises(NodeLinkError, match=r"expected its image installed \(a migrate step"):
@@ -220,7 +220,7 @@ def test_refusals_name_the_robot_the_url_and_what_the_node_said(loaded, node_a):
 
     with (
         NodeProcess("tcp-listen://127.0.0.1:0", "--native", "signal") as eager,
-        LinkApplier.open({"a": eager.connect_url()}) as applier,
+        LinkApplier.open({"a": eager.url}) as applier,
     ):
         applier.migrate("a", gain)  # the node starts gain without its k: gain goes to ERROR
         with pytest.raises(NodeLinkError, match="expected the PBO off, got it in ERROR"):
@@ -229,20 +229,20 @@ def test_refusals_name_the_robot_the_url_and_what_the_node_said(loaded, node_a):
     native = loaded.database.module("signal")
     with (
         NodeProcess("tcp-listen://127.0.0.1:0", "--no-start") as bare,
-        LinkApplier.open({"a": bare.connect_url()}) as applier,
+        LinkApplier.open({"a": bare.url}) as applier,
         pytest.raises(NodeLinkError, match="start the node with --native signal"),
     ):
         applier.start("a", "signal", native)
 
 
 def test_a_node_killed_mid_way_fails_the_next_request_clearly(loaded, node_a):
-    url = node_a.connect_url()
+    url = node_a.url
     current = initial_configuration(loaded.task, loaded.database)
     with LinkApplier.open({"a": url}, **QUICK) as applier:
         maintainer = Maintainer(loaded.database, applier, EventLog())
         maintainer.apply(maintainer.plan(None, current))
-        node_a.process.kill()
-        node_a.process.wait(timeout=5)
+        node_a.child.process.kill()
+        node_a.child.process.wait(timeout=5)
         with pytest.raises(NodeLinkError, match=f"robot 'a', node at {url}: READ gain.y: "):
             applier.read("a", "gain.y")
         # Stopping gain first undoes the wire into it: the request that meets the dead node.
@@ -267,7 +267,7 @@ def test_a_coalition_bridges_the_port_from_one_node_to_the_other(loaded):
         NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--name", "a") as node_a,
         NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--name", "b") as node_b,
     ):
-        urls = {"a": node_a.connect_url(), "b": node_b.connect_url()}
+        urls = {"a": node_a.url, "b": node_b.url}
         with LinkApplier.open(urls) as applier:
             assert applier.host("b") == "127.0.0.1"  # where b's importer listens: its URL's host
             maintainer = Maintainer(database, applier, EventLog())
@@ -290,7 +290,7 @@ def test_a_coalition_bridges_the_port_from_one_node_to_the_other(loaded):
 def test_a_plan_deploys_over_a_noisy_pty(loaded):
     current = initial_configuration(loaded.task, loaded.database)
     with NodeProcess("pty", *NODE, "--name", "a") as node:
-        path = node.wait_for(r"^listening on (/dev/\S+) ")[1][1]
+        path = node.wait_for(r"^listening on (/dev/\S+) ")[1]
         url = f"faulty+{path}#corrupt=0.05&drop=0.05&seed=5"
         with LinkApplier.open({"a": url}, timeout=0.3) as applier:
             maintainer = Maintainer(loaded.database, applier, EventLog())
@@ -320,7 +320,7 @@ def test_in_lock_step_the_time_master_learns_each_bridge_and_runs_the_coalition(
     with (
         NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--lock-step", "--name", "a") as node_a,
         NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--lock-step", "--name", "b") as node_b,
-        LinkApplier.open({"a": node_a.connect_url(), "b": node_b.connect_url()}) as applier,
+        LinkApplier.open({"a": node_a.url, "b": node_b.url}) as applier,
     ):
         master = TimeMaster(applier.controls(), 0.01)
         applier.router = master
@@ -357,7 +357,7 @@ def test_a_node_that_trusts_keys_takes_the_plan_only_from_a_manager_with_the_key
     current = initial_configuration(loaded.task, loaded.database)
     trust = ("--trust", str(directory / "trusted.pub.pem"))
     with NodeProcess("tcp-listen://127.0.0.1:0", *NODE, *trust, "--name", "a") as node:
-        url = node.connect_url()
+        url = node.url
         with LinkApplier.open({"a": url}) as stranger:
             maintainer = Maintainer(loaded.database, stranger, EventLog())
             with pytest.raises(NodeLinkError, match=r"robot 'a'.*authentication required"):

@@ -10,12 +10,12 @@ import time
 
 import pytest
 
+from firmware_sim.serving.node_process import NodeProcess
 from refresh.appliers.over_links import LinkApplier
 from refresh.configuration import initial_configuration
 from refresh.errors import NodeLinkError
 from refresh.events import EventLog
 from refresh.maintainer import Maintainer
-from tests.firmware_sim.node_process import NodeProcess
 
 from .test_link_applier import NODE, QUICK, loaded  # noqa: F401 (a fixture)
 
@@ -40,8 +40,8 @@ def test_a_killed_node_is_lost_not_asked_again_and_rejoins_once_restarted(loaded
         maintainer = Maintainer(loaded.database, applier, EventLog())
         maintainer.apply(maintainer.plan(None, current))
         assert applier.lost(0.5) == {}
-        node.process.send_signal(signal.SIGKILL)
-        node.process.wait(timeout=5)
+        node.child.process.send_signal(signal.SIGKILL)
+        node.child.process.wait(timeout=5)
         time.sleep(0.1)
         (why,) = applier.lost(60.0).values()  # no silence needed: the link closed
         assert why.startswith("its link failed: reading its reports: ")
@@ -58,18 +58,18 @@ def test_a_killed_node_is_lost_not_asked_again_and_rejoins_once_restarted(loaded
             inventory = applier.rejoin("a")
             assert inventory is not None and inventory.pbos == (("signal", "OFF"),)
             assert applier.lost(0.5) == {}
-        assert again.process.poll() is None
+        assert again.child.process.poll() is None
 
 
 def test_a_node_silent_for_longer_than_after_is_lost_a_shorter_pause_is_not(loaded):  # noqa: F811
     port = free_port()
     with started(port) as node, LinkApplier.open({"a": f"socket://127.0.0.1:{port}"}) as applier:
-        node.process.send_signal(signal.SIGSTOP)
+        node.child.process.send_signal(signal.SIGSTOP)
         try:
             time.sleep(0.2)
             assert applier.lost(0.5) == {}  # files what came before the pause: heard now
             time.sleep(0.6)
             (why,) = applier.lost(0.5).values()
         finally:
-            node.process.send_signal(signal.SIGCONT)
+            node.child.process.send_signal(signal.SIGCONT)
         assert why.startswith("nothing heard for 0.")
