@@ -1,5 +1,5 @@
 """ReFrESH over a fleet of node processes: what detecting, deciding, repairing and listening cost
-as the fleet grows from 10 to 50 nodes (issue 15, point 4; the model beyond: docs/fleet.md).
+as the fleet grows from 10 to 50 nodes (the model beyond: docs/fleet.md).
 
 For each size N, N ``firmware-sim listen`` processes run on this machine, node i on 127.0.0.(2+i),
 each with --per-node (2) small native E-PBOs of `fleet_natives` (a four-stage pipeline task whose
@@ -47,10 +47,11 @@ from pathlib import Path
 
 from fleet_natives import STAGES, module_name
 from fleet_task import Fleet, fleet
-from nodes import NodeProcess, node_processes
+from nodes import node_processes
 
 from firmware_sim.core.natives import load_natives
 from firmware_sim.core.node import Node
+from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.links import open_link
 from hexmigrate.links.base import Link, LinkBase
 from hexmigrate.links.framing import frame

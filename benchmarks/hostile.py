@@ -18,15 +18,13 @@ from __future__ import annotations
 
 import argparse
 import random
-import re
 import socket
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 from firmware_sim.core.memory_map import FLASH_BASE
+from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
 from hexmigrate.links import open_link
 from hexmigrate.links.framing import Deframer, frame
@@ -126,7 +124,7 @@ def peak_rss_mb(pid: int) -> float:
 
 
 def fuzz(
-    node: subprocess.Popen[str], port: int, module: int, rng: random.Random, inputs: int
+    node: NodeProcess, port: int, module: int, rng: random.Random, inputs: int
 ) -> dict[str, int]:
     """Send `inputs` hostile inputs (fewer if the node exits); how each was answered."""
     counts = {"refused": 0, "ignored": 0, "answered": 0, "wrong": 0}
@@ -140,7 +138,7 @@ def fuzz(
             counts["refused"] += 1
         else:
             counts["answered"] += 1
-        if node.poll() is not None:
+        if node.child.process.poll() is not None:
             break
     return counts
 
@@ -154,22 +152,9 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
         image = image_from_elf({b.name: b for b in build_examples(Path(folder))}["gain"].elf)
         flash = Path(folder) / "flash.bin"
-        command = [
-            sys.executable,
-            "-m",
-            "firmware_sim",
-            "listen",
-            "--listen",
-            "tcp-listen://127.0.0.1:0",
-            "--flash",
-            str(flash),
-            "--set",
-            "gain.k=0x20000",
-        ]
-        node = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
-        try:
-            assert node.stdout is not None
-            url = re.search(r"--to (socket://\S+)\)", node.stdout.readline())[1]  # type: ignore[index]
+        options = ("--flash", str(flash), "--set", "gain.k=0x20000")
+        with NodeProcess("tcp-listen://127.0.0.1:0", *options) as node:
+            url = node.url
             port = int(url.rsplit(":", 1)[1])
             with open_link(url) as link:
                 installed = Sender(link, "binary", timeout=10.0, retries=0).send(image)
@@ -177,7 +162,7 @@ def main() -> None:
             before = flash.read_bytes()[offset : offset + image.size]
             start = time.monotonic()
             counts = fuzz(node, port, installed.load_address, rng, arguments.inputs)
-            alive = node.poll() is None
+            alive = node.child.process.poll() is None
             intact = flash.read_bytes()[offset : offset + image.size] == before
             tried = sum(counts.values())
             print(
@@ -190,9 +175,6 @@ def main() -> None:
                 f"node alive: {alive}; installed module intact in flash: {intact}; "
                 f"node peak RSS: {peak_rss_mb(node.pid):.1f} MiB"
             )
-        finally:
-            node.terminate()
-            node.wait(timeout=10)
 
 
 if __name__ == "__main__":
