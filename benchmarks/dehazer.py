@@ -10,8 +10,8 @@ Prints, for 160 x 120 frames of the camera scene with salt-and-pepper noise and 
 - in the same process, the numpy reference (the same algorithm, byte for byte) and OpenCV's
   medianBlur + min-max normalize (a similar filter, not the same stretch) in frames per second.
 
-The goal (issue 16): at least 200 frames per second with the Dehazer running as guest code
-(issue 8 asked for 30).
+The goal: at least 200 frames per second with the Dehazer running as guest code (the first
+goal was 30).
 
     python benchmarks/dehazer.py [--quick]
 """

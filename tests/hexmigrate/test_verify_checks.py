@@ -1,5 +1,5 @@
-"""`hexmigrate pack` and `verify` refuse what a node would refuse or run wrongly (issue 14, 6):
-each bad input is built for real with the SDK's toolchain, or from a real module's image."""
+"""`hexmigrate pack` and `verify` refuse what a node would refuse or run wrongly: each bad
+input is built for real with the SDK's toolchain, or from a real module's image."""
 
 from __future__ import annotations
 
