@@ -2,15 +2,15 @@
 until they say what the caller needs, and stopped as Ctrl-C would stop them, then killed.
 
 Every long-running process the toolchain, its benchmarks and its tests start goes this one
-way: the experiment across processes (`visual_servoing.experiment.processes`), the patrol's
-robots (`patrol.linked`), a listening node (`firmware_sim.serving.node_process.NodeProcess`,
-used by the benchmarks and the tests), python-can-remote's server
-(`hexmigrate.links.remote_server`), and the tests' managers, emulators and echo peers. A
-listening child's first lines say where it listens (``hexmigrate.links.listening.CONNECT_URL``);
-`Child.wait_for` reads its log as it grows until a line matches, and fails, naming the log and
-its last lines, when the child ends first or the time is up. `Child.stop` sends SIGINT, which
-every program of the toolchain takes as a request to stop cleanly, and SIGKILL after
-STOP_TIMEOUT; `Child.wait` waits for a child that ends by itself.
+way: an application's nodes and manager across processes (`application.launch`), a listening
+node (`firmware_sim.serving.node_process.NodeProcess`, used by the benchmarks and the tests),
+python-can-remote's server (`hexmigrate.links.remote_server`), and the tests' managers,
+emulators, gdb nodes and echo peers. A listening child's first lines say where it listens
+(``hexmigrate.links.listening.CONNECT_URL``); `Child.wait_for` reads its log as it grows until a
+line matches, and fails, naming the log and its last lines, when the child ends first or the
+time is up. `Child.stop` sends SIGINT, which every program of the toolchain takes as a request
+to stop cleanly, and SIGKILL after STOP_TIMEOUT; `Child.wait` waits for a child that ends by
+itself.
 """
 
 from __future__ import annotations
