@@ -170,7 +170,9 @@ def _run(
     finish(out, parameters, [records[spec["index"]] for spec in specs])
 
 
-def _parameters(options: argparse.Namespace, application: CampaignSpec, out: Path) -> dict[str, Any]:
+def _parameters(
+    options: argparse.Namespace, application: CampaignSpec, out: Path
+) -> dict[str, Any]:
     """What decides the runs. Resuming, what the options leave out comes from the campaign."""
     given = {
         "runs": options.runs,

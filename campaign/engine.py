@@ -39,6 +39,8 @@ from campaign.record import OK, TIMING, Record, crashed
 
 POLL = 0.05
 """Seconds between two looks for finished runs (and for Ctrl-C)."""
+WORKERS_LEAVE = 10.0
+"""Seconds the local workers have to leave before their scheduler closes."""
 
 Runner = Callable[[Spec], dict[str, Any]]
 """An application's run: its spec in, its outcome out (``decisions``, ``stopped_at``, and
@@ -100,7 +102,20 @@ def client(workers: int, scheduler: str | None) -> Iterator[Any]:
     )
     with cluster, Client(cluster) as local:
         local.register_plugin(_interrupts_ignored())
-        yield local
+        try:
+            yield local
+        finally:
+            _workers_leave(cluster, local)
+
+
+def _workers_leave(cluster: Any, local: Any) -> None:
+    """Close the local workers while their scheduler still runs (bounded by
+    WORKERS_LEAVE): closed together, a worker's heartbeat can meet a scheduler that has gone and
+    log the failure's traceback on the user's terminal, even after a clean interruption."""
+    cluster.scale(0)
+    deadline = time.monotonic() + WORKERS_LEAVE
+    while local.scheduler_info(n_workers=-1)["workers"] and time.monotonic() < deadline:
+        time.sleep(POLL)
 
 
 def _interrupts_ignored() -> Any:
