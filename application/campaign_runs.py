@@ -28,7 +28,9 @@ from campaign.engine import worker_folder
 def campaign_spec(application: Application) -> CampaignSpec:
     """What a campaign of `application` draws and runs."""
     if application.campaign is None:
-        raise ApplicationSetupError(f"application {application.name}: expected a campaign, got none")
+        raise ApplicationSetupError(
+            f"application {application.name}: expected a campaign, got none"
+        )
     return CampaignSpec(
         name=application.name,
         scenarios=tuple(application.campaign.families),

@@ -76,9 +76,13 @@ def _build(name: str, source: Path, loaded: Loaded, work: Path) -> ModuleImage:
     try:
         module = loaded.database.module(name)
     except ConfigurationError as error:
-        raise ApplicationSetupError(f"guest {name}: expected a module of the database, got none") from error
+        raise ApplicationSetupError(
+            f"guest {name}: expected a module of the database, got none"
+        ) from error
     if module.source.image is None:
-        raise ApplicationSetupError(f"guest {name}: expected the database to name its image, got native code")
+        raise ApplicationSetupError(
+            f"guest {name}: expected the database to name its image, got native code"
+        )
     try:
         build = build_module(source, work / "build")
     except BuildError as error:

@@ -16,11 +16,6 @@ from contextlib import closing
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
-
 from application.declaration import Application
 from application.records import Outcome
 from pbort.trace.mcap_trace import McapTrace
@@ -242,7 +237,14 @@ def write_mcap(application: Application, outcome: Outcome, path: Path) -> None:
 
 def plot(application: Application, outcome: Outcome, path: Path) -> None:
     """The figure's field over time with the task's threshold, the faults, detections,
-    migrations, recoveries and a stop marked; beside it the application's own panel, if any."""
+    migrations, recoveries and a stop marked; beside it the application's own panel, if any.
+    Matplotlib is imported here, not with the module: a node process imports the application's
+    command and draws nothing."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
     figure = application.figure
     assert figure is not None
     if figure.panel is not None:

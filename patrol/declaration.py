@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from matplotlib.axes import Axes
 
@@ -22,6 +23,11 @@ from patrol.scenarios import SCENARIOS
 from patrol.track import deviation, outline
 from refresh.manager.plant import View
 from refresh.runtime import RuntimeSettings
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+    from application.records import Outcome
 
 HERE = Path(__file__).resolve().parent
 TASK_ROBOT = "rover1"
