@@ -13,13 +13,15 @@ loopback links, in lock-step time unless --real-time), prints the summary table 
 --json, the summary as JSON) and writes into DIR (default build/APP/SCENARIO): report.json (the
 summary, every ReFrESH event, the configurations and every sample), report.mcap (the samples and
 events for Foxglove and PlotJuggler), timeline.txt (the events with their times) and the figure.
-Across processes each process's output goes to ROLE.log in DIR, and the summary adds
-"processes" (each role's URL) and "ended" (the processes that ended before the manager).
+Across processes each process's output goes to ROLE.log in DIR (what the manager, run by the
+launcher, says to manager.log), and the summary adds "processes" (each role's URL) and "ended"
+(the processes that ended before the run was over).
 --location NAME locates faults with another strategy than the database's.
 
-node and manager are the programs run --processes starts: node serves one robot's node (its
-firmware from the application) until interrupted; manager runs the scenario on nodes in other
-processes and writes the same report.
+node serves one robot's node (its firmware from the application) until interrupted: the program
+run --processes starts for each robot. manager runs the scenario on nodes in other processes and
+writes the same report: what run --processes runs itself, on a host of its own (several
+machines: docs/several-machines.md).
 
 campaign draws --runs runs from --seed, runs them on a local Dask cluster or on --scheduler's,
 and writes into DIR (default build/APP/campaign) runs.jsonl, summary.json, the plots and
@@ -121,7 +123,7 @@ def _add_run(commands: argparse._SubParsersAction, application: Application) -> 
     command.add_argument(
         "--processes",
         action="store_true",
-        help="each robot's node, the plant's processes and the manager as processes of their own",
+        help="each robot's node and the plant's processes as processes of their own",
     )
     _time_options(command, application, "with --processes: ")
 
@@ -133,14 +135,19 @@ def _run(application: Application, args: argparse.Namespace) -> None:
         raise UsageError("--real-time and --quantum go with --processes")
     out: Path = args.out or application.out / scenario.name
     out.mkdir(parents=True, exist_ok=True)
-    if args.processes:
-        figures = run_processes(application, scenario, out, args.real_time, args.quantum)
-    else:
-        with progress_bar(scenario.duration, scenario.name, unit="s") as bar:
-            outcome = run_in_process(
-                application, scenario, out, progress=lambda now: bar.update(now - bar.n)
+    with progress_bar(scenario.duration, scenario.name, unit="s") as bar:
+
+        def progress(now: float) -> None:
+            bar.update(now - bar.n)
+
+        if args.processes:
+            figures = run_processes(
+                application, scenario, out, args.real_time, args.quantum, progress
             )
-        figures = write_reports(application, outcome, out)
+        else:
+            figures = write_reports(
+                application, run_in_process(application, scenario, out, progress=progress), out
+            )
     _print(application, figures, out, args.json)
 
 
@@ -213,7 +220,7 @@ def _node(application: Application, args: argparse.Namespace) -> int:
 def _add_manager(commands: argparse._SubParsersAction, application: Application) -> None:
     command = add_command(
         commands, "manager", lambda args: _manager(application, args),
-        "run a scenario on nodes in other processes (a process of run --processes)",
+        "run a scenario on nodes in other processes (what run --processes runs itself)",
     )  # fmt: skip
     _scenario_option(command, application)
     add_location_option(command)

@@ -1,5 +1,5 @@
 """``python -m APP run --processes``: a run as separate processes on loopback links, started,
-watched and stopped by this launcher.
+watched and stopped by this launcher, which is the run's host: its manager runs here.
 
 The processes, each with its output in a log file of the run's folder (``ROLE.log``):
 
@@ -8,13 +8,16 @@ The processes, each with its output in a log file of the run's folder (``ROLE.lo
   each quantum first;
 - one node per robot, ``python -m APP node``, on a pty where the application wants a serial line
   (`Application.listen`), else on a TCP port of 127.0.0.1 the launcher picks, its flash in
-  ``ROBOT.flash``;
-- the manager, ``python -m APP manager``, which writes the run's report.
+  ``ROBOT.flash``.
 
-Each process says where it listens in its first line, which the launcher waits for (bounded).
-Whatever happens (a process that exits early, one that does not answer, Ctrl-C), every process
-the launcher started is stopped before it returns (SIGINT, then SIGKILL; the last started
-first); an error (`commandline.children.ChildError`) names the process and its log.
+Each process says where it listens in its first line, which the launcher waits for (bounded);
+meanwhile it builds the guests. Then it runs the manager (`application.runs.run_managed`, what
+``python -m APP manager`` runs on a host of its own) over links to them, what the manager says in
+``manager.log``, and watches the processes at each look of the run: one that ends (but a node
+the scenario kills) fails the run with an error (`commandline.children.ChildError`) that names it
+and its log. Whatever happens (that, a node that does not answer, Ctrl-C), every process the
+launcher started is stopped before it returns (SIGINT to all, the last started first, then
+SIGKILL to any that has not ended), and the nodes are stopped before the reports are written.
 
 A node the scenario kills (it sends itself SIGKILL on its clock) ends without error; when the
 scenario brings it back, the launcher starts it again at once, on the same port and from the same
@@ -24,25 +27,23 @@ flash file (its output in ``ROBOT-2.log``).
 from __future__ import annotations
 
 import contextlib
-import json
 import socket
 import sys
-import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from application.declaration import Application
 from application.errors import ScenarioError
-from application.prepared import database_of
+from application.prepared import database_of, prepare
+from application.report import write_reports
+from application.runs import run_managed
 from application.scenario import Scenario
-from commandline.children import POLL, Child
+from commandline.children import Child
 from hexmigrate.links.listening import CONNECT_URL, PTY
 
 HOST = "127.0.0.1"
-RUN_TIMEOUT = 900.0
-"""Seconds the manager may take for a whole run."""
 
 
 @dataclass
@@ -65,23 +66,26 @@ class Launch:
         return child
 
     def check(self, mortal: str | None = None) -> None:
-        """An error when a process of the run has ended (but the manager, and `mortal`, whose
-        end the scenario brings about)."""
+        """An error when a process of the run has ended (but `mortal`, whose end the scenario
+        brings about)."""
         for child in self.children:
-            if child.role not in ("manager", mortal) and child.process.poll() is not None:
+            if child.role != mortal and child.process.poll() is not None:
                 raise child.error(f"ended early with status {child.process.returncode}")
 
     def ended(self) -> dict[str, int]:
-        """The processes of the run that ended before the manager (a node the scenario killed,
-        brought back or not), with their exit status (-9: SIGKILL)."""
+        """The processes of the run that have ended (a node the scenario killed, brought back or
+        not), with their exit status (-9: SIGKILL)."""
         return self.restarted | {
             child.role: child.process.returncode
             for child in self.children
-            if child.role != "manager" and child.process.poll() is not None
+            if child.process.poll() is not None
         }
 
     def stop(self) -> None:
-        """Stop every process, the last started first."""
+        """Stop every process: all interrupted at once, the last started first, then each
+        waited for (and killed if it does not end)."""
+        for child in reversed(self.children):
+            child.interrupt()
         for child in reversed(self.children):
             child.stop()
 
@@ -92,55 +96,59 @@ def run_processes(
     out: Path,
     real_time: bool = False,
     quantum: float | None = None,
+    progress: Callable[[float], None] = lambda now: None,
 ) -> dict[str, Any]:
-    """Run `scenario` across processes; the summary of the report the manager wrote in `out`,
-    with ``processes``: each process's role -> its URL, and ``ended``: each process that ended
-    before the manager -> its exit status."""
+    """Run `scenario` across processes and write its reports into `out`; their summary, with
+    ``processes``: each process's role -> its URL, and ``ended``: each process that ended before
+    the run was over -> its exit status. `progress` is called with the run's time as it goes."""
     out.mkdir(parents=True, exist_ok=True)
     robots = list(database_of(application, scenario).robots)
     killed = _killed(application, scenario, robots)
     launch = Launch(out)
-    with contextlib.ExitStack() as stack:
+    with contextlib.ExitStack() as stack, (out / "manager.log").open("w") as log:
         stack.callback(launch.stop)
         launched = application.plant.launch(launch, lock_step=not real_time)
-        devices = [
-            word for name, url in launched.devices.items() for word in ("--device", f"{name}={url}")
-        ]
-        node = ["-m", application.name, "node", "--scenario", scenario.name, *devices]
+        node = ["-m", application.name, "node", "--scenario", scenario.name]
+        node += _pairs("--device", launched.devices)
         if not real_time:
             node.append("--lock-step")
         arguments: dict[str, list[str]] = {}
         for robot in robots:
             arguments[robot] = [*node, "--robot", robot, *_where(application, robot, out)]
-            kill = ["--kill-at", repr(scenario.outage.time)] if robot == killed else []  # type: ignore[union-attr]
+            kill = [] if robot != killed else ["--kill-at", repr(scenario.outage.time)]  # type: ignore[union-attr]
             launch.start(robot, *arguments[robot], *kill)
-        for child in list(launch.children):
-            if child.role in robots:
-                launch.urls[child.role] = child.wait_for(CONNECT_URL)[1]
-        manager = ["-m", application.name, "manager", "--scenario", scenario.name]
-        manager += ["--out", str(out), *devices]
-        manager += (
-            ["--real-time"] if real_time else ["--quantum", repr(quantum or application.quantum)]
-        )
-        if scenario.location is not None:
-            manager += ["--location", scenario.location]
-        manager += [
-            word for robot in robots for word in ("--node", f"{robot}={launch.urls[robot]}")
-        ]
-        manager += [
-            word for name, url in launched.peers.items() for word in ("--peer", f"{name}={url}")
-        ]
-        child = launch.start("manager", *manager)
-        launch.urls["manager"] = (out / "report.json").resolve().as_uri()
+        prepare(application, scenario, out)
+        for robot in robots:
+            (child,) = [c for c in launch.children if c.role == robot]
+            launch.urls[robot] = child.wait_for(CONNECT_URL)[1]
         restart = None
         if killed is not None and scenario.outage is not None and scenario.outage.back is not None:
             restart = _Restart(launch, killed, arguments[killed])
-        _wait_for_manager(launch, child, killed, restart)
+
+        def supervise() -> None:
+            if restart is not None:
+                restart()
+            launch.check(killed)
+
+        outcome = run_managed(
+            application,
+            scenario,
+            out,
+            {robot: launch.urls[robot] for robot in robots},
+            devices=launched.devices,
+            peers=launched.peers(),
+            real_time=real_time,
+            quantum=quantum,
+            built=True,
+            say=lambda line: print(line, file=log, flush=True),
+            progress=progress,
+            supervise=supervise,
+        )
         ended = launch.ended()
-    summary: dict[str, Any] = json.loads((out / "report.json").read_text())["summary"]
-    summary["processes"] = launch.urls
-    summary["ended"] = ended
-    return summary
+    figures = write_reports(application, outcome, out)
+    figures["processes"] = launch.urls
+    figures["ended"] = ended
+    return figures
 
 
 def _pairs(option: str, urls: Mapping[str, str]) -> list[str]:
@@ -169,9 +177,12 @@ def _killed(application: Application, scenario: Scenario, robots: list[str]) -> 
 
 def _where(application: Application, robot: str, out: Path) -> list[str]:
     """Where `robot`'s node listens (a pty, or a TCP port picked now, which a restarted node
-    listens on again) and its flash file."""
+    listens on again) and its flash file, empty at the run's start (a run in the same folder
+    must not find the modules an earlier run installed)."""
     listen = application.listen.get(robot) or f"tcp-listen://{HOST}:{free_port()}"
-    return ["--listen", listen, "--flash", str(out / f"{robot}.flash")]
+    flash = out / f"{robot}.flash"
+    flash.unlink(missing_ok=True)
+    return ["--listen", listen, "--flash", str(flash)]
 
 
 def free_port() -> int:
@@ -201,20 +212,3 @@ class _Restart:
         self.launch.children.remove(child)
         self.launch.restarted[self.role] = child.process.returncode
         self.launch.start(self.role, *self.arguments, log_name=f"{self.role}-2.log")
-
-
-def _wait_for_manager(
-    launch: Launch, manager: Child, mortal: str | None, restart: _Restart | None
-) -> None:
-    """Wait for the manager's run to end, watching the other processes meanwhile (and starting
-    a killed node again, if the scenario brings it back)."""
-    deadline = time.monotonic() + RUN_TIMEOUT
-    while manager.process.poll() is None:
-        if restart is not None:
-            restart()
-        launch.check(mortal)
-        if time.monotonic() >= deadline:
-            raise manager.error(f"did not finish its run in {RUN_TIMEOUT:g} s")
-        time.sleep(POLL)
-    if manager.process.returncode != 0:
-        raise manager.error(f"failed with status {manager.process.returncode}")

@@ -56,11 +56,13 @@ class Setting:
 
 @dataclass(frozen=True)
 class Launched:
-    """What a plant's own processes are: its devices' URLs by name, and the lock-step peers
-    (name -> control URL) the time master grants each quantum before the nodes."""
+    """What a plant's own processes are: its devices' URLs by name (the nodes are started with
+    them), and `peers()`, the lock-step peers (name -> control URL) the time master grants each
+    quantum before the nodes, waited for only when the manager starts (the nodes start
+    meanwhile)."""
 
     devices: Mapping[str, str] = field(default_factory=dict)
-    peers: Mapping[str, str] = field(default_factory=dict)
+    peers: Callable[[], Mapping[str, str]] = dict
 
 
 class WorldPlant(Plant):

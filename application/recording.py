@@ -11,7 +11,7 @@ a link is cut at a relay, a killed node restarts, and the manager waits for eith
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Protocol
 
 from application.plant import WorldPlant
@@ -35,12 +35,20 @@ class Outages(Protocol):
 
 class RunPlant(Plant):
     """`plant` for a run of its scenario, recording into `outcome`; `outages` carries out the
-    scenario's outage."""
+    scenario's outage; `supervise` is called at each look (across processes, the launcher's
+    watch over the processes it started: it raises if one ended that should not have)."""
 
-    def __init__(self, plant: WorldPlant, outcome: Outcome, outages: Outages) -> None:
+    def __init__(
+        self,
+        plant: WorldPlant,
+        outcome: Outcome,
+        outages: Outages,
+        supervise: Callable[[], None] = lambda: None,
+    ) -> None:
         self.plant = plant
         self.outcome = outcome
         self.outages = outages
+        self.supervise = supervise
         self.sample_period = plant.sample_period
 
     def natives(self) -> Mapping[str, ModuleCode]:
@@ -68,6 +76,7 @@ class RunPlant(Plant):
         return self.plant.inputs(view)
 
     def look(self, view: View) -> None:
+        self.supervise()
         self.plant.look(view)
         if view.running:
             self.outcome.samples.append(Sample(view.now, dict(self.plant.sample(view))))

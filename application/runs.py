@@ -122,14 +122,17 @@ def run_managed(
     peers: Mapping[str, str] | None = None,
     real_time: bool = False,
     quantum: float | None = None,
+    built: bool = False,
     say: Callable[[str], None] = lambda line: None,
     progress: Callable[[float], None] = lambda now: None,
+    supervise: Callable[[], None] = lambda: None,
 ) -> Outcome:
     """Run `scenario` on the robots' node processes at `nodes` (robot -> URL); the plant's
     devices are at `devices`; in real time, or in lock-step time of `quantum` seconds (the
     application's by default), the `peers` (name -> control URL) granted each quantum first.
-    Guests are built and the events written (``events.jsonl``) into `out`."""
-    prepared = prepare(application, scenario, out)
+    Guests are built into `out` (`built`: they are there already) and the events written there
+    (``events.jsonl``); `supervise` is called at each look of the plant (`RunPlant`)."""
+    prepared = prepare(application, scenario, out, built)
     database = prepared.loaded.database
     outcome = Outcome(scenario)
     with contextlib.ExitStack() as stack:
@@ -145,7 +148,7 @@ def run_managed(
             time=time,
             seconds=scenario.duration,
             settings=application.settings,
-            plant=RunPlant(plant, outcome, OverLinks(reached, cut)),
+            plant=RunPlant(plant, outcome, OverLinks(reached, cut), supervise),
             wire=wire,
             rate=rate,
             migration_wire=application.migration_wire,

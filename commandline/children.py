@@ -134,10 +134,16 @@ class Child:
         tail = " | ".join(self.lines()[-TAIL:]) or "(no output)"
         return ChildError(f"process {self.role} {what} (log {self.log}): {tail}")
 
+    def interrupt(self) -> None:
+        """SIGINT, as Ctrl-C, if it still runs: `stop` then waits for it (a caller stopping
+        several children interrupts them all first, so they end together)."""
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGINT)
+
     def stop(self) -> None:
         """SIGINT, as Ctrl-C; SIGKILL if it has not ended after STOP_TIMEOUT. Idempotent."""
         if self.process.poll() is None:
-            self.process.send_signal(signal.SIGINT)
+            self.interrupt()
             try:
                 self.process.wait(timeout=STOP_TIMEOUT)
             except subprocess.TimeoutExpired:

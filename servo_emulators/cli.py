@@ -7,10 +7,15 @@ Examples:
   python -m servo_emulators can --slcan hexman               # an SLCAN adapter on a pty
   python -m servo_emulators can --url can://remote/127.0.0.1:P1/can1 \
       --url can://remote/127.0.0.1:P2/can2 --time-master tcp-listen://127.0.0.1:0
+  python -m servo_emulators can --url can://virtual/can1 --serve 127.0.0.1
 
 The emulator runs in real time until interrupted (Ctrl-C, exit status 130) or for --seconds. It
 prints one line saying where it listens, then nothing until it stops. CAN servo nodes given
-several --url answer on each bus (redundant CAN interfaces). With --time-master URL their clock
+several --url answer on each bus (redundant CAN interfaces). With --serve HOST the emulator
+serves each of its buses (can://virtual/CH only) to other processes itself, a python-can-remote
+server on a port of HOST for each, and says so in a line per bus ("serving can://virtual/CH on
+can://remote/HOST:PORT/CH") before the line saying where the nodes answer. With --time-master
+URL their clock
 is virtual (lock-step time) and moves only when a time master's ADVANCE on URL says
 (hexmigrate's transfer protocol, as a node started with firmware-sim listen --lock-step); the
 line saying where that link listens comes first. Errors print one line
@@ -27,11 +32,12 @@ from collections.abc import Callable, Sequence
 
 import can
 
-from commandline import add_command, command_parser, run
+from commandline import UsageError, add_command, command_parser, run
 from commandline.arguments import integer, real
 from hexmigrate.errors import HexmigrateError
 from hexmigrate.links.can import parse_url
 from hexmigrate.links.listening import open_listening
+from hexmigrate.links.remote_server import ServedChannel
 from hexmigrate.links.slcan_device import SlcanDevice
 from servo_emulators.bank import ServoBank
 from servo_emulators.byte_ports import BytePort, PtyPort, SerialPort
@@ -87,6 +93,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     where.add_argument("--slcan", metavar="CHANNEL", help="an SLCAN adapter on a new pty")
     nodes.add_argument(
+        "--serve",
+        metavar="HOST",
+        help="serve each can://virtual bus to other processes, a python-can-remote server on "
+        "a port of HOST for each (127.0.0.1: this machine only)",
+    )
+    nodes.add_argument(
         "--time-master",
         metavar="URL",
         help="lock-step virtual time, moved only by a time master's ADVANCE on URL "
@@ -134,6 +146,8 @@ def _run_ssc32(args: argparse.Namespace) -> None:
 
 def _run_can(args: argparse.Namespace) -> None:
     """Serve the CAN servo nodes on the buses until the time is up."""
+    if args.serve is not None and args.slcan:
+        raise UsageError("--serve goes with --url can://virtual/CHANNEL, not --slcan")
     clock = ServoClock() if args.time_master else None
     nodes = CanServoNodes(
         args.nodes,
@@ -152,8 +166,10 @@ def _run_can(args: argparse.Namespace) -> None:
             where = [device.url]
         else:
             for url in args.url:
-                bus = _open_bus(url, **parse_url(url).bus_config())
-                stack.enter_context(CanServoServer(nodes, bus))
+                config = parse_url(url).bus_config()
+                if args.serve is not None:
+                    _serve(stack, url, config, args.serve)
+                stack.enter_context(CanServoServer(nodes, _open_bus(url, **config)))
             where = args.url
         announced = f"{args.nodes} CAN servo nodes on {' and '.join(where)}"
         if link is None or clock is None:
@@ -161,6 +177,15 @@ def _run_can(args: argparse.Namespace) -> None:
             return
         _say(announced)
         serve_control(link, ServoControl(nodes, clock), _deadline(args.seconds))
+
+
+def _serve(stack: contextlib.ExitStack, url: str, config: dict, host: str) -> None:
+    """Serve the virtual bus at `url` to other processes on `host` (stopped with `stack`) and
+    say where."""
+    if config.get("interface") != "virtual":
+        raise ServoPortError(f"--serve: expected --url can://virtual/CHANNEL buses, got {url}")
+    served = stack.enter_context(ServedChannel(str(config["channel"]), host))
+    _say(f"serving {url} on {served.bus_url}")
 
 
 def _say(line: str) -> None:

@@ -8,13 +8,18 @@ own bus on the server's CHANNEL, so two processes on one server share a CAN chan
         host = open_link(server.url())              # this process
         # another process: open_link(server.url(role="node")), a URL it is given
 
-The server runs as ``python -m can_remote -i virtual -c CHANNEL -H HOST -p PORT``, a
-`commandline.children.Child` (it only stops on a signal), on a port free on HOST. HOST is the
-address it listens on, 127.0.0.1 unless given: the loopback address keeps the bus on this
-machine, one of the machine's network addresses (or 0.0.0.0) lets nodes on other machines join
-it. The server listens on IPv4 only (python-can-remote's HTTP server), so an IPv6 address is
-refused. It logs every connection, so its output goes to a file, read until the server says it
-listens; an error shows the file's last lines.
+`RemoteCanServer` runs the server as ``python -m can_remote -i virtual -c CHANNEL -H HOST -p
+PORT``, a `commandline.children.Child` (it only stops on a signal), on a port free on HOST. It
+logs every connection, so its output goes to a file, read until the server says it listens; an
+error shows the file's last lines. `ServedChannel` runs the same server in a thread of this
+process, for a virtual channel of this process: a process that emulates the devices of a bus
+(the servo emulator) serves them itself, and a frame between a client and a device crosses one
+process boundary instead of two.
+
+HOST is the address a server listens on, 127.0.0.1 unless given: the loopback address keeps the
+bus on this machine, one of the machine's network addresses (or 0.0.0.0) lets nodes on other
+machines join it. python-can-remote's HTTP server listens on IPv4 only, so an IPv6 address is
+refused.
 """
 
 from __future__ import annotations
@@ -23,7 +28,12 @@ import re
 import socket
 import sys
 import tempfile
+import threading
+from abc import ABC, abstractmethod
 from pathlib import Path
+from typing import Self
+
+from can_remote.server import RemoteServer
 
 from commandline.children import Child, ChildError
 from hexmigrate.errors import LinkError
@@ -32,14 +42,15 @@ from hexmigrate.links.url import network_host
 HOST = "127.0.0.1"
 START_TIMEOUT = 10.0
 """How long the server may take to listen: it imports python-can first."""
+SERVE_POLL = 0.05
+"""How often an in-process server's thread looks whether it is asked to stop (seconds)."""
 
 
-class RemoteCanServer:
-    """python-can-remote's server for one virtual CAN channel on `host` (an IPv4 address or a
-    host name: the server listens on IPv4 only), as a context manager; LinkError for a
-    malformed host."""
+class _Server(ABC):
+    """What both servers share: the channel, the host (an IPv4 address or a host name; LinkError
+    for a malformed one), the port once started, the URLs, and the context manager."""
 
-    def __init__(self, channel: str = "refresh", host: str = HOST) -> None:
+    def __init__(self, channel: str, host: str) -> None:
         if ":" in host:
             raise LinkError(
                 f"cannot serve CAN channel {channel!r}: host: expected an IPv4 address or a "
@@ -52,14 +63,42 @@ class RemoteCanServer:
         self.channel = channel
         self.port = 0
         """The TCP port, known once started."""
-        self._child: Child | None = None
-        self._folder: tempfile.TemporaryDirectory[str] | None = None
+
+    @property
+    def bus_url(self) -> str:
+        """The ``can://remote`` URL of this server's channel, for python-can alone."""
+        if not self.port:
+            raise LinkError(f"expected a started {type(self).__name__}, got one not started")
+        return f"can://remote/{self.host}:{self.port}/{self.channel}"
 
     def url(self, role: str = "host") -> str:
         """The ``can://remote`` URL of this server's channel for a link of `role`."""
-        if not self.port:
-            raise LinkError("expected a started RemoteCanServer, got one not started")
-        return f"can://remote/{self.host}:{self.port}/{self.channel}?role={role}"
+        return f"{self.bus_url}?role={role}"
+
+    @abstractmethod
+    def start(self) -> None:
+        """Listen; the port is known from then on."""
+
+    @abstractmethod
+    def stop(self) -> None:
+        """Stop listening. Idempotent."""
+
+    def __enter__(self) -> Self:
+        self.start()
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.stop()
+
+
+class RemoteCanServer(_Server):
+    """python-can-remote's server for one virtual CAN channel on `host`, in a process of its
+    own, as a context manager."""
+
+    def __init__(self, channel: str = "refresh", host: str = HOST) -> None:
+        super().__init__(channel, host)
+        self._child: Child | None = None
+        self._folder: tempfile.TemporaryDirectory[str] | None = None
 
     def start(self) -> None:
         """Start the server and wait until it listens; LinkError, quoting its log, if it does
@@ -88,12 +127,50 @@ class RemoteCanServer:
         if folder is not None:
             folder.cleanup()
 
-    def __enter__(self) -> RemoteCanServer:
-        self.start()
-        return self
 
-    def __exit__(self, *exc_info: object) -> None:
-        self.stop()
+class ServedChannel(_Server):
+    """python-can-remote's server in a thread of this process, for this process's virtual CAN
+    channel `channel` on `host`, as a context manager: each client gets a bus on the channel,
+    which the process's own virtual buses on it share."""
+
+    def __init__(self, channel: str, host: str = HOST) -> None:
+        super().__init__(channel, host)
+        self._server: _QuietServer | None = None
+        self._thread: threading.Thread | None = None
+
+    def start(self) -> None:
+        """Listen on a port free on the host, serving from a thread; LinkError naming the
+        host if it cannot."""
+        try:
+            self._server = _QuietServer(self.host, 0, interface="virtual", channel=self.channel)
+        except OSError as error:
+            raise LinkError(
+                f"cannot serve CAN channel {self.channel!r} on {self.host}: {error.strerror}"
+            ) from None
+        self.port = self._server.server_port
+        self._thread = threading.Thread(
+            target=self._server.serve_forever,
+            args=(SERVE_POLL,),
+            name=f"python-can-remote server {self.channel}",
+            daemon=True,
+        )
+        self._thread.start()
+
+    def stop(self) -> None:
+        """Stop listening (the clients' threads end with their connections). Idempotent."""
+        server, self._server = self._server, None
+        if server is not None:
+            server.shutdown()
+            server.server_close()
+
+
+class _QuietServer(RemoteServer):
+    """python-can-remote's server, which does not print a traceback on the serving process's
+    terminal when a client breaks the protocol (an upgrade with no WebSocket key, no bus
+    request): that client is let go, and the others are served on."""
+
+    def handle_error(self, request: object, client_address: object) -> None:
+        """A client broke the protocol: its connection is closed, nothing else is at stake."""
 
 
 def _free_port(host: str) -> int:

@@ -76,7 +76,7 @@ def test_a_can_link_without_the_can_extra_says_what_to_install():
 @pytest.mark.parametrize(
     ("module", "arguments", "extra"),
     [
-        ("visual_servoing", ["scenarios"], "vision"),
+        ("visual_servoing", ["scenarios"], "can"),  # its servos first, then its cameras
         ("servo_emulators", ["ssc32", "--pty"], "can"),
     ],
 )

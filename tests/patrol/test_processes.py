@@ -32,7 +32,7 @@ def test_each_robots_node_has_the_natives_the_database_places_on_it():
 def test_two_faults_across_processes_repeat_the_in_process_run(tmp_path):
     scenario = APPLICATION.scenario("two-faults")
     got = run_processes(APPLICATION, scenario, tmp_path / "linked")
-    assert set(got["processes"]) == {"rover1", "rover2", "mast", "manager"}
+    assert set(got["processes"]) == {"rover1", "rover2", "mast"}
     assert got["ended"] == {}
     reference = run_in_process(APPLICATION, scenario, tmp_path / "local")
     want = [
@@ -57,7 +57,7 @@ def test_run_processes_names_each_node_and_its_log(tmp_path, capsys):
     argv = ["run", "--scenario", "controller", "--processes", "--out", str(tmp_path), "--json"]
     assert main(APPLICATION, argv) == 0
     figures = json.loads(capsys.readouterr().out)
-    assert set(figures["processes"]) == {"rover1", "rover2", "mast", "manager"}
+    assert set(figures["processes"]) == {"rover1", "rover2", "mast"}
     assert all(
         figures["processes"][robot].startswith("socket://127.0.0.1:")
         for robot in ("rover1", "rover2", "mast")

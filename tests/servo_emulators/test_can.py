@@ -1,9 +1,12 @@
 """The CAN servo nodes: every DBC message round-trips, and the nodes answer on a virtual bus,
-through a python-can-remote server between processes, and through SLCAN on a pty."""
+through a python-can-remote server between processes (one of its own, or the one the emulator
+serves its buses with), and through SLCAN on a pty."""
 
 from __future__ import annotations
 
+import contextlib
 import itertools
+import socket
 import sys
 import time
 from collections.abc import Iterator
@@ -154,6 +157,43 @@ def test_another_process_serves_the_nodes_through_the_remote_server(
             exercise(CanServoBus(bus, GEOMETRY))
         finally:
             bus.shutdown()
+
+
+def test_the_emulator_serves_its_buses_to_another_process_itself(tmp_path: Path) -> None:
+    command = [sys.executable, "-m", "servo_emulators", "can", "--serve", "127.0.0.1"]
+    command += ["--url", "can://virtual/first", "--url", "can://virtual/second"]
+    with Child.start("CAN servo emulator", command, tmp_path / "servos.log") as emulator:
+        emulator.wait_for(r"^6 CAN servo nodes on can://virtual/first and can://virtual/second$")
+        served = [line.split() for line in emulator.lines()[:2]]
+        assert [words[1] for words in served] == ["can://virtual/first", "can://virtual/second"]
+        assert all(words[3].startswith("can://remote/127.0.0.1:") for words in served)
+        first, second = (open_can_bus(words[3]) for words in served)
+        try:
+            exercise(CanServoBus(first, GEOMETRY))
+            moved = CanServoBus(second, GEOMETRY).read()  # the same nodes, on their second bus
+            assert np.allclose(moved.angles, 20.0, atol=0.01)
+        finally:
+            first.shutdown()
+            second.shutdown()
+        joining = "from hexmanipulator.can_bus import open_can_bus; import sys, time; "
+        joining += "open_can_bus(sys.argv[1]); print('joined', flush=True); time.sleep(60)"
+        client = [sys.executable, "-c", joining, served[0][3]]
+        with Child.start("client", client, tmp_path / "client.log") as killed:
+            killed.wait_for("joined")
+            killed.process.kill()  # a client that leaves without a word
+            killed.process.wait(WAIT)
+        host, port = served[0][3].removeprefix("can://remote/").split("/")[0].split(":")
+        with socket.create_connection((host, int(port)), WAIT) as hostile:  # no WebSocket key
+            hostile.sendall(b"GET / HTTP/1.1\r\nUpgrade: websocket\r\n\r\n\xff\x00garbage")
+            hostile.settimeout(WAIT)
+            with contextlib.suppress(OSError):
+                hostile.recv(4096)
+        bus = open_can_bus(served[0][3])  # the server serves on
+        try:
+            assert np.allclose(CanServoBus(bus, GEOMETRY).read().angles, 20.0, atol=0.01)
+        finally:
+            bus.shutdown()
+    assert "Traceback" not in (tmp_path / "servos.log").read_text()
 
 
 def test_the_nodes_answer_through_an_slcan_adapter_on_a_pty() -> None:

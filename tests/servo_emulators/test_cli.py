@@ -64,6 +64,20 @@ def test_a_bad_can_url_is_one_error_line_with_the_form(capsys) -> None:
     assert err.count("\n") == 1
 
 
+@pytest.mark.parametrize(
+    ("url", "host", "expected"),
+    [
+        ("can://remote/127.0.0.1:9/x", "127.0.0.1", "--serve: expected --url can://virtual/"),
+        ("can://virtual/x", "::1", "host: expected an IPv4 address or a host name"),
+        ("can://virtual/x", "no host here", "cannot serve CAN channel 'x'"),
+    ],
+)
+def test_serving_a_bus_it_cannot_serve_is_one_error_line(url, host, expected, capsys) -> None:
+    assert main(["can", "--url", url, "--serve", host, "--seconds", "0.01"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and expected in err and err.count("\n") == 1
+
+
 def test_the_serial_line_s_rate_is_bit_rate() -> None:
     """The option every command names a wire's bit rate with; the old --baudrate is gone."""
     ssc32 = ["ssc32", "--url", "loop://", "--seconds", "0.01"]

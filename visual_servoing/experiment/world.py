@@ -14,17 +14,18 @@ are:
   (followed at each switch) on the HexManipulator's node;
 - **in a robot's node process**: that robot's firmware, with its ``Plate`` native
   (`visual_servoing.experiment.node_firmware`), its servo buses the devices ``can1`` and
-  ``can2`` (python-can-remote servers);
+  ``can2`` (python-can-remote servers in the servo emulator's process);
 - **in the manager's process**: the host's HexMan estimators read the servos over their own
   connections to the two buses, the plate's yaw is a READ of the HexManipulator's ``Plate.yaw``;
   at the run's time 0 each robot's ``Plate`` is started and the plate's yaw bridged from the
   HexManipulator's node to the rotation robot's (a bridge numbered down from `PLATE_BRIDGE`, over
   TCP, a new one each time the node comes back restarted).
 
-A run across processes starts the servos' processes first (`launch`): a python-can-remote server
-per bus and ``python -m servo_emulators can`` on both, granted each lock-step quantum before the
-nodes (its control link), so every CAN frame a node sends in a quantum meets the servos at the
-quantum's end.
+A run across processes starts the servos' process first (`launch`): ``python -m servo_emulators
+can`` on two virtual buses of its own, which it serves to the other processes (a
+python-can-remote server each, in its process: a frame between a node and the servos crosses one
+process boundary), granted each lock-step quantum before the nodes (its control link), so every
+CAN frame a node sends in a quantum meets the servos at the quantum's end.
 """
 
 from __future__ import annotations
@@ -67,8 +68,8 @@ PLATE_MHZ = 100_000
 """The rate of the ``Plate`` PBOs in millihertz (100 Hz)."""
 SERVOS_LINE = re.compile(r"CAN servo nodes on ")
 """The servo emulator's line once it serves its buses."""
-CAN_SERVER = re.compile(r"Connect using channel 'ws://localhost:(\d+)/'")
-"""The python-can-remote server's line with the port it listens on."""
+SERVED = re.compile(r"serving can://virtual/(\S+) on (can://remote/\S+)$")
+"""The servo emulator's line saying where another process joins one of its buses."""
 _CHANNELS = itertools.count()
 
 
@@ -114,7 +115,7 @@ class ServoingWorld(WorldPlant):
 
     def _connect(self, link: str, bus: can.BusABC) -> None:
         controller = BusOffController(bus)
-        self._stack.callback(controller.shutdown)
+        self._stack.callback(_shut_down, controller)
         self._controllers[link] = controller
         self.servo_buses[link] = CanServoBus(controller, self.geometry)
 
@@ -271,31 +272,40 @@ class ServoingWorld(WorldPlant):
 
     @classmethod
     def launch(cls, launch: Launch, lock_step: bool) -> Launched:
-        """A python-can-remote server per bus to the servos, then the servo emulator on both
-        (its lock-step control link on 127.0.0.1 in lock-step time)."""
-        buses: dict[str, str] = {}
-        servers = [
-            launch.start(
-                link, "-m", "can_remote", "-i", "virtual", "-c", link, "-H", HOST, "-p", "0"
-            )
-            for _name, link in MANIPULATORS
-        ]
-        for server in servers:
-            port = server.wait_for(CAN_SERVER)[1]
-            buses[server.role] = f"can://remote/{HOST}:{port}/{server.role}?role=host"
-            launch.urls[server.role] = buses[server.role]
-        arguments = ["-m", "servo_emulators", "can"]
-        arguments += [word for url in buses.values() for word in ("--url", url)]
+        """The servo emulator, serving both buses to the other processes itself (a
+        python-can-remote server each) and, in lock-step time, its control link on 127.0.0.1,
+        which `peers()` waits for."""
+        arguments = ["-m", "servo_emulators", "can", "--serve", HOST]
+        for _name, link in MANIPULATORS:
+            arguments += ["--url", f"can://virtual/{link}"]
         if lock_step:
             arguments += ["--time-master", f"tcp-listen://{HOST}:0"]
         servos = launch.start("servos", *arguments)
-        if not lock_step:
-            servos.wait_for(SERVOS_LINE)
-            launch.urls["servos"] = " ".join(buses.values())
-            return Launched(devices=buses)
-        control = servos.wait_for(CONNECT_URL)[1]
-        launch.urls["servos"] = control
-        return Launched(devices=buses, peers={"servos": control})
+        buses: dict[str, str] = {}
+        line = 0
+        for _ in MANIPULATORS:
+            line, served = servos.wait_for_line(SERVED, start=line)
+            buses[served[1]] = f"{served[2]}?role=host"
+            line += 1
+
+        def peers() -> dict[str, str]:
+            """The servo emulator serving its buses: its control link in lock-step time."""
+            if not lock_step:
+                servos.wait_for(SERVOS_LINE)
+                launch.urls["servos"] = " ".join(buses.values())
+                return {}
+            control = servos.wait_for(CONNECT_URL)[1]
+            launch.urls["servos"] = control
+            return {"servos": control}
+
+        return Launched(devices=buses, peers=peers)
+
+
+def _shut_down(controller: BusOffController) -> None:
+    """Leave a CAN bus; one whose server has gone already (a run's processes stopping) is left
+    already."""
+    with contextlib.suppress(OSError):
+        controller.shutdown()
 
 
 def _over_links(view: View) -> LinkApplier:
