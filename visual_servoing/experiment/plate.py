@@ -3,9 +3,10 @@ feedback (what the platform did, not what it was told).
 
 One `PlateTracker` per place that needs the plate's pose: the in-process world (from the HexMan
 PBO's ``feedback`` port) and a HexManipulator node in its own process (from the servo bus's
-readings, `visual_servoing.experiment.node`). Both hand it the six crank angles as they come; it
-solves the forward kinematics only when they changed, from the last pose (the solver's guess),
-and keeps the pose while there is no feedback yet (all zeros: the servos never answered).
+readings, `visual_servoing.experiment.node_firmware`). Both hand it the six crank angles as
+they come; it solves the forward kinematics only when they changed, from the last pose (the
+solver's guess), and keeps the pose while there is no feedback yet (all zeros: the servos never
+answered).
 """
 
 from __future__ import annotations
