@@ -17,7 +17,8 @@ meanwhile it builds the guests. Then it runs the manager (`application.runs.run_
 the scenario kills) fails the run with an error (`commandline.children.ChildError`) that names it
 and its log. Whatever happens (that, a node that does not answer, Ctrl-C), every process the
 launcher started is stopped before it returns (SIGINT to all, the last started first, then
-SIGKILL to any that has not ended), and the nodes are stopped before the reports are written.
+SIGKILL to any that has not ended); once the run is over they are interrupted before the reports
+are written, and end meanwhile.
 
 A node the scenario kills (it sends itself SIGKILL on its clock) ends without error; when the
 scenario brings it back, the launcher starts it again at once, on the same port and from the same
@@ -145,7 +146,9 @@ def run_processes(
             supervise=supervise,
         )
         ended = launch.ended()
-    figures = write_reports(application, outcome, out)
+        for child in launch.children:  # they end while the reports are written
+            child.interrupt()
+        figures = write_reports(application, outcome, out)
     figures["processes"] = launch.urls
     figures["ended"] = ended
     return figures
