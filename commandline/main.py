@@ -113,9 +113,13 @@ def run(
 @contextmanager
 def importing_command() -> Iterator[None]:
     """Around the imports of a ``__main__``: a module of a missing extra ends the program with
-    one ``error:`` line and exit status 1 before any command runs."""
+    one ``error:`` line and exit status 1 before any command runs, and Ctrl-C while the imports
+    run (they take a while) with ``interrupted`` and 130, as during the command."""
     try:
         yield
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        raise SystemExit(EXIT_INTERRUPTED) from None
     except ModuleNotFoundError as error:
         problem = missing_extra(error)
         if problem is None:
