@@ -9,8 +9,9 @@
 # 3. The paper's section 6 experiment on two emulated robots: noise in the camera, ReFrESH
 #    detects it, locates CamReader with Base Choice, chooses the Dehazer, migrates its image and
 #    the task recovers. It ends with the summary table and where the report and plot are.
-# 4. The same experiment across processes: the two robots' nodes, the servo emulator, two
-#    python-can-remote servers and the manager on loopback links, in lock-step virtual time.
+# 4. The same experiment across processes: the two robots' nodes and the servo emulator (which
+#    serves its CAN buses itself) on loopback links, the manager in the command's process, in
+#    lock-step virtual time.
 #
 # Usage: scripts/demo.sh VENV MODULE_BUILD_DIR
 set -euo pipefail
@@ -112,5 +113,5 @@ echo "=== the paper's experiment: two robots, noise in the camera, ReFrESH repai
 run python -m visual_servoing run --scenario paper --out "$(dirname "$build")/visual_servoing/paper"
 
 echo
-echo "=== the same experiment across processes: two nodes, the servos and the manager on loopback links, lock-step time ==="
+echo "=== the same experiment across processes: two nodes and the servos on loopback links, the manager here, lock-step time ==="
 run python -m visual_servoing run --scenario paper --processes --out "$(dirname "$build")/visual_servoing/paper-processes"
