@@ -34,15 +34,25 @@ from servo_emulators.can_servo import (
 
 REPLY_TIMEOUT = 0.2
 """How long a read waits for every node's answer to a Sync."""
+RETRY_PAUSE = 0.02
+"""Between two tries to reach a bus's server that refused the connection (seconds)."""
 
 
-def open_can_bus(url: str) -> can.BusABC:
-    """python-can's bus for a ``can://`` URL (the ISO-TP parameters of the URL do not apply)."""
+def open_can_bus(url: str, wait: float = 0.0) -> can.BusABC:
+    """python-can's bus for a ``can://`` URL (the ISO-TP parameters of the URL do not apply).
+    A server that refuses the connection is tried again for `wait` seconds: a process started
+    at the same time as the one that serves its bus may be ready first."""
     settings = parse_url(url)
-    try:
-        return can.Bus(**settings.bus_config())
-    except (can.CanError, OSError, ValueError) as error:
-        raise ServoBusError(f"cannot open {url}: {error}") from error
+    deadline = time.monotonic() + wait
+    while True:
+        try:
+            return can.Bus(**settings.bus_config())
+        except ConnectionRefusedError as error:
+            if time.monotonic() >= deadline:
+                raise ServoBusError(f"cannot open {url}: {error}") from error
+            time.sleep(RETRY_PAUSE)
+        except (can.CanError, OSError, ValueError) as error:
+            raise ServoBusError(f"cannot open {url}: {error}") from error
 
 
 class CanServoBus:

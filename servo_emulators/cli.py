@@ -7,15 +7,16 @@ Examples:
   python -m servo_emulators can --slcan hexman               # an SLCAN adapter on a pty
   python -m servo_emulators can --url can://remote/127.0.0.1:P1/can1 \
       --url can://remote/127.0.0.1:P2/can2 --time-master tcp-listen://127.0.0.1:0
-  python -m servo_emulators can --url can://virtual/can1 --serve 127.0.0.1
+  python -m servo_emulators can --serve can://remote/127.0.0.1:0/can1 \
+      --serve can://remote/127.0.0.1:0/can2
 
 The emulator runs in real time until interrupted (Ctrl-C, exit status 130) or for --seconds. It
 prints one line saying where it listens, then nothing until it stops. CAN servo nodes given
-several --url answer on each bus (redundant CAN interfaces). With --serve HOST the emulator
-serves each of its buses (can://virtual/CH only) to other processes itself, a python-can-remote
-server on a port of HOST for each, and says so in a line per bus ("serving can://virtual/CH on
-can://remote/HOST:PORT/CH") before the line saying where the nodes answer. With --time-master
-URL their clock
+several --url answer on each bus (redundant CAN interfaces). With --serve URL instead
+(can://remote/HOST:PORT/CH, PORT 0 for any free one) the buses are the emulator's own, which it
+serves to other processes itself, a python-can-remote server in its process for each; a line per
+bus says where ("serving can://remote/HOST:PORT/CH") before the line saying where the nodes
+answer. With --time-master URL their clock
 is virtual (lock-step time) and moves only when a time master's ADVANCE on URL says
 (hexmigrate's transfer protocol, as a node started with firmware-sim listen --lock-step); the
 line saying where that link listens comes first. Errors print one line
@@ -32,7 +33,7 @@ from collections.abc import Callable, Sequence
 
 import can
 
-from commandline import UsageError, add_command, command_parser, run
+from commandline import add_command, command_parser, run
 from commandline.arguments import integer, real
 from hexmigrate.errors import HexmigrateError
 from hexmigrate.links.can import parse_url
@@ -53,6 +54,7 @@ PERIOD_MAX_MS = 65535
 """The DBC's FeedbackPeriod range: 0..65535 ms."""
 BIT_RATE_MAX = 20_000_000
 """The fastest serial line a pyserial URL may ask for (the same bound as hexmigrate's links)."""
+REMOTE = "can://remote/"
 ERRORS = (ServoEmulatorError, HexmigrateError)
 """What a command can fail with that the user can fix: the emulators' refusals and a bad
 ``can://`` URL (hexmigrate parses those)."""
@@ -92,11 +94,13 @@ def build_parser() -> argparse.ArgumentParser:
         "(the nodes answer on each)",
     )
     where.add_argument("--slcan", metavar="CHANNEL", help="an SLCAN adapter on a new pty")
-    nodes.add_argument(
+    where.add_argument(
         "--serve",
-        metavar="HOST",
-        help="serve each can://virtual bus to other processes, a python-can-remote server on "
-        "a port of HOST for each (127.0.0.1: this machine only)",
+        action="append",
+        type=served_url,
+        metavar="URL",
+        help="a bus of its own, served to other processes at can://remote/HOST:PORT/CH (PORT 0: "
+        "any free one; 127.0.0.1: this machine only); repeat it for a bus more",
     )
     nodes.add_argument(
         "--time-master",
@@ -146,8 +150,6 @@ def _run_ssc32(args: argparse.Namespace) -> None:
 
 def _run_can(args: argparse.Namespace) -> None:
     """Serve the CAN servo nodes on the buses until the time is up."""
-    if args.serve is not None and args.slcan:
-        raise UsageError("--serve goes with --url can://virtual/CHANNEL, not --slcan")
     clock = ServoClock() if args.time_master else None
     nodes = CanServoNodes(
         args.nodes,
@@ -164,12 +166,12 @@ def _run_can(args: argparse.Namespace) -> None:
             bus = _open_bus(device.url, interface="virtual", channel=args.slcan, ignore_config=True)
             stack.enter_context(CanServoServer(nodes, bus))
             where = [device.url]
+        elif args.serve:
+            where = [_serve(stack, nodes, *address) for address in args.serve]
         else:
             for url in args.url:
-                config = parse_url(url).bus_config()
-                if args.serve is not None:
-                    _serve(stack, url, config, args.serve)
-                stack.enter_context(CanServoServer(nodes, _open_bus(url, **config)))
+                bus = _open_bus(url, **parse_url(url).bus_config())
+                stack.enter_context(CanServoServer(nodes, bus))
             where = args.url
         announced = f"{args.nodes} CAN servo nodes on {' and '.join(where)}"
         if link is None or clock is None:
@@ -179,13 +181,30 @@ def _run_can(args: argparse.Namespace) -> None:
         serve_control(link, ServoControl(nodes, clock), _deadline(args.seconds))
 
 
-def _serve(stack: contextlib.ExitStack, url: str, config: dict, host: str) -> None:
-    """Serve the virtual bus at `url` to other processes on `host` (stopped with `stack`) and
-    say where."""
-    if config.get("interface") != "virtual":
-        raise ServoPortError(f"--serve: expected --url can://virtual/CHANNEL buses, got {url}")
-    served = stack.enter_context(ServedChannel(str(config["channel"]), host))
-    _say(f"serving {url} on {served.bus_url}")
+def served_url(text: str) -> tuple[str, int, str]:
+    """``--serve``'s ``can://remote/HOST:PORT/CHANNEL`` as (host, port, channel); PORT may be 0
+    (any free port)."""
+    form = "expected can://remote/HOST:PORT/CHANNEL (PORT 0: any free one)"
+    address, _, channel = text.removeprefix(REMOTE).partition("/")
+    host, _, port = address.rpartition(":")
+    if not text.startswith(REMOTE) or not host or not channel or "/" in channel:
+        raise argparse.ArgumentTypeError(f"{form}, got {text!r}")
+    try:
+        return host, integer(0, 65535)(port), channel
+    except argparse.ArgumentTypeError as error:
+        raise argparse.ArgumentTypeError(f"{form}: port: {error}") from None
+
+
+def _serve(
+    stack: contextlib.ExitStack, nodes: CanServoNodes, host: str, port: int, channel: str
+) -> str:
+    """Put the nodes on a virtual bus of this process on `channel`, served to other processes
+    on `host`:`port` (all stopped with `stack`); say where, and return it."""
+    served = stack.enter_context(ServedChannel(channel, host, port))
+    bus = _open_bus(served.bus_url, interface="virtual", channel=channel, ignore_config=True)
+    stack.enter_context(CanServoServer(nodes, bus))
+    _say(f"serving {served.bus_url}")
+    return served.bus_url
 
 
 def _say(line: str) -> None:

@@ -130,22 +130,26 @@ class RemoteCanServer(_Server):
 
 class ServedChannel(_Server):
     """python-can-remote's server in a thread of this process, for this process's virtual CAN
-    channel `channel` on `host`, as a context manager: each client gets a bus on the channel,
-    which the process's own virtual buses on it share."""
+    channel `channel` on `host` and `port` (0: any free one), as a context manager: each client
+    gets a bus on the channel, which the process's own virtual buses on it share."""
 
-    def __init__(self, channel: str, host: str = HOST) -> None:
+    def __init__(self, channel: str, host: str = HOST, port: int = 0) -> None:
         super().__init__(channel, host)
+        self._wanted = port
         self._server: _QuietServer | None = None
         self._thread: threading.Thread | None = None
 
     def start(self) -> None:
-        """Listen on a port free on the host, serving from a thread; LinkError naming the
-        host if it cannot."""
+        """Listen on the port (a free one for 0), serving from a thread; LinkError naming the
+        host and port if it cannot."""
         try:
-            self._server = _QuietServer(self.host, 0, interface="virtual", channel=self.channel)
+            self._server = _QuietServer(
+                self.host, self._wanted, interface="virtual", channel=self.channel
+            )
         except OSError as error:
             raise LinkError(
-                f"cannot serve CAN channel {self.channel!r} on {self.host}: {error.strerror}"
+                f"cannot serve CAN channel {self.channel!r} on {self.host}:{self._wanted}: "
+                f"{error.strerror}"
             ) from None
         self.port = self._server.server_port
         self._thread = threading.Thread(

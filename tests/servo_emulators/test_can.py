@@ -8,6 +8,7 @@ import contextlib
 import itertools
 import socket
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from dataclasses import replace
@@ -20,9 +21,9 @@ from cantools.database.can import Message
 
 from commandline.children import Child
 from hexmanipulator.can_bus import CanServoBus, open_can_bus
-from hexmanipulator.errors import GeometryError, ServoSilentError
+from hexmanipulator.errors import GeometryError, ServoBusError, ServoSilentError
 from hexmanipulator.geometry import load
-from hexmigrate.links.remote_server import RemoteCanServer
+from hexmigrate.links.remote_server import RemoteCanServer, ServedChannel
 from hexmigrate.links.slcan_device import SlcanDevice
 from servo_emulators.can_servo import FAULT_RANGE, CanServoNodes, database
 from servo_emulators.can_servo_server import CanServoServer
@@ -160,14 +161,19 @@ def test_another_process_serves_the_nodes_through_the_remote_server(
 
 
 def test_the_emulator_serves_its_buses_to_another_process_itself(tmp_path: Path) -> None:
-    command = [sys.executable, "-m", "servo_emulators", "can", "--serve", "127.0.0.1"]
-    command += ["--url", "can://virtual/first", "--url", "can://virtual/second"]
+    command = [sys.executable, "-m", "servo_emulators", "can"]
+    command += [
+        "--serve",
+        "can://remote/127.0.0.1:0/first",
+        "--serve",
+        "can://remote/127.0.0.1:0/second",
+    ]
     with Child.start("CAN servo emulator", command, tmp_path / "servos.log") as emulator:
-        emulator.wait_for(r"^6 CAN servo nodes on can://virtual/first and can://virtual/second$")
-        served = [line.split() for line in emulator.lines()[:2]]
-        assert [words[1] for words in served] == ["can://virtual/first", "can://virtual/second"]
-        assert all(words[3].startswith("can://remote/127.0.0.1:") for words in served)
-        first, second = (open_can_bus(words[3]) for words in served)
+        emulator.wait_for(r"^6 CAN servo nodes on can://remote/")
+        served = [line.split()[1] for line in emulator.lines()[:2]]
+        assert [url.rsplit("/", 1)[1] for url in served] == ["first", "second"]
+        assert all(url.startswith("can://remote/127.0.0.1:") for url in served)
+        first, second = (open_can_bus(url) for url in served)
         try:
             exercise(CanServoBus(first, GEOMETRY))
             moved = CanServoBus(second, GEOMETRY).read()  # the same nodes, on their second bus
@@ -177,23 +183,41 @@ def test_the_emulator_serves_its_buses_to_another_process_itself(tmp_path: Path)
             second.shutdown()
         joining = "from hexmanipulator.can_bus import open_can_bus; import sys, time; "
         joining += "open_can_bus(sys.argv[1]); print('joined', flush=True); time.sleep(60)"
-        client = [sys.executable, "-c", joining, served[0][3]]
+        client = [sys.executable, "-c", joining, served[0]]
         with Child.start("client", client, tmp_path / "client.log") as killed:
             killed.wait_for("joined")
             killed.process.kill()  # a client that leaves without a word
             killed.process.wait(WAIT)
-        host, port = served[0][3].removeprefix("can://remote/").split("/")[0].split(":")
+        host, port = served[0].removeprefix("can://remote/").split("/")[0].split(":")
         with socket.create_connection((host, int(port)), WAIT) as hostile:  # no WebSocket key
             hostile.sendall(b"GET / HTTP/1.1\r\nUpgrade: websocket\r\n\r\n\xff\x00garbage")
             hostile.settimeout(WAIT)
             with contextlib.suppress(OSError):
                 hostile.recv(4096)
-        bus = open_can_bus(served[0][3])  # the server serves on
+        bus = open_can_bus(served[0])  # the server serves on
         try:
             assert np.allclose(CanServoBus(bus, GEOMETRY).read().angles, 20.0, atol=0.01)
         finally:
             bus.shutdown()
     assert "Traceback" not in (tmp_path / "servos.log").read_text()
+
+
+def test_a_client_started_before_the_server_waits_for_it() -> None:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    url = f"can://remote/127.0.0.1:{port}/late"
+    with pytest.raises(ServoBusError, match="Connection refused"):
+        open_can_bus(url)  # nobody serves it, and no waiting
+    served = ServedChannel("late", port=port)
+    starting = threading.Timer(0.3, served.start)
+    starting.start()
+    try:
+        bus = open_can_bus(url, wait=WAIT)
+        bus.shutdown()
+    finally:
+        starting.join()
+        served.stop()
 
 
 def test_the_nodes_answer_through_an_slcan_adapter_on_a_pty() -> None:

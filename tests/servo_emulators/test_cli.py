@@ -65,15 +65,31 @@ def test_a_bad_can_url_is_one_error_line_with_the_form(capsys) -> None:
 
 
 @pytest.mark.parametrize(
-    ("url", "host", "expected"),
+    ("url", "expected"),
     [
-        ("can://remote/127.0.0.1:9/x", "127.0.0.1", "--serve: expected --url can://virtual/"),
-        ("can://virtual/x", "::1", "host: expected an IPv4 address or a host name"),
-        ("can://virtual/x", "no host here", "cannot serve CAN channel 'x'"),
+        (
+            "can://remote/127.0.0.1:0/x/y",
+            "argument --serve: expected can://remote/HOST:PORT/CHANNEL",
+        ),
+        ("can://virtual/x", "argument --serve: expected can://remote/HOST:PORT/CHANNEL"),
+        ("can://remote/127.0.0.1:65536/x", "port: expected a whole number from 0 to 65535"),
     ],
 )
-def test_serving_a_bus_it_cannot_serve_is_one_error_line(url, host, expected, capsys) -> None:
-    assert main(["can", "--url", url, "--serve", host, "--seconds", "0.01"]) == 1
+def test_a_bus_to_serve_at_a_bad_url_is_a_usage_error(url, expected, capsys) -> None:
+    with pytest.raises(SystemExit) as usage:
+        main(["can", "--serve", url, "--seconds", "0.01"])
+    assert usage.value.code == 2 and expected in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("url", "expected"),
+    [
+        ("can://remote/::1:0/x", "host: expected an IPv4 address or a host name"),
+        ("can://remote/no host here:0/x", "cannot serve CAN channel 'x'"),
+    ],
+)
+def test_serving_where_it_cannot_is_one_error_line(url, expected, capsys) -> None:
+    assert main(["can", "--serve", url, "--seconds", "0.01"]) == 1
     err = capsys.readouterr().err
     assert err.startswith("error: ") and expected in err and err.count("\n") == 1
 

@@ -46,6 +46,9 @@ PLATE = "Plate"
 """The native that carries the plate's yaw, on both robots."""
 HEXMAN_ROBOT = "hexman"
 """The robot whose plate carries the cameras and whose servos are on the CAN buses."""
+DEVICE_WAIT = 20.0
+"""Seconds a node waits for the servo buses' server (the servo emulator, started with the
+nodes, may be serving after them)."""
 
 
 class NodeTime:
@@ -138,9 +141,8 @@ def servo_buses(
         )
     buses: dict[str, CanServoBus] = {}
     for _name, link in MANIPULATORS:
-        controller = ScheduledCut(
-            open_can_bus(devices[link]), cut_at if link == "can1" else None, clock
-        )
+        bus = open_can_bus(devices[link], wait=DEVICE_WAIT)
+        controller = ScheduledCut(bus, cut_at if link == "can1" else None, clock)
         stack.callback(controller.shutdown)
         buses[link] = CanServoBus(controller, geometry)
     return buses

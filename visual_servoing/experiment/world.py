@@ -40,7 +40,7 @@ from collections.abc import Mapping
 import can
 import numpy as np
 
-from application.launch import HOST, Launch
+from application.launch import HOST, Launch, free_port
 from application.plant import Launched, Setting, WorldPlant
 from hexmanipulator.can_bus import CanServoBus, open_can_bus
 from hexmanipulator.geometry import load as load_geometry
@@ -68,8 +68,6 @@ PLATE_MHZ = 100_000
 """The rate of the ``Plate`` PBOs in millihertz (100 Hz)."""
 SERVOS_LINE = re.compile(r"CAN servo nodes on ")
 """The servo emulator's line once it serves its buses."""
-SERVED = re.compile(r"serving can://virtual/(\S+) on (can://remote/\S+)$")
-"""The servo emulator's line saying where another process joins one of its buses."""
 _CHANNELS = itertools.count()
 
 
@@ -273,32 +271,30 @@ class ServoingWorld(WorldPlant):
     @classmethod
     def launch(cls, launch: Launch, lock_step: bool) -> Launched:
         """The servo emulator, serving both buses to the other processes itself (a
-        python-can-remote server each) and, in lock-step time, its control link on 127.0.0.1,
-        which `peers()` waits for."""
-        arguments = ["-m", "servo_emulators", "can", "--serve", HOST]
-        for _name, link in MANIPULATORS:
-            arguments += ["--url", f"can://virtual/{link}"]
+        python-can-remote server each, on ports picked now, so that the nodes start at once:
+        they wait for it) and, in lock-step time, its control link on 127.0.0.1, which `peers()`
+        waits for."""
+        buses = {link: f"can://remote/{HOST}:{free_port()}/{link}" for _name, link in MANIPULATORS}
+        arguments = ["-m", "servo_emulators", "can"]
+        for url in buses.values():
+            arguments += ["--serve", url]
         if lock_step:
             arguments += ["--time-master", f"tcp-listen://{HOST}:0"]
         servos = launch.start("servos", *arguments)
-        buses: dict[str, str] = {}
-        line = 0
-        for _ in MANIPULATORS:
-            line, served = servos.wait_for_line(SERVED, start=line)
-            buses[served[1]] = f"{served[2]}?role=host"
-            line += 1
 
         def peers() -> dict[str, str]:
             """The servo emulator serving its buses: its control link in lock-step time."""
+            servos.wait_for(SERVOS_LINE)
             if not lock_step:
-                servos.wait_for(SERVOS_LINE)
                 launch.urls["servos"] = " ".join(buses.values())
                 return {}
             control = servos.wait_for(CONNECT_URL)[1]
             launch.urls["servos"] = control
             return {"servos": control}
 
-        return Launched(devices=buses, peers=peers)
+        return Launched(
+            devices={link: f"{url}?role=host" for link, url in buses.items()}, peers=peers
+        )
 
 
 def _shut_down(controller: BusOffController) -> None:
