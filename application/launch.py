@@ -3,9 +3,9 @@ watched and stopped by this launcher, which is the run's host: its manager runs 
 
 The processes, each with its output in a log file of the run's folder (``ROLE.log``):
 
-- the plant's own processes, if it has any (`WorldPlant.launch`: the paper's CAN servers and
-  servo emulator), which say where their devices are and which of them the time master grants
-  each quantum first;
+- the plant's own processes, if it has any (`WorldPlant.launch`: the paper's servo emulator,
+  serving its CAN buses), with the URLs of their devices and, once they say where they listen,
+  those the time master grants each quantum first;
 - one node per robot, ``python -m APP node``, on a pty where the application wants a serial line
   (`Application.listen`), else on a TCP port of 127.0.0.1 the launcher picks, its flash in
   ``ROBOT.flash``.

@@ -6,8 +6,8 @@ natives the database places on the robot, bound to the plant's devices on this n
 it as a listening node (`firmware_sim.serving.listen.listen`), its PBOs off until the manager
 starts them. A scenario that kills this robot's node has it send itself SIGKILL at the outage's
 time on the node's clock: after the first job at or past that time, in lock-step time within the
-same quantum on every run; a node started again after the kill (``--restarted`` for the
-launcher, which then gives no ``--kill-at``) lives on.
+same quantum on every run; a node started again after the kill (the launcher gives it no
+``--kill-at``) lives on.
 """
 
 from __future__ import annotations
