@@ -2,13 +2,14 @@
 
 Each node runs ``firmware-sim listen --lock-step``: its clock moves only when an Advance says
 (`NodeControl.advance`). The master grants quanta one after another; for each it asks every node
-at once (one thread each) to run to the quantum's end, and waits for all of them. A value a node
-sends over a bridge during quantum k reaches the importing node at the start of quantum k+1: the
-master tells the importer how many values the exporter had sent by the end of quantum k (the
-count the exporter acknowledged), and the importer waits for that very value before it runs and
-takes none beyond it (firmware_sim's `KernelControl.advance`). So what each node sees does not
-depend on when TCP delivered it, and a run is reproducible; messages between nodes are delivered
-at quantum boundaries, as Renode synchronises its machines.
+at once (the caller's thread asks the first, a thread of the master's each other one: a hand-off
+between threads less per quantum) to run to the quantum's end, and waits for all of them. A
+value a node sends over a bridge during quantum k reaches the importing node at the start of
+quantum k+1: the master tells the importer how many values the exporter had sent by the end of
+quantum k (the count the exporter acknowledged), and the importer waits for that very value
+before it runs and takes none beyond it (firmware_sim's `KernelControl.advance`). So what each
+node sees does not depend on when TCP delivered it, and a run is reproducible; messages between
+nodes are delivered at quantum boundaries, as Renode synchronises its machines.
 
 A node sends the reports and heartbeats its watch made due by the quantum's end before it
 answers the Advance, on the same link (`Receiver.handle`): once the master has every node's
@@ -23,9 +24,9 @@ the order in which the processes run.
 Times are counted in whole microseconds (what an Advance carries), so that the nodes' clocks
 and the master's `now` are the same numbers.
 
-The master's threads (one per node) live as long as it does, not one `run_until`: a caller that
-runs the world a frame at a time would otherwise start two threads a frame. `close` ends them,
-and so does the master's collection.
+The master's threads (one per node but the first) live as long as it does, not one `run_until`:
+a caller that runs the world a frame at a time would otherwise start two threads a frame.
+`close` ends them, and so does the master's collection.
 """
 
 from __future__ import annotations
@@ -67,7 +68,9 @@ class TimeMaster:
         """Bridge number -> values its exporter had sent at the end of the last quantum."""
         self.clocks: dict[str, float] = dict.fromkeys(self.controls, 0.0)
         """Node name -> the clock it acknowledged at the end of the last quantum."""
-        self._pool = ThreadPoolExecutor(len(self.controls), thread_name_prefix="time master")
+        self._pool = ThreadPoolExecutor(
+            max(1, len(self.controls) - 1), thread_name_prefix="time master"
+        )
         self._release = weakref.finalize(self, self._pool.shutdown, wait=False)
         """Ends the threads, idle between quanta: on `close`, or when the master is collected."""
 
@@ -123,12 +126,17 @@ class TimeMaster:
                 self.clocks[name], _ = control.advance(until, {})
             except HexmigrateError as error:
                 raise TransferError(f"quantum to {until:g} s: {name}: {error}") from error
+        here, *others = self.controls
         futures = {
-            name: self._pool.submit(control.advance, until, self._expected(name))
-            for name, control in self.controls.items()
+            name: self._pool.submit(self.controls[name].advance, until, self._expected(name))
+            for name in others
         }
         results: dict[str, tuple[float, dict[int, int]]] = {}
         failures = []
+        try:  # one node in this thread, while the pool's threads wait for the others
+            results[here] = self.controls[here].advance(until, self._expected(here))
+        except HexmigrateError as error:
+            failures.append(f"node {here}: {error}")
         for name, future in futures.items():
             try:
                 results[name] = future.result()
