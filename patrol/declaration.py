@@ -43,11 +43,10 @@ from its live pose, long enough for a controller's effect on the offset to show.
 
 def pose(view: View) -> tuple[float, float, float]:
     """Rover1's pose from its chassis: mm, mm, rad."""
-    return (
-        view.read(TASK_ROBOT, "Chassis.x"),
-        view.read(TASK_ROBOT, "Chassis.y"),
-        view.read(TASK_ROBOT, "Chassis.theta") / 1000.0,
+    x, y, theta = view.reads(
+        (TASK_ROBOT, "Chassis.x"), (TASK_ROBOT, "Chassis.y"), (TASK_ROBOT, "Chassis.theta")
     )
+    return x, y, theta / 1000.0
 
 
 def observe(view: View) -> Mapping[str, float]:

@@ -47,12 +47,8 @@ NO_BACKUP = Scenario(
 
 def observe(view: View) -> Mapping[str, float]:
     """The level the alarm sees, how far it is outside the band, and the valve."""
-    level = view.value("alarm", "mm")
-    return {
-        "level": level,
-        "outside": max(LOW - level, level - HIGH, 0.0),
-        "valve": view.value("alarm", "valve"),
-    }
+    level, valve = view.values(("alarm", "mm"), ("alarm", "valve"))
+    return {"level": level, "outside": max(LOW - level, level - HIGH, 0.0), "valve": valve}
 
 
 def draw(rng: random.Random, families: Sequence[str], location: str | None) -> dict[str, Any]:

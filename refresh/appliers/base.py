@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import itertools
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -179,18 +179,19 @@ class ApplierBase(ABC):
     def read(self, robot: str, port: str) -> float:
         """The live value of scalar port `port` (``instance.port``) on `robot`; a lost robot's
         back end says why it has none."""
+        return self.reads(robot, (port,))[0]
+
+    def reads(self, robot: str, ports: Sequence[str]) -> list[float]:
+        """The live values of scalar ports (``instance.port`` each) on `robot`, in one request
+        where the robot is reached by requests (a sample of several ports costs one round trip,
+        not one each)."""
         self._known(robot)
-        value = self._read(robot, port)
-        try:
-            return float(value)  # type: ignore[arg-type]
-        except (TypeError, ValueError):
-            raise ApplyError(
-                f"read {port} on {robot}: expected a scalar value, got {type(value).__name__}"
-            ) from None
+        values = self._read(robot, tuple(ports))
+        return [_scalar(robot, port, value) for port, value in zip(ports, values, strict=True)]
 
     @abstractmethod
-    def _read(self, robot: str, port: str) -> object:
-        """The live value of `port` on `robot`, as the node holds it."""
+    def _read(self, robot: str, ports: tuple[str, ...]) -> list[object]:
+        """The live values of `ports` on `robot`, as the node holds them, in their order."""
 
     # Outages.
 
@@ -360,3 +361,13 @@ class ApplierBase(ABC):
 def owner(port: str) -> str:
     """The PBO of ``PBO.port``."""
     return port.partition(".")[0]
+
+
+def _scalar(robot: str, port: str, value: object) -> float:
+    """`value` of `port` as a number; an ApplyError for a value that is not a scalar."""
+    try:
+        return float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ApplyError(
+            f"read {port} on {robot}: expected a scalar value, got {type(value).__name__}"
+        ) from None

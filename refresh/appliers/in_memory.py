@@ -52,8 +52,10 @@ class MemoryApplier(ApplierBase):
         """None: a model reports no performance."""
         return {}
 
-    def _read(self, robot: str, port: str) -> object:
-        raise ApplyError(f"read {port} on {robot}: a model of the robots holds no live values")
+    def _read(self, robot: str, ports: tuple[str, ...]) -> list[object]:
+        raise ApplyError(
+            f"read {', '.join(ports)} on {robot}: a model of the robots holds no live values"
+        )
 
     def lost(self, after: float) -> dict[str, str]:
         return {}

@@ -116,13 +116,14 @@ class NodeApplier(ApplierBase):
         """Where each robot's evaluators report: its node's kernel."""
         return {robot: node.kernel for robot, node in self.nodes.items()}
 
-    def _read(self, robot: str, port: str) -> object:
+    def _read(self, robot: str, ports: tuple[str, ...]) -> list[object]:
+        wanted = ", ".join(ports)
         if robot in self.off:
-            raise ApplyError(f"read {port} on {robot}: its node is lost ({self.off[robot]})")
+            raise ApplyError(f"read {wanted} on {robot}: its node is lost ({self.off[robot]})")
         try:
-            return self.nodes[robot].kernel.value(port)
+            return [self.nodes[robot].kernel.value(port) for port in ports]
         except KernelError as error:
-            raise ApplyError(f"read {port} on {robot}: {error}") from error
+            raise ApplyError(f"read {wanted} on {robot}: {error}") from error
 
     # The hooks.
 

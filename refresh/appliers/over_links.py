@@ -148,10 +148,15 @@ class LinkApplier(ApplierBase):
             node.clock = clock
             node.heard = clock()
 
-    def _read(self, robot: str, port: str) -> object:
+    def _read(self, robot: str, ports: tuple[str, ...]) -> list[object]:
         node = self.nodes[robot]
-        ((_name, value),) = node.ask(f"READ {port}", lambda: node.control.read((port,)))
-        return value
+        values = dict(node.ask(f"READ {' '.join(ports)}", lambda: node.control.read(ports)))
+        missing = [port for port in ports if port not in values]
+        if missing:
+            raise ApplyError(
+                f"read {', '.join(ports)} on {robot}: the node's answer has no {', '.join(missing)}"
+            )
+        return [values[port] for port in ports]
 
     # Outages.
 

@@ -55,6 +55,26 @@ class View:
         """A scalar port (``PBO.port``) on `robot`'s node."""
         return self.applier.read(robot, port)
 
+    def values(self, *slots: tuple[str, str]) -> list[float]:
+        """Scalar ports of the modules filling slots, each (schema, port), in order: as `value`
+        each, read with one request per robot."""
+        return self.reads(*(self.runtime.where(schema, port) for schema, port in slots))
+
+    def reads(self, *ports: tuple[str, str]) -> list[float]:
+        """Scalar ports, each (robot, ``PBO.port``), in order: as `read` each, read with one
+        request per robot (a look at a world over links costs a round trip per robot, not one
+        per port)."""
+        wanted: dict[str, list[str]] = {}
+        for robot, port in ports:
+            if port not in wanted.setdefault(robot, []):
+                wanted[robot].append(port)
+        got = {
+            (robot, port): value
+            for robot, names in wanted.items()
+            for port, value in zip(names, self.applier.reads(robot, names), strict=True)
+        }
+        return [got[where] for where in ports]
+
 
 class Plant:
     """The world around a task, as the caller models it; every hook does nothing by default."""

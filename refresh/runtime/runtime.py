@@ -111,12 +111,17 @@ class Runtime:
     def value(self, schema: str, port: str) -> float:
         """A scalar port of the module filling `schema` in the running configuration, on
         whichever robot it runs."""
+        return self.applier.read(*self.where(schema, port))
+
+    def where(self, schema: str, port: str) -> tuple[str, str]:
+        """Where a port of the module filling `schema` in the running configuration is: its
+        robot and its name there (``instance.port``)."""
         if self.current is None:
             raise ConfigurationError(
                 f"read {schema}.{port}: expected a running configuration, got none"
             )
         instance = self.current.instance_of(schema)
-        return self.applier.read(self.current.robot_of(instance), f"{instance}.{port}")
+        return self.current.robot_of(instance), f"{instance}.{port}"
 
     def run(self, until: float, advance: Callable[[float], None]) -> None:
         """Let the world run to `until` seconds, one decision period at a time (`advance(s)` runs

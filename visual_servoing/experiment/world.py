@@ -66,6 +66,8 @@ PLATE_BRIDGE = 65535
 """The number of the bridge that carries the plate's yaw (an applier numbers its own from 0)."""
 PLATE_MHZ = 100_000
 """The rate of the ``Plate`` PBOs in millihertz (100 Hz)."""
+SAMPLED = (("trajectory", "target"), ("matching", "deviation"), ("trajectory", "yaw"))
+"""The task's ports a sample reads, each (schema, port)."""
 SERVOS_LINE = re.compile(r"CAN servo nodes on ")
 """The servo emulator's line once it serves its buses."""
 _CHANNELS = itertools.count()
@@ -245,15 +247,19 @@ class ServoingWorld(WorldPlant):
     def sample(self, view: View) -> Mapping[str, float]:
         """The task at one frame: the target, the deviation the matcher reports and the true
         one (pixels), the plate's yaw and the yaw commanded (degrees)."""
-        target = int(view.value("trajectory", "target"))
+        slots = [view.runtime.where(*slot) for slot in SAMPLED]
+        if self.setting.nodes is None:  # over links: the plate's yaw in the same requests
+            slots.append((HEXMAN_ROBOT, f"{PLATE}.yaw"))
+        read, reported, command, *yaw = view.reads(*slots)
+        target = int(read)
         name = list(self.scene.targets)[target % len(self.scene.targets)]
-        yaw = self.plate_yaw()
+        plate = yaw[0] if yaw else self.plate_yaw()
         return {
             "target": target,
-            "reported": view.value("matching", "deviation"),
-            "true": float(self.scene.truth(name, yaw).x - self.scene.centre.x),
-            "yaw": yaw,
-            "command": view.value("trajectory", "yaw"),
+            "reported": reported,
+            "true": float(self.scene.truth(name, plate).x - self.scene.centre.x),
+            "yaw": plate,
+            "command": command,
         }
 
     def inputs(self, view: View) -> Mapping[str, object]:

@@ -178,6 +178,27 @@ def unused_port() -> int:
         return probe.getsockname()[1]
 
 
+def test_several_ports_are_read_in_one_request_at_one_moment(loaded, node_a):
+    database = loaded.database
+    current = initial_configuration(loaded.task, database)
+    with LinkApplier.open({"a": node_a.url}) as applier:
+        maintainer = Maintainer(database, applier, EventLog())
+        maintainer.apply(maintainer.plan(None, current))
+        wait_until(lambda: applier.read("a", "gain.y") > 0, "gain output")
+        control = applier.node("a").control
+        requests: list[tuple[str, ...]] = []
+        read = control.read
+
+        def counted(ports: tuple[str, ...]) -> tuple[tuple[str, object], ...]:
+            requests.append(ports)
+            return read(ports)
+
+        control.read = counted  # type: ignore[method-assign]
+        y, x, again = applier.reads("a", ["gain.y", "gain.x", "gain.y"])
+    assert requests == [("gain.y", "gain.x", "gain.y")]
+    assert y == again and y % 6 == 0 and 0 < y <= 2 * x  # read at one moment: see above
+
+
 def test_a_node_that_cannot_be_reached_fails_before_any_step(node_a):
     url = f"socket://127.0.0.1:{unused_port()}"
     unreachable = f"robot 'b': cannot open the link to its node at {url}: "
