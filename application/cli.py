@@ -50,7 +50,7 @@ from application.scenario import Scenario
 from campaign.cli import add_campaign_arguments, run_campaign
 from campaign.errors import CampaignError
 from commandline import UsageError, add_command, command_parser, run
-from commandline.arguments import real
+from commandline.arguments import named_url, real
 from commandline.children import ChildError
 from commandline.progress import progress_bar
 from firmware_sim.errors import FirmwareSimError
@@ -242,7 +242,7 @@ def _add_manager(commands: argparse._SubParsersAction, application: Application)
         "--peer",
         action="append",
         default=[],
-        type=named_url,
+        type=named_url("NAME"),
         metavar="NAME=URL",
         help="a process the time master grants each quantum before the nodes (its control URL)",
     )
@@ -303,7 +303,7 @@ def _device_option(command: argparse.ArgumentParser) -> None:
         "--device",
         action="append",
         default=[],
-        type=named_url,
+        type=named_url("NAME"),
         metavar="NAME=URL",
         help="a device of the application's world in another process (a CAN bus to servos)",
     )
@@ -316,14 +316,6 @@ def _scenario(application: Application, args: argparse.Namespace) -> Scenario:
 
 def _robots(application: Application, scenario: Scenario) -> list[str]:
     return list(database_of(application, scenario).robots)
-
-
-def named_url(text: str) -> tuple[str, str]:
-    """``NAME=URL``: a name and the URL of what it names."""
-    name, equals, url = text.partition("=")
-    if not equals or not name or not url:
-        raise argparse.ArgumentTypeError(f"expected NAME=URL, got {text!r}")
-    return name, url
 
 
 def _folder(text: str) -> Path:

@@ -118,7 +118,7 @@ def run_processes(
             arguments[robot] = [*node, "--robot", robot, *_where(application, robot, out)]
             kill = [] if robot != killed else ["--kill-at", repr(scenario.outage.time)]  # type: ignore[union-attr]
             launch.start(robot, *arguments[robot], *kill)
-        prepare(application, scenario, out)
+        prepared = prepare(application, scenario, out)
         for robot in robots:
             (child,) = [c for c in launch.children if c.role == robot]
             launch.urls[robot] = child.wait_for(CONNECT_URL)[1]
@@ -140,7 +140,7 @@ def run_processes(
             peers=launched.peers(),
             real_time=real_time,
             quantum=quantum,
-            built=True,
+            prepared=prepared,
             say=lambda line: print(line, file=log, flush=True),
             progress=progress,
             supervise=supervise,

@@ -18,7 +18,7 @@ from __future__ import annotations
 import contextlib
 import socket
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from urllib.parse import urlsplit
 
 from application.errors import RunError, ScenarioError
@@ -47,11 +47,19 @@ class SwitchedOff:
 
 class OverLinks:
     """Outages across processes: `urls` is where the manager reaches each robot's node (a
-    relay's URL for one whose link a scenario cuts), `relays` the relays by robot."""
+    relay's URL for one whose link a scenario cuts), `relays` the relays by robot; `supervise`
+    is called while a node is waited for (the launcher's watch, which starts a killed node
+    again and fails the run at once when a process ended that should not have)."""
 
-    def __init__(self, urls: Mapping[str, str], relays: Mapping[str, Relay]) -> None:
+    def __init__(
+        self,
+        urls: Mapping[str, str],
+        relays: Mapping[str, Relay],
+        supervise: Callable[[], None] = lambda: None,
+    ) -> None:
         self.urls = dict(urls)
         self.relays = dict(relays)
+        self.supervise = supervise
 
     def lose(self, view: View, outage: Outage) -> None:
         view.applier.down.add(outage.robot)
@@ -61,7 +69,7 @@ class OverLinks:
     def restore(self, view: View, outage: Outage) -> None:
         if outage.kind == "cut":
             self.relays[outage.robot].restore()
-        reachable(self.urls[outage.robot], BACK_TIMEOUT)
+        reachable(self.urls[outage.robot], BACK_TIMEOUT, self.supervise)
         view.applier.down.discard(outage.robot)
 
 
@@ -84,14 +92,15 @@ def relays(
     return {outage.robot: relay}
 
 
-def reachable(url: str, timeout: float) -> None:
+def reachable(url: str, timeout: float, between: Callable[[], None] = lambda: None) -> None:
     """Return once a TCP connection to `url` (``socket://HOST:PORT``) is accepted and stays
     open a moment (a relay that is down accepts and closes at once); a RunError after `timeout`
-    seconds."""
+    seconds. `between` is called before each try."""
     parts = urlsplit(url)
     address = (parts.hostname or "127.0.0.1", parts.port or 0)
     deadline = time.monotonic() + timeout
     while True:
+        between()
         with contextlib.suppress(OSError), socket.create_connection(address, 0.5) as probe:
             probe.settimeout(0.1)
             try:

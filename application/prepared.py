@@ -17,7 +17,6 @@ from application.declaration import Application
 from application.errors import ApplicationSetupError
 from application.scenario import Scenario, with_faults
 from hexmigrate.elf import image_from_elf
-from hexmigrate.errors import HexmigrateError
 from hexmigrate.image import ModuleImage
 from module_sdk.build import build_module
 from module_sdk.errors import BuildError
@@ -50,12 +49,9 @@ def database_of(application: Application, scenario: Scenario) -> ModuleDatabase:
     return with_faults(loaded.database, scenario.faults)
 
 
-def prepare(
-    application: Application, scenario: Scenario, work: Path, built: bool = False
-) -> Prepared:
-    """Build `application`'s guests into `work` (`built`: read the HEX files an earlier
-    `prepare` built there), write its database (plus the scenario's extra TOML) there and load
-    it with the scenario's faults and location."""
+def prepare(application: Application, scenario: Scenario, work: Path) -> Prepared:
+    """Build `application`'s guests into `work`, write its database (plus the scenario's extra
+    TOML) there and load it with the scenario's faults and location."""
     source = scenario.database or application.database
     text = source.read_text(encoding="utf-8") + scenario.extra
     work.mkdir(parents=True, exist_ok=True)
@@ -64,9 +60,7 @@ def prepare(
     loaded = loads(text, source.name, work)
     if loaded.task is None:
         raise DatabaseError(str(source), "task", "a [task] table", "none")
-    images = {
-        name: _image(name, path, loaded, work, built) for name, path in application.guests.items()
-    }
+    images = {name: _build(name, path, loaded, work) for name, path in application.guests.items()}
     task = (
         loaded.task
         if scenario.location is None
@@ -76,9 +70,9 @@ def prepare(
     return Prepared(Loaded(database, task), images, file)
 
 
-def _image(name: str, source: Path, loaded: Loaded, work: Path, built: bool) -> ModuleImage:
+def _build(name: str, source: Path, loaded: Loaded, work: Path) -> ModuleImage:
     """Build guest `name` from `source` into ``work/build`` and write it where the database
-    names its image (unless `built`); the image read back from that file."""
+    names its image; the image read back from that file."""
     try:
         module = loaded.database.module(name)
     except ConfigurationError as error:
@@ -89,13 +83,6 @@ def _image(name: str, source: Path, loaded: Loaded, work: Path, built: bool) -> 
         raise ApplicationSetupError(
             f"guest {name}: expected the database to name its image, got native code"
         )
-    if built:
-        try:
-            return ModuleImage.read(module.source.image)
-        except (HexmigrateError, OSError) as error:
-            raise ApplicationSetupError(
-                f"guest {name}: expected its image built at {module.source.image}, got {error}"
-            ) from error
     try:
         build = build_module(source, work / "build")
     except BuildError as error:

@@ -23,7 +23,7 @@ from application.declaration import Application
 from application.local_world import LocalWorld
 from application.outages import OverLinks, SwitchedOff, relays
 from application.plant import Setting
-from application.prepared import prepare
+from application.prepared import Prepared, prepare
 from application.recording import RunPlant
 from application.records import Outcome
 from application.scenario import Scenario
@@ -122,7 +122,7 @@ def run_managed(
     peers: Mapping[str, str] | None = None,
     real_time: bool = False,
     quantum: float | None = None,
-    built: bool = False,
+    prepared: Prepared | None = None,
     say: Callable[[str], None] = lambda line: None,
     progress: Callable[[float], None] = lambda now: None,
     supervise: Callable[[], None] = lambda: None,
@@ -130,9 +130,10 @@ def run_managed(
     """Run `scenario` on the robots' node processes at `nodes` (robot -> URL); the plant's
     devices are at `devices`; in real time, or in lock-step time of `quantum` seconds (the
     application's by default), the `peers` (name -> control URL) granted each quantum first.
-    Guests are built into `out` (`built`: they are there already) and the events written there
-    (``events.jsonl``); `supervise` is called at each look of the plant (`RunPlant`)."""
-    prepared = prepare(application, scenario, out, built)
+    Guests are built into `out` (unless given `prepared`: what `prepare` made there) and the
+    events written there (``events.jsonl``); `supervise` is called at each look of the plant
+    (`RunPlant`) and while a node is waited for (`OverLinks`)."""
+    prepared = prepared or prepare(application, scenario, out)
     database = prepared.loaded.database
     outcome = Outcome(scenario)
     with contextlib.ExitStack() as stack:
@@ -148,7 +149,7 @@ def run_managed(
             time=time,
             seconds=scenario.duration,
             settings=application.settings,
-            plant=RunPlant(plant, outcome, OverLinks(reached, cut), supervise),
+            plant=RunPlant(plant, outcome, OverLinks(reached, cut, supervise), supervise),
             wire=wire,
             rate=rate,
             migration_wire=application.migration_wire,

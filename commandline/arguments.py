@@ -72,6 +72,20 @@ def address(text: str) -> int:
     return value
 
 
+def named_url(name: str) -> Callable[[str], tuple[str, str]]:
+    """``NAME=URL`` (`name` says what names it: ROBOT, NAME): the name and the URL, neither
+    empty."""
+
+    def parse(text: str) -> tuple[str, str]:
+        named, equals, url = text.partition("=")
+        if not equals or not named or not url:
+            raise argparse.ArgumentTypeError(f"expected {name}=URL, got {text!r}")
+        return named, url
+
+    parse.__name__ = f"{name}=URL"
+    return parse
+
+
 def input_file(max_bytes: int = DEFAULT_MAX_FILE_BYTES) -> Callable[[str], Path]:
     """An existing regular file of at most `max_bytes`."""
 

@@ -22,7 +22,7 @@ import argparse
 from collections.abc import Sequence
 
 from commandline import CommandLineError, UsageError, add_command, command_parser, run
-from commandline.arguments import input_file, integer, output_file, real
+from commandline.arguments import input_file, integer, named_url, output_file, real
 from hexmigrate.errors import KeyFileError
 from hexmigrate.signing.keys import MAX_KEY_FILE, load_private
 from refresh.configuration import initial_configuration
@@ -158,12 +158,8 @@ def add_location_option(command: argparse.ArgumentParser) -> None:
     )
 
 
-def robot_url(text: str) -> tuple[str, str]:
-    """``ROBOT=URL``: a robot of the database and the URL of its node."""
-    robot, equals, url = text.partition("=")
-    if not equals or not robot or not url:
-        raise argparse.ArgumentTypeError(f"expected ROBOT=URL, got {text!r}")
-    return robot, url
+robot_url = named_url("ROBOT")
+"""``ROBOT=URL``: a robot of the database and the URL of its node."""
 
 
 def _add_manage(commands: argparse._SubParsersAction) -> None:
