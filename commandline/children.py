@@ -15,6 +15,8 @@ itself.
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import os
 import re
 import signal
@@ -36,6 +38,9 @@ TAIL = 5
 """Lines of a child's log an error quotes."""
 CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
 """Ticks per second of the CPU times in /proc/PID/stat."""
+PR_SET_PDEATHSIG = 1
+"""prctl(2)'s option: the signal a child gets when its parent dies."""
+_LIBC = ctypes.CDLL(None, use_errno=True)
 
 
 class ChildError(CommandLineError):
@@ -55,18 +60,21 @@ class Child:
     """Bytes of the log read into `_lines`: up to the end of the last whole line."""
     _read_all: bool = field(default=False, init=False, repr=False)
     """Whether the log was read after the process ended: nothing more can come."""
+    _interrupted: bool = field(default=False, init=False, repr=False)
+    """Whether SIGINT was sent: a second one would cut short the clean stop the first asked
+    for (Python's second Ctrl-C)."""
 
     @classmethod
     def start(cls, role: str, argv: Sequence[str], log: Path, cwd: Path | None = None) -> Child:
         """Start `argv` in `cwd` as `role`, its output and errors into `log`, with SIGINT at its
-        default action (`_interruptible`)."""
+        default action and ended when this process dies (`_interruptible`)."""
         with log.open("wb") as output:
             process = subprocess.Popen(
                 list(argv),
                 stdout=output,
                 stderr=subprocess.STDOUT,
                 cwd=cwd,
-                preexec_fn=_interruptible,
+                preexec_fn=functools.partial(_interruptible, os.getpid()),
             )
         return cls(role, process, log)
 
@@ -135,13 +143,15 @@ class Child:
         return ChildError(f"process {self.role} {what} (log {self.log}): {tail}")
 
     def interrupt(self) -> None:
-        """SIGINT, as Ctrl-C, if it still runs: `stop` then waits for it (a caller stopping
-        several children interrupts them all first, so they end together)."""
-        if self.process.poll() is None:
+        """SIGINT, as Ctrl-C, once, if it still runs: `stop` then waits for it (a caller
+        stopping several children interrupts them all first, so they end together)."""
+        if self.process.poll() is None and not self._interrupted:
+            self._interrupted = True
             self.process.send_signal(signal.SIGINT)
 
     def stop(self) -> None:
-        """SIGINT, as Ctrl-C; SIGKILL if it has not ended after STOP_TIMEOUT. Idempotent."""
+        """SIGINT, as Ctrl-C, unless `interrupt` sent it already; SIGKILL if it has not ended
+        after STOP_TIMEOUT. Idempotent."""
         if self.process.poll() is None:
             self.interrupt()
             try:
@@ -157,12 +167,17 @@ class Child:
         self.stop()
 
 
-def _interruptible() -> None:
-    """In the child, before it runs its program: SIGINT back to its default action. A process
-    that ignores SIGINT (a background job of a shell without job control, as ``make test &``
-    runs the suite) passes that on to every program it starts, and a Python program that
-    starts with SIGINT ignored keeps ignoring it: `stop` would have to kill it, and a caller
-    that interrupts a child to see it end cleanly (exit 130) would wait for nothing. It runs
-    between fork and exec, where another thread's locks may be held, so it takes none: one
-    sigaction."""
+def _interruptible(parent: int) -> None:
+    """In the child, before it runs its program: SIGINT back to its default action, and SIGTERM
+    when the parent dies. A process that ignores SIGINT (a background job of a shell without
+    job control, as ``make test &`` runs the suite) passes that on to every program it starts,
+    and a Python program that starts with SIGINT ignored keeps ignoring it: `stop` would have
+    to kill it, and a caller that interrupts a child to see it end cleanly (exit 130) would wait
+    for nothing. A parent killed outright (SIGKILL, the OOM killer) stops nothing, and its
+    nodes would listen on as orphans: the kernel ends them instead (Linux's parent-death
+    signal, sent when the thread that started the child ends; a parent gone already before the
+    call is seen as a new parent). It runs between fork and exec, where another thread's locks
+    may be held, so it takes none: one sigaction and one prctl, prepared before the fork."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)
+    if _LIBC.prctl(PR_SET_PDEATHSIG, signal.SIGTERM) != 0 or os.getppid() != parent:
+        os.kill(os.getpid(), signal.SIGTERM)

@@ -128,11 +128,21 @@ def importing_command() -> Iterator[None]:
 
 
 def _error_line(text: str, debug: bool) -> int:
-    """Print the error line (after the traceback of the error being handled, with --debug)."""
+    """Print the error line (after the traceback of the error being handled, with --debug).
+    What is not printable in it is shown escaped: a message may quote what a node, a child
+    process or a file said, and a terminal must not take its escapes as commands."""
     if debug:
         traceback.print_exc()
-    print(f"error: {text}", file=sys.stderr)
+    print(f"error: {visible(text)}", file=sys.stderr)
     return EXIT_ERROR
+
+
+def visible(text: str) -> str:
+    """`text` with every character that is not printable shown as Python escapes it
+    (``\\x1b``, ``\\n``), the rest as it is."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def describe(error: BaseException) -> str:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from commandline import children
+from commandline import children, command_parser, run
 from commandline.children import Child, ChildError
 
 LISTENING = re.compile(r"^listening on (\S+)")
@@ -91,7 +91,6 @@ def test_a_child_still_running_when_waited_for_is_an_error_and_stop_ends_it(tmp_
 def test_a_child_of_a_process_that_ignores_sigint_is_interrupted_not_killed(tmp_path, monkeypatch):
     """As when the suite runs as a background job of a shell: the child must not inherit the
     ignored SIGINT, or stop could only kill it."""
-    monkeypatch.setattr(children, "STOP_TIMEOUT", 5.0)
     code = "import time; print('listening on here', flush=True); time.sleep(60)"
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
@@ -101,6 +100,60 @@ def test_a_child_of_a_process_that_ignores_sigint_is_interrupted_not_killed(tmp_
     child.wait_for(LISTENING)
     child.stop()
     assert child.process.returncode == -signal.SIGINT  # KeyboardInterrupt, not SIGKILL
+
+
+def test_an_interrupted_child_is_not_interrupted_again_while_it_stops_cleanly(tmp_path):
+    """Interrupted, then stopped (as a launcher stops several children): stop must not send the
+    second SIGINT that would cut its clean stop short."""
+    code = (
+        "import time\n"
+        "try:\n    print('listening on here', flush=True); time.sleep(60)\n"
+        "except KeyboardInterrupt:\n    time.sleep(0.5); print('stopped cleanly', flush=True)\n"
+    )
+    child = Child.start("careful", python(code), tmp_path / "careful.log")
+    child.wait_for(LISTENING)
+    child.interrupt()
+    time.sleep(0.1)  # the first SIGINT taken before the stop: no merging of the two signals
+    child.stop()
+    assert child.lines()[-1] == "stopped cleanly"
+
+
+def test_an_error_quoting_a_child_shows_its_escapes_not_raw_on_the_error_line(tmp_path, capsys):
+    code = "print('\\x1b]0;owned\\x07\\x1b[2J no luck'); raise SystemExit(3)"
+    ended = Child.start("hostile", python(code), tmp_path / "hostile.log")
+
+    def fail(args: object) -> None:
+        ended.wait_for(LISTENING)
+
+    parser = command_parser("hostile", "a command whose child fails")
+    parser.set_defaults(func=fail)
+    assert run(parser, ChildError, []) == 1
+    err = capsys.readouterr().err
+    assert "\x1b" not in err and "\x07" not in err
+    assert err.endswith("\\x1b]0;owned\\x07\\x1b[2J no luck\n")
+
+
+def test_a_child_ends_when_the_process_that_started_it_is_killed(tmp_path: Path) -> None:
+    """A launcher killed outright (SIGKILL) leaves no orphan listening on."""
+    code = (
+        "import sys, time\n"
+        "from pathlib import Path\n"
+        "from commandline.children import Child\n"
+        "child = Child.start('sleeper', [sys.executable, '-c', 'import time; time.sleep(60)'],"
+        " Path(sys.argv[1]))\n"
+        "print('listening on', child.process.pid, flush=True)\n"
+        "time.sleep(60)\n"
+    )
+    with Child.start(
+        "parent", [*python(code), str(tmp_path / "sleeper.log")], tmp_path / "p"
+    ) as parent:
+        orphan = Path(f"/proc/{parent.wait_for(LISTENING)[1]}")
+        parent.process.kill()
+        parent.process.wait(5)
+        deadline = time.monotonic() + 5
+        while orphan.exists() and "Z" not in (orphan / "stat").read_text().split()[2]:
+            assert time.monotonic() < deadline, "the child outlived its killed parent"
+            time.sleep(0.05)
 
 
 def test_a_busy_child_is_charged_its_cpu_time_and_an_idle_one_nothing(tmp_path: Path) -> None:
