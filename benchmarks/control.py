@@ -41,6 +41,7 @@ from pathlib import Path
 
 from nodes import node_process
 
+from commandline.arguments import integer, real
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
 from hexmigrate.links import open_link
@@ -245,7 +246,8 @@ def scenario_run_time(scenario: str, repeats: int) -> bool:
                 start = time.perf_counter()
                 subprocess.run(command, check=True, capture_output=True, timeout=SCENARIO_TIMEOUT)
                 times[label].append(time.perf_counter() - start)
-    here, across = (statistics.median(times[label]) for label in times)
+    here = statistics.median(times["in process"])
+    across = statistics.median(times["across processes"])
     ratio = across / here
     met = ratio <= PROCESSES_GOAL
     print(
@@ -262,12 +264,22 @@ def scenario_run_time(scenario: str, repeats: int) -> bool:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--requests", type=int, default=200, help="round trips of each kind")
-    parser.add_argument("--nodes", type=int, default=10, help="nodes that push reports")
-    parser.add_argument("--seconds", type=float, default=5.0, help="length of each CPU window")
+    parser.add_argument(
+        "--requests", type=integer(2, 100_000), default=200, help="round trips of each kind"
+    )
+    parser.add_argument("--nodes", type=integer(1, 200), default=10, help="nodes that push reports")
+    parser.add_argument(
+        "--seconds",
+        type=real(above=0, maximum=3600, unit="s"),
+        default=5.0,
+        help="length of each CPU window",
+    )
     parser.add_argument("--scenario", default="paper", help="the scenario run across processes")
     parser.add_argument(
-        "--repeats", type=int, default=3, help="runs of the scenario each way (the median counts)"
+        "--repeats",
+        type=integer(1, 100),
+        default=3,
+        help="runs of the scenario each way (the median counts)",
     )
     args = parser.parse_args()
 

@@ -68,6 +68,8 @@ class TimeMaster:
         """Bridge number -> values its exporter had sent at the end of the last quantum."""
         self.clocks: dict[str, float] = dict.fromkeys(self.controls, 0.0)
         """Node name -> the clock it acknowledged at the end of the last quantum."""
+        self._here, *self._others = self.controls
+        """The node the caller's thread advances, and those the master's threads advance."""
         self._pool = ThreadPoolExecutor(
             max(1, len(self.controls) - 1), thread_name_prefix="time master"
         )
@@ -126,10 +128,10 @@ class TimeMaster:
                 self.clocks[name], _ = control.advance(until, {})
             except HexmigrateError as error:
                 raise TransferError(f"quantum to {until:g} s: {name}: {error}") from error
-        here, *others = self.controls
+        here = self._here
         futures = {
             name: self._pool.submit(self.controls[name].advance, until, self._expected(name))
-            for name in others
+            for name in self._others
         }
         results: dict[str, tuple[float, dict[int, int]]] = {}
         failures = []

@@ -21,7 +21,8 @@ does the bookkeeping and calls one protected hook that the back end implements.
   (`migration_wire`), the transfer takes that wire's time in the run: the back end says how long
   (`_send`), and `wait(seconds)` lets the world run on meanwhile (the old configuration keeps
   working while the image travels, as on a real robot).
-- **Reads.** `read` gives a live scalar port's value as a float, or an ApplyError naming the port.
+- **Reads.** `read` gives a live scalar port's value as a float, or an ApplyError naming the port;
+  `reads` several ports of one robot at once (one request over a link).
 
 The back ends live beside this module: `in_memory` (a model of the robots, for tests of plans),
 `in_process` (emulated nodes in this process) and `over_links` (node processes or boards reached
@@ -367,7 +368,7 @@ def _scalar(robot: str, port: str, value: object) -> float:
     """`value` of `port` as a number; an ApplyError for a value that is not a scalar."""
     try:
         return float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # an integer beyond a float's range
         raise ApplyError(
             f"read {port} on {robot}: expected a scalar value, got {type(value).__name__}"
         ) from None

@@ -9,6 +9,7 @@ time), never the wall clock.
 
 from __future__ import annotations
 
+import itertools
 import json
 from collections.abc import Callable
 from typing import TextIO
@@ -31,7 +32,9 @@ class EventStream:
 
     def flush(self) -> None:
         """Write every event recorded since the last flush."""
-        events = list(self.log)[self.written :]
+        if len(self.log) == self.written:  # the common case: once per sample period
+            return
+        events = list(itertools.islice(self.log, self.written, None))
         for event in events:
             self.say(line(event))
             if self.out is not None:

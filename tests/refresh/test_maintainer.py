@@ -202,3 +202,22 @@ def test_an_image_that_went_missing_fails_its_migration_naming_the_module(tmp_pa
         gain = loaded.database.module("gain")
         with pytest.raises(ApplyError, match=f"migrate gain: .*{tmp_path / 'gain.hex'}"):
             applier.migrate("a", gain)
+
+
+class Answering(MemoryApplier):
+    """A model of the robots whose nodes answer reads with `values`, as a node might."""
+
+    def __init__(self, values: list[object]) -> None:
+        super().__init__(["a"])
+        self.values = values
+
+    def _read(self, robot: str, ports: tuple[str, ...]) -> list[object]:
+        return self.values
+
+
+@pytest.mark.parametrize("value", [10**400, "ten", None])
+def test_a_read_that_is_no_float_is_an_error_naming_the_port(value) -> None:
+    """An integer beyond a float's range is as refused as a text: no OverflowError escapes."""
+    with pytest.raises(ApplyError, match=r"^read gain\.y on a: expected a scalar value, got "):
+        Answering([1, value]).reads("a", ["gain.x", "gain.y"])
+    assert Answering([1, 2.5]).reads("a", ["gain.x", "gain.y"]) == [1.0, 2.5]
