@@ -238,14 +238,6 @@ def _add_manager(commands: argparse._SubParsersAction, application: Application)
         metavar="ROBOT=URL",
         help="a robot's node (one for every robot)",
     )
-    command.add_argument(
-        "--peer",
-        action="append",
-        default=[],
-        type=named_url("NAME"),
-        metavar="NAME=URL",
-        help="a process the time master grants each quantum before the nodes (its control URL)",
-    )
     _device_option(command)
     _time_options(command, application, "")
 
@@ -264,7 +256,6 @@ def _manager(application: Application, args: argparse.Namespace) -> None:
         out,
         nodes,
         devices=dict(args.device),
-        peers=dict(args.peer),
         real_time=args.real_time,
         quantum=args.quantum,
         say=lambda line: print(line, flush=True),

@@ -4,8 +4,7 @@ watched and stopped by this launcher, which is the run's host: its manager runs 
 The processes, each with its output in a log file of the run's folder (``ROLE.log``):
 
 - the plant's own processes, if it has any (`WorldPlant.launch`: the paper's servo emulator,
-  serving its CAN buses), with the URLs of their devices and, once they say where they listen,
-  those the time master grants each quantum first;
+  serving its CAN buses), with the URLs of their devices, waited for until they serve;
 - one node per robot, ``python -m APP node``, on a pty where the application wants a serial line
   (`Application.listen`), else on a TCP port of 127.0.0.1 the launcher picks, its flash in
   ``ROBOT.flash``.
@@ -119,6 +118,7 @@ def run_processes(
             kill = [] if robot != killed else ["--kill-at", repr(scenario.outage.time)]  # type: ignore[union-attr]
             launch.start(robot, *arguments[robot], *kill)
         prepared = prepare(application, scenario, out)
+        launched.ready()
         for robot in robots:
             (child,) = [c for c in launch.children if c.role == robot]
             launch.urls[robot] = child.wait_for(CONNECT_URL)[1]
@@ -137,7 +137,6 @@ def run_processes(
             out,
             {robot: launch.urls[robot] for robot in robots},
             devices=launched.devices,
-            peers=launched.peers(),
             real_time=real_time,
             quantum=quantum,
             prepared=prepared,

@@ -34,6 +34,10 @@ class NodeClock:
     def __call__(self) -> float:
         return 0.0 if self.node is None else self.node.kernel.now
 
+    def horizon(self) -> float:
+        """The time the node's run under way goes to (`Node.horizon`)."""
+        return 0.0 if self.node is None else self.node.horizon
+
 
 def serve_node(
     application: Application,
@@ -52,7 +56,15 @@ def serve_node(
     database = database_of(application, scenario)
     clock = NodeClock()
     plant = application.plant(
-        Setting(application, scenario, database, clock, robot=robot, devices=dict(devices or {}))
+        Setting(
+            application,
+            scenario,
+            database,
+            clock,
+            robot=robot,
+            devices=dict(devices or {}),
+            horizon=clock.horizon,
+        )
     )
     try:
         codes = plant.firmware(robot)

@@ -16,8 +16,7 @@ own (the paper's scene, servos and plate) subclasses it.
 
 Devices a plant reaches in other processes (a CAN bus to servos) come as URLs by name
 (`Setting.devices`); a plant that needs processes of its own beside the nodes (a servo emulator)
-starts them in `launch`, which says the devices' URLs and the lock-step peers (processes the
-time master grants each quantum first) it made.
+starts them in `launch`, which says the devices' URLs it made and how to wait until they serve.
 """
 
 from __future__ import annotations
@@ -43,7 +42,9 @@ class Setting:
     """Where a plant is made: for `scenario` on `database`, on `clock` (seconds of the run);
     with `nodes` in process (every robot's node, stepped together), or for `robot`'s node
     process, or (neither) for the manager across processes; `devices` are the URLs of the
-    plant's devices in other processes, by name."""
+    plant's devices in other processes, by name; `horizon` is the time a node process's run
+    goes to (`Node.horizon`: the end of its quantum in lock-step time), which it stamps on what
+    it sends to those devices, and the clock elsewhere."""
 
     application: Application
     scenario: Scenario
@@ -52,17 +53,21 @@ class Setting:
     nodes: Mapping[str, Node] | None = None
     robot: str | None = None
     devices: Mapping[str, str] = field(default_factory=dict)
+    horizon: Callable[[], float] | None = None
+
+    def stamp(self) -> float:
+        """The time to stamp on what this setting sends to a device in another process."""
+        return (self.horizon or self.clock)()
 
 
 @dataclass(frozen=True)
 class Launched:
     """What a plant's own processes are: its devices' URLs by name (the nodes are started with
-    them), and `peers()`, the lock-step peers (name -> control URL) the time master grants each
-    quantum before the nodes, waited for only when the manager starts (the nodes start
-    meanwhile)."""
+    them), and `ready()`, which returns once they serve, waited for only when the manager starts
+    (the nodes start meanwhile)."""
 
     devices: Mapping[str, str] = field(default_factory=dict)
-    peers: Callable[[], Mapping[str, str]] = dict
+    ready: Callable[[], None] = lambda: None
 
 
 class WorldPlant(Plant):

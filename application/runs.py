@@ -8,8 +8,8 @@ holds what the session recorded. They differ only in what runs the robots:
   by `refresh.appliers.in_process.NodeApplier` (guest images sent over an in-process link, or
   across the modelled migration wire in virtual time), the estimators on a host node here;
 - `run_managed`: the robots' nodes are processes reached by URL (``python -m APP node``), managed
-  by `refresh.manager.manage` (the manager of ``python -m refresh manage``) in lock-step time
-  (the plant's peers granted each quantum first) or real time.
+  by `refresh.manager.manage` (the manager of ``python -m refresh manage``) in lock-step time or
+  real time.
 """
 
 from __future__ import annotations
@@ -28,9 +28,6 @@ from application.recording import RunPlant
 from application.records import Outcome
 from application.scenario import Scenario
 from firmware_sim.core.node import Node, NodeConfig
-from hexmigrate.links import open_link
-from hexmigrate.transfer.control_client import NodeControl
-from hexmigrate.transfer.sender import Sender
 from refresh.appliers.in_process import NodeApplier
 from refresh.estimators.host import HostEstimators, host_codes
 from refresh.manager.manager import ManagerConfig, manage
@@ -119,7 +116,6 @@ def run_managed(
     nodes: Mapping[str, str],
     *,
     devices: Mapping[str, str] | None = None,
-    peers: Mapping[str, str] | None = None,
     real_time: bool = False,
     quantum: float | None = None,
     prepared: Prepared | None = None,
@@ -129,7 +125,7 @@ def run_managed(
 ) -> Outcome:
     """Run `scenario` on the robots' node processes at `nodes` (robot -> URL); the plant's
     devices are at `devices`; in real time, or in lock-step time of `quantum` seconds (the
-    application's by default), the `peers` (name -> control URL) granted each quantum first.
+    application's by default).
     Guests are built into `out` (unless given `prepared`: what `prepare` made there) and the
     events written there (``events.jsonl``); `supervise` is called at each look of the plant
     (`RunPlant`) and while a node is waited for (`OverLinks`)."""
@@ -139,7 +135,7 @@ def run_managed(
     with contextlib.ExitStack() as stack:
         cut = relays(scenario, nodes, stack)
         reached = {robot: cut[robot].url if robot in cut else url for robot, url in nodes.items()}
-        time = _time_mode(application, real_time, quantum, peers or {}, stack)
+        time: TimeMode = RealTime() if real_time else LockStep(quantum or application.quantum)
         setting = Setting(application, scenario, database, time.clock, devices=dict(devices or {}))
         plant = application.plant(setting)
         stack.callback(plant.close)
@@ -159,24 +155,6 @@ def run_managed(
         )
         runtime = manage(prepared.loaded, config, say, progress)
     return finished(outcome, runtime)
-
-
-def _time_mode(
-    application: Application,
-    real_time: bool,
-    quantum: float | None,
-    peers: Mapping[str, str],
-    stack: contextlib.ExitStack,
-) -> TimeMode:
-    """Real time, or lock-step time with the peers' controls (their links closed with
-    `stack`)."""
-    if real_time:
-        return RealTime()
-    first = {
-        name: NodeControl(Sender(stack.enter_context(open_link(url))))
-        for name, url in peers.items()
-    }
-    return LockStep(quantum or application.quantum, first=first)
 
 
 def finished(outcome: Outcome, runtime: Runtime) -> Outcome:

@@ -4,7 +4,9 @@ A move sends ``Command<n>`` to each node (node = channel + 1) with the same move
 sends ``Sync`` with a fresh counter and waits for every node's ``Feedback<n>`` and ``Status<n>``
 carrying that counter; a node that does not answer within the timeout is a `ServoSilentError`
 naming it. A send the controller refuses is a `BusOffError` when the controller reports
-`BusState.ERROR` (bus-off), else a `ServoBusError` with python-can's reason.
+`BusState.ERROR` (bus-off), else a `ServoBusError` with python-can's reason. Every frame sent is
+stamped with the host's time (`stamp`, seconds of the run): the servos in lock-step time follow
+it (`servo_emulators.lock_step`); unstamped (0) without one.
 
 `open_can_bus(url)` opens python-can from a ``can://`` URL of hexmigrate's grammar
 (``can://virtual/CH``, ``can://remote/127.0.0.1:PORT/CH``, ``can://slcan//dev/pts/N``).
@@ -13,6 +15,7 @@ naming it. A send the controller refuses is a `BusOffError` when the controller 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import can
 import cantools
@@ -56,11 +59,15 @@ def open_can_bus(url: str, wait: float = 0.0) -> can.BusABC:
 
 
 class CanServoBus:
-    """The six legs' servo nodes on `bus`; the bus stays the caller's to shut down."""
+    """The six legs' servo nodes on `bus`, each frame stamped with `stamp()` if given; the bus
+    stays the caller's to shut down."""
 
-    def __init__(self, bus: can.BusABC, geometry: Geometry) -> None:
+    def __init__(
+        self, bus: can.BusABC, geometry: Geometry, stamp: Callable[[], float] | None = None
+    ) -> None:
         self.bus = bus
         self.geometry = geometry
+        self.stamp = stamp
         self.db = database()
         self._nodes = [channel + 1 for channel in geometry.channels]
         if not all(1 <= node <= NODES for node in self._nodes):
@@ -134,6 +141,8 @@ class CanServoBus:
     def _send(self, identifier: int, signals: dict[str, float]) -> None:
         data = self.db.get_message_by_frame_id(identifier).encode(signals)
         frame = can.Message(arbitration_id=identifier, is_extended_id=False, data=data)
+        if self.stamp is not None:
+            frame.timestamp = self.stamp()
         try:
             self.bus.send(frame)
         except can.CanError as error:

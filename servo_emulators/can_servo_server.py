@@ -5,7 +5,8 @@ feedback out.
     with CanServoServer(CanServoNodes(), bus):
         ...                       # a host on the same channel commands the servos
 
-The server owns the bus: closing the server shuts it down.
+The server owns the bus: closing the server shuts it down. In lock-step time it moves the nodes'
+`ServoClock` to each frame's stamp before the nodes handle it (`servo_emulators.lock_step`).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import can
 
 from servo_emulators.can_servo import CanServoNodes
+from servo_emulators.lock_step import ServoClock
 from servo_emulators.serving import ServingThread
 
 POLL_INTERVAL = 0.005
@@ -21,11 +23,15 @@ a feedback period."""
 
 
 class CanServoServer:
-    """Feeds every frame from `bus` to the nodes and sends what they answer."""
+    """Feeds every frame from `bus` to the nodes and sends what they answer; with a `clock`
+    (the nodes' in lock-step time), each frame's stamp moves it first."""
 
-    def __init__(self, nodes: CanServoNodes, bus: can.BusABC) -> None:
+    def __init__(
+        self, nodes: CanServoNodes, bus: can.BusABC, clock: ServoClock | None = None
+    ) -> None:
         self.nodes = nodes
         self.bus = bus
+        self.clock = clock
         self._thread = ServingThread(
             f"CAN servo nodes on {bus.channel_info}", self._step, can.CanError, POLL_INTERVAL
         )
@@ -48,6 +54,10 @@ class CanServoServer:
 
     def _step(self) -> None:
         frame = self.bus.recv(timeout=POLL_INTERVAL)
-        answers = self.nodes.handle(frame) if frame is not None else []
+        answers = []
+        if frame is not None:
+            if self.clock is not None:
+                self.clock.follow(frame)
+            answers = self.nodes.handle(frame)
         for answer in answers + self.nodes.due():
             self.bus.send(answer)

@@ -5,10 +5,8 @@ Examples:
   python -m servo_emulators ssc32 --url /dev/ttyUSB1         # any pyserial URL
   python -m servo_emulators can --url can://virtual/hexman   # or can://remote/...
   python -m servo_emulators can --slcan hexman               # an SLCAN adapter on a pty
-  python -m servo_emulators can --url can://remote/127.0.0.1:P1/can1 \
-      --url can://remote/127.0.0.1:P2/can2 --time-master tcp-listen://127.0.0.1:0
   python -m servo_emulators can --serve can://remote/127.0.0.1:0/can1 \
-      --serve can://remote/127.0.0.1:0/can2
+      --serve can://remote/127.0.0.1:0/can2 --lock-step
 
 The emulator runs in real time until interrupted (Ctrl-C, exit status 130) or for --seconds. It
 prints one line saying where it listens, then nothing until it stops. CAN servo nodes given
@@ -16,11 +14,10 @@ several --url answer on each bus (redundant CAN interfaces). With --serve URL in
 (can://remote/HOST:PORT/CH, PORT 0 for any free one) the buses are the emulator's own, which it
 serves to other processes itself, a python-can-remote server in its process for each; a line per
 bus says where ("serving can://remote/HOST:PORT/CH") before the line saying where the nodes
-answer. With --time-master URL their clock
-is virtual (lock-step time) and moves only when a time master's ADVANCE on URL says
-(hexmigrate's transfer protocol, as a node started with firmware-sim listen --lock-step); the
-line saying where that link listens comes first. Errors print one line
-"error: ..." and exit with status 1, usage errors exit 2; --debug shows the traceback.
+answer. With --lock-step (and --serve) their clock is virtual (lock-step time): it moves to the
+time each frame is stamped with, which a lock-step node stamps as the end of its quantum.
+Errors print one line "error: ..." and exit with status 1, usage errors exit 2; --debug shows
+the traceback.
 """
 
 from __future__ import annotations
@@ -29,15 +26,14 @@ import argparse
 import contextlib
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import can
 
-from commandline import add_command, command_parser, run
+from commandline import UsageError, add_command, command_parser, run
 from commandline.arguments import integer, real
 from hexmigrate.errors import HexmigrateError
 from hexmigrate.links.can import parse_url
-from hexmigrate.links.listening import open_listening
 from hexmigrate.links.remote_server import ServedChannel
 from hexmigrate.links.slcan_device import SlcanDevice
 from servo_emulators.bank import ServoBank
@@ -46,7 +42,7 @@ from servo_emulators.can_servo import NODES, CanServoNodes
 from servo_emulators.can_servo_server import CanServoServer
 from servo_emulators.datasheet import S3003, SSC32_CHANNELS
 from servo_emulators.errors import ServoEmulatorError, ServoPortError
-from servo_emulators.lock_step import ServoClock, ServoControl, serve_control
+from servo_emulators.lock_step import ServoClock
 from servo_emulators.ssc32 import Ssc32
 from servo_emulators.ssc32_server import Ssc32Server
 
@@ -103,10 +99,10 @@ def build_parser() -> argparse.ArgumentParser:
         "any free one; 127.0.0.1: this machine only); repeat it for a bus more",
     )
     nodes.add_argument(
-        "--time-master",
-        metavar="URL",
-        help="lock-step virtual time, moved only by a time master's ADVANCE on URL "
-        "(tcp-listen://HOST:0, pty, ...)",
+        "--lock-step",
+        action="store_true",
+        help="lock-step virtual time: the clock moves to each frame's stamp (the sender's "
+        "time; with --serve only, whose servers keep the stamps)",
     )
     nodes.add_argument(
         "--nodes",
@@ -150,7 +146,12 @@ def _run_ssc32(args: argparse.Namespace) -> None:
 
 def _run_can(args: argparse.Namespace) -> None:
     """Serve the CAN servo nodes on the buses until the time is up."""
-    clock = ServoClock() if args.time_master else None
+    if args.lock_step and not args.serve:
+        raise UsageError(
+            "--lock-step: expected the buses served by the emulator (--serve), whose servers "
+            "keep the time each frame is stamped with, got --url or --slcan"
+        )
+    clock = ServoClock() if args.lock_step else None
     nodes = CanServoNodes(
         args.nodes,
         args.volts,
@@ -158,27 +159,19 @@ def _run_can(args: argparse.Namespace) -> None:
         feedback_period=args.period_ms / 1000,
     )
     with contextlib.ExitStack() as stack:
-        link = None
-        if args.time_master:
-            link = stack.enter_context(open_listening(args.time_master, _say))
         if args.slcan:
             device = stack.enter_context(SlcanDevice(args.slcan))
             bus = _open_bus(device.url, interface="virtual", channel=args.slcan, ignore_config=True)
             stack.enter_context(CanServoServer(nodes, bus))
             where = [device.url]
         elif args.serve:
-            where = [_serve(stack, nodes, *address) for address in args.serve]
+            where = [_serve(stack, nodes, clock, *address) for address in args.serve]
         else:
             for url in args.url:
                 bus = _open_bus(url, **parse_url(url).bus_config())
                 stack.enter_context(CanServoServer(nodes, bus))
             where = args.url
-        announced = f"{args.nodes} CAN servo nodes on {' and '.join(where)}"
-        if link is None or clock is None:
-            _announce(announced, args.seconds)
-            return
-        _say(announced)
-        serve_control(link, ServoControl(nodes, clock), _deadline(args.seconds))
+        _announce(f"{args.nodes} CAN servo nodes on {' and '.join(where)}", args.seconds)
 
 
 def served_url(text: str) -> tuple[str, int, str]:
@@ -196,25 +189,25 @@ def served_url(text: str) -> tuple[str, int, str]:
 
 
 def _serve(
-    stack: contextlib.ExitStack, nodes: CanServoNodes, host: str, port: int, channel: str
+    stack: contextlib.ExitStack,
+    nodes: CanServoNodes,
+    clock: ServoClock | None,
+    host: str,
+    port: int,
+    channel: str,
 ) -> str:
     """Put the nodes on a virtual bus of this process on `channel`, served to other processes
-    on `host`:`port` (all stopped with `stack`); say where, and return it."""
+    on `host`:`port` (all stopped with `stack`), on `clock` (None: real time); say where, and
+    return it."""
     served = stack.enter_context(ServedChannel(channel, host, port))
     bus = _open_bus(served.bus_url, interface="virtual", channel=channel, ignore_config=True)
-    stack.enter_context(CanServoServer(nodes, bus))
+    stack.enter_context(CanServoServer(nodes, bus, clock))
     _say(f"serving {served.bus_url}")
     return served.bus_url
 
 
 def _say(line: str) -> None:
     print(line, flush=True)
-
-
-def _deadline(seconds: float | None) -> Callable[[], bool]:
-    """True once `seconds` have passed (never for None)."""
-    deadline = math.inf if seconds is None else time.monotonic() + seconds
-    return lambda: time.monotonic() >= deadline
 
 
 def _open_bus(url: str, **config: object) -> can.BusABC:

@@ -174,6 +174,10 @@ class Node:
         self.sram = SramAllocator(SRAM_BASE, self.config.sram_size)
         self._elves: list[Path] = list(self.config.elves)  # where _find_source looks
         self.kernel = Kernel(clock)
+        self.horizon = 0.0
+        """The time the last `run` with an `until` was to go to: a lock-step node's quantum end,
+        which its firmware stamps on what it sends to devices in other processes (they are at
+        the quantum's end during the quantum, as devices in process are at the step's)."""
         self.power = PowerModel(self.config.energy, self.config.base_draw)
         self.modules: dict[str, InstalledModule] = {}
         self.kept_versions: dict[str, int] = {}
@@ -526,6 +530,8 @@ class Node:
     def run(self, until: float | None = None, cycles: int | None = None, step: float = 0.01) -> int:
         """Run the kernel to `until` seconds (absolute) or for `cycles` jobs, updating the power
         budget every `step` seconds of virtual time from the evaluators' latest draws."""
+        if until is not None:
+            self.horizon = until
         jobs = 0
         while True:
             target = self.kernel.now + step

@@ -131,7 +131,9 @@ class RemoteCanServer(_Server):
 class ServedChannel(_Server):
     """python-can-remote's server in a thread of this process, for this process's virtual CAN
     channel `channel` on `host` and `port` (0: any free one), as a context manager: each client
-    gets a bus on the channel, which the process's own virtual buses on it share."""
+    gets a bus on the channel, which the process's own virtual buses on it share. A frame keeps
+    the time its client stamped it with (a lock-step node's time, which the servo emulator
+    follows: `servo_emulators.lock_step`)."""
 
     def __init__(self, channel: str, host: str = HOST, port: int = 0) -> None:
         super().__init__(channel, host)
@@ -144,7 +146,11 @@ class ServedChannel(_Server):
         host and port if it cannot."""
         try:
             self._server = _QuietServer(
-                self.host, self._wanted, interface="virtual", channel=self.channel
+                self.host,
+                self._wanted,
+                interface="virtual",
+                channel=self.channel,
+                preserve_timestamps=True,
             )
         except OSError as error:
             raise LinkError(

@@ -16,10 +16,9 @@ answers the Advance, on the same link (`Receiver.handle`): once the master has e
 answer, a host that reads those links (refresh's manager, whose sender files what comes before
 an answer) holds every report of the quantum, with no round trip more to make sure.
 
-A process whose clock the nodes read synchronously during a quantum (a servo emulator on a CAN
-bus: a node sends it a command and waits for its answer) is granted each quantum `first`, before
-the nodes: what a node sends it during the quantum then meets it at the quantum's end, whatever
-the order in which the processes run.
+A device the nodes reach during a quantum in a process of its own (a servo emulator on a CAN
+bus) is not granted quanta: it follows the time each node stamps on what it sends (the end of
+the node's quantum: `servo_emulators.lock_step`), with no message more per quantum.
 
 Times are counted in whole microseconds (what an Advance carries), so that the nodes' clocks
 and the master's `now` are the same numbers.
@@ -50,15 +49,12 @@ class TimeMaster:
         self,
         controls: Mapping[str, NodeControl],
         quantum: float,
-        first: Mapping[str, NodeControl] | None = None,
     ) -> None:
         if not (math.isfinite(quantum) and round(quantum * MICROSECONDS) >= 1):
             raise LockStepError(f"expected a quantum of at least 1 microsecond, got {quantum!r} s")
         if not controls:
             raise LockStepError("expected at least one node to grant time to, got none")
         self.controls = dict(controls)
-        self.first = dict(first or {})
-        """Processes granted each quantum before the nodes, one after another (no bridges)."""
         self.quantum = quantum
         self._quantum_us = round(quantum * MICROSECONDS)
         self._now_us = 0
@@ -123,11 +119,6 @@ class TimeMaster:
         """Run every node to `until_us`, each expecting the values sent by the last quantum's
         end; then note what the exporters sent during this one."""
         until = until_us / MICROSECONDS
-        for name, control in self.first.items():
-            try:
-                self.clocks[name], _ = control.advance(until, {})
-            except HexmigrateError as error:
-                raise TransferError(f"quantum to {until:g} s: {name}: {error}") from error
         here = self._here
         futures = {
             name: self._pool.submit(self.controls[name].advance, until, self._expected(name))

@@ -21,11 +21,9 @@ for an Advance to 0 s, which a lock-step node at its start takes and a real-time
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
 from typing import Protocol
 
 from hexmigrate.errors import HexmigrateError, NoAnswer, TransferError, TransferInterrupted
-from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.time_master import TimeMaster
 from refresh.appliers.over_links import LinkApplier
 from refresh.errors import NodeLinkError
@@ -74,13 +72,10 @@ def mode_of(node: RemoteNode) -> tuple[str, str]:
 
 
 class LockStep:
-    """Lock-step virtual time, `quantum` seconds at a time, granted by a `TimeMaster`; `first`
-    are processes besides the nodes that the master grants each quantum before them (a servo
-    emulator the nodes talk to during a quantum: `TimeMaster`), by name."""
+    """Lock-step virtual time, `quantum` seconds at a time, granted by a `TimeMaster`."""
 
-    def __init__(self, quantum: float, first: Mapping[str, NodeControl] | None = None) -> None:
+    def __init__(self, quantum: float) -> None:
         self.quantum = quantum
-        self.first = dict(first or {})
         self.master: TimeMaster | None = None
         self.until = 0.0
         """The run's time every node is granted to, as the advances add up."""
@@ -100,7 +95,7 @@ class LockStep:
                     f"{said} (expected a node in lock-step at 0 s, as a run starts: start the "
                     "node again)"
                 )
-        self.master = TimeMaster(applier.controls(), self.quantum, first=self.first)
+        self.master = TimeMaster(applier.controls(), self.quantum)
         applier.router = self.master
 
     def clock(self) -> float:

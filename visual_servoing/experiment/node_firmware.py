@@ -129,10 +129,12 @@ def servo_buses(
     geometry: Geometry,
     cut_at: float | None,
     clock: Callable[[], float],
+    stamp: Callable[[], float],
     stack: contextlib.ExitStack,
 ) -> dict[str, CanServoBus]:
-    """The servo buses ``can1``, ``can2`` at their devices' URLs; the first is cut at `cut_at`
-    on `clock`. Each is shut down when `stack` closes."""
+    """The servo buses ``can1``, ``can2`` at their devices' URLs, their frames stamped with
+    `stamp()`; the first is cut at `cut_at` on `clock`. Each is shut down when `stack`
+    closes."""
     missing = [link for _name, link in MANIPULATORS if link not in devices]
     if missing:
         raise ExperimentError(
@@ -144,7 +146,7 @@ def servo_buses(
         bus = open_can_bus(devices[link], wait=DEVICE_WAIT)
         controller = ScheduledCut(bus, cut_at if link == "can1" else None, clock)
         stack.callback(controller.shutdown)
-        buses[link] = CanServoBus(controller, geometry)
+        buses[link] = CanServoBus(controller, geometry, stamp)
     return buses
 
 
@@ -197,15 +199,17 @@ def node_firmware(
     database: ModuleDatabase,
     geometry: Geometry,
     devices: Mapping[str, str],
+    stamp: Callable[[], float],
     stack: contextlib.ExitStack,
 ) -> dict[str, ModuleCode]:
     """`robot`'s natives, by the name the node gives their PBOs, with its ``Plate``; the servo
-    buses it opens close with `stack`."""
+    buses it opens stamp their frames with `stamp()` (the end of the node's quantum) and close
+    with `stack`."""
     time = NodeTime()
     tracker = PlateTracker(geometry)
     plate: type[NativePBO]
     if robot == HEXMAN_ROBOT:
-        buses = servo_buses(devices, geometry, faults.servo_link_cut, time.run_time, stack)
+        buses = servo_buses(devices, geometry, faults.servo_link_cut, time.run_time, stamp, stack)
         tapped = {link: Readings(bus, tracker) for link, bus in buses.items()}
         yaw: Callable[[], float] = lambda: tracker.yaw  # noqa: E731
         plate = type(PLATE, (_PlateSource,), {"name": PLATE, "time": time, "tracker": tracker})

@@ -24,8 +24,9 @@ are:
 A run across processes starts the servos' process first (`launch`): ``python -m servo_emulators
 can`` on two virtual buses of its own, which it serves to the other processes (a
 python-can-remote server each, in its process: a frame between a node and the servos crosses one
-process boundary), granted each lock-step quantum before the nodes (its control link), so every
-CAN frame a node sends in a quantum meets the servos at the quantum's end.
+process boundary), in lock-step time on the clock the frames carry: a node stamps each frame with
+the end of the quantum it runs, the manager with the run's time, so every CAN frame a node sends
+in a quantum meets the servos at the quantum's end, as in process.
 """
 
 from __future__ import annotations
@@ -44,7 +45,6 @@ from application.launch import HOST, Launch, free_port
 from application.plant import Launched, Setting, WorldPlant
 from hexmanipulator.can_bus import CanServoBus, open_can_bus
 from hexmanipulator.geometry import load as load_geometry
-from hexmigrate.links.listening import CONNECT_URL
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
 from refresh.appliers.base import Inventory
@@ -117,7 +117,7 @@ class ServoingWorld(WorldPlant):
         controller = BusOffController(bus)
         self._stack.callback(_shut_down, controller)
         self._controllers[link] = controller
-        self.servo_buses[link] = CanServoBus(controller, self.geometry)
+        self.servo_buses[link] = CanServoBus(controller, self.geometry, self.setting.stamp)
 
     # Firmware.
 
@@ -136,7 +136,13 @@ class ServoingWorld(WorldPlant):
         """`robot`'s node firmware in its own process, with its ``Plate``."""
         setting = self.setting
         return node_firmware(
-            robot, self.faults, setting.database, self.geometry, setting.devices, self._stack
+            robot,
+            self.faults,
+            setting.database,
+            self.geometry,
+            setting.devices,
+            setting.stamp,
+            self._stack,
         )
 
     # The plate.
@@ -278,28 +284,22 @@ class ServoingWorld(WorldPlant):
     def launch(cls, launch: Launch, lock_step: bool) -> Launched:
         """The servo emulator, serving both buses to the other processes itself (a
         python-can-remote server each, on ports picked now, so that the nodes start at once:
-        they wait for it) and, in lock-step time, its control link on 127.0.0.1, which `peers()`
-        waits for."""
+        they wait for it), in lock-step time on the frames' clock; `ready()` waits until it
+        serves."""
         buses = {link: f"can://remote/{HOST}:{free_port()}/{link}" for _name, link in MANIPULATORS}
         arguments = ["-m", "servo_emulators", "can"]
         for url in buses.values():
             arguments += ["--serve", url]
         if lock_step:
-            arguments += ["--time-master", f"tcp-listen://{HOST}:0"]
+            arguments.append("--lock-step")
         servos = launch.start("servos", *arguments)
 
-        def peers() -> dict[str, str]:
-            """The servo emulator serving its buses: its control link in lock-step time."""
+        def ready() -> None:
             servos.wait_for(SERVOS_LINE)
-            if not lock_step:
-                launch.urls["servos"] = " ".join(buses.values())
-                return {}
-            control = servos.wait_for(CONNECT_URL)[1]
-            launch.urls["servos"] = control
-            return {"servos": control}
+            launch.urls["servos"] = " ".join(buses.values())
 
         return Launched(
-            devices={link: f"{url}?role=host" for link, url in buses.items()}, peers=peers
+            devices={link: f"{url}?role=host" for link, url in buses.items()}, ready=ready
         )
 
 
