@@ -14,6 +14,7 @@ it (`servo_emulators.lock_step`); unstamped (0) without one.
 
 from __future__ import annotations
 
+import http.client
 import time
 from collections.abc import Callable
 
@@ -21,6 +22,7 @@ import can
 import cantools
 import numpy as np
 from can.bus import BusState
+from can_remote.websocket import WebsocketClosed
 
 from hexmanipulator.errors import BusOffError, GeometryError, ServoBusError, ServoSilentError
 from hexmanipulator.geometry import Geometry
@@ -41,21 +43,40 @@ RETRY_PAUSE = 0.02
 """Between two tries to reach a bus's server that refused the connection (seconds)."""
 
 
+_BROKEN_SERVER = (
+    AssertionError,
+    AttributeError,
+    KeyError,
+    TypeError,
+    http.client.HTTPException,
+    WebsocketClosed,
+)
+"""What python-can-remote's client raises when the server at a ``can://remote`` URL does not
+speak its protocol (its handshake asserts; a missing header or field)."""
+
+
 def open_can_bus(url: str, wait: float = 0.0) -> can.BusABC:
     """python-can's bus for a ``can://`` URL (the ISO-TP parameters of the URL do not apply).
     A server that refuses the connection is tried again for `wait` seconds: a process started
-    at the same time as the one that serves its bus may be ready first."""
+    at the same time as the one that serves its bus may be ready first. A server that answers
+    but does not speak python-can-remote is a `ServoBusError` naming what it said; one that
+    accepts the connection and says nothing is waited for (python-can-remote's client sets no
+    timeout)."""
     settings = parse_url(url)
     deadline = time.monotonic() + wait
     while True:
         try:
             return can.Bus(**settings.bus_config())
         except ConnectionRefusedError as error:
-            if time.monotonic() >= deadline:
+            if not time.monotonic() < deadline:  # NaN waits no more than 0 s
                 raise ServoBusError(f"cannot open {url}: {error}") from error
             time.sleep(RETRY_PAUSE)
         except (can.CanError, OSError, ValueError) as error:
             raise ServoBusError(f"cannot open {url}: {error}") from error
+        except _BROKEN_SERVER as error:
+            raise ServoBusError(
+                f"cannot open {url}: expected a python-can-remote server, got {error!r}"
+            ) from error
 
 
 class CanServoBus:

@@ -32,8 +32,8 @@ import can
 
 from commandline import UsageError, add_command, command_parser, run
 from commandline.arguments import integer, real
-from hexmigrate.errors import HexmigrateError
-from hexmigrate.links.can import parse_url
+from hexmigrate.errors import HexmigrateError, LinkUrlError
+from hexmigrate.links.can import parse_url, remote_address
 from hexmigrate.links.remote_server import ServedChannel
 from hexmigrate.links.slcan_device import SlcanDevice
 from servo_emulators.bank import ServoBank
@@ -151,6 +151,9 @@ def _run_can(args: argparse.Namespace) -> None:
             "--lock-step: expected the buses served by the emulator (--serve), whose servers "
             "keep the time each frame is stamped with, got --url or --slcan"
         )
+    channels = [channel for _, _, channel in args.serve or ()]
+    if len(set(channels)) != len(channels):
+        raise UsageError(f"--serve: expected a channel name once each, got {channels}")
     clock = ServoClock() if args.lock_step else None
     nodes = CanServoNodes(
         args.nodes,
@@ -176,16 +179,15 @@ def _run_can(args: argparse.Namespace) -> None:
 
 def served_url(text: str) -> tuple[str, int, str]:
     """``--serve``'s ``can://remote/HOST:PORT/CHANNEL`` as (host, port, channel); PORT may be 0
-    (any free port)."""
-    form = "expected can://remote/HOST:PORT/CHANNEL (PORT 0: any free one)"
-    address, _, channel = text.removeprefix(REMOTE).partition("/")
-    host, _, port = address.rpartition(":")
-    if not text.startswith(REMOTE) or not host or not channel or "/" in channel:
-        raise argparse.ArgumentTypeError(f"{form}, got {text!r}")
+    (any free one)."""
+    if not text.startswith(REMOTE) or "?" in text or "#" in text:
+        raise argparse.ArgumentTypeError(
+            f"expected can://remote/HOST:PORT/CHANNEL (PORT 0: any free one), got {text!r}"
+        )
     try:
-        return host, integer(0, 65535)(port), channel
-    except argparse.ArgumentTypeError as error:
-        raise argparse.ArgumentTypeError(f"{form}: port: {error}") from None
+        return remote_address(text, text.removeprefix(REMOTE), lowest_port=0)
+    except LinkUrlError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def _serve(

@@ -193,10 +193,18 @@ def _channel(url: str, interface: str, path: str) -> str:
 
 def _remote_channel(url: str, channel: str) -> str:
     """``HOST:PORT/CHANNEL``, checked."""
+    remote_address(url, channel)
+    return channel
+
+
+def remote_address(url: str, channel: str, lowest_port: int = 1) -> tuple[str, int, str]:
+    """``HOST:PORT/CHANNEL`` of a ``can://remote`` `url` as (host, port, channel), checked:
+    PORT from `lowest_port` (0: any free one, where a server is to listen), a channel name of
+    printable characters; LinkUrlError naming what is wrong."""
     address, _, name = channel.partition("/")
     host, _, port = address.rpartition(":")
     form = "can://remote/HOST:PORT/CHANNEL such as can://remote/127.0.0.1:54701/node0"
-    if not host or not name or "/" in name:
+    if not host or not name or "/" in name or not name.isprintable():
         raise url_error(
             url, f"expected HOST:PORT/CHANNEL after can://remote/, got {channel!r}", form
         )
@@ -205,10 +213,10 @@ def _remote_channel(url: str, channel: str) -> str:
     except ValueError as error:
         raise url_error(url, f"host: {error}", form) from None
     try:
-        integer(1, 65535)(port)
+        number = integer(lowest_port, 65535)(port)
     except ValueError as error:
         raise url_error(url, f"port: {error}", form) from None
-    return channel
+    return host, number, name
 
 
 def _check_settings(url: str, settings: CanSettings) -> None:

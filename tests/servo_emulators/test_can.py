@@ -220,6 +220,42 @@ def test_a_client_started_before_the_server_waits_for_it() -> None:
         served.stop()
 
 
+def test_a_refused_bus_with_a_wait_that_is_not_a_number_is_refused_at_once() -> None:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    started = time.monotonic()
+    with pytest.raises(ServoBusError, match="Connection refused"):
+        open_can_bus(f"can://remote/127.0.0.1:{port}/nan", wait=float("nan"))
+    assert time.monotonic() - started < WAIT
+
+
+@pytest.mark.parametrize(
+    "answer",
+    [
+        b"HTTP/1.1 200 OK\r\nContent-Length: 0\r\n\r\n",  # not an upgrade
+        b"HTTP/1.1 101 Switching\r\n\r\n",  # no Upgrade header
+        b"\x1b]0;title\x07garbage\r\n\r\n",  # not HTTP
+    ],
+    ids=["200", "no-upgrade", "garbage"],
+)
+def test_a_server_that_does_not_speak_python_can_remote_is_a_servo_bus_error(answer) -> None:
+    with socket.create_server(("127.0.0.1", 0)) as server:
+        port = server.getsockname()[1]
+
+        def answer_once() -> None:
+            connection, _ = server.accept()
+            with connection:
+                connection.recv(4096)
+                connection.sendall(answer)
+
+        answering = threading.Thread(target=answer_once, daemon=True)
+        answering.start()
+        with pytest.raises(ServoBusError, match=f"cannot open can://remote/127.0.0.1:{port}/x"):
+            open_can_bus(f"can://remote/127.0.0.1:{port}/x")
+        answering.join(WAIT)
+
+
 def test_the_nodes_answer_through_an_slcan_adapter_on_a_pty() -> None:
     channel = f"servo-slcan-{next(_channels)}"
     with (

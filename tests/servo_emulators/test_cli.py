@@ -69,10 +69,15 @@ def test_a_bad_can_url_is_one_error_line_with_the_form(capsys) -> None:
     [
         (
             "can://remote/127.0.0.1:0/x/y",
-            "argument --serve: expected can://remote/HOST:PORT/CHANNEL",
+            "argument --serve: bad link URL 'can://remote/127.0.0.1:0/x/y': expected "
+            "HOST:PORT/CHANNEL after can://remote/, got '127.0.0.1:0/x/y'",
         ),
         ("can://virtual/x", "argument --serve: expected can://remote/HOST:PORT/CHANNEL"),
-        ("can://remote/127.0.0.1:65536/x", "port: expected a whole number from 0 to 65535"),
+        ("can://remote/127.0.0.1:0/x?bitrate=1", "got 'can://remote/127.0.0.1:0/x?bitrate=1'"),
+        ("can://remote/127.0.0.1:0/x\x1b[2J", r"got '127.0.0.1:0/x\x1b[2J'"),
+        ("can://remote/127.0.0.1:65536/x", "port: expected 0..65535, got 65536"),
+        ("can://remote/::1:0/x", "host: expected an IPv6 address in brackets"),
+        ("can://remote/no host here:0/x", "host: expected an IPv4 or IPv6 address or a host"),
     ],
 )
 def test_a_bus_to_serve_at_a_bad_url_is_a_usage_error(url, expected, capsys) -> None:
@@ -84,14 +89,22 @@ def test_a_bus_to_serve_at_a_bad_url_is_a_usage_error(url, expected, capsys) -> 
 @pytest.mark.parametrize(
     ("url", "expected"),
     [
-        ("can://remote/::1:0/x", "host: expected an IPv4 address or a host name"),
-        ("can://remote/no host here:0/x", "cannot serve CAN channel 'x'"),
+        ("can://remote/[::1]:0/x", "host: expected an IPv4 address or a host name"),
+        ("can://remote/192.0.2.1:0/x", "cannot serve CAN channel 'x' on 192.0.2.1:0"),
     ],
 )
 def test_serving_where_it_cannot_is_one_error_line(url, expected, capsys) -> None:
     assert main(["can", "--serve", url, "--seconds", "0.01"]) == 1
     err = capsys.readouterr().err
     assert err.startswith("error: ") and expected in err and err.count("\n") == 1
+
+
+def test_a_channel_served_twice_is_a_usage_error(capsys) -> None:
+    twice = ["--serve", "can://remote/127.0.0.1:0/x", "--serve", "can://remote/127.0.0.1:0/x"]
+    with pytest.raises(SystemExit) as usage:
+        main(["can", *twice, "--seconds", "0.01"])
+    assert usage.value.code == 2
+    assert "--serve: expected a channel name once each, got ['x', 'x']" in capsys.readouterr().err
 
 
 def test_the_serial_line_s_rate_is_bit_rate() -> None:
