@@ -22,7 +22,7 @@ from typing import Any
 from urllib.parse import urlsplit
 
 from campaign import store
-from campaign.engine import Runner, client, default_workers, execute
+from campaign.engine import WORKERS_LOG, Runner, client, default_workers, execute
 from campaign.errors import CampaignFolderError
 from campaign.html import write_page
 from campaign.plan import plan
@@ -128,7 +128,7 @@ def run_campaign(options: argparse.Namespace, application: CampaignSpec) -> None
     out: Path = options.out or application.default_out
     parameters = _parameters(options, application, out)
     store.check_folder(out)
-    with client(options.workers, options.scheduler) as dask:
+    with client(options.workers, options.scheduler, out / WORKERS_LOG) as dask:
         records = store.start(out, parameters, options.resume)
         _run(dask, out, parameters, records, options, application)
 

@@ -15,7 +15,10 @@ must be installed there too.
 The local cluster runs one single-threaded worker process per core (`--workers`): the runs hold
 the GIL (the emulated CPU, the kernel, NumPy between calls) and a worker's process owns its
 emulator. Its scheduler and workers listen on 127.0.0.1 only (the scheduler's HTTP routes on a
-free port of it), without the dashboard.
+free port of it), without the dashboard. The workers ignore Ctrl-C (the campaign's process
+stops them) and write their own log lines (Dask's warnings and errors) into the campaign's
+folder, `WORKERS_LOG`, not on the user's terminal: a worker ending with its campaign can log a
+heartbeat that met its scheduler closing, a traceback that says nothing about the runs.
 """
 
 from __future__ import annotations
@@ -39,6 +42,8 @@ from campaign.record import OK, TIMING, Record, crashed
 
 POLL = 0.05
 """Seconds between two looks for finished runs (and for Ctrl-C)."""
+WORKERS_LOG = "workers.log"
+"""The local workers' log, in the campaign's folder."""
 WORKERS_LEAVE = 10.0
 """Seconds the local workers have to leave before their scheduler closes."""
 
@@ -76,9 +81,10 @@ def default_workers() -> int:
 
 
 @contextlib.contextmanager
-def client(workers: int, scheduler: str | None) -> Iterator[Any]:
+def client(workers: int, scheduler: str | None, log: Path | None = None) -> Iterator[Any]:
     """A Dask client on the scheduler at `scheduler`, or on a new local cluster of `workers`
-    single-threaded worker processes (closed on leaving)."""
+    single-threaded worker processes (closed on leaving) that log into `log` (None: where Dask
+    logs)."""
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
@@ -101,35 +107,52 @@ def client(workers: int, scheduler: str | None) -> Iterator[Any]:
         silence_logs=logging.ERROR,
     )
     with cluster, Client(cluster) as local:
-        local.register_plugin(_interrupts_ignored())
+        local.register_plugin(_local_worker(log))
         try:
             yield local
         finally:
-            _workers_leave(cluster, local)
+            _workers_leave(cluster)
 
 
-def _workers_leave(cluster: Any, local: Any) -> None:
-    """Close the local workers while their scheduler still runs (bounded by
+def _workers_leave(cluster: Any) -> None:
+    """Close the local workers' processes while their scheduler still runs (bounded by
     WORKERS_LEAVE): closed together, a worker's heartbeat can meet a scheduler that has gone and
-    log the failure's traceback on the user's terminal, even after a clean interruption."""
+    log the failure's traceback on the user's terminal, even after a clean interruption. The
+    wait is for the cluster's worker processes to end, not for the scheduler to forget them: it
+    retires them first, and their processes live on, heartbeats and all, a while after."""
     cluster.scale(0)
     deadline = time.monotonic() + WORKERS_LEAVE
-    while local.scheduler_info(n_workers=-1)["workers"] and time.monotonic() < deadline:
+    while cluster.workers and time.monotonic() < deadline:
         time.sleep(POLL)
 
 
-def _interrupts_ignored() -> Any:
-    """A plugin that makes a local worker ignore SIGINT: Ctrl-C reaches every process of the
-    terminal's group, and the campaign's own process stops the workers (a worker interrupted
-    mid-run would print its traceback). Defined here because `distributed` is the campaign
-    extra's, imported when a cluster starts."""
+def _local_worker(log: Path | None) -> Any:
+    """A plugin that makes a local worker ignore SIGINT (Ctrl-C reaches every process of the
+    terminal's group, and the campaign's own process stops the workers: a worker interrupted
+    mid-run would print its traceback) and write Dask's log lines into `log`, opened at the
+    first line. Defined here because `distributed` is the campaign extra's, imported when a
+    cluster starts."""
     from distributed.diagnostics.plugin import WorkerPlugin
 
-    class InterruptsIgnored(WorkerPlugin):
+    class LocalWorker(WorkerPlugin):
         def setup(self, worker: Any) -> None:
             signal.signal(signal.SIGINT, signal.SIG_IGN)
+            if log is not None:
+                _log_into(log)
 
-    return InterruptsIgnored()
+    return LocalWorker()
+
+
+def _log_into(log: Path) -> None:
+    """Send the ``distributed`` loggers' lines of this process into `log` instead of where
+    Dask's configuration sends them (the terminal)."""
+    dask_log = logging.getLogger("distributed")
+    for handler in list(dask_log.handlers):
+        dask_log.removeHandler(handler)
+    into = logging.FileHandler(log, delay=True, encoding="utf-8")
+    line = "%(asctime)s %(process)d %(name)s %(levelname)s: %(message)s"
+    into.setFormatter(logging.Formatter(line))
+    dask_log.addHandler(into)
 
 
 def execute(

@@ -213,3 +213,22 @@ def test_naming_only_faulty_modules_is_told_apart_from_naming_exactly_the_faults
         "wrong-too": 0.0,
         "nothing": 0.0,
     }
+
+
+def test_the_local_workers_log_into_the_campaign_s_folder_not_on_the_terminal(tmp_path, capfd):
+    """A worker ending with its campaign can log a heartbeat that met its scheduler closing: a
+    traceback on the user's terminal that says nothing about the runs."""
+    import logging
+
+    from campaign.engine import client
+
+    log = tmp_path / "workers.log"
+
+    def complain() -> None:
+        logging.getLogger("distributed.worker").error("Failed to communicate with scheduler")
+
+    with client(1, None, log) as dask:
+        dask.run(complain)
+    assert "distributed.worker ERROR: Failed to communicate with scheduler" in log.read_text()
+    out, err = capfd.readouterr()
+    assert "Failed to communicate" not in out + err
