@@ -7,11 +7,15 @@ Prints Markdown tables (docs/crossbar.md holds a copy):
 - the wrapper-only partial bitstream against the full-slot bitstream (wrapper frame plus the
   functionality's LUT4 netlist) for each library functionality;
 - reconfiguration cycles measured in simulation against the goal bits / CFG_W + 4;
-- beats per cycle per port under full load, and simulated cycles per second through cocotb.
+- beats per cycle per port under full load, and simulated cycles per second through cocotb;
+- the fabric in a node's loop: the RTL model (the Verilog compiled by Verilator, clocked in
+  batches from C: `morphing_crossbar.verilated`) in fabric cycles per second against the goal
+  of 1,000,000 and against cocotb on Verilator in the same run, and the transaction-level model
+  in beats per second, streaming the same beats through every input at once.
 
-    python benchmarks/crossbar.py [--quick]
+    python benchmarks/crossbar.py [--quick] [--beats N]
 
-``--quick`` skips Verilator (its cold builds take ~15 s each).
+``--quick`` skips Verilator (its cold builds take ~15 s each), the RTL model with it.
 """
 
 from __future__ import annotations
@@ -19,18 +23,27 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import random
 import tempfile
+import time
 from pathlib import Path
 
+from commandline.arguments import integer
 from morphing_crossbar.bitstream import FRAME_BITS, pack
 from morphing_crossbar.fabric import Fabric, verilog_parameters
+from morphing_crossbar.model import CrossbarModel
 from morphing_crossbar.netlist import full_slot_bitstream, functionality_netlist, synthesize
 from morphing_crossbar.routing import through_route
 from morphing_crossbar.sim.runner import RESULTS_ENV, rtl_sources, run_cocotb
+from morphing_crossbar.verilated.build import model_library
+from morphing_crossbar.verilated.rtl import RtlCrossbarModel
 
 ROOT = Path(__file__).resolve().parent.parent
 TB_DIR = ROOT / "tests" / "hdl"
 DESIGNS = ("morphing_crossbar", "full_crossbar", "shared_bus")
+FABRICS = (Fabric(4, cfg_w=1), Fabric(8, cfg_w=1), Fabric(8, cfg_w=8))
+LOOP_GOAL = 1_000_000
+"""Fabric cycles per second the RTL model must reach in a node's loop."""
 
 
 def area_table() -> list[str]:
@@ -80,16 +93,20 @@ def simulate(simulator: str, fabric: Fabric, build_root: Path) -> dict[str, floa
         return json.loads(results.read_text())
 
 
-def simulation_table(simulators: list[str], build_root: Path) -> list[str]:
-    """Throughput, reconfiguration cycles and simulation speed per simulator and fabric."""
+def simulation_table(
+    simulators: list[str], build_root: Path, rates: dict[tuple[str, int, int], float]
+) -> list[str]:
+    """Throughput, reconfiguration cycles and simulation speed per simulator and fabric; each
+    simulated cycles per second into `rates` by (simulator, N, CFG_W)."""
     rows = [
         "| simulator | N | CFG_W | beats/cycle/port | reconfiguration cycles | goal "
         "(bits/CFG_W + 4) | simulated cycles/s |",
         "|---|---|---|---|---|---|---|",
     ]
     for simulator in simulators:
-        for fabric in (Fabric(4, cfg_w=1), Fabric(8, cfg_w=1), Fabric(8, cfg_w=8)):
+        for fabric in FABRICS:
             got = simulate(simulator, fabric, build_root)
+            rates[simulator, fabric.n, fabric.cfg_w] = got["cycles_per_second"]
             goal = FRAME_BITS // fabric.cfg_w + 4
             rows.append(
                 f"| {simulator} | {fabric.n} | {fabric.cfg_w} | "
@@ -99,17 +116,72 @@ def simulation_table(simulators: list[str], build_root: Path) -> list[str]:
     return rows
 
 
+def loop_table(
+    beats: int, build_root: Path | None, rates: dict[tuple[str, int, int], float]
+) -> list[str]:
+    """The fabric in a node's loop: `beats` random beats into every input of the reset routing
+    at once, through the RTL model (unless `build_root` is None) and the TLM."""
+    rows = [
+        "| model | N | CFG_W | beats | fabric cycles | cycles/s | goal | vs cocotb on Verilator "
+        "| beats/s |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    rng = random.Random(1)
+    for fabric in FABRICS:
+        top = (1 << fabric.data_w) - 1
+        inputs = {
+            port: [rng.randint(0, top) for _ in range(beats // fabric.n)]
+            for port in range(fabric.n)
+        }
+        sent = sum(map(len, inputs.values()))
+        if build_root is not None:
+            rtl = RtlCrossbarModel(fabric, model_library(fabric, build_root / "models"))
+            start, began = rtl.cycles, time.perf_counter()
+            rtl.stream(inputs)
+            seconds, cycles = time.perf_counter() - began, rtl.cycles - start
+            rtl.close()
+            rate = cycles / seconds
+            cocotb = rates.get(("verilator", fabric.n, fabric.cfg_w))
+            versus = f"{rate / cocotb:,.0f}x" if cocotb else "-"
+            met = "met" if rate >= LOOP_GOAL else "NOT met"
+            rows.append(
+                f"| RTL (Verilator, C batches) | {fabric.n} | {fabric.cfg_w} | {sent:,} | "
+                f"{cycles:,} | {rate:,.0f} | {LOOP_GOAL:,} {met} | {versus} | "
+                f"{sent / seconds:,.0f} |"
+            )
+        tlm = CrossbarModel(fabric)
+        began = time.perf_counter()
+        tlm.stream(inputs)
+        seconds = time.perf_counter() - began
+        rows.append(
+            f"| TLM (Python) | {fabric.n} | {fabric.cfg_w} | {sent:,} | - | - | - | - | "
+            f"{sent / seconds:,.0f} |"
+        )
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="Icarus only (no Verilator builds)")
+    parser.add_argument(
+        "--beats",
+        type=integer(8, 10_000_000),
+        default=400_000,
+        help="beats streamed through each model in the node's loop (default 400000)",
+    )
     args = parser.parse_args()
     build_root = Path(os.environ.get("MX_BUILD_ROOT", ROOT / "build" / "hdl"))
     build_root.mkdir(parents=True, exist_ok=True)
     simulators = ["icarus"] if args.quick else ["icarus", "verilator"]
+    rates: dict[tuple[str, int, int], float] = {}
     sections = [
         ("Area (yosys 0.23 `synth -flatten`, DATA_W = 8)", area_table()),
         ("Partial against full-slot bitstream (DATA_W = 8)", bitstream_table()),
-        ("Simulation (DATA_W = 8)", simulation_table(simulators, build_root)),
+        ("Simulation (DATA_W = 8)", simulation_table(simulators, build_root, rates)),
+        (
+            "The fabric in a node's loop (DATA_W = 8)",
+            loop_table(args.beats, None if args.quick else build_root, rates),
+        ),
     ]
     for title, rows in sections:
         print(f"### {title}\n")

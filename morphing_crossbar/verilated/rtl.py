@@ -75,7 +75,7 @@ class RtlCrossbarModel:
         last = np.zeros(count, dtype=np.uint8)
         for port, beats in inputs.items():
             start, end = offsets[port], offsets[port + 1]
-            data[start:end] = beats
+            data[start:end] = np.asarray(beats, dtype=np.uint32)
             if end > start:
                 last[end - 1] = 1
         ports = np.zeros(count, dtype=np.int32)
@@ -88,10 +88,7 @@ class RtlCrossbarModel:
         )  # fmt: skip
         if got < 0:
             raise FabricStallError(f"the RTL delivered fewer than {count} beats in {limit} cycles")
-        outputs: dict[int, list[int]] = {}
-        for port, value in zip(ports.tolist(), out.tolist(), strict=True):
-            outputs.setdefault(port, []).append(value)
-        return outputs
+        return {int(port): out[ports == port].tolist() for port in np.unique(ports)}
 
     def close(self) -> None:
         """Free the model (later calls fail); calling it twice does nothing."""
