@@ -5,25 +5,53 @@ This is the implementation of the node's FPGA reconfiguration port
 registers `crossbar_port` under the entry-point group ``firmware_sim.reconfiguration_ports``,
 which ``firmware-sim listen --fpga N`` loads. A bitstream arrives as an extended Intel HEX module
 linked at its slot's window (`morphing_crossbar.hex_image`); the port checks the image, shifts
-the frame into the addressed slot's wrapper (here the crossbar's transaction-level model, which
-applies the wrapper's checks and refusals exactly) and reports the reconfiguration time in
-fabric cycles. A refused image leaves the slot's old routing in place, as the hardware does.
+the frame into the addressed slot's wrapper and reports the reconfiguration time in fabric
+cycles. A refused image leaves the slot's old routing in place, as the hardware does. Samples
+`stream` through the fabric between reconfigurations.
+
+The fabric behind the port is one of two models (`FabricModel`), chosen by name: ``tlm``, the
+transaction-level model (`morphing_crossbar.model`, the wrapper's checks and refusals exactly,
+in Python), or ``rtl``, the Verilog compiled by Verilator and clocked in batches from C
+(`morphing_crossbar.verilated`; its library is built once per fabric into `model_cache()`, a
+few seconds the first time). They give the same outputs bit for bit.
 """
 
 from __future__ import annotations
 
+import os
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
 from hexmigrate.image import ModuleImage
 from morphing_crossbar.bitstream import pack
+from morphing_crossbar.errors import FabricParameterError
 from morphing_crossbar.fabric import Fabric
 from morphing_crossbar.hex_image import CONFIG_BASE, SLOT_WINDOW, from_image
 from morphing_crossbar.model import CrossbarModel, LoadResult
 from morphing_crossbar.routing import empty_route
+from morphing_crossbar.verilated.build import model_library
+from morphing_crossbar.verilated.rtl import RtlCrossbarModel
 
 COMPONENT_PREFIX = "mx_slot"
 """A component is listed on the node as ``mx_slot`` and its slot number."""
+CACHE_ENV = "MX_BUILD_ROOT"
+"""Where the RTL model's libraries are built (``models/`` under it), if set."""
+
+
+class FabricModel(Protocol):
+    """What the port drives: `CrossbarModel` (TLM) or `RtlCrossbarModel` (Verilator)."""
+
+    fabric: Fabric
+
+    def load(self, slot: int, frame: bytes) -> LoadResult:
+        """Apply a partial bitstream to `slot`."""
+        ...
+
+    def stream(self, inputs: Mapping[int, Sequence[int]]) -> dict[int, list[int]]:
+        """Samples through the external inputs; each output's samples by output."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -52,16 +80,27 @@ class PortLoad:
 class CrossbarReconfigurationPort:
     """The reconfiguration port of one crossbar, with a log of what it loaded."""
 
-    def __init__(self, model: CrossbarModel, fabric_hz: float = 100e6) -> None:
+    def __init__(self, model: FabricModel, fabric_hz: float = 100e6, kind: str = "tlm") -> None:
         self.model = model
         self.fabric_hz = fabric_hz
+        self.kind = kind
         self.loads: list[PortLoad] = []
         self.installed: dict[int, str] = {}
 
     @property
     def description(self) -> str:
         """What the port drives, for the node's output."""
-        return f"a {self.model.fabric.n}-slot Morphing Crossbar"
+        modelled = "its RTL on Verilator" if self.kind == "rtl" else "transaction-level model"
+        return f"a {self.model.fabric.n}-slot Morphing Crossbar ({modelled})"
+
+    @property
+    def data_width(self) -> int:
+        """Bits of one sample on the fabric's streams."""
+        return self.model.fabric.data_w
+
+    def stream(self, inputs: Mapping[int, Sequence[int]]) -> dict[int, list[int]]:
+        """Samples through the fabric's external inputs; each output's, by output."""
+        return self.model.stream(inputs)
 
     def owns(self, link_base: int) -> bool:
         """Whether an image linked at `link_base` is for this port: a slot window of its fabric."""
@@ -94,7 +133,23 @@ class CrossbarReconfigurationPort:
         return record.cycles / self.fabric_hz
 
 
-def crossbar_port(slots: int) -> CrossbarReconfigurationPort:
-    """The port of a new `slots`-slot crossbar (the entry point's factory); FabricParameterError
-    (a ValueError) when the crossbar cannot have that many slots."""
-    return CrossbarReconfigurationPort(CrossbarModel(Fabric(slots)))
+def crossbar_port(slots: int, model: str = "tlm") -> CrossbarReconfigurationPort:
+    """The port of a new `slots`-slot crossbar on `model` (``tlm`` or ``rtl``: the entry point's
+    factory); FabricParameterError (a ValueError) when the crossbar cannot have that many slots
+    or there is no such model, ModelBuildError (a RuntimeError) when the RTL cannot be built."""
+    fabric = Fabric(slots)
+    if model == "tlm":
+        return CrossbarReconfigurationPort(CrossbarModel(fabric))
+    if model == "rtl":
+        library = model_library(fabric, model_cache() / "models")
+        return CrossbarReconfigurationPort(RtlCrossbarModel(fabric, library), kind="rtl")
+    raise FabricParameterError(f"expected a fabric model tlm or rtl, got {model!r}")
+
+
+def model_cache() -> Path:
+    """Where the RTL model's libraries are built: `CACHE_ENV`, else the user's cache folder
+    (``$XDG_CACHE_HOME`` or ``~/.cache``, then ``refresh-toolchain/hdl``)."""
+    if os.environ.get(CACHE_ENV):
+        return Path(os.environ[CACHE_ENV])
+    cache = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(cache) / "refresh-toolchain" / "hdl"

@@ -16,6 +16,7 @@ from commandline.arguments import input_file, integer
 from firmware_sim.cli import arguments
 from firmware_sim.cli.run_report import render, run_report
 from firmware_sim.core.debug_port import DebugPort
+from firmware_sim.core.fpga_port import MODELS
 from firmware_sim.core.guest import DEFAULT_BUDGET
 from firmware_sim.core.kernel_log import into_node_log
 from firmware_sim.core.memory_map import MemoryMap
@@ -136,11 +137,14 @@ def data_flow_order(names: list[str], wires: list[tuple[str, str]]) -> list[str]
 
 def cmd_listen(args: argparse.Namespace) -> int:
     """Run a node that accepts modules on a link, until interrupted or for --seconds."""
+    if args.fpga_model is not None and args.fpga is None:
+        raise UsageError("--fpga-model goes with --fpga N (a node with no fabric has no model)")
     config = ListenConfig(
         listen=args.listen,
         name=args.name,
         flash=args.flash,
         fpga=args.fpga,
+        fpga_model=args.fpga_model or "tlm",
         rates=tuple(args.rate),
         default_rate=args.default_rate,
         settings=tuple(args.set),
@@ -385,7 +389,10 @@ def _add_listen(commands: argparse._SubParsersAction) -> None:
         "  firmware-sim listen --listen pty --set gain.k=0x20000 --show gain.y\n"
         "  firmware-sim listen --listen tcp-listen://127.0.0.1:0 --native signal \\\n"
         "      --wire signal.y=gain.x --set gain.k=0x20000 --show gain.y\n"
-        "  firmware-sim listen --listen tcp-listen://127.0.0.1:7777 --fpga 4",
+        "  firmware-sim listen --listen tcp-listen://127.0.0.1:7777 --fpga 4\n"
+        "  firmware-sim listen --listen tcp-listen://127.0.0.1:0 --fpga 4 --fpga-model rtl \\\n"
+        "      --native signal --set signal.amplitude=3 --native fabric \\\n"
+        "      --wire signal.y=fabric.x --show fabric.y",
     )
     command.add_argument(
         "--listen",
@@ -407,7 +414,14 @@ def _add_listen(commands: argparse._SubParsersAction) -> None:
         type=arguments.slots,
         metavar="N",
         help="give the node an N-slot FPGA fabric on its reconfiguration port: partial "
-        "bitstreams sent to it configure the fabric (docs/crossbar.md)",
+        "bitstreams sent to it configure the fabric, and the native fabric streams samples "
+        "through it (docs/crossbar.md)",
+    )
+    command.add_argument(
+        "--fpga-model",
+        choices=MODELS,
+        help="the fabric's model: tlm, transaction-level (default), or rtl, the Verilog "
+        "compiled by Verilator (built once, a few seconds); the same samples either way",
     )
     _add_pbo_options(
         command,

@@ -10,6 +10,12 @@ hardware does. A node that trusts keys admits a bitstream first as it does a mod
 trusted key, unchanged, not older than the highest version kept of its signed name: docs/node.md,
 "Trusted keys and anti-rollback"), so the port sees only bitstreams the node accepted.
 
+Data flows through the fabric too: `stream` sends samples into its external inputs and returns
+what leaves its outputs, which the node's ``fabric`` PBO does every cycle
+(`firmware_sim.core.fabric_pbo`). A port has a model of the fabric behind it, chosen when it is
+opened (`MODELS`): the transaction-level model (fast, in Python) or the Verilog itself, compiled
+by Verilator and clocked in batches; both give the same outputs bit for bit.
+
 The node knows a port only through `ReconfigurationPort`. The implementation (morphing_crossbar's
 crossbar, one layer with firmware_sim) registers a factory under the entry-point group
 `ENTRY_POINT_GROUP`, which `open_port` loads, so that firmware_sim imports nothing of it.
@@ -17,7 +23,7 @@ crossbar, one layer with firmware_sim) registers a factory under the entry-point
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from importlib.metadata import entry_points
 from typing import Protocol
 
@@ -26,6 +32,8 @@ from hexmigrate.image import ModuleImage
 
 ENTRY_POINT_GROUP = "firmware_sim.reconfiguration_ports"
 """Where an installed package registers its `PortFactory` (pyproject.toml's entry points)."""
+MODELS = ("tlm", "rtl")
+"""The fabric models a port may drive: transaction-level, or the RTL (Verilator)."""
 
 
 class Reconfiguration(Protocol):
@@ -55,6 +63,17 @@ class ReconfigurationPort(Protocol):
         """What the port drives, for the node's output (``a 4-slot Morphing Crossbar``)."""
         ...
 
+    @property
+    def data_width(self) -> int:
+        """Bits of one sample on the fabric's streams."""
+        ...
+
+    def stream(self, inputs: Mapping[int, Sequence[int]]) -> dict[int, list[int]]:
+        """Send each external input's samples (each below 2**data_width) through the fabric;
+        each output's samples, in order, by output. ValueError (the port's own subclass) for
+        an input the routing takes to no output, or a sample too wide: nothing is sent."""
+        ...
+
     def owns(self, link_base: int) -> bool:
         """Whether an image linked at `link_base` is a bitstream for this port."""
         ...
@@ -69,15 +88,19 @@ class ReconfigurationPort(Protocol):
         ...
 
 
-PortFactory = Callable[[int], ReconfigurationPort]
-"""What an entry point names: the port of a fabric of N slots (ValueError when it cannot)."""
+PortFactory = Callable[[int, str], ReconfigurationPort]
+"""What an entry point names: the port of a fabric of N slots on a model of `MODELS` (ValueError
+when it cannot have that many slots, RuntimeError when the model cannot be built)."""
 
 
-def open_port(slots: int, group: str = ENTRY_POINT_GROUP) -> ReconfigurationPort:
-    """The port of a `slots`-slot fabric, from the one implementation installed under `group`.
+def open_port(
+    slots: int, model: str = "tlm", group: str = ENTRY_POINT_GROUP
+) -> ReconfigurationPort:
+    """The port of a `slots`-slot fabric on `model`, from the one implementation installed under
+    `group`.
 
     Raises ReconfigurationPortError when none or several are installed, or when the one installed
-    cannot build that many slots.
+    cannot build that many slots or that model.
     """
     found = sorted(entry_points(group=group), key=lambda point: point.name)
     if not found:
@@ -91,10 +114,13 @@ def open_port(slots: int, group: str = ENTRY_POINT_GROUP) -> ReconfigurationPort
         raise ReconfigurationPortError(
             f"expected one FPGA reconfiguration port installed under {group!r}, got {names}"
         )
+    if model not in MODELS:
+        raise ReconfigurationPortError(f"expected a fabric model in {MODELS}, got {model!r}")
     factory: PortFactory = found[0].load()
     try:
-        return factory(slots)
-    except ValueError as error:
+        return factory(slots, model)
+    except (ValueError, RuntimeError) as error:
         raise ReconfigurationPortError(
-            f"the {found[0].name!r} reconfiguration port cannot build {slots} slot(s): {error}"
+            f"the {found[0].name!r} reconfiguration port cannot build {slots} slot(s) on the "
+            f"{model} model: {error}"
         ) from None

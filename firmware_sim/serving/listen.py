@@ -5,7 +5,8 @@ It says where it listens (first, so that a script can read it), boots the module
 holds, starts the native PBOs asked for, then serves the link: each module installed is started
 (or, with ``--no-start``, created and left off for a host's ``hexmigrate start``) at its rate
 with its constants and wired (`firmware_sim.serving.pbo_setup`), each bitstream is
-handed to the FPGA reconfiguration port, and every second the ports named by `show` are printed.
+handed to the FPGA reconfiguration port (whose fabric the native ``fabric`` streams samples
+through: `firmware_sim.core.fabric_pbo`), and every second the ports named by `show` are printed.
 On the real-time clock, so a terminal user sees the node live; with `lock_step`
 (``--lock-step``) on a virtual clock that only a host's Advance moves (a time master's quanta,
 `hexmigrate.transfer.time_master`). One `Receiver` serves the node for its whole life, so a
@@ -22,6 +23,8 @@ from pathlib import Path
 
 from commandline.interrupts import stop_requests
 from firmware_sim.core.debug_port import DebugPort
+from firmware_sim.core.fabric_pbo import NAME as FABRIC
+from firmware_sim.core.fabric_pbo import fabric_native
 from firmware_sim.core.fpga_port import open_port
 from firmware_sim.core.guest import DEFAULT_BUDGET
 from firmware_sim.core.natives import NATIVES
@@ -50,9 +53,10 @@ SHOW_INTERVAL = 1.0
 @dataclass(frozen=True)
 class ListenConfig:
     """Everything ``firmware-sim listen`` is told: where to listen, the node's hardware (flash
-    file, FPGA slots, the guest instructions a method call may take), which PBOs to start and
-    how, what to show and for how long (None: until interrupted), and whether its clock is
-    virtual and moved by Advance only (`lock_step`), which signed modules it admits
+    file, FPGA slots and the fabric's model, the guest instructions a method call may take),
+    which PBOs to start and how (the ``fabric`` native too on a node with a fabric), what to
+    show and for how long (None: until interrupted), and whether its clock is virtual and moved
+    by Advance only (`lock_step`), which signed modules it admits
     (`trust`, firmware_sim/core/trust.py), the module ELFs its faults find source lines in
     (`elves`), and the trace files it records its ports in (`traces`, pbort/trace)."""
 
@@ -60,6 +64,7 @@ class ListenConfig:
     name: str = "node"
     flash: Path | None = None
     fpga: int | None = None
+    fpga_model: str = "tlm"
     rates: tuple[tuple[str, float], ...] = ()
     default_rate: float = 100.0
     settings: tuple[Setting, ...] = ()
@@ -89,9 +94,10 @@ def listen(
     name: a program that makes a node of its own robot (drivers bound to its devices) passes
     them here, and `config.natives` names which to start. `started(node)` is called once the
     node is made, before it serves anything: such a program may watch its kernel's jobs."""
-    codes = {name: NativeModule(native) for name, native in NATIVES.items()} | dict(firmware or {})
+    port = None if config.fpga is None else open_port(config.fpga, config.fpga_model)
+    builtin = NATIVES if port is None else {**NATIVES, FABRIC: fabric_native(port)}
+    codes = {name: NativeModule(native) for name, native in builtin.items()} | dict(firmware or {})
     natives = [(name, _native(codes, name)) for name in config.natives]  # refused before listening
-    port = None if config.fpga is None else open_port(config.fpga)
     clock: Clock = VirtualClock() if config.lock_step else RealTimeClock()
     with Node(
         config.name,

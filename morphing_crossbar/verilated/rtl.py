@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..bitstream import beats_to_word, decode_bytes, decode_frame, word_to_beats
-from ..errors import DataWidthError, FabricStallError
+from ..errors import DataWidthError, FabricStallError, ModelBuildError
 from ..fabric import Fabric
 from ..model import LoadResult
 from ..routing import Configuration, SlotRoute
@@ -41,7 +41,13 @@ class RtlCrossbarModel:
         self.fabric = fabric
         self.configuration = Configuration.reset(fabric)
         self.loads = 0
-        self._lib = _bind(ctypes.CDLL(str(library)))
+        self._handle: int | None = None
+        try:
+            self._lib = _bind(ctypes.CDLL(str(library)))
+        except (OSError, AttributeError) as error:  # not a library, or not this driver's
+            raise ModelBuildError(
+                f"cannot load the fabric's model {library}: {error} (remove it to rebuild it)"
+            ) from None
         self._handle = self._lib.mx_new(fabric.n, fabric.data_w)
 
     @property

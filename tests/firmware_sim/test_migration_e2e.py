@@ -541,7 +541,10 @@ def test_a_bitstream_configures_a_listening_node_s_fabric(tmp_path):
     subprocess.run([*command, "-o", str(bitstream)], check=True, timeout=CLI_TIMEOUT)
     with NodeProcess("tcp-listen://127.0.0.1:0", "--fpga", "4") as node:
         url = node.url
-        node.wait_for(r"^fpga: a 4-slot Morphing Crossbar on the reconfiguration port$")
+        node.wait_for(
+            r"^fpga: a 4-slot Morphing Crossbar \(transaction-level model\) on the "
+            r"reconfiguration port$"
+        )
         sent = hexmigrate("send", bitstream, "--to", url)
         assert "module mx_slot2 installed at 0x40000200" in sent
         node.wait_for(r"^configured mx_slot2: slot 2 reconfigured in 25 fabric cycles$")

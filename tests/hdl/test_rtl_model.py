@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from morphing_crossbar.bitstream import pack
-from morphing_crossbar.errors import CrcError, DataWidthError, RouteError
+from morphing_crossbar.errors import CrcError, DataWidthError, ModelBuildError, RouteError
 from morphing_crossbar.fabric import Fabric
 from morphing_crossbar.model import CrossbarModel
 from morphing_crossbar.routing import empty_route
@@ -113,3 +113,10 @@ def test_a_reconfiguration_takes_the_wrapper_s_cycles(library) -> None:
         assert fabric.frame_beats <= cycles <= fabric.frame_beats + 8
     finally:
         rtl.close()
+
+
+def test_a_file_that_is_not_the_model_library_is_one_clear_error(tmp_path: Path) -> None:
+    broken = tmp_path / "libmx_model.so"
+    broken.write_bytes(b"\x7fELF truncated")
+    with pytest.raises(ModelBuildError, match=r"cannot load the fabric's model .*remove it"):
+        RtlCrossbarModel(Fabric(4), broken)

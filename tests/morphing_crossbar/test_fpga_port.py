@@ -134,7 +134,7 @@ def test_the_pack_command_writes_the_image_and_names_a_bad_slot(tmp_path: Path, 
 def test_the_node_finds_the_crossbar_port_through_its_entry_point() -> None:
     port = open_port(4)
     assert isinstance(port, CrossbarReconfigurationPort)
-    assert port.description == "a 4-slot Morphing Crossbar"
+    assert port.description == "a 4-slot Morphing Crossbar (transaction-level model)"
     assert port.owns(CONFIG_BASE + 0x200) and not port.owns(0x0800_0000)
     record = port.load(to_image(FABRIC, pack(FABRIC, 2, bypass_route())))
     assert (record.component, record.slot, record.cycles) == ("mx_slot2", 2, 25)
@@ -143,7 +143,8 @@ def test_the_node_finds_the_crossbar_port_through_its_entry_point() -> None:
 def test_a_fabric_the_crossbar_cannot_build_is_one_clear_error() -> None:
     with pytest.raises(
         ReconfigurationPortError,
-        match=r"the 'crossbar' reconfiguration port cannot build 1 slot\(s\): expected 2\.\.16",
+        match=r"the 'crossbar' reconfiguration port cannot build 1 slot\(s\) on the tlm model: "
+        r"expected 2\.\.16",
     ):
         open_port(1)
 

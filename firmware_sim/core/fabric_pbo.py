@@ -1,0 +1,43 @@
+"""The node's ``fabric`` PBO: a signal through the FPGA fabric, one sample every cycle.
+
+On a node with a reconfiguration port (``firmware-sim listen --fpga N``), the PBO ``fabric``
+carries data through the hardware: each cycle it sends its input ``x`` (its low bits, as many as
+the fabric's samples have) into the fabric's external input ``slot`` (a constant, 0 unless set)
+and puts the sample that leaves the fabric, at whichever output the routing takes it to, on its
+output ``y``. So a guest module or a native wired to it processes what the fabric computed, and
+a partial bitstream sent to the node changes that computation between two cycles. The fabric is
+the port's model (transaction-level or the Verilog on Verilator: the same samples).
+
+A `slot` the fabric does not have, or a routing that takes the input nowhere (its slot emptied
+by a bitstream), fails the cycle: the PBO logs why and goes to ERROR, as a module whose cycle
+fails does.
+"""
+
+from __future__ import annotations
+
+from firmware_sim.core.fpga_port import ReconfigurationPort
+from pbort.native import NativePBO, PortIO
+from pbort.ports import PortSpec
+
+NAME = "fabric"
+
+
+def fabric_native(port: ReconfigurationPort) -> type[NativePBO]:
+    """The ``fabric`` native of a node whose reconfiguration port is `port`."""
+    mask = (1 << port.data_width) - 1
+
+    class Fabric(NativePBO):
+        name = NAME
+        ports = (PortSpec.input("x"), PortSpec.output("y"), PortSpec.const("slot"))
+
+        def cycle(self, io: PortIO) -> int:
+            try:
+                outputs = port.stream({io["slot"]: [io["x"] & mask]})
+            except ValueError as error:
+                io.log(f"fabric: {error}")
+                return -1
+            (samples,) = outputs.values()
+            io["y"] = samples[0]
+            return 0
+
+    return Fabric
