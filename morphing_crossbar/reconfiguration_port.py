@@ -80,17 +80,17 @@ class PortLoad:
 class CrossbarReconfigurationPort:
     """The reconfiguration port of one crossbar, with a log of what it loaded."""
 
-    def __init__(self, model: FabricModel, fabric_hz: float = 100e6, kind: str = "tlm") -> None:
+    def __init__(self, model: FabricModel, fabric_hz: float = 100e6) -> None:
         self.model = model
         self.fabric_hz = fabric_hz
-        self.kind = kind
         self.loads: list[PortLoad] = []
         self.installed: dict[int, str] = {}
 
     @property
     def description(self) -> str:
         """What the port drives, for the node's output."""
-        modelled = "its RTL on Verilator" if self.kind == "rtl" else "transaction-level model"
+        rtl = isinstance(self.model, RtlCrossbarModel)
+        modelled = "its RTL on Verilator" if rtl else "transaction-level model"
         return f"a {self.model.fabric.n}-slot Morphing Crossbar ({modelled})"
 
     @property
@@ -142,7 +142,7 @@ def crossbar_port(slots: int, model: str = "tlm") -> CrossbarReconfigurationPort
         return CrossbarReconfigurationPort(CrossbarModel(fabric))
     if model == "rtl":
         library = model_library(fabric, model_cache() / "models")
-        return CrossbarReconfigurationPort(RtlCrossbarModel(fabric, library), kind="rtl")
+        return CrossbarReconfigurationPort(RtlCrossbarModel(fabric, library))
     raise FabricParameterError(f"expected a fabric model tlm or rtl, got {model!r}")
 
 

