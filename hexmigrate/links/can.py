@@ -51,8 +51,8 @@ from hexmigrate.links.base import MAX_MESSAGE_SIZE, LinkBase
 from hexmigrate.links.can_defaults import DEFAULT_BITRATE, DEFAULT_PADDING, HOST_IDS
 from hexmigrate.links.url import (
     choice,
+    host_and_port,
     integer,
-    network_host,
     parse_parameters,
     real,
     split_url,
@@ -208,14 +208,7 @@ def remote_address(url: str, channel: str, lowest_port: int = 1) -> tuple[str, i
         raise url_error(
             url, f"expected HOST:PORT/CHANNEL after can://remote/, got {channel!r}", form
         )
-    try:
-        network_host(host)
-    except ValueError as error:
-        raise url_error(url, f"host: {error}", form) from None
-    try:
-        number = integer(lowest_port, 65535)(port)
-    except ValueError as error:
-        raise url_error(url, f"port: {error}", form) from None
+    _, number = host_and_port(url, host, port, form, lowest_port)
     return host, number, name
 
 

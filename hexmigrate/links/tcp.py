@@ -48,7 +48,7 @@ from hexmigrate.errors import LinkError
 from hexmigrate.links.base import LinkBase, message_problem
 from hexmigrate.links.framing import Deframer, frame
 from hexmigrate.links.stream import MESSAGE_OVERHEAD, POLL_INTERVAL
-from hexmigrate.links.url import integer, network_host, split_url, url_error, url_host
+from hexmigrate.links.url import host_and_port, split_url, url_error, url_host
 
 SCHEME = "tcp-listen"
 FORM = (
@@ -95,15 +95,7 @@ def parse_url(url: str, **options: object) -> tuple[str, int]:
     ):
         got = url.removeprefix(prefix)
         raise url_error(url, f"expected HOST:PORT after {SCHEME}://, got {got!r}", FORM)
-    try:
-        address: str = network_host(name)
-    except ValueError as error:
-        raise url_error(url, f"host: {error}", FORM) from None
-    try:
-        value: int = integer(0, 65535)(port)
-    except ValueError as error:
-        raise url_error(url, f"port: {error}", FORM) from None
-    return address, value
+    return host_and_port(url, name, port, FORM, lowest_port=0)
 
 
 def _listen(url: str, name: str, port: int) -> socket.socket:

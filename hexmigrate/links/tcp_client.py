@@ -28,7 +28,7 @@ from contextlib import suppress
 
 from hexmigrate.errors import LinkError
 from hexmigrate.links.stream import POLL_INTERVAL, StreamLink
-from hexmigrate.links.url import integer, network_host, split_url, url_error
+from hexmigrate.links.url import host_and_port, split_url, url_error
 
 SCHEME = "socket"
 FORM = "socket://HOST:PORT such as socket://127.0.0.1:7000 or socket://[::1]:7000"
@@ -57,15 +57,7 @@ def parse_url(url: str, **options: object) -> tuple[str, int]:
     if not name or rest or options:
         got = url[len(f"{SCHEME}://") :] or ", ".join(options)
         raise url_error(url, f"expected HOST:PORT after {SCHEME}://, got {got!r}", FORM)
-    try:
-        host: str = network_host(name)
-    except ValueError as error:
-        raise url_error(url, f"host: {error}", FORM) from None
-    try:
-        number: int = integer(1, 65535)(port)
-    except ValueError as error:
-        raise url_error(url, f"port: {error}", FORM) from None
-    return host, number
+    return host_and_port(url, name, port, FORM)
 
 
 class SocketLink(StreamLink):

@@ -142,6 +142,23 @@ def url_host(name: str) -> str:
     return f"[{name}]" if ":" in name else name
 
 
+def host_and_port(
+    url: str, host: str, port: str, form: str, lowest_port: int = 1
+) -> tuple[str, int]:
+    """`host` checked (`network_host`: an IPv6 literal loses its brackets) and `port` as a
+    number from `lowest_port` (0: any free one, where a server is to listen) to 65535; a
+    LinkUrlError naming which is wrong in `url`, with the scheme's `form`."""
+    try:
+        checked = network_host(host)
+    except ValueError as error:
+        raise url_error(url, f"host: {error}", form) from None
+    try:
+        number: int = integer(lowest_port, 65535)(port)
+    except ValueError as error:
+        raise url_error(url, f"port: {error}", form) from None
+    return checked, number
+
+
 def split_url(url: str, form: str) -> SplitResult:
     """`url` split as urllib does, a LinkUrlError rather than urllib's bare ValueError for a
     bracketed host that is no IPv6 address (``socket://[::g]:1``, ``tcp-listen://[::1:0``)."""
