@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import random
-import socket
 import tempfile
 import time
 from pathlib import Path
@@ -27,7 +26,7 @@ from firmware_sim.core.memory_map import FLASH_BASE
 from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
 from hexmigrate.links import open_link
-from hexmigrate.links.framing import Deframer, frame
+from hexmigrate.links.framing import frame
 from hexmigrate.transfer.messages import (
     Abort,
     Ack,
@@ -99,37 +98,18 @@ def _message(rng: random.Random, module: int) -> tuple[Message, bool]:
     return Remove(rng.choice(["nothing", "x" * 200])), text
 
 
-def exchange(port: int, data: bytes) -> list[bytes]:
-    """Send `data` on a connection of its own; what was answered within QUIET s."""
-    deframer, answers = Deframer(), []
-    with socket.create_connection(("127.0.0.1", port), timeout=10.0) as client:
-        client.sendall(data)
-        client.settimeout(QUIET)
-        deadline = time.monotonic() + ANSWER_LIMIT
-        while time.monotonic() < deadline:
-            try:
-                chunk = client.recv(1 << 16)
-            except (TimeoutError, ConnectionResetError):
-                break
-            if not chunk:
-                break
-            answers += deframer.feed(chunk)
-    return answers
-
-
 def peak_rss_mb(pid: int) -> float:
     status = Path(f"/proc/{pid}/status").read_text()
     line = next(line for line in status.splitlines() if line.startswith("VmHWM:"))
     return int(line.split()[1]) / 1024
 
 
-def fuzz(
-    node: NodeProcess, port: int, module: int, rng: random.Random, inputs: int
-) -> dict[str, int]:
+def fuzz(node: NodeProcess, module: int, rng: random.Random, inputs: int) -> dict[str, int]:
     """Send `inputs` hostile inputs (fewer if the node exits); how each was answered."""
     counts = {"refused": 0, "ignored": 0, "answered": 0, "wrong": 0}
     for _ in range(inputs):
-        answers = [decode(raw) for raw in exchange(port, hostile_input(rng, module))]
+        data = hostile_input(rng, module)
+        answers = [decode(raw) for raw in node.exchange(data, QUIET, ANSWER_LIMIT)]
         if any(isinstance(a, Ack) and a.text.startswith(("installed", "removed")) for a in answers):
             counts["wrong"] += 1
         elif not answers:
@@ -154,14 +134,12 @@ def main() -> None:
         flash = Path(folder) / "flash.bin"
         options = ("--flash", str(flash), "--set", "gain.k=0x20000")
         with NodeProcess("tcp-listen://127.0.0.1:0", *options) as node:
-            url = node.url
-            port = int(url.rsplit(":", 1)[1])
-            with open_link(url) as link:
+            with open_link(node.url) as link:
                 installed = Sender(link, "binary", timeout=10.0, retries=0).send(image)
             offset = installed.load_address - FLASH_BASE
             before = flash.read_bytes()[offset : offset + image.size]
             start = time.monotonic()
-            counts = fuzz(node, port, installed.load_address, rng, arguments.inputs)
+            counts = fuzz(node, installed.load_address, rng, arguments.inputs)
             alive = node.child.process.poll() is None
             intact = flash.read_bytes()[offset : offset + image.size] == before
             tried = sum(counts.values())

@@ -7,18 +7,26 @@ of the caller's or one in a temporary folder removed when the node stops; its li
 gives the URL a host opens (``hexmigrate.links.listening.CONNECT_URL``), read when it is first
 asked for, so that many nodes can start at once and be waited for after: each imports Unicorn
 and python-can before it listens, and fifty started one after another would take minutes.
-Leaving the context stops the node as Ctrl-C would (SIGINT, then SIGKILL).
+Leaving the context stops the node as Ctrl-C would (SIGINT, then SIGKILL). `exchange` sends a
+node on TCP raw bytes on a connection of their own, as a hostile client would, and collects the
+framed messages it answered.
 """
 
 from __future__ import annotations
 
 import re
+import socket
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 from commandline.children import START_TIMEOUT, Child
+from hexmigrate.links.framing import Deframer
 from hexmigrate.links.listening import CONNECT_URL
+from hexmigrate.links.tcp_client import parse_url
+
+READ_SIZE = 1 << 16
 
 
 class NodeProcess:
@@ -72,6 +80,25 @@ class NodeProcess:
     ) -> tuple[int, re.Match[str]]:
         """As `wait_for`, with the index of the line that matched."""
         return self.child.wait_for_line(pattern, timeout, start)
+
+    def exchange(self, data: bytes, quiet: float = 0.3, timeout: float = 10.0) -> list[bytes]:
+        """Send `data` to the node (on TCP) on a connection of its own; the messages it
+        answered until `quiet` seconds passed without one, or it closed the connection (at most
+        `timeout` s in all)."""
+        deframer, answers = Deframer(), []
+        with socket.create_connection(parse_url(self.url), timeout=timeout) as client:
+            client.sendall(data)
+            client.settimeout(quiet)
+            deadline = time.monotonic() + timeout
+            while time.monotonic() < deadline:
+                try:
+                    chunk = client.recv(READ_SIZE)
+                except (TimeoutError, ConnectionResetError):
+                    break
+                if not chunk:
+                    break
+                answers += deframer.feed(chunk)
+        return answers
 
     def stop(self) -> None:
         """Stop the node (SIGINT, SIGKILL if it does not end) and remove a temporary log; what

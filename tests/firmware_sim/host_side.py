@@ -7,14 +7,11 @@ modules arrived. Every wait is bounded.
 from __future__ import annotations
 
 import re
-import socket
 import subprocess
 import sys
-import time
 from collections.abc import Iterable
 
 from firmware_sim.serving.node_process import NodeProcess
-from hexmigrate.links.framing import Deframer
 
 CLI_TIMEOUT = 30.0
 """Seconds a ``hexmigrate`` command may take (it imports python-can and cryptography)."""
@@ -37,27 +34,6 @@ def hexmigrate_refused(*arguments: object) -> str:
     done = subprocess.run(command, capture_output=True, text=True, timeout=CLI_TIMEOUT)
     assert done.returncode == 1, f"hexmigrate {' '.join(command[3:])}: exit {done.returncode}"
     return done.stderr
-
-
-def exchange(url: str, data: bytes, quiet: float = 0.3, timeout: float = 10.0) -> list[bytes]:
-    """Send `data` to the node at ``socket://`` `url` on a connection of its own; the messages
-    it answered until `quiet` seconds passed without one (at most `timeout` s)."""
-    host, port = url.removeprefix("socket://").rsplit(":", 1)
-    deframer = Deframer()
-    answers: list[bytes] = []
-    with socket.create_connection((host, int(port)), timeout=timeout) as client:
-        client.sendall(data)
-        client.settimeout(quiet)
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            try:
-                chunk = client.recv(1 << 16)
-            except (TimeoutError, ConnectionResetError):
-                break
-            if not chunk:
-                break
-            answers += deframer.feed(chunk)
-    return answers
 
 
 def check_node_output(node: NodeProcess, names: Iterable[str]) -> dict[str, int]:

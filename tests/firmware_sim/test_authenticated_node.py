@@ -42,7 +42,6 @@ from hexmigrate.transfer.messages import (
 from hexmigrate.transfer.sender import Sender
 from tests.firmware_sim.host_side import (
     check_node_output,
-    exchange,
     hexmigrate,
     hexmigrate_refused,
 )
@@ -200,7 +199,7 @@ def test_nothing_a_stranger_sends_changes_a_trusting_node(trusting, transfers):
     )
     @given(st.lists(strangers_requests(transfers, trusting.key), min_size=1, max_size=4))
     def one(parts: list[bytes]) -> None:
-        for raw in exchange(trusting.url, b"".join(parts)):
+        for raw in trusting.node.exchange(b"".join(parts)):
             answer = decode(raw)
             assert not (isinstance(answer, Ack) and answer.text.startswith(CHANGED)), answer
         assert trusting.node.child.process.poll() is None, trusting.node.lines()

@@ -27,6 +27,7 @@ from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
 from hexmigrate.links import open_link
 from hexmigrate.links.framing import frame
+from hexmigrate.links.tcp_client import parse_url
 from hexmigrate.transfer.messages import (
     Abort,
     Ack,
@@ -42,7 +43,6 @@ from hexmigrate.transfer.messages import (
     encode,
 )
 from hexmigrate.transfer.sender import Sender
-from tests.firmware_sim.host_side import exchange
 
 ANSWER_TIMEOUT = 10.0
 QUIET = 0.3
@@ -64,8 +64,7 @@ class Hostile:
         self.node = node
         self.flash = flash
         self.url = node.url
-        self.host, port = self.url.removeprefix("socket://").rsplit(":", 1)
-        self.port = int(port)
+        self.host, self.port = parse_url(self.url)
         with open_link(self.url) as link:
             sender = Sender(link, "binary", timeout=ANSWER_TIMEOUT, retries=0)
             installed = sender.send(image)
@@ -79,7 +78,7 @@ class Hostile:
 
     def exchange(self, data: bytes) -> list[bytes]:
         """Send `data` on a connection of its own; the messages answered within QUIET s."""
-        return exchange(self.url, data, QUIET, ANSWER_TIMEOUT)
+        return self.node.exchange(data, QUIET, ANSWER_TIMEOUT)
 
     def check(self, answers: list[bytes]) -> None:
         """The node lives, refused or ignored everything, and its module is untouched."""
