@@ -258,7 +258,7 @@ def _add_pbo_options(
         + (
             ", ".join(natives)
             if natives is not None
-            else f"{', '.join(sorted(NATIVES))}, or one of --natives"
+            else f"{', '.join(sorted(NATIVES))}, fabric with --fpga, or one of --natives"
         )
         + ")",
     )

@@ -164,8 +164,10 @@ def _native(codes: Mapping[str, ModuleCode], name: str) -> ModuleCode:
     try:
         return codes[name]
     except KeyError:
+        needs = " (the fabric PBO needs a fabric: --fpga N)" if name == FABRIC else ""
         raise StartError(
-            f"--native {name}: expected one of {', '.join(sorted(codes))}, got no such native"
+            f"--native {name}: expected one of {', '.join(sorted(codes))}, got no such "
+            f"native{needs}"
         ) from None
 
 

@@ -101,3 +101,11 @@ def test_a_fabric_model_without_a_fabric_is_a_usage_error(capsys) -> None:
         main(["listen", "--listen", "tcp-listen://127.0.0.1:0", "--fpga-model", "rtl"])
     assert usage.value.code == 2
     assert "--fpga-model goes with --fpga N" in capsys.readouterr().err
+
+
+def test_the_fabric_pbo_on_a_node_with_no_fabric_is_refused_saying_why(capsys) -> None:
+    listen = ["listen", "--listen", "tcp-listen://127.0.0.1:0", "--native", "fabric"]
+    assert main([*listen, "--seconds", "0.1"]) == 1
+    err = capsys.readouterr().err
+    assert "--native fabric: expected one of signal, got no such native" in err
+    assert "needs a fabric: --fpga N" in err
