@@ -15,6 +15,7 @@ A program of its own beside the emulated nodes (it imports no part of `firmware_
 ``servo_can.dbc``     the CAN servo messages (commands, feedback, status, configuration)
 ``can_servo``         CAN servo nodes' logic, messages coded with cantools
 ``can_servo_server``  the CAN servo nodes serving a python-can bus in a thread
+``lock_step``         the CAN servo nodes' virtual clock, moved by the time stamped on frames
 ``bus_off``           a python-can bus wrapper that can go bus-off, for fault injection
 ``cli``               ``python -m servo_emulators``: run an emulator for a terminal or a host
 ====================  =========================================================================

@@ -114,6 +114,9 @@ class CanServoNodes:
         self._latch_jams()
         if frame.is_error_frame or frame.is_remote_frame or frame.is_extended_id:
             return []
+        if type(frame.arbitration_id) is not int:  # a client's float id: no node's filter
+            self.ignored += 1
+            return []
         try:
             message = self.db.get_message_by_frame_id(frame.arbitration_id)
             signals = message.decode(bytes(frame.data), decode_choices=False)

@@ -8,9 +8,10 @@ servos stamps the frames it sends with its time (`hexmanipulator.can_bus.CanServ
 a lock-step node stamps the end of the quantum it runs, the manager the run's time), and
 ``python -m servo_emulators can --lock-step`` moves the servos' clock to each frame's stamp
 before it handles the frame (never back: a frame stamped earlier, or not stamped, is handled at
-the clock's time; nor further than a node's longest Advance at once, `MAX_LEAP`: a stamp beyond
-it, as any number that is not a time, moves nothing, so a hostile frame cannot send the servos
-stepping toward the end of time).
+the clock's time; and never further at once than a node's longest Advance, `MAX_ADVANCE`: a
+later stamp moves the clock that far, so a hostile frame cannot send the servos stepping toward
+the end of time, and a real gap longer than that does not freeze the clock). A stamp that is not
+a finite number moves nothing.
 
 The servos are then at a quantum's end during the quantum, as in process (where they read the
 world's clock, which is at the end of the step the nodes run), whatever the order in which the
@@ -21,12 +22,12 @@ frames keep their stamps only through servers that preserve them: the emulator's
 
 from __future__ import annotations
 
+import math
 import threading
 
 import can
 
-MAX_LEAP = 3600.0
-"""Seconds a frame's stamp may move the clock at once (firmware_sim's longest Advance)."""
+from hexmigrate.transfer.control import MAX_ADVANCE
 
 
 class ServoClock:
@@ -43,9 +44,10 @@ class ServoClock:
             return self.time
 
     def follow(self, frame: can.Message) -> None:
-        """Move to `frame`'s stamp, if it is later than the clock and at most `MAX_LEAP`
-        later."""
+        """Move to `frame`'s stamp if it is later than the clock, by `MAX_ADVANCE` at most."""
         stamp = frame.timestamp
+        if not isinstance(stamp, int | float) or not math.isfinite(stamp):
+            return
         with self._lock:
-            if self.time < stamp <= self.time + MAX_LEAP:
-                self.time = stamp
+            if stamp > self.time:
+                self.time = min(stamp, self.time + MAX_ADVANCE)

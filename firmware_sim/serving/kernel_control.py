@@ -23,7 +23,7 @@ from firmware_sim.bridge.linked_halves import LinkedExport, LinkedImport, bridge
 from firmware_sim.core.node import RATE_MAX, RATE_MIN, Node
 from firmware_sim.core.port_values import Number, exact, setting
 from firmware_sim.errors import BridgeError, PortValueError
-from hexmigrate.transfer.control import PboRow
+from hexmigrate.transfer.control import MAX_ADVANCE, PboRow
 from pbort.code import PerformanceKind
 from pbort.errors import NotConnectedError
 from pbort.lifecycle import State
@@ -42,9 +42,6 @@ IMPORTER_PRIORITY = -1
 value that arrived is read in the same period rather than the next."""
 ADVANCE_WAIT = 5.0
 """Seconds an Advance waits for the values it expects before it is refused."""
-MAX_ADVANCE = 3600.0
-"""The most seconds of virtual time one Advance runs: the node answers nothing while it runs, and
-a time master grants quanta far shorter."""
 
 
 def _named(ports: tuple[PortSpec, ...], direction: Direction) -> tuple[str, ...]:

@@ -32,6 +32,10 @@ MAX_BRIDGES = 256
 ADVANCED = "advanced"
 """The first word of the answer to an Advance."""
 MICROSECONDS = 1_000_000
+MAX_ADVANCE = 3600.0
+"""The most seconds of virtual time one Advance moves a clock: a node answers nothing while it
+runs, a time master grants quanta far shorter, and a device that follows the time stamped on
+what it is sent (the lock-step servos) moves no further at once."""
 BRIDGE_NUMBERS = 1 << 16
 """Bridge numbers travel as u16."""
 

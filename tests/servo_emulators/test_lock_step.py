@@ -19,13 +19,16 @@ from firmware_sim.serving.kernel_control import KernelControl
 from hexmanipulator.can_bus import CanServoBus, open_can_bus
 from hexmanipulator.geometry import load
 from hexmigrate.links.direct import DirectLink
+from hexmigrate.transfer.control import MAX_ADVANCE
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from hexmigrate.transfer.time_master import TimeMaster
 from pbort import NativeModule, NativePBO, PortIO, PortSpec
+from servo_emulators.can_servo import CanServoNodes
+from servo_emulators.can_servo_server import CanServoServer
 from servo_emulators.cli import main
-from servo_emulators.lock_step import MAX_LEAP, ServoClock
+from servo_emulators.lock_step import ServoClock
 
 GEOMETRY = load()
 WAIT = 20.0
@@ -35,15 +38,22 @@ def stamped(at: float) -> can.Message:
     return can.Message(timestamp=at, arbitration_id=0x80, data=b"")
 
 
-def test_the_clock_follows_the_stamps_forward_only_and_no_further_than_a_leap() -> None:
+def test_the_clock_follows_the_stamps_forward_only_and_no_further_than_an_advance() -> None:
     clock = ServoClock()
     clock.follow(stamped(0.25))
     assert clock.now() == 0.25
-    for ignored in (0.1, 0.0, float("nan"), float("inf"), 0.25 + MAX_LEAP + 1.0, 1e300):
+    for ignored in (0.1, 0.0, float("nan"), float("inf"), float("-inf")):
         clock.follow(stamped(ignored))
         assert clock.now() == 0.25, ignored
-    clock.follow(stamped(0.25 + MAX_LEAP))
-    assert clock.now() == 0.25 + MAX_LEAP
+    clock.follow(can.Message(timestamp="x", arbitration_id=0x80))  # type: ignore[arg-type]
+    assert clock.now() == 0.25  # a hostile client's stamp that is not a number
+    clock.follow(stamped(1e300))  # a leap: one longest Advance at most
+    assert clock.now() == 0.25 + MAX_ADVANCE
+    later = 0.25 + MAX_ADVANCE + 5000.0  # a real gap longer than one Advance: no freeze
+    clock.follow(stamped(later))
+    assert clock.now() == 0.25 + 2 * MAX_ADVANCE
+    clock.follow(stamped(later))
+    assert clock.now() == later
 
 
 def test_a_lock_step_node_s_horizon_is_the_end_of_the_quantum_it_runs() -> None:
@@ -116,3 +126,22 @@ def test_lock_step_without_the_emulator_s_own_servers_is_a_usage_error(where, ca
     assert usage.value.code == 2
     err = capsys.readouterr().err
     assert "--lock-step: expected the buses served by the emulator (--serve)" in err
+
+
+def test_a_hostile_frame_neither_moves_the_clock_nor_stops_the_servos() -> None:
+    """A client's frame with a stamp that is not a number and a float identifier (python-can
+    takes both) is ignored and counted; the servos answer the next Sync."""
+    clock = ServoClock()
+    nodes = CanServoNodes(now=clock.now)
+    channel = "lockstep-hostile"
+    kept = {"interface": "virtual", "channel": channel, "preserve_timestamps": True}
+    with CanServoServer(nodes, can.Bus(**kept), clock) as server:
+        host = can.Bus(**kept)
+        try:
+            hostile = can.Message(timestamp="x", arbitration_id=128.0, is_extended_id=False)  # type: ignore[arg-type]
+            host.send(hostile)
+            servos = CanServoBus(host, GEOMETRY, Stamp())
+            assert len(servos.read().angles) == 6
+            assert server.error is None and nodes.ignored == 1 and clock.now() == 0.0
+        finally:
+            host.shutdown()
