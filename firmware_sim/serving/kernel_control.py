@@ -57,8 +57,6 @@ class KernelControl:
         self.lock_step = lock_step
         self.exports: dict[int, LinkedExport] = {}
         self.imports: dict[int, LinkedImport] = {}
-        self.granted = 0.0
-        """The last time an Advance ran the node to (its clock may be beyond)."""
 
     def pbos(self) -> tuple[PboRow, ...]:
         """Every PBO of the kernel, in registration order."""
@@ -135,9 +133,10 @@ class KernelControl:
         if not self.lock_step:
             raise BridgeError("this node runs on the real-time clock: start it with --lock-step")
         kernel = self.node.kernel
-        if not self.granted <= until <= self.granted + MAX_ADVANCE:
+        granted = self.node.horizon  # the last time an Advance ran the node to
+        if not granted <= until <= granted + MAX_ADVANCE:
             raise BridgeError(
-                f"expected a time from the node's clock {self.granted:g} s to {MAX_ADVANCE:g} s "
+                f"expected a time from the node's clock {granted:g} s to {MAX_ADVANCE:g} s "
                 f"later, got {until:g}"
             )
         unknown = sorted(set(expect) - set(self.imports))
@@ -152,7 +151,6 @@ class KernelControl:
                     f"bridge {number} ({bridge_name(number)}_rx): expected value {seq}, got up "
                     f"to {imported.half.latest} in {ADVANCE_WAIT:g} s{broken}"
                 )
-        self.granted = until  # only once it runs: a refused Advance leaves the node as it was
         for number, seq in expect.items():
             self.imports[number].half.release(seq)
         self.node.run(until=until)
