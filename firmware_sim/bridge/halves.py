@@ -19,7 +19,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from firmware_sim.wires.timing import UART_BITS_PER_BYTE, WireClock
+from firmware_sim.wires.timing import UART_BITS_PER_BYTE, WIRES, WireClock
 from firmware_sim.wires.wire_ends import FLOW_CONTROL_FRAME, frame_bits, isotp_frames
 from hexmigrate.links.can_defaults import DEFAULT_BITRATE, HOST_IDS
 from hexmigrate.links.framing import frame
@@ -32,9 +32,6 @@ BRIDGE_TYPE = 0x18
 (< 0x20). The modelled message is this byte, the bridge number and the sequence number (one byte
 each: with the type, a 4-byte value fits one CAN single frame of 7 bytes) and the port's bytes."""
 _MODELLED_HEADER = struct.Struct("<BBB")
-WIRES = ("serial", "CAN")
-"""The wires a bridge models, as `firmware_sim.wires` times them (not imported from there: its
-link module serves a node, and the node's control holds bridges)."""
 HOST_ID, NODE_ID = HOST_IDS  # the sender's frames and the receiver's flow control
 MAX_WAITING = 256
 """The most values an importing half holds that its PBO has not taken: past it the oldest go

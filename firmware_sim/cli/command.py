@@ -46,7 +46,7 @@ packages below it (hexmigrate, pbort)."""
 DEFAULT_RATE = 100.0
 DEFAULT_SECONDS = 1.0
 MEDIA = {"serial": "serial", "can": "CAN"}
-"""--medium: the option's word -> the wire simulation's (firmware_sim.wires.link.WIRES)."""
+"""--medium: the option's word -> the wire simulation's (firmware_sim.wires.timing.WIRES)."""
 
 DESCRIPTION = """\
 Run emulated ReFrESH nodes (RV32IM on Unicorn): load modules into one and run it, let one listen

@@ -53,7 +53,6 @@ class SymbolFile:
     """Where a guest module's code sits: its ELF (None when the node has not found it) and the
     offset from its link address to where it was loaded."""
 
-    module: str
     elf: Path | None
     offset: int
 
@@ -142,10 +141,8 @@ class DebugPort:
         """Where guest module `module` (installed on the node) sits."""
         code = self._node.modules[module].code
         if code.source is not None:
-            return SymbolFile(
-                module, code.source.path, code.load_address - code.source.image.link_base
-            )
-        return SymbolFile(module, None, code.load_address - code.link_base)
+            return SymbolFile(code.source.path, code.load_address - code.source.image.link_base)
+        return SymbolFile(None, code.load_address - code.link_base)
 
     def modules(self) -> tuple[str, ...]:
         """The guest modules installed on the node."""

@@ -7,6 +7,7 @@ from collections import deque
 from firmware_sim.core.node import Node
 from firmware_sim.core.transfer_target import NodeTarget
 from firmware_sim.wires.simulation import Simulation, Transmitter
+from firmware_sim.wires.timing import WIRES
 from firmware_sim.wires.wire_ends import IsoTpPort, Port, SerialPort
 from hexmigrate.links.base import message_problem
 from hexmigrate.links.can_defaults import DEFAULT_BITRATE, HOST_IDS
@@ -80,9 +81,6 @@ class NodeEnd:
         self.busy_until = start + self.flash.busy_time - before
         for reply in replies:
             self.port.send(reply, self.busy_until)
-
-
-WIRES = ("serial", "CAN")
 
 
 def connect(simulation: Simulation, wire: str, *, rate: float | None = None) -> tuple[Port, Port]:

@@ -25,6 +25,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+WIRES = ("serial", "CAN")
+"""The wires this package times: a UART line and a CAN bus."""
 UART_BITS_PER_BYTE = 10  # 8N1: start bit, 8 data bits, stop bit
 
 CAN_MAX_DATA = 8
