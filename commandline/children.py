@@ -82,8 +82,13 @@ class Child:
         """Every line of the log so far, read as it grows: a last line still without its end
         waits for the next call, unless the process has ended. Once everything is read, the
         log is not opened again (its owner may have removed it)."""
+        return list(self._read())
+
+    def _read(self) -> list[str]:
+        """The lines read so far, after reading what the log gained (the list itself, not a
+        copy: the waits look at it every poll, and a chatty child's log grows long)."""
         if self._read_all:
-            return list(self._lines)
+            return self._lines
         ended = self.process.poll() is not None  # asked first: then the log holds everything
         with self.log.open("rb") as log:
             log.seek(self._offset)
@@ -92,7 +97,7 @@ class Child:
         self._offset += len(whole)
         self._lines += whole.decode(errors="replace").splitlines()
         self._read_all = ended
-        return list(self._lines)
+        return self._lines
 
     def wait_for(
         self, pattern: re.Pattern[str] | str, timeout: float = START_TIMEOUT, start: int = 0
@@ -110,7 +115,7 @@ class Child:
         deadline = time.monotonic() + timeout
         while True:
             ended = self.process.poll() is not None
-            lines = self.lines()
+            lines = self._read()
             for index in range(start, len(lines)):
                 found = pattern.search(lines[index])
                 if found:
@@ -139,7 +144,7 @@ class Child:
 
     def error(self, what: str) -> ChildError:
         """An error about this process, naming its log and quoting its last lines."""
-        tail = " | ".join(self.lines()[-TAIL:]) or "(no output)"
+        tail = " | ".join(self._read()[-TAIL:]) or "(no output)"
         return ChildError(f"process {self.role} {what} (log {self.log}): {tail}")
 
     def interrupt(self) -> None:

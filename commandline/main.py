@@ -137,12 +137,18 @@ def _error_line(text: str, debug: bool) -> int:
     return EXIT_ERROR
 
 
+LAYOUT = "\n\t"
+"""What an error may keep of its own layout: an error quoting a tool's last lines (a build's,
+yosys's) is several lines, indented."""
+
+
 def visible(text: str) -> str:
-    """`text` with every character that is not printable shown as Python escapes it
-    (``\\x1b``, ``\\n``), the rest as it is."""
+    """`text` with every character that is not printable, but line breaks and tabs, shown as
+    Python escapes it (``\\x1b``, ``\\r``), the rest as it is: an escape sequence quoted from a
+    child, a node or a file cannot act on the terminal."""
     if text.isprintable():
         return text
-    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    return "".join(c if c.isprintable() or c in LAYOUT else repr(c)[1:-1] for c in text)
 
 
 def describe(error: BaseException) -> str:

@@ -3,6 +3,8 @@ nothing in time, and stopped as Ctrl-C would stop it, or killed when it ignores 
 
 from __future__ import annotations
 
+import contextlib
+import os
 import re
 import signal
 import sys
@@ -97,8 +99,9 @@ def test_a_child_of_a_process_that_ignores_sigint_is_interrupted_not_killed(tmp_
         child = Child.start("server", python(code), tmp_path / "server.log")
     finally:
         signal.signal(signal.SIGINT, previous)
-    child.wait_for(LISTENING)
-    child.stop()
+    with child:
+        child.wait_for(LISTENING)
+        child.stop()
     assert child.process.returncode == -signal.SIGINT  # KeyboardInterrupt, not SIGKILL
 
 
@@ -108,13 +111,14 @@ def test_an_interrupted_child_is_not_interrupted_again_while_it_stops_cleanly(tm
     code = (
         "import time\n"
         "try:\n    print('listening on here', flush=True); time.sleep(60)\n"
-        "except KeyboardInterrupt:\n    time.sleep(0.5); print('stopped cleanly', flush=True)\n"
+        "except KeyboardInterrupt:\n    print('stopping', flush=True); time.sleep(0.5)\n"
+        "    print('stopped cleanly', flush=True)\n"
     )
-    child = Child.start("careful", python(code), tmp_path / "careful.log")
-    child.wait_for(LISTENING)
-    child.interrupt()
-    time.sleep(0.1)  # the first SIGINT taken before the stop: no merging of the two signals
-    child.stop()
+    with Child.start("careful", python(code), tmp_path / "careful.log") as child:
+        child.wait_for(LISTENING)
+        child.interrupt()
+        child.wait_for("^stopping$")  # the first SIGINT taken: a second one would cut it short
+        child.stop()
     assert child.lines()[-1] == "stopped cleanly"
 
 
@@ -147,13 +151,25 @@ def test_a_child_ends_when_the_process_that_started_it_is_killed(tmp_path: Path)
     with Child.start(
         "parent", [*python(code), str(tmp_path / "sleeper.log")], tmp_path / "p"
     ) as parent:
-        orphan = Path(f"/proc/{parent.wait_for(LISTENING)[1]}")
-        parent.process.kill()
-        parent.process.wait(5)
-        deadline = time.monotonic() + 5
-        while orphan.exists() and "Z" not in (orphan / "stat").read_text().split()[2]:
-            assert time.monotonic() < deadline, "the child outlived its killed parent"
-            time.sleep(0.05)
+        pid = int(parent.wait_for(LISTENING)[1])
+        try:
+            parent.process.kill()
+            parent.process.wait(5)
+            deadline = time.monotonic() + 5
+            while _alive(pid):
+                assert time.monotonic() < deadline, "the child outlived its killed parent"
+                time.sleep(0.05)
+        finally:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)  # a child that did outlive it: not left running
+
+
+def _alive(pid: int) -> bool:
+    """Whether process `pid` runs (a zombie waiting for its reaper does not)."""
+    try:
+        return "Z" not in Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()[0]
+    except FileNotFoundError:
+        return False
 
 
 def test_a_busy_child_is_charged_its_cpu_time_and_an_idle_one_nothing(tmp_path: Path) -> None:

@@ -54,6 +54,13 @@ def test_an_error_of_the_root_is_one_line_and_exit_1(capsys, error):
     assert err == "error: the node said no\n"
 
 
+def test_an_error_keeps_its_lines_and_shows_every_other_control_character_escaped(capsys):
+    said = PackageError("the build failed:\n\tline 1\r\x1b[2J\n\tline 2")
+    assert run(parser_raising(said), PackageError, ["go"]) == EXIT_ERROR
+    err = capsys.readouterr().err
+    assert err == "error: the build failed:\n\tline 1\\r\\x1b[2J\n\tline 2\n"
+
+
 def test_an_os_error_names_the_file(capsys):
     error = FileNotFoundError(2, "No such file or directory", "gain.hex")
     assert run(parser_raising(error), PackageError, ["go"]) == EXIT_ERROR
