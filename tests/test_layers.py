@@ -76,14 +76,19 @@ class Arrow:
         return f"{self.where}: {self.source} imports {self.target} ({self.why})"
 
 
-def imported_names(tree: ast.AST) -> list[tuple[str, int]]:
-    """Every absolute module name a syntax tree imports, with its line."""
+def imported_names(tree: ast.AST, here: str = "") -> list[tuple[str, int]]:
+    """Every absolute module name a syntax tree imports, with its line; `here` is the dotted
+    package the tree's module is in, against which relative imports resolve. ``from X import
+    Y`` imports X and, when Y is a module, X.Y: both are named."""
     names: list[tuple[str, int]] = []
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             names += [(alias.name, node.lineno) for alias in node.names]
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            names.append((node.module, node.lineno))
+        elif isinstance(node, ast.ImportFrom):
+            base = here.split(".")[: len(here.split(".")) - node.level + 1] if node.level else []
+            module = ".".join([*base, *([node.module] if node.module else [])])
+            names.append((module, node.lineno))
+            names += [(f"{module}.{a.name}", node.lineno) for a in node.names if a.name != "*"]
         elif (
             isinstance(node, ast.Call)
             and getattr(node.func, "attr", getattr(node.func, "id", None)) == "import_module"
@@ -133,11 +138,13 @@ def wrong_arrows(root: Path) -> list[Arrow]:
             room = relative.parts[0].removesuffix(".py")
             tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
             source = f"{package}.{room}" if package in ROOMS else package
-            for name, line in imported_names(tree):
+            here = ".".join((package, *relative.parent.parts))
+            seen: set[int] = set()  # one arrow a line: ``from X import Y`` names X and X.Y
+            for name, line in imported_names(tree, here):
                 why = _package_arrow(package, name) or _room_arrow(package, room, name)
-                if why is not None:
-                    where = f"{path.relative_to(root)}:{line}"
-                    arrows.append(Arrow(source, name, where, why))
+                if why is not None and line not in seen:
+                    seen.add(line)
+                    arrows.append(Arrow(source, name, f"{path.relative_to(root)}:{line}", why))
     return arrows
 
 
@@ -183,9 +190,10 @@ def test_the_check_sees_lazy_sideways_and_import_module_arrows(tmp_path):
 
 
 def test_the_check_sees_an_arrow_between_rooms(tmp_path):
-    """A planted arrow up between rooms (the core on the serving side), a gdb stub reaching past
-    the debug port, and a servo emulator on the node are each found; a room's own imports, a
-    downward one and the shared error tree are not."""
+    """A planted arrow up between rooms (the core on the serving side, also as a relative import
+    and as ``from package import room``), a gdb stub reaching past the debug port, and a servo
+    emulator on the node are each found; a room's own imports, a downward one and the shared
+    error tree are not."""
     for package in LAYERS:
         (tmp_path / package).mkdir()
     for room in ("core", "serving", "gdb"):
@@ -201,10 +209,15 @@ def test_the_check_sees_an_arrow_between_rooms(tmp_path):
         "from firmware_sim.core.debug_port import DebugPort\n"
         "from firmware_sim.core.cpu import Cpu\n"
     )
+    (tmp_path / "firmware_sim" / "core" / "flash.py").write_text(
+        "from . import cpu\nfrom ..serving import listen\nfrom firmware_sim import serving\n"
+    )
     (tmp_path / "servo_emulators" / "cli.py").write_text("import firmware_sim.core.node\n")
     found = {(a.source, a.target, a.where) for a in wrong_arrows(tmp_path)}
     assert found == {
         ("firmware_sim.core", "firmware_sim.serving.listen", "firmware_sim/core/node.py:4"),
+        ("firmware_sim.core", "firmware_sim.serving", "firmware_sim/core/flash.py:2"),
+        ("firmware_sim.core", "firmware_sim.serving", "firmware_sim/core/flash.py:3"),
         ("firmware_sim.gdb", "firmware_sim.core.cpu", "firmware_sim/gdb/stub.py:2"),
         ("servo_emulators", "firmware_sim.core.node", "servo_emulators/cli.py:1"),
     }
