@@ -16,8 +16,8 @@ The local cluster runs one single-threaded worker process per core (`--workers`)
 the GIL (the emulated CPU, the kernel, NumPy between calls) and a worker's process owns its
 emulator. Its scheduler and workers listen on 127.0.0.1 only (the scheduler's HTTP routes on a
 free port of it), without the dashboard. The workers ignore Ctrl-C (the campaign's process
-stops them) and write their own log lines (Dask's warnings and errors) into the campaign's
-folder, `WORKERS_LOG`, not on the user's terminal: a worker ending with its campaign can log a
+stops them) and write their standard error (Dask's log lines, any traceback) into the
+campaign's folder, `WORKERS_LOG`, not on the user's terminal: a worker ending with its campaign can log a
 heartbeat that met its scheduler closing, a traceback that says nothing about the runs.
 """
 
@@ -129,9 +129,10 @@ def _workers_leave(cluster: Any) -> None:
 def _local_worker(log: Path | None) -> Any:
     """A plugin that makes a local worker ignore SIGINT (Ctrl-C reaches every process of the
     terminal's group, and the campaign's own process stops the workers: a worker interrupted
-    mid-run would print its traceback) and write Dask's log lines into `log`, opened at the
-    first line. Defined here because `distributed` is the campaign extra's, imported when a
-    cluster starts."""
+    mid-run would print its traceback) and write its standard error into `log`: Dask's log
+    lines (every logger of its, tornado's, the garbage collector's), a traceback, anything.
+    Defined here because `distributed` is the campaign extra's, imported when a cluster
+    starts."""
     from distributed.diagnostics.plugin import WorkerPlugin
 
     class LocalWorker(WorkerPlugin):
@@ -144,15 +145,12 @@ def _local_worker(log: Path | None) -> Any:
 
 
 def _log_into(log: Path) -> None:
-    """Send the ``distributed`` loggers' lines of this process into `log` instead of where
-    Dask's configuration sends them (the terminal)."""
-    dask_log = logging.getLogger("distributed")
-    for handler in list(dask_log.handlers):
-        dask_log.removeHandler(handler)
-    into = logging.FileHandler(log, delay=True, encoding="utf-8")
-    line = "%(asctime)s %(process)d %(name)s %(levelname)s: %(message)s"
-    into.setFormatter(logging.Formatter(line))
-    dask_log.addHandler(into)
+    """Point this process's standard error (file descriptor 2, so every handler and every
+    library writing there) at the end of `log`."""
+    log.parent.mkdir(parents=True, exist_ok=True)
+    into = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+    os.dup2(into, 2)
+    os.close(into)
 
 
 def execute(

@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import json
 import re
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -226,9 +227,13 @@ def test_the_local_workers_log_into_the_campaign_s_folder_not_on_the_terminal(tm
 
     def complain() -> None:
         logging.getLogger("distributed.worker").error("Failed to communicate with scheduler")
+        logging.getLogger("tornado.application").error("Exception in callback")
+        print("a library's own line", file=sys.stderr, flush=True)
 
     with client(1, None, log) as dask:
         dask.run(complain)
-    assert "distributed.worker ERROR: Failed to communicate with scheduler" in log.read_text()
+    written = log.read_text()
+    assert "distributed.worker - ERROR - Failed to communicate with scheduler" in written
+    assert "Exception in callback" in written and "a library's own line" in written
     out, err = capfd.readouterr()
-    assert "Failed to communicate" not in out + err
+    assert "Failed to communicate" not in out + err and "Exception in callback" not in err
