@@ -24,9 +24,7 @@ from pathlib import Path
 from commandline.children import START_TIMEOUT, Child
 from hexmigrate.links.framing import Deframer
 from hexmigrate.links.listening import CONNECT_URL
-from hexmigrate.links.tcp_client import parse_url
-
-READ_SIZE = 1 << 16
+from hexmigrate.links.tcp_client import READ_SIZE, parse_url
 
 
 class NodeProcess:
@@ -83,17 +81,21 @@ class NodeProcess:
 
     def exchange(self, data: bytes, quiet: float = 0.3, timeout: float = 10.0) -> list[bytes]:
         """Send `data` to the node (on TCP) on a connection of its own; the messages it
-        answered until `quiet` seconds passed without one, or it closed the connection (at most
-        `timeout` s in all)."""
+        answered until `quiet` seconds passed without one, or it closed the connection, or
+        `timeout` seconds passed in all (connecting and sending included)."""
+        deadline = time.monotonic() + timeout
         deframer, answers = Deframer(), []
         with socket.create_connection(parse_url(self.url), timeout=timeout) as client:
-            client.sendall(data)
-            client.settimeout(quiet)
-            deadline = time.monotonic() + timeout
-            while time.monotonic() < deadline:
+            try:
+                client.settimeout(max(0.0, deadline - time.monotonic()))
+                client.sendall(data)
+            except OSError:  # the node hung up on it, or read nothing in time: it may have said why
+                pass
+            while (left := deadline - time.monotonic()) > 0:
+                client.settimeout(min(quiet, left))
                 try:
                     chunk = client.recv(READ_SIZE)
-                except (TimeoutError, ConnectionResetError):
+                except OSError:  # quiet long enough, or reset
                     break
                 if not chunk:
                     break
