@@ -27,6 +27,7 @@ command line; the other rooms of firmware_sim build on it.
 ``power``             the node's power budget
 ``trust``             which signed modules a node that trusts keys accepts
 ``fpga_port``         the FPGA reconfiguration port's protocol, found by entry point
+``fabric_pbo``        the native ``fabric`` PBO: samples through the port's fabric every cycle
 ``debug_port``        `DebugPort`: everything a debugger may do to the node
 ====================  ==========================================================================
 """
