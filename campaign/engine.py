@@ -17,8 +17,9 @@ the GIL (the emulated CPU, the kernel, NumPy between calls) and a worker's proce
 emulator. Its scheduler and workers listen on 127.0.0.1 only (the scheduler's HTTP routes on a
 free port of it), without the dashboard. The workers ignore Ctrl-C (the campaign's process
 stops them) and write their standard error (Dask's log lines, any traceback) into the
-campaign's folder, `WORKERS_LOG`, not on the user's terminal: a worker ending with its campaign can log a
-heartbeat that met its scheduler closing, a traceback that says nothing about the runs.
+campaign's folder, `WORKERS_LOG`, not on the user's terminal: a worker ending with its campaign
+can log a heartbeat that met its scheduler closing, a traceback that says nothing about the
+runs.
 """
 
 from __future__ import annotations
