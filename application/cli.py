@@ -50,16 +50,14 @@ from application.scenario import Scenario
 from campaign.cli import add_campaign_arguments, run_campaign
 from campaign.errors import CampaignError
 from commandline import UsageError, add_command, command_parser, run
-from commandline.arguments import named_url, real
+from commandline.arguments import named_url, path_name, real
 from commandline.children import ChildError
 from commandline.progress import progress_bar
 from firmware_sim.errors import FirmwareSimError
 from hexmigrate.errors import HexmigrateError
-from refresh.cli import add_location_option, robot_url
+from refresh.cli import add_location_option, add_quantum_option
 from refresh.errors import RefreshError
 
-MAX_QUANTUM = 1.0
-"""The longest lock-step quantum (seconds)."""
 MAX_SECONDS = 1e6
 
 
@@ -114,7 +112,7 @@ def _add_run(commands: argparse._SubParsersAction, application: Application) -> 
     _scenario_option(command, application)
     command.add_argument(
         "--out",
-        type=_folder,
+        type=path_name,
         metavar="DIR",
         help=f"where to write (default {application.out}/NAME)",
     )
@@ -185,7 +183,7 @@ def _add_node(commands: argparse._SubParsersAction, application: Application) ->
     )
     command.add_argument(
         "--flash",
-        type=_folder,
+        type=path_name,
         metavar="FILE",
         help="the node's flash file: the modules it holds survive a restart",
     )
@@ -226,7 +224,7 @@ def _add_manager(commands: argparse._SubParsersAction, application: Application)
     add_location_option(command)
     command.add_argument(
         "--out",
-        type=_folder,
+        type=path_name,
         metavar="DIR",
         help=f"where to write (default {application.out}/NAME)",
     )
@@ -234,7 +232,7 @@ def _add_manager(commands: argparse._SubParsersAction, application: Application)
         "--node",
         action="append",
         required=True,
-        type=robot_url,
+        type=named_url("ROBOT"),
         metavar="ROBOT=URL",
         help="a robot's node (one for every robot)",
     )
@@ -281,12 +279,7 @@ def _time_options(command: argparse.ArgumentParser, application: Application, pr
         action="store_true",
         help=f"{prefix}every process on its real-time clock (default: lock-step)",
     )
-    mode.add_argument(
-        "--quantum",
-        type=real(maximum=MAX_QUANTUM, above=0, unit="s"),
-        metavar="S",
-        help=f"{prefix}the lock-step quantum in seconds (default {application.quantum:g})",
-    )
+    add_quantum_option(mode, application.quantum, prefix)
 
 
 def _device_option(command: argparse.ArgumentParser) -> None:
@@ -307,11 +300,3 @@ def _scenario(application: Application, args: argparse.Namespace) -> Scenario:
 
 def _robots(application: Application, scenario: Scenario) -> list[str]:
     return list(database_of(application, scenario).robots)
-
-
-def _folder(text: str) -> Path:
-    """A folder's or file's name: the system takes no NUL byte in one (making it would fail with
-    a ValueError, not an OSError)."""
-    if "\0" in text:
-        raise argparse.ArgumentTypeError(f"expected a path, got {text!r}")
-    return Path(text)

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from application.plant import WorldPlant
-from application.scenario import Scenario
+from application.scenario import Scenario, scenario_named
 from firmware_sim.core.guest import DEFAULT_BUDGET
 from pbort.native import NativePBO
 from refresh.manager.plant import View
@@ -121,11 +121,7 @@ class Application:
 
     def scenario(self, name: str) -> Scenario:
         """The scenario called `name` (KeyError naming the known ones)."""
-        for scenario in self.scenarios:
-            if scenario.name == name:
-                return scenario
-        known = ", ".join(s.name for s in self.scenarios)
-        raise KeyError(f"scenario {name!r}: expected one of {known}")
+        return scenario_named(self.scenarios, name)
 
     @property
     def out(self) -> Path:

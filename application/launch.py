@@ -21,7 +21,8 @@ are written, and end meanwhile.
 
 A node the scenario kills (it sends itself SIGKILL on its clock) ends without error; when the
 scenario brings it back, the launcher starts it again at once, on the same port and from the same
-flash file (its output in ``ROBOT-2.log``).
+flash file (its output in ``ROBOT-2.log``), and watches it as any other: its second run must not
+end.
 """
 
 from __future__ import annotations
@@ -67,9 +68,10 @@ class Launch:
 
     def check(self, mortal: str | None = None) -> None:
         """An error when a process of the run has ended (but `mortal`, whose end the scenario
-        brings about)."""
+        brings about, until it is started again: its second run must not end)."""
         for child in self.children:
-            if child.role != mortal and child.process.poll() is not None:
+            expected = child.role == mortal and child.role not in self.restarted
+            if not expected and child.process.poll() is not None:
                 raise child.error(f"ended early with status {child.process.returncode}")
 
     def ended(self) -> dict[str, int]:

@@ -4,13 +4,14 @@
   stopped, and come back switched on, their flash kept and their PBOs off; the runtime finds
   them lost, then back, on its own.
 - Across processes (`OverLinks`): a cut is a `Relay` between the manager and the node, cut and
-  restored at the scenario's times (`relays`, made before the nodes are opened); a kill is the
-  node's own doing (it sends itself SIGKILL at the outage's time on its clock:
-  `application.node`), and the launcher starts it again as soon as it died (wall time) when the
-  scenario brings it back. Either way the node counts as down until the outage's end in the run's
-  time (`ApplierBase.down`: the runtime does not try it before); then the manager waits (bounded,
-  `BACK_TIMEOUT`) until the node can be reached, so that the runtime's next try finds it back at
-  the same time of the run on every run.
+  restored at the scenario's times (`over_links` makes it, and checks the URLs the outages
+  need, before the guests are built and the nodes opened); a kill is the node's own doing (it
+  sends itself SIGKILL at the outage's time on its clock: `application.node`), and the
+  launcher starts it again as soon as it died (wall time) when the scenario brings it back.
+  Either way the node counts as down until the outage's end in the run's time
+  (`ApplierBase.down`: the runtime does not try it before); then the manager waits (bounded,
+  `BACK_TIMEOUT`) until the node can be reached, so that the runtime's next try finds it back
+  at the same time of the run on every run.
 """
 
 from __future__ import annotations
@@ -19,11 +20,12 @@ import contextlib
 import socket
 import time
 from collections.abc import Callable, Mapping
-from urllib.parse import urlsplit
 
 from application.errors import RunError, ScenarioError
 from application.relay import Relay
 from application.scenario import Outage, Scenario
+from hexmigrate.errors import LinkUrlError
+from hexmigrate.links.tcp_client import parse_url
 from refresh.appliers.in_process import NodeApplier
 from refresh.manager.plant import View
 
@@ -73,31 +75,48 @@ class OverLinks:
         view.applier.down.discard(outage.robot)
 
 
-def relays(
-    scenario: Scenario, nodes: Mapping[str, str], stack: contextlib.ExitStack
-) -> dict[str, Relay]:
-    """A relay to the node whose link `scenario` cuts (closed with `stack`), by robot."""
+def over_links(
+    scenario: Scenario,
+    nodes: Mapping[str, str],
+    stack: contextlib.ExitStack,
+    supervise: Callable[[], None] = lambda: None,
+) -> OverLinks:
+    """The outages of `scenario` on the nodes at `nodes` (robot -> URL): a relay to the node
+    whose link it cuts (closed with `stack`), reached instead of the node. The URL of the node
+    whose link the scenario cuts, or that it brings back, is checked now, before anything is
+    built: a relay connects to it, and the manager waits for it over TCP (`reachable`), so it
+    must be a ``socket://HOST:PORT`` URL."""
     outage = scenario.outage
-    if outage is None or outage.kind != "cut":
-        return {}
+    urls = dict(nodes)
+    if outage is None or (outage.kind != "cut" and outage.back is None):
+        return OverLinks(urls, {}, supervise)
+    why = "to cut its link" if outage.kind == "cut" else "to wait for it to come back"
     url = nodes.get(outage.robot)
-    parts = urlsplit(url or "")
-    if parts.scheme != "socket" or parts.hostname is None or parts.port is None:
+    if url is None:
         raise ScenarioError(
-            f"scenario {scenario.name}: expected robot {outage.robot}'s node on a "
-            f"socket://HOST:PORT URL, to cut its link, got {url}"
+            f"scenario {scenario.name}: expected an outage of one of {', '.join(nodes)}, got "
+            f"{outage.robot}"
         )
-    relay = Relay(parts.hostname, parts.port)
+    try:
+        host, port = parse_url(url)
+    except LinkUrlError as error:
+        raise ScenarioError(
+            f"scenario {scenario.name}: robot {outage.robot}'s node: expected a "
+            f"socket://HOST:PORT URL, {why}: {error}"
+        ) from error
+    if outage.kind != "cut":
+        return OverLinks(urls, {}, supervise)
+    relay = Relay(host, port)
     stack.callback(relay.close)
-    return {outage.robot: relay}
+    urls[outage.robot] = relay.url
+    return OverLinks(urls, {outage.robot: relay}, supervise)
 
 
 def reachable(url: str, timeout: float, between: Callable[[], None] = lambda: None) -> None:
-    """Return once a TCP connection to `url` (``socket://HOST:PORT``) is accepted and stays
-    open a moment (a relay that is down accepts and closes at once); a RunError after `timeout`
-    seconds. `between` is called before each try."""
-    parts = urlsplit(url)
-    address = (parts.hostname or "127.0.0.1", parts.port or 0)
+    """Return once a TCP connection to `url` (``socket://HOST:PORT``, checked by `over_links`)
+    is accepted and stays open a moment (a relay that is down accepts and closes at once); a
+    RunError after `timeout` seconds. `between` is called before each try."""
+    address = parse_url(url)
     deadline = time.monotonic() + timeout
     while True:
         between()

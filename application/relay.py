@@ -17,7 +17,8 @@ import threading
 CHUNK = 1 << 16
 """Bytes relayed per read."""
 POLL = 0.05
-"""Seconds a blocked accept or read waits before it looks whether to stop."""
+"""Seconds a blocked accept waits before it looks whether to stop (a relayed connection's reads
+block until it is shut down: `cut` and `close` shut them down)."""
 
 
 class Relay:
@@ -85,7 +86,8 @@ class Relay:
 
 
 def _pump(source: socket.socket, sink: socket.socket) -> None:
-    """Copy `source` to `sink` until either closes; then close both."""
+    """Copy `source` to `sink` until either closes; then shut both down, so that the pump of the
+    other direction ends too (the sockets are closed by `cut` or `close`)."""
     source.settimeout(None)
     try:
         while data := source.recv(CHUNK):

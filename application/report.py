@@ -157,9 +157,9 @@ def table(figures: dict[str, Any]) -> str:
     rows.append(("final configuration", figures["final"] or "(stopped)"))
     worst = figures.get("worst")
     if worst is not None:
-        ((field, value), (_, limit)) = worst.items()
-        shown = "no sample" if value is None else f"{value:.1f}"
-        rows.append((f"worst {field}", f"{shown} (the task allows {limit:g})"))
+        (field,) = [key for key in worst if key != "limit"]  # the figure's sample field
+        shown = "no sample" if worst[field] is None else f"{worst[field]:.1f}"
+        rows.append((f"worst {field}", f"{shown} (the task allows {worst['limit']:g})"))
     width = max(len(label) for label, _ in rows)
     lines += [f"  {label:<{width}}  {value}" for label, value in rows]
     return "\n".join(lines)

@@ -21,16 +21,16 @@ from pathlib import Path
 
 from application.declaration import Application
 from application.local_world import LocalWorld
-from application.outages import OverLinks, SwitchedOff, relays
+from application.outages import SwitchedOff, over_links
 from application.plant import Setting
-from application.prepared import Prepared, prepare
+from application.prepared import Prepared, database_of, prepare
 from application.recording import RunPlant
 from application.records import Outcome
 from application.scenario import Scenario
 from firmware_sim.core.node import Node, NodeConfig
 from refresh.appliers.in_process import NodeApplier
 from refresh.estimators.host import HostEstimators, host_codes
-from refresh.manager.manager import ManagerConfig, manage
+from refresh.manager.manager import ManagerConfig, check_nodes, manage
 from refresh.manager.session import Session
 from refresh.manager.time_modes import LockStep, RealTime, TimeMode
 from refresh.runtime import Runtime, RuntimeSettings
@@ -39,11 +39,10 @@ from refresh.runtime import Runtime, RuntimeSettings
 @dataclass
 class InProcess:
     """A run in process, set up and not started: its session (`run(until)`, `wait(seconds)`),
-    its runtime, its applier, its world and the outcome it records into."""
+    its runtime, its world (the robots' nodes) and the outcome it records into."""
 
     session: Session
     runtime: Runtime
-    applier: NodeApplier
     world: LocalWorld
     outcome: Outcome
 
@@ -93,7 +92,7 @@ def in_process(
             database, task, applier, estimators, world.clock, settings or application.settings
         )
         session = Session(runtime, world, run_plant, progress=progress)
-        yield InProcess(session, runtime, applier, world, outcome)
+        yield InProcess(session, runtime, world, outcome)
 
 
 def run_in_process(
@@ -128,24 +127,26 @@ def run_managed(
     application's by default).
     Guests are built into `out` (unless given `prepared`: what `prepare` made there) and the
     events written there (``events.jsonl``); `supervise` is called at each look of the plant
-    (`RunPlant`) and while a node is waited for (`OverLinks`)."""
-    prepared = prepared or prepare(application, scenario, out)
-    database = prepared.loaded.database
+    (`RunPlant`) and while a node is waited for (`OverLinks`). A robot without a node, a node
+    of no robot, or a URL an outage cannot use is refused before anything is built."""
+    robots = (prepared.loaded.database if prepared else database_of(application, scenario)).robots
+    check_nodes(list(robots), nodes, f"scenario {scenario.name}")
     outcome = Outcome(scenario)
     with contextlib.ExitStack() as stack:
-        cut = relays(scenario, nodes, stack)
-        reached = {robot: cut[robot].url if robot in cut else url for robot, url in nodes.items()}
+        outages = over_links(scenario, nodes, stack, supervise)
+        prepared = prepared or prepare(application, scenario, out)
+        database = prepared.loaded.database
         time: TimeMode = RealTime() if real_time else LockStep(quantum or application.quantum)
         setting = Setting(application, scenario, database, time.clock, devices=dict(devices or {}))
         plant = application.plant(setting)
         stack.callback(plant.close)
         wire, rate = application.link
         config = ManagerConfig(
-            nodes=reached,
+            nodes=outages.urls,
             time=time,
             seconds=scenario.duration,
             settings=application.settings,
-            plant=RunPlant(plant, outcome, OverLinks(reached, cut, supervise), supervise),
+            plant=RunPlant(plant, outcome, outages, supervise),
             wire=wire,
             rate=rate,
             migration_wire=application.migration_wire,

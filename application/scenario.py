@@ -16,7 +16,7 @@ What an application's own world model injects (a camera's noise, a cut servo bus
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -90,6 +90,16 @@ class Scenario:
     def located_by(self, location: str | None) -> Scenario:
         """This scenario with faults located by `location` (None: as it is)."""
         return self if location is None else replace(self, location=location)
+
+
+def scenario_named(scenarios: Iterable[Scenario], name: str) -> Scenario:
+    """The scenario of `scenarios` called `name` (KeyError naming the known ones): an
+    application's, and a campaign's, whose draws name the scenario they vary."""
+    known = list(scenarios)
+    for scenario in known:
+        if scenario.name == name:
+            return scenario
+    raise KeyError(f"scenario {name!r}: expected one of {', '.join(s.name for s in known)}")
 
 
 def with_faults(database: ModuleDatabase, faults: Mapping[str, float]) -> ModuleDatabase:

@@ -86,11 +86,20 @@ def named_url(name: str) -> Callable[[str], tuple[str, str]]:
     return parse
 
 
+def path_name(text: str) -> Path:
+    """A file's or folder's name, `text` as a path, for a command that checks the rest itself
+    (a folder it makes): the system takes no NUL byte in one (making it would fail with a
+    ValueError, not an OSError)."""
+    if "\0" in text:
+        raise _expected("a file name", f"{text!r} (a NUL byte)", quote=False)
+    return Path(text)
+
+
 def input_file(max_bytes: int = DEFAULT_MAX_FILE_BYTES) -> Callable[[str], Path]:
     """An existing regular file of at most `max_bytes`."""
 
     def parse(text: str) -> Path:
-        path = _path(text)
+        path = path_name(text)
         try:
             info = path.stat()
         except OSError as error:
@@ -112,7 +121,7 @@ def input_file(max_bytes: int = DEFAULT_MAX_FILE_BYTES) -> Callable[[str], Path]
 def output_file(text: str) -> Path:
     """A file to write, in a folder that exists: a new file or a regular one to replace (a
     command writes beside it and renames, which would replace a device or a pipe)."""
-    path = _path(text)
+    path = path_name(text)
     try:
         info = path.stat()
     except FileNotFoundError:
@@ -139,13 +148,6 @@ def output_file_ending(suffix: str) -> Callable[[str], Path]:
 
     parse.__name__ = "file"
     return parse
-
-
-def _path(text: str) -> Path:
-    """`text` as a path; the system takes no NUL byte in one."""
-    if "\0" in text:
-        raise _expected("a file name", f"{text!r} (a NUL byte)", quote=False)
-    return Path(text)
 
 
 def _within(

@@ -13,10 +13,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from matplotlib.axes import Axes
-
 from application.declaration import Application, Figure, SampleField
-from application.records import Outcome
 from patrol.campaign import CAMPAIGN
 from patrol.firmware import CLASSES
 from patrol.scenarios import SCENARIOS

@@ -25,6 +25,7 @@ from commandline import CommandLineError, UsageError, add_command, command_parse
 from commandline.arguments import input_file, integer, named_url, output_file, real
 from hexmigrate.errors import KeyFileError
 from hexmigrate.signing.keys import MAX_KEY_FILE, load_private
+from hexmigrate.transfer.control import MICROSECONDS
 from refresh.configuration import initial_configuration
 from refresh.errors import DatabaseError, RefreshError
 from refresh.generator import DEFAULT_MAX_MODULES, candidates
@@ -42,6 +43,9 @@ MAX_COMBO_MODULES = 4
 (the paper uses 2)."""
 MAX_SECONDS = 1e6
 """The longest --seconds and decision period (about 11 days): a longer run is until Ctrl-C."""
+MIN_QUANTUM = 1 / MICROSECONDS
+"""The shortest lock-step quantum: the time master counts whole microseconds (a shorter one
+would be refused once the nodes had started)."""
 MAX_QUANTUM = 10.0
 """The longest lock-step quantum: a node's Advance runs it at most this far at once."""
 QUANTUM = 0.01
@@ -158,8 +162,19 @@ def add_location_option(command: argparse.ArgumentParser) -> None:
     )
 
 
-robot_url = named_url("ROBOT")
-"""``ROBOT=URL``: a robot of the database and the URL of its node."""
+def add_quantum_option(
+    command: argparse._ActionsContainer, default: float, prefix: str = ""
+) -> None:
+    """``--quantum S``: the lock-step quantum, from one microsecond (the time master's
+    resolution) to MAX_QUANTUM, a usage error otherwise; the one option every command that runs
+    lock-step time shares. `prefix` says when it applies (``with --lock-step, ``)."""
+    command.add_argument(
+        "--quantum",
+        type=real(MIN_QUANTUM, MAX_QUANTUM, unit="s"),
+        metavar="S",
+        help=f"{prefix}the seconds each grant of lock-step time runs the nodes, from "
+        f"{MIN_QUANTUM:g} to {MAX_QUANTUM:g} (default {default:g})",
+    )
 
 
 def _add_manage(commands: argparse._SubParsersAction) -> None:
@@ -191,7 +206,7 @@ def _add_manage(commands: argparse._SubParsersAction) -> None:
         "--node",
         action="append",
         required=True,
-        type=robot_url,
+        type=named_url("ROBOT"),
         metavar="ROBOT=URL",
         help="the node of a robot of the database (socket://HOST:PORT, a pty, can://...); one "
         "for every robot",
@@ -226,12 +241,7 @@ def _add_manage(commands: argparse._SubParsersAction) -> None:
         help="every node on its real-time clock; the run's clock is the host's (the default, "
         "as for firmware-sim listen)",
     )
-    command.add_argument(
-        "--quantum",
-        type=real(maximum=MAX_QUANTUM, above=0, unit="s"),
-        metavar="S",
-        help=f"with --lock-step, the seconds each grant runs the nodes (default {QUANTUM:g})",
-    )
+    add_quantum_option(command, QUANTUM, "with --lock-step, ")
     command.add_argument(
         "--seconds",
         type=real(maximum=MAX_SECONDS, above=0, unit="s"),

@@ -13,7 +13,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from application.declaration import Application, Figure, SampleField
-from refresh.runtime import RuntimeSettings
 from visual_servoing.dehazer_guest import INSTRUCTION_BUDGET, NAME, SOURCE
 from visual_servoing.errors import ServoingError
 from visual_servoing.experiment.campaign import CAMPAIGN
@@ -24,13 +23,6 @@ FRAME = 1 / 30
 """Seconds between two samples of the run: one camera frame."""
 THRESHOLD = 30.0
 """Pixels: equation (8)'s allowed deviation."""
-SETTINGS = RuntimeSettings(
-    decision_period=0.1, debounce=5, settle=0.5, recovery_hold=0.5, estimate_steps=10
-)
-"""The runtime's: a look of the Decider every 3 frames, a fault declared after 0.5 s of
-violations, 0.5 s to settle after a switch (the new configuration's evaluators still hold frames
-of the old one) and for a recovery to hold, 10 estimator steps to fill the matcher's window of
-frames."""
 ROBOT_LINK_BAUD = 12_000_000
 """The serial link between the two robots (ports of a coalition cross it): 12 Mbaud 8N1 carries
 a 160 x 120 frame in 16 ms, within a camera period; 115200 baud would need 1.7 s."""
@@ -66,7 +58,10 @@ APPLICATION = Application(
         beside="true",
         beside_label="true deviation",
     ),
-    settings=SETTINGS,
+    # The runtime's default settings are the experiment's: a look of the Decider every 3
+    # frames, a fault declared after 0.5 s of violations, 0.5 s to settle after a switch (the
+    # new configuration's evaluators still hold frames of the old one) and for a recovery to
+    # hold, 10 estimator steps to fill the matcher's window of frames.
     sample_period=FRAME,
     step=0.001,
     quantum=0.01,

@@ -10,12 +10,10 @@ every `NativePBO` subclass in it that has a `name`. The same loader serves the n
 
 from __future__ import annotations
 
-import importlib
 import math
-import os
-import sys
 from collections.abc import Iterable
 
+from commandline.imports import ModuleImportError, import_named
 from firmware_sim.errors import StartError
 from pbort.native import NativePBO, PortIO
 from pbort.ports import PortSpec
@@ -82,7 +80,10 @@ def load_natives(modules: Iterable[str]) -> dict[str, type[NativePBO]]:
 
 def _natives_of(module: str) -> dict[str, type[NativePBO]]:
     """The natives that Python module `module` defines or imports, by name."""
-    imported = _import(module)
+    try:
+        imported = import_named("--natives", module)
+    except ModuleImportError as error:
+        raise StartError(str(error)) from error
     found: dict[str, type[NativePBO]] = {}
     for value in vars(imported).values():
         if isinstance(value, type) and issubclass(value, NativePBO):
@@ -95,26 +96,3 @@ def _natives_of(module: str) -> dict[str, type[NativePBO]]:
             f"{getattr(imported, '__file__', module)}, got none"
         )
     return found
-
-
-def _import(module: str) -> object:
-    """Import `module` by name with the current directory first on the path, then restore it."""
-    here = os.getcwd()
-    added = here not in sys.path
-    if added:
-        sys.path.insert(0, here)
-    try:
-        return importlib.import_module(module)
-    except ImportError as error:
-        raise StartError(
-            f"--natives {module}: expected a Python module importable by name (a file "
-            f"{module.replace('.', '/')}.py in the current directory or on PYTHONPATH), got "
-            f"{type(error).__name__}: {error}"
-        ) from error
-    except Exception as error:  # the user's code failed while it was imported
-        raise StartError(
-            f"--natives {module}: importing it failed: {type(error).__name__}: {error}"
-        ) from error
-    finally:
-        if added:
-            sys.path.remove(here)

@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 import weakref
 from collections.abc import Mapping
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 
 from hexmigrate.errors import HexmigrateError, LockStepError, TransferError
 from hexmigrate.transfer.control import MICROSECONDS
@@ -43,7 +43,8 @@ from hexmigrate.transfer.control_client import NodeControl
 class TimeMaster:
     """Lock-step time for the nodes `controls` (name -> its control), `quantum` seconds at a
     time. Each NodeControl is used by the master's threads while `run_until` runs: nothing else
-    may use it then. A context manager; `close` may be called twice."""
+    may use it then, and `run_until` returns or raises (Ctrl-C included) only once every
+    Advance it asked for has ended. A context manager; `close` may be called twice."""
 
     def __init__(
         self,
@@ -95,9 +96,12 @@ class TimeMaster:
 
     def run_until(self, t: float) -> None:
         """Grant quanta to every node until they all reached `t` (the last quantum is cut short
-        when `t` is not a whole number of them)."""
+        when `t` is not a whole number of them). A time that is not a finite number of
+        microseconds is refused (LockStepError) before any quantum is granted."""
         if not self._release.alive:
             raise LockStepError(f"run to {t:g} s: expected an open time master, got a closed one")
+        if not math.isfinite(t * MICROSECONDS):
+            raise LockStepError(f"run to a time: expected a finite number of seconds, got {t!r}")
         target = round(t * MICROSECONDS)
         while self._now_us < target:
             until = min(self._now_us + self._quantum_us, target)
@@ -126,15 +130,18 @@ class TimeMaster:
         }
         results: dict[str, tuple[float, dict[int, int]]] = {}
         failures = []
-        try:  # one node in this thread, while the pool's threads wait for the others
-            results[here] = self.controls[here].advance(until, self._expected(here))
-        except HexmigrateError as error:
-            failures.append(f"node {here}: {error}")
-        for name, future in futures.items():
-            try:
-                results[name] = future.result()
+        try:
+            try:  # one node in this thread, while the pool's threads advance the others
+                results[here] = self.controls[here].advance(until, self._expected(here))
             except HexmigrateError as error:
-                failures.append(f"node {name}: {error}")
+                failures.append(f"node {here}: {error}")
+            for name, future in futures.items():
+                try:
+                    results[name] = future.result()
+                except HexmigrateError as error:
+                    failures.append(f"node {name}: {error}")
+        finally:  # on Ctrl-C or a bug too: no Advance left running on a control the caller uses
+            wait(futures.values())
         if failures:
             raise TransferError(f"quantum to {until:g} s: " + "; ".join(failures))
         for name, (clock, counts) in results.items():

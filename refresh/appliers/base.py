@@ -31,7 +31,6 @@ by URL).
 
 from __future__ import annotations
 
-import itertools
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -134,9 +133,9 @@ class ApplierBase(ABC):
     """What every applier does; a back end implements the protected hooks.
 
     `images` may give a module's image instead of the file the database names;
-    `migration_wire` (``serial``, ``can``; None: no wire time) and `migration_rate` (bit/s,
-    None: the wire's default) model the wire a migration crosses, and `wait(seconds)` lets the
-    world run on while it does; `clock()` dates each migration (seconds of the run).
+    `migration_wire` (``serial``, ``can``, at the wire's default rate; None: no wire time)
+    models the wire a migration crosses, and `wait(seconds)` lets the world run on while it
+    does; `clock()` dates each migration (seconds of the run).
     """
 
     def __init__(
@@ -144,13 +143,11 @@ class ApplierBase(ABC):
         *,
         images: Mapping[str, ModuleImage] | None = None,
         migration_wire: str | None = None,
-        migration_rate: float | None = None,
         wait: Callable[[float], None] = lambda seconds: None,
         clock: Callable[[], float] = lambda: 0.0,
     ) -> None:
         self.images = dict(images or {})
         self.migration_wire = migration_wire
-        self.migration_rate = migration_rate
         self.wait = wait
         self.clock = clock
         self.bridges: dict[tuple[str, str], Bridge] = {}
@@ -159,9 +156,8 @@ class ApplierBase(ABC):
         """Every image sent, in order."""
         self.frequencies: dict[tuple[str, str], float] = {}
         """(robot, PBO) -> the rate it was started at, for the bridges that carry its ports."""
-        self._numbers = itertools.count()
         self.issued = 0
-        """How many bridges were numbered so far."""
+        """How many bridges were numbered so far: the next one's number."""
         self.down: set[str] = set()
         """Robots known to be down, for an outage the caller knows of that is not over yet:
         `rejoin` does not try them (a node restarted early in wall time must not rejoin a run
@@ -299,9 +295,8 @@ class ApplierBase(ABC):
             return
         self.require(source_robot)
         self.require(robot)
-        number = next(self._numbers)
-        self.issued = number + 1
-        bridge = Bridge(number, source_robot, source, robot, sink)
+        bridge = Bridge(self.issued, source_robot, source, robot, sink)
+        self.issued += 1
         self._bridge(bridge)
         self.bridges[robot, sink] = bridge
 

@@ -155,9 +155,7 @@ class NodeApplier(ApplierBase):
         image = self.image_of(module)
         node = self.nodes[robot]
         if self.migration_wire is not None:
-            run = run_transfer(
-                image, self.migration_wire, self.mode, rate=self.migration_rate, node=node
-            )
+            run = run_transfer(image, self.migration_wire, self.mode, node=node)
             return run.module, image.size, run
         link = DirectLink(self._receivers[robot].handle)
         try:

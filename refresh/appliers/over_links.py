@@ -224,7 +224,7 @@ class LinkApplier(ApplierBase):
         result = node.ask(f"SEND {module.name}", lambda: node.sender.send(image))
         run = None
         if self.migration_wire is not None:
-            run = run_transfer(image, self.migration_wire, rate=self.migration_rate)
+            run = run_transfer(image, self.migration_wire)
         return result.name, image.size, run
 
     def _start(self, robot: str, instance: str, module: Module) -> None:

@@ -10,6 +10,8 @@ that runs its own robots across processes builds the same manager from them):
                   look (live inputs of the estimators, samples, its own events), and `View`
 ``session``       `Session`: the one loop of a managed run, on any applier and time mode
 ``event_stream``  `EventStream`: each event printed and written as a JSON line as it comes
-``manager``       `ManagerConfig` and `manage`: open the nodes, deploy, decide and repair
+``manager``       `ManagerConfig` and `manage`: open the nodes, deploy, decide and repair;
+                  `load_task`, `check_nodes` and `load_plant`: what the command is given,
+                  checked before anything is deployed
 ================  ===========================================================================
 """

@@ -17,13 +17,12 @@ way.
 from __future__ import annotations
 
 import contextlib
-import importlib
 import math
-import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from commandline.imports import ModuleImportError, import_named
 from firmware_sim.core.natives import load_natives
 from firmware_sim.core.node import Node, NodeConfig
 from firmware_sim.errors import FirmwareSimError
@@ -146,38 +145,49 @@ def load_task(file: Path, task: str, nodes: Mapping[str, str]) -> Loaded:
         raise DatabaseError(
             str(file), "task.name", f"task {task!r} (--task)", f"task {loaded.task.name!r} only"
         )
-    robots = list(loaded.database.robots)
-    unknown = [robot for robot in nodes if robot not in loaded.database.robots]
+    check_nodes(list(loaded.database.robots), nodes, str(file))
+    return loaded
+
+
+def check_nodes(robots: Sequence[str], nodes: Mapping[str, str], where: str) -> None:
+    """Refuse `nodes` (robot -> URL) unless they give a node for each of `robots`, the robots of
+    `where` (the database, the scenario), and for no other: before anything is built or
+    deployed, rather than a run that fails when it first reaches a robot without a node."""
+    unknown = [robot for robot in nodes if robot not in robots]
     if unknown:
         raise ConfigurationError(
-            f"--node {unknown[0]}=...: expected a robot of {file} ({', '.join(robots)}), got "
+            f"--node {unknown[0]}=...: expected a robot of {where} ({', '.join(robots)}), got "
             f"{unknown[0]!r}"
         )
     missing = [robot for robot in robots if robot not in nodes]
     if missing:
         raise ConfigurationError(
-            f"expected a --node ROBOT=URL for every robot of {file} ({', '.join(robots)}), got "
-            f"none for {', '.join(missing)}"
+            f"expected a --node ROBOT=URL for every robot of {where} ({', '.join(robots)}), "
+            f"got none for {', '.join(missing)}"
         )
-    return loaded
 
 
 def load_plant(module: str) -> Plant:
     """The plant model of Python module `module` (imported by name, from the current directory
-    first, as natives are): what its ``plant()`` returns."""
-    if "" not in sys.path:
-        sys.path.insert(0, "")
+    first, as natives are: `commandline.imports`): what its ``plant()`` returns. A module that
+    does not import, has no plant(), or whose plant() fails or returns something else is one
+    ConfigurationError naming it."""
     try:
-        imported = importlib.import_module(module)
-    except ImportError as error:
-        raise ConfigurationError(f"--plant {module}: cannot import it: {error}") from error
+        imported = import_named("--plant", module)
+    except ModuleImportError as error:
+        raise ConfigurationError(str(error)) from error
     make = getattr(imported, "plant", None)
     if not callable(make):
         raise ConfigurationError(
             f"--plant {module}: expected a function plant() returning the plant model, got "
             f"{'nothing of that name' if make is None else type(make).__name__}"
         )
-    made = make()
+    try:
+        made = make()
+    except Exception as error:  # the user's code failed
+        raise ConfigurationError(
+            f"--plant {module}: plant() failed: {type(error).__name__}: {error}"
+        ) from error
     if not isinstance(made, Plant):
         raise ConfigurationError(
             f"--plant {module}: expected plant() to return a refresh.manager.plant.Plant, got "

@@ -3,13 +3,13 @@ runs on for some seconds, and a check that every node runs in the mode asked for
 
 - `LockStep`: every node runs ``firmware-sim listen --lock-step``, on a virtual clock that only
   the manager's `TimeMaster` moves, one quantum at a time for all of them (values between nodes
-  are delivered at quantum boundaries). The runtime's clock is the master's `now`. A run is
-  reproducible: the same events at the same times. A node sends the reports of a quantum
-  before it answers the quantum's Advance, and the master returns once every node answered, so
-  the Decider always reads the same reports, whenever TCP delivered them. A node
-  whose Advance fails through its tries (killed, its link cut) is lost, and the others run on
-  (`refresh.remote.guard`); silence is timed on the master's clock, which stands still while
-  the manager thinks.
+  are delivered at quantum boundaries). The runtime's clock is the time the advances add up
+  to (the master's `now` but for its rounding to microseconds). A run is reproducible: the
+  same events at the same times. A node sends the reports of a quantum before it answers the
+  quantum's Advance, and the master returns once every node answered, so the Decider always
+  reads the same reports, whenever TCP delivered them. A node whose Advance fails through its
+  tries (killed, its link cut) is lost, and the others run on (`refresh.remote.guard`);
+  silence is timed on the run's clock, which stands still while the manager thinks.
 - `RealTime`: every node runs on its real-time clock; the runtime's clock is the host's
   monotonic clock since the start, and a wait is a sleep.
 
@@ -20,10 +20,12 @@ for an Advance to 0 s, which a lock-step node at its start takes and a real-time
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Protocol
 
 from hexmigrate.errors import HexmigrateError, NoAnswer, TransferError, TransferInterrupted
+from hexmigrate.transfer.control import MICROSECONDS
 from hexmigrate.transfer.time_master import TimeMaster
 from refresh.appliers.over_links import LinkApplier
 from refresh.errors import NodeLinkError
@@ -99,18 +101,28 @@ class LockStep:
         applier.router = self.master
 
     def clock(self) -> float:
-        return 0.0 if self.master is None else self.master.now
+        """The run's time as the advances add up (`until`), not the master's `now`, which is
+        rounded to microseconds: an advance shorter than half a microsecond (what is left of a
+        wait once the sample periods are taken) moves this clock though it grants nothing."""
+        return self.until
 
     def advance(self, seconds: float) -> None:
         """Grant quanta to `seconds` further; every report of them is filed once the last
         Advance's answer is in (a node answers after the quantum's reports). The run's time is
         summed as asked (`until`) and rounded to the master's microseconds only when granted, so
-        that many short advances (a camera's frames) do not drift from where they add up to."""
+        that many short advances (a camera's frames) do not drift from where they add up to. An
+        advance to a time that is not finite is refused before it counts, so that the next one
+        still can; one that fails on the way (a node lost) counts, as the master ran on."""
         if self.master is None:
             raise NodeLinkError("lock-step time: expected the nodes attached, got none")
-        self.until += seconds
+        until = self.until + seconds
+        if not math.isfinite(until * MICROSECONDS):  # what the master counts in
+            raise NodeLinkError(
+                f"lock-step time: expected a finite number of seconds to run, got {seconds!r}"
+            )
+        self.until = until
         try:
-            self.master.run_until(self.until)
+            self.master.run_until(until)
         except HexmigrateError as error:
             raise NodeLinkError(f"lock-step time: {error}") from error
 

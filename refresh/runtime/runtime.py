@@ -58,10 +58,10 @@ class Runtime:
     """ReFrESH's run loop for `task` over `database`, applying plans through `applier`,
     estimating with what `estimators` makes per decision, on `clock` (seconds of the run).
 
-    `on_rejoin(robot, inventory)` is told of each lost robot once it is back and counted again
-    (what its node had when it answered). `on_switch(configuration)` is told each configuration
-    once it runs (the caller may need to
-    know which module now drives what). A database whose metric modules report slower than the
+    A caller that drives it may set two hooks: `on_rejoin(robot, inventory)` is told of each
+    lost robot once it is back and counted again (what its node had when it answered), and
+    `on_switch(configuration)` of each configuration once it runs (the caller may need to know
+    which module now drives what). A database whose metric modules report slower than the
     Decider looks is refused (`RateError`, see `refresh.runtime.rates`).
     """
 
@@ -73,8 +73,6 @@ class Runtime:
         estimators: EstimatorFactory,
         clock: Callable[[], float],
         settings: RuntimeSettings | None = None,
-        on_switch: Callable[[Configuration], None] | None = None,
-        on_rejoin: Callable[[str, Inventory], None] | None = None,
     ) -> None:
         self.settings = settings if settings is not None else RuntimeSettings()
         check_rates(database, task, self.settings.decision_period)
@@ -83,8 +81,8 @@ class Runtime:
         self.applier = applier
         self.estimators = estimators
         self.clock = clock
-        self.on_switch = on_switch
-        self.on_rejoin = on_rejoin
+        self.on_switch: Callable[[Configuration], None] | None = None
+        self.on_rejoin: Callable[[str, Inventory], None] | None = None
         self.log = EventLog(clock=clock, start=0.0)
         """Every event, dated by the runtime's clock."""
         self.maintainer = Maintainer(database, applier, self.log)

@@ -2,11 +2,14 @@
 bridge between them over TCP. Quanta are granted to every node (the last one cut short), a
 value sent during one quantum is taken at the start of the next, a quantum's reports reach the
 host before its Advance is answered, and a node that cannot advance fails the quantum with its
-name. The master's threads serve every run until it is closed."""
+name. The master's threads serve every run until it is closed. A run refuses a time that is not
+finite, and returns only once every Advance it asked for has ended, whatever ended it."""
 
 from __future__ import annotations
 
+import math
 import threading
+import time
 from collections.abc import Iterator, Mapping
 
 import pytest
@@ -125,3 +128,38 @@ def test_a_node_that_cannot_advance_fails_the_quantum_by_name(nodes, monkeypatch
 def test_a_quantum_is_at_least_a_microsecond() -> None:
     with pytest.raises(LockStepError, match="at least 1 microsecond"):
         TimeMaster({}, 1e-7)
+
+
+@pytest.mark.parametrize("t", [math.nan, math.inf, -math.inf, 1e303])
+def test_a_time_that_is_not_finite_is_refused_before_any_quantum(nodes, t) -> None:
+    a, _, controls = nodes
+    with TimeMaster(controls, 0.01) as master:
+        with pytest.raises(LockStepError, match=r"expected a finite number of seconds, got"):
+            master.run_until(t)
+        assert master.now == 0.0 and a.kernel.now == 0.0
+
+
+def test_an_advance_that_ends_in_another_error_leaves_no_other_advance_running(nodes) -> None:
+    """Ctrl-C (or a bug) in the caller's own Advance: run_until waits for the master's threads
+    before it lets the error through, so that no Advance is left running on a control."""
+    _, _, controls = nodes
+    ended = threading.Event()
+    advance_b = controls["b"].advance
+
+    def interrupted(until: float, expect: Mapping[int, int]) -> Advanced:
+        raise KeyboardInterrupt
+
+    def slow(until: float, expect: Mapping[int, int]) -> Advanced:
+        time.sleep(0.2)
+        try:
+            return advance_b(until, expect)
+        finally:
+            ended.set()
+
+    controls["a"].advance = interrupted  # type: ignore[method-assign]
+    controls["b"].advance = slow  # type: ignore[method-assign]
+    with TimeMaster(controls, 0.01) as master:
+        assert master.controls["a"] is controls["a"]  # the node the caller's thread advances
+        with pytest.raises(KeyboardInterrupt):
+            master.run_until(0.01)
+        assert ended.is_set()

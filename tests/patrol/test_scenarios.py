@@ -10,7 +10,7 @@ import pytest
 
 from application.errors import ScenarioError
 from application.records import Outcome
-from application.runs import run_in_process
+from application.runs import finished, in_process, run_in_process
 from application.scenario import Scenario, with_faults
 from patrol.declaration import APPLICATION
 from refresh.load import load
@@ -71,11 +71,16 @@ def test_each_fault_is_located_and_repaired_as_the_scenario_expects(name, tmp_pa
 
 
 def test_with_every_line_sensor_blind_the_task_is_stopped_safely(tmp_path):
-    outcome = run(APPLICATION.scenario("blind"), tmp_path)
+    scenario = APPLICATION.scenario("blind")
+    with in_process(APPLICATION, scenario, tmp_path) as blind:
+        blind.session.run(scenario.duration)
+        outcome = finished(blind.outcome, blind.runtime)
+        running = {robot: set(node.kernel.names) for robot, node in blind.world.nodes.items()}
     (record,) = outcome.reconfigurations
     assert not record.decision.location.located  # more than one fault suspected
     assert record.decision.location.tried == record.test_cases == 9
     assert record.target is None and outcome.stopped_at == pytest.approx(1.5)
+    assert running == {"rover1": set(), "rover2": set(), "mast": set()}  # every PBO stopped
     assert outcome.samples[-1].time == pytest.approx(1.5)  # rover1 halted: nothing to sample
 
 

@@ -20,6 +20,7 @@ from application import cli
 from campaign import store
 from campaign.record import reproducible
 from refresh.location import STRATEGIES
+from refresh.runtime import RuntimeSettings
 from visual_servoing.declaration import APPLICATION
 from visual_servoing.experiment.campaign import FAMILY, draw, scenario_of
 from visual_servoing.experiment.scenarios import SECOND_SERVO_BUS
@@ -54,6 +55,19 @@ def test_draws_cover_every_family_with_second_faults_and_control_runs():
             assert scenario_of(d, 0).extra == SECOND_SERVO_BUS  # HexMan has an alternative
         if d["fault_type"] == "power-drop":
             assert d["truth"] == [] and scenario_of(d, 0).power_drop is not None
+
+
+def test_a_draw_of_an_unknown_scenario_is_refused_naming_the_known_ones():
+    drawn = {**draw(random.Random(1), ["fog"], None), "scenario": "smoke"}
+    with pytest.raises(KeyError, match="scenario 'smoke': expected one of paper, "):
+        scenario_of(drawn, 0)
+
+
+def test_the_experiment_runs_on_the_runtime_settings_of_the_paper():
+    """The declaration takes the runtime's defaults: they must stay the experiment's."""
+    assert APPLICATION.settings == RuntimeSettings(
+        decision_period=0.1, debounce=5, settle=0.5, recovery_hold=0.5, estimate_steps=10
+    )
 
 
 @pytest.fixture(scope="module")

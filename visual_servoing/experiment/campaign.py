@@ -33,7 +33,7 @@ from dataclasses import replace
 from typing import Any
 
 from application.declaration import Campaign
-from application.scenario import PowerDrop, Scenario
+from application.scenario import PowerDrop, Scenario, scenario_named
 from visual_servoing.experiment.scenarios import (
     HEXMAN_CAMERAS,
     SCENARIOS,
@@ -104,7 +104,7 @@ def _drawn(
 
 def scenario_of(drawn: Mapping[str, Any], index: int) -> Scenario:
     """The scenario a run's draw describes."""
-    base = next(scenario for scenario in SCENARIOS if scenario.name == drawn["scenario"])
+    base = scenario_named(SCENARIOS, drawn["scenario"])
     cameras: dict[str, tuple[Fault, ...]] = {}
     power, cut = None, None
     for fault in drawn["faults"]:
