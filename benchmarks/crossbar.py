@@ -8,10 +8,11 @@ Prints Markdown tables (docs/crossbar.md holds a copy):
   functionality's LUT4 netlist) for each library functionality;
 - reconfiguration cycles measured in simulation against the goal bits / CFG_W + 4;
 - beats per cycle per port under full load, and simulated cycles per second through cocotb;
-- the fabric in a node's loop: the RTL model (the Verilog compiled by Verilator, clocked in
-  batches from C: `morphing_crossbar.verilated`) in fabric cycles per second against the goal
-  of 1,000,000 and against cocotb on Verilator in the same run, and the transaction-level model
-  in beats per second, streaming the same beats through every input at once.
+- the fabric in a node's loop: the RTL model (the Verilog compiled by Verilator, clocked from C:
+  `morphing_crossbar.verilated`) in fabric cycles per second against the goal of 1,000,000 and
+  against cocotb on Verilator in the same run, and both it and the transaction-level model in
+  beats per second and time per call, streaming the same beats through every input in one
+  call (a batch), then one beat a call (what a node's fabric PBO does each cycle).
 
     python benchmarks/crossbar.py [--quick] [--beats N]
 
@@ -44,6 +45,8 @@ DESIGNS = ("morphing_crossbar", "full_crossbar", "shared_bus")
 FABRICS = (Fabric(4, cfg_w=1), Fabric(8, cfg_w=1), Fabric(8, cfg_w=8))
 LOOP_GOAL = 1_000_000
 """Fabric cycles per second the RTL model must reach in a node's loop."""
+SINGLE_CALLS = 50_000
+"""One-beat calls timed per model and fabric: the node's fabric PBO sends one beat a cycle."""
 
 
 def area_table() -> list[str]:
@@ -119,45 +122,54 @@ def simulation_table(
 def loop_table(
     beats: int, build_root: Path | None, rates: dict[tuple[str, int, int], float]
 ) -> list[str]:
-    """The fabric in a node's loop: `beats` random beats into every input of the reset routing
-    at once, through the RTL model (unless `build_root` is None) and the TLM."""
+    """The fabric in a node's loop, two ways per model: `beats` random beats into every input of
+    the reset routing in one call (a batch), and `SINGLE_CALLS` calls of one beat each into
+    input 0 (what the node's fabric PBO does every cycle); through the RTL model (unless
+    `build_root` is None) and the TLM."""
     rows = [
-        "| model | N | CFG_W | beats | fabric cycles | cycles/s | goal | vs cocotb on Verilator "
-        "| beats/s |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| model | N | CFG_W | beats a call | beats | fabric cycles | cycles/s | goal "
+        "| vs cocotb on Verilator | beats/s | µs a call |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     rng = random.Random(1)
     for fabric in FABRICS:
         top = (1 << fabric.data_w) - 1
-        inputs = {
+        batch = {
             port: [rng.randint(0, top) for _ in range(beats // fabric.n)]
             for port in range(fabric.n)
         }
-        sent = sum(map(len, inputs.values()))
-        if build_root is not None:
-            rtl = RtlCrossbarModel(fabric, model_library(fabric, build_root / "models"))
-            start, began = rtl.cycles, time.perf_counter()
-            rtl.stream(inputs)
-            seconds, cycles = time.perf_counter() - began, rtl.cycles - start
-            rtl.close()
-            rate = cycles / seconds
-            cocotb = rates.get(("verilator", fabric.n, fabric.cfg_w))
-            versus = f"{rate / cocotb:,.0f}x" if cocotb else "-"
-            met = "met" if rate >= LOOP_GOAL else "NOT met"
+        singles = [{0: [rng.randint(0, top)]} for _ in range(SINGLE_CALLS)]
+        for calls, each in ([batch], f"{sum(map(len, batch.values())):,}"), (singles, "1"):
+            sent = sum(len(b) for inputs in calls for b in inputs.values())
+            if build_root is not None:
+                rtl = RtlCrossbarModel(fabric, model_library(fabric, build_root / "models"))
+                start = rtl.cycles
+                seconds = _timed(rtl, calls)
+                cycles = rtl.cycles - start
+                rtl.close()
+                rate = cycles / seconds
+                cocotb = rates.get(("verilator", fabric.n, fabric.cfg_w))
+                versus = f"{rate / cocotb:,.0f}x" if cocotb else "-"
+                met = "met" if rate >= LOOP_GOAL else "NOT met"
+                rows.append(
+                    f"| RTL (Verilator, C) | {fabric.n} | {fabric.cfg_w} | {each} | {sent:,} | "
+                    f"{cycles:,} | {rate:,.0f} | {LOOP_GOAL:,} {met} | {versus} | "
+                    f"{sent / seconds:,.0f} | {seconds / len(calls) * 1e6:,.1f} |"
+                )
+            seconds = _timed(CrossbarModel(fabric), calls)
             rows.append(
-                f"| RTL (Verilator, C batches) | {fabric.n} | {fabric.cfg_w} | {sent:,} | "
-                f"{cycles:,} | {rate:,.0f} | {LOOP_GOAL:,} {met} | {versus} | "
-                f"{sent / seconds:,.0f} |"
+                f"| TLM (Python) | {fabric.n} | {fabric.cfg_w} | {each} | {sent:,} | - | - | - "
+                f"| - | {sent / seconds:,.0f} | {seconds / len(calls) * 1e6:,.1f} |"
             )
-        tlm = CrossbarModel(fabric)
-        began = time.perf_counter()
-        tlm.stream(inputs)
-        seconds = time.perf_counter() - began
-        rows.append(
-            f"| TLM (Python) | {fabric.n} | {fabric.cfg_w} | {sent:,} | - | - | - | - | "
-            f"{sent / seconds:,.0f} |"
-        )
     return rows
+
+
+def _timed(model: CrossbarModel | RtlCrossbarModel, calls: list[dict[int, list[int]]]) -> float:
+    """Seconds `model` takes to stream `calls`, one `stream` each."""
+    began = time.perf_counter()
+    for inputs in calls:
+        model.stream(inputs)
+    return time.perf_counter() - began
 
 
 def main() -> None:

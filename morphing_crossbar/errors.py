@@ -22,7 +22,8 @@ Tree::
     ├── BitstreamImageError (ValueError)    a HEX image that holds no crossbar bitstream
     ├── SynthesisError (RuntimeError)       yosys is missing or refused the design
     ├── ModelBuildError (RuntimeError)      Verilator could not build the fabric's model library
-    └── FabricStallError (RuntimeError)     the RTL model delivered nothing within its cycle bound
+    ├── FabricStallError (RuntimeError)     the RTL model delivered nothing within its cycle bound
+    └── ModelUnusableError (RuntimeError)   a call to an RTL model closed, or stalled before
 """
 
 from __future__ import annotations
@@ -101,3 +102,8 @@ class ModelBuildError(CrossbarError, RuntimeError):
 class FabricStallError(CrossbarError, RuntimeError):
     """The RTL model did not deliver the beats or the verdict expected within its cycle bound
     (a model that disagrees with the routing the Python side checked)."""
+
+
+class ModelUnusableError(CrossbarError, RuntimeError):
+    """A call to an RTL model that was closed, or that stalled earlier (its design may still
+    hold beats of the call that gave up, so no later result could be trusted)."""

@@ -12,7 +12,8 @@ tests and the reconfiguration-port model use it.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import operator
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 from .bitstream import beats_to_word, decode_bytes, decode_frame, reconfiguration_cycles
@@ -68,7 +69,9 @@ class CrossbarModel:
     def stream(self, inputs: Mapping[int, Sequence[int]]) -> dict[int, list[int]]:
         """Each external input's beats (the last one marked ``last``) through the routing, as
         the RTL takes them at once (`morphing_crossbar.verilated.rtl`); each output port's
-        beats, in order, by port. An input routed to no output is refused before any beat."""
+        beats, in order, by port. An input routed to no output, or a port or beat
+        `checked_inputs` refuses, is refused before any beat."""
+        inputs = checked_inputs(self.fabric, inputs)
         self.configuration.require_routes(inputs)
         outputs: dict[int, list[int]] = {}
         for port, beats in inputs.items():
@@ -92,3 +95,43 @@ class CrossbarModel:
         self.states[slot].reset()
         self.loads += 1
         return LoadResult(slot, route, reconfiguration_cycles(self.fabric))
+
+
+def checked_inputs(fabric: Fabric, inputs: Mapping[int, Sequence[int]]) -> dict[int, list[int]]:
+    """`inputs` with every port and beat a Python int, checked as both models' `stream` check
+    them, so that they refuse alike: RouteError for a port that is no integer (a float, a
+    string) or not a slot of `fabric`, DataWidthError for a beat that is no integer or does
+    not fit the data width. An integer of any type passes as its value (`operator.index`: a
+    NumPy integer, a bool), so no model truncates a float into a beat or computes with a NumPy
+    scalar's wrapping arithmetic."""
+    limit = 1 << fabric.data_w
+    checked: dict[int, list[int]] = {}
+    for key, beats in inputs.items():
+        try:
+            port = operator.index(key)
+        except TypeError:
+            raise RouteError(f"expected an input port as an integer, got {key!r}") from None
+        fabric.check_slot(port)
+        try:
+            values = list(map(operator.index, beats))
+        except TypeError:
+            raise DataWidthError(
+                f"expected input {port}'s data as integers below 2**{fabric.data_w}, got "
+                f"{_not_an_integer(beats)!r}"
+            ) from None
+        if values and (min(values) < 0 or max(values) >= limit):
+            wide = next(value for value in values if not 0 <= value < limit)
+            raise DataWidthError(f"expected data below 2**{fabric.data_w}, got {wide}")
+        checked[port] = values
+    return checked
+
+
+def _not_an_integer(beats: object) -> object:
+    """What `checked_inputs` names: the first of `beats` that is no integer, or `beats` itself
+    when it is not a sequence."""
+    for beat in beats if isinstance(beats, Iterable) else ():
+        try:
+            operator.index(beat)
+        except TypeError:
+            return beat
+    return beats

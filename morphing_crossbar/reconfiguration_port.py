@@ -11,9 +11,10 @@ cycles. A refused image leaves the slot's old routing in place, as the hardware 
 
 The fabric behind the port is one of two models (`FabricModel`), chosen by name: ``tlm``, the
 transaction-level model (`morphing_crossbar.model`, the wrapper's checks and refusals exactly,
-in Python), or ``rtl``, the Verilog compiled by Verilator and clocked in batches from C
-(`morphing_crossbar.verilated`; its library is built once per fabric into `model_cache()`, a
-few seconds the first time). They give the same outputs bit for bit.
+in Python), or ``rtl``, the Verilog compiled by Verilator and clocked from C, a batch or a
+sample a call (`morphing_crossbar.verilated`; its library is built once per fabric into
+`model_cache()`, a few seconds the first time). They give the same outputs bit for bit, and
+refuse the same inputs alike.
 """
 
 from __future__ import annotations

@@ -41,6 +41,7 @@ class Configuration:
         self.routes = routes
         self._consumers = self._index_consumers()
         self._check_cycles()
+        self._outputs = {path.input: path.output for path in self.paths()}
 
     @classmethod
     def reset(cls, fabric: Fabric) -> Configuration:
@@ -78,13 +79,19 @@ class Configuration:
                 found.append(path)
         return found
 
-    def require_routes(self, inputs: Iterable[int]) -> None:
-        """Refuse (RouteError) an external input of `inputs` that the routing takes to no
-        output: a beat sent there would wait forever."""
+    def require_routes(self, inputs: Iterable[int]) -> dict[int, int]:
+        """The output port each external input of `inputs` reaches, by input; RouteError for
+        one the routing takes to no output (a beat sent there would wait forever). The routes
+        are traced once per configuration (a load makes a new one), not on every call: a
+        node's fabric PBO asks every cycle."""
+        outputs: dict[int, int] = {}
         for port in inputs:
             self.fabric.check_slot(port)
-            if self.trace(port) is None:
+            output = self._outputs.get(port)
+            if output is None:
                 raise RouteError(f"expected a route from input {port} to an output, got none")
+            outputs[port] = output
+        return outputs
 
     def trace(self, input_slot: int) -> Path | None:
         """Follow external input ``input_slot`` to its output, or None if it ends nowhere."""

@@ -16,7 +16,7 @@ from commandline.arguments import input_file, integer
 from firmware_sim.cli import arguments
 from firmware_sim.cli.run_report import render, run_report
 from firmware_sim.core.debug_port import DebugPort
-from firmware_sim.core.fpga_port import MODELS
+from firmware_sim.core.fpga_port import DEFAULT_MODEL, MODELS
 from firmware_sim.core.guest import DEFAULT_BUDGET
 from firmware_sim.core.kernel_log import into_node_log
 from firmware_sim.core.memory_map import MemoryMap
@@ -144,7 +144,7 @@ def cmd_listen(args: argparse.Namespace) -> int:
         name=args.name,
         flash=args.flash,
         fpga=args.fpga,
-        fpga_model=args.fpga_model or "tlm",
+        fpga_model=args.fpga_model or DEFAULT_MODEL,
         rates=tuple(args.rate),
         default_rate=args.default_rate,
         settings=tuple(args.set),

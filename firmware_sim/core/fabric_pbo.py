@@ -8,9 +8,10 @@ output ``y``. So a guest module or a native wired to it processes what the fabri
 a partial bitstream sent to the node changes that computation between two cycles. The fabric is
 the port's model (transaction-level or the Verilog on Verilator: the same samples).
 
-A `slot` the fabric does not have, or a routing that takes the input nowhere (its slot emptied
-by a bitstream), fails the cycle: the PBO logs why and goes to ERROR, as a module whose cycle
-fails does.
+A `slot` the fabric does not have, a routing that takes the input nowhere (its slot emptied
+by a bitstream) or a model that fails (the RTL's stall) fails the cycle: the port's exception
+escapes it, and the kernel makes that a fault, logs its text and puts the PBO in ERROR, as for a
+module whose cycle fails.
 """
 
 from __future__ import annotations
@@ -31,12 +32,7 @@ def fabric_native(port: ReconfigurationPort) -> type[NativePBO]:
         ports = (PortSpec.input("x"), PortSpec.output("y"), PortSpec.const("slot"))
 
         def cycle(self, io: PortIO) -> int:
-            try:
-                outputs = port.stream({io["slot"]: [io["x"] & mask]})
-            except ValueError as error:
-                io.log(f"fabric: {error}")
-                return -1
-            (samples,) = outputs.values()
+            (samples,) = port.stream({io["slot"]: [io["x"] & mask]}).values()
             io["y"] = samples[0]
             return 0
 

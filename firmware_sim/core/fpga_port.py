@@ -13,8 +13,8 @@ trusted key, unchanged, not older than the highest version kept of its signed na
 Data flows through the fabric too: `stream` sends samples into its external inputs and returns
 what leaves its outputs, which the node's ``fabric`` PBO does every cycle
 (`firmware_sim.core.fabric_pbo`). A port has a model of the fabric behind it, chosen when it is
-opened (`MODELS`): the transaction-level model (fast, in Python) or the Verilog itself, compiled
-by Verilator and clocked in batches; both give the same outputs bit for bit.
+opened (`MODELS`, `DEFAULT_MODEL` unless named): the transaction-level model (in Python) or the
+Verilog itself, compiled by Verilator and clocked from C; both give the same outputs bit for bit.
 
 The node knows a port only through `ReconfigurationPort`. The implementation (morphing_crossbar's
 crossbar, one layer with firmware_sim) registers a factory under the entry-point group
@@ -34,6 +34,9 @@ ENTRY_POINT_GROUP = "firmware_sim.reconfiguration_ports"
 """Where an installed package registers its `PortFactory` (pyproject.toml's entry points)."""
 MODELS = ("tlm", "rtl")
 """The fabric models a port may drive: transaction-level, or the RTL (Verilator)."""
+DEFAULT_MODEL = MODELS[0]
+"""The model of a port opened without one named: the transaction-level one, which needs no
+build."""
 
 
 class Reconfiguration(Protocol):
@@ -71,7 +74,8 @@ class ReconfigurationPort(Protocol):
     def stream(self, inputs: Mapping[int, Sequence[int]]) -> dict[int, list[int]]:
         """Send each external input's samples (each below 2**data_width) through the fabric;
         each output's samples, in order, by output. ValueError (the port's own subclass) for
-        an input the routing takes to no output, or a sample too wide: nothing is sent."""
+        an input the routing takes to no output, or a sample too wide or not an integer:
+        nothing is sent; RuntimeError (its own subclass) when the fabric's model fails."""
         ...
 
     def owns(self, link_base: int) -> bool:
@@ -94,7 +98,7 @@ when it cannot have that many slots, RuntimeError when the model cannot be built
 
 
 def open_port(
-    slots: int, model: str = "tlm", group: str = ENTRY_POINT_GROUP
+    slots: int, model: str = DEFAULT_MODEL, group: str = ENTRY_POINT_GROUP
 ) -> ReconfigurationPort:
     """The port of a `slots`-slot fabric on `model`, from the one implementation installed under
     `group`.

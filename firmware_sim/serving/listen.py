@@ -25,7 +25,7 @@ from commandline.interrupts import stop_requests
 from firmware_sim.core.debug_port import DebugPort
 from firmware_sim.core.fabric_pbo import NAME as FABRIC
 from firmware_sim.core.fabric_pbo import fabric_native
-from firmware_sim.core.fpga_port import open_port
+from firmware_sim.core.fpga_port import DEFAULT_MODEL, open_port
 from firmware_sim.core.guest import DEFAULT_BUDGET
 from firmware_sim.core.natives import NATIVES
 from firmware_sim.core.node import Node, NodeConfig
@@ -64,7 +64,7 @@ class ListenConfig:
     name: str = "node"
     flash: Path | None = None
     fpga: int | None = None
-    fpga_model: str = "tlm"
+    fpga_model: str = DEFAULT_MODEL
     rates: tuple[tuple[str, float], ...] = ()
     default_rate: float = 100.0
     settings: tuple[Setting, ...] = ()
@@ -94,10 +94,12 @@ def listen(
     name: a program that makes a node of its own robot (drivers bound to its devices) passes
     them here, and `config.natives` names which to start. `started(node)` is called once the
     node is made, before it serves anything: such a program may watch its kernel's jobs."""
+    firmware = dict(firmware or {})
+    _check_natives(config, firmware)  # before the port, whose RTL may take seconds to build
     port = None if config.fpga is None else open_port(config.fpga, config.fpga_model)
     builtin = NATIVES if port is None else {**NATIVES, FABRIC: fabric_native(port)}
-    codes = {name: NativeModule(native) for name, native in builtin.items()} | dict(firmware or {})
-    natives = [(name, _native(codes, name)) for name in config.natives]  # refused before listening
+    codes = {name: NativeModule(native) for name, native in builtin.items()} | firmware
+    natives = [(name, codes[name]) for name in config.natives]
     clock: Clock = VirtualClock() if config.lock_step else RealTimeClock()
     with Node(
         config.name,
@@ -159,16 +161,18 @@ def listen(
     return 0
 
 
-def _native(codes: Mapping[str, ModuleCode], name: str) -> ModuleCode:
-    """The firmware's native code named `name`."""
-    try:
-        return codes[name]
-    except KeyError:
-        needs = " (the fabric PBO needs a fabric: --fpga N)" if name == FABRIC else ""
-        raise StartError(
-            f"--native {name}: expected one of {', '.join(sorted(codes))}, got no such "
-            f"native{needs}"
-        ) from None
+def _check_natives(config: ListenConfig, firmware: Mapping[str, ModuleCode]) -> None:
+    """Refuse (StartError) a name of `config.natives` that is neither a built-in native, one of
+    the `firmware`'s nor, on a node with a fabric, the fabric PBO: before the node listens or
+    its port is opened."""
+    known = {*NATIVES, *firmware, *([FABRIC] if config.fpga is not None else [])}
+    for name in config.natives:
+        if name not in known:
+            needs = " (the fabric PBO needs a fabric: --fpga N)" if name == FABRIC else ""
+            raise StartError(
+                f"--native {name}: expected one of {', '.join(sorted(known))}, got no such "
+                f"native{needs}"
+            )
 
 
 def _configured(say: Callable[[str], None]) -> Callable[[str, int, int], None]:

