@@ -1,14 +1,14 @@
 """The node's FPGA reconfiguration port: what the node needs of one, and where it finds one.
 
-A hardware component migrates like a software module: its partial bitstream travels as an
-extended Intel HEX module file linked at the port's window for its slot (`owns`). A node with a
-port (`firmware_sim.serving.serve.NodeTarget(node, fpga=port)`, or ``firmware-sim listen --fpga N``)
-takes it over the transfer protocol like any module, writes it to flash, checks its CRC, and at
-COMMIT hands it to the port instead of calling an init: the port checks the image, applies it to
-the addressed slot and reports what it did. A refused image leaves the slot as it was, as the
-hardware does. A node that trusts keys admits a bitstream first as it does a module (signed by a
-trusted key, unchanged, not older than the highest version kept of its signed name: docs/node.md,
-"Trusted keys and anti-rollback"), so the port sees only bitstreams the node accepted.
+A hardware component migrates like a software module: its partial bitstream travels as an extended
+Intel HEX module file linked at the port's window for its slot (`owns`). A node with a port
+(`firmware_sim.core.transfer_target.NodeTarget(node, fpga=port)`, or ``firmware-sim listen --fpga
+N``) takes it over the transfer protocol like any module, writes it to flash, checks its CRC, and at
+COMMIT hands it to the port instead of calling an init: the port checks the image, applies it to the
+addressed slot and reports what it did. A refused image leaves the slot as it was, as the hardware
+does. A node that trusts keys admits a bitstream first as it does a module (signed by a trusted key,
+unchanged, not older than the highest version kept of its signed name: docs/node.md, "Trusted keys
+and anti-rollback"), so the port sees only bitstreams the node accepted.
 
 Data flows through the fabric too: `stream` sends samples into its external inputs and returns
 what leaves its outputs, which the node's ``fabric`` PBO does every cycle
