@@ -91,7 +91,7 @@ def path_name(text: str) -> Path:
     (a folder it makes): the system takes no NUL byte in one (making it would fail with a
     ValueError, not an OSError)."""
     if "\0" in text:
-        raise _expected("a file name", f"{text!r} (a NUL byte)", quote=False)
+        raise _expected("a path", f"{text!r} (a NUL byte)", quote=False)
     return Path(text)
 
 

@@ -65,7 +65,7 @@ def test_a_quantum_out_of_the_time_masters_range_is_a_usage_error(command, quant
 def test_a_path_with_a_nul_byte_is_a_usage_error(command):
     status, err = tank(*command, "x\0y")
     assert status == 2
-    assert "expected a file name, got 'x\\x00y' (a NUL byte)" in err
+    assert "expected a path, got 'x\\x00y' (a NUL byte)" in err
 
 
 @pytest.mark.parametrize(
