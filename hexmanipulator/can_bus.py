@@ -9,12 +9,12 @@ stamped with the host's time (`stamp`, seconds of the run): the servos in lock-s
 it (`servo_emulators.lock_step`); unstamped (0) without one.
 
 `open_can_bus(url)` opens python-can from a ``can://`` URL of hexmigrate's grammar
-(``can://virtual/CH``, ``can://remote/127.0.0.1:PORT/CH``, ``can://slcan//dev/pts/N``).
+(``can://virtual/CH``, ``can://remote/127.0.0.1:PORT/CH``, ``can://slcan//dev/pts/N``), as
+hexmigrate opens it (`hexmigrate.links.can.open_bus`).
 """
 
 from __future__ import annotations
 
-import http.client
 import time
 from collections.abc import Callable
 
@@ -22,12 +22,12 @@ import can
 import cantools
 import numpy as np
 from can.bus import BusState
-from can_remote.websocket import WebsocketClosed
 
 from hexmanipulator.errors import BusOffError, GeometryError, ServoBusError, ServoSilentError
 from hexmanipulator.geometry import Geometry
 from hexmanipulator.servo_bus import Reading, crank_angles, servo_angles
-from hexmigrate.links.can import parse_url
+from hexmigrate.errors import LinkError, LinkUrlError
+from hexmigrate.links.can import open_bus
 from servo_emulators.can_servo import (
     COMMAND_BASE,
     FEEDBACK_BASE,
@@ -39,44 +39,18 @@ from servo_emulators.can_servo import (
 
 REPLY_TIMEOUT = 0.2
 """How long a read waits for every node's answer to a Sync."""
-RETRY_PAUSE = 0.02
-"""Between two tries to reach a bus's server that refused the connection (seconds)."""
-
-
-_BROKEN_SERVER = (
-    AssertionError,
-    AttributeError,
-    KeyError,
-    TypeError,
-    http.client.HTTPException,
-    WebsocketClosed,
-)
-"""What python-can-remote's client raises when the server at a ``can://remote`` URL does not
-speak its protocol (its handshake asserts; a missing header or field)."""
 
 
 def open_can_bus(url: str, wait: float = 0.0) -> can.BusABC:
-    """python-can's bus for a ``can://`` URL (the ISO-TP parameters of the URL do not apply).
-    A server that refuses the connection is tried again for `wait` seconds: a process started
-    at the same time as the one that serves its bus may be ready first. A server that answers
-    but does not speak python-can-remote is a `ServoBusError` naming what it said; one that
-    accepts the connection and says nothing is waited for (python-can-remote's client sets no
-    timeout)."""
-    settings = parse_url(url)
-    deadline = time.monotonic() + wait
-    while True:
-        try:
-            return can.Bus(**settings.bus_config())
-        except ConnectionRefusedError as error:
-            if not time.monotonic() < deadline:  # NaN waits no more than 0 s
-                raise ServoBusError(f"cannot open {url}: {error}") from error
-            time.sleep(RETRY_PAUSE)
-        except (can.CanError, OSError, ValueError) as error:
-            raise ServoBusError(f"cannot open {url}: {error}") from error
-        except _BROKEN_SERVER as error:
-            raise ServoBusError(
-                f"cannot open {url}: expected a python-can-remote server, got {error!r}"
-            ) from error
+    """python-can's bus for a ``can://`` URL (the ISO-TP parameters of the URL do not apply),
+    a server that refuses the connection tried again for `wait` seconds (`open_bus`); a
+    `ServoBusError` naming the URL when it does not open (a LinkUrlError for a malformed one)."""
+    try:
+        return open_bus(url, wait)
+    except LinkUrlError:
+        raise
+    except LinkError as error:
+        raise ServoBusError(str(error)) from error
 
 
 class CanServoBus:

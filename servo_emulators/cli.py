@@ -32,8 +32,8 @@ import can
 
 from commandline import UsageError, add_command, command_parser, run
 from commandline.arguments import integer, real
-from hexmigrate.errors import HexmigrateError, LinkUrlError
-from hexmigrate.links.can import parse_url, remote_address
+from hexmigrate.errors import HexmigrateError, LinkError, LinkUrlError
+from hexmigrate.links.can import open_bus, remote_address
 from hexmigrate.links.remote_server import ServedChannel
 from hexmigrate.links.slcan_device import SlcanDevice
 from servo_emulators.bank import ServoBank
@@ -164,15 +164,14 @@ def _run_can(args: argparse.Namespace) -> None:
     with contextlib.ExitStack() as stack:
         if args.slcan:
             device = stack.enter_context(SlcanDevice(args.slcan))
-            bus = _open_bus(device.url, interface="virtual", channel=args.slcan, ignore_config=True)
+            bus = can.Bus(interface="virtual", channel=args.slcan, ignore_config=True)
             stack.enter_context(CanServoServer(nodes, bus))
             where = [device.url]
         elif args.serve:
             where = [_serve(stack, nodes, clock, *address) for address in args.serve]
         else:
             for url in args.url:
-                bus = _open_bus(url, **parse_url(url).bus_config())
-                stack.enter_context(CanServoServer(nodes, bus))
+                stack.enter_context(CanServoServer(nodes, _open_bus(url)))
             where = args.url
         _announce(f"{args.nodes} CAN servo nodes on {' and '.join(where)}", args.seconds)
 
@@ -202,7 +201,7 @@ def _serve(
     on `host`:`port` (all stopped with `stack`), on `clock` (None: real time); say where, and
     return it."""
     served = stack.enter_context(ServedChannel(channel, host, port))
-    bus = _open_bus(served.bus_url, interface="virtual", channel=channel, ignore_config=True)
+    bus = can.Bus(interface="virtual", channel=channel, ignore_config=True)
     stack.enter_context(CanServoServer(nodes, bus, clock))
     _say(f"serving {served.bus_url}")
     return served.bus_url
@@ -212,12 +211,17 @@ def _say(line: str) -> None:
     print(line, flush=True)
 
 
-def _open_bus(url: str, **config: object) -> can.BusABC:
-    """python-can's bus; a refusal names the URL (`ServoPortError`)."""
+def _open_bus(url: str) -> can.BusABC:
+    """python-can's bus at a ``--url``, as hexmigrate opens it (`open_bus`); a `ServoPortError`
+    naming the URL when it does not open (a LinkUrlError for a malformed one). The virtual buses
+    of the emulator's own (``--slcan``, ``--serve``) open with python-can directly: no device or
+    server there can refuse."""
     try:
-        return can.Bus(**config)
-    except (can.CanError, ValueError) as error:
-        raise ServoPortError(f"cannot open {url}: {error}") from error
+        return open_bus(url)
+    except LinkUrlError:
+        raise
+    except LinkError as error:
+        raise ServoPortError(str(error)) from error
 
 
 def _announce(where: str, seconds: float | None) -> None:

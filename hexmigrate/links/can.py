@@ -32,19 +32,26 @@ Classic CAN frames carry 8 data bytes. ISO-TP puts 7 message bytes in a single f
 first frame of a longer transfer (2 if the message exceeds 4095 bytes, which needs the 32-bit
 length of ISO 15765-2:2016), and 7 in each consecutive frame; the receiver answers the first frame
 (and each block, if blocksize > 0) with a flow control frame.
+
+`open_bus(url)` opens the python-can bus of a URL alone, for a program that speaks CAN itself
+(the servo bus, the servo emulator): the one way every bus of a ``can://`` URL opens.
 """
 
 from __future__ import annotations
 
+import http.client
 import logging
 import math
+import re
 import socket
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import can
 import isotp
+from can_remote.websocket import WebsocketClosed
 
 from hexmigrate.errors import LinkError
 from hexmigrate.links.base import MAX_MESSAGE_SIZE, LinkBase
@@ -72,6 +79,18 @@ NOTIFIER_TIMEOUT = 0.05
 FRAME_TIMEOUT = 1.0
 """ISO-TP's N_Bs and N_Cr: how long a sender waits for a flow control frame, and a receiver for
 the next consecutive frame, before it gives the transfer up."""
+RETRY_PAUSE = 0.02
+"""Between two tries to reach a bus's server that refused the connection (seconds)."""
+_BROKEN_SERVER = (
+    AssertionError,
+    AttributeError,
+    KeyError,
+    TypeError,
+    http.client.HTTPException,
+    WebsocketClosed,
+)
+"""What python-can-remote's client raises when the server at a ``can://remote`` URL does not
+speak its protocol (its handshake asserts; a missing header or field)."""
 
 
 def _stmin(text: str) -> int:
@@ -179,7 +198,8 @@ def _channel(url: str, interface: str, path: str) -> str:
     """The channel part of the path, checked against what `interface` expects."""
     channel = path[1:]
     if interface == "remote":
-        return _remote_channel(url, channel)
+        remote_address(url, channel)
+        return channel
     if interface in ("virtual", "socketcan"):
         if channel and "/" not in channel:
             return channel
@@ -189,12 +209,6 @@ def _channel(url: str, interface: str, path: str) -> str:
             return channel
         raise url_error(url, f"expected a device path after can://slcan/, got {channel!r}", FORM)
     raise url_error(url, f"expected virtual, remote, slcan or socketcan, got {interface!r}", FORM)
-
-
-def _remote_channel(url: str, channel: str) -> str:
-    """``HOST:PORT/CHANNEL``, checked."""
-    remote_address(url, channel)
-    return channel
 
 
 def remote_address(url: str, channel: str, lowest_port: int = 1) -> tuple[str, int, str]:
@@ -341,12 +355,34 @@ class _BusWatch(can.Listener):
         self._notifier.stop(timeout=0)
 
 
-def _open_bus(url: str, settings: CanSettings) -> can.BusABC:
-    """The python-can bus, or a LinkError naming the URL (no server, no device, no driver)."""
-    try:
-        bus = can.Bus(**settings.bus_config())
-    except (can.CanError, OSError, ValueError, ImportError) as error:
-        raise LinkError(f"cannot open {url}: {error}") from error
+def open_bus(url: str, wait: float = 0.0) -> can.BusABC:
+    """python-can's bus for a ``can://`` URL, for a program that speaks CAN itself (the URL's
+    ISO-TP parameters do not apply); the caller shuts it down. LinkUrlError for a malformed URL;
+    LinkError naming the URL when the bus does not open: no device, no driver, no server, a
+    server that does not speak python-can-remote or serves another channel. A server that
+    refuses the connection is tried again for `wait` seconds: a process started at the same time
+    as the one that serves its bus may be ready first. One that accepts the connection and says
+    nothing is waited for (python-can-remote's client sets no timeout)."""
+    return _open_bus(url, parse_url(url), wait)
+
+
+def _open_bus(url: str, settings: CanSettings, wait: float = 0.0) -> can.BusABC:
+    """`open_bus` for settings already parsed: a link's, its options included."""
+    deadline = time.monotonic() + wait
+    while True:
+        try:
+            bus = can.Bus(**settings.bus_config())
+            break
+        except ConnectionRefusedError as error:
+            if not time.monotonic() < deadline:  # NaN waits no more than 0 s
+                raise LinkError(f"cannot open {url}: {error}") from error
+            time.sleep(RETRY_PAUSE)
+        except (can.CanError, OSError, ValueError, ImportError) as error:
+            raise LinkError(f"cannot open {url}: {error}") from error
+        except _BROKEN_SERVER as error:
+            raise LinkError(
+                f"cannot open {url}: expected a python-can-remote server, got {error!r}"
+            ) from error
     if settings.interface == "remote":
         _check_remote_channel(url, bus, settings.channel.partition("/")[2])
     return bus
@@ -368,9 +404,10 @@ def _shut_down(bus: can.BusABC) -> None:
 
 def _check_remote_channel(url: str, bus: can.BusABC, channel: str) -> None:
     """Refuse a server of another channel: the server, not the client, picks the channel, and
-    talking to the wrong one would only show as timeouts."""
-    words = [word.strip("'\"") for word in bus.channel_info.split()]
-    if channel not in words:
+    talking to the wrong one would only show as timeouts. The server's description of its bus
+    (``Virtual bus channel two words on ws://...``) names the channel between spaces or
+    quotes."""
+    if not re.search(rf"(?<![^\s'\"]){re.escape(channel)}(?![^\s'\"])", bus.channel_info):
         _shut_down(bus)
         raise LinkError(
             f"cannot open {url}: expected a server of channel {channel!r}, got {bus.channel_info!r}"

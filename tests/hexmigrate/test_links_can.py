@@ -3,15 +3,17 @@
 from __future__ import annotations
 
 import socket
+import threading
 from pathlib import Path
 
 import can
 import pytest
 
+from commandline.children import Child
 from hexmigrate.errors import LinkError
 from hexmigrate.links import open_link, remote_server
 from hexmigrate.links.can import CanLink, parse_url
-from hexmigrate.links.remote_server import RemoteCanServer
+from hexmigrate.links.remote_server import RemoteCanServer, ServedChannel
 
 
 def test_roles_pick_mirrored_ids_and_parameters_override_them() -> None:
@@ -111,11 +113,57 @@ def test_the_remote_server_reports_a_start_failure_from_its_log(
         monkeypatch.setattr(remote_server, "_free_port", lambda host: taken.getsockname()[1])
         server = RemoteCanServer()
         try:
-            refused = r"server exited with status 1 \(log .*Address already in use"
-            with pytest.raises(LinkError, match=refused):
+            refused = r"server exited with status 1: .*Address already in use"
+            with pytest.raises(LinkError, match=refused) as error:
                 server.start()
+            assert "server.log" not in str(error.value)  # removed with its folder by then
         finally:
             server.stop()
+
+
+def test_an_interrupted_start_stops_the_server_and_removes_its_folder(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Ctrl-C while the server starts leaves neither its process nor its folder behind."""
+    started: list[Child] = []
+
+    def interrupted(child: Child, *args: object) -> None:
+        started.append(child)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(Child, "wait_for", interrupted)
+    server = RemoteCanServer()
+    with pytest.raises(KeyboardInterrupt):
+        server.start()
+    (child,) = started
+    assert child.process.poll() is not None
+    assert not child.log.parent.exists()
+
+
+def test_a_server_that_does_not_speak_python_can_remote_is_a_link_error() -> None:
+    with socket.create_server(("127.0.0.1", 0)) as server:
+        port = server.getsockname()[1]
+
+        def answer_once() -> None:
+            connection, _ = server.accept()
+            with connection:
+                connection.recv(4096)
+                connection.sendall(b"HTTP/1.1 200 OK\r\nContent-Length: 0\r\n\r\n")
+
+        answering = threading.Thread(target=answer_once, daemon=True)
+        answering.start()
+        url = f"can://remote/127.0.0.1:{port}/x"
+        expected = f"^cannot open {url}: expected a python-can-remote server, got AssertionError"
+        with pytest.raises(LinkError, match=expected):
+            open_link(url)
+        answering.join(5.0)
+
+
+def test_a_served_channel_whose_name_has_spaces_is_recognised() -> None:
+    """A channel name may hold spaces (printable characters): the server's description of its
+    bus names it whole, and the channel check finds it there."""
+    with ServedChannel("two words") as served, open_link(served.url()) as link:
+        assert isinstance(link, CanLink)
 
 
 def test_the_remote_server_url_needs_a_started_server() -> None:

@@ -220,6 +220,13 @@ def test_a_client_started_before_the_server_waits_for_it() -> None:
         served.stop()
 
 
+def test_a_server_of_another_channel_is_a_servo_bus_error() -> None:
+    with ServedChannel("servos") as served:
+        other = served.bus_url.replace("/servos", "/other")
+        with pytest.raises(ServoBusError, match="expected a server of channel 'other', got"):
+            open_can_bus(other)
+
+
 def test_a_refused_bus_with_a_wait_that_is_not_a_number_is_refused_at_once() -> None:
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))

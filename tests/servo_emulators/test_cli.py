@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import socket
 import subprocess
 import sys
 import time
@@ -61,6 +62,16 @@ def test_a_bad_can_url_is_one_error_line_with_the_form(capsys) -> None:
     assert main(["can", "--url", "can://nowhere/x", "--seconds", "0.01"]) == 1
     err = capsys.readouterr().err
     assert err.startswith("error: bad link URL 'can://nowhere/x': expected virtual, remote")
+    assert err.count("\n") == 1
+
+
+def test_a_can_bus_that_cannot_be_opened_is_one_error_line_naming_it(capsys) -> None:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        url = f"can://remote/127.0.0.1:{probe.getsockname()[1]}/x"
+    assert main(["can", "--url", url, "--seconds", "0.01"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: cannot open {url}: ") and "refused" in err
     assert err.count("\n") == 1
 
 
