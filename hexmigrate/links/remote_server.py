@@ -361,7 +361,7 @@ class _BoundedWebSocket(WebSocket):
         return first & 0xF, data
 
 
-class _Refused(Exception):
+class _RefusedFrame(Exception):
     """A client sent what no python-can-remote client sends: it is let go."""
 
 
@@ -382,10 +382,10 @@ class _GuardedProtocol(RemoteServerProtocol):
 
     def recv(self, timeout: float | None = None) -> can.Message | dict[str, Any] | None:
         """The client's next message within `timeout` (None if none came): a CAN frame as a
-        `can.Message` built here (`_frame`), any other as its JSON object; `_Refused` for what is
-        neither. python-can-remote's own puts whatever a frame's fields hold on the bus (an id a
-        binary client cannot be sent, a string for a time stamp, 300 MB for ``"data":
-        300000000``)."""
+        `can.Message` built here (`_frame`), any other as its JSON object; `_RefusedFrame` for
+        what is neither. python-can-remote's own puts whatever a frame's fields hold on the bus
+        (an id a binary client cannot be sent, a string for a time stamp, 300 MB for
+        ``"data": 300000000``)."""
         if not self._ws.wait(timeout):
             return None
         try:
@@ -394,9 +394,9 @@ class _GuardedProtocol(RemoteServerProtocol):
                 return _binary_frame(message)
             event = json.loads(message)
         except (ValueError, struct.error) as error:  # text that is no UTF-8 or JSON, a bad close
-            raise _Refused(f"expected a python-can-remote message, got {error}") from None
+            raise _RefusedFrame(f"expected a python-can-remote message, got {error}") from None
         if not isinstance(event, dict):
-            raise _Refused(f"expected a JSON object, got {type(event).__name__}")
+            raise _RefusedFrame(f"expected a JSON object, got {type(event).__name__}")
         if event.get("type") == "message":
             return _frame(event.get("payload"))
         return event
@@ -419,7 +419,7 @@ class _GuardedProtocol(RemoteServerProtocol):
 
     def _receive_from_client(self) -> None:
         """Put every frame the client sends on its bus; anything else ends the connection: no
-        CAN frame (`_Refused`), a request for periodic frames (frames the server would send for
+        CAN frame (`_RefusedFrame`), a request for periodic frames (frames the server would send for
         the client, unbounded), the connection's end, a bus the sending thread left."""
         while self.running:
             try:
@@ -427,7 +427,7 @@ class _GuardedProtocol(RemoteServerProtocol):
                 if not isinstance(event, can.Message):
                     return
                 self.bus.send(event)
-            except (_Refused, WebsocketClosed, OSError, can.CanError):
+            except (_RefusedFrame, WebsocketClosed, OSError, can.CanError):
                 return
 
 
@@ -436,14 +436,14 @@ def _binary_frame(message: bytearray) -> can.Message:
     flags; the data), checked by `_frame`."""
     head = 1 + BINARY_MSG_STRUCT.size
     if message[:1] != bytes([BINARY_MESSAGE_TYPE]) or len(message) < head:
-        raise _Refused(
+        raise _RefusedFrame(
             f"a binary message: expected type {BINARY_MESSAGE_TYPE} and {head} bytes or more, "
             f"got {bytes(message[:1]).hex() or 'none'} and {len(message)}"
         )
     timestamp, identifier, dlc, flags = BINARY_MSG_STRUCT.unpack_from(message, 1)
     known = sum(_FLAGS.values())
     if flags & ~known:
-        raise _Refused(f"a binary frame's flags: expected bits of {known:#x}, got {flags:#x}")
+        raise _RefusedFrame(f"a binary frame's flags: expected bits of {known:#x}, got {flags:#x}")
     fields: dict[str, object] = {name: bool(flags & bit) for name, bit in _FLAGS.items()}
     fields.update(timestamp=timestamp, arbitration_id=identifier, dlc=dlc, data=message[head:])
     return _frame(fields)
@@ -452,19 +452,19 @@ def _binary_frame(message: bytearray) -> can.Message:
 def _frame(fields: object) -> can.Message:
     """The CAN frame a client describes, built from checked fields (missing ones as
     `can.Message` has them): a whole-number id below 2**29 (2**11 unless extended), bool flags
-    that agree, data of at most 8 bytes (64 for CAN FD), a dlc its length; `_Refused` naming
+    that agree, data of at most 8 bytes (64 for CAN FD), a dlc its length; `_RefusedFrame` naming
     the first field that is not. A time stamp that is no finite, non-negative number is 0.0
     (unstamped): a lock-step device's clock moves to a frame's stamp."""
     if not isinstance(fields, dict):
-        raise _Refused(f"a frame: expected an object of fields, got {type(fields).__name__}")
+        raise _RefusedFrame(f"a frame: expected an object of fields, got {type(fields).__name__}")
     unknown = sorted(set(fields) - _FIELDS)
     if unknown:
-        raise _Refused(f"a frame: expected fields among {sorted(_FIELDS)}, got {unknown[0]!r}")
+        raise _RefusedFrame(f"a frame: expected fields among {sorted(_FIELDS)}, got {unknown[0]!r}")
     data = fields.get("data", b"")
     if isinstance(data, list) and all(type(byte) is int and 0 <= byte <= 0xFF for byte in data):
         data = bytes(data)  # JSON's form; the binary one's is bytes already
     if not isinstance(data, bytes | bytearray) or len(data) > 64:
-        raise _Refused(f"a frame's data: expected at most 64 bytes, got {data!r:.40}")
+        raise _RefusedFrame(f"a frame's data: expected at most 64 bytes, got {data!r:.40}")
     flags = {name: _field(fields, name, bool, name == "is_extended_id") for name in _FLAGS}
     try:
         return can.Message(
@@ -476,15 +476,15 @@ def _frame(fields: object) -> can.Message:
             **flags,
         )
     except ValueError as error:
-        raise _Refused(f"a frame: {error}") from None
+        raise _RefusedFrame(f"a frame: {error}") from None
 
 
 def _field(fields: dict[str, Any], name: str, kind: type, default: object) -> Any:
     """Field `name` of a frame (`default` if missing), exactly of type `kind`: no float for an
-    id, no 1 for True; `_Refused` otherwise."""
+    id, no 1 for True; `_RefusedFrame` otherwise."""
     value = fields.get(name, default)
     if type(value) is not kind:
-        raise _Refused(f"a frame's {name}: expected {kind.__name__}, got {value!r:.40}")
+        raise _RefusedFrame(f"a frame's {name}: expected {kind.__name__}, got {value!r:.40}")
     return value
 
 
