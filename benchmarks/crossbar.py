@@ -6,6 +6,8 @@ Prints Markdown tables (docs/crossbar.md holds a copy):
   morphing_crossbar, full_crossbar and shared_bus at N = 4 and 8;
 - the wrapper-only partial bitstream against the full-slot bitstream (wrapper frame plus the
   functionality's LUT4 netlist) for each library functionality;
+- the functionality library: cells, flip-flop bits and RAM bits of every kind (memories kept as
+  RAM), at the data width it serves (the running median at 32 bits, the patrol's offsets);
 - reconfiguration cycles measured in simulation against the goal bits / CFG_W + 4;
 - beats per cycle per port under full load, and simulated cycles per second through cocotb;
 - the fabric in a node's loop: the RTL model (the Verilog compiled by Verilator, clocked from C:
@@ -32,8 +34,14 @@ from pathlib import Path
 from commandline.arguments import integer
 from morphing_crossbar.bitstream import FRAME_BITS, pack
 from morphing_crossbar.fabric import Fabric, verilog_parameters
+from morphing_crossbar.functions import Function
 from morphing_crossbar.model import CrossbarModel
-from morphing_crossbar.netlist import full_slot_bitstream, functionality_netlist, synthesize
+from morphing_crossbar.netlist import (
+    full_slot_bitstream,
+    functionality_area,
+    functionality_netlist,
+    synthesize,
+)
 from morphing_crossbar.routing import through_route
 from morphing_crossbar.sim.runner import RESULTS_ENV, rtl_sources, run_cocotb
 from morphing_crossbar.verilated.build import model_library
@@ -47,6 +55,16 @@ LOOP_GOAL = 1_000_000
 """Fabric cycles per second the RTL model must reach in a node's loop."""
 SINGLE_CALLS = 50_000
 """One-beat calls timed per model and fabric: the node's fabric PBO sends one beat a cycle."""
+LIBRARY = (
+    ("pass", 8),
+    ("gain:24:3", 8),
+    ("threshold:129", 8),
+    ("fir:0x1331:3", 8),
+    ("median3x3:160", 8),
+    ("stretch:10:16", 8),
+    ("median5", 32),
+)
+"""Each library functionality as the applications use it, with its data width."""
 
 
 def area_table() -> list[str]:
@@ -77,6 +95,20 @@ def bitstream_table() -> list[str]:
         _, full_bits = full_slot_bitstream(partial, functionality_netlist(function, 8))
         ratio = FRAME_BITS / full_bits
         rows.append(f"| {function.describe()} | {FRAME_BITS} | {full_bits} | {ratio:.3f} |")
+    return rows
+
+
+def library_table() -> list[str]:
+    """Cells, flip-flop bits and RAM bits of each library functionality."""
+    rows = [
+        "| functionality | DATA_W | cells | flip-flop bits | RAM bits |",
+        "|---|---|---|---|---|",
+    ]
+    for text, data_w in LIBRARY:
+        area = functionality_area(Function.parse(text), data_w)
+        rows.append(
+            f"| `{text}` | {data_w} | {area.cells} | {area.flip_flops} | {area.memory_bits} |"
+        )
     return rows
 
 
@@ -189,6 +221,7 @@ def main() -> None:
     sections = [
         ("Area (yosys 0.23 `synth -flatten`, DATA_W = 8)", area_table()),
         ("Partial against full-slot bitstream (DATA_W = 8)", bitstream_table()),
+        ("Functionality library (yosys 0.23, memories kept as RAM)", library_table()),
         ("Simulation (DATA_W = 8)", simulation_table(simulators, build_root, rates)),
         (
             "The fabric in a node's loop (DATA_W = 8)",

@@ -4,13 +4,15 @@
 // Each slot is a wrapper (mx_wrapper: routing state and reconfiguration control) plus a
 // functionality (mx_functionality: fixed data processing). Each slot has an external stream
 // input s_* and output m_* (a board position on the Morphing Bus). A wrapper's two selectors
-// choose among NSRC = 3 + LOCAL sources:
-//   0            none
-//   1            the slot's own external input
-//   2            the ring: the functionality output of slot (i - 1) mod N, the circular routing
-//                of the Morphing Bus
-//   3 + k        the local crossbar: the functionality output of slot k of the slot's cluster
-//                (clusters are LOCAL consecutive slots)
+// choose among NSRC = 3 + 2 * LOCAL sources:
+//   0              none
+//   1              the slot's own external input
+//   2              the ring: the functionality output of slot (i - 1) mod N, the circular
+//                  routing of the Morphing Bus
+//   3 + k          the local crossbar: the functionality output of slot k of the slot's cluster
+//                  (clusters are LOCAL consecutive slots)
+//   3 + LOCAL + k  the local crossbar: the external input of slot k of the slot's cluster, so a
+//                  board plugged into any port of the cluster reaches the same internal modules
 // so pipelines compose along the ring and, inside a cluster, point to point. Every source is
 // meant for at most one consumer (the Python configuration checks it); each source's ready is
 // the OR of the consumers selecting it. Functionality inputs have registered ready
@@ -51,7 +53,8 @@ module morphing_crossbar #(
     output wire [2:0]          cfg_error_code,  // why, valid with cfg_error
     output wire [N-1:0]        slot_busy        // slot i is being reconfigured
 );
-    localparam NSRC = 3 + LOCAL;
+    localparam NSRC = 3 + 2 * LOCAL;
+    localparam INPUTS = 3 + LOCAL;                     // selector of the cluster's first input
     localparam SEL_W = 4;
 
     // functionality outputs, consumed through the ring and the local crossbar
@@ -89,10 +92,12 @@ module morphing_crossbar #(
             assign src_data[3*DATA_W-1:0] =
                 {f_data[RING*DATA_W +: DATA_W], s_data[i*DATA_W +: DATA_W], {DATA_W{1'b0}}};
             assign src_last[2:0] = {f_last[RING], s_last[i], 1'b0};
-            assign src_valid[NSRC-1:3] = f_valid[CLUSTER +: LOCAL];
-            assign src_data[NSRC*DATA_W-1:3*DATA_W] = f_data[CLUSTER*DATA_W +: LOCAL*DATA_W];
-            assign src_last[NSRC-1:3] = f_last[CLUSTER +: LOCAL];
-            assign s_ready[i] = w_src_ready[i*NSRC + 1];
+            assign src_valid[INPUTS-1:3] = f_valid[CLUSTER +: LOCAL];
+            assign src_data[INPUTS*DATA_W-1:3*DATA_W] = f_data[CLUSTER*DATA_W +: LOCAL*DATA_W];
+            assign src_last[INPUTS-1:3] = f_last[CLUSTER +: LOCAL];
+            assign src_valid[NSRC-1:INPUTS] = s_valid[CLUSTER +: LOCAL];
+            assign src_data[NSRC*DATA_W-1:INPUTS*DATA_W] = s_data[CLUSTER*DATA_W +: LOCAL*DATA_W];
+            assign src_last[NSRC-1:INPUTS] = s_last[CLUSTER +: LOCAL];
 
             mx_wrapper #(
                 .SLOT_ID(i), .DATA_W(DATA_W), .NSRC(NSRC), .SEL_W(SEL_W), .CFG_W(CFG_W),
@@ -123,15 +128,20 @@ module morphing_crossbar #(
             );
         end
 
-        // Ready of functionality k: its ring successor or any slot of its cluster selects it.
-        for (k = 0; k < N; k = k + 1) begin : g_fready
+        // Ready of functionality k: its ring successor or any slot of its cluster selects it;
+        // ready of external input k: its own slot or any slot of its cluster selects it.
+        for (k = 0; k < N; k = k + 1) begin : g_ready
             localparam CLUSTER = (k / LOCAL) * LOCAL;
             localparam NEXT = (k + 1) % N;
-            wire [LOCAL-1:0] local_ready;
+            wire [LOCAL-1:0] local_f_ready;
+            wire [LOCAL-1:0] local_s_ready;
             for (i = 0; i < LOCAL; i = i + 1) begin : g_local
-                assign local_ready[i] = w_src_ready[(CLUSTER + i)*NSRC + 3 + (k - CLUSTER)];
+                assign local_f_ready[i] = w_src_ready[(CLUSTER + i)*NSRC + 3 + (k - CLUSTER)];
+                assign local_s_ready[i] =
+                    w_src_ready[(CLUSTER + i)*NSRC + INPUTS + (k - CLUSTER)];
             end
-            assign f_ready[k] = w_src_ready[NEXT*NSRC + 2] || (|local_ready);
+            assign f_ready[k] = w_src_ready[NEXT*NSRC + 2] || (|local_f_ready);
+            assign s_ready[k] = w_src_ready[k*NSRC + 1] || (|local_s_ready);
         end
     endgenerate
 

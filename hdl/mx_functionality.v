@@ -3,7 +3,10 @@
 // The functionality is the static, data-processing part of a hardware component (section 5.2 of
 // the paper): it is built once with the fabric and never touched by partial reconfiguration.
 // KIND: 0 pass-through, 1 gain/offset (P0 gain, P1 offset), 2 threshold (P0 level),
-// 3 four-tap FIR (P0 taps, P1 shift). See morphing_crossbar/functions.py for the same arithmetic.
+// 3 four-tap FIR (P0 taps, P1 shift), 4 3x3 median over frames of rows (P0 row width),
+// 5 contrast stretch of 8-bit frames (P0 clip in permille, P1 minimum spread), 6 running median
+// of five signed samples. See morphing_crossbar/functions.py for the same arithmetic, and
+// docs/crossbar.md for how to add one.
 `default_nettype none
 
 module mx_functionality #(
@@ -49,6 +52,27 @@ module mx_functionality #(
             );
         end else if (KIND == 4'd3) begin : g_fir
             mx_fn_fir #(.DATA_W(DATA_W), .TAPS(P0), .SHIFT(P1)) fn (
+                .clk(clk), .rst(rst), .clear(clear),
+                .in_valid(in_valid), .in_ready(in_ready), .in_data(in_data), .in_last(in_last),
+                .out_valid(out_valid), .out_ready(out_ready), .out_data(out_data),
+                .out_last(out_last), .empty(empty)
+            );
+        end else if (KIND == 4'd4) begin : g_median3x3
+            mx_fn_median3x3 #(.DATA_W(DATA_W), .WIDTH(P0)) fn (
+                .clk(clk), .rst(rst), .clear(clear),
+                .in_valid(in_valid), .in_ready(in_ready), .in_data(in_data), .in_last(in_last),
+                .out_valid(out_valid), .out_ready(out_ready), .out_data(out_data),
+                .out_last(out_last), .empty(empty)
+            );
+        end else if (KIND == 4'd5) begin : g_stretch
+            mx_fn_stretch #(.DATA_W(DATA_W), .CLIP(P0), .MIN_SPREAD(P1)) fn (
+                .clk(clk), .rst(rst), .clear(clear),
+                .in_valid(in_valid), .in_ready(in_ready), .in_data(in_data), .in_last(in_last),
+                .out_valid(out_valid), .out_ready(out_ready), .out_data(out_data),
+                .out_last(out_last), .empty(empty)
+            );
+        end else if (KIND == 4'd6) begin : g_median5
+            mx_fn_median5 #(.DATA_W(DATA_W)) fn (
                 .clk(clk), .rst(rst), .clear(clear),
                 .in_valid(in_valid), .in_ready(in_ready), .in_data(in_data), .in_last(in_last),
                 .out_valid(out_valid), .out_ready(out_ready), .out_data(out_data),

@@ -5,8 +5,11 @@
 //     {MAGIC 4'hA, SLOT 4 bits, FSEL SEL_W bits, OSEL SEL_W bits, CRC-8 of the rest}
 // From the first beat until the frame is settled the slot is isolated: its functionality takes no
 // new beat, and the beats it already holds drain to the old destination. Then the frame is
-// checked; a good one is committed atomically (one clock edge switches both selectors and clears
-// the functionality's history), a bad one is refused with the old routing untouched.
+// checked; a good one is committed atomically (one clock edge switches both selectors and, when
+// the functionality's source changes, clears its history), a bad one is refused with the old
+// routing untouched. A frame that keeps FSEL (only the output port moves, as when the Morphing
+// Bus re-plugs a board onto this slot's port) leaves the history alone: the stream through the
+// functionality is the same one, and clearing it would corrupt another board's filter.
 // Latency from the first beat to the new routing: BITS / CFG_W + 1 cycles once the
 // functionality is empty.
 //
@@ -33,7 +36,7 @@ module mx_slot_config #(
     output reg  [SEL_W-1:0] fsel,           // active source of the functionality input
     output reg  [SEL_W-1:0] osel,           // active source of the output port
     output wire             isolate,        // decouple the functionality input
-    output wire             clear,          // the commit edge: clear the functionality's history
+    output wire             clear,          // the commit edge of a new FSEL: clear the history
     output reg              commit,         // one-cycle pulse: the new routing is in force
     output reg              error,          // one-cycle pulse: frame refused
     output reg  [2:0]       error_code
@@ -73,7 +76,7 @@ module mx_slot_config #(
     wire accept = (state_reg == S_CHECK) && (verdict == 3'd0) && drained;
 
     assign isolate = (state_reg != S_IDLE);
-    assign clear = accept;
+    assign clear = accept && (new_fsel != fsel);
 
     always @(posedge clk) begin
         commit <= 1'b0;

@@ -11,6 +11,7 @@ Modules, from the bottom up:
 - ``bitstream``: the partial (wrapper-only) bitstream format and its packer.
 - ``netlist``: yosys synthesis, cell counts and the full-slot bitstream for comparison.
 - ``model``: the transaction-level model, the golden reference of the tests.
+- ``morphing_bus``: boards on the external ports; the bitstreams of a plug, an unplug or a swap.
 - ``hex_image``: a partial bitstream as an extended Intel HEX module image (hexmigrate).
 - ``sim``: cocotb drivers, monitors, scoreboard and the runner helpers (needs cocotb).
 - ``cli``: ``python -m morphing_crossbar pack``, a partial bitstream as a HEX module file.

@@ -20,6 +20,8 @@ Tree::
     │   ├── SelectorRangeError                  5: a source the slot does not have
     │   └── RefusedRouteError                   6: one source twice, or a loop on itself
     ├── BitstreamImageError (ValueError)    a HEX image that holds no crossbar bitstream
+    ├── BusError (ValueError)               a plug, unplug or swap the Morphing Bus cannot carry
+    │   └── UnknownBoardError                   an identification word no known board sends
     ├── SynthesisError (RuntimeError)       yosys is missing or refused the design
     ├── ModelBuildError (RuntimeError)      Verilator could not build the fabric's model library
     ├── FabricStallError (RuntimeError)     the RTL model delivered nothing within its cycle bound
@@ -89,6 +91,16 @@ class RefusedRouteError(BitstreamError):
 
 class BitstreamImageError(CrossbarError, ValueError):
     """A HEX image that does not hold a crossbar bitstream (wrong region, size or header)."""
+
+
+class BusError(CrossbarError, ValueError):
+    """A plug, unplug or swap the Morphing Bus cannot carry out (a free or taken port, a board
+    moved out of reach of its modules, modules another board uses), or a catalogue of boards
+    it cannot serve."""
+
+
+class UnknownBoardError(BusError):
+    """An identification word that no board of the bus's catalogue sends."""
 
 
 class SynthesisError(CrossbarError, RuntimeError):

@@ -2,7 +2,10 @@
 
 A wrapper has two selectors (functionality input, output port), each a 4-bit field of the frame.
 For slot i: 0 none, 1 its own external input, 2 the ring (functionality output of slot i-1 mod N),
-3+k the local crossbar (functionality output of slot k of i's cluster of ``local`` slots).
+3+k the local crossbar (functionality output of slot k of i's cluster of ``local`` slots), and
+3+local+k the local crossbar's external inputs (the input of slot k of i's cluster): the Morphing
+Bus plugs a board into the cluster through them, so a board on any port of the cluster reaches
+the same internal modules (`morphing_crossbar.morphing_bus`).
 ``verilog_parameters`` is the one place that turns a Fabric into the RTL's parameters.
 """
 
@@ -14,7 +17,7 @@ from enum import Enum
 from typing import NamedTuple
 
 from .errors import FabricParameterError, RouteError
-from .functions import Function, Kind, default_library
+from .functions import Function, Kind, check_data_width, default_library
 
 SEL_W = 4
 """Selector field width in the frame (sources per slot <= 16)."""
@@ -26,6 +29,8 @@ NONE_SEL = 0
 INPUT_SEL = 1
 RING_SEL = 2
 LOCAL_SEL = 3
+MAX_LOCAL = ((1 << SEL_W) - LOCAL_SEL) // 2
+"""The largest cluster whose functionality outputs and external inputs all fit a selector."""
 
 
 class SourceKind(Enum):
@@ -57,7 +62,8 @@ class Fabric:
 
     ``n`` slots (2..16), ``data_w`` payload bits, ``cfg_w`` configuration port bits a beat (it
     must divide the 24-bit frame), ``local`` slots per cluster (default min(n, 4); it must divide
-    n), ``functions`` the functionality of each slot (default ``default_library``).
+    n and be at most ``MAX_LOCAL``), ``functions`` the functionality of each slot (default
+    ``default_library``).
     """
 
     n: int
@@ -73,9 +79,10 @@ class Fabric:
             raise FabricParameterError(f"expected a data width of 1..32 bits, got {self.data_w}")
         if not self.local:
             object.__setattr__(self, "local", min(self.n, 4))
-        if self.n % self.local or 3 + self.local > 1 << SEL_W:
+        if not 1 <= self.local <= MAX_LOCAL or self.n % self.local:
             raise FabricParameterError(
-                f"expected a cluster size dividing n={self.n} and at most 13, got {self.local}"
+                f"expected a cluster size dividing n={self.n} and at most {MAX_LOCAL}, "
+                f"got {self.local}"
             )
         if self.cfg_w < 1 or FRAME_BITS % self.cfg_w:
             raise FabricParameterError(
@@ -88,10 +95,17 @@ class Fabric:
             raise FabricParameterError(
                 f"expected {self.n} functionalities, one per slot, got {len(self.functions)}"
             )
+        check_data_width(self.functions, self.data_w)
 
     @property
     def nsrc(self) -> int:
         """Sources each selector can choose, ``none`` included."""
+        return self.input_selector_base + self.local
+
+    @property
+    def input_selector_base(self) -> int:
+        """The selector value of the external input of slot 0 of a cluster (the local
+        crossbar's inputs follow its functionality outputs)."""
         return LOCAL_SEL + self.local
 
     @property
@@ -116,27 +130,41 @@ class Fabric:
             return Source(SourceKind.INPUT, slot)
         if sel == RING_SEL:
             return Source(SourceKind.FUNCTION, (slot - 1) % self.n)
-        if LOCAL_SEL <= sel < self.nsrc:
+        if LOCAL_SEL <= sel < self.input_selector_base:
             return Source(SourceKind.FUNCTION, self.cluster(slot) + sel - LOCAL_SEL)
+        if self.input_selector_base <= sel < self.nsrc:
+            return Source(SourceKind.INPUT, self.cluster(slot) + sel - self.input_selector_base)
         raise RouteError(f"expected a selector below {self.nsrc} for slot {slot}, got {sel}")
 
     def selector(self, slot: int, source: Source) -> int:
-        """The selector value that makes ``slot`` read ``source`` (ring before local)."""
+        """The selector value that makes ``slot`` read ``source``: its own input before the
+        local crossbar's, the ring before the local crossbar (one value per source, so that two
+        equal sources in a wrapper are two equal selectors)."""
         self.check_slot(slot)
         if source.kind is SourceKind.NONE:
             return NONE_SEL
+        same_cluster = self.cluster(source.slot) == self.cluster(slot)
         if source.kind is SourceKind.INPUT:
-            if source.slot != slot:
-                raise RouteError(f"expected slot {slot} to read its own input, got {source}")
-            return INPUT_SEL
+            if source.slot == slot:
+                return INPUT_SEL
+            if same_cluster:
+                return self.input_selector_base + source.slot - self.cluster(slot)
+            raise RouteError(
+                f"expected {source} to be slot {slot}'s own input or in its cluster "
+                f"({self._describe_cluster(slot)}), got neither"
+            )
         if source.slot == (slot - 1) % self.n:
             return RING_SEL
-        if self.cluster(source.slot) == self.cluster(slot):
+        if same_cluster:
             return LOCAL_SEL + source.slot - self.cluster(slot)
         raise RouteError(
             f"expected {source} to be slot {slot}'s ring neighbour or in its cluster "
-            f"(slots {self.cluster(slot)}..{self.cluster(slot) + self.local - 1}), got neither"
+            f"({self._describe_cluster(slot)}), got neither"
         )
+
+    def _describe_cluster(self, slot: int) -> str:
+        first = self.cluster(slot)
+        return f"slots {first}..{first + self.local - 1}"
 
     def check_slot(self, slot: int) -> None:
         """Refuse a slot index outside the fabric."""

@@ -1,13 +1,15 @@
 """The transaction-level model of the crossbar: the golden reference of the cocotb tests.
 
 It knows no cycles, only order. A beat enters at an external input, follows the current
-routing through the functionalities (each keeps its FIR history) and leaves at one output.
+routing through the functionalities and leaves at one output: at once, or later (a 3x3 median
+holds a row and a pixel of its frame, which the frame's ``last`` releases), so a beat sent in
+takes out the beats the route emits with it, none to several.
 A reconfiguration is an event between beats: ``load`` applies a partial bitstream exactly as a
-wrapper would (same checks, same refusals, history cleared on commit). Because the wrapper
-isolates its functionality until it has drained, a beat that entered before the commit is
-already past the reconfigured slot; the model's order of events is therefore the hardware's
-whenever the reconfigured slot is the first functionality of its route, which is how the
-tests and the reconfiguration-port model use it.
+wrapper would (same checks, same refusals, history cleared when the functionality's source
+changes). Because the wrapper isolates its functionality until it has drained, a beat that
+entered before the commit is already past the reconfigured slot; the model's order of events is
+therefore the hardware's whenever the reconfigured slot is the first functionality of its route,
+which is how the tests and the reconfiguration-port model use it.
 """
 
 from __future__ import annotations
@@ -19,16 +21,8 @@ from dataclasses import dataclass
 from .bitstream import beats_to_word, decode_bytes, decode_frame, reconfiguration_cycles
 from .errors import DataWidthError, RouteError
 from .fabric import Fabric, Source, SourceKind
-from .functions import FunctionState
+from .functions import Beat, FunctionState
 from .routing import Configuration, SlotRoute
-
-
-@dataclass(frozen=True)
-class Beat:
-    """One stream transfer."""
-
-    data: int
-    last: bool = False
 
 
 @dataclass(frozen=True)
@@ -49,22 +43,40 @@ class CrossbarModel:
         self.states = [FunctionState(f, fabric.data_w) for f in fabric.functions]
         self.loads = 0
 
-    def push(self, port: int, beat: Beat) -> tuple[int, Beat]:
-        """Send ``beat`` into external input ``port``; returns (output port, beat out)."""
+    def send(self, port: int, beat: Beat) -> tuple[int, list[Beat]]:
+        """Send ``beat`` into external input ``port``; returns the output port its route ends
+        at and the beats that leave there with it, in order: none while a functionality holds
+        them, or several when one releases what it held."""
         self.fabric.check_slot(port)
         if beat.data >> self.fabric.data_w or beat.data < 0:
             raise DataWidthError(f"expected data below 2**{self.fabric.data_w}, got {beat.data}")
         source = Source(SourceKind.INPUT, port)
-        data = beat.data
+        beats = [beat]
         while True:
             taker = self.configuration.consumer(source)
             if taker is None:
                 raise RouteError(f"expected a route from input {port}, got none past {source}")
             role, slot = taker
             if role == "output":
-                return slot, Beat(data, beat.last)
-            data = self.states[slot].step(data)
+                return slot, beats
+            step = self.states[slot].step
+            beats = step(beats[0]) if len(beats) == 1 else [o for b in beats for o in step(b)]
             source = Source(SourceKind.FUNCTION, slot)
+
+    def push(self, port: int, beat: Beat) -> tuple[int, Beat]:
+        """Send ``beat`` into external input ``port`` on a route that gives one beat per beat
+        (every functionality but the 3x3 median); returns (output port, beat out). RouteError,
+        before the beat, for a route that may hold it (`send` takes any route)."""
+        path = self.configuration.trace(port)
+        route = path.functions if path is not None else ()
+        holding = [slot for slot in route if self.fabric.functions[slot].holds_beats]
+        if holding:
+            raise RouteError(
+                f"expected a route from input {port} that gives a beat per beat, got "
+                f"{self.fabric.functions[holding[0]]} in slot {holding[0]} (send takes it)"
+            )
+        out, (leaving,) = self.send(port, beat)
+        return out, leaving
 
     def stream(self, inputs: Mapping[int, Sequence[int]]) -> dict[int, list[int]]:
         """Each external input's beats (the last one marked ``last``) through the routing, as
@@ -76,8 +88,8 @@ class CrossbarModel:
         outputs: dict[int, list[int]] = {}
         for port, beats in inputs.items():
             for index, data in enumerate(beats):
-                out, beat = self.push(port, Beat(data, index == len(beats) - 1))
-                outputs.setdefault(out, []).append(beat.data)
+                out, leaving = self.send(port, Beat(data, index == len(beats) - 1))
+                outputs.setdefault(out, []).extend([beat.data for beat in leaving])
         return outputs
 
     def load(self, slot: int, frame: bytes) -> LoadResult:
@@ -91,8 +103,12 @@ class CrossbarModel:
         return self._commit(slot, route)
 
     def _commit(self, slot: int, route: SlotRoute) -> LoadResult:
+        """The wrapper's commit: the new route, and the functionality's history cleared when its
+        source changes (a frame that only moves the output port keeps the stream's history)."""
+        old = self.configuration.routes[slot]
         self.configuration = self.configuration.with_route(slot, route)
-        self.states[slot].reset()
+        if route.fsel != old.fsel:
+            self.states[slot].reset()
         self.loads += 1
         return LoadResult(slot, route, reconfiguration_cycles(self.fabric))
 

