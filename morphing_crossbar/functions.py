@@ -23,6 +23,8 @@ from enum import IntEnum
 from itertools import accumulate
 from typing import NamedTuple, Protocol
 
+import numpy as np
+
 from .errors import FabricParameterError
 
 
@@ -283,6 +285,8 @@ class _Core(Protocol):
 
     def step(self, beat: Beat) -> list[Beat]: ...
 
+    def frame(self, data: list[int]) -> list[int]: ...
+
 
 class _Samples:
     """A kind that maps each sample alone, with the inputs its history needs."""
@@ -298,6 +302,14 @@ class _Samples:
         if self.history:
             self.history = (x, *self.history[:-1])
         return [Beat(y, beat.last)]
+
+    def frame(self, data: list[int]) -> list[int]:
+        """A frame's beats (its last one the frame's last): what `step` gives them, one by
+        one; a map with no history in one numpy operation."""
+        kind = self.function.kind
+        if kind in _VECTORIZED and data:
+            return _VECTORIZED[kind](self.function, np.asarray(data, np.int64), self.data_w)
+        return [self.step(Beat(x, k == len(data) - 1))[0].data for k, x in enumerate(data)]
 
 
 class Median3x3:
@@ -336,6 +348,22 @@ class Median3x3:
         self.emitted += 1
         self._forget()
         return out
+
+    def frame(self, data: list[int]) -> list[int]:
+        """A frame's beats (its last one the frame's last): what `step` gives them; a frame of
+        whole rows taken at a frame's start at once, with numpy (the reference's rule for
+        whole rows is np.pad's edge mode)."""
+        if self.arrived or not data or len(data) % self.width:
+            return [
+                b.data for k, x in enumerate(data) for b in self.step(Beat(x, k == len(data) - 1))
+            ]
+        rows = len(data) // self.width
+        image = np.asarray(data, np.int64).reshape(rows, self.width)
+        padded = np.pad(image, 1, mode="edge")
+        around = np.stack(
+            [padded[dr : dr + rows, dc : dc + self.width] for dr in range(3) for dc in range(3)]
+        )
+        return np.sort(around, axis=0)[4].ravel().tolist()
 
     def _output(self, index: int, last: bool = False) -> Beat:
         row, column = divmod(index, self.width)
@@ -385,6 +413,20 @@ class Stretch:
             self.counted = 0
         return [out]
 
+    def frame(self, data: list[int]) -> list[int]:
+        """A frame's beats (its last one the frame's last): what `step` gives them, mapped and
+        counted with numpy while the frame stays under the count's limit."""
+        if not data or self.counted + len(data) > (1 << STRETCH_COUNT_W) - 1:
+            return [self.step(Beat(x, k == len(data) - 1))[0].data for k, x in enumerate(data)]
+        levels = np.asarray(data, np.int64)
+        out = np.asarray(self.table, np.int64)[levels].tolist()
+        self.counts = (np.asarray(self.counts) + np.bincount(levels, minlength=LEVELS)).tolist()
+        self.counted += len(data)
+        self.table = stretch_table(*self._percentiles(), self.min_spread)
+        self.counts = [0] * LEVELS
+        self.counted = 0
+        return out
+
     def _percentiles(self) -> tuple[int, int]:
         """The levels of rank n * clip // 1000 and n - 1 - that, from the histogram."""
         rank = self.counted * self.clip // 1000
@@ -404,6 +446,25 @@ def stretch_table(low: int, high: int, min_spread: int) -> tuple[int, ...]:
         for x in range(LEVELS)
     )
 
+
+def _gain(function: Function, x: np.ndarray, data_w: int) -> list[int]:
+    return ((((x * function.p0) >> 4) + function.p1) & ((1 << data_w) - 1)).tolist()
+
+
+def _threshold(function: Function, x: np.ndarray, data_w: int) -> list[int]:
+    return np.where(x >= function.p0, x, 0).tolist()
+
+
+def _pass(function: Function, x: np.ndarray, data_w: int) -> list[int]:
+    return x.tolist()
+
+
+_VECTORIZED: dict[Kind, Callable[[Function, np.ndarray, int], list[int]]] = {
+    Kind.GAIN: _gain,
+    Kind.THRESHOLD: _threshold,
+    Kind.PASS: _pass,
+}
+"""The kinds that map each sample alone, with no history: a frame in one numpy operation."""
 
 _FRAME_CORES: dict[Kind, type[Median3x3] | type[Stretch]] = {
     Kind.MEDIAN3X3: Median3x3,
@@ -429,6 +490,11 @@ class FunctionState:
         self.step: Callable[[Beat], list[Beat]] = self._core.step
         """Process one accepted beat; the beats the functionality emits with it, in order
         (the core's own method: a node's loop calls it for every beat)."""
+        self.frame: Callable[[list[int]], list[int]] = self._core.frame
+        """Process a frame's beats at once, its last one marked ``last``: the beats it emits,
+        exactly what `step` gives beat by beat (the model's `stream` takes whole frames, a
+        camera frame through a 3x3 median and a stretch in numpy rather than a Python step per
+        pixel)."""
 
 
 def default_library(n: int, data_w: int) -> tuple[Function, ...]:

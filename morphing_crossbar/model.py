@@ -82,14 +82,19 @@ class CrossbarModel:
         """Each external input's beats (the last one marked ``last``) through the routing, as
         the RTL takes them at once (`morphing_crossbar.verilated.rtl`); each output port's
         beats, in order, by port. An input routed to no output, or a port or beat
-        `checked_inputs` refuses, is refused before any beat."""
+        `checked_inputs` refuses, is refused before any beat. Each input's beats cross its
+        route's functionalities a whole frame at a time (`FunctionState.frame`: the beats one
+        `send` at a time would give, since a functionality serves one route)."""
         inputs = checked_inputs(self.fabric, inputs)
-        self.configuration.require_routes(inputs)
+        ends = self.configuration.require_routes(inputs)
         outputs: dict[int, list[int]] = {}
         for port, beats in inputs.items():
-            for index, data in enumerate(beats):
-                out, leaving = self.send(port, Beat(data, index == len(beats) - 1))
-                outputs.setdefault(out, []).extend([beat.data for beat in leaving])
+            path = self.configuration.trace(port)
+            assert path is not None  # require_routes refused an input routed nowhere
+            data = beats
+            for slot in path.functions if data else ():  # each slot serves one route
+                data = self.states[slot].frame(data)
+            outputs.setdefault(ends[port], []).extend(data)
         return outputs
 
     def load(self, slot: int, frame: bytes) -> LoadResult:

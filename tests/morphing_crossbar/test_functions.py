@@ -308,3 +308,35 @@ def test_parse_raises_nothing_but_its_refusal(text: str) -> None:
         assert len(str(refused)) < 400  # bounded, whatever came
     else:
         assert Function.parse(str(function)) == function
+
+
+FRAME_KINDS = [
+    "median3x3:1",
+    "median3x3:4",
+    "median3x3:7",
+    "stretch:10:16",
+    "stretch:250:0",
+    "gain:24:3",
+    "threshold:129",
+    "fir:0x1331:3",
+    "median5",
+    "pass",
+]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.sampled_from(FRAME_KINDS),
+    st.lists(st.lists(st.integers(0, 255), max_size=40), min_size=1, max_size=4),
+)
+def test_a_frame_at_once_gives_what_its_beats_one_by_one_give(text, frames) -> None:
+    """`FunctionState.frame` (numpy for whole frames, the model's `stream`) against `step`,
+    over consecutive frames, so the state one leaves is the one the next finds."""
+    at_once, by_beat = (FunctionState(Function.parse(text), 8) for _ in range(2))
+    for data in frames:
+        stepped = [
+            out.data
+            for k, x in enumerate(data)
+            for out in by_beat.step(Beat(x, k == len(data) - 1))
+        ]
+        assert at_once.frame(list(data)) == stepped
