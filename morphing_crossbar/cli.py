@@ -3,10 +3,16 @@
 Examples:
   python -m morphing_crossbar pack 4 2 bypass -o slot2.hex
   python -m morphing_crossbar pack 8 0 through -o slot0.hex --cfg-w 4
+  python -m morphing_crossbar pack 4 0 head -o dehazer.slot0.hex
+  python -m morphing_crossbar pack 4 1 tail -o dehazer.slot1.hex
 
 pack N SLOT ROUTE packs the new route of slot SLOT of an N-slot fabric: bypass takes the slot's
 functionality out of its route, through puts it back (the reset route), empty leaves the slot
-taking and driving nothing. The file is what "hexmigrate send FILE.hex --to URL" sends to a node
+taking and driving nothing. A chain of functionalities along the ring is a head (the slot's
+input into its functionality, which feeds the next slot), links (the ring into the
+functionality, on to the next) and a tail (the ring into the functionality, out at the slot's
+output): head on slot 0 and tail on slot 1 stream input 0 through functionalities 0 and 1 to
+output 1. The file is what "hexmigrate send FILE.hex --to URL" sends to a node
 started with "firmware-sim listen --fpga N" (docs/crossbar.md). Errors print one line
 "error: ..." and exit 1; usage errors exit 2; --debug shows the traceback.
 """
@@ -20,11 +26,11 @@ from commandline import add_command, command_parser, run
 from commandline.arguments import integer, output_file
 from morphing_crossbar.bitstream import pack
 from morphing_crossbar.errors import CrossbarError
-from morphing_crossbar.fabric import FRAME_BITS, Fabric
+from morphing_crossbar.fabric import FRAME_BITS, INPUT_SEL, NONE_SEL, RING_SEL, Fabric
 from morphing_crossbar.hex_image import to_image
 from morphing_crossbar.routing import SlotRoute, bypass_route, empty_route, through_route
 
-ROUTES = ("bypass", "through", "empty")
+ROUTES = ("bypass", "through", "empty", "head", "link", "tail")
 MAX_SLOTS = 16
 """The fabric's largest N (a selector field addresses 16 sources)."""
 
@@ -35,6 +41,12 @@ def route(name: str, fabric: Fabric, slot: int) -> SlotRoute:
         return bypass_route()
     if name == "through":
         return through_route(fabric, slot)
+    if name == "head":
+        return SlotRoute(INPUT_SEL, NONE_SEL)
+    if name == "link":
+        return SlotRoute(RING_SEL, NONE_SEL)
+    if name == "tail":
+        return SlotRoute(RING_SEL, fabric.self_selector(slot))
     return empty_route()
 
 

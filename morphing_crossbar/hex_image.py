@@ -83,3 +83,30 @@ def from_image(fabric: Fabric, image: ModuleImage) -> PartialBitstream:
         )
     route = decode_bytes(fabric, slot, bytes(data[FRAME_OFFSET:]))
     return PartialBitstream(slot, route)
+
+
+def fabric_for(image: ModuleImage) -> Fabric:
+    """A fabric of the size and configuration width the bitstream `image`'s header names (the
+    default library: what a bitstream's frame routes does not depend on the functionalities);
+    BitstreamImageError for an image that is no bitstream, FabricParameterError for a header
+    no fabric has."""
+    data = image.data
+    if len(data) < FRAME_OFFSET or data[:4] != IMAGE_MAGIC:
+        raise BitstreamImageError(
+            f"image {image.name!r}: expected a bitstream header {IMAGE_MAGIC!r}, got "
+            f"{bytes(data[:4])!r}"
+        )
+    return Fabric(data[5], cfg_w=data[6])
+
+
+def configuration_cycles(image: ModuleImage) -> int:
+    """The fabric cycles applying the bitstream `image` takes (a beat of its configuration
+    width per cycle, then the commit), read from its header; BitstreamImageError for an image
+    that is no bitstream."""
+    data = image.data
+    if len(data) < FRAME_OFFSET or data[:4] != IMAGE_MAGIC or not data[6] or data[7] % data[6]:
+        raise BitstreamImageError(
+            f"image {image.name!r}: expected a bitstream header ({IMAGE_MAGIC!r}, version, N, "
+            f"CFG_W dividing the frame bits), got {bytes(data[:FRAME_OFFSET])!r}"
+        )
+    return data[7] // data[6] + 1

@@ -29,6 +29,7 @@ from hexmigrate.image import ModuleImage
 from morphing_crossbar.bitstream import pack
 from morphing_crossbar.errors import FabricParameterError
 from morphing_crossbar.fabric import Fabric
+from morphing_crossbar.fabric_spec import fabric_from_spec
 from morphing_crossbar.hex_image import CONFIG_BASE, SLOT_WINDOW, from_image
 from morphing_crossbar.model import CrossbarModel, LoadResult
 from morphing_crossbar.routing import empty_route
@@ -134,11 +135,12 @@ class CrossbarReconfigurationPort:
         return record.cycles / self.fabric_hz
 
 
-def crossbar_port(slots: int, model: str = "tlm") -> CrossbarReconfigurationPort:
-    """The port of a new `slots`-slot crossbar on `model` (``tlm`` or ``rtl``: the entry point's
-    factory); FabricParameterError (a ValueError) when the crossbar cannot have that many slots
-    or there is no such model, ModelBuildError (a RuntimeError) when the RTL cannot be built."""
-    fabric = Fabric(slots)
+def crossbar_port(spec: str, model: str = "tlm", data_w: int = 8) -> CrossbarReconfigurationPort:
+    """The port of a new crossbar on `model` (``tlm`` or ``rtl``: the entry point's factory),
+    the fabric `spec` names (`fabric_spec`: a slot count, or each slot's functionality) with
+    `data_w`-bit samples; FabricParameterError (a ValueError) for a fabric or model there cannot
+    be, ModelBuildError (a RuntimeError) when the RTL cannot be built."""
+    fabric = fabric_from_spec(spec, data_w)
     if model == "tlm":
         return CrossbarReconfigurationPort(CrossbarModel(fabric))
     if model == "rtl":

@@ -34,17 +34,33 @@ BIT_RATE_MIN, BIT_RATE_MAX = 300.0, 10_000_000.0
 """A wire's bit rate: from 300 baud to 10 Mbit/s."""
 WINDOW_MAX = 256
 """Blocks in flight at most (64 KiB)."""
-SLOTS_MAX = 256
+FABRIC_TEXT_MAX = 1024
+"""Characters of an --fpga fabric at most: sixteen slots' functionalities fit many times over."""
+WIDTH_MAX = 32
+"""Bits of a fabric's sample at most (--fpga-width)."""
 
 seconds = real(above=0, maximum=SECONDS_MAX, unit="s")
 cycles = integer(1, CYCLES_MAX)
 hertz = real(RATE_MIN, RATE_MAX, unit="Hz")
 bit_rate = real(BIT_RATE_MIN, BIT_RATE_MAX, unit="bit/s")
 window = integer(1, WINDOW_MAX)
-slots = integer(1, SLOTS_MAX)
+fabric_width = integer(1, WIDTH_MAX)
 module_file = input_file(MODULE_FILE_LIMIT)
 flash_file = output_file
 plot_file = output_file_ending(".png")
+
+
+def fabric(text: str) -> str:
+    """An FPGA fabric as the reconfiguration port reads it: a slot count, or a comma list of
+    each slot's functionality. Only its size and characters are checked here; the port says
+    what it cannot build (a usage error too, before the node listens)."""
+    if not text.strip() or len(text) > FABRIC_TEXT_MAX or not text.isprintable():
+        shown = repr(text) if len(text) <= 40 else f"{text[:37]!r}..."
+        raise argparse.ArgumentTypeError(
+            f"expected a slot count or a comma list of functionalities (median3x3:160,pass) "
+            f"of at most {FABRIC_TEXT_MAX} printable characters, got {shown}"
+        )
+    return text
 
 
 def gdb_address(text: str) -> tuple[str, int]:

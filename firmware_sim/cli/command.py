@@ -16,7 +16,7 @@ from commandline.arguments import input_file, integer
 from firmware_sim.cli import arguments
 from firmware_sim.cli.run_report import render, run_report
 from firmware_sim.core.debug_port import DebugPort
-from firmware_sim.core.fpga_port import DEFAULT_MODEL, MODELS
+from firmware_sim.core.fpga_port import DEFAULT_MODEL, DEFAULT_WIDTH, MODELS
 from firmware_sim.core.guest import DEFAULT_BUDGET
 from firmware_sim.core.kernel_log import into_node_log
 from firmware_sim.core.memory_map import MemoryMap
@@ -139,12 +139,15 @@ def cmd_listen(args: argparse.Namespace) -> int:
     """Run a node that accepts modules on a link, until interrupted or for --seconds."""
     if args.fpga_model is not None and args.fpga is None:
         raise UsageError("--fpga-model goes with --fpga N (a node with no fabric has no model)")
+    if args.fpga_width is not None and args.fpga is None:
+        raise UsageError("--fpga-width goes with --fpga N (a node with no fabric has no samples)")
     config = ListenConfig(
         listen=args.listen,
         name=args.name,
         flash=args.flash,
         fpga=args.fpga,
         fpga_model=args.fpga_model or DEFAULT_MODEL,
+        fpga_width=args.fpga_width or DEFAULT_WIDTH,
         rates=tuple(args.rate),
         default_rate=args.default_rate,
         settings=tuple(args.set),
@@ -411,11 +414,19 @@ def _add_listen(commands: argparse._SubParsersAction) -> None:
     command.add_argument("--name", default="node", help="the node's name (default: node)")
     command.add_argument(
         "--fpga",
-        type=arguments.slots,
-        metavar="N",
-        help="give the node an N-slot FPGA fabric on its reconfiguration port: partial "
+        type=arguments.fabric,
+        metavar="SLOTS",
+        help="give the node an FPGA fabric on its reconfiguration port: SLOTS is a count N "
+        "(the default library) or each slot's functionality, e.g. "
+        "median3x3:160,stretch:10:16,pass,pass; partial "
         "bitstreams sent to it configure the fabric, and the native fabric streams samples "
         "through it (docs/crossbar.md)",
+    )
+    command.add_argument(
+        "--fpga-width",
+        type=arguments.fabric_width,
+        metavar="BITS",
+        help=f"bits of a sample on the fabric's streams (default {DEFAULT_WIDTH})",
     )
     command.add_argument(
         "--fpga-model",

@@ -2,13 +2,13 @@
 
 A hardware component migrates like a software module: its partial bitstream travels as an extended
 Intel HEX module file linked at the port's window for its slot (`owns`). A node with a port
-(`firmware_sim.core.transfer_target.NodeTarget(node, fpga=port)`, or ``firmware-sim listen --fpga
-N``) takes it over the transfer protocol like any module, writes it to flash, checks its CRC, and at
-COMMIT hands it to the port instead of calling an init: the port checks the image, applies it to the
-addressed slot and reports what it did. A refused image leaves the slot as it was, as the hardware
-does. A node that trusts keys admits a bitstream first as it does a module (signed by a trusted key,
-unchanged, not older than the highest version kept of its signed name: docs/node.md, "Trusted keys
-and anti-rollback"), so the port sees only bitstreams the node accepted.
+(`Node(..., fpga=port)`, or ``firmware-sim listen --fpga N``) takes it over the transfer protocol
+like any module (`firmware_sim.core.transfer_target.NodeTarget`), writes it to flash, checks its
+CRC, and at COMMIT hands it to the port instead of calling an init: the port checks the image,
+applies it to the addressed slot and reports what it did. A refused image leaves the slot as it
+was, as the hardware does. A node that trusts keys admits a bitstream first as it does a module
+(signed by a trusted key, unchanged, not older than the highest version kept of its signed name:
+docs/node.md, "Trusted keys and anti-rollback"), so the port sees only bitstreams the node accepted.
 
 Data flows through the fabric too: `stream` sends samples into its external inputs and returns
 what leaves its outputs, which the node's ``fabric`` PBO does every cycle
@@ -92,19 +92,26 @@ class ReconfigurationPort(Protocol):
         ...
 
 
-PortFactory = Callable[[int, str], ReconfigurationPort]
-"""What an entry point names: the port of a fabric of N slots on a model of `MODELS` (ValueError
-when it cannot have that many slots, RuntimeError when the model cannot be built)."""
+PortFactory = Callable[[str, str, int], ReconfigurationPort]
+"""What an entry point names: the port of the fabric a text names (its slots: a count, or each
+slot's functionality, ``median3x3:160,stretch:10:16,pass,pass``), on a model of `MODELS`, with
+samples of a data width in bits (ValueError for a fabric it cannot build, RuntimeError when the
+model cannot be built)."""
+DEFAULT_WIDTH = 8
+"""Bits of a sample on a fabric opened without a width named."""
 
 
 def open_port(
-    slots: int, model: str = DEFAULT_MODEL, group: str = ENTRY_POINT_GROUP
+    slots: str,
+    model: str = DEFAULT_MODEL,
+    width: int = DEFAULT_WIDTH,
+    group: str = ENTRY_POINT_GROUP,
 ) -> ReconfigurationPort:
-    """The port of a `slots`-slot fabric on `model`, from the one implementation installed under
-    `group`.
+    """The port of the fabric `slots` names (a count, or each slot's functionality), with
+    `width`-bit samples, on `model`, from the one implementation installed under `group`.
 
     Raises ReconfigurationPortError when none or several are installed, or when the one installed
-    cannot build that many slots or that model.
+    cannot build that fabric or that model.
     """
     found = sorted(entry_points(group=group), key=lambda point: point.name)
     if not found:
@@ -122,9 +129,9 @@ def open_port(
         raise ReconfigurationPortError(f"expected a fabric model in {MODELS}, got {model!r}")
     factory: PortFactory = found[0].load()
     try:
-        return factory(slots, model)
+        return factory(slots, model, width)
     except (ValueError, RuntimeError) as error:
         raise ReconfigurationPortError(
-            f"the {found[0].name!r} reconfiguration port cannot build {slots} slot(s) on the "
-            f"{model} model: {error}"
+            f"the {found[0].name!r} reconfiguration port cannot build the fabric {slots!r} "
+            f"({width}-bit samples) on the {model} model: {error}"
         ) from None

@@ -30,6 +30,7 @@ from firmware_sim.core.flash_directory import (
     ModuleDirectory,
 )
 from firmware_sim.core.flash_space import Extent, FlashSpace
+from firmware_sim.core.fpga_port import ReconfigurationPort
 from firmware_sim.core.guest import DEFAULT_BUDGET, GuestModule, register_module
 from firmware_sim.core.loader import InstalledImage, LoadSession
 from firmware_sim.core.memory_map import (
@@ -149,10 +150,18 @@ class Node:
     """
 
     def __init__(
-        self, name: str = "node", config: NodeConfig | None = None, clock: Clock | None = None
+        self,
+        name: str = "node",
+        config: NodeConfig | None = None,
+        clock: Clock | None = None,
+        fpga: ReconfigurationPort | None = None,
     ) -> None:
         self.name = name
         self.config = config or NodeConfig()
+        self.fpga = fpga
+        """The FPGA reconfiguration port, on a node with a fabric: partial bitstreams sent to
+        the node configure it (`NodeTarget`), hardware E-PBOs stream through it
+        (`firmware_sim.core.fabric_pbo`). A device of the board, like its flash."""
         self.memory = MemoryMap(
             self.config.flash_size, self.config.sram_size, self.config.window_size
         )

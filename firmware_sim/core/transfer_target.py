@@ -11,15 +11,15 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from firmware_sim.core.fpga_port import ReconfigurationPort
 from firmware_sim.core.loader import InstalledImage, LoadSession
 from firmware_sim.core.node import Node
 from firmware_sim.core.trust import linked_image
 
 
 class NodeTarget:
-    """The `hexmigrate.transfer.receiver.Target` of an emulated node; `fpga` is its FPGA
-    reconfiguration port, if it has one. `on_install(name, address)` hears of each module
+    """The `hexmigrate.transfer.receiver.Target` of an emulated node, whose FPGA
+    reconfiguration port (`Node.fpga`, if it has one) takes the bitstreams. `on_install(name,
+    address)` hears of each module
     committed, `on_configure(name, slot, cycles)` of each bitstream applied. A bitstream
     follows the node's trust policy as a module does (`_configure`)."""
 
@@ -27,12 +27,11 @@ class NodeTarget:
         self,
         node: Node,
         on_install: Callable[[str, int], None] | None = None,
-        fpga: ReconfigurationPort | None = None,
         on_configure: Callable[[str, int, int], None] | None = None,
     ) -> None:
         self.node = node
         self.on_install = on_install
-        self.fpga = fpga
+        self.fpga = node.fpga
         self.on_configure = on_configure
         self.components: dict[str, tuple[int, int, int]] = {}
         """The hardware components the port took: name -> (slot, link address, size)."""

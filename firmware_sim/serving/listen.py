@@ -25,7 +25,12 @@ from commandline.interrupts import stop_requests
 from firmware_sim.core.debug_port import DebugPort
 from firmware_sim.core.fabric_pbo import NAME as FABRIC
 from firmware_sim.core.fabric_pbo import fabric_native
-from firmware_sim.core.fpga_port import DEFAULT_MODEL, open_port
+from firmware_sim.core.fpga_port import (
+    DEFAULT_MODEL,
+    DEFAULT_WIDTH,
+    ReconfigurationPort,
+    open_port,
+)
 from firmware_sim.core.guest import DEFAULT_BUDGET
 from firmware_sim.core.natives import NATIVES
 from firmware_sim.core.node import Node, NodeConfig
@@ -63,8 +68,9 @@ class ListenConfig:
     listen: str
     name: str = "node"
     flash: Path | None = None
-    fpga: int | None = None
+    fpga: str | None = None
     fpga_model: str = DEFAULT_MODEL
+    fpga_width: int = DEFAULT_WIDTH
     rates: tuple[tuple[str, float], ...] = ()
     default_rate: float = 100.0
     settings: tuple[Setting, ...] = ()
@@ -86,6 +92,7 @@ def listen(
     say: Callable[[str], None],
     firmware: Mapping[str, ModuleCode] | None = None,
     started: Callable[[Node], None] | None = None,
+    port: ReconfigurationPort | None = None,
 ) -> int:
     """Run the node until interrupted or for `config.seconds`; each line of output goes to
     `say`. Returns the exit status.
@@ -93,10 +100,13 @@ def listen(
     `firmware` is the native code this node's firmware has beyond the built-in natives, by
     name: a program that makes a node of its own robot (drivers bound to its devices) passes
     them here, and `config.natives` names which to start. `started(node)` is called once the
-    node is made, before it serves anything: such a program may watch its kernel's jobs."""
+    node is made, before it serves anything: such a program may watch its kernel's jobs. Its
+    FPGA reconfiguration `port`, when it made one (its hardware E-PBOs bound to it), is the
+    node's; else one is opened for `config.fpga`, if given."""
     firmware = dict(firmware or {})
-    _check_natives(config, firmware)  # before the port, whose RTL may take seconds to build
-    port = None if config.fpga is None else open_port(config.fpga, config.fpga_model)
+    _check_natives(config, firmware, port)  # before the port, whose RTL may take seconds
+    if port is None and config.fpga is not None:
+        port = open_port(config.fpga, config.fpga_model, config.fpga_width)
     builtin = NATIVES if port is None else {**NATIVES, FABRIC: fabric_native(port)}
     codes = {name: NativeModule(native) for name, native in builtin.items()} | firmware
     natives = [(name, codes[name]) for name in config.natives]
@@ -107,6 +117,7 @@ def listen(
             flash_file=config.flash, budget=config.budget, trust=config.trust, elves=config.elves
         ),
         clock,
+        fpga=port,
     ) as node:
         if started is not None:
             started(node)
@@ -143,9 +154,7 @@ def listen(
             if config.trust.enforced:
                 hashes = " ".join(key_hash(key).hex()[:16] for key in config.trust.keys)
                 say(f"trusting keys {hashes}: changes need a connection authenticated by one")
-            target = NodeTarget(
-                node, on_install=installed, fpga=port, on_configure=_configured(say)
-            )
+            target = NodeTarget(node, on_install=installed, on_configure=_configured(say))
             control = KernelControl(node, lock_step=config.lock_step)
             receiver = Receiver(target, control, trusted=config.trust.keys)
             try:
@@ -161,11 +170,14 @@ def listen(
     return 0
 
 
-def _check_natives(config: ListenConfig, firmware: Mapping[str, ModuleCode]) -> None:
+def _check_natives(
+    config: ListenConfig, firmware: Mapping[str, ModuleCode], port: ReconfigurationPort | None
+) -> None:
     """Refuse (StartError) a name of `config.natives` that is neither a built-in native, one of
     the `firmware`'s nor, on a node with a fabric, the fabric PBO: before the node listens or
     its port is opened."""
-    known = {*NATIVES, *firmware, *([FABRIC] if config.fpga is not None else [])}
+    fabric = config.fpga is not None or port is not None
+    known = {*NATIVES, *firmware, *([FABRIC] if fabric else [])}
     for name in config.natives:
         if name not in known:
             needs = " (the fabric PBO needs a fabric: --fpga N)" if name == FABRIC else ""

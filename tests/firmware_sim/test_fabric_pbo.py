@@ -7,10 +7,11 @@ import logging
 import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from firmware_sim.cli.command import main
-from firmware_sim.core.fabric_pbo import fabric_native
+from firmware_sim.core.fabric_pbo import fabric_native, hardware_native
 from firmware_sim.core.natives import Signal
 from firmware_sim.core.node import Node
 from firmware_sim.core.port_values import Setting
@@ -19,10 +20,14 @@ from firmware_sim.serving.listen import ListenConfig, listen
 from morphing_crossbar.bitstream import pack
 from morphing_crossbar.fabric import Fabric
 from morphing_crossbar.hex_image import to_image
-from morphing_crossbar.reconfiguration_port import CACHE_ENV, crossbar_port
+from morphing_crossbar.reconfiguration_port import (
+    CACHE_ENV,
+    CrossbarReconfigurationPort,
+    crossbar_port,
+)
 from morphing_crossbar.routing import SlotRoute, bypass_route, through_route
 from morphing_crossbar.verilated.rtl import RtlCrossbarModel
-from pbort import NativeModule, State
+from pbort import NativeModule, NativePBO, PerformanceKind, PortIO, PortKind, PortSpec, State
 from pbort.clock import VirtualClock
 
 FABRIC = Fabric(4)
@@ -38,7 +43,7 @@ def shared_build(monkeypatch) -> None:
 def run(model: str, seconds: float, bitstreams: dict[float, tuple[int, SlotRoute]]) -> list[int]:
     """fabric.y each cycle of a node whose signal ramp (+37 a cycle) feeds the fabric's input 0;
     `bitstreams` reconfigure a slot at a time."""
-    port = crossbar_port(4, model)
+    port = crossbar_port("4", model)
     seen: list[int] = []
     with Node("n", clock=VirtualClock()) as node:
         node.start(NativeModule(Signal), 100, constants={"amplitude": 37})
@@ -74,7 +79,7 @@ def test_both_models_give_the_same_samples() -> None:
 
 def test_an_input_routed_nowhere_fails_the_cycle_with_the_reason(caplog) -> None:
     caplog.set_level(logging.INFO)
-    port = crossbar_port(4, "tlm")
+    port = crossbar_port("4", "tlm")
     with Node("n", clock=VirtualClock()) as node:
         node.start(NativeModule(Signal), 100, constants={"amplitude": 1})
         node.start(NativeModule(fabric_native(port)), 100)
@@ -88,7 +93,7 @@ def test_an_input_routed_nowhere_fails_the_cycle_with_the_reason(caplog) -> None
 
 
 def test_a_stalled_rtl_model_fails_the_cycle_with_the_reason(caplog, monkeypatch) -> None:
-    port = crossbar_port(4, "rtl")
+    port = crossbar_port("4", "rtl")
     with Node("n", clock=VirtualClock()) as node:
         node.start(NativeModule(fabric_native(port)), 100)
         node.run(until=0.05)
@@ -104,7 +109,7 @@ def test_a_listening_node_says_its_fabric_s_model_and_runs_the_fabric_pbo() -> N
     lines: list[str] = []
     config = ListenConfig(
         listen="tcp-listen://127.0.0.1:0",
-        fpga=4,
+        fpga="4",
         fpga_model="rtl",
         natives=("signal", "fabric"),
         settings=(Setting("signal", "amplitude", 3),),
@@ -131,7 +136,7 @@ def test_a_listening_node_whose_fabric_cycle_fails_logs_why(caplog) -> None:
     caplog.set_level(logging.INFO)
     config = ListenConfig(
         listen="tcp-listen://127.0.0.1:0",
-        fpga=4,
+        fpga="4",
         natives=("fabric",),
         settings=(Setting("fabric", "slot", 7),),
         seconds=0.1,
@@ -163,6 +168,109 @@ def test_an_unknown_native_is_refused_before_the_fabric_s_port_is_opened(monkeyp
         raise AssertionError("the port was opened (an RTL build) before the names were checked")
 
     monkeypatch.setattr(listening, "open_port", no_port)
-    config = ListenConfig(listen="tcp-listen://127.0.0.1:0", fpga=4, natives=("fabric", "nope"))
+    config = ListenConfig(listen="tcp-listen://127.0.0.1:0", fpga="4", natives=("fabric", "nope"))
     with pytest.raises(StartError, match="--native nope: expected one of fabric, signal, got no"):
         listen(config, lambda _line: None)
+
+
+def configured_port(*routes: tuple[int, SlotRoute], width: int = 8) -> CrossbarReconfigurationPort:
+    """A port on a fresh 4-slot transaction-level model with `width`-bit samples, `routes`
+    applied by bitstreams."""
+    port = crossbar_port("4", "tlm", width)
+    for slot, route in routes:
+        port.load(to_image(FABRIC, pack(FABRIC, slot, route)))
+    return port
+
+
+FRAME = (3, 5)
+
+
+def feeder(spec: PortSpec, values: list[object]) -> NativeModule:
+    """A native ``feed`` putting `values` on its output `spec`, one a cycle, the last repeated."""
+
+    class Feed(NativePBO):
+        name = "feed"
+        ports = (spec,)
+
+        def init(self, io: PortIO) -> None:
+            self.sent = 0
+
+        def cycle(self, io: PortIO) -> None:
+            io[spec.name] = values[min(self.sent, len(values) - 1)]
+            self.sent += 1
+
+    return NativeModule(Feed)
+
+
+def outputs_of(native: type[NativePBO], feed: NativeModule, seconds: float) -> list[object]:
+    """What `native` put on its output each cycle, fed by `feed` at the same rate."""
+    (source,) = feed.pbo_class.ports
+    sink = native.ports[1]
+    seen: list[object] = []
+    with Node("n", clock=VirtualClock()) as node:
+        node.start(feed, 100)
+        node.start(NativeModule(native), 100)
+        node.kernel.connect(f"feed.{source.name}", f"{native.name}.{native.ports[0].name}")
+        node.kernel.observe(
+            lambda pbo, _t: (
+                seen.append(node.kernel.value(f"{native.name}.{sink.name}"))
+                if pbo == native.name
+                else None
+            )
+        )
+        node.run(until=seconds)
+    return seen
+
+
+def test_a_hardware_e_pbo_streams_a_frame_row_by_row_through_the_fabric() -> None:
+    port = configured_port((0, through_route(FABRIC, 0)))  # input 0 through slot 0's gain
+    frame = np.arange(15, dtype=np.uint8).reshape(FRAME) * 17
+    source = PortSpec.input("raw", kind=PortKind.FRAME, dtype="|u1", shape=FRAME)
+    sink = PortSpec.output("image", kind=PortKind.FRAME, dtype="|u1", shape=FRAME)
+    native = hardware_native("Copy", port, source, sink, entry=0)
+    out = PortSpec.output("frame", kind=PortKind.FRAME, dtype="|u1", shape=FRAME)
+    seen = outputs_of(native, feeder(out, [frame]), 0.05)
+    gain = FABRIC.functions[0]
+    expected = [gain.compute(int(v), (0, 0, 0), 8) for v in frame.ravel()]
+    assert np.asarray(seen[-1]).shape == FRAME
+    assert np.asarray(seen[-1]).ravel().tolist() == expected
+
+
+@pytest.mark.parametrize(
+    ("width", "expected"),
+    [
+        (32, [-3, 2**31 - 1, -(2**31), 300]),  # an int32 on 32-bit samples: two's complement
+        (8, [253, 255, 0, 44]),  # wider than the samples: their unsigned value
+    ],
+)
+def test_a_signed_port_s_samples_cross_the_fabric_as_wide_as_they_are(width, expected) -> None:
+    port = configured_port((0, bypass_route()), width=width)  # input 0 straight to output 0
+    native = hardware_native("Wire", port, PortSpec.input("x"), PortSpec.output("y"), entry=0)
+    sent = [-3, 2**31 - 1, -(2**31), 300]
+    seen = outputs_of(native, feeder(PortSpec.output("y"), sent), 0.1)
+    start = seen.index(expected[0])
+    assert seen[start : start + 4] == expected
+
+
+def test_an_estimate_streams_through_the_shadow_fabric_and_leaves_the_live_one_alone() -> None:
+    live, shadow = configured_port(), configured_port()  # input 2 through slot 2's FIR
+    native = hardware_native(
+        "Hw",
+        live,
+        PortSpec.input("x"),
+        PortSpec.output("y"),
+        entry=2,
+        shadow=shadow,
+        reports={0: 2.5},
+    )
+    with (
+        Node("host", clock=VirtualClock()) as node,
+        node.kernel.shadow([("Hw", NativeModule(native))], (), {"Hw.x": 90}) as run,
+    ):
+        estimate = run.run(2)["Hw"]
+    fir = FABRIC.functions[2]
+    assert estimate.failure is None
+    assert estimate.outputs["y"] == fir.compute(90, (90, 0, 0), 8)  # the second sample's
+    assert estimate.latest(PerformanceKind.NON_FUNCTIONAL, 0) == 2.5
+    assert live.stream({2: [0]}) == {2: [0]}  # the live FIR's history is still empty
+    assert shadow.stream({2: [0]}) != {2: [0]}

@@ -52,10 +52,10 @@ class FpgaNode:
     """A node with a crossbar port, its flash in `path`, and a sender to it in `mode`."""
 
     def __init__(self, path: Path, trust: TrustPolicy, mode: str) -> None:
-        self.node = Node("fpga", NodeConfig(flash_file=path, trust=trust))
         self.model = CrossbarModel(FABRIC)
         self.port = CrossbarReconfigurationPort(self.model)
-        self.target = NodeTarget(self.node, fpga=self.port)
+        self.node = Node("fpga", NodeConfig(flash_file=path, trust=trust), fpga=self.port)
+        self.target = NodeTarget(self.node)
         self.sender = Sender(DirectLink(Receiver(self.target).handle), mode)
 
     def routes(self) -> tuple[int, Beat]:

@@ -87,9 +87,9 @@ def test_images_for_another_fabric_or_address_are_refused() -> None:
 
 
 def fpga_node() -> tuple[Node, CrossbarModel, Receiver]:
-    node = Node("fpga")
     model = CrossbarModel(FABRIC)
-    return node, model, Receiver(NodeTarget(node, fpga=CrossbarReconfigurationPort(model)))
+    node = Node("fpga", fpga=CrossbarReconfigurationPort(model))
+    return node, model, Receiver(NodeTarget(node))
 
 
 @pytest.mark.parametrize("mode", ["binary", "hex"])
@@ -133,7 +133,7 @@ def test_the_pack_command_writes_the_image_and_names_a_bad_slot(tmp_path: Path, 
 
 
 def test_the_node_finds_the_crossbar_port_through_its_entry_point() -> None:
-    port = open_port(4)
+    port = open_port("4")
     assert isinstance(port, CrossbarReconfigurationPort)
     assert port.description == "a 4-slot Morphing Crossbar (transaction-level model)"
     assert port.owns(CONFIG_BASE + 0x200) and not port.owns(0x0800_0000)
@@ -144,15 +144,15 @@ def test_the_node_finds_the_crossbar_port_through_its_entry_point() -> None:
 def test_a_fabric_the_crossbar_cannot_build_is_one_clear_error() -> None:
     with pytest.raises(
         ReconfigurationPortError,
-        match=r"the 'crossbar' reconfiguration port cannot build 1 slot\(s\) on the tlm model: "
-        r"expected 2\.\.16",
+        match=r"the 'crossbar' reconfiguration port cannot build the fabric '1' \(8-bit samples\) "
+        r"on the tlm model: expected 2\.\.16",
     ):
-        open_port(1)
+        open_port("1")
 
 
 def test_no_port_installed_is_one_clear_error() -> None:
     with pytest.raises(ReconfigurationPortError, match="no FPGA reconfiguration port is installed"):
-        open_port(4, group="firmware_sim.no_such_ports")
+        open_port("4", group="firmware_sim.no_such_ports")
 
 
 def test_the_port_streams_integers_of_any_type_as_their_value_and_refuses_the_rest() -> None:
