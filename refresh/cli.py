@@ -29,6 +29,7 @@ from hexmigrate.transfer.control import MICROSECONDS
 from refresh.configuration import initial_configuration
 from refresh.errors import DatabaseError, RefreshError
 from refresh.generator import DEFAULT_MAX_MODULES, candidates
+from refresh.hardware import check_hardware
 from refresh.images import check_images
 from refresh.load import MAX_FILE_BYTES, Loaded, load
 from refresh.location import DEFAULT_STRATEGY, STRATEGIES, base_choice, brute_force
@@ -59,12 +60,15 @@ def check(options: argparse.Namespace) -> None:
     """Print the tree: schemas, their modules and where each can run, then the task."""
     loaded = load(options.file)
     check_images(loaded.database, str(options.file))
+    check_hardware(loaded.database, str(options.file))
     database = loaded.database
     for robot in database.robots.values():
         resources = ", ".join(
             f"{name} {r.capacity:g} (reserve {r.reserve:g})" for name, r in robot.resources.items()
         )
         print(f"robot {robot.name}: {resources or 'no resources'}")
+        if robot.fabric is not None:
+            print(f"  fabric {robot.fabric.spec} ({robot.fabric.width}-bit samples)")
     for schema in database.schemas.values():
         print(f"{schema.kind.value} schema {schema.name}")
         for module in schema.modules:
@@ -73,6 +77,8 @@ def check(options: argparse.Namespace) -> None:
             needs = ", ".join(f"{k} {v:g}" for k, v in module.needs.items()) or "nothing"
             print(f"  {module.name} ({ports} -> {outs}; needs {needs}; {module.source})")
             print(f"    on {', '.join(module.robots)}")
+            if module.hardware is not None:
+                print(f"    in hardware: {module.hardware}")
     task = loaded.task
     if task is not None:
         print(f"task {task.name} on {task.robot}: {' -> '.join(task.state_machine.states)}")

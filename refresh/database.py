@@ -8,6 +8,12 @@ tree, and the unit every algorithm of ReFrESH moves around.
 Each module declares typed ports (port name -> type name; the Generator builds combo modules by
 matching these types), the resources it needs (e.g. power, in the units of the robots' capacities),
 and where its code comes from: built into the node (native) or a module image to migrate.
+
+A hardware module (section 5.2 of the paper) is computed by a robot's FPGA fabric: its source is
+the partial bitstreams that route a stream through pre-placed functionalities of the fabric
+(`Hardware`: which functionality in which slot), its E-PBO on the node only streams its data
+through (`firmware_sim.core.fabric_pbo`). A robot that can run one has a `fabric`, its library
+slot by slot, in the text a node's ``--fpga`` takes.
 """
 
 from __future__ import annotations
@@ -43,26 +49,59 @@ class Resource:
 
 
 @dataclass(frozen=True)
+class RobotFabric:
+    """A robot's FPGA fabric: each slot's functionality (``median3x3:160``) and the bits of a
+    sample on its streams."""
+
+    slots: tuple[str, ...]
+    width: int = 8
+
+    @property
+    def spec(self) -> str:
+        """The fabric as a node's ``--fpga`` takes it."""
+        return ",".join(self.slots)
+
+
+@dataclass(frozen=True)
 class Robot:
-    """A robot of R: its name and resources RE."""
+    """A robot of R: its name and resources RE, and its FPGA fabric if it has one."""
 
     name: str
     resources: Mapping[str, Resource]
+    fabric: RobotFabric | None = None
 
 
 @dataclass(frozen=True)
 class CodeSource:
-    """Where a module's code comes from: built into the node, or an image file to migrate."""
+    """Where a module's code comes from: built into the node, an image file to migrate, or the
+    partial bitstream files of a hardware module (one per slot it configures)."""
 
     image: Path | None = None
+    bitstreams: tuple[Path, ...] = ()
 
     @property
     def native(self) -> bool:
         """True when the code is in the node's firmware, so nothing migrates."""
-        return self.image is None
+        return self.image is None and not self.bitstreams
 
     def __str__(self) -> str:
+        if self.bitstreams:
+            return f"bitstreams {', '.join(str(path) for path in self.bitstreams)}"
         return "native" if self.image is None else f"image {self.image}"
+
+
+@dataclass(frozen=True)
+class Hardware:
+    """What a hardware module uses of a robot's fabric: the functionalities its stream passes
+    through, in order, and the slot of each (the slots its bitstreams configure)."""
+
+    functionalities: tuple[str, ...]
+    slots: tuple[int, ...]
+
+    def __str__(self) -> str:
+        return " -> ".join(
+            f"{f}@slot{s}" for f, s in zip(self.functionalities, self.slots, strict=True)
+        )
 
 
 @dataclass(frozen=True)
@@ -78,6 +117,7 @@ class Module:
     source: CodeSource = field(default_factory=CodeSource)
     frequency: float = 10.0
     constants: Mapping[str, float] = field(default_factory=dict)
+    hardware: Hardware | None = None
 
     @property
     def input_types(self) -> frozenset[str]:

@@ -43,11 +43,14 @@ class DatabaseError(RefreshError, ValueError):
 
 class DatabaseImageError(DatabaseError):
     """A module's image file that is missing, is no module image, or whose descriptor disagrees
-    with the database; the key path is the module's ``source.image``, `module` its name."""
+    with the database (or a hardware module's bitstreams that do not route as it says); the key
+    path is the module's ``source.image`` (``source.bitstreams``), `module` its name."""
 
-    def __init__(self, file: str, schema: str, module: str, expected: str, got: str) -> None:
+    def __init__(
+        self, file: str, schema: str, module: str, expected: str, got: str, key: str = "image"
+    ) -> None:
         self.module = module
-        super().__init__(file, f"schemas.{schema}.modules.{module}.source.image", expected, got)
+        super().__init__(file, f"schemas.{schema}.modules.{module}.source.{key}", expected, got)
 
 
 class ConfigurationError(RefreshError, ValueError):

@@ -18,8 +18,20 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from morphing_crossbar.errors import FabricParameterError
+from morphing_crossbar.fabric_spec import fabric_of
 from refresh.configuration import initial_configuration
-from refresh.database import CodeSource, Module, ModuleDatabase, Resource, Robot, Schema, SchemaKind
+from refresh.database import (
+    CodeSource,
+    Hardware,
+    Module,
+    ModuleDatabase,
+    Resource,
+    Robot,
+    RobotFabric,
+    Schema,
+    SchemaKind,
+)
 from refresh.errors import ConfigurationError, DatabaseError
 from refresh.location import DEFAULT_STRATEGY
 from refresh.schema import describe, validate
@@ -55,7 +67,7 @@ def loads(text: str, file: str = "<text>", base: Path | None = None) -> Loaded:
         raise DatabaseError(file, "", "valid TOML", "nesting too deep to read") from None
     _check_depth(document, file)
     validate(document, file)
-    robots = {name: _robot(name, body) for name, body in document["robots"].items()}
+    robots = {name: _robot(name, body, file) for name, body in document["robots"].items()}
     schemas = {
         name: _schema(name, body, robots, file, base or Path("."))
         for name, body in document["schemas"].items()
@@ -105,12 +117,24 @@ def _check_depth(document: Mapping[str, Any], file: str) -> None:
             stack.extend((child, depth + 1) for child in value)
 
 
-def _robot(name: str, body: Mapping[str, Any]) -> Robot:
+def _robot(name: str, body: Mapping[str, Any], file: str) -> Robot:
     resources = {
         key: Resource(float(r["capacity"]), float(r.get("reserve", 0.0)), r.get("report"))
         for key, r in body.get("resources", {}).items()
     }
-    return Robot(name, resources)
+    fabric = None
+    if "fabric" in body:
+        fabric = RobotFabric(tuple(body["fabric"]["slots"]), body["fabric"].get("width", 8))
+        try:
+            fabric_of(fabric.slots, fabric.width)
+        except FabricParameterError as error:
+            raise DatabaseError(
+                file,
+                f"robots.{name}.fabric",
+                "a fabric the Morphing Crossbar can build",
+                str(error),
+            ) from None
+    return Robot(name, resources, fabric)
 
 
 def _schema(
@@ -142,7 +166,9 @@ def _schema(
                     repr(port),
                 )
         source = entry["source"]
-        image = None if source == "native" else base / source["image"]
+        image = None if source == "native" else source.get("image")
+        bitstreams = () if source == "native" else tuple(source.get("bitstreams", ()))
+        hardware = _hardware(entry, bitstreams, robots, file, where)
         modules.append(
             Module(
                 name=module_name,
@@ -151,12 +177,71 @@ def _schema(
                 inputs=dict(entry.get("inputs", {})),
                 outputs=dict(entry.get("outputs", {})),
                 needs={k: float(v) for k, v in entry.get("needs", {}).items()},
-                source=CodeSource(image),
+                source=CodeSource(
+                    None if image is None else base / image, tuple(base / b for b in bitstreams)
+                ),
                 frequency=float(entry.get("frequency", 10.0)),
                 constants=dict(entry.get("constants", {})),
+                hardware=hardware,
             )
         )
     return Schema(name, SchemaKind(body["kind"]), tuple(modules))
+
+
+def _hardware(
+    entry: Mapping[str, Any],
+    bitstreams: tuple[str, ...],
+    robots: Mapping[str, Robot],
+    file: str,
+    where: str,
+) -> Hardware | None:
+    """A hardware module's use of its robots' fabrics, checked against each one's library: a
+    bitstream per slot it names, every robot with a fabric holding each functionality at its
+    slot. The bitstreams themselves are read by ``refresh check`` (`refresh.hardware`)."""
+    if "hardware" not in entry:
+        if bitstreams:
+            raise DatabaseError(
+                file, f"{where}.hardware", "the fabric a bitstream source uses", "none"
+            )
+        return None
+    table = entry["hardware"]
+    hardware = Hardware(tuple(table["functionalities"]), tuple(table["slots"]))
+    if len(hardware.slots) != len(hardware.functionalities):
+        raise DatabaseError(
+            file,
+            f"{where}.hardware.slots",
+            f"a slot per functionality ({len(hardware.functionalities)})",
+            describe(list(hardware.slots)),
+        )
+    if len(bitstreams) != len(hardware.slots):
+        raise DatabaseError(
+            file,
+            f"{where}.source",
+            f"a bitstream per slot the hardware uses ({len(hardware.slots)})",
+            describe(list(bitstreams)) if bitstreams else "native or image code",
+        )
+    for robot in entry["robots"]:
+        _check_fabric(robots[robot], hardware, file, where)
+    return hardware
+
+
+def _check_fabric(robot: Robot, hardware: Hardware, file: str, where: str) -> None:
+    """`robot` has a fabric with each of `hardware`'s functionalities at its slot."""
+    if robot.fabric is None:
+        raise DatabaseError(
+            file, f"{where}.robots", f"robots with an FPGA fabric ({robot.name!r} has none)", "it"
+        )
+    fabric = fabric_of(robot.fabric.slots, robot.fabric.width)
+    library = [function.kind.name.lower() for function in fabric.functions]
+    for functionality, slot in zip(hardware.functionalities, hardware.slots, strict=True):
+        held = library[slot] if slot < len(library) else "no such slot"
+        if held != functionality:
+            raise DatabaseError(
+                file,
+                f"{where}.hardware",
+                f"{functionality} in slot {slot} of robot {robot.name!r}'s fabric",
+                held,
+            )
 
 
 def _check_unique_modules(schemas: Mapping[str, Schema], file: str) -> None:

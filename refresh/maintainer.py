@@ -29,7 +29,8 @@ ORDER = ("migrate", "disconnect", "stop", "start", "connect")
 @dataclass(frozen=True)
 class Step:
     """One step of a plan. `instance` is the PBO name (the sink's for connections); `source` and
-    `source_robot` are the feeding port and its robot for ``connect``."""
+    `source_robot` are the feeding port and its robot for ``connect``; `hardware` says that the
+    module runs on the robot's FPGA fabric (its migration carries partial bitstreams)."""
 
     action: str
     robot: str
@@ -37,6 +38,7 @@ class Step:
     module: str = ""
     source: str = ""
     source_robot: str = ""
+    hardware: bool = False
 
     def __str__(self) -> str:
         if self.action == "connect":
@@ -44,8 +46,10 @@ class Step:
         if self.action == "disconnect":
             return f"disconnect {self.instance}@{self.robot}"
         if self.action == "migrate":
-            return f"migrate {self.module} to {self.robot}"
-        return f"{self.action} {self.instance} ({self.module}) on {self.robot}"
+            carried = " (partial bitstreams to its fabric)" if self.hardware else ""
+            return f"migrate {self.module} to {self.robot}{carried}"
+        where = ", in hardware" if self.hardware else ""
+        return f"{self.action} {self.instance} ({self.module}{where}) on {self.robot}"
 
 
 @dataclass(frozen=True)
@@ -85,10 +89,13 @@ def plan(current: Configuration | None, target: Configuration, database: ModuleD
         if name in kept:
             continue
         module = database.module(placement.module)
+        hardware = module.hardware is not None
         if not module.source.native and (placement.module, placement.robot) not in installed:
-            steps.append(Step("migrate", placement.robot, name, placement.module))
+            steps.append(
+                Step("migrate", placement.robot, name, placement.module, hardware=hardware)
+            )
             installed.add((placement.module, placement.robot))
-        steps.append(Step("start", placement.robot, name, placement.module))
+        steps.append(Step("start", placement.robot, name, placement.module, hardware=hardware))
     for source, sink in target.connections(database):
         if (source, sink) not in old_wiring or not {_owner(source), _owner(sink)} <= kept:
             steps.append(

@@ -6,6 +6,8 @@
   battery or a dead node elsewhere does not fail it); a robot it uses whose node is lost
   (`ModuleDatabase.lost`) has one term instead, ``node@robot``, which is 0: its modules count as
   failed.
+  A robot with an FPGA fabric has one more term, ``fabric@robot``: no slot of its fabric is
+  claimed by two hardware modules (a node's free slots bound what fits).
 - (2) P_F: one binary term per task metric: the value is on the good side of its threshold.
 - (3) P_T: the product of all terms.
 - (4) Util(C) = alpha * sum_k Util_NF_k + (1 - alpha) * sum_j Util_F_j, where Util_NF_k is the use
@@ -24,7 +26,7 @@ from dataclasses import dataclass
 from typing import TypeVar
 
 from refresh.configuration import Chain, Configuration
-from refresh.database import ModuleDatabase
+from refresh.database import Module, ModuleDatabase
 from refresh.task import TaskSpec
 
 Usage = dict[tuple[str, str], float]
@@ -32,6 +34,11 @@ Usage = dict[tuple[str, str], float]
 
 NODE = "node"
 """The term of equation (1) a lost robot has instead of its resources' terms: always 0."""
+FABRIC = "fabric"
+"""The term of equation (1) of a robot's fabric: 1 when no slot is claimed twice."""
+SLOT = "fabric.slot"
+"""A slot's claims in a `Usage`, ``fabric.slot2`` (no resource can be named so: names have no
+'.'); they count in the fabric's term, not in Util."""
 
 T = TypeVar("T")
 
@@ -65,7 +72,7 @@ def usage(configuration: Configuration, database: ModuleDatabase) -> Usage:
     """Declared resource use of every module of the configuration, per robot and resource."""
     used: Usage = {}
     for placement in configuration.placements:
-        _add(used, placement.robot, database.module(placement.module).needs, 1.0)
+        _add(used, placement.robot, _needs(database.module(placement.module)), 1.0)
     return used
 
 
@@ -74,10 +81,18 @@ def usage_replaced(base: Usage, old: Chain, new: Chain, database: ModuleDatabase
     the whole configuration again (the Locator does this for every test case)."""
     used = dict(base)
     for placement in old:
-        _add(used, placement.robot, database.module(placement.module).needs, -1.0)
+        _add(used, placement.robot, _needs(database.module(placement.module)), -1.0)
     for placement in new:
-        _add(used, placement.robot, database.module(placement.module).needs, 1.0)
+        _add(used, placement.robot, _needs(database.module(placement.module)), 1.0)
     return used
+
+
+def _needs(module: Module) -> Mapping[str, float]:
+    """What a module uses of its robot: its declared needs, and the fabric slots a hardware
+    module claims."""
+    if module.hardware is None:
+        return module.needs
+    return {**module.needs, **{f"{SLOT}{slot}": 1.0 for slot in module.hardware.slots}}
 
 
 def _add(used: Usage, robot: str, needs: Mapping[str, float], sign: float) -> None:
@@ -100,7 +115,8 @@ def assess(
     nonfunctional = _nonfunctional(used, judged, database)
     util_nf: dict[str, float] = {}
     for (_, name), amount in used.items():
-        util_nf[name] = util_nf.get(name, 0.0) + amount
+        if not name.startswith(SLOT):
+            util_nf[name] = util_nf.get(name, 0.0) + amount
     metrics = task.metrics.values()
     functional = {m.name: int(m.satisfied(values.get(m.name))) for m in metrics}
     util_f = {m.name: m.cost(values.get(m.name)) for m in metrics}
@@ -129,6 +145,12 @@ def _nonfunctional(
             continue
         for name, resource in robot.resources.items():
             terms[robot.name, name] = int(resource.satisfied(used.get((robot.name, name), 0.0)))
+        if robot.fabric is not None:
+            claims = (
+                used.get((robot.name, f"{SLOT}{slot}"), 0.0)
+                for slot in range(len(robot.fabric.slots))
+            )
+            terms[robot.name, FABRIC] = int(all(claim <= 1.0 for claim in claims))
     return terms
 
 

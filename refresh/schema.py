@@ -36,7 +36,54 @@ _SOURCE = {
             "required": ["image"],
             "additionalProperties": False,
         },
+        {
+            "type": "object",
+            "properties": {
+                "bitstreams": {
+                    "type": "array",
+                    "items": {"type": "string", "minLength": 1},
+                    "minItems": 1,
+                    "maxItems": 16,
+                }
+            },
+            "required": ["bitstreams"],
+            "additionalProperties": False,
+        },
     ]
+}
+_HARDWARE = {
+    "type": "object",
+    "properties": {
+        "functionalities": {
+            "type": "array",
+            "items": {"type": "string", "pattern": NAME},
+            "minItems": 1,
+            "maxItems": 16,
+        },
+        "slots": {
+            "type": "array",
+            "items": {"type": "integer", "minimum": 0, "maximum": 15},
+            "minItems": 1,
+            "maxItems": 16,
+            "uniqueItems": True,
+        },
+    },
+    "required": ["functionalities", "slots"],
+    "additionalProperties": False,
+}
+_FABRIC = {
+    "type": "object",
+    "properties": {
+        "slots": {
+            "type": "array",
+            "items": {"type": "string", "minLength": 1, "maxLength": 64},
+            "minItems": 2,
+            "maxItems": 16,
+        },
+        "width": {"type": "integer", "minimum": 1, "maximum": 32},
+    },
+    "required": ["slots"],
+    "additionalProperties": False,
 }
 _MODULE = {
     "type": "object",
@@ -57,6 +104,7 @@ _MODULE = {
         "source": _SOURCE,
         "frequency": {"type": "number", "exclusiveMinimum": 0},
         "constants": {"type": "object", "additionalProperties": {"type": ["number", "boolean"]}},
+        "hardware": _HARDWARE,
     },
     "required": ["robots", "source"],
     "additionalProperties": False,
@@ -92,7 +140,8 @@ _ROBOT = {
             "type": "object",
             "propertyNames": {"pattern": NAME},
             "additionalProperties": _RESOURCE,
-        }
+        },
+        "fabric": _FABRIC,
     },
     "additionalProperties": False,
 }
@@ -220,6 +269,8 @@ def _explain(error: ValidationError, file: str) -> DatabaseError:
         "const": lambda: repr(value),
         "minimum": lambda: f"a number >= {value}",
         "maximum": lambda: f"a number <= {value}",
+        "maxItems": lambda: f"at most {value} item(s)",
+        "maxLength": lambda: f"a string of at most {value} characters",
         "exclusiveMinimum": lambda: f"a number > {value}",
         "minItems": lambda: f"at least {value} item(s)",
         "minProperties": lambda: f"at least {value} entr{'y' if value == 1 else 'ies'}",

@@ -38,9 +38,11 @@ from typing import Protocol
 
 from firmware_sim.wires.transfer import WireRun
 from hexmigrate.image import ModuleImage
+from morphing_crossbar.hex_image import configuration_cycles
 from refresh.database import Module
 from refresh.decider import PerformanceSource
 from refresh.errors import ApplyError, NodeLinkError
+from refresh.hardware import bitstream_images
 from refresh.images import migration_image
 
 
@@ -108,9 +110,10 @@ class Bridge:
 
 @dataclass(frozen=True)
 class Migration:
-    """One image sent to a robot: when it started (seconds of the run), its size, and, on a
-    modelled wire, the time the transfer took there, the wire and its rate (``serial 115200``)
-    and the bits it put on the wire both ways."""
+    """One module's image sent to a robot (or a hardware module's partial bitstreams, with
+    `hardware`, and the fabric `cycles` their reconfigurations took): when it started (seconds
+    of the run), its size, and, on a modelled wire, the time the transfer took there, the wire
+    and its rate (``serial 115200``) and the bits it put on the wire both ways."""
 
     module: str
     robot: str
@@ -120,13 +123,30 @@ class Migration:
     wire: str = ""
     bits: int = 0
 
+    hardware: bool = False
+    cycles: int = 0
+
     @classmethod
-    def of(cls, module: str, robot: str, start: float, size: int, run: WireRun | None) -> Migration:
-        """The record of a transfer, timed on the modelled wire `run` went over (if any)."""
-        if run is None:
-            return cls(module, robot, start, size)
-        bits = run.host.total_bits() + run.node.total_bits()
-        return cls(module, robot, start, size, run.seconds, f"{run.wire} {run.rate:g}", bits)
+    def of(
+        cls,
+        module: Module,
+        robot: str,
+        start: float,
+        size: int,
+        runs: Sequence[WireRun | None],
+        cycles: int = 0,
+    ) -> Migration:
+        """The record of the transfers of one module's images (one, or a hardware module's
+        bitstreams, which reconfigured its robot's fabric in `cycles` fabric cycles), timed on
+        the modelled wire they went over (if any)."""
+        hardware = module.hardware is not None
+        timed = [run for run in runs if run is not None]
+        if not timed:
+            return cls(module.name, robot, start, size, hardware=hardware, cycles=cycles)
+        seconds = sum(run.seconds for run in timed)
+        bits = sum(run.host.total_bits() + run.node.total_bits() for run in timed)
+        wire = f"{timed[0].wire} {timed[0].rate:g}"
+        return cls(module.name, robot, start, size, seconds, wire, bits, hardware, cycles)
 
 
 class ApplierBase(ABC):
@@ -158,6 +178,9 @@ class ApplierBase(ABC):
         """(robot, PBO) -> the rate it was started at, for the bridges that carry its ports."""
         self.issued = 0
         """How many bridges were numbered so far: the next one's number."""
+        self.configured: dict[str, dict[int, str]] = {}
+        """The hardware module each fabric slot was configured for, by robot and slot: a slot
+        another module took is configured again when its module starts anew."""
         self.down: set[str] = set()
         """Robots known to be down, for an outage the caller knows of that is not over yet:
         `rejoin` does not try them (a node restarted early in wall time must not rejoin a run
@@ -210,6 +233,7 @@ class ApplierBase(ABC):
         inventory = self._reach(robot)
         if inventory is None:
             return None
+        self.configured.pop(robot, None)  # a node back from an outage has its fabric reset
         for key, bridge in list(self.bridges.items()):
             if robot in bridge.robots():
                 del self.bridges[key]
@@ -255,26 +279,49 @@ class ApplierBase(ABC):
         self._stop(robot, instance)
 
     def migrate(self, robot: str, module: Module) -> None:
-        """Send the module's image to the robot unless it is installed there already; with a
-        modelled wire, let the world run on for as long as the transfer takes."""
+        """Send the module's image to the robot unless it is installed there already (a
+        hardware module's bitstreams unless its slots are configured for it); with a modelled
+        wire, let the world run on for as long as the transfer takes."""
         self.require(robot)
         if module.source.native:
             raise ApplyError(
                 f"migrate {module.name} to {robot}: expected an image, got native code"
             )
-        if self._installed(robot, module.name):
+        if self._holds(robot, module):
             return
         start = self.clock()
-        registered, size, run = self._send(robot, module)
-        if registered != module.name:
-            raise ApplyError(
-                f"migrate {module.name} to {robot}: expected the image to register "
-                f"{module.name!r}, got {registered!r}"
-            )
-        migration = Migration.of(module.name, robot, start, size, run)
+        hardware = module.hardware is not None
+        size, runs, cycles = 0, [], 0
+        for image in self._images(module):
+            registered, sent, run = self._send(robot, module, image)
+            if not hardware and registered != module.name:
+                raise ApplyError(
+                    f"migrate {module.name} to {robot}: expected the image to register "
+                    f"{module.name!r}, got {registered!r}"
+                )
+            size, runs = size + sent, [*runs, run]
+            if hardware and image is not None:
+                cycles += configuration_cycles(image)
+        if module.hardware is not None:
+            slots = self.configured.setdefault(robot, {})
+            slots.update(dict.fromkeys(module.hardware.slots, module.name))
+        migration = Migration.of(module, robot, start, size, runs, cycles)
         self.migrations.append(migration)
         if migration.seconds > 0:
             self.wait(migration.seconds)
+
+    def _holds(self, robot: str, module: Module) -> bool:
+        """Whether `robot` has the module's image installed, or its fabric's slots configured
+        for the hardware module."""
+        if module.hardware is None:
+            return self._installed(robot, module.name)
+        configured = self.configured.get(robot, {})
+        return all(configured.get(slot) == module.name for slot in module.hardware.slots)
+
+    def _images(self, module: Module) -> Sequence[ModuleImage | None]:
+        """What a migration of `module` sends: its image, or a hardware module's bitstreams (a
+        back end that models robots without images says None for each)."""
+        return bitstream_images(module) if module.hardware else [self.image_of(module)]
 
     def image_of(self, module: Module) -> ModuleImage:
         """The image to migrate: the one given for the module, else the file the database names."""
@@ -329,9 +376,12 @@ class ApplierBase(ABC):
         """Whether `robot`'s node holds `module`'s image."""
 
     @abstractmethod
-    def _send(self, robot: str, module: Module) -> tuple[str, int, WireRun | None]:
-        """Install `module`'s image (`image_of`) on `robot`: the name it registered, its size in
-        bytes, and the transfer on the modelled migration wire (None without one)."""
+    def _send(
+        self, robot: str, module: Module, image: ModuleImage | None
+    ) -> tuple[str, int, WireRun | None]:
+        """Install `image` of `module` on `robot` (its image, or one of a hardware module's
+        bitstreams; None from a back end whose `_images` gives none): the name it registered,
+        its size in bytes, and the transfer on the modelled migration wire (None without one)."""
 
     @abstractmethod
     def _start(self, robot: str, instance: str, module: Module) -> None:

@@ -13,6 +13,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from firmware_sim.wires.transfer import WireRun
+from hexmigrate.image import ModuleImage
 from refresh.appliers.base import ApplierBase, Bridge, Inventory, owner
 from refresh.database import Module
 from refresh.decider import PerformanceSource
@@ -89,7 +90,13 @@ class MemoryApplier(ApplierBase):
     def _installed(self, robot: str, module: str) -> bool:
         return module in self.robot(robot).installed
 
-    def _send(self, robot: str, module: Module) -> tuple[str, int, WireRun | None]:
+    def _images(self, module: Module) -> list[None]:
+        """A model reads no image: one None per transfer the module makes."""
+        return [None] * max(1, len(module.source.bitstreams))
+
+    def _send(
+        self, robot: str, module: Module, image: ModuleImage | None
+    ) -> tuple[str, int, WireRun | None]:
         """Note the module installed: a model needs no image."""
         self.robot(robot).installed.add(module.name)
         self.applied.append(f"migrate {module.name}@{robot}")

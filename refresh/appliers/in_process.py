@@ -27,6 +27,7 @@ from firmware_sim.bridge.port_bridge import PortBridge
 from firmware_sim.core.node import Node
 from firmware_sim.core.transfer_target import NodeTarget
 from firmware_sim.wires.transfer import WireRun, run_transfer
+from hexmigrate.image import ModuleImage
 from hexmigrate.links.direct import DirectLink
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
@@ -149,10 +150,12 @@ class NodeApplier(ApplierBase):
     def _installed(self, robot: str, module: str) -> bool:
         return module in self.nodes[robot].modules
 
-    def _send(self, robot: str, module: Module) -> tuple[str, int, WireRun | None]:
+    def _send(
+        self, robot: str, module: Module, image: ModuleImage | None
+    ) -> tuple[str, int, WireRun | None]:
         """Transfer the image to the node: through the modelled wire in virtual time if there
         is one, else on an in-process link."""
-        image = self.image_of(module)
+        assert image is not None  # this back end's `_images` reads every one
         node = self.nodes[robot]
         if self.migration_wire is not None:
             run = run_transfer(image, self.migration_wire, self.mode, node=node)
@@ -167,7 +170,7 @@ class NodeApplier(ApplierBase):
     def _start(self, robot: str, instance: str, module: Module) -> None:
         """Start the installed image (or the native code) as PBO `instance`."""
         node = self.nodes[robot]
-        if module.source.native:
+        if module.source.native or module.hardware is not None:  # a hardware E-PBO is native
             code = self.natives.get(f"{module.name}@{robot}", self.natives.get(module.name))
             if code is None:
                 raise ApplyError(f"start {module.name} on {robot}: no native code of that name")

@@ -37,12 +37,15 @@ from collections.abc import Callable, Iterable, Mapping
 from typing import Protocol
 from urllib.parse import urlsplit
 
+from firmware_sim.core.node import Node
 from firmware_sim.wires.transfer import WireRun, run_transfer
+from hexmigrate.image import ModuleImage
 from hexmigrate.transfer.control import PboRow
 from hexmigrate.transfer.control_client import NodeControl
 from refresh.appliers.base import ApplierBase, Bridge, Inventory, owner
 from refresh.database import Module
 from refresh.errors import ApplyError, NodeLinkError
+from refresh.hardware import scratch_port
 from refresh.remote.guard import GuardedControl
 from refresh.remote.remote_node import RemoteNode
 from refresh.remote.reports import ReportSource
@@ -216,15 +219,19 @@ class LinkApplier(ApplierBase):
     def _installed(self, robot: str, module: str) -> bool:
         return module in self.nodes[robot].modules()
 
-    def _send(self, robot: str, module: Module) -> tuple[str, int, WireRun | None]:
+    def _send(
+        self, robot: str, module: Module, image: ModuleImage | None
+    ) -> tuple[str, int, WireRun | None]:
         """SEND the image over the node's link; with a modelled migration wire, the time the
-        same image takes on it."""
+        same image takes on it (to a node of its own, with a fabric for a bitstream)."""
+        assert image is not None  # this back end's `_images` reads every one
         node = self.nodes[robot]
-        image = self.image_of(module)
         result = node.ask(f"SEND {module.name}", lambda: node.sender.send(image))
         run = None
         if self.migration_wire is not None:
-            run = run_transfer(image, self.migration_wire)
+            fpga = scratch_port(image) if module.hardware is not None else None
+            with Node(f"{robot} (modelled)", fpga=fpga) as scratch:
+                run = run_transfer(image, self.migration_wire, node=scratch)
         return result.name, image.size, run
 
     def _start(self, robot: str, instance: str, module: Module) -> None:

@@ -23,6 +23,10 @@ from hexmigrate.signing.sign import sign_image
 from hexmigrate.signing.tlv import Version
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.time_master import TimeMaster
+from morphing_crossbar.bitstream import pack
+from morphing_crossbar.fabric_spec import fabric_of
+from morphing_crossbar.hex_image import to_image
+from morphing_crossbar.routing import through_route
 from pbort.code import PerformanceKind
 from refresh.appliers.over_links import LinkApplier
 from refresh.configuration import Configuration, initial_configuration, parse_placement
@@ -394,3 +398,74 @@ def test_a_node_that_trusts_keys_takes_the_plan_only_from_a_manager_with_the_key
                 "gain": ("ON", 50.0),
             }
             wait_until(lambda: applier.read("a", "gain.y") > 0, "gain output")
+
+
+HARDWARE = """
+[robots.a]
+resources.power = { capacity = 100, reserve = 20, report = 0 }
+fabric = { slots = ["gain:48:1", "pass"] }
+
+[schemas.source]
+kind = "sensor"
+[schemas.source.modules.signal]
+robots = ["a"]
+outputs = { y = "q16" }
+needs = { power = 1 }
+source = "native"
+frequency = 100
+constants = { shape = 0, amplitude = 3 }
+
+[schemas.filter]
+kind = "computation"
+[schemas.filter.modules.fabric]
+robots = ["a"]
+inputs = { x = "q16" }
+outputs = { y = "q16" }
+needs = { power = 1 }
+source = { bitstreams = ["fabric.slot0.hex"] }
+hardware = { functionalities = ["gain"], slots = [0] }
+frequency = 100
+
+[task]
+name = "tripling"
+robot = "a"
+states = ["run"]
+schemas = ["source", "filter"]
+initial = ["signal", "fabric"]
+"""
+"""A hardware module on the node's fabric: the ``fabric`` native of ``firmware-sim listen`` is
+its E-PBO, and slot 0's gain (x * 48 / 16 + 1) computes it once its bitstream routes input 0
+through it to output 0."""
+
+
+def test_a_trusting_node_takes_a_hardware_module_s_signed_bitstream_only_from_its_key(
+    tmp_path_factory: pytest.TempPathFactory,
+):
+    directory = tmp_path_factory.mktemp("hardware")
+    key = keys.generate("ed25519")
+    (directory / "trusted.pub.pem").write_bytes(keys.public_pem(key.public_key()))
+    fabric = fabric_of(["gain:48:1", "pass"])
+    bitstream = to_image(fabric, pack(fabric, 0, through_route(fabric, 0)))
+    sign_image(bitstream, key, Version(1, 0, 0)).write(directory / "fabric.slot0.hex")
+    loaded = loads(HARDWARE, "tripling.toml", directory)
+    current = initial_configuration(loaded.task, loaded.database)
+    trust = ("--trust", str(directory / "trusted.pub.pem"))
+    node_options = ("--fpga", "gain:48:1,pass", "--native", "signal", "--native", "fabric")
+    with NodeProcess("tcp-listen://127.0.0.1:0", *node_options, "--no-start", *trust) as node:
+        url = node.url
+        with LinkApplier.open({"a": url}) as stranger:
+            with pytest.raises(NodeLinkError, match=r"robot 'a'.*authentication required"):
+                stranger.migrate("a", loaded.database.module("fabric"))
+            assert stranger.migrations == []
+        with LinkApplier.open({"a": url}, key=key) as applier:
+            maintainer = Maintainer(loaded.database, applier, EventLog())
+            maintainer.apply(maintainer.plan(None, current))
+            (migration,) = applier.migrations
+            assert (migration.module, migration.hardware, migration.cycles) == ("fabric", True, 25)
+            assert listed(applier.node("a").control)["fabric"] == ("ON", 100.0)
+
+            def tripled() -> bool:
+                x, y = applier.reads("a", ["signal.y", "fabric.y"])
+                return x > 0 and y == ((int(x) & 0xFF) * 3 + 1) & 0xFF
+
+            wait_until(tripled, "signal through slot 0's gain")
