@@ -22,6 +22,7 @@ from application.plant import WorldPlant
 from application.scenario import Scenario, scenario_named
 from firmware_sim.core.guest import DEFAULT_BUDGET
 from pbort.native import NativePBO
+from pbort.ports import PortSpec
 from refresh.manager.plant import View
 from refresh.runtime import RuntimeSettings
 
@@ -92,6 +93,9 @@ class Application:
     """The native modules' classes by name (what the robots' firmware has built in)."""
     guests: Mapping[str, Path] = field(default_factory=dict)
     """Guest module name -> its C source, built into the HEX file the database names for it."""
+    hardware: Mapping[str, tuple[PortSpec, PortSpec]] = field(default_factory=dict)
+    """Hardware module name -> its E-PBO's input and output ports (`application.hardware`): the
+    database says which functionalities of which robot's fabric compute it."""
     plant: type[WorldPlant] = WorldPlant
     observe: Callable[[View], Mapping[str, float]] = _nothing
     live_inputs: Callable[[View], Mapping[str, object]] = _nothing

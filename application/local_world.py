@@ -9,20 +9,29 @@ time across processes): every node is granted the same step, as a time master gr
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 
+from firmware_sim.core.fpga_port import ReconfigurationPort
 from firmware_sim.core.node import Node, NodeConfig
 from refresh.appliers.base import ApplierBase
 
 
 class LocalWorld:
-    """A node per robot of `robots`, with `config`, advanced together `step` seconds at a
-    time; use it as a context manager (the nodes are closed on leaving)."""
+    """A node per robot of `robots`, with `config` (and its FPGA reconfiguration port from
+    `fpga`, for a robot with a fabric), advanced together `step` seconds at a time; use it as a
+    context manager (the nodes are closed on leaving)."""
 
-    def __init__(self, robots: Iterable[str], config: NodeConfig, step: float) -> None:
+    def __init__(
+        self,
+        robots: Iterable[str],
+        config: NodeConfig,
+        step: float,
+        fpga: Mapping[str, ReconfigurationPort] | None = None,
+    ) -> None:
         self.step = step
         self.time = 0.0
-        self.nodes = {robot: Node(robot, config) for robot in robots}
+        ports = dict(fpga or {})
+        self.nodes = {robot: Node(robot, config, fpga=ports.get(robot)) for robot in robots}
 
     def attach(self, applier: ApplierBase) -> None:
         """Nothing to check: the nodes are this world's own."""

@@ -18,6 +18,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from application.declaration import Application
+from application.hardware import fabric_ports, live_natives
 from application.plant import Setting
 from application.prepared import database_of
 from application.scenario import Scenario
@@ -67,7 +68,11 @@ def serve_node(
         )
     )
     try:
-        codes = plant.firmware(robot)
+        ports = fabric_ports(database, [robot])
+        codes = plant.firmware(robot) | {
+            key.partition("@")[0]: code
+            for key, code in live_natives(application, database, ports).items()
+        }
         config = ListenConfig(
             listen=url,
             name=robot,
@@ -83,7 +88,7 @@ def serve_node(
             if kill_at is not None:
                 node.kernel.observe(_killer(kill_at))
 
-        return listen(config, say, firmware=codes, started=started)
+        return listen(config, say, firmware=codes, started=started, port=ports.get(robot))
     finally:
         plant.close()
 

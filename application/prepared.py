@@ -10,6 +10,7 @@ scenario's fault-location strategy, if it names one.
 
 from __future__ import annotations
 
+import shutil
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -45,7 +46,8 @@ def database_of(application: Application, scenario: Scenario) -> ModuleDatabase:
     """The scenario's module database (its faults set), for a process that builds nothing (a
     robot's node: which natives its firmware has)."""
     source = scenario.database or application.database
-    loaded = loads(source.read_text(encoding="utf-8") + scenario.extra, source.name)
+    text = source.read_text(encoding="utf-8") + scenario.extra
+    loaded = loads(text, source.name, source.parent)
     return with_faults(loaded.database, scenario.faults)
 
 
@@ -61,6 +63,7 @@ def prepare(application: Application, scenario: Scenario, work: Path) -> Prepare
     if loaded.task is None:
         raise DatabaseError(str(source), "task", "a [task] table", "none")
     images = {name: _build(name, path, loaded, work) for name, path in application.guests.items()}
+    _copy_bitstreams(loaded, source.parent, work)
     task = (
         loaded.task
         if scenario.location is None
@@ -68,6 +71,22 @@ def prepare(application: Application, scenario: Scenario, work: Path) -> Prepare
     )
     database = with_faults(loaded.database, scenario.faults)
     return Prepared(Loaded(database, task), images, file)
+
+
+def _copy_bitstreams(loaded: Loaded, origin: Path, work: Path) -> None:
+    """Copy the bitstream files of the hardware modules from beside the database's source
+    (`origin`) to `work`, where the database written there names them."""
+    for module in loaded.database.modules():
+        for path in module.source.bitstreams:
+            relative = path.relative_to(work)
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                shutil.copyfile(origin / relative, path)
+            except OSError as error:
+                raise ApplicationSetupError(
+                    f"hardware module {module.name}: expected its bitstream {origin / relative}, "
+                    f"got {error.strerror or error}"
+                ) from None
 
 
 def _build(name: str, source: Path, loaded: Loaded, work: Path) -> ModuleImage:

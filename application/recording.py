@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Protocol
 
+from application.hardware import estimator_natives
 from application.plant import WorldPlant
 from application.records import Outcome, Sample
 from application.scenario import Outage, PowerDrop
@@ -52,7 +53,10 @@ class RunPlant(Plant):
         self.sample_period = plant.sample_period
 
     def natives(self) -> Mapping[str, ModuleCode]:
-        return self.plant.natives()
+        """The plant's natives and the hardware modules' E-PBOs, which the manager's
+        estimators run in shadow on models of the robots' fabrics."""
+        setting = self.plant.setting
+        return self.plant.natives() | estimator_natives(setting.application, setting.database)
 
     def events(self) -> list[Event]:
         scenario = self.outcome.scenario

@@ -37,6 +37,8 @@ class Outcome:
     reconfigurations: list[Reconfiguration] = field(default_factory=list)
     stopped_at: float | None = None
     log: EventLog = field(default_factory=EventLog)
+    hardware: frozenset[str] = frozenset()
+    """The database's hardware modules (computed by a robot's FPGA fabric)."""
 
     def migrations_of(self, record: Reconfiguration) -> list[Migration]:
         """The images a reconfiguration sent: from its detection to its switch."""

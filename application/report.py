@@ -77,6 +77,9 @@ def _reconfiguration(
         ],
         "chosen": None if target is None else target.label(),
         "robots": [] if target is None else sorted({p.robot for p in target.placements}),
+        "in_hardware": []
+        if target is None
+        else [str(p) for p in target.placements if p.module in outcome.hardware],
         "migrations": [
             {
                 "module": m.module,
@@ -86,6 +89,8 @@ def _reconfiguration(
                 "seconds": m.seconds,
                 "wire": m.wire,
                 "wire_bits": m.bits,
+                "hardware": m.hardware,
+                "reconfiguration_cycles": m.cycles,
             }
             for m in outcome.migrations_of(record)
         ],
@@ -139,10 +144,21 @@ def table(figures: dict[str, Any]) -> str:
             rows.append((f"{prefix}chosen", "none: the task is stopped"))
             continue
         rows.append((f"{prefix}chosen", f"{r['chosen']} on {', '.join(r['robots'])}"))
+        if r["in_hardware"]:
+            rows.append((f"{prefix}in hardware", ", ".join(r["in_hardware"])))
         for m in r["migrations"]:
             wire = f" in {m['seconds']:.3f} s over {m['wire']} baud" if m["wire"] else ""
+            what = "partial bitstreams, " if m["hardware"] else ""
+            fabric = (
+                f", the fabric reconfigured in {m['reconfiguration_cycles']} cycles"
+                if m["hardware"]
+                else ""
+            )
             rows.append(
-                (f"{prefix}migration", f"{m['module']} to {m['robot']}: {m['bytes']} B{wire}")
+                (
+                    f"{prefix}migration",
+                    f"{m['module']} to {m['robot']}: {what}{m['bytes']} B{wire}{fabric}",
+                )
             )
         if r["recovery_seconds"] is not None:
             rows.append(

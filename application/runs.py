@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from application.declaration import Application
+from application.hardware import estimator_natives, fabric_ports, live_natives
 from application.local_world import LocalWorld
 from application.outages import SwitchedOff, over_links
 from application.plant import Setting
@@ -63,13 +64,17 @@ def in_process(
     config = NodeConfig(budget=application.budget)
     outcome = Outcome(scenario)
     with contextlib.ExitStack() as stack:
-        world = stack.enter_context(LocalWorld(database.robots, config, application.step))
+        ports = fabric_ports(database, database.robots)
+        world = stack.enter_context(
+            LocalWorld(database.robots, config, application.step, fpga=ports)
+        )
         setting = Setting(application, scenario, database, world.clock, nodes=world.nodes)
         plant = application.plant(setting)
         stack.callback(plant.close)
         natives = plant.natives()
         host = stack.enter_context(Node("host", config))
-        codes = host_codes(database, host, natives)
+        codes = host_codes(database, host, natives | estimator_natives(application, database))
+        natives |= live_natives(application, database, ports)
         wire, rate = application.link
         applier = NodeApplier(
             world.nodes,
@@ -166,4 +171,7 @@ def finished(outcome: Outcome, runtime: Runtime) -> Outcome:
     outcome.stopped_at = history.stopped_at
     outcome.log = runtime.log
     outcome.migrations = runtime.applier.migrations
+    outcome.hardware = frozenset(
+        module.name for module in runtime.database.modules() if module.hardware is not None
+    )
     return outcome

@@ -8,7 +8,14 @@ Prints, for 160 x 120 frames of the camera scene with salt-and-pepper noise and 
   copies of the instance area into the task window and back, the port put and get;
 - guest instructions per frame and the virtual time they take at the node's clock;
 - in the same process, the numpy reference (the same algorithm, byte for byte) and OpenCV's
-  medianBlur + min-max normalize (a similar filter, not the same stretch) in frames per second.
+  medianBlur + min-max normalize (a similar filter, not the same stretch) in frames per second;
+- the Dehazer in hardware (the experiment's fabric: the streaming 3x3 median and the contrast
+  stretch in Verilog, `visual_servoing/experiment/hardware.toml`): fabric cycles per frame and
+  their time at the fabric's 100 MHz, and the host time per frame on the Verilog (Verilator)
+  and on the transaction-level model; whether its frames are the numpy reference's (the
+  stretch takes its percentiles from the frame before);
+- the repair's migration: the guest Dehazer's image against the hardware Dehazer's two partial
+  bitstreams over a modelled 115200 baud serial line, plus the fabric's reconfiguration cycles.
 
 The goal: at least 200 frames per second with the Dehazer running as guest code (the first
 goal was 30).
@@ -29,8 +36,14 @@ import numpy as np
 
 from firmware_sim.core.guest import CONTEXT_SIZE
 from firmware_sim.core.node import Node, NodeConfig
+from firmware_sim.wires.transfer import run_transfer
+from hexmigrate.image import ModuleImage
+from morphing_crossbar.hex_image import configuration_cycles
+from morphing_crossbar.reconfiguration_port import crossbar_port
 from pbort.code import Method, Role, Services
-from visual_servoing.dehaze import dehaze
+from refresh.hardware import bitstream_images, scratch_port
+from refresh.load import load
+from visual_servoing.dehaze import dehaze, median3x3, percentiles, stretch_table
 from visual_servoing.dehazer_guest import (
     INPUT_PORT,
     INSTRUCTION_BUDGET,
@@ -38,12 +51,17 @@ from visual_servoing.dehazer_guest import (
     OUTPUT_PORT,
     dehazer_image,
 )
+from visual_servoing.experiment.scenarios import HARDWARE
 from visual_servoing.frame_player import frame_player
 from visual_servoing.image_faults import FaultSchedule
 from visual_servoing.scene import Scene
 
 RATE = 30.0  # frames per second the task needs
 GOAL = 200.0
+FABRIC_HZ = 100e6
+HARDWARE_DATABASE = load(HARDWARE).database
+FABRIC = HARDWARE_DATABASE.robots["hexman"].fabric
+BITSTREAMS = bitstream_images(HARDWARE_DATABASE.module("Dehazer_hw"))
 
 
 def per_call(action: Callable[[], object], count: int) -> float:
@@ -100,6 +118,56 @@ def guest_figures(frames: list[np.ndarray], builds: Path, count: int) -> dict[st
     }
 
 
+def hardware_figures(frames: list[np.ndarray], model: str) -> dict[str, float]:
+    """The hardware Dehazer's fabric on `model`: host seconds per frame, fabric cycles per
+    frame (RTL only), and how many frames after the first equal the numpy reference's."""
+    port = crossbar_port(FABRIC.spec, model, FABRIC.width)
+    for image in BITSTREAMS:
+        port.load(image)
+    outputs: list[np.ndarray] = []
+
+    def frame_through(frame: np.ndarray) -> None:
+        (pixels,) = port.stream({0: frame.ravel().tolist()}).values()
+        outputs.append(np.asarray(pixels, dtype=np.uint8).reshape(frame.shape))
+
+    start_cycles = port.model.cycles if model == "rtl" else 0
+    start = time.perf_counter()
+    for frame in frames:
+        frame_through(frame)
+    seconds = (time.perf_counter() - start) / len(frames)
+    cycles = (port.model.cycles - start_cycles) / len(frames) if model == "rtl" else 0.0
+    same = sum(
+        np.array_equal(out, _stretched_by(frames[k - 1], frames[k]))
+        for k, out in enumerate(outputs)
+        if k
+    )
+    return {"seconds": seconds, "cycles": cycles, "same": same}
+
+
+def _stretched_by(before: np.ndarray, frame: np.ndarray) -> np.ndarray:
+    """The reference of the hardware Dehazer: `frame`'s median, stretched by the percentiles of
+    the median of the frame `before` (a streaming stretch knows a frame's levels at its end)."""
+    low, high = percentiles(median3x3(before))
+    return stretch_table(low, high)[median3x3(frame)]
+
+
+def migration_figures(guest: ModuleImage) -> dict[str, float]:
+    """Seconds on a modelled 115200 baud serial line: the guest Dehazer's image, and the
+    hardware Dehazer's bitstreams (each to a node with a fabric, as the experiment's)."""
+    software = run_transfer(guest, "serial")
+    hardware = 0.0
+    for image in BITSTREAMS:
+        with Node("fpga", fpga=scratch_port(image)) as node:
+            hardware += run_transfer(image, "serial", node=node).seconds
+    return {
+        "software": software.seconds,
+        "software_bytes": guest.size,
+        "hardware": hardware,
+        "hardware_bytes": sum(image.size for image in BITSTREAMS),
+        "cycles": sum(configuration_cycles(image) for image in BITSTREAMS),
+    }
+
+
 def normalize_with_opencv(frame: np.ndarray) -> np.ndarray:
     """OpenCV's nearest one-liner: 3x3 median, then min-max stretch (no percentiles)."""
     median = cv2.medianBlur(frame, 3)
@@ -119,6 +187,7 @@ def main() -> None:
 
     with tempfile.TemporaryDirectory() as builds:
         guest = guest_figures(frames, Path(builds), count)
+        image = dehazer_image(Path(builds))
     fps = 1.0 / guest["job"]
     print(
         f"guest Dehazer on a node: {fps:.1f} frames/s ({guest['job'] * 1e3:.2f} ms per frame, "
@@ -140,6 +209,28 @@ def main() -> None:
         f"numpy reference (same bytes): {1 / reference:.0f} frames/s; "
         f"OpenCV medianBlur + normalize: {1 / opencv:.0f} frames/s; "
         f"guest x{guest['job'] / reference:.1f} the numpy time"
+    )
+    for model in ("rtl", "tlm"):
+        hardware = hardware_figures(frames, model)
+        cycles = (
+            f"{hardware['cycles']:,.0f} fabric cycles per frame "
+            f"({hardware['cycles'] / FABRIC_HZ * 1e3:.2f} ms at 100 MHz), "
+            if model == "rtl"
+            else ""
+        )
+        print(
+            f"hardware Dehazer on the fabric ({model}): {cycles}"
+            f"{hardware['seconds'] * 1e3:.1f} ms of host time per frame; "
+            f"{hardware['same']} of {len(frames) - 1} frames the numpy reference's "
+            f"(the stretch by the frame before's levels)"
+        )
+    moved = migration_figures(image)
+    print(
+        f"repair over serial 115200: the guest Dehazer's image {moved['software_bytes']} B in "
+        f"{moved['software']:.3f} s; the hardware Dehazer's bitstreams "
+        f"{moved['hardware_bytes']} B in {moved['hardware']:.3f} s, then "
+        f"{moved['cycles']} fabric cycles ({moved['cycles'] / FABRIC_HZ * 1e6:.2f} µs) to "
+        f"reconfigure: x{moved['software'] / moved['hardware']:.0f} faster"
     )
 
 

@@ -18,6 +18,7 @@ from patrol.campaign import CAMPAIGN
 from patrol.firmware import CLASSES
 from patrol.scenarios import SCENARIOS
 from patrol.track import deviation, outline
+from pbort.ports import PortSpec
 from refresh.manager.plant import View
 from refresh.runtime import RuntimeSettings
 
@@ -85,6 +86,7 @@ APPLICATION = Application(
     default_scenario="two-faults",
     natives={cls.name: cls for cls in CLASSES},
     guests={"Kalman": HERE / "guest" / "kalman.c", "Pursuit": HERE / "guest" / "pursuit.c"},
+    hardware={"HwMedian": (PortSpec.input("raw"), PortSpec.output("offset"))},
     observe=observe,
     live_inputs=live_inputs,
     sample_fields=(

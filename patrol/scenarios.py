@@ -68,4 +68,34 @@ BLIND = Scenario(
     faults={"LineCam": 1.0, "IRArray": 1.0, "MastCam": 1.0},
 )
 
-SCENARIOS = (GLARE, CONTROLLER, FILTER, TWO_FAULTS, RELAY, BLIND)
+HARDWARE_FILTER = """
+# Rover1's FPGA: a 2-slot Morphing Crossbar on 32-bit samples whose slot 1 holds the running
+# median of five in Verilog (hdl/mx_fn_median5.v). HwMedian is the median filter in hardware:
+# its partial bitstream routes input 1 through that median to output 1
+# (python -m morphing_crossbar pack 2 1 through wrote it); its E-PBO only moves the offsets.
+[robots.rover1.fabric]
+slots = ["pass", "median5"]
+width = 32
+
+[schemas.filter.modules.HwMedian]
+robots = ["rover1"]
+inputs = { raw = "offset_raw" }
+outputs = { offset = "offset" }
+needs = { power = 1, cpu = 2 }
+source = { bitstreams = ["HwMedian.slot1.hex"] }
+hardware = { functionalities = ["median5"], slots = [1] }
+frequency = 50
+"""
+
+FILTER_HARDWARE = Scenario(
+    "filter-hardware",
+    "rover1's median filter corrupts its window at 1 s; rover1 has an FPGA",
+    "Median located; the guest Kalman does not fit rover1's CPU, but rover1's fabric holds a "
+    "running median: HwMedian's partial bitstream is sent to rover1, no coalition needed: "
+    "{..., HwMedian, ...}",
+    duration=DURATION,
+    faults={"Median": 1.0},
+    extra=HARDWARE_FILTER,
+)
+
+SCENARIOS = (GLARE, CONTROLLER, FILTER, TWO_FAULTS, RELAY, BLIND, FILTER_HARDWARE)

@@ -12,6 +12,10 @@
 # 4. The same experiment across processes: the two robots' nodes and the servo emulator (which
 #    serves its CAN buses itself) on loopback links, the manager in the command's process, in
 #    lock-step virtual time.
+# 5. The hardware half of ReFrESH: fog on the camera of a HexManipulator whose CPU cannot run
+#    the software Dehazer; ReFrESH chooses the Dehazer on its FPGA, sends the two partial
+#    bitstreams over the serial line and the frames stream through the Verilog's median and
+#    stretch; in process, then across processes.
 #
 # Usage: scripts/demo.sh VENV MODULE_BUILD_DIR
 set -euo pipefail
@@ -115,3 +119,8 @@ run python -m visual_servoing run --scenario paper --out "$(dirname "$build")/vi
 echo
 echo "=== the same experiment across processes: two nodes and the servos on loopback links, the manager here, lock-step time ==="
 run python -m visual_servoing run --scenario paper --processes --out "$(dirname "$build")/visual_servoing/paper-processes"
+
+echo
+echo "=== the hardware half: fog, a CPU too small for the software Dehazer, the Dehazer on the FPGA chosen ==="
+run python -m visual_servoing run --scenario fog-hardware --out "$(dirname "$build")/visual_servoing/fog-hardware"
+run python -m visual_servoing run --scenario fog-hardware --processes --out "$(dirname "$build")/visual_servoing/fog-hardware-processes"

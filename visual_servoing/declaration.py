@@ -18,6 +18,7 @@ from visual_servoing.errors import ServoingError
 from visual_servoing.experiment.campaign import CAMPAIGN
 from visual_servoing.experiment.scenarios import DATA, SCENARIOS
 from visual_servoing.experiment.world import ServoingWorld
+from visual_servoing.task.camera import frame_port
 
 FRAME = 1 / 30
 """Seconds between two samples of the run: one camera frame."""
@@ -41,6 +42,7 @@ APPLICATION = Application(
     scenarios=SCENARIOS,
     default_scenario="paper",
     guests={NAME: SOURCE},
+    hardware={"Dehazer_hw": (frame_port("raw", output=False), frame_port("image", output=True))},
     plant=ServoingWorld,
     sample_fields=(
         SampleField("target", "index of the current target", integer=True),

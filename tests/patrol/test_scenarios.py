@@ -30,6 +30,14 @@ EXPECTED = {
             [("Kalman", "rover2")],
         )
     ],
+    "filter-hardware": [
+        (
+            "Median",
+            6,  # as in "filter"; then HwMedian, on rover1's fabric, is the cheapest candidate
+            "{LineCam, Gyro, HwMedian, PID, Drive, Chassis}",
+            [("HwMedian", "rover1")],
+        )
+    ],
     "relay": [
         ("LineCam", 1, MASTCAM, []),
         ("MastCam", 2, "{IRArray, Gyro, Median, PID, Drive, Chassis}", []),  # LineCam's case fails

@@ -27,7 +27,7 @@ TIMES = ("detected_at", "applied_at", "recovered_at")
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["paper", "blackout", "fog", "servo-cut"])
+@pytest.mark.parametrize("name", ["paper", "blackout", "fog", "servo-cut", "fog-hardware"])
 def test_across_processes_in_lock_step_a_scenario_ends_as_in_process(
     name, tmp_path, scenario_outcome
 ) -> None:

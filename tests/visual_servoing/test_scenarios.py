@@ -7,6 +7,7 @@ import pytest
 from application.records import Outcome
 
 DEHAZED = "{CamReader, Dehazer, SSD, TrajGen, HexMan}"
+DEHAZED_IN_HARDWARE = "{CamReader, Dehazer_hw, SSD, TrajGen, HexMan}"
 
 
 def recovered(outcome: Outcome) -> None:
@@ -71,3 +72,27 @@ def test_a_cut_servo_bus_is_repaired_by_the_servos_second_bus(scenario_outcome):
     assert [c.data["p_t"] for c in cases] == [0, 0, 0, 1]
     assert cases[-1].data["replacement"] == "HexMan_alt@hexman"
     assert outcome.configurations[-1][1] == "{CamReader, SSD, TrajGen, HexMan_alt}"
+
+
+@pytest.mark.slow
+def test_fog_on_a_cpu_too_small_for_the_software_dehazer_is_cleared_in_hardware(
+    scenario_outcome,
+):
+    outcome = scenario_outcome("fog-hardware")
+    recovered(outcome)
+    (record,) = outcome.reconfigurations
+    assert record.decision.location.module == "CamReader"
+    # The software Dehazer would leave no CPU reserve (equation (1)); the hardware one fits.
+    judged = {
+        candidate.configuration.label(): (assessment.p_t, assessment.failing())
+        for candidate, assessment in record.decision.choice.candidates
+    }
+    assert judged[DEHAZED] == (0, ["cpu@hexman"])
+    assert judged[DEHAZED_IN_HARDWARE] == (1, [])
+    assert outcome.configurations[-1][1] == DEHAZED_IN_HARDWARE
+    (migration,) = outcome.migrations
+    assert (migration.module, migration.hardware, migration.size) == ("Dehazer_hw", True, 22)
+    assert migration.cycles == 2 * 25  # two wrappers, a frame beat a cycle, then the commit
+    assert migration.wire == "serial 115200" and 22 * 10 / 115200 < migration.seconds < 0.2
+    steps = [e.message for e in outcome.log.of_kind("step")]
+    assert any(s.startswith("start Dehazer_hw (Dehazer_hw, in hardware) on hexman") for s in steps)

@@ -48,6 +48,20 @@ FOG = Scenario(
     strikes=(FAULT_AT,),
 )
 
+HARDWARE = DATA / "hardware.toml"
+
+FOG_HARDWARE = Scenario(
+    "fog-hardware",
+    "fog on CamReader's lens, on a HexManipulator whose CPU cannot run the software Dehazer",
+    "CamReader located; the software Dehazer would leave no CPU reserve, so the hardware "
+    "Dehazer is chosen: its two partial bitstreams cross the serial line, the fabric's wrappers "
+    "reconfigure, and the frames stream through the Verilog's median and stretch: "
+    "{CamReader, Dehazer_hw, SSD, TrajGen, HexMan}",
+    database=HARDWARE,
+    plant=Faults({"CamReader": (Fault(FaultKind.FOG, 0.6, FAULT_AT),)}),
+    strikes=(FAULT_AT,),
+)
+
 TWO_ROBOTS = DATA / "robots.toml"
 
 BLACKOUT = Scenario(
@@ -174,6 +188,7 @@ REJOIN = Scenario(
 SCENARIOS = (
     PAPER,
     FOG,
+    FOG_HARDWARE,
     BLACKOUT,
     POWER_DROP,
     SERVO_CUT,
