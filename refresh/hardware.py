@@ -5,19 +5,19 @@ A hardware module's source is partial bitstreams, one per slot it configures (it
 names the functionalities its stream passes through and their slots). Applied to a fabric whose
 other slots take nothing, they must make exactly one route, from one external input through those
 functionalities, in that order, to one output: `route` traces it (the E-PBO streams into the
-route's input, its ``slot`` constant). ``refresh check`` reads every module's bitstreams this way
+route's input). ``refresh check`` reads every module's bitstreams this way
 (`check_hardware`); a database that loads but names bitstreams that route elsewhere would plan
 migrations whose data goes nowhere.
 
-Two hardware modules on one robot cannot share a slot: `claims` says which slots a configuration
-claims on each robot, and equation (1) has a term per fabric that no slot is claimed twice
-(`refresh.performance`). The estimators run a hardware module in shadow on a model of its robot's
-fabric configured with its bitstreams (`hardware_codes`), never on the live fabric.
+Two hardware modules on one robot cannot share a slot: equation (1) has a term per fabric that
+no slot is claimed twice (`refresh.performance`). A robot's node runs a hardware module's E-PBO
+on its fabric (`node_codes`); the estimators run it in shadow on a model of its robot's fabric
+configured with its bitstreams (`host_codes`), never on the live fabric.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from functools import cache
 from pathlib import Path
 
@@ -68,7 +68,7 @@ def route(module: Module, robot: Robot) -> Route:
 def _traced(paths: tuple[Path, ...], slots: tuple[int, ...], built: Fabric, name: str) -> Route:
     """The route of bitstream files `paths` on `built`, checked against `slots` (cached: the
     Generator asks for every candidate, the files are read once)."""
-    configuration = Configuration(built, (empty_route(),) * built.n)
+    configuration = _empty(built)
     configured = []
     for path in paths:
         try:
@@ -106,17 +106,6 @@ def check_hardware(database: ModuleDatabase, file: str) -> None:
                     str(error).partition(": ")[2],
                     key="bitstreams",
                 ) from None
-
-
-def claims(placements: Iterable[tuple[str, str]], database: ModuleDatabase) -> dict[str, list[int]]:
-    """The fabric slots the hardware modules of `placements` ((module, robot) each) claim, by
-    robot, a slot once per module claiming it."""
-    claimed: dict[str, list[int]] = {}
-    for module_name, robot in placements:
-        hardware = database.module(module_name).hardware
-        if hardware is not None:
-            claimed.setdefault(robot, []).extend(hardware.slots)
-    return claimed
 
 
 def node_codes(
@@ -182,8 +171,10 @@ def _code(
 
 
 def shadow_port(module: Module, robot: Robot) -> CrossbarReconfigurationPort:
-    """A transaction-level model of `robot`'s fabric with `module`'s bitstreams applied."""
-    port = CrossbarReconfigurationPort(CrossbarModel(fabric(robot)))
+    """A transaction-level model of `robot`'s fabric with `module`'s bitstreams applied to
+    empty slots (the route `route` checked)."""
+    built = fabric(robot)
+    port = CrossbarReconfigurationPort(CrossbarModel(built, _empty(built)))
     for image in bitstream_images(module):
         port.load(image)
     return port
@@ -195,10 +186,14 @@ def scratch_port(image: ModuleImage) -> CrossbarReconfigurationPort:
     that did not take the bitstream would refuse it)."""
     try:
         built = fabric_for(image)
-        empty = Configuration(built, (empty_route(),) * built.n)
-        return CrossbarReconfigurationPort(CrossbarModel(built, empty))
+        return CrossbarReconfigurationPort(CrossbarModel(built, _empty(built)))
     except CrossbarError as error:
         raise ApplyError(f"bitstream {image.name}: {error}") from None
+
+
+def _empty(built: Fabric) -> Configuration:
+    """`built` with every slot taking and driving nothing."""
+    return Configuration(built, (empty_route(),) * built.n)
 
 
 def _image(module: Module, path: Path) -> ModuleImage:
