@@ -307,8 +307,10 @@ class _Samples:
         """A frame's beats (its last one the frame's last): what `step` gives them, one by
         one; a map with no history in one numpy operation."""
         kind = self.function.kind
-        if kind in _VECTORIZED and data:
+        if kind in _VECTORIZED and len(data) >= NUMPY_FROM:
             return _VECTORIZED[kind](self.function, np.asarray(data, np.int64), self.data_w)
+        if not self.history:
+            return [self.function.compute(x, (), self.data_w) for x in data]
         return [self.step(Beat(x, k == len(data) - 1))[0].data for k, x in enumerate(data)]
 
 
@@ -458,6 +460,10 @@ def _threshold(function: Function, x: np.ndarray, data_w: int) -> list[int]:
 def _pass(function: Function, x: np.ndarray, data_w: int) -> list[int]:
     return x.tolist()
 
+
+NUMPY_FROM = 64
+"""Beats from which a stateless map goes through numpy: below, converting costs more than it
+saves (a node's fabric PBO sends one sample a call)."""
 
 _VECTORIZED: dict[Kind, Callable[[Function, np.ndarray, int], list[int]]] = {
     Kind.GAIN: _gain,

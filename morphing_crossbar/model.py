@@ -89,7 +89,7 @@ class CrossbarModel:
         ends = self.configuration.require_routes(inputs)
         outputs: dict[int, list[int]] = {}
         for port, beats in inputs.items():
-            path = self.configuration.trace(port)
+            path = self.configuration.route_of(port)
             assert path is not None  # require_routes refused an input routed nowhere
             data = beats
             for slot in path.functions if data else ():  # each slot serves one route

@@ -46,7 +46,8 @@ class Configuration:
         self.routes = routes
         self._consumers = self._index_consumers()
         self._check_cycles()
-        self._outputs = {path.input: path.output for path in self.paths()}
+        self._paths = {path.input: path for path in self.paths()}
+        self._outputs = {port: path.output for port, path in self._paths.items()}
 
     @classmethod
     def reset(cls, fabric: Fabric) -> Configuration:
@@ -97,6 +98,11 @@ class Configuration:
                 raise RouteError(f"expected a route from input {port} to an output, got none")
             outputs[port] = output
         return outputs
+
+    def route_of(self, input_slot: int) -> Path | None:
+        """The route from external input ``input_slot`` (traced once per configuration: the
+        model's `stream` asks on every call), or None if it ends nowhere."""
+        return self._paths.get(input_slot)
 
     def trace(self, input_slot: int) -> Path | None:
         """Follow external input ``input_slot`` to its output, or None if it ends nowhere."""

@@ -327,7 +327,7 @@ FRAME_KINDS = [
 @settings(max_examples=60, deadline=None)
 @given(
     st.sampled_from(FRAME_KINDS),
-    st.lists(st.lists(st.integers(0, 255), max_size=40), min_size=1, max_size=4),
+    st.lists(st.lists(st.integers(0, 255), max_size=100), min_size=1, max_size=4),
 )
 def test_a_frame_at_once_gives_what_its_beats_one_by_one_give(text, frames) -> None:
     """`FunctionState.frame` (numpy for whole frames, the model's `stream`) against `step`,
