@@ -68,3 +68,22 @@ def test_run_processes_names_each_node_and_its_log(tmp_path, capsys):
         ("Pursuit", "rover1", 884)
     ]
     assert "listening on tcp-listen://127.0.0.1:" in (tmp_path / "rover1.log").read_text()
+
+
+@pytest.mark.slow
+def test_a_hardware_repair_across_processes_sends_the_bitstream_to_rover1_s_node(tmp_path):
+    scenario = APPLICATION.scenario("filter-hardware")
+    got = run_processes(APPLICATION, scenario, tmp_path / "linked")
+    (record,) = got["reconfigurations"]
+    assert (record["located"], record["chosen"]) == ("Median", EXPECTED["filter-hardware"][0][2])
+    assert record["in_hardware"] == ["HwMedian@rover1"]
+    (migration,) = record["migrations"]
+    assert (migration["module"], migration["robot"], migration["hardware"]) == (
+        "HwMedian",
+        "rover1",
+        True,
+    )
+    assert migration["reconfiguration_cycles"] == 25
+    assert got["worst"]["offset"] < 100  # the offsets went through the Verilog's median, signed
+    log = (tmp_path / "linked" / "rover1.log").read_text()
+    assert "configured mx_slot1: slot 1 reconfigured in 25 fabric cycles" in log
