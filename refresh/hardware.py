@@ -54,7 +54,7 @@ def fabric(robot: Robot) -> Fabric:
 def bitstream_images(module: Module) -> list[ModuleImage]:
     """The module's bitstream images, in the database's order; ApplyError for one that does not
     read."""
-    return [_image(module, path) for path in module.source.bitstreams]
+    return [_read(module.name, path) for path in module.source.bitstreams]
 
 
 def route(module: Module, robot: Robot) -> Route:
@@ -71,10 +71,11 @@ def _traced(paths: tuple[Path, ...], slots: tuple[int, ...], built: Fabric, name
     configuration = _empty(built)
     configured = []
     for path in paths:
+        image = _read(name, path)
         try:
-            bitstream = from_image(built, ModuleImage.read(path))
+            bitstream = from_image(built, image)
             configuration = configuration.with_route(bitstream.slot, bitstream.route)
-        except (HexmigrateError, CrossbarError, OSError) as error:
+        except CrossbarError as error:
             raise ApplyError(f"module {name}: bitstream {path}: {error}") from None
         configured.append(bitstream.slot)
     found = configuration.paths()
@@ -196,8 +197,10 @@ def _empty(built: Fabric) -> Configuration:
     return Configuration(built, (empty_route(),) * built.n)
 
 
-def _image(module: Module, path: Path) -> ModuleImage:
+def _read(name: str, path: Path) -> ModuleImage:
+    """Module `name`'s bitstream file at `path` (hexmigrate reads only a regular file of a
+    module's size: a device named in a database is refused, not read)."""
     try:
         return ModuleImage.read(path)
     except (HexmigrateError, OSError) as error:
-        raise ApplyError(f"module {module.name}: bitstream {path}: {error}") from None
+        raise ApplyError(f"module {name}: bitstream {path}: {error}") from None

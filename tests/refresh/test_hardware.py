@@ -125,6 +125,15 @@ def test_a_missing_bitstream_fails_refresh_check_by_name(tmp_path):
         check_hardware(database, "db.toml")
 
 
+@pytest.mark.parametrize("named", ["/dev/zero", "/tmp", "/nonexistent.hex"])
+def test_a_bitstream_that_is_no_file_is_refused_without_reading_it(tmp_path, named):
+    text = database_text(tmp_path).replace('"tail.hex"]', f'"{named}"]')
+    (tmp_path / "db.toml").write_text(text)
+    database = load(tmp_path / "db.toml").database
+    with pytest.raises(DatabaseImageError, match="Doubler.source.bitstreams: expected bitstreams"):
+        check_hardware(database, "db.toml")
+
+
 @pytest.mark.parametrize(
     ("change", "where", "expected"),
     [
