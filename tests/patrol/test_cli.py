@@ -19,8 +19,9 @@ def patrol(*argv: str) -> int:
 def test_scenarios_lists_each_with_what_it_expects(capsys):
     assert patrol("scenarios") == 0
     out = capsys.readouterr().out
+    width = max(len(scenario.name) for scenario in APPLICATION.scenarios) + 1  # a column
     for scenario in APPLICATION.scenarios:
-        assert f"{scenario.name:<11} {scenario.title}" in out
+        assert f"{scenario.name:<{width}} {scenario.title}" in out
         assert f"expected: {scenario.expected}" in out
 
 
