@@ -130,7 +130,7 @@ def test_a_bitstream_that_is_no_file_is_refused_without_reading_it(tmp_path, nam
     text = database_text(tmp_path).replace('"tail.hex"]', f'"{named}"]')
     (tmp_path / "db.toml").write_text(text)
     database = load(tmp_path / "db.toml").database
-    with pytest.raises(DatabaseImageError, match="Doubler.source.bitstreams: expected bitstreams"):
+    with pytest.raises(DatabaseImageError, match=r"Doubler\.source\.bitstreams: expected"):
         check_hardware(database, "db.toml")
 
 
