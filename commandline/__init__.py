@@ -22,6 +22,7 @@ from commandline.main import (
     add_command,
     command_parser,
     importing_command,
+    one_line,
     run,
 )
 
@@ -36,5 +37,6 @@ __all__ = [
     "add_command",
     "command_parser",
     "importing_command",
+    "one_line",
     "run",
 ]

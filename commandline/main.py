@@ -151,6 +151,15 @@ def visible(text: str) -> str:
     return "".join(c if c.isprintable() or c in LAYOUT else repr(c)[1:-1] for c in text)
 
 
+def one_line(text: str) -> str:
+    """`text` as one line of data: every character that is not printable, line breaks and tabs
+    included, shown as Python escapes it. What a module or a node wrote is shown so, never acted
+    on by the terminal nor taken for lines of the program's own."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
 def describe(error: BaseException) -> str:
     """An error as its one line: an `OSError` names the file and the system's reason."""
     if isinstance(error, OSError) and error.filename is not None and error.strerror:

@@ -1,11 +1,13 @@
-"""The `hexmigrate` commands that control a node's PBOs over its own link: ps, start, stop, set,
-rate, connect, disconnect and watch (docs/cli.md). Each one opens the link `--to` names, sends its
-requests through a `NodeControl` and prints what the node answered; a refusal is the node's
-reason on one ``error:`` line.
+"""The `hexmigrate` commands that control a node's PBOs over its own link: ps, start, stop, clear,
+set, rate, connect, disconnect, watch and logs (docs/cli.md). Each one opens the link `--to`
+names, sends its requests through a `NodeControl` and prints what the node answered; a refusal
+is the node's reason on one ``error:`` line.
 
 `watch` asks the node to push a report every `--period` seconds (its leftover power, each
 running PBO's evaluator outputs and the named ports) and a heartbeat every second, and prints
-them as they come.
+them as they come. `logs` prints what a PBO's module logged (the lines the node keeps), and with
+`--follow` asks again every `FOLLOW_PERIOD` for what is new; a line is shown as data (control
+characters escaped).
 """
 
 from __future__ import annotations
@@ -14,11 +16,12 @@ import argparse
 import contextlib
 import json
 import math
+import time
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager
 from typing import Any
 
-from commandline import UsageError, add_command
+from commandline import UsageError, add_command, one_line
 from commandline.arguments import real
 from hexmigrate.errors import MessageError
 from hexmigrate.transfer.control import MAX_PORTS, Number, parse_values, wire
@@ -36,6 +39,11 @@ MAX_MILLIHERTZ = 0xFFFF_FFFF
 """The highest rate a request carries, in millihertz (a u32)."""
 MAX_ARGUMENT = 120
 """The longest PBO name, setting or wire a command takes: each travels in one message."""
+FOLLOW_PERIOD = 0.5
+"""Seconds between two asks of `logs --follow`."""
+MAX_LOG_ASKS = 64
+"""Answers one `logs` reads at most before it prints (a node keeps 64 lines; each answer
+carries one at least)."""
 
 
 def pbo_name(text: str) -> str:
@@ -134,6 +142,11 @@ def add_control_commands(
 
         return command
 
+    def logs(args: argparse.Namespace) -> int:
+        with control(args) as node:
+            _logs(node, args.pbo, args.follow, args.seconds)
+        return 0
+
     def watch(args: argparse.Namespace) -> int:
         if len(args.port or ()) > MAX_PORTS:  # before the link opens
             raise UsageError(f"expected at most {MAX_PORTS} --port, got {len(args.port)}")
@@ -156,6 +169,7 @@ def add_control_commands(
     for name, action, verb in (
         ("start", NodeControl.start, "turn a PBO on (creating it first if need be)"),
         ("stop", NodeControl.stop, "turn a PBO off (so that its constants can be set)"),
+        ("clear", NodeControl.clear, "take a PBO out of ERROR (it is OFF after: set, start)"),
     ):
         command = add_command(commands, name, one(action, "pbo"), verb)
         command.add_argument("pbo", type=pbo_name, metavar="PBO", help="the PBO's name")
@@ -233,6 +247,27 @@ def add_control_commands(
     )
     watching.add_argument("--csv", action="store_true", help="print CSV with a time column")
     link_options(watching)
+    logging = add_command(
+        commands,
+        "logs",
+        logs,
+        "print what a PBO's module logged",
+        "Print the lines a PBO's module logged (LOG) that the node keeps (its last 64), each\n"
+        "with the node's clock; with --follow, then each new one as it comes, for --seconds.\n"
+        "A line's control characters are shown escaped.\n\n"
+        "example:\n"
+        "  hexmigrate logs level_alarm --follow --to socket://127.0.0.1:7777",
+    )
+    logging.add_argument("pbo", type=pbo_name, metavar="PBO", help="the PBO's name")
+    logging.add_argument("--follow", action="store_true", help="print new lines as they come")
+    logging.add_argument(
+        "--seconds",
+        type=real(above=0, maximum=MAX_WATCH_SECONDS, unit="s"),
+        default=MAX_WATCH_SECONDS,
+        metavar="S",
+        help="how long --follow follows (default: until interrupted)",
+    )
+    link_options(logging)
 
 
 def _watch(node: NodeControl, args: argparse.Namespace) -> None:
@@ -257,6 +292,29 @@ def _watch(node: NodeControl, args: argparse.Namespace) -> None:
             print(_row(push, columns, values, args.csv), flush=True)
     finally:
         node.watch(0)
+
+
+def _logs(node: NodeControl, pbo: str, follow: bool, seconds: float) -> None:
+    """Print PBO `pbo`'s kept log lines, then, with `follow`, the new ones for `seconds`."""
+    last = _print_log(node, pbo, 0)
+    deadline = time.monotonic() + seconds
+    while follow and time.monotonic() < deadline:
+        time.sleep(min(FOLLOW_PERIOD, max(0.0, deadline - time.monotonic())))
+        last = _print_log(node, pbo, last)
+
+
+def _print_log(node: NodeControl, pbo: str, since: int) -> int:
+    """Print the lines after line `since` (asking again while an answer leaves some); the
+    number of the last one printed."""
+    for _ in range(MAX_LOG_ASKS):
+        latest, lines = node.log(pbo, since)
+        for line in lines:
+            if line.number > since:
+                print(f"{line.time:10.3f} s  {pbo}: {one_line(line.text)}", flush=True)
+                since = line.number
+        if not lines or since >= latest:
+            break
+    return since
 
 
 def _row(

@@ -119,15 +119,26 @@ class MethodFailedError(KernelError, RuntimeError):
     """A method the caller asked for returned a negative status or was stopped by a fault.
 
     Raised after the lifecycle reacted (the PBO is in `state`), so the caller learns both what went
-    wrong (`result`) and where the PBO now stands.
+    wrong (`result`), where the PBO now stands and what the module logged meanwhile (`logged`,
+    quoted in the message: ``...; now ERROR; it logged: k is not configured``).
     """
 
-    def __init__(self, pbo: str, method: str, result: CallResult, state: State) -> None:
-        super().__init__(f"PBO {pbo!r}: {describe_failure(method, result)}; now {state.name}")
+    def __init__(
+        self,
+        pbo: str,
+        method: str,
+        result: CallResult,
+        state: State,
+        logged: tuple[str, ...] = (),
+    ) -> None:
+        told = f"; it logged: {' / '.join(logged)}" if logged else ""
+        super().__init__(f"PBO {pbo!r}: {describe_failure(method, result)}; now {state.name}{told}")
         self.pbo = pbo
         self.method = method
         self.result = result
         self.state = state
+        self.logged = logged
+        """What the module logged during the call (its own reason, usually)."""
 
 
 class ClosedError(KernelError, RuntimeError):

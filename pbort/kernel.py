@@ -37,6 +37,7 @@ from pbort.errors import (
     UnknownPortError,
 )
 from pbort.lifecycle import CONFIGURABLE, REMOVABLE, State, require
+from pbort.module_log import LogLine
 from pbort.pbo import RegisteredPBO
 from pbort.performance_buffer import PerformanceBuffer
 from pbort.ports import PortSpec, PortValue
@@ -60,6 +61,7 @@ class Kernel:
         self._pbos: dict[str, RegisteredPBO] = {}
         self._registrations = 0
         self._shadows: list[ShadowRun] = []
+        self._log_observers: list[Callable[[str, LogLine], None]] = []
         self._closed = False
 
     # Registration and wiring.
@@ -95,6 +97,7 @@ class Kernel:
             scheduler=self._scheduler,
             buffer_size=self._buffer_size,
             triggers=triggers,
+            on_log=self._logged,
         )
         self._registrations += 1
         self._pbos[name] = pbo
@@ -205,6 +208,15 @@ class Kernel:
         """Stop calling an observer `observe` added."""
         self._scheduler.observers.remove(observer)
 
+    def observe_log(self, observer: Callable[[str, LogLine], None]) -> None:
+        """Call `observer(pbo, line)` for each line a module logs (its LOG service), as it is
+        logged: a node prints them, or sends them on."""
+        self._log_observers.append(observer)
+
+    def _logged(self, name: str, line: LogLine) -> None:
+        for observer in self._log_observers:
+            observer(name, line)
+
     def run(self, until: float | None = None, cycles: int | None = None) -> int:
         """Run the scheduler until time `until` (absolute, in seconds) or for `cycles` jobs.
 
@@ -253,6 +265,11 @@ class Kernel:
     def connections(self) -> list[tuple[str, str]]:
         """Every (source, sink) pair of the live wiring."""
         return self._svt.connections()
+
+    def log(self, name: str, since: int = 0) -> tuple[LogLine, ...]:
+        """The lines PBO `name`'s module logged after line `since` (0: all it keeps), oldest
+        first (`pbort.module_log`)."""
+        return self._pbo(name).log.since(since)
 
     def stats(self, name: str) -> Stats:
         """A snapshot of the PBO's counters."""

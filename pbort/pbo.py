@@ -13,6 +13,7 @@ KILLED frees the executor.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from functools import partial
 
 from pbort.code import CallResult, Instance, Method, ModuleCode, Role, Services
@@ -25,6 +26,7 @@ from pbort.errors import (
     describe_failure,
 )
 from pbort.lifecycle import CONFIGURABLE, State, require, transition
+from pbort.module_log import LogLine, ModuleLog
 from pbort.performance_buffer import PerformanceBuffer
 from pbort.ports import Direction, PortSpec, PortValue
 from pbort.scheduler import Job, Scheduler
@@ -54,6 +56,7 @@ class RegisteredPBO:
         scheduler: Scheduler,
         buffer_size: int,
         triggers: tuple[str, ...],
+        on_log: Callable[[str, LogLine], None] = lambda name, line: None,
     ) -> None:
         self.name = name
         self.code = code
@@ -70,9 +73,10 @@ class RegisteredPBO:
         self.buffer = PerformanceBuffer(buffer_size)
         self.counters = Counters()
         now = scheduler.clock.now
-        self.services = Services(
-            report=self.buffer.reporter(now), now=now, log=partial(_module_log.info, "%s: %s", name)
-        )
+        self.log = ModuleLog()
+        """The lines its module logged (LOG), the latest kept."""
+        self._on_log = on_log
+        self.services = Services(report=self.buffer.reporter(now), now=now, log=self._logged)
         self.evaluates = code.implements(_EVALUATE)
         self.job = Job(
             name,
@@ -97,6 +101,13 @@ class RegisteredPBO:
             if p.direction is Direction.OUT
         ]
 
+    def _logged(self, text: str) -> None:
+        """A line from the module: kept in its log, told to the kernel's observers, and to
+        Python's logging (``pbort.module``, as ``NAME: text``)."""
+        line = self.log.append(self._scheduler.clock.now(), text)
+        _module_log.info("%s: %s", self.name, line.text)
+        self._on_log(self.name, line)
+
     def port_names(self) -> list[str]:
         """Every port as ``pbo.port``."""
         return [f"{self.name}.{port}" for port in self.specs]
@@ -113,6 +124,7 @@ class RegisteredPBO:
     def spawn(self) -> None:
         """Create the executor, hand it the constants, and run `init`."""
         row = transition(self.name, self.state, Method.INIT)
+        before = self.log.count
         instance = self.code.instantiate(Role.EXECUTOR, self.services)
         for port, value in self.constants.items():
             instance.put(port, value)
@@ -124,12 +136,15 @@ class RegisteredPBO:
             instance.release()
         self._move(row.target(result.ok), Method.INIT, result)
         if not result.ok:
-            raise MethodFailedError(self.name, Method.INIT.value, result, self.state)
+            raise MethodFailedError(
+                self.name, Method.INIT.value, result, self.state, self._said(before)
+            )
 
     def control(self, method: Method) -> None:
         """Run on, off, kill or clear; a failure raises MethodFailedError after the state change."""
         row = transition(self.name, self.state, method)
         assert self.instance is not None  # every state a row starts from holds an instance
+        before = self.log.count
         result = self.instance.call(method)
         self.counters.instructions += result.instructions
         target = row.target(result.ok)
@@ -138,7 +153,12 @@ class RegisteredPBO:
         if entering_error:
             self.complete()
         if not result.ok:
-            raise MethodFailedError(self.name, method.value, result, self.state)
+            raise MethodFailedError(self.name, method.value, result, self.state, self._said(before))
+
+    def _said(self, before: int) -> tuple[str, ...]:
+        """What the module logged since its log held `before` lines (during a failed call, and
+        the `error` method it led to)."""
+        return tuple(line.text for line in self.log.since(before))
 
     def configure(self, port: str, value: object) -> None:
         """Set a constant or resource port, before the PBO is switched on."""

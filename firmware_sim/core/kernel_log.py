@@ -1,10 +1,9 @@
 """The kernel's and the modules' log lines, taken from the ``pbort`` logger.
 
 pbort logs through Python's logging: its own warnings (a fault, a missed start) and each module's
-LOG service calls, as ``NAME: text`` at INFO. The node's commands need them in two ways: `run`
-keeps all of them in the node's log with virtual time (`into_node_log`), and starting a PBO
-keeps what its module said while it tried, so that a refusal shows the module's own reason
-(`captured`).
+LOG service calls, as ``NAME: text`` at INFO. `run` keeps all of them in the node's log with
+virtual time (`into_node_log`). (A PBO also keeps its module's recent lines itself:
+`pbort.module_log`, which refusals quote and a listening node prints and answers.)
 """
 
 from __future__ import annotations
@@ -53,11 +52,3 @@ def into_node_log(node: Node, echo: bool) -> Iterator[None]:
     of on standard error (where they still go when `echo`)."""
     with _attached(lambda text: node.log.append((node.kernel.now, text)), echo):
         yield
-
-
-@contextmanager
-def captured() -> Iterator[list[str]]:
-    """The lines logged while inside (they also go where they went before)."""
-    lines: list[str] = []
-    with _attached(lines.append):
-        yield lines

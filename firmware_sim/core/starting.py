@@ -2,15 +2,15 @@
 types, and a refusal told with what the module itself logged.
 
 A guest module that refuses to start (its ``on`` returns an error) usually says why through the
-kernel's LOG service ("gain: k is not configured"); the kernel's own error only says that ``on``
-returned -1. `start_pbo` puts the two together in one `StartError`.
+kernel's LOG service ("gain: k is not configured"); the kernel's error quotes what the module
+logged during the failed call (`pbort.errors.MethodFailedError`), and `start_pbo` makes it one
+`StartError` naming the PBO.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 
-from firmware_sim.core.kernel_log import captured
 from firmware_sim.core.node import Node
 from firmware_sim.core.port_values import Number, exact_constants
 from firmware_sim.errors import PortValueError, StartError
@@ -39,11 +39,7 @@ def start_pbo(
         values = exact_constants(name, module.ports, constants or {})
     except PortValueError as error:
         raise StartError(f"{name} did not start: {error}") from error
-    with captured() as lines:
-        try:
-            return node.start(module, frequency, name=name, constants=values, switch_on=switch_on)
-        except KernelError as error:
-            prefix = f"{name}: "  # how pbort marks a module's own lines
-            said = [line.removeprefix(prefix) for line in lines if line.startswith(prefix)]
-            told = f"; it logged: {' / '.join(said)}" if said else ""
-            raise StartError(f"{name} did not start: {error}{told}") from error
+    try:
+        return node.start(module, frequency, name=name, constants=values, switch_on=switch_on)
+    except KernelError as error:
+        raise StartError(f"{name} did not start: {error}") from error

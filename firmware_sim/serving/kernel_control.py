@@ -23,7 +23,7 @@ from firmware_sim.bridge.linked_halves import LinkedExport, LinkedImport, bridge
 from firmware_sim.core.node import RATE_MAX, RATE_MIN, Node
 from firmware_sim.core.port_values import Number, exact, setting
 from firmware_sim.errors import BridgeError, PortValueError
-from hexmigrate.transfer.control import MAX_ADVANCE, PboRow
+from hexmigrate.transfer.control import MAX_ADVANCE, LoggedLine, PboRow
 from pbort.code import PerformanceKind
 from pbort.errors import NotConnectedError
 from pbort.lifecycle import State
@@ -260,6 +260,23 @@ class KernelControl:
         states = Counter(kernel.state(name).name for name in kernel.names)
         counts = ", ".join(f"{count} {state}" for state, count in sorted(states.items()))
         return f"{self.node.name}: {len(kernel.names)} PBOs" + (f": {counts}" if counts else "")
+
+    def log(self, name: str, since: int) -> tuple[int, tuple[LoggedLine, ...]]:
+        """PBO `name`'s latest log line number, and the lines its module logged after line
+        `since` that the PBO keeps."""
+        lines = self.node.kernel.log(name, since)
+        latest = lines[-1].number if lines else self._latest(name)
+        return latest, tuple(LoggedLine(line.number, line.time, line.text) for line in lines)
+
+    def _latest(self, name: str) -> int:
+        """The number of PBO `name`'s latest log line (0: none yet)."""
+        kept = self.node.kernel.log(name)
+        return kept[-1].number if kept else 0
+
+    def clear(self, name: str) -> str:
+        """Take PBO `name` out of ERROR (OFF: it may be set and started again)."""
+        self.node.kernel.clear(name)
+        return f"cleared {name}: now OFF"
 
     def read(self, port: str) -> Number:
         """The value of scalar port `port`."""

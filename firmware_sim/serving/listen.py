@@ -21,6 +21,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from commandline import one_line
 from commandline.interrupts import stop_requests
 from firmware_sim.core.debug_port import DebugPort
 from firmware_sim.core.fabric_pbo import NAME as FABRIC
@@ -32,6 +33,7 @@ from firmware_sim.core.fpga_port import (
     open_port,
 )
 from firmware_sim.core.guest import DEFAULT_BUDGET
+from firmware_sim.core.kernel_log import into_node_log
 from firmware_sim.core.natives import NATIVES
 from firmware_sim.core.node import Node, NodeConfig
 from firmware_sim.core.port_values import Setting, by_pbo
@@ -111,14 +113,22 @@ def listen(
     codes = {name: NativeModule(native) for name, native in builtin.items()} | firmware
     natives = [(name, codes[name]) for name in config.natives]
     clock: Clock = VirtualClock() if config.lock_step else RealTimeClock()
-    with Node(
-        config.name,
-        NodeConfig(
-            flash_file=config.flash, budget=config.budget, trust=config.trust, elves=config.elves
-        ),
-        clock,
-        fpga=port,
-    ) as node:
+    with (
+        Node(
+            config.name,
+            NodeConfig(
+                flash_file=config.flash,
+                budget=config.budget,
+                trust=config.trust,
+                elves=config.elves,
+            ),
+            clock,
+            fpga=port,
+        ) as node,
+        into_node_log(node, echo=True),
+    ):
+        # the kernel's warnings (a fault) go to the node's log; each module line is said too
+        node.kernel.observe_log(lambda pbo, line: say(f"{pbo}: {one_line(line.text)}"))
         if started is not None:
             started(node)
         pbos = PboSetup(

@@ -15,10 +15,11 @@ the answer after the word ``advanced`` and the node's clock in microseconds (`ad
 
 from __future__ import annotations
 
+import json
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 from hexmigrate.errors import MessageError
 
@@ -38,6 +39,20 @@ runs, a time master grants quanta far shorter, and a device that follows the tim
 what it is sent (the lock-step servos) moves no further at once."""
 BRIDGE_NUMBERS = 1 << 16
 """Bridge numbers travel as u16."""
+MAX_LOG_TEXT = 800
+"""Characters of log lines one answer carries at most: a text-mode line holds 1,024, and a
+follower asks again from the last line it got."""
+MAX_LOG_LINE = 512
+"""Characters of one logged line a host takes (a node keeps no more)."""
+
+
+class LoggedLine(NamedTuple):
+    """A line a PBO's module logged, as it travels: its number in the PBO's log (from 1), the
+    node's clock when it was logged (seconds) and the module's text."""
+
+    number: int
+    time: float
+    text: str
 
 
 @dataclass(frozen=True)
@@ -86,6 +101,8 @@ class ControlTarget(Protocol):
     def connect(self, source: str, sink: str) -> str: ...
     def disconnect(self, source: str, sink: str) -> str: ...
     def read(self, port: str) -> Number: ...
+    def log(self, name: str, since: int) -> tuple[int, tuple[LoggedLine, ...]]: ...
+    def clear(self, name: str) -> str: ...
     def clock(self) -> float: ...
     def performance(self) -> tuple[tuple[str, Number], ...]: ...
     def state(self) -> str: ...
@@ -149,6 +166,47 @@ def parse_values(text: str) -> tuple[tuple[str, Number], ...]:
             raise MessageError(f"expected NAME=VALUE, got {word[:60]!r}")
         values.append((port, _number(value)))
     return tuple(values)
+
+
+def log_text(lines: Sequence[LoggedLine], budget: int) -> str:
+    """The oldest of `lines` whose text fits `budget` characters, as one JSON array of
+    ``[NUMBER, MICROSECONDS, TEXT]``: printable ASCII whatever a module wrote (JSON escapes
+    control characters and ``ensure_ascii`` the rest), and one line at least, cut to fit."""
+    taken: list[list[object]] = []
+    for line in lines:
+        entry = [line.number, round(line.time * MICROSECONDS), line.text]
+        if taken and len(json.dumps([*taken, entry])) > budget:
+            break
+        taken.append(entry)
+        while len(json.dumps(taken)) > budget and len(str(taken[-1][2])) > 1:
+            text = str(taken[-1][2])
+            taken[-1][2] = text[: len(text) // 2]
+    return json.dumps(taken) if taken else ""
+
+
+def parse_log(text: str) -> tuple[LoggedLine, ...]:
+    """The lines of a `LogLines` answer; MessageError for anything but `log_text`'s form."""
+    if not text.strip():
+        return ()
+    try:
+        raw = json.loads(_printable(text))
+    except (ValueError, RecursionError):
+        raise MessageError(f"expected a JSON array of log lines, got {text[:60]!r}") from None
+    if not isinstance(raw, list):
+        raise MessageError(f"expected a JSON array of log lines, got {text[:60]!r}")
+    return tuple(_log_line(entry) for entry in raw)
+
+
+def _log_line(entry: object) -> LoggedLine:
+    if (
+        not isinstance(entry, list)
+        or len(entry) != 3
+        or not all(isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in entry[:2])
+        or not isinstance(entry[2], str)
+    ):
+        raise MessageError(f"expected [NUMBER, MICROSECONDS, TEXT], got {str(entry)[:60]!r}")
+    number, micros, text = entry
+    return LoggedLine(number, micros / MICROSECONDS, text[:MAX_LOG_LINE])
 
 
 def counts_text(counts: Mapping[int, int]) -> str:

@@ -1,5 +1,6 @@
 """The host's side of node control: `NodeControl` asks a node, through a `Sender` (its retries,
-timeouts and refusal handling), to list, start, stop, set, wire and read its PBOs, to push
+timeouts and refusal handling), to list, start, stop, clear, set, wire and read its PBOs and
+read their modules' logs, to push
 reports (`watch`, then `pushes`), to carry ports to and from other nodes (`export_port`,
 `import_port`) and, in lock-step time, to run to a time (`advance`; `time_master.TimeMaster`
 drives every node so).
@@ -18,26 +19,31 @@ from hexmigrate.errors import MessageError
 from hexmigrate.transfer.control import (
     ADVANCED,
     MICROSECONDS,
+    LoggedLine,
     Number,
     PboRow,
     counts_text,
     parse_advanced,
+    parse_log,
     parse_rows,
     parse_values,
 )
 from hexmigrate.transfer.messages import (
     Ack,
     Advance,
+    ClearPbo,
     ConnectPorts,
     DisconnectPorts,
     ExportPort,
     Heartbeat,
     ImportPort,
     ListPbos,
+    LogLines,
     Message,
     PboTable,
     PerformanceReport,
     PortValues,
+    ReadLog,
     ReadPorts,
     SetConstant,
     SetRate,
@@ -68,6 +74,21 @@ class NodeControl:
         reply = self.sender.request(ReadPorts(tid := self.tids(), " ".join(ports)), PortValues, tid)
         assert isinstance(reply, PortValues)
         return parse_values(reply.values)
+
+    def log(self, name: str, since: int = 0) -> tuple[int, tuple[LoggedLine, ...]]:
+        """PBO `name`'s latest log line number and the lines its module logged after line
+        `since` that one answer holds (the oldest first: ask again from the last for more)."""
+        reply = self.sender.request(ReadLog(tid := self.tids(), since, name), LogLines, tid)
+        assert isinstance(reply, LogLines)
+        try:
+            return reply.latest, parse_log(reply.lines)
+        except MessageError as error:
+            raise MessageError(f"the answer to LOGS {name}: {error}") from None
+
+    def clear(self, name: str) -> str:
+        """Take PBO `name` out of ERROR (it is OFF after)."""
+        tid = self.tids()
+        return self._acknowledged(ClearPbo(tid, name), tid, "cleared")
 
     def start(self, name: str) -> str:
         """Turn PBO `name` on; the node's line about it."""

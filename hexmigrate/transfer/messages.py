@@ -330,6 +330,24 @@ class EndSession(Message, code=extended(0x04), verb="BYE"):
     tid: int = u32()
 
 
+class ReadLog(Message, code=extended(0x05), verb="LOGS"):
+    """The lines PBO `name`'s module logged after line `since` (0: all the node keeps).
+    Answered by `LogLines`: as many as fit one answer, from the oldest; a follower asks again
+    from the last it got."""
+
+    tid: int = u32()
+    since: int = u32()
+    name: str = word()
+
+
+class ClearPbo(Message, code=extended(0x07), verb="CLEAR"):
+    """Take PBO `name` out of ERROR (the kernel's clear: ERROR -> OFF), so that it can be set
+    and started again."""
+
+    tid: int = u32()
+    name: str = word()
+
+
 class Signature(Message, code=extended(0x03)):
     """Binary mode: the signature area of transfer `tid` (hex mode sends its 09 lines)."""
 
@@ -384,6 +402,16 @@ class PortValues(Message, code=0x18, verb="VALUES"):
 
     tid: int = u32()
     values: str = free_text(default="")
+
+
+class LogLines(Message, code=extended(0x06), verb="LOGLINES"):
+    """The answer to `ReadLog`: the PBO's `latest` line number and lines after the one asked
+    for (control.py's `log_text`: one JSON array, each line's number, microseconds of the
+    node's clock and text, escaped)."""
+
+    tid: int = u32()
+    latest: int = u32()
+    lines: str = free_text(default="")
 
 
 class PerformanceReport(Message, code=0x1B, verb="REPORT"):

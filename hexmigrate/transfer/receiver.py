@@ -34,9 +34,11 @@ from hexmigrate.signing import challenge
 from hexmigrate.signing.keys import PublicKey
 from hexmigrate.signing.verify import MISMATCH
 from hexmigrate.transfer.control import (
+    MAX_LOG_TEXT,
     MICROSECONDS,
     ControlTarget,
     advanced_text,
+    log_text,
     parse_counts,
     port,
     ports,
@@ -52,6 +54,7 @@ from hexmigrate.transfer.messages import (
     Begin,
     BlockAck,
     Challenge,
+    ClearPbo,
     Commit,
     ConnectPorts,
     Data,
@@ -65,12 +68,14 @@ from hexmigrate.transfer.messages import (
     Listing,
     ListModules,
     ListPbos,
+    LogLines,
     Message,
     Nak,
     PboTable,
     Ping,
     Pong,
     PortValues,
+    ReadLog,
     ReadPorts,
     Remove,
     Resume,
@@ -335,6 +340,11 @@ class Receiver:
         if isinstance(message, ReadPorts):
             values = tuple((port, control.read(port)) for port in ports(message.ports))
             return PortValues(tid, values_text(values))
+        if isinstance(message, ReadLog):
+            latest, lines = control.log(message.name, message.since)
+            return LogLines(tid, latest, log_text(lines, MAX_LOG_TEXT))
+        if isinstance(message, ClearPbo):
+            return Ack(tid, 0, control.clear(message.name))
         if isinstance(message, StartPbo):
             return Ack(tid, 0, control.start(message.name))
         if isinstance(message, StopPbo):
@@ -711,6 +721,8 @@ _HANDLERS = {
     ConnectPorts: Receiver._controlled,
     DisconnectPorts: Receiver._controlled,
     ReadPorts: Receiver._controlled,
+    ReadLog: Receiver._controlled,
+    ClearPbo: Receiver._controlled,
     Watch: Receiver._controlled,
     ExportPort: Receiver._controlled,
     ImportPort: Receiver._controlled,
@@ -720,7 +732,8 @@ _HANDLERS = {
     EndSession: Receiver._end_session,
 }
 """The requests a node answers. Any other message is an answer or a push (`Pong`, `Listing`,
-`Ack`, `BlockAck`, `Nak`, `PboTable`, `PortValues`, `PerformanceReport`, `Heartbeat`), which a
+`Ack`, `BlockAck`, `Nak`, `PboTable`, `PortValues`, `LogLines`, `PerformanceReport`,
+`Heartbeat`), which a
 node hears but never answers: on a shared line (`hexmigrate.links.shared`) it hears its own
 answers and other nodes', and two nodes that answered answers would talk forever."""
 
@@ -737,6 +750,7 @@ CHANGING = frozenset(
         Resume,
         StartPbo,
         StopPbo,
+        ClearPbo,
         SetConstant,
         SetRate,
         ConnectPorts,
@@ -748,5 +762,5 @@ CHANGING = frozenset(
     }
 )
 """The requests that change a node: on a node that trusts keys, only an authenticated connection
-may send them. The others read (``PING``, ``LS``, ``PS``, ``READ``, ``WATCH``: a watch is the
-connection's own) or open and close a session (``CHALLENGE``, ``AUTH``, ``BYE``)."""
+may send them. The others read (``PING``, ``LS``, ``PS``, ``READ``, ``LOGS``, ``WATCH``: a
+watch is the connection's own) or open and close a session (``CHALLENGE``, ``AUTH``, ``BYE``)."""

@@ -235,7 +235,9 @@ class LinkApplier(ApplierBase):
         return result.name, image.size, run
 
     def _start(self, robot: str, instance: str, module: Module) -> None:
-        """Set the PBO's rate and constants from the database while it is off, then start it."""
+        """Set the PBO's rate and constants from the database while it is off, then start it;
+        a PBO in ERROR (a module started as it arrived, before its constants were set, or one
+        that failed earlier) is cleared first."""
         if instance != module.name:
             raise ApplyError(
                 f"start {instance} ({module.name}) on {robot}: a node over a link runs a module "
@@ -245,11 +247,7 @@ class LinkApplier(ApplierBase):
         row = self._row(node, module)
         control = node.control
         if row.state == "ERROR":
-            raise node.error(
-                f"start {instance}",
-                "expected the PBO off, got it in ERROR (a node started without --no-start "
-                "starts a module as it arrives, before its constants are set)",
-            )
+            node.ask(f"CLEAR {instance}", lambda: control.clear(instance))
         if row.state == "ON":
             node.ask(f"STOP {instance}", lambda: control.stop(instance))
         if row.rate is not None:

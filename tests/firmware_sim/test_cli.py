@@ -132,10 +132,11 @@ def test_a_listening_node_says_where_first_then_why_a_pbo_did_not_start():
     result = run("listen", "--listen", "loop://", "--native", "signal", "--set", "signal.shape=7",
                  "--seconds", "0.1")  # fmt: skip
     assert (result.returncode, result.stderr) == (0, "")
+    said = "signal: expected shape 0 (ramp), 1 (sine) or 2 (square), got 7"
     assert result.stdout.splitlines() == [
         "listening on loop://",
-        "signal did not start: PBO 'signal': on returned -1; now ERROR; it logged: signal: "
-        "expected shape 0 (ramp), 1 (sine) or 2 (square), got 7",
+        f"signal: {said}",  # the module's line, as it logs it
+        f"signal did not start: PBO 'signal': on returned -1; now ERROR; it logged: {said}",
     ]
 
 

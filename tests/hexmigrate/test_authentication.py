@@ -12,7 +12,7 @@ import pytest
 from hexmigrate.errors import TransferError
 from hexmigrate.links.direct import DirectLink
 from hexmigrate.signing import challenge, keys
-from hexmigrate.transfer.control import Number, PboRow
+from hexmigrate.transfer.control import LoggedLine, Number, PboRow
 from hexmigrate.transfer.messages import (
     Abort,
     Ack,
@@ -20,6 +20,7 @@ from hexmigrate.transfer.messages import (
     Authenticate,
     Begin,
     Challenge,
+    ClearPbo,
     Commit,
     ConnectPorts,
     Data,
@@ -33,12 +34,14 @@ from hexmigrate.transfer.messages import (
     Listing,
     ListModules,
     ListPbos,
+    LogLines,
     Message,
     Nak,
     PboTable,
     Ping,
     Pong,
     PortValues,
+    ReadLog,
     ReadPorts,
     Remove,
     Resume,
@@ -100,6 +103,13 @@ class Recording:
         self.changes.append(f"stop {name}")
         return f"stopped {name}"
 
+    def clear(self, name: str) -> str:
+        self.changes.append(f"clear {name}")
+        return f"cleared {name}: now OFF"
+
+    def log(self, name: str, since: int) -> tuple[int, tuple[LoggedLine, ...]]:
+        return 1, (LoggedLine(1, 0.5, f"{name}: ready"),)
+
 
 TRUSTED = keys.generate("ed25519")
 OTHER = keys.generate("ecdsa-p256")
@@ -151,6 +161,7 @@ CHANGING_REQUESTS: list[Message] = [
     Signature(5, b"\x00" * 8),
     StartPbo(6, "gain"),
     StopPbo(7, "gain"),
+    ClearPbo(7, "gain"),
     SetConstant(8, "gain.k=2"),
     SetRate(9, 50_000, "gain"),
     ConnectPorts(10, "signal.y=gain.x"),
@@ -193,6 +204,7 @@ def test_a_post_whose_body_holds_commands_changes_nothing_on_a_trusting_node():
         (ListModules(), Listing),
         (ListPbos(3), PboTable),
         (ReadPorts(4, "gain.y"), PortValues),
+        (ReadLog(4, 0, "gain"), LogLines),
         (Watch(5, 100, "gain.y"), Ack),
     ],
     ids=lambda value: getattr(value, "__name__", type(value).__name__),

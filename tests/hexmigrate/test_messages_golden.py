@@ -19,6 +19,7 @@ from hexmigrate.transfer.messages import (
     Begin,
     BlockAck,
     Challenge,
+    ClearPbo,
     Commit,
     ConnectPorts,
     Data,
@@ -33,6 +34,7 @@ from hexmigrate.transfer.messages import (
     Listing,
     ListModules,
     ListPbos,
+    LogLines,
     Message,
     Nak,
     PboTable,
@@ -40,6 +42,7 @@ from hexmigrate.transfer.messages import (
     Ping,
     Pong,
     PortValues,
+    ReadLog,
     ReadPorts,
     Remove,
     Resume,
@@ -315,6 +318,22 @@ GOLDEN: list[tuple[Message, bool, str]] = [
     (EndSession(5), TEXT, "4259452035202a3335"),
     (EndSession(5), BINARY, "00040500000051f79c73"),
     (Signature(3, b"\x07\x69"), BINARY, "000303000000076961f871a9"),
+    (ReadLog(12, 3, "gain"), TEXT, "4c4f47532031322033206761696e202a3335"),
+    (ReadLog(12, 3, "gain"), BINARY, "00050c000000030000006761696eaa72c0b6"),
+    (
+        LogLines(12, 4, '[[4, 500000, "gain: k is not configured"]]'),
+        TEXT,
+        "4c4f474c494e45532031322034205b5b342c203530303030302c20226761696e3a206b206973206e6f742"
+        "0636f6e66696775726564225d5d202a3546",
+    ),
+    (
+        LogLines(12, 4, '[[4, 500000, "gain: k is not configured"]]'),
+        BINARY,
+        "00060c000000040000005b5b342c203530303030302c20226761696e3a206b206973206e6f7420636f6e66"
+        "696775726564225d5d2b295a1c",
+    ),
+    (ClearPbo(13, "gain"), TEXT, "434c454152203133206761696e202a4130"),
+    (ClearPbo(13, "gain"), BINARY, "00070d0000006761696e72e23fed"),
 ]
 
 TYPED: list[tuple[bytes, Message]] = [

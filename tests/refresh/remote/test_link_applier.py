@@ -251,8 +251,9 @@ def test_refusals_name_the_robot_the_url_and_what_the_node_said(loaded, node_a):
         LinkApplier.open({"a": eager.url}) as applier,
     ):
         applier.migrate("a", gain)  # the node starts gain without its k: gain goes to ERROR
-        with pytest.raises(NodeLinkError, match="expected the PBO off, got it in ERROR"):
-            applier.start("a", "gain", gain)
+        assert listed(applier.node("a").control)["gain"][0] == "ERROR"
+        applier.start("a", "gain", gain)  # cleared, its k set, started
+        assert listed(applier.node("a").control)["gain"] == ("ON", 50.0)
 
     native = loaded.database.module("signal")
     with (

@@ -1,0 +1,48 @@
+"""A PBO's own log: the recent lines its module wrote through the kernel's LOG service.
+
+A module says why it refuses to start, or what it sees, with LOG ("level_alarm: expected low <
+high"). On a node far from its operator those lines are worth keeping where the operator can
+reach them: each PBO keeps its last `LINES` lines, numbered in order, so that a refusal can quote
+what the module said during the failed call (`since`), a node can answer them over its link and
+print them as they come (`Kernel.observe_log`), and a follower asks only for what is new.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+LINES = 64
+"""Lines a PBO keeps: enough to read what went wrong, bounded whatever a module logs."""
+MAX_LINE = 512
+"""Characters of one line kept: a module that logs a megabyte at once keeps its start."""
+
+
+@dataclass(frozen=True)
+class LogLine:
+    """One line a module logged: its number in the PBO's log (from 1), the kernel's time and
+    the text as the module wrote it (cut at MAX_LINE characters)."""
+
+    number: int
+    time: float
+    text: str
+
+
+class ModuleLog:
+    """The last `LINES` lines of one PBO."""
+
+    def __init__(self) -> None:
+        self._lines: deque[LogLine] = deque(maxlen=LINES)
+        self.count = 0
+        """Lines logged so far: the number of the latest."""
+
+    def append(self, time: float, text: str) -> LogLine:
+        """Keep `text`, logged at `time`; the line as kept."""
+        self.count += 1
+        line = LogLine(self.count, time, text[:MAX_LINE])
+        self._lines.append(line)
+        return line
+
+    def since(self, number: int) -> tuple[LogLine, ...]:
+        """The kept lines after line `number` (0: every kept line), oldest first."""
+        return tuple(line for line in self._lines if line.number > number)
