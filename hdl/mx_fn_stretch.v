@@ -11,7 +11,8 @@
 //   fill   256 cycles  level x maps to 0 up to low, 255 from high on, and in between to
 //                      ((x - low) * 255 + spread / 2) / spread, the quotient and remainder
 //                      advanced from x - 1 by the division's (no divider per level); every
-//                      level to itself when high - low < MIN_SPREAD
+//                      level to itself when high - low < MIN_SPREAD (or below 0: low above
+//                      high, which a CLIP of 500 gives on a frame of an even n)
 // exactly visual_servoing/dehaze.py's stretch_table with MIN_SPREAD as a parameter. After reset
 // or `clear` it spends 256 cycles (in_ready low) clearing the histogram and setting the table to
 // the identity, so frames before its first complete one pass unchanged. A frame's first
@@ -100,12 +101,16 @@ module mx_fn_stretch #(
     wire [7:0] fill_r_less = fill_r_sum[7:0] - spread;  // below spread on a carry: 8 bits
     wire [7:0] fill_q_next = fill_q_reg + quotient_reg + {7'd0, carry};
     wire [7:0] fill_r_next = carry ? fill_r_less : fill_r_sum[7:0];
+    // With CLIP = 500 and an even n the low percentile's rank (n / 2) passes the high one's
+    // (n / 2 - 1): low may lie above high, a negative spread, which is below any MIN_SPREAD
+    // (the 8-bit difference would wrap to a large one).
+    wire       crossed = (high_reg < low_reg);
     wire       identity;  // the spread is too small to stretch
     generate
         if (MIN_SPREAD == 16'd0) begin : g_always_stretch
-            assign identity = 1'b0;  // every spread is at least 0
+            assign identity = crossed;  // every other spread is at least 0
         end else begin : g_compare_spread
-            assign identity = ({8'd0, spread} < MIN_SPREAD);
+            assign identity = crossed || ({8'd0, spread} < MIN_SPREAD);
         end
     endgenerate
     wire       at_or_below_low = (addr_reg <= low_reg);

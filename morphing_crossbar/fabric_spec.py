@@ -28,7 +28,9 @@ def fabric_from_spec(spec: str, data_w: int = 8) -> Fabric:
             f"{MAX_SPEC_CHARS} characters, got {_shown(spec)}"
         )
     text = spec.strip()
-    if text.isdecimal() and len(text) <= 2:
+    if text.isascii() and text.isdecimal():  # a count (ASCII digits, as a parameter's are)
+        if len(text) > 2:
+            raise FabricParameterError(f"expected 2..16 slots, got {_shown(text)}")
         return Fabric(int(text), data_w=data_w)
     return fabric_of(text.split(","), data_w)
 

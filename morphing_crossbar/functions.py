@@ -159,7 +159,7 @@ class Function:
         if self.kind is Kind.MEDIAN3X3:
             return self.p0 + 3
         if self.kind is Kind.STRETCH:
-            return STRETCH_STALL_CYCLES
+            return max(STRETCH_STALL_CYCLES, STRETCH_CLEAR_CYCLES)
         return 0
 
     @classmethod

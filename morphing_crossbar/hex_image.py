@@ -21,7 +21,13 @@ from __future__ import annotations
 
 from hexmigrate.image import ModuleImage
 
-from .bitstream import FRAME_BITS, FRAME_BYTES, PartialBitstream, decode_bytes
+from .bitstream import (
+    FRAME_BITS,
+    FRAME_BYTES,
+    PartialBitstream,
+    decode_bytes,
+    reconfiguration_cycles,
+)
 from .errors import BitstreamImageError
 from .fabric import Fabric
 
@@ -88,25 +94,25 @@ def from_image(fabric: Fabric, image: ModuleImage) -> PartialBitstream:
 def fabric_for(image: ModuleImage) -> Fabric:
     """A fabric of the size and configuration width the bitstream `image`'s header names (the
     default library: what a bitstream's frame routes does not depend on the functionalities);
-    BitstreamImageError for an image that is no bitstream, FabricParameterError for a header
-    no fabric has."""
+    BitstreamImageError for an image that is no bitstream of this format (magic, version, frame
+    bits), FabricParameterError for a size or width no fabric has."""
     data = image.data
     if len(data) < FRAME_OFFSET or data[:4] != IMAGE_MAGIC:
         raise BitstreamImageError(
             f"image {image.name!r}: expected a bitstream header {IMAGE_MAGIC!r}, got "
             f"{bytes(data[:4])!r}"
         )
-    return Fabric(data[5], cfg_w=data[6])
+    version, n, cfg_w, bits = data[4:FRAME_OFFSET]
+    if (version, bits) != (VERSION, FRAME_BITS):
+        raise BitstreamImageError(
+            f"image {image.name!r}: expected version {VERSION} and {FRAME_BITS}-bit frames, got "
+            f"version {version}, {bits} bits"
+        )
+    return Fabric(n, cfg_w=cfg_w)
 
 
 def configuration_cycles(image: ModuleImage) -> int:
     """The fabric cycles applying the bitstream `image` takes (a beat of its configuration
-    width per cycle, then the commit), read from its header; BitstreamImageError for an image
-    that is no bitstream."""
-    data = image.data
-    if len(data) < FRAME_OFFSET or data[:4] != IMAGE_MAGIC or not data[6] or data[7] % data[6]:
-        raise BitstreamImageError(
-            f"image {image.name!r}: expected a bitstream header ({IMAGE_MAGIC!r}, version, N, "
-            f"CFG_W dividing the frame bits), got {bytes(data[:FRAME_OFFSET])!r}"
-        )
-    return data[7] // data[6] + 1
+    width per cycle, then the commit), read from its header; what `fabric_for` raises for a
+    header no fabric has."""
+    return reconfiguration_cycles(fabric_for(image))

@@ -67,7 +67,7 @@ class CrossbarModel:
         """Send ``beat`` into external input ``port`` on a route that gives one beat per beat
         (every functionality but the 3x3 median); returns (output port, beat out). RouteError,
         before the beat, for a route that may hold it (`send` takes any route)."""
-        path = self.configuration.trace(port)
+        path = self.configuration.route_of(port)
         route = path.functions if path is not None else ()
         holding = [slot for slot in route if self.fabric.functions[slot].holds_beats]
         if holding:
@@ -91,8 +91,10 @@ class CrossbarModel:
         for port, beats in inputs.items():
             path = self.configuration.route_of(port)
             assert path is not None  # require_routes refused an input routed nowhere
+            if not beats:  # no frame: nothing leaves, and the output is not named (as the RTL)
+                continue
             data = beats
-            for slot in path.functions if data else ():  # each slot serves one route
+            for slot in path.functions:  # each slot serves one route
                 data = self.states[slot].frame(data)
             outputs.setdefault(ends[port], []).extend(data)
         return outputs

@@ -58,6 +58,10 @@ FRAME_FABRICS = {
     ),
     # The widest rows: a frame's end takes two flushes of 1025 cycles, more than a call's slack.
     "2x8-wide": Fabric(2, functions=(Function.parse("median3x3:1024"),) * 2),
+    # A clip of half the frame: on an even frame the low percentile's rank passes the high one's.
+    "2x8-half-clip": Fabric(
+        2, functions=tuple(map(Function.parse, ("stretch:500:0", "stretch:500:255")))
+    ),
 }
 """Fabrics of the frame functionalities: every call's beats are a frame to them."""
 ONE_BEAT_CYCLES = 2
@@ -153,6 +157,16 @@ def test_an_input_routed_nowhere_or_a_beat_too_wide_is_refused_before_any_beat(l
         rtl.close()
 
 
+def test_an_input_with_no_beats_gives_no_output_on_both_models(library) -> None:
+    rtl, tlm = models(library)
+    try:
+        for inputs in ({0: []}, {0: [], 1: [3, 4]}):
+            assert rtl.stream(inputs) == tlm.stream(inputs)
+        assert tlm.stream({0: []}) == {}
+    finally:
+        rtl.close()
+
+
 def test_a_reconfiguration_takes_the_wrapper_s_cycles(library) -> None:
     fabric, _ = library
     rtl, _ = models(library)
@@ -175,6 +189,22 @@ def test_one_beat_through_two_flushes_of_the_widest_rows_is_no_stall(build_root:
             before = rtl.cycles
             assert rtl.stream({0: beats}) == tlm.stream({0: beats}) == {1: beats}
             assert rtl.cycles - before > 2 * 1025
+    finally:
+        rtl.close()
+
+
+def test_half_clipped_even_frames_leave_the_next_unstretched_on_both_models(build_root) -> None:
+    """With a clip of 500 permille and an even frame the low percentile lies at or above the
+    high one (ranks n / 2 and n / 2 - 1): high - low is below any minimum spread, so the next
+    frame passes unchanged (the Verilog's 8-bit difference wrapped to 255 and stretched it)."""
+    fabric = FRAME_FABRICS["2x8-half-clip"]
+    rtl = RtlCrossbarModel(fabric, model_library(fabric, build_root / "models"))
+    tlm = CrossbarModel(fabric)
+    try:
+        frames = {0: [1, 2], 1: [100, 40, 60, 90]}  # low above high on both slots
+        assert rtl.stream(frames) == tlm.stream(frames)
+        levels = {0: [0, 1, 2, 3, 200], 1: [0, 50, 61, 89, 255]}
+        assert rtl.stream(levels) == tlm.stream(levels) == levels
     finally:
         rtl.close()
 

@@ -26,7 +26,9 @@ def test_a_count_is_the_default_library_and_a_list_names_each_slot() -> None:
     ("spec", "width", "message"),
     [
         ("1", 8, "expected 2..16 slots, got n=1"),
-        ("99999999999999999999", 8, "expected a functionality"),
+        ("99999999999999999999", 8, "expected 2..16 slots, got '99999999999999999999'"),
+        ("100", 8, "expected 2..16 slots, got '100'"),
+        ("\u0663", 8, "expected a functionality"),  # a digit, but not an ASCII one
         ("pass", 8, "expected 2..16 slots, got n=1"),
         ("stretch:10:16,pass", 16, "expected a data width of 8 bits for stretch:10:16, got 16"),
         ("gain:24:3,,pass", 8, "expected a functionality"),

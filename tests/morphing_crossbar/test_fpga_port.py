@@ -4,6 +4,7 @@ point."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -20,9 +21,21 @@ from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from morphing_crossbar.bitstream import pack
 from morphing_crossbar.cli import main as pack_command
-from morphing_crossbar.errors import BitstreamImageError, CrcError, DataWidthError, RouteError
+from morphing_crossbar.errors import (
+    BitstreamImageError,
+    CrcError,
+    CrossbarError,
+    DataWidthError,
+    RouteError,
+)
 from morphing_crossbar.fabric import Fabric
-from morphing_crossbar.hex_image import CONFIG_BASE, from_image, to_image
+from morphing_crossbar.hex_image import (
+    CONFIG_BASE,
+    configuration_cycles,
+    fabric_for,
+    from_image,
+    to_image,
+)
 from morphing_crossbar.model import Beat, CrossbarModel
 from morphing_crossbar.reconfiguration_port import CrossbarReconfigurationPort
 from morphing_crossbar.routing import bypass_route
@@ -84,6 +97,34 @@ def test_images_for_another_fabric_or_address_are_refused() -> None:
     moved = ModuleImage("moved", 0x2000_0000, image.data, (), 0x2000_0008)
     with pytest.raises(BitstreamImageError, match="expected a slot window 0x40000000"):
         from_image(FABRIC, moved)
+
+
+@pytest.mark.parametrize("cfg_w", [1, 3, 8, 24])
+def test_a_header_names_its_fabric_and_its_configuration_cycles(cfg_w: int) -> None:
+    fabric = Fabric(8, cfg_w=cfg_w)
+    image = to_image(fabric, pack(fabric, 5, bypass_route()))
+    assert (fabric_for(image).n, fabric_for(image).cfg_w) == (8, cfg_w)
+    assert configuration_cycles(image) == 24 // cfg_w + 1
+
+
+@pytest.mark.parametrize(
+    ("header", "message"),
+    [
+        (b"MXPB\x01\x00\x01\x18", "expected 2..16 slots, got n=0"),
+        (b"MXPB\x01\x04\x00\x18", "expected a configuration width dividing"),
+        (b"MXPB\x01\x04\x05\x18", "expected a configuration width dividing"),
+        (b"MXPB\x01\x04\x01\x00", "expected version 1 and 24-bit frames, got version 1, 0 bits"),
+        (b"MXPB\x01\x04\x05\x05", "expected version 1 and 24-bit frames, got version 1, 5 bits"),
+        (b"MXPB\x09\x04\x01\x30", "expected version 1 and 24-bit frames, got version 9, 48"),
+        (b"MXPC\x01\x04\x01\x18", "expected a bitstream header b'MXPB'"),
+        (b"MXPB", "expected a bitstream header b'MXPB'"),
+    ],
+)
+def test_a_hostile_header_names_no_fabric_and_no_cycles(header: bytes, message: str) -> None:
+    image = ModuleImage("hostile", CONFIG_BASE, header + bytes(3), (), CONFIG_BASE)
+    for read in (fabric_for, configuration_cycles):
+        with pytest.raises(CrossbarError, match=re.escape(message)):
+            read(image)
 
 
 def fpga_node() -> tuple[Node, CrossbarModel, Receiver]:

@@ -11,11 +11,10 @@ from morphing_crossbar.reconfiguration_port import crossbar_port
 
 
 def test_a_head_links_and_a_tail_chain_three_functionalities_along_the_ring(tmp_path: Path):
-    port = crossbar_port("4")
+    port = crossbar_port("pass,gain:32:1,gain:48:0,gain:16:5")  # x2+1, then x3, then +5
     for slot, role in ((1, "head"), (2, "link"), (3, "tail")):
         file = tmp_path / f"slot{slot}.hex"
         assert main(["pack", "4", str(slot), role, "-o", str(file)]) == 0
         port.load(ModuleImage.read(file))
     assert "in1 -> fn1 -> fn2 -> fn3 -> out3" in port.model.configuration.describe().splitlines()
-    (out,) = port.stream({1: [10, 20]}).values()
-    assert len(out) == 2
+    assert port.stream({1: [10, 20]}) == {3: [(10 * 2 + 1) * 3 + 5, (20 * 2 + 1) * 3 + 5]}
