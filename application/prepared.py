@@ -10,7 +10,6 @@ scenario's fault-location strategy, if it names one.
 
 from __future__ import annotations
 
-import shutil
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -18,7 +17,8 @@ from application.declaration import Application
 from application.errors import ApplicationSetupError
 from application.scenario import Scenario, with_faults
 from hexmigrate.elf import image_from_elf
-from hexmigrate.image import ModuleImage
+from hexmigrate.errors import HexmigrateError
+from hexmigrate.image import ModuleImage, read_module_text
 from module_sdk.build import build_module
 from module_sdk.errors import BuildError
 from refresh.database import ModuleDatabase
@@ -75,17 +75,26 @@ def prepare(application: Application, scenario: Scenario, work: Path) -> Prepare
 
 def _copy_bitstreams(loaded: Loaded, origin: Path, work: Path) -> None:
     """Copy the bitstream files of the hardware modules from beside the database's source
-    (`origin`) to `work`, where the database written there names them."""
+    (`origin`) to `work`, where the database written there names them. A bitstream must be
+    named inside the database's folder (a relative path without ``..``: nothing is read from
+    or written to elsewhere), and be a regular module file (a device is refused unread)."""
     for module in loaded.database.modules():
         for path in module.source.bitstreams:
-            relative = path.relative_to(work)
+            relative = path.relative_to(work) if path.is_relative_to(work) else None
+            if relative is None or ".." in relative.parts:
+                raise ApplicationSetupError(
+                    f"hardware module {module.name}: expected its bitstream inside the "
+                    f"database's folder (a relative path without '..'), got {relative or path}"
+                )
             try:
+                text = read_module_text(origin / relative)
                 path.parent.mkdir(parents=True, exist_ok=True)
-                shutil.copyfile(origin / relative, path)
-            except OSError as error:
+                path.write_text(text, encoding="latin-1", newline="")
+            except (HexmigrateError, OSError) as error:
+                why = error.strerror if isinstance(error, OSError) else None
                 raise ApplicationSetupError(
                     f"hardware module {module.name}: expected its bitstream {origin / relative}, "
-                    f"got {error.strerror or error}"
+                    f"got {why or error}"
                 ) from None
 
 

@@ -67,8 +67,10 @@ def route(module: Module, robot: Robot) -> Route:
 @cache
 def _traced(paths: tuple[Path, ...], slots: tuple[int, ...], built: Fabric, name: str) -> Route:
     """The route of bitstream files `paths` on `built`, checked against `slots` (cached: the
-    Generator asks for every candidate, the files are read once)."""
-    configuration = _empty(built)
+    Generator asks for every candidate, the files are read once). Sent in order to a node whose
+    fabric is as after reset (input k through slot k to output k), each must apply too: a
+    bitstream that takes a stream another slot takes after reset would be refused there."""
+    configuration, reset = _empty(built), Configuration.reset(built)
     configured = []
     for path in paths:
         image = _read(name, path)
@@ -77,6 +79,13 @@ def _traced(paths: tuple[Path, ...], slots: tuple[int, ...], built: Fabric, name
             configuration = configuration.with_route(bitstream.slot, bitstream.route)
         except CrossbarError as error:
             raise ApplyError(f"module {name}: bitstream {path}: {error}") from None
+        try:
+            reset = reset.with_route(bitstream.slot, bitstream.route)
+        except CrossbarError as error:
+            raise ApplyError(
+                f"module {name}: expected its bitstreams, sent in order, to apply to its fabric "
+                f"after reset, got bitstream {path}: {error}"
+            ) from None
         configured.append(bitstream.slot)
     found = configuration.paths()
     if len(found) != 1 or found[0].functions != slots or sorted(configured) != sorted(slots):
@@ -130,13 +139,18 @@ def host_codes(database: ModuleDatabase, ports: Mapping[str, PortPair]) -> dict[
     codes: dict[str, ModuleCode] = {}
     for module in _hardware_of(database, ports):
         for robot in module.robots:
+            # Only its estimator runs on the host (a shadow run), so one model serves it whole.
             shadow = shadow_port(module, database.robots[robot])
-            codes[f"{module.name}@{robot}"] = _code(module, database.robots[robot], shadow, ports)
+            codes[f"{module.name}@{robot}"] = _code(
+                module, database.robots[robot], shadow, ports, shadow
+            )
     return codes
 
 
 def _hardware_of(database: ModuleDatabase, ports: Mapping[str, PortPair]) -> list[Module]:
-    """The hardware modules of `database`, each checked to have its ports in `ports`."""
+    """The hardware modules of `database`, each checked to have its ports in `ports`, named as
+    the database names its input and output (a connection to another name would fail only when
+    a repair chose the module)."""
     found = [module for module in database.modules() if module.hardware is not None]
     for module in found:
         if module.name not in ports:
@@ -144,13 +158,28 @@ def _hardware_of(database: ModuleDatabase, ports: Mapping[str, PortPair]) -> lis
                 f"hardware module {module.name}: expected the ports of its E-PBO from the "
                 f"application, got none (it declares {', '.join(sorted(ports)) or 'none'})"
             )
+        source, sink = ports[module.name]
+        if (tuple(module.inputs), tuple(module.outputs)) != ((source.name,), (sink.name,)):
+            declared = (
+                f"{', '.join(module.inputs) or 'no input'} to "
+                f"{', '.join(module.outputs) or 'no output'}"
+            )
+            raise ApplyError(
+                f"hardware module {module.name}: expected the E-PBO's ports to be the "
+                f"database's, {declared}, got an E-PBO from {source.name} to {sink.name}"
+            )
     return found
 
 
 def _code(
-    module: Module, robot: Robot, port: ReconfigurationPort, ports: Mapping[str, PortPair]
+    module: Module,
+    robot: Robot,
+    port: ReconfigurationPort,
+    ports: Mapping[str, PortPair],
+    shadow: ReconfigurationPort | None = None,
 ) -> ModuleCode:
-    """The module's E-PBO on `robot`, live on `port`; its evaluator files the module's needs
+    """The module's E-PBO on `robot`, live on `port`, its estimator on `shadow` (None: a new
+    model of the fabric with the module's bitstreams); its evaluator files the module's needs
     under the report index of each of the robot's resources that has one (what the Decider
     judges equation (1) on), in the database's units."""
     source, sink = ports[module.name]
@@ -165,7 +194,7 @@ def _code(
         source,
         sink,
         entry=route(module, robot).input,
-        shadow=shadow_port(module, robot),
+        shadow=shadow if shadow is not None else shadow_port(module, robot),
         reports=reports,
     )
     return NativeModule(native)

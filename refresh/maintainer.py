@@ -83,7 +83,8 @@ def plan(current: Configuration | None, target: Configuration, database: ModuleD
             steps.append(Step("disconnect", new[_owner(sink)].robot, sink))
     for name, placement in old.items():
         if name not in kept:
-            steps.append(Step("stop", placement.robot, name, placement.module))
+            hardware = database.module(placement.module).hardware is not None
+            steps.append(Step("stop", placement.robot, name, placement.module, hardware=hardware))
     installed = {(p.module, p.robot) for p in old.values()}
     for name, placement in new.items():
         if name in kept:

@@ -20,6 +20,9 @@ from refresh.location import STRATEGIES
 
 NAME = r"^[A-Za-z_][A-Za-z0-9_]*$"
 """Names of robots, schemas, modules, ports, resources and metrics: kernel-safe (no '.')."""
+FUNCTIONALITY = r"^[A-Za-z0-9]+(:[A-Za-z0-9]+)*$"
+"""A fabric slot's functionality with its parameters, ``median3x3:160`` (the crossbar checks
+the rest)."""
 
 _NUMBER = {"type": "number", "minimum": 0}
 _PORTS = {
@@ -76,7 +79,9 @@ _FABRIC = {
     "properties": {
         "slots": {
             "type": "array",
-            "items": {"type": "string", "minLength": 1, "maxLength": 64},
+            # kind[:p0[:p1]], as the crossbar writes it: no spaces or control characters,
+            # which its parser would skip and refresh check would print
+            "items": {"type": "string", "maxLength": 64, "pattern": FUNCTIONALITY},
             "minItems": 2,
             "maxItems": 16,
         },

@@ -14,8 +14,8 @@
 #    lock-step virtual time.
 # 5. The hardware half of ReFrESH: fog on the camera of a HexManipulator whose CPU cannot run
 #    the software Dehazer; ReFrESH chooses the Dehazer on its FPGA, sends the two partial
-#    bitstreams over the serial line and the frames stream through the Verilog's median and
-#    stretch; in process, then across processes.
+#    bitstreams over the serial line and the frames stream through the fabric's median and
+#    stretch (the transaction-level model of their Verilog); in process, then across processes.
 #
 # Usage: scripts/demo.sh VENV MODULE_BUILD_DIR
 set -euo pipefail

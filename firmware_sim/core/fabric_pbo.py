@@ -17,9 +17,10 @@ shadow, never disturbing the live fabric's state. ``firmware-sim listen --fpga N
 fabric`` has the simplest one, ``fabric``: a scalar ``x`` in, a scalar ``y`` out.
 
 A `slot` the fabric does not have, a routing that takes the input nowhere (its slot emptied by a
-bitstream, or the module's bitstreams not sent yet) or a model that fails (the RTL's stall) fails
-the cycle: the port's exception escapes it, and the kernel makes that a fault, logs its text and
-puts the PBO in ERROR, as for a module whose cycle fails.
+bitstream, or the module's bitstreams not sent yet), a NaN or an infinity on a float input (no
+bits to send) or a model that fails (the RTL's stall) fails the cycle: the exception escapes it,
+and the kernel makes that a fault, logs its text and puts the PBO in ERROR, as for a module whose
+cycle fails.
 """
 
 from __future__ import annotations
@@ -62,7 +63,7 @@ def hardware_native(
     constants = (PortSpec.const(SLOT),) if entry is None else ()
 
     def through(fabric: ReconfigurationPort, io: PortIO) -> None:
-        samples = _samples(io[source.name], fabric.data_width)
+        samples = _samples(io[source.name], fabric.data_width, source.name)
         at = io[SLOT] if entry is None else entry
         # One input has one path (a stream has at most one consumer): one output comes back.
         (produced,) = fabric.stream({at: samples}).values()
@@ -89,12 +90,17 @@ def hardware_native(
     return type(name, (NativePBO,), hooks)
 
 
-def _samples(value: object, width: int) -> list[int]:
-    """A port's value as the fabric's samples, in row-major order: two's complement in `width`
-    bits (a negative scalar keeps its low bits, as a bus carries it)."""
+def _samples(value: object, width: int, name: str) -> list[int]:
+    """Port `name`'s value as the fabric's samples, in row-major order: two's complement in
+    `width` bits (a negative scalar keeps its low bits, as a bus carries it; so does a float,
+    rounded, however large). A ValueError for a NaN or an infinity, which has no bits."""
     flat = np.asarray(value).ravel()
     if flat.dtype.kind == "f":
-        flat = np.rint(flat)
+        if not np.isfinite(flat).all():
+            bad = flat[~np.isfinite(flat)][0]
+            raise ValueError(f"port {name!r}: expected finite samples, got {bad}")
+        # An integral float modulo a power of two is exact, and the remainder fits an int64.
+        flat = np.mod(np.rint(flat), float(1 << width))
     return (flat.astype(np.int64) & ((1 << width) - 1)).tolist()
 
 

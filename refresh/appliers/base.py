@@ -233,7 +233,8 @@ class ApplierBase(ABC):
         inventory = self._reach(robot)
         if inventory is None:
             return None
-        self.configured.pop(robot, None)  # a node back from an outage has its fabric reset
+        # A restarted node's fabric is reset; one out of reach may have had its slots changed.
+        self.configured.pop(robot, None)
         for key, bridge in list(self.bridges.items()):
             if robot in bridge.robots():
                 del self.bridges[key]
@@ -291,8 +292,12 @@ class ApplierBase(ABC):
             return
         start = self.clock()
         hardware = module.hardware is not None
+        images = self._images(module)
+        if module.hardware is not None:  # its slots' state is not known until all are in
+            for slot in module.hardware.slots:
+                self.configured.get(robot, {}).pop(slot, None)
         size, runs, cycles = 0, [], 0
-        for image in self._images(module):
+        for image in images:
             registered, sent, run = self._send(robot, module, image)
             if not hardware and registered != module.name:
                 raise ApplyError(

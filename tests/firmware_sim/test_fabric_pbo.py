@@ -274,3 +274,29 @@ def test_an_estimate_streams_through_the_shadow_fabric_and_leaves_the_live_one_a
     assert estimate.latest(PerformanceKind.NON_FUNCTIONAL, 0) == 2.5
     assert live.stream({2: [0]}) == {2: [0]}  # the live FIR's history is still empty
     assert shadow.stream({2: [0]}) != {2: [0]}
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), -float("inf")])
+def test_a_sample_that_is_no_number_fails_the_cycle_saying_so(caplog, value) -> None:
+    caplog.set_level(logging.INFO)
+    port = configured_port((0, bypass_route()))
+    source, sink = PortSpec.input("x", dtype="<f8"), PortSpec.output("y", dtype="<f8")
+    native = hardware_native("Wire", port, source, sink, entry=0)
+    with Node("n", clock=VirtualClock()) as node:
+        node.start(feeder(PortSpec.output("v", dtype="<f8"), [value]), 100)
+        node.start(NativeModule(native), 100)
+        node.kernel.connect("feed.v", "Wire.x")
+        node.run(until=0.05)
+        assert node.kernel.state("Wire") is State.ERROR
+    said = f"PBO 'Wire': cycle faulted: ValueError: port 'x': expected finite samples, got {value}"
+    assert said in caplog.text
+
+
+def test_a_float_sample_beyond_any_integer_crosses_as_its_low_bits() -> None:
+    port = configured_port((0, bypass_route()), width=16)  # input 0 straight to output 0
+    source, sink = PortSpec.input("x", dtype="<f8"), PortSpec.output("y", dtype="<f8")
+    native = hardware_native("Wire", port, source, sink, entry=0)
+    sent = [2.0**64 + 2.0**12, -(2.0**64 + 2.0**12), -1.0, 70_000.4]
+    seen = outputs_of(native, feeder(PortSpec.output("v", dtype="<f8"), sent), 0.1)
+    start = seen.index(4096.0)
+    assert seen[start : start + 4] == [4096.0, 65536.0 - 4096, 65535.0, 70_000.0 - 65536]

@@ -84,6 +84,6 @@ def test_a_hardware_repair_across_processes_sends_the_bitstream_to_rover1_s_node
         True,
     )
     assert migration["reconfiguration_cycles"] == 25
-    assert got["worst"]["offset"] < 100  # the offsets went through the Verilog's median, signed
+    assert got["worst"]["offset"] < 100  # the offsets went through the fabric's median, signed
     log = (tmp_path / "linked" / "rover1.log").read_text()
     assert "configured mx_slot1: slot 1 reconfigured in 25 fabric cycles" in log

@@ -55,7 +55,7 @@ FOG_HARDWARE = Scenario(
     "fog on CamReader's lens, on a HexManipulator whose CPU cannot run the software Dehazer",
     "CamReader located; the software Dehazer would leave no CPU reserve, so the hardware "
     "Dehazer is chosen: its two partial bitstreams cross the serial line, the fabric's wrappers "
-    "reconfigure, and the frames stream through the Verilog's median and stretch: "
+    "reconfigure, and the frames stream through the fabric's median and stretch: "
     "{CamReader, Dehazer_hw, SSD, TrajGen, HexMan}",
     database=HARDWARE,
     plant=Faults({"CamReader": (Fault(FaultKind.FOG, 0.6, FAULT_AT),)}),

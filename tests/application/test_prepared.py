@@ -1,0 +1,84 @@
+"""`prepare` copies a hardware module's bitstreams from beside the database into the run's
+folder, where the database written there names them, and nowhere else."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from application.declaration import Application
+from application.errors import ApplicationSetupError
+from application.prepared import prepare
+from application.scenario import Scenario
+
+DATABASE = """
+[robots.r]
+resources.power = {{ capacity = 100, reserve = 20 }}
+fabric = {{ slots = ["pass", "gain:16:1"], width = 8 }}
+
+[schemas.filter]
+kind = "computation"
+[schemas.filter.modules.Soft]
+robots = ["r"]
+source = "native"
+[schemas.filter.modules.Hw]
+robots = ["r"]
+source = {{ bitstreams = [{bitstream}] }}
+hardware = {{ functionalities = ["gain"], slots = [1] }}
+
+[task]
+name = "t"
+robot = "r"
+states = ["run"]
+schemas = ["filter"]
+initial = ["Soft"]
+"""
+
+BITSTREAM = ":0400000500000000F7\n:00000001FF\n"
+"""What the copy carries (its text is not read as a bitstream here)."""
+
+
+def prepared_with(tmp_path: Path, bitstream: str) -> Path:
+    """Prepare a run of ``tmp_path/app/db.toml``, a database naming `bitstream` (TOML text),
+    into ``tmp_path/runs/run``; the run's folder."""
+    origin = tmp_path / "app"
+    origin.mkdir(exist_ok=True)
+    (origin / "db.toml").write_text(DATABASE.format(bitstream=bitstream))
+    scenarios = (Scenario("s", "a scenario", "nothing"),)
+    application = Application("app", "An application.", origin / "db.toml", scenarios, "s")
+    work = tmp_path / "runs" / "run"
+    prepare(application, application.scenario("s"), work)
+    return work
+
+
+def test_a_bitstream_beside_the_database_is_copied_where_the_run_s_database_names_it(tmp_path):
+    (tmp_path / "app" / "bits").mkdir(parents=True)
+    (tmp_path / "app" / "bits" / "hw.hex").write_text(BITSTREAM)
+    work = prepared_with(tmp_path, '"bits/hw.hex"')
+    assert (work / "bits" / "hw.hex").read_text() == BITSTREAM
+
+
+@pytest.mark.parametrize("named", ['"../escaped.hex"', '"bits/../../escaped.hex"'])
+def test_a_bitstream_path_that_leaves_the_database_s_folder_is_refused_and_nothing_written(
+    tmp_path, named
+):
+    (tmp_path / "escaped.hex").write_text(BITSTREAM)
+    with pytest.raises(ApplicationSetupError, match=r"module Hw: expected its bitstream .*inside"):
+        prepared_with(tmp_path, named)
+    assert not (tmp_path / "runs" / "escaped.hex").exists()
+
+
+def test_an_absolute_bitstream_path_is_refused_as_a_setup_error(tmp_path):
+    (tmp_path / "absolute.hex").write_text(BITSTREAM)
+    with pytest.raises(ApplicationSetupError, match=r"module Hw: expected its bitstream .*inside"):
+        prepared_with(tmp_path, f'"{tmp_path / "absolute.hex"}"')
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/zero"), reason="needs /dev/zero")
+def test_a_bitstream_that_is_a_device_is_refused_unread(tmp_path):
+    (tmp_path / "app").mkdir()
+    (tmp_path / "app" / "zero.hex").symlink_to("/dev/zero")
+    with pytest.raises(ApplicationSetupError, match=r"zero\.hex.*regular"):
+        prepared_with(tmp_path, '"zero.hex"')
