@@ -23,7 +23,8 @@ from refresh.database import ModuleDatabase, Placement
 from refresh.events import EventLog
 
 ORDER = ("migrate", "disconnect", "stop", "start", "connect")
-"""The order the kinds of step run in: images travel while the old configuration still runs."""
+"""The order the kinds of step run in: images travel while the old configuration still runs (but
+a hardware module's bitstreams for slots a stopped hardware module holds, after the stop)."""
 
 
 @dataclass(frozen=True)
@@ -104,7 +105,36 @@ def plan(current: Configuration | None, target: Configuration, database: ModuleD
                     "connect", new[_owner(sink)].robot, sink, "", source, new[_owner(source)].robot
                 )
             )
-    return Plan(tuple(sorted(steps, key=lambda s: ORDER.index(s.action))))
+    late = _clashing_migrations(steps, database)
+    return Plan(tuple(sorted(steps, key=lambda s: _rank(s, late))))
+
+
+def _clashing_migrations(steps: list[Step], database: ModuleDatabase) -> set[Step]:
+    """The hardware migrations whose slots a hardware module stopped on the same robot holds:
+    its wrappers must be let go (the stop empties them) before the new bitstreams route those
+    slots, or the fabric would refuse a stream with two consumers."""
+    held: dict[str, set[int]] = {}
+    for step in steps:
+        if step.action == "stop":
+            held.setdefault(step.robot, set()).update(_slots(step, database))
+    return {
+        step
+        for step in steps
+        if step.action == "migrate" and held.get(step.robot, set()) & _slots(step, database)
+    }
+
+
+def _slots(step: Step, database: ModuleDatabase) -> set[int]:
+    """The fabric slots the module of `step` uses (none for a software module)."""
+    hardware = database.module(step.module).hardware
+    return set() if hardware is None else set(hardware.slots)
+
+
+def _rank(step: Step, late: set[Step]) -> float:
+    """Where `step` runs: by its action (`ORDER`), a migration of `late` just after the stops."""
+    if step in late:
+        return ORDER.index("stop") + 0.5
+    return ORDER.index(step.action)
 
 
 def _instances(configuration: Configuration | None) -> dict[str, Placement]:

@@ -178,6 +178,9 @@ class ApplierBase(ABC):
         """(robot, PBO) -> the rate it was started at, for the bridges that carry its ports."""
         self.issued = 0
         """How many bridges were numbered so far: the next one's number."""
+        self.hardware: dict[tuple[str, str], Module] = {}
+        """(robot, PBO) -> the hardware module it was started as: its slots are emptied when
+        it stops."""
         self.configured: dict[str, dict[int, str]] = {}
         """The hardware module each fabric slot was configured for, by robot and slot: a slot
         another module took is configured again when its module starts anew."""
@@ -271,13 +274,28 @@ class ApplierBase(ABC):
 
     def stop(self, robot: str, instance: str) -> None:
         """Take down the bridges to and from PBO `instance`, then stop it; its image stays
-        installed for a later start. On a lost robot it is only forgotten."""
+        installed for a later start, but a hardware module's slots are emptied (its wrappers
+        let go of their streams, so that another module's bitstreams may route those slots).
+        On a lost robot it is only forgotten."""
         for key, bridge in list(self.bridges.items()):
             if bridge.touches(robot, instance):
                 del self.bridges[key]
                 self._take_down(bridge)
         self.frequencies.pop((robot, instance), None)
         self._stop(robot, instance)
+        module = self.hardware.pop((robot, instance), None)
+        if module is not None and module.hardware is not None:
+            self._release(robot, module.name, module.hardware.slots)
+
+    def _release(self, robot: str, module: str, slots: Sequence[int]) -> None:
+        """Empty the `slots` of `robot`'s fabric still configured for `module` (a lost robot's
+        are only forgotten: its node is gone or will be sent them again)."""
+        configured = self.configured.get(robot, {})
+        for slot in slots:
+            if configured.get(slot) == module:
+                del configured[slot]
+                if not self.is_lost(robot):
+                    self._unload(robot, slot)
 
     def migrate(self, robot: str, module: Module) -> None:
         """Send the module's image to the robot unless it is installed there already (a
@@ -337,6 +355,8 @@ class ApplierBase(ABC):
         self.require(robot)
         self._start(robot, instance, module)
         self.frequencies[robot, instance] = module.frequency
+        if module.hardware is not None:
+            self.hardware[robot, instance] = module
 
     def connect(self, robot: str, source: str, sink: str, source_robot: str) -> None:
         """Bind the input to the output: on the robot's node when both are on one robot, else
@@ -387,6 +407,10 @@ class ApplierBase(ABC):
         """Install `image` of `module` on `robot` (its image, or one of a hardware module's
         bitstreams; None from a back end whose `_images` gives none): the name it registered,
         its size in bytes, and the transfer on the modelled migration wire (None without one)."""
+
+    @abstractmethod
+    def _unload(self, robot: str, slot: int) -> None:
+        """Empty `slot` of `robot`'s fabric: its wrapper takes and drives nothing."""
 
     @abstractmethod
     def _start(self, robot: str, instance: str, module: Module) -> None:

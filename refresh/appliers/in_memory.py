@@ -102,6 +102,10 @@ class MemoryApplier(ApplierBase):
         self.applied.append(f"migrate {module.name}@{robot}")
         return module.name, 0, None
 
+    def _unload(self, robot: str, slot: int) -> None:
+        """Note the slot emptied: a model has no fabric."""
+        self.applied.append(f"unload slot {slot}@{robot}")
+
     def _start(self, robot: str, instance: str, module: Module) -> None:
         """Run the module as `instance`; an image module must have been migrated first."""
         model = self.robot(robot)

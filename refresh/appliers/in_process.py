@@ -167,6 +167,13 @@ class NodeApplier(ApplierBase):
             link.close()
         return result.name, image.size, None
 
+    def _unload(self, robot: str, slot: int) -> None:
+        """Empty the slot on the node's reconfiguration port."""
+        fpga = self.nodes[robot].fpga
+        if fpga is None:
+            raise ApplyError(f"unload slot {slot} on {robot}: its node has no FPGA fabric")
+        fpga.unload(slot)
+
     def _start(self, robot: str, instance: str, module: Module) -> None:
         """Start the installed image (or the native code) as PBO `instance`."""
         node = self.nodes[robot]

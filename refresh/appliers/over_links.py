@@ -42,6 +42,7 @@ from firmware_sim.wires.transfer import WireRun, run_transfer
 from hexmigrate.image import ModuleImage
 from hexmigrate.transfer.control import PboRow
 from hexmigrate.transfer.control_client import NodeControl
+from morphing_crossbar.hex_image import slot_base
 from refresh.appliers.base import ApplierBase, Bridge, Inventory, owner
 from refresh.database import Module
 from refresh.errors import ApplyError, NodeLinkError
@@ -233,6 +234,15 @@ class LinkApplier(ApplierBase):
             with Node(f"{robot} (modelled)", fpga=fpga) as scratch:
                 run = run_transfer(image, self.migration_wire, node=scratch)
         return result.name, image.size, run
+
+    def _unload(self, robot: str, slot: int) -> None:
+        """RM the component the node lists at the slot's window (named as its bitstream was
+        signed, or ``mx_slotN``): the node empties the slot, as ``hexmigrate rm`` does."""
+        node = self.nodes[robot]
+        listed = node.ask("LS", node.sender.modules)
+        for name, address, _size in listed:
+            if address == slot_base(slot):
+                node.ask(f"RM {name}", lambda name=name: node.sender.remove(name))
 
     def _start(self, robot: str, instance: str, module: Module) -> None:
         """Set the PBO's rate and constants from the database while it is off, then start it;

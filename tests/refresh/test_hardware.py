@@ -24,9 +24,10 @@ from refresh.cli import main as refresh_main
 from refresh.configuration import initial_configuration
 from refresh.database import Placement
 from refresh.errors import ApplyError, DatabaseError, DatabaseImageError
+from refresh.events import EventLog
 from refresh.hardware import check_hardware, host_codes, node_codes, route
 from refresh.load import Loaded, load
-from refresh.maintainer import plan
+from refresh.maintainer import Maintainer, plan
 from refresh.performance import assess, usage
 
 SLOTS = ["gain:32:5", "fir:4929:3", "pass", "gain:16:1"]
@@ -383,3 +384,37 @@ def test_a_fabric_slot_with_spaces_or_control_characters_is_refused_where(tmp_pa
     (tmp_path / "db.toml").write_text(text)
     with pytest.raises(DatabaseError, match=r"robots\.r\.fabric\.slots\[0\]: expected a name"):
         load(tmp_path / "db.toml")
+
+
+def test_a_hardware_module_replaces_another_on_shared_slots_once_it_let_them_go(tmp_path):
+    other = bitstream(tmp_path, "other.hex", 0, through_route(FABRIC, 0))
+    extra = f"""
+[schemas.filter.modules.Other]
+robots = ["r"]
+inputs = {{ x = "level" }}
+outputs = {{ y = "filtered" }}
+source = {{ bitstreams = ["{other}"] }}
+hardware = {{ functionalities = ["gain"], slots = [0] }}
+"""
+    result = loaded(tmp_path, extra)
+    database, task = result.database, result.task
+    ports = {**PORTS, "Other": PORTS["Doubler"]}
+    port = CrossbarReconfigurationPort(CrossbarModel(FABRIC))
+    doubling = initial_configuration(task, database).replace(1, (Placement("Doubler", "r"),))
+    other = doubling.replace(1, (Placement("Other", "r"),))
+    steps = [str(step) for step in plan(doubling, other, database).steps]
+    # Other's bitstream for slot 0 waits for Doubler's stop, which empties slots 0 and 3.
+    assert steps.index("stop Doubler (Doubler, in hardware) on r") < steps.index(
+        "migrate Other to r (partial bitstreams to its fabric)"
+    )
+    with Node("r", clock=VirtualClock(), fpga=port) as node:
+        natives = {"Source": NativeModule(Ramp)} | node_codes(database, "r", port, ports)
+        maintainer = Maintainer(database, NodeApplier({"r": node}, natives), EventLog())
+        maintainer.apply(maintainer.plan(None, doubling))
+        node.run(until=0.5)
+        maintainer.apply(maintainer.plan(doubling, other))
+        node.run(until=1.0)
+        routes = port.model.configuration.describe().splitlines()
+        assert "in0 -> fn0 -> out0" in routes  # Other's; slot 3 emptied when Doubler stopped
+        assert not any("fn3" in route for route in routes)
+        assert node.kernel.value("Other.y") == 2 * int(node.kernel.value("Source.y")) + 5

@@ -470,3 +470,7 @@ def test_a_trusting_node_takes_a_hardware_module_s_signed_bitstream_only_from_it
                 return x > 0 and y == ((int(x) & 0xFF) * 3 + 1) & 0xFF
 
             wait_until(tripled, "signal through slot 0's gain")
+            assert "mx_slot0" in applier.node("a").modules()
+            applier.stop("a", "fabric")  # a hardware module that stops lets its slots go
+            assert "mx_slot0" not in applier.node("a").modules()
+            assert applier.configured == {"a": {}}
