@@ -21,7 +21,7 @@ from commandline import CommandLineError, UsageError, add_command, command_parse
 from commandline.arguments import address, input_file, integer, output_file, real
 from commandline.progress import progress_bar
 from hexmigrate.checks import verify_file
-from hexmigrate.control_cli import add_control_commands
+from hexmigrate.control_cli import add_control_commands, setting_text
 from hexmigrate.descriptor import NAME_LEN
 from hexmigrate.elf import DEFAULT_INIT_SYMBOL, image_from_elf
 from hexmigrate.errors import HexmigrateError, LinkError, TransferError, TransferInterrupted
@@ -38,6 +38,7 @@ from hexmigrate.signing_cli import (
     load_keys,
     require_holds,
 )
+from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.sender import MODES, Progress, Sender, TransferResult
 
 if TYPE_CHECKING:
@@ -225,6 +226,12 @@ def cmd_send(args: argparse.Namespace) -> int:
             f"{args.file}: expected a module name of printable ASCII characters without "
             f"spaces (the protocol carries it as one word), got {image.name!r} ({where})"
         )
+    settings = tuple(args.set or ())
+    _check_settings(settings, image.name)
+    held = bool(settings) or args.no_start
+    if held:  # the node creates the module off when it arrives: its constants come first
+        with _session(_sender(args)) as sender:
+            NodeControl(sender).hold(image.name)
     with contextlib.ExitStack() as stack:
         bar = None if args.quiet else stack.enter_context(progress_bar(image.size, image.name))
         result = _send_resuming(args, image, SendProgress(bar))
@@ -235,7 +242,26 @@ def cmd_send(args: argparse.Namespace) -> int:
         f"{rate / 1000:.1f} kB/s, {result.wire_bytes} bytes sent, "
         f"{result.retransmissions} retransmissions"
     )
+    if held:
+        with _session(_sender(args)) as sender:
+            node = NodeControl(sender)
+            for setting in settings:
+                print(f"{node.set(setting)} on {args.to}")
+            if not args.no_start:
+                print(f"{node.start(result.name)} on {args.to}")
     return 0
+
+
+def _check_settings(settings: tuple[str, ...], module: str) -> None:
+    """Refuse (a usage error, before anything is sent) a ``--set`` for another PBO than the
+    module's own: it is the one created off, to take its constants."""
+    for setting in settings:
+        pbo = setting.partition(".")[0]
+        if pbo != module:
+            raise UsageError(
+                f"--set {setting}: expected a constant of the module sent, {module}.NAME=VALUE, "
+                f"got one of {pbo!r}"
+            )
 
 
 def _send_resuming(
@@ -471,13 +497,28 @@ def _add_node_commands(commands: argparse._SubParsersAction) -> None:
         cmd_send,
         "send a module to a node and commit it",
         "Send a module to a node, show a progress bar on a terminal, commit it and print a\n"
-        "summary. When the link fails midway, open it again and resume where the node got to.\n\n"
+        "summary. When the link fails midway, open it again and resume where the node got to.\n"
+        "With --set or --no-start the node creates the module off when it arrives (it holds\n"
+        "it), the constants are set, and then it is started unless --no-start.\n\n"
         "example:\n"
-        "  hexmigrate send gain.hex --to socket://127.0.0.1:7777",
+        "  hexmigrate send gain.hex --to socket://127.0.0.1:7777\n"
+        "  hexmigrate send gain.hex --set gain.k=0x20000 --to socket://127.0.0.1:7777",
     )
     send.add_argument("file", type=MODULE_FILE, metavar="FILE.hex")
     send.add_argument("--base", type=address, metavar="ADDR", help="ask for a load address")
     send.add_argument("--quiet", action="store_true", help="no progress bar")
+    send.add_argument(
+        "--set",
+        type=setting_text,
+        action="append",
+        metavar="MODULE.NAME=VALUE",
+        help="a constant of the module, set before its first start (repeatable)",
+    )
+    send.add_argument(
+        "--no-start",
+        action="store_true",
+        help="leave the module off once installed (for hexmigrate start)",
+    )
     send.add_argument(
         "--reconnects",
         type=integer(0, MAX_RECONNECTS),

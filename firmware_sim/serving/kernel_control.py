@@ -40,6 +40,8 @@ BRIDGE_RATE = 100.0
 IMPORTER_PRIORITY = -1
 """A bridge's importer runs before the PBOs of priority 0 released at the same instant, so a
 value that arrived is read in the same period rather than the next."""
+MAX_HELD = 16
+"""Modules a node holds off at once: a host holds the one it is about to send."""
 ADVANCE_WAIT = 5.0
 """Seconds an Advance waits for the values it expects before it is refused."""
 
@@ -57,6 +59,9 @@ class KernelControl:
         self.lock_step = lock_step
         self.exports: dict[int, LinkedExport] = {}
         self.imports: dict[int, LinkedImport] = {}
+        self.held: set[str] = set()
+        """The modules not to start when they are installed next (a host sets their
+        constants first: `hold`)."""
 
     def pbos(self) -> tuple[PboRow, ...]:
         """Every PBO of the kernel, in registration order."""
@@ -272,6 +277,23 @@ class KernelControl:
         """The number of PBO `name`'s latest log line (0: none yet)."""
         kept = self.node.kernel.log(name)
         return kept[-1].number if kept else 0
+
+    def hold(self, name: str) -> str:
+        """Leave module `name` off when it is installed next (at most MAX_HELD names wait)."""
+        if name not in self.held and len(self.held) >= MAX_HELD:
+            raise ValueError(
+                f"expected at most {MAX_HELD} modules held at once, got {sorted(self.held)} "
+                f"and {name!r}"
+            )
+        self.held.add(name)
+        return f"holding {name}: it stays off when it is installed, for its constants"
+
+    def take_hold(self, name: str) -> bool:
+        """Whether module `name`, installed now, was held (the hold serves once)."""
+        if name in self.held:
+            self.held.discard(name)
+            return True
+        return False
 
     def clear(self, name: str) -> str:
         """Take PBO `name` out of ERROR (OFF: it may be set and started again)."""

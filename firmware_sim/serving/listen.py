@@ -143,11 +143,13 @@ def listen(
 
         gdb: list[GdbServer] = []  # the server, once there is one
 
+        control = KernelControl(node, lock_step=config.lock_step)
+
         def installed(name: str, address: int) -> None:
             say(f"registered {name} at 0x{address:08X}")
             for server in gdb:
                 server.symbol_line(name)
-            pbos.start(name, name)
+            pbos.start(name, name, arrived=True, hold=control.take_hold(name))
 
         # The link first: its "listening on" line is the first line out, before any other.
         with (
@@ -165,7 +167,6 @@ def listen(
                 hashes = " ".join(key_hash(key).hex()[:16] for key in config.trust.keys)
                 say(f"trusting keys {hashes}: changes need a connection authenticated by one")
             target = NodeTarget(node, on_install=installed, on_configure=_configured(say))
-            control = KernelControl(node, lock_step=config.lock_step)
             receiver = Receiver(target, control, trusted=config.trust.keys)
             try:
                 with recording(node.kernel, config.traces), stop_requests() as requested:

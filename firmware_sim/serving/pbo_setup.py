@@ -8,7 +8,9 @@ consumed: a module that replaces another, or comes back after it was removed, lo
 kernel's connections of the one before, so its wires are made again.
 
 Nothing a module does here ends the node: a PBO that does not start, or a wire that cannot be
-made, is one line of output (`say`) and the node goes on.
+made, is one line of output (`say`) and the node goes on. A module that arrives and does not
+start (a constant it checks is not given yet) is left OFF, not in ERROR; a host that holds it
+(``hexmigrate send --set``) has it created off, its constants set, then started.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from firmware_sim.core.starting import start_pbo
 from firmware_sim.errors import FirmwareSimError
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
+from pbort.lifecycle import State
 
 Wire = tuple[str, str]
 """(``OUT_PBO.port``, ``IN_PBO.port``)."""
@@ -55,9 +58,14 @@ class PboSetup:
         self.wires = tuple(wires)
         self.switch_on = switch_on
 
-    def start(self, code: ModuleCode | str, name: str) -> None:
-        """Start PBO `name` (an installed module's name, or a native's code), then make its
-        wires; a refusal is said, not raised."""
+    def start(
+        self, code: ModuleCode | str, name: str, *, arrived: bool = False, hold: bool = False
+    ) -> None:
+        """Start PBO `name` (an installed module's name, or a native's code), or only create it
+        when `hold` (a host sets its constants first), then make its wires; a refusal is said,
+        not raised. A module that `arrived` and refuses to start is cleared back to OFF: a
+        constant it needs can then be set and the module started (``hexmigrate set``,
+        ``start``), without leaving ERROR first."""
         try:
             start_pbo(
                 self.node,
@@ -65,11 +73,22 @@ class PboSetup:
                 self.rates.get(name, self.default_rate),
                 name=name,
                 constants=self.constants.get(name),
-                switch_on=self.switch_on,
+                switch_on=self.switch_on and not hold,
             )
         except FirmwareSimError as error:
-            self.say(str(error))
+            self.say(str(error) + self._cleared(name, arrived))
         self.connect(name)
+
+    def _cleared(self, name: str, arrived: bool) -> str:
+        """Clear module `name` that arrived and is in ERROR; what to add to its refusal."""
+        kernel = self.node.kernel
+        if not arrived or name not in kernel.names or kernel.state(name) is not State.ERROR:
+            return ""
+        try:
+            kernel.clear(name)
+        except KernelError as error:
+            return f"; it stays in ERROR: {error}"
+        return "; left OFF for its constants (hexmigrate set, then start)"
 
     def connect(self, name: str) -> None:
         """Make every wire with PBO `name` at one end whose other end runs too, unless the

@@ -36,6 +36,7 @@ from hexmigrate.transfer.messages import (
     DisconnectPorts,
     ExportPort,
     Heartbeat,
+    HoldStart,
     ImportPort,
     ListPbos,
     LogLines,
@@ -84,6 +85,12 @@ class NodeControl:
             return reply.latest, parse_log(reply.lines)
         except MessageError as error:
             raise MessageError(f"the answer to LOGS {name}: {error}") from None
+
+    def hold(self, name: str) -> str:
+        """Ask the node not to start module `name` when it is installed next (its constants
+        come first)."""
+        tid = self.tids()
+        return self._acknowledged(HoldStart(tid, name), tid, "holding")
 
     def clear(self, name: str) -> str:
         """Take PBO `name` out of ERROR (it is OFF after)."""

@@ -348,6 +348,14 @@ class ClearPbo(Message, code=extended(0x07), verb="CLEAR"):
     name: str = word()
 
 
+class HoldStart(Message, code=extended(0x08), verb="HOLD"):
+    """Do not start module `name` when it is installed next: the host sets its constants first
+    (``hexmigrate send --set``) and starts it, or leaves it off (``--no-start``)."""
+
+    tid: int = u32()
+    name: str = word()
+
+
 class Signature(Message, code=extended(0x03)):
     """Binary mode: the signature area of transfer `tid` (hex mode sends its 09 lines)."""
 

@@ -64,6 +64,7 @@ from hexmigrate.transfer.messages import (
     ExportPort,
     Header,
     HexLine,
+    HoldStart,
     ImportPort,
     Listing,
     ListModules,
@@ -345,6 +346,8 @@ class Receiver:
             return LogLines(tid, latest, log_text(lines, MAX_LOG_TEXT))
         if isinstance(message, ClearPbo):
             return Ack(tid, 0, control.clear(message.name))
+        if isinstance(message, HoldStart):
+            return Ack(tid, 0, control.hold(message.name))
         if isinstance(message, StartPbo):
             return Ack(tid, 0, control.start(message.name))
         if isinstance(message, StopPbo):
@@ -723,6 +726,7 @@ _HANDLERS = {
     ReadPorts: Receiver._controlled,
     ReadLog: Receiver._controlled,
     ClearPbo: Receiver._controlled,
+    HoldStart: Receiver._controlled,
     Watch: Receiver._controlled,
     ExportPort: Receiver._controlled,
     ImportPort: Receiver._controlled,
@@ -751,6 +755,7 @@ CHANGING = frozenset(
         StartPbo,
         StopPbo,
         ClearPbo,
+        HoldStart,
         SetConstant,
         SetRate,
         ConnectPorts,

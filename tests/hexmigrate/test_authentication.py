@@ -30,6 +30,7 @@ from hexmigrate.transfer.messages import (
     ExportPort,
     Header,
     HexLine,
+    HoldStart,
     ImportPort,
     Listing,
     ListModules,
@@ -107,6 +108,10 @@ class Recording:
         self.changes.append(f"clear {name}")
         return f"cleared {name}: now OFF"
 
+    def hold(self, name: str) -> str:
+        self.changes.append(f"hold {name}")
+        return f"holding {name}"
+
     def log(self, name: str, since: int) -> tuple[int, tuple[LoggedLine, ...]]:
         return 1, (LoggedLine(1, 0.5, f"{name}: ready"),)
 
@@ -162,6 +167,7 @@ CHANGING_REQUESTS: list[Message] = [
     StartPbo(6, "gain"),
     StopPbo(7, "gain"),
     ClearPbo(7, "gain"),
+    HoldStart(7, "gain"),
     SetConstant(8, "gain.k=2"),
     SetRate(9, 50_000, "gain"),
     ConnectPorts(10, "signal.y=gain.x"),

@@ -30,6 +30,7 @@ from hexmigrate.transfer.messages import (
     Header,
     Heartbeat,
     HexLine,
+    HoldStart,
     ImportPort,
     Listing,
     ListModules,
@@ -334,6 +335,8 @@ GOLDEN: list[tuple[Message, bool, str]] = [
     ),
     (ClearPbo(13, "gain"), TEXT, "434c454152203133206761696e202a4130"),
     (ClearPbo(13, "gain"), BINARY, "00070d0000006761696e72e23fed"),
+    (HoldStart(14, "gain"), TEXT, "484f4c44203134206761696e202a3938"),
+    (HoldStart(14, "gain"), BINARY, "00080e0000006761696e402a09bc"),
 ]
 
 TYPED: list[tuple[bytes, Message]] = [

@@ -247,13 +247,18 @@ def test_refusals_name_the_robot_the_url_and_what_the_node_said(loaded, node_a):
         assert listed(applier.node("a").control)["gain"][0] == "OFF"  # the node went on
 
     with (
-        NodeProcess("tcp-listen://127.0.0.1:0", "--native", "signal") as eager,
+        NodeProcess(
+            "tcp-listen://127.0.0.1:0", "--native", "signal", "--set", "signal.shape=7"
+        ) as eager,
         LinkApplier.open({"a": eager.url}) as applier,
     ):
-        applier.migrate("a", gain)  # the node starts gain without its k: gain goes to ERROR
-        assert listed(applier.node("a").control)["gain"][0] == "ERROR"
-        applier.start("a", "gain", gain)  # cleared, its k set, started
+        applier.migrate("a", gain)  # the node starts gain without its k: it is left OFF
+        assert listed(applier.node("a").control)["gain"][0] == "OFF"
+        applier.start("a", "gain", gain)
         assert listed(applier.node("a").control)["gain"] == ("ON", 50.0)
+        assert listed(applier.node("a").control)["signal"][0] == "ERROR"  # refused shape 7
+        applier.start("a", "signal", loaded.database.module("signal"))  # cleared, set, started
+        assert listed(applier.node("a").control)["signal"][0] == "ON"
 
     native = loaded.database.module("signal")
     with (
