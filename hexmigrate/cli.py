@@ -29,7 +29,7 @@ from hexmigrate.image import ModuleImage, descriptor_name
 from hexmigrate.inspection import build_report, render_text
 from hexmigrate.links import open_link
 from hexmigrate.mapfile import image_from_map
-from hexmigrate.signing.keys import load_private
+from hexmigrate.signing.keys import load_private, short_hash
 from hexmigrate.signing.verify import examine
 from hexmigrate.signing_cli import (
     KEY_FILE,
@@ -207,6 +207,12 @@ def _sender(args: argparse.Namespace, progress: Callable[[Progress], None] | Non
     if key is not None:
         try:
             sender.authenticate(key)
+        except TransferError as error:
+            sender.link.close()
+            raise TransferError(
+                f"authentication with {args.key} (key {short_hash(key.public_key())}) failed: "
+                f"{error}"
+            ) from None
         except BaseException:
             sender.link.close()
             raise

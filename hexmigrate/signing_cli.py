@@ -26,7 +26,7 @@ def cmd_keygen(args: argparse.Namespace) -> int:
         _write(args.public, keys.public_pem(key.public_key()))
     print(
         f"{args.output}: {args.type} private key, key hash "
-        f"{keys.key_hash(key.public_key()).hex()}"
+        f"{keys.short_hash(key.public_key())}"
         + (f"; public key in {args.public}" if args.public is not None else "")
     )
     return 0
@@ -40,7 +40,7 @@ def cmd_sign(args: argparse.Namespace) -> int:
     signed.write(args.output, args.record_size)
     print(
         f"{args.output}: module {signed.name} version {args.version}, signed by "
-        f"{keys.key_type(key)} key {keys.key_hash(key.public_key()).hex()}"
+        f"{keys.key_type(key)} key {keys.short_hash(key.public_key())}"
     )
     return 0
 

@@ -45,7 +45,7 @@ from firmware_sim.serving.kernel_control import KernelControl
 from firmware_sim.serving.pbo_setup import PboSetup, Wire
 from firmware_sim.serving.serve import serve
 from hexmigrate.links.listening import open_listening
-from hexmigrate.signing.keys import key_hash
+from hexmigrate.signing.keys import short_hash
 from hexmigrate.transfer.receiver import Receiver
 from pbort.clock import Clock, RealTimeClock, VirtualClock
 from pbort.code import ModuleCode
@@ -164,7 +164,7 @@ def listen(
             if port is not None:
                 say(f"fpga: {port.description} on the reconfiguration port")
             if config.trust.enforced:
-                hashes = " ".join(key_hash(key).hex()[:16] for key in config.trust.keys)
+                hashes = " ".join(short_hash(key) for key in config.trust.keys)
                 say(f"trusting keys {hashes}: changes need a connection authenticated by one")
             target = NodeTarget(node, on_install=installed, on_configure=_configured(say))
             receiver = Receiver(target, control, trusted=config.trust.keys)

@@ -57,6 +57,21 @@ def key_hash(key: PublicKey) -> bytes:
     return hashlib.sha256(der).digest()
 
 
+HASH_DIGITS = 16
+"""Hex digits a key hash is shown with, everywhere a person reads one (keygen, sign, verify, a
+node's trusting line and its refusals): enough to tell keys apart, short enough to compare."""
+
+
+def shown_hash(hash_: bytes) -> str:
+    """A key hash as a person reads it: its first HASH_DIGITS hex digits."""
+    return hash_.hex()[:HASH_DIGITS]
+
+
+def short_hash(key: PublicKey) -> str:
+    """`key`'s hash as a person reads it (`shown_hash`)."""
+    return shown_hash(key_hash(key))
+
+
 def key_type(key: PrivateKey | PublicKey) -> str:
     """'ed25519' or 'ecdsa-p256'."""
     if isinstance(key, ed25519.Ed25519PrivateKey | ed25519.Ed25519PublicKey):

@@ -19,7 +19,7 @@ from cryptography.hazmat.primitives.asymmetric import ec, ed25519, utils
 from hexmigrate.errors import SignatureError, TlvError
 from hexmigrate.image import ModuleImage
 from hexmigrate.signing import tlv
-from hexmigrate.signing.keys import PublicKey, key_hash, key_type
+from hexmigrate.signing.keys import PublicKey, key_hash, key_type, shown_hash
 from hexmigrate.signing.sign import image_hash
 
 NOT_SIGNED = "not signed"
@@ -47,7 +47,8 @@ class Verdict:
 
     @property
     def key_hash(self) -> str:
-        return self.area.key_hash.hex()
+        """The signing key's hash, as a person reads it (`keys.shown_hash`)."""
+        return shown_hash(self.area.key_hash)
 
     @property
     def holds(self) -> bool:

@@ -21,6 +21,7 @@ to anyone (docs/security.md).
 
 from __future__ import annotations
 
+import string
 import time
 from collections import OrderedDict
 from collections.abc import Callable, Hashable, Sequence
@@ -31,8 +32,8 @@ from hexmigrate.errors import HexError, MessageError, SignatureError
 from hexmigrate.links.base import is_text
 from hexmigrate.records import MAX_SIGNATURE_AREA, RecordType, decode_record
 from hexmigrate.signing import challenge
-from hexmigrate.signing.keys import PublicKey
-from hexmigrate.signing.verify import MISMATCH
+from hexmigrate.signing.keys import HASH_DIGITS, PublicKey, shown_hash
+from hexmigrate.signing.verify import MISMATCH, UNKNOWN_KEY
 from hexmigrate.transfer.control import (
     MAX_LOG_TEXT,
     MICROSECONDS,
@@ -404,7 +405,7 @@ class Receiver:
             return [session.answered[1]]  # our ACK was lost and the host asks again
         nonce, session.nonce = session.nonce, None
         if nonce is None:
-            return [Nak(message.tid, 0, "no challenge: send CHALLENGE first", fatal=True)]
+            return [Nak(message.tid, 0, NO_CHALLENGE, fatal=True)]
         if not self.trusted:  # a host that brings a key to an open node goes on as asked
             return [Ack(message.tid, 0, "authenticated: this node trusts no key, guards nothing")]
         try:
@@ -412,9 +413,9 @@ class Receiver:
             signature = _hex(message.signature, "signature")
             challenge.check(self.trusted, key_hash, nonce, signature)
         except SignatureError as error:
-            return [Nak(message.tid, 0, error.reason, fatal=True)]
+            return [Nak(message.tid, 0, _refused_key(error, message.key), fatal=True)]
         session.key = key_hash
-        ack = Ack(message.tid, 0, f"authenticated {key_hash.hex()[:16]}")
+        ack = Ack(message.tid, 0, f"authenticated {shown_hash(key_hash)}")
         session.answered = (message.tid, ack)
         return [ack]
 
@@ -667,6 +668,22 @@ def _encoded(reply: Message, text: bool) -> bytes:
     except MessageError as error:
         reason = f"cannot answer: {error}".encode("ascii", "backslashreplace").decode("ascii")
         return encode(Nak(getattr(reply, "tid", 0), 0, reason), text)
+
+
+NO_CHALLENGE = (
+    "no challenge to answer on this connection: a host asks for one first (hexmigrate --key "
+    "does both), and a challenge serves one answer"
+)
+"""The refusal of an AUTH that answers no challenge of its connection."""
+
+
+def _refused_key(error: SignatureError, key: str) -> str:
+    """An AUTH's refusal in words: which key the node does not trust (by its hash, as keygen
+    shows it), or that the answer is not that key's signature."""
+    shown = key[:HASH_DIGITS] if all(c in string.hexdigits for c in key) else "given"
+    if error.reason == UNKNOWN_KEY:
+        return f"this node does not trust the key {shown} (it trusts other keys)"
+    return f"the answer is not the key {shown}'s signature over this connection's challenge"
 
 
 def _hex(text: str, what: str) -> bytes:

@@ -28,8 +28,8 @@ MAX_SESSIONS = 16
 SESSION_IDLE = 60.0
 """Seconds of silence after which the authentication of a line without connections ends."""
 AUTHENTICATION_REQUIRED = (
-    "authentication required: this node trusts keys; send CHALLENGE and AUTH first "
-    "(hexmigrate --key KEY.pem)"
+    "authentication required: this node takes changes only from a host that proves it holds "
+    "a key the node trusts (hexmigrate ... --key KEY.pem)"
 )
 """The refusal of a request that changes a node, from a connection not authenticated."""
 

@@ -75,7 +75,10 @@ def test_only_a_connection_with_a_trusted_key_changes_the_node(files, listen):
         to = node.url  # a pty's path, a tcp-listen node's socket:// URL
         send = ("send", files["gain"], "--to", to, "--quiet", "--mode", "hex")
         assert REQUIRED in hexmigrate_refused(*send)
-        assert "signed by an unknown key" in hexmigrate_refused(*send, "--key", files["other"])
+        refused = hexmigrate_refused(*send, "--key", files["other"])
+        untrusted = keys.short_hash(keys.load_private(files["other"]).public_key())
+        assert f"authentication with {files['other']} (key {untrusted}) failed" in refused
+        assert f"this node does not trust the key {untrusted}" in refused
         assert "no modules" in hexmigrate("ls", "--to", to)
         assert "module gain installed" in hexmigrate(*send, "--key", files["key"])
         check_node_output(node, ["gain"])
