@@ -517,8 +517,9 @@ def _add_node_commands(commands: argparse._SubParsersAction) -> None:
         "--set",
         type=setting_text,
         action="append",
-        metavar="MODULE.NAME=VALUE",
-        help="a constant of the module, set before its first start (repeatable)",
+        metavar="PBO.port=VALUE",
+        help="a constant of the module's PBO (named after it), set before its first start "
+        "(repeatable)",
     )
     send.add_argument(
         "--no-start",

@@ -1,5 +1,5 @@
-"""The `hexmigrate` commands that control a node's PBOs over its own link: ps, start, stop, clear,
-set, rate, connect, disconnect, watch and logs (docs/cli.md). Each one opens the link `--to`
+"""The `hexmigrate` commands that control a node's PBOs over its own link: ps, get, start, stop,
+clear, set, rate, connect, disconnect, watch and logs (docs/cli.md). Each one opens the link `--to`
 names, sends its requests through a `NodeControl` and prints what the node answered; a refusal
 is the node's reason on one ``error:`` line.
 
@@ -24,7 +24,7 @@ from typing import Any
 from commandline import UsageError, add_command, one_line
 from commandline.arguments import real
 from hexmigrate.errors import MessageError
-from hexmigrate.transfer.control import MAX_PORTS, Number, parse_values, wire
+from hexmigrate.transfer.control import MAX_PORTS, Number, PboDetail, parse_values, wire
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import Heartbeat, PerformanceReport
 from hexmigrate.transfer.sender import Sender
@@ -121,8 +121,10 @@ def add_control_commands(
     def ps(args: argparse.Namespace) -> int:
         with control(args) as node:
             rows = node.pbos()
+            details = {row.name: node.describe(row.name) for row in rows} if args.verbose else {}
         if args.json:
-            print(json.dumps([row.__dict__ for row in rows], indent=2))
+            listed = [row.__dict__ | _detail_fields(details.get(row.name)) for row in rows]
+            print(json.dumps(listed, indent=2))
             return 0
         if not rows:
             print(f"no PBOs on {args.to}")
@@ -132,6 +134,14 @@ def add_control_commands(
                 f"{row.name:<16} {row.state:<11} {rate:>10}  in: {','.join(row.inputs) or '-'}"
                 f"  out: {','.join(row.outputs) or '-'}  const: {','.join(row.constants) or '-'}"
             )
+            if row.name in details:
+                print(_detail_lines(details[row.name]))
+        return 0
+
+    def get(args: argparse.Namespace) -> int:
+        with control(args) as node:
+            ((port, value),) = node.read((args.port,))
+        print(f"{one_line(port)}={value!r}")
         return 0
 
     def one(action: Callable[[NodeControl, Any], str], field: str) -> Callable[..., int]:
@@ -165,7 +175,23 @@ def add_control_commands(
         "  hexmigrate ps --to socket://127.0.0.1:7777",
     )
     listing.add_argument("--json", action="store_true", help="print the PBOs as JSON")
+    listing.add_argument(
+        "--verbose",
+        action="store_true",
+        help="also each PBO's constants with their values, its wires and its last failure",
+    )
     link_options(listing)
+    getting = add_command(
+        commands,
+        "get",
+        get,
+        "print the value of one of a PBO's scalar ports",
+        "Print the live value of a scalar port: an output, what an input reads, or a constant.\n\n"
+        "example:\n"
+        "  hexmigrate get gain.k --to socket://127.0.0.1:7777",
+    )
+    getting.add_argument("port", type=port_name, metavar="PBO.PORT", help="the port")
+    link_options(getting)
     for name, action, verb in (
         ("start", NodeControl.start, "turn a PBO on (creating it first if need be)"),
         ("stop", NodeControl.stop, "turn a PBO off (so that its constants can be set)"),
@@ -292,6 +318,26 @@ def _watch(node: NodeControl, args: argparse.Namespace) -> None:
             print(_row(push, columns, values, args.csv), flush=True)
     finally:
         node.watch(0)
+
+
+def _detail_fields(detail: PboDetail | None) -> dict[str, object]:
+    """What ``ps --verbose --json`` adds to a PBO's row."""
+    if detail is None:
+        return {}
+    return {
+        "values": dict(detail.constants),
+        "wires": list(detail.wires),
+        "last_failure": detail.last_failure,
+    }
+
+
+def _detail_lines(detail: PboDetail) -> str:
+    """What ``ps --verbose`` prints under a PBO's row, shown as data."""
+    values = "  ".join(f"{name}={value!r}" for name, value in detail.constants) or "-"
+    lines = [f"    constants: {values}", f"    wires: {'  '.join(detail.wires) or '-'}"]
+    if detail.last_failure is not None:
+        lines.append(f"    last failure: {detail.last_failure}")
+    return "\n".join(one_line(line) for line in lines)
 
 
 def _logs(node: NodeControl, pbo: str, follow: bool, seconds: float) -> None:

@@ -23,7 +23,7 @@ from firmware_sim.bridge.linked_halves import LinkedExport, LinkedImport, bridge
 from firmware_sim.core.node import RATE_MAX, RATE_MIN, Node
 from firmware_sim.core.port_values import Number, exact, setting
 from firmware_sim.errors import BridgeError, PortValueError
-from hexmigrate.transfer.control import MAX_ADVANCE, LoggedLine, PboRow
+from hexmigrate.transfer.control import MAX_ADVANCE, LoggedLine, PboDetail, PboRow
 from pbort.code import PerformanceKind
 from pbort.errors import NotConnectedError
 from pbort.lifecycle import State
@@ -277,6 +277,28 @@ class KernelControl:
         """The number of PBO `name`'s latest log line (0: none yet)."""
         kept = self.node.kernel.log(name)
         return kept[-1].number if kept else 0
+
+    def describe(self, name: str) -> PboDetail:
+        """PBO `name`'s constants with their values (a vector's or frame's as its kind), the
+        wires into and out of it, and its methods' last failure."""
+        kernel = self.node.kernel
+        constants: list[tuple[str, Number | str]] = []
+        for spec in kernel.ports(name):
+            if spec.direction in (Direction.CONST, Direction.RESOURCE):
+                constants.append((spec.name, self._value_of(f"{name}.{spec.name}", spec)))
+        wires = tuple(
+            f"{source}={sink}"
+            for source, sink in kernel.connections()
+            if name in (source.partition(".")[0], sink.partition(".")[0])
+        )
+        return PboDetail(name, tuple(constants), wires, kernel.stats(name).last_failure)
+
+    def _value_of(self, port: str, spec: PortSpec) -> Number | str:
+        """A constant's value as a number, or its kind for a vector or frame."""
+        if spec.kind is not PortKind.SCALAR:
+            return spec.kind.value
+        value = np.asarray(self.node.kernel.value(port)).item()
+        return value if isinstance(value, float) else int(value)
 
     def hold(self, name: str) -> str:
         """Leave module `name` off when it is installed next (at most MAX_HELD names wait)."""

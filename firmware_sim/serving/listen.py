@@ -167,7 +167,9 @@ def listen(
                 hashes = " ".join(short_hash(key) for key in config.trust.keys)
                 say(f"trusting keys {hashes}: changes need a connection authenticated by one")
             target = NodeTarget(node, on_install=installed, on_configure=_configured(say))
-            receiver = Receiver(target, control, trusted=config.trust.keys)
+            receiver = Receiver(
+                target, control, trusted=config.trust.keys, on_change=_noting(node, say)
+            )
             try:
                 with recording(node.kernel, config.traces), stop_requests() as requested:
                     stop = _stopper(node, config, say, gdb, requested)
@@ -196,6 +198,17 @@ def _check_natives(
                 f"--native {name}: expected one of {', '.join(sorted(known))}, got no such "
                 f"native{needs}"
             )
+
+
+def _noting(node: Node, say: Callable[[str], None]) -> Callable[[str], None]:
+    """Each request that changes the node, said and kept in its log: who changed what."""
+
+    def noted(line: str) -> None:
+        shown = one_line(line)
+        node.log.append((node.kernel.now, shown))
+        say(shown)
+
+    return noted
 
 
 def _configured(say: Callable[[str], None]) -> Callable[[str, int, int], None]:

@@ -90,6 +90,57 @@ class PboRow:
         )
 
 
+@dataclass(frozen=True)
+class PboDetail:
+    """What a node says of one PBO beyond its `PboRow`: each constant's value (a scalar's
+    number, else its kind), each wire into or out of it (``OUT_PBO.port=IN_PBO.port``) and the
+    last failure of its methods (None: none yet)."""
+
+    name: str
+    constants: tuple[tuple[str, Number | str], ...] = ()
+    wires: tuple[str, ...] = ()
+    last_failure: str | None = None
+
+
+def description_text(detail: PboDetail) -> str:
+    """`detail` as one JSON object of printable ASCII, cut to MAX_LOG_TEXT characters by
+    dropping wires, then constants, then the failure's end (a line holds 1,024)."""
+    fields = {
+        "name": detail.name,
+        "constants": [list(pair) for pair in detail.constants],
+        "wires": list(detail.wires),
+        "last_failure": detail.last_failure,
+    }
+    while len(json.dumps(fields)) > MAX_LOG_TEXT:
+        if fields["wires"]:
+            fields["wires"].pop()  # type: ignore[attr-defined]
+        elif fields["constants"]:
+            fields["constants"].pop()  # type: ignore[attr-defined]
+        else:
+            fields["last_failure"] = str(fields["last_failure"])[:200]
+            break
+    return json.dumps(fields)
+
+
+def parse_description(text: str) -> PboDetail:
+    """A `PboDescription`'s detail; MessageError for anything but `description_text`'s form."""
+    try:
+        raw = json.loads(_printable(text))
+        constants = tuple((str(n), v) for n, v in raw["constants"] if _is_value(v))
+        wires = tuple(str(wire) for wire in raw["wires"])
+        failure = raw["last_failure"]
+        detail = PboDetail(
+            str(raw["name"]), constants, wires, None if failure is None else str(failure)
+        )
+    except (ValueError, KeyError, TypeError, RecursionError):
+        raise MessageError(f"expected a PBO's description, got {text[:60]!r}") from None
+    return detail
+
+
+def _is_value(value: object) -> bool:
+    return isinstance(value, (int, float, str)) and not isinstance(value, bool)
+
+
 class ControlTarget(Protocol):
     """The node a receiver controls."""
 
@@ -104,6 +155,7 @@ class ControlTarget(Protocol):
     def log(self, name: str, since: int) -> tuple[int, tuple[LoggedLine, ...]]: ...
     def clear(self, name: str) -> str: ...
     def hold(self, name: str) -> str: ...
+    def describe(self, name: str) -> PboDetail: ...
     def clock(self) -> float: ...
     def performance(self) -> tuple[tuple[str, Number], ...]: ...
     def state(self) -> str: ...

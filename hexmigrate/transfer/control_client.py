@@ -21,9 +21,11 @@ from hexmigrate.transfer.control import (
     MICROSECONDS,
     LoggedLine,
     Number,
+    PboDetail,
     PboRow,
     counts_text,
     parse_advanced,
+    parse_description,
     parse_log,
     parse_rows,
     parse_values,
@@ -33,6 +35,7 @@ from hexmigrate.transfer.messages import (
     Advance,
     ClearPbo,
     ConnectPorts,
+    DescribePbo,
     DisconnectPorts,
     ExportPort,
     Heartbeat,
@@ -41,6 +44,7 @@ from hexmigrate.transfer.messages import (
     ListPbos,
     LogLines,
     Message,
+    PboDescription,
     PboTable,
     PerformanceReport,
     PortValues,
@@ -85,6 +89,15 @@ class NodeControl:
             return reply.latest, parse_log(reply.lines)
         except MessageError as error:
             raise MessageError(f"the answer to LOGS {name}: {error}") from None
+
+    def describe(self, name: str) -> PboDetail:
+        """PBO `name`'s constants with their values, its wires and its last failure."""
+        reply = self.sender.request(DescribePbo(tid := self.tids(), name), PboDescription, tid)
+        assert isinstance(reply, PboDescription)
+        try:
+            return parse_description(reply.text)
+        except MessageError as error:
+            raise MessageError(f"the answer to DESCRIBE {name}: {error}") from None
 
     def hold(self, name: str) -> str:
         """Ask the node not to start module `name` when it is installed next (its constants

@@ -340,6 +340,14 @@ class ReadLog(Message, code=extended(0x05), verb="LOGS"):
     name: str = word()
 
 
+class DescribePbo(Message, code=extended(0x09), verb="DESCRIBE"):
+    """What PBO `name` holds: its constants with their values, the wires into and out of it and
+    the last failure of its methods. Answered by `PboDescription`."""
+
+    tid: int = u32()
+    name: str = word()
+
+
 class ClearPbo(Message, code=extended(0x07), verb="CLEAR"):
     """Take PBO `name` out of ERROR (the kernel's clear: ERROR -> OFF), so that it can be set
     and started again."""
@@ -420,6 +428,13 @@ class LogLines(Message, code=extended(0x06), verb="LOGLINES"):
     tid: int = u32()
     latest: int = u32()
     lines: str = free_text(default="")
+
+
+class PboDescription(Message, code=extended(0x0A), verb="DESCRIPTION"):
+    """The answer to `DescribePbo`: one JSON object (control.py's `description_text`)."""
+
+    tid: int = u32()
+    text: str = free_text(default="")
 
 
 class PerformanceReport(Message, code=0x1B, verb="REPORT"):

@@ -39,6 +39,7 @@ from hexmigrate.transfer.control import (
     MICROSECONDS,
     ControlTarget,
     advanced_text,
+    description_text,
     log_text,
     parse_counts,
     port,
@@ -59,6 +60,7 @@ from hexmigrate.transfer.messages import (
     Commit,
     ConnectPorts,
     Data,
+    DescribePbo,
     DisconnectPorts,
     End,
     EndSession,
@@ -73,6 +75,7 @@ from hexmigrate.transfer.messages import (
     LogLines,
     Message,
     Nak,
+    PboDescription,
     PboTable,
     Ping,
     Pong,
@@ -192,7 +195,11 @@ class Receiver:
         trusted: Sequence[PublicKey] = (),
         idle: float = TRANSFER_IDLE,
         clock: Callable[[], float] = time.monotonic,
+        on_change: Callable[[str], None] | None = None,
     ) -> None:
+        self.on_change = on_change
+        """Told a line for each request that changes the node (`NOTED`) as it is done: which
+        connection, which key it proved (if any) and the request, for the node's log."""
         self.target = target
         self.control = control
         self.trusted = tuple(trusted)
@@ -261,11 +268,22 @@ class Receiver:
         tid = getattr(message, "tid", IMPLICIT)
         if self.trusted and type(message) in CHANGING and not self._session.authenticated:
             return [Nak(tid, 0, AUTHENTICATION_REQUIRED, fatal=True)]
+        if self.on_change is not None and type(message) in NOTED:
+            self.on_change(self._noted(message))
         try:
             return handler(self, message)
         except _FatalRefusal as error:
             self._drop(tid)
             return [Nak(tid, 0, str(error), fatal=True)]
+
+    def _noted(self, message: Message) -> str:
+        """The line a changing request leaves in the node's log: ``request from CONNECTION
+        (key HASH16): START 6 gain``, the request as hex mode writes it, without its check."""
+        key = self._session.key
+        proved = f" (key {shown_hash(key)})" if key is not None else ""
+        request = encode(message, True).decode("ascii", "replace").split(" *")[0].strip()
+        peer = "the link" if self._peer is None else str(self._peer)
+        return f"request from {peer}{proved}: {request}"
 
     def expire(self) -> list[int]:
         """Drop the transfers idle for more than `idle` seconds, giving back their flash and
@@ -349,6 +367,8 @@ class Receiver:
             return Ack(tid, 0, control.clear(message.name))
         if isinstance(message, HoldStart):
             return Ack(tid, 0, control.hold(message.name))
+        if isinstance(message, DescribePbo):
+            return PboDescription(tid, description_text(control.describe(message.name)))
         if isinstance(message, StartPbo):
             return Ack(tid, 0, control.start(message.name))
         if isinstance(message, StopPbo):
@@ -744,6 +764,7 @@ _HANDLERS = {
     ReadLog: Receiver._controlled,
     ClearPbo: Receiver._controlled,
     HoldStart: Receiver._controlled,
+    DescribePbo: Receiver._controlled,
     Watch: Receiver._controlled,
     ExportPort: Receiver._controlled,
     ImportPort: Receiver._controlled,
@@ -753,7 +774,8 @@ _HANDLERS = {
     EndSession: Receiver._end_session,
 }
 """The requests a node answers. Any other message is an answer or a push (`Pong`, `Listing`,
-`Ack`, `BlockAck`, `Nak`, `PboTable`, `PortValues`, `LogLines`, `PerformanceReport`,
+`Ack`, `BlockAck`, `Nak`, `PboTable`, `PboDescription`, `PortValues`, `LogLines`,
+`PerformanceReport`,
 `Heartbeat`), which a
 node hears but never answers: on a shared line (`hexmigrate.links.shared`) it hears its own
 answers and other nodes', and two nodes that answered answers would talk forever."""
@@ -784,5 +806,27 @@ CHANGING = frozenset(
     }
 )
 """The requests that change a node: on a node that trusts keys, only an authenticated connection
-may send them. The others read (``PING``, ``LS``, ``PS``, ``READ``, ``LOGS``, ``WATCH``: a
-watch is the connection's own) or open and close a session (``CHALLENGE``, ``AUTH``, ``BYE``)."""
+may send them. The others read (``PING``, ``LS``, ``PS``, ``DESCRIBE``, ``READ``, ``LOGS``,
+``WATCH``: a watch is the connection's own) or open and close a session (``CHALLENGE``,
+``AUTH``, ``BYE``)."""
+
+NOTED = frozenset(
+    {
+        Remove,
+        Begin,
+        Commit,
+        Abort,
+        HoldStart,
+        StartPbo,
+        StopPbo,
+        ClearPbo,
+        SetConstant,
+        SetRate,
+        ConnectPorts,
+        DisconnectPorts,
+        ExportPort,
+        ImportPort,
+    }
+)
+"""The changing requests a node's log records (`Receiver.on_change`): not a transfer's blocks,
+nor a time master's Advances, which come by the hundred."""

@@ -82,6 +82,8 @@ def test_only_a_connection_with_a_trusted_key_changes_the_node(files, listen):
         assert "no modules" in hexmigrate("ls", "--to", to)
         assert "module gain installed" in hexmigrate(*send, "--key", files["key"])
         check_node_output(node, ["gain"])
+        trusted = keys.short_hash(keys.load_private(files["key"]).public_key())
+        node.wait_for(rf"request from .* \(key {trusted}\): COMMIT ")  # who changed what
         assert "gain" in hexmigrate("ps", "--to", to)  # reading stays open
         assert REQUIRED in hexmigrate_refused("stop", "gain", "--to", to)
         assert REQUIRED in hexmigrate_refused("rm", "gain", "--to", to)

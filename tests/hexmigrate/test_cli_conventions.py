@@ -22,7 +22,9 @@ from hexmigrate import cli
 from tests.hexmigrate.cli_node import route_to
 
 COMMANDS = ("pack", "inspect", "verify", "relocate", "keygen", "sign", "send", "ping", "ls", "rm")
-CONTROL = ("ps", "start", "stop", "clear", "set", "rate", "connect", "disconnect", "watch", "logs")
+CONTROL = (
+    "ps", "get", "start", "stop", "clear", "set", "rate", "connect", "disconnect", "watch", "logs"
+)  # fmt: skip
 
 
 @pytest.fixture

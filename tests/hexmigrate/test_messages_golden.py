@@ -23,6 +23,7 @@ from hexmigrate.transfer.messages import (
     Commit,
     ConnectPorts,
     Data,
+    DescribePbo,
     DisconnectPorts,
     End,
     EndSession,
@@ -38,6 +39,7 @@ from hexmigrate.transfer.messages import (
     LogLines,
     Message,
     Nak,
+    PboDescription,
     PboTable,
     PerformanceReport,
     Ping,
@@ -58,6 +60,12 @@ from hexmigrate.transfer.messages import (
 )
 
 TEXT, BINARY = True, False
+
+DESCRIPTION = (
+    '{"name": "gain", "constants": [["k", 131072]], "wires": ["signal.y=gain.x"], '
+    '"last_failure": null}'
+)
+"""A PBO's description as a node answers DESCRIBE."""
 
 GOLDEN: list[tuple[Message, bool, str]] = [
     (Ping(), TEXT, "50494e47202a3146"),
@@ -337,6 +345,22 @@ GOLDEN: list[tuple[Message, bool, str]] = [
     (ClearPbo(13, "gain"), BINARY, "00070d0000006761696e72e23fed"),
     (HoldStart(14, "gain"), TEXT, "484f4c44203134206761696e202a3938"),
     (HoldStart(14, "gain"), BINARY, "00080e0000006761696e402a09bc"),
+    (DescribePbo(15, "gain"), TEXT, "4445534352494245203135206761696e202a4241"),
+    (DescribePbo(15, "gain"), BINARY, "00090f0000006761696e9d3ed867"),
+    (
+        PboDescription(15, DESCRIPTION),
+        TEXT,
+        "4445534352495054494f4e203135207b226e616d65223a20226761696e222c2022636f6e7374616e7473"
+        "223a205b5b226b222c203133313037325d5d2c20227769726573223a205b227369676e616c2e793d6761"
+        "696e2e78225d2c20226c6173745f6661696c757265223a206e756c6c7d202a3935",
+    ),
+    (
+        PboDescription(15, DESCRIPTION),
+        BINARY,
+        "000a0f0000007b226e616d65223a20226761696e222c2022636f6e7374616e7473223a205b5b226b222c"
+        "203133313037325d5d2c20227769726573223a205b227369676e616c2e793d6761696e2e78225d2c2022"
+        "6c6173745f6661696c757265223a206e756c6c7df6daeb64",
+    ),
 ]
 
 TYPED: list[tuple[bytes, Message]] = [
