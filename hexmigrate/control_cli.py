@@ -356,7 +356,8 @@ def _print_log(node: NodeControl, pbo: str, since: int) -> int:
         latest, lines = node.log(pbo, since)
         for line in lines:
             if line.number > since:
-                print(f"{line.time:10.3f} s  {pbo}: {one_line(line.text)}", flush=True)
+                said = line.text if line.text.startswith(f"{pbo}:") else f"{pbo}: {line.text}"
+                print(f"{line.time:10.3f} s  {one_line(said)}", flush=True)
                 since = line.number
         if not lines or since >= latest:
             break
@@ -370,8 +371,15 @@ def _row(
     clock = f"{report.clock_ms / 1000:.3f}"
     if csv:
         return ",".join([clock, str(report.seq), *(str(values.get(n, "")) for n in columns)])
-    shown = "  ".join(f"{name}={value!r}" for name, value in values.items())
+    shown = "  ".join(f"{name}={_number_text(value)}" for name, value in values.items())
     return f"report #{report.seq} t={clock}s  {shown}"
+
+
+def _number_text(value: Number) -> str:
+    """A reported value as a person reads it: a whole number as it is, a float to six
+    significant digits (``leftover=99.8833``, not ``99.88329100598311``); ``--csv`` keeps
+    every digit."""
+    return str(value) if isinstance(value, int) else f"{value:.6g}"
 
 
 def _is_word(text: str) -> bool:

@@ -166,7 +166,9 @@ def build_command(args: argparse.Namespace) -> None:
     for source in args.sources or example_sources():
         built = build_module(source, args.out)
         print(
-            f"{built.name}: elf={built.elf} map={built.map} bin={built.bin} hex={built.objcopy_hex}"
+            f"{built.name}: elf={built.elf} map={built.map} bin={built.bin} "
+            f"(the module file: hexmigrate pack {built.elf} -o {built.name}.hex; "
+            f"{built.objcopy_hex.name} is objcopy's plain Intel HEX, not a module file)"
         )
 
 

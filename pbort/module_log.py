@@ -46,3 +46,10 @@ class ModuleLog:
     def since(self, number: int) -> tuple[LogLine, ...]:
         """The kept lines after line `number` (0: every kept line), oldest first."""
         return tuple(line for line in self._lines if line.number > number)
+
+
+def attributed(name: str, text: str) -> str:
+    """A module's line as a reader sees it, ``NAME: text``: the PBO's name first, unless the
+    module wrote it there itself (many do: ``PBO_LOG("lowpass: ...")``), which would read
+    ``lowpass: lowpass: ...``."""
+    return text if text.startswith(f"{name}:") else f"{name}: {text}"

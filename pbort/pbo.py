@@ -26,7 +26,7 @@ from pbort.errors import (
     describe_failure,
 )
 from pbort.lifecycle import CONFIGURABLE, State, require, transition
-from pbort.module_log import LogLine, ModuleLog
+from pbort.module_log import LogLine, ModuleLog, attributed
 from pbort.performance_buffer import PerformanceBuffer
 from pbort.ports import Direction, PortSpec, PortValue
 from pbort.scheduler import Job, Scheduler
@@ -105,7 +105,7 @@ class RegisteredPBO:
         """A line from the module: kept in its log, told to the kernel's observers, and to
         Python's logging (``pbort.module``, as ``NAME: text``)."""
         line = self.log.append(self._scheduler.clock.now(), text)
-        _module_log.info("%s: %s", self.name, line.text)
+        _module_log.info("%s", attributed(self.name, line.text))
         self._on_log(self.name, line)
 
     def port_names(self) -> list[str]:

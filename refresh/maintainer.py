@@ -49,8 +49,10 @@ class Step:
         if self.action == "migrate":
             carried = " (partial bitstreams to its fabric)" if self.hardware else ""
             return f"migrate {self.module} to {self.robot}{carried}"
-        where = ", in hardware" if self.hardware else ""
-        return f"{self.action} {self.instance} ({self.module}{where}) on {self.robot}"
+        notes = [self.module] if self.module != self.instance else []  # a combo's Dehazer_2
+        notes += ["in hardware"] if self.hardware else []
+        said = f" ({', '.join(notes)})" if notes else ""
+        return f"{self.action} {self.instance}{said} on {self.robot}"
 
 
 @dataclass(frozen=True)

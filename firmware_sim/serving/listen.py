@@ -50,6 +50,7 @@ from hexmigrate.transfer.receiver import Receiver
 from pbort.clock import Clock, RealTimeClock, VirtualClock
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
+from pbort.module_log import attributed
 from pbort.native import NativeModule
 from pbort.trace import recording
 
@@ -128,7 +129,7 @@ def listen(
         into_node_log(node, echo=True),
     ):
         # the kernel's warnings (a fault) go to the node's log; each module line is said too
-        node.kernel.observe_log(lambda pbo, line: say(f"{pbo}: {one_line(line.text)}"))
+        node.kernel.observe_log(lambda pbo, line: say(one_line(attributed(pbo, line.text))))
         if started is not None:
             started(node)
         pbos = PboSetup(

@@ -135,7 +135,7 @@ def test_a_listening_node_says_where_first_then_why_a_pbo_did_not_start():
     said = "signal: expected shape 0 (ramp), 1 (sine) or 2 (square), got 7"
     assert result.stdout.splitlines() == [
         "listening on loop://",
-        f"signal: {said}",  # the module's line, as it logs it
+        said,  # the module's line, as it logs it (it names itself: no second "signal: ")
         f"signal did not start: PBO 'signal': on returned -1; now ERROR; it logged: {said}",
     ]
 

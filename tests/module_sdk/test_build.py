@@ -397,6 +397,12 @@ def test_cli_prints_one_line_per_module(tmp_path: Path, capsys: pytest.CaptureFi
     lines = capsys.readouterr().out.splitlines()
     assert [line.split(":")[0] for line in lines] == ["gain", "moving_average"]
     assert f"elf={tmp_path.resolve() / 'gain.elf'}" in lines[0]
+    # the module file is what hexmigrate pack writes, not objcopy's HEX (issue 26, point 10)
+    assert (
+        f"the module file: hexmigrate pack {tmp_path.resolve() / 'gain.elf'} -o gain.hex"
+        in (lines[0])
+    )
+    assert "hex=" not in lines[0] and "gain.objcopy.hex is objcopy's plain Intel HEX" in lines[0]
 
 
 def test_cli_reports_errors_without_traceback(

@@ -207,9 +207,9 @@ def test_the_plan_says_the_module_runs_in_hardware(tmp_path):
     target = current.replace(1, (Placement("Doubler", "r"),))
     steps = [str(step) for step in plan(current, target, database).steps]
     assert "migrate Doubler to r (partial bitstreams to its fabric)" in steps
-    assert "start Doubler (Doubler, in hardware) on r" in steps
+    assert "start Doubler (in hardware) on r" in steps
     back = [str(step) for step in plan(target, current, database).steps]
-    assert "stop Doubler (Doubler, in hardware) on r" in back
+    assert "stop Doubler (in hardware) on r" in back
 
 
 def test_an_applier_sends_a_hardware_module_once_and_again_after_its_node_rejoins(tmp_path):
@@ -404,7 +404,7 @@ hardware = {{ functionalities = ["gain"], slots = [0] }}
     other = doubling.replace(1, (Placement("Other", "r"),))
     steps = [str(step) for step in plan(doubling, other, database).steps]
     # Other's bitstream for slot 0 waits for Doubler's stop, which empties slots 0 and 3.
-    assert steps.index("stop Doubler (Doubler, in hardware) on r") < steps.index(
+    assert steps.index("stop Doubler (in hardware) on r") < steps.index(
         "migrate Other to r (partial bitstreams to its fabric)"
     )
     with Node("r", clock=VirtualClock(), fpga=port) as node:

@@ -212,7 +212,7 @@ def test_the_loop_repairs_the_task_on_an_emulated_node(loaded):
         plan = maintainer.plan(current, target)
         assert [str(s) for s in plan.steps] == [
             "disconnect SSD.image@hexmanipulator",
-            "start Dehazer (Dehazer) on hexmanipulator",
+            "start Dehazer on hexmanipulator",
             "connect CamReader.image@hexmanipulator -> Dehazer.raw@hexmanipulator",
             "connect Dehazer.image@hexmanipulator -> SSD.image@hexmanipulator",
         ]

@@ -79,8 +79,8 @@ def test_a_deploy_plan_migrates_images_before_starting_them():
     steps = plan(None, initial_configuration(loaded.task, loaded.database), loaded.database)
     assert [str(s) for s in steps.steps] == [
         "migrate gain to a",
-        "start signal (signal) on a",
-        "start gain (gain) on a",
+        "start signal on a",
+        "start gain on a",
         "connect signal.y@a -> gain.x@a",
     ]
 

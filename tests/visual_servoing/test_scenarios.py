@@ -95,4 +95,4 @@ def test_fog_on_a_cpu_too_small_for_the_software_dehazer_is_cleared_in_hardware(
     assert migration.cycles == 2 * 25  # two wrappers, a frame beat a cycle, then the commit
     assert migration.wire == "serial 115200" and 22 * 10 / 115200 < migration.seconds < 0.2
     steps = [e.message for e in outcome.log.of_kind("step")]
-    assert any(s.startswith("start Dehazer_hw (Dehazer_hw, in hardware) on hexman") for s in steps)
+    assert any(s.startswith("start Dehazer_hw (in hardware) on hexman") for s in steps)
