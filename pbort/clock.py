@@ -34,6 +34,11 @@ class Clock(ABC):
     def now(self) -> float:
         """The current time in seconds."""
 
+    @abstractmethod
+    def restart(self) -> None:
+        """Start again from 0 s (a new run of the node's task; the kernel asks it only while
+        no PBO runs)."""
+
     def wait_until(self, t: float) -> float:
         """Return at time `t` (at once if `t` has passed); the result is how late, in seconds."""
         if self._closed:
@@ -81,6 +86,9 @@ class VirtualClock(Clock):
         """The simulated time in seconds."""
         return self._now
 
+    def restart(self) -> None:
+        self._now = 0.0
+
     def _wait_until(self, t: float) -> float:
         if t < self._now:
             return self._now - t  # time never runs backwards
@@ -103,8 +111,11 @@ class RealTimeClock(Clock):
         self._spin = spin
 
     def now(self) -> float:
-        """Seconds since the clock was made."""
+        """Seconds since the clock was made, or last restarted."""
         return time.perf_counter() - self._origin
+
+    def restart(self) -> None:
+        self._origin = time.perf_counter()
 
     @contextmanager
     def running(self) -> Iterator[None]:

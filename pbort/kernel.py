@@ -232,6 +232,17 @@ class Kernel:
         with self.clock.running():
             return self._scheduler.run(until, cycles)
 
+    def restart_clock(self) -> None:
+        """Start the clock again from 0 s, for a new run of the task; refused (SetupError,
+        naming them) while a PBO is ON: its job is on the old clock's grid."""
+        self._check_open()
+        running = [name for name, pbo in self._pbos.items() if pbo.state is State.ON]
+        if running:
+            raise SetupError(
+                f"restart the clock: expected every PBO off, got {', '.join(running)} ON"
+            )
+        self._scheduler.restart()
+
     @property
     def now(self) -> float:
         """The kernel's current time in seconds."""

@@ -101,6 +101,13 @@ class Scheduler:
             job.index = 0
             self._push(job, job.phase)
 
+    def restart(self) -> None:
+        """Forget every release and start the clock again from 0 s (no job may be active: the
+        kernel checks that no PBO runs)."""
+        self._timeline.clear()
+        self._ready.clear()
+        self.clock.restart()
+
     def stop(self, job: Job) -> None:
         """Make a job idle; a pending release is dropped."""
         job.active = False

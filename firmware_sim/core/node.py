@@ -536,6 +536,14 @@ class Node:
             self.kernel.kill(name)
         self.power.stop(name)
 
+    def restart_clock(self) -> None:
+        """The kernel's clock from 0 s again (no PBO may run), and the lock-step horizon with
+        it: a new run of the task starts here."""
+        self.power.advance(self.kernel.now)  # what was drawn until now stays drawn
+        self.kernel.restart_clock()
+        self.power.restart()
+        self.horizon = 0.0
+
     def run(self, until: float | None = None, cycles: int | None = None, step: float = 0.01) -> int:
         """Run the kernel to `until` seconds (absolute) or for `cycles` jobs, updating the power
         budget every `step` seconds of virtual time from the evaluators' latest draws."""

@@ -60,6 +60,11 @@ class PowerModel:
         self.used = min(self.capacity, self.used + self.draw / 1000.0 * (now - self.time))
         self.time = now
 
+    def restart(self) -> None:
+        """The node's clock starts again from 0 s: account from there (the energy drawn so far
+        stays drawn)."""
+        self.time = 0.0
+
     @property
     def remaining(self) -> float:
         """Energy left, in joules."""

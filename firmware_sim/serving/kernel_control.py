@@ -300,6 +300,30 @@ class KernelControl:
         value = np.asarray(self.node.kernel.value(port)).item()
         return value if isinstance(value, float) else int(value)
 
+    def reset(self) -> str:
+        """Make the node ready for a new run of its task: every PBO that runs switched off,
+        every wire and bridge undone (the run makes its own), no module held, and its clock
+        from 0 s (a lock-step node is advanced from 0 again; a real-time node's times count
+        from now)."""
+        kernel = self.node.kernel
+        bridges = len(self.exports) + len(self.imports)
+        for number in list(self.exports):
+            self._take_down(f"{bridge_name(number)}_tx", self.exports.pop(number))
+        for number in list(self.imports):
+            self._take_down(f"{bridge_name(number)}_rx", self.imports.pop(number))
+        running = [name for name in kernel.names if kernel.state(name) is State.ON]
+        for name in running:
+            kernel.off(name)
+        wires = kernel.connections()
+        for _source, sink in wires:
+            kernel.disconnect(sink)
+        self.held.clear()
+        self.node.restart_clock()
+        return (
+            f"reset: {len(running)} PBO(s) switched off, {len(wires)} wire(s) and {bridges} "
+            "bridge(s) undone, clock at 0 s"
+        )
+
     def hold(self, name: str) -> str:
         """Leave module `name` off when it is installed next (at most MAX_HELD names wait)."""
         if name not in self.held and len(self.held) >= MAX_HELD:

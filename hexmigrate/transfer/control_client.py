@@ -50,6 +50,7 @@ from hexmigrate.transfer.messages import (
     PortValues,
     ReadLog,
     ReadPorts,
+    ResetNode,
     SetConstant,
     SetRate,
     StartPbo,
@@ -98,6 +99,11 @@ class NodeControl:
             return parse_description(reply.text)
         except MessageError as error:
             raise MessageError(f"the answer to DESCRIBE {name}: {error}") from None
+
+    def reset(self) -> str:
+        """Ask the node to get ready for a new run: its PBOs off, bridges down, clock at 0 s."""
+        tid = self.tids()
+        return self._acknowledged(ResetNode(tid), tid, "reset")
 
     def hold(self, name: str) -> str:
         """Ask the node not to start module `name` when it is installed next (its constants

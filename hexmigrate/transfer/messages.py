@@ -356,6 +356,13 @@ class ClearPbo(Message, code=extended(0x07), verb="CLEAR"):
     name: str = word()
 
 
+class ResetNode(Message, code=extended(0x0B), verb="RESET"):
+    """Make the node ready for a new run of its task: its PBOs off, its bridges down, its clock
+    from 0 s (a manager sends it before it deploys, in lock-step or real time)."""
+
+    tid: int = u32()
+
+
 class HoldStart(Message, code=extended(0x08), verb="HOLD"):
     """Do not start module `name` when it is installed next: the host sets its constants first
     (``hexmigrate send --set``) and starts it, or leaves it off (``--no-start``)."""

@@ -83,6 +83,7 @@ from hexmigrate.transfer.messages import (
     ReadLog,
     ReadPorts,
     Remove,
+    ResetNode,
     Resume,
     SetConstant,
     SetRate,
@@ -367,6 +368,12 @@ class Receiver:
             return Ack(tid, 0, control.clear(message.name))
         if isinstance(message, HoldStart):
             return Ack(tid, 0, control.hold(message.name))
+        if isinstance(message, ResetNode):
+            said = control.reset()
+            for session in self.sessions.all():  # the watches follow the clock's restart
+                if session.subscription is not None:
+                    session.subscription.restart(control.clock())
+            return Ack(tid, 0, said)
         if isinstance(message, DescribePbo):
             return PboDescription(tid, description_text(control.describe(message.name)))
         if isinstance(message, StartPbo):
@@ -764,6 +771,7 @@ _HANDLERS = {
     ReadLog: Receiver._controlled,
     ClearPbo: Receiver._controlled,
     HoldStart: Receiver._controlled,
+    ResetNode: Receiver._controlled,
     DescribePbo: Receiver._controlled,
     Watch: Receiver._controlled,
     ExportPort: Receiver._controlled,
@@ -795,6 +803,7 @@ CHANGING = frozenset(
         StopPbo,
         ClearPbo,
         HoldStart,
+        ResetNode,
         SetConstant,
         SetRate,
         ConnectPorts,
@@ -817,6 +826,7 @@ NOTED = frozenset(
         Commit,
         Abort,
         HoldStart,
+        ResetNode,
         StartPbo,
         StopPbo,
         ClearPbo,

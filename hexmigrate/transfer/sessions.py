@@ -77,6 +77,10 @@ class Sessions:
         self._sessions.move_to_end(peer)
         return session
 
+    def all(self) -> tuple[PeerSession, ...]:
+        """Every connection's session."""
+        return tuple(self._sessions.values())
+
     def get(self, peer: Hashable) -> PeerSession | None:
         """The session of `peer` if it has one (without making it the most recent)."""
         return self._sessions.get(peer)

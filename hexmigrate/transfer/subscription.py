@@ -51,6 +51,12 @@ class Subscription:
             pushed.append(Heartbeat(self._next_seq(), _ms(now), control.state()))
         return pushed
 
+    def restart(self, now: float) -> None:
+        """The node's clock started again (a RESET): the next report and heartbeat from `now`
+        of the new clock, rather than at times of the old one it may take long to reach."""
+        self.next_report = now
+        self.next_beat = now + HEARTBEAT_PERIOD
+
     def _next_seq(self) -> int:
         seq = self.seq
         self.seq = (seq + 1) % WRAP

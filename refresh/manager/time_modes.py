@@ -56,6 +56,12 @@ LOCK_STEP, REAL_TIME, LOCK_STEP_MOVED = "lock-step", "real-time", "lock-step, mo
 """What `mode_of` finds a node in."""
 
 
+def reset(node: RemoteNode) -> None:
+    """Get `node` ready for a new run (RESET): what a run before left running is switched off
+    and its clock starts from 0 s."""
+    node.ask("RESET", node.control.reset)
+
+
 def mode_of(node: RemoteNode) -> tuple[str, str]:
     """The time mode `node` runs in, and what it said: asked for an Advance to 0 s, a lock-step
     node at its start takes it, a real-time node refuses it, a lock-step node that some run
@@ -83,9 +89,11 @@ class LockStep:
         """The run's time every node is granted to, as the advances add up."""
 
     def attach(self, applier: LinkApplier) -> None:
-        """Refuse a node that is not in lock-step at 0 s, then route the applier's bridges
-        through a new master."""
+        """Reset every node for the run (its PBOs off, its clock from 0 s: a node a run before
+        used serves this one too), refuse one that is not in lock-step, then route the
+        applier's bridges through a new master."""
         for node in applier.nodes.values():
+            reset(node)
             mode, said = mode_of(node)
             if mode == REAL_TIME:
                 raise NodeLinkError(
@@ -137,8 +145,12 @@ class RealTime:
         self.start: float | None = None
 
     def attach(self, applier: LinkApplier) -> None:
-        """Refuse a node in lock-step (its clock would never move), then start the clock."""
+        """Reset every node for the run (its PBOs off, its clock from 0 s now: a module's
+        times, a native's ``fault_at``, count from the task's deployment, not from when its
+        node process started), refuse a node in lock-step (its clock would never move), then
+        start the clock."""
         for node in applier.nodes.values():
+            reset(node)
             if mode_of(node)[0] != REAL_TIME:
                 raise NodeLinkError(
                     f"robot {node.robot!r}, node at {node.url}: expected a node on the "

@@ -45,6 +45,7 @@ from hexmigrate.transfer.messages import (
     ReadLog,
     ReadPorts,
     Remove,
+    ResetNode,
     Resume,
     SetConstant,
     SetRate,
@@ -108,6 +109,10 @@ class Recording:
         self.changes.append(f"clear {name}")
         return f"cleared {name}: now OFF"
 
+    def reset(self) -> str:
+        self.changes.append("reset")
+        return "reset"
+
     def hold(self, name: str) -> str:
         self.changes.append(f"hold {name}")
         return f"holding {name}"
@@ -168,6 +173,7 @@ CHANGING_REQUESTS: list[Message] = [
     StopPbo(7, "gain"),
     ClearPbo(7, "gain"),
     HoldStart(7, "gain"),
+    ResetNode(7),
     SetConstant(8, "gain.k=2"),
     SetRate(9, 50_000, "gain"),
     ConnectPorts(10, "signal.y=gain.x"),

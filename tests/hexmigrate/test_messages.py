@@ -66,7 +66,7 @@ def messages_of(cls: type[m.Message], text: bool) -> st.SearchStrategy[m.Message
     return st.builds(cls, **{field.name: values(field, text) for field in cls.layout.fields})
 
 
-def test_the_protocol_declares_its_forty_two_message_types():
+def test_the_protocol_declares_its_forty_three_message_types():
     names = {cls.__name__ for cls in DECLARED}
     assert names == {
         "Ping", "ListModules", "Remove", "Begin", "Header", "Data", "HexLine", "End", "Commit",
@@ -75,7 +75,7 @@ def test_the_protocol_declares_its_forty_two_message_types():
         "DisconnectPorts", "ReadPorts", "Watch", "PboTable", "PortValues", "PerformanceReport",
         "Heartbeat", "ExportPort", "ImportPort", "Advance", "Challenge", "Authenticate",
         "Signature", "EndSession", "ReadLog", "LogLines", "ClearPbo",
-        "HoldStart", "DescribePbo", "PboDescription",
+        "HoldStart", "DescribePbo", "PboDescription", "ResetNode",
     }  # fmt: skip
 
 

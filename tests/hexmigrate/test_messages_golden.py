@@ -48,6 +48,7 @@ from hexmigrate.transfer.messages import (
     ReadLog,
     ReadPorts,
     Remove,
+    ResetNode,
     Resume,
     SetConstant,
     SetRate,
@@ -345,6 +346,8 @@ GOLDEN: list[tuple[Message, bool, str]] = [
     (ClearPbo(13, "gain"), BINARY, "00070d0000006761696e72e23fed"),
     (HoldStart(14, "gain"), TEXT, "484f4c44203134206761696e202a3938"),
     (HoldStart(14, "gain"), BINARY, "00080e0000006761696e402a09bc"),
+    (ResetNode(16), TEXT, "5245534554203136202a3144"),
+    (ResetNode(16), BINARY, "000b100000002dc70b96"),
     (DescribePbo(15, "gain"), TEXT, "4445534352494245203135206761696e202a4241"),
     (DescribePbo(15, "gain"), BINARY, "00090f0000006761696e9d3ed867"),
     (

@@ -17,6 +17,7 @@ import signal
 import socket
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
@@ -249,3 +250,30 @@ def test_a_node_that_does_not_answer_and_an_unknown_task_are_one_error_line(data
     assert done.stderr == (
         f"error: {database}: task.name: expected task 'x' (--task), got task 'levels' only\n"
     )
+
+
+def test_lock_step_nodes_serve_a_second_run_as_the_first(database, tmp_path):
+    """A manager resets each node before it deploys (RESET: its PBOs off, its bridges down, its
+    clock from 0 s), so the nodes a run used serve the next one, which repeats it."""
+    with nodes("--lock-step", "--lock-step") as (started, options):
+        found = []
+        for run in range(2):
+            out = tmp_path / f"events{run}.jsonl"
+            done = manage(database, *options, *RUN, "--events", str(out))
+            assert done.returncode == 0, (done.stderr, started["a"].lines())
+            found.append(reproducible(events(out)))
+    assert found[1] == found[0]
+
+
+def test_in_real_time_a_fault_counts_from_the_task_s_deployment(database, tmp_path):
+    """Sensor sticks from 1 s of its node's clock; the nodes run 2.5 s before the manager
+    starts, and the reset at its start makes the 1 s the task's (detection came at 0.5 s)."""
+    out = tmp_path / "events.jsonl"
+    with nodes("", "") as (_started, options):
+        time.sleep(2.5)
+        done = manage(
+            database, *options, "--real-time", "--seconds", "3", *SETTINGS, "--events", str(out)
+        )
+    assert done.returncode == 0, done.stderr
+    detection = next(e for e in events(out) if e["kind"] == "detection")
+    assert detection["time"] >= 1.0
