@@ -6,7 +6,8 @@ runs in the output directory with relative file names, and ``-ffile-prefix-map``
 source directory from the object's file symbol, so the outputs are byte-identical whatever the
 output directory and wherever the checkout lives.
 
-Usage: ``python -m module_sdk.build --out DIR [SOURCE.c ...]`` (default: all examples).
+Usage: ``python -m module_sdk.build [--gdb] --out DIR [SOURCE.c ...]`` (default: all examples;
+``--gdb`` builds for gdb: -Og -g3, the source copied beside the ELF).
 """
 
 import argparse
@@ -41,8 +42,6 @@ TARGET = ["-march=rv32im", "-mabi=ilp32"]
 COMPILE_FLAGS = [
     *TARGET,
     "-mcmodel=medany",  # PC-relative code: only descriptor words need fixing when the image moves
-    "-Os",
-    "-g",  # DWARF for fault messages and gdb: debug sections are not loaded, the image is unchanged
     "-nostdlib",
     "-ffreestanding",
     "-ffunction-sections",  # one .text.<function> input section each, named in the map file
@@ -53,6 +52,11 @@ COMPILE_FLAGS = [
     "-Wextra",
     "-Werror",
 ]
+OPTIMIZED = ["-Os", "-g"]
+"""The default build: small code (what flash and the link carry); DWARF for fault messages and
+gdb (debug sections are not loaded, the image is unchanged), but -Os keeps few locals alive."""
+DEBUG = ["-Og", "-g3"]
+"""``--gdb``: code gdb steps through with its locals (and the macros), a larger image."""
 
 
 @dataclass(frozen=True)
@@ -88,8 +92,10 @@ def _run(command: list[str], step: str, cwd: Path) -> None:
         )
 
 
-def build_module(source: Path, out_dir: Path) -> ModuleBuild:
-    """Compile and link one module source into ``out_dir``, named after the source's stem.
+def build_module(source: Path, out_dir: Path, debug: bool = False) -> ModuleBuild:
+    """Compile and link one module source into ``out_dir``, named after the source's stem;
+    `debug` builds for gdb (`DEBUG`: -Og -g3) rather than for size (`OPTIMIZED`), and copies
+    the source beside the ELF, where a node's ``gdb: directory`` line points gdb.
 
     Produces NAME.o, NAME.elf (with --emit-relocs, so every absolute pointer word is listed as an
     R_RISCV_32 relocation), NAME.map, NAME.bin (the image bytes from the link base) and
@@ -116,7 +122,8 @@ def build_module(source: Path, out_dir: Path) -> ModuleBuild:
         f"-ffile-prefix-map={SDK_DIR}/=sdk/",
         f"-ffile-prefix-map={out_dir}=.",
     ]
-    compile_command = [gcc, *COMPILE_FLAGS, f"-I{SDK_DIR}", *prefixes, "-c", str(source)]
+    level = DEBUG if debug else OPTIMIZED
+    compile_command = [gcc, *COMPILE_FLAGS, *level, f"-I{SDK_DIR}", *prefixes, "-c", str(source)]
     _run([*compile_command, "-o", obj], f"compiling {source.name}", out_dir)
     link_flags = ["-nostdlib", "-T", str(LINKER_SCRIPT), "-Wl,--emit-relocs"]
     # libgcc after the object: soft float, 64-bit division (LIBGCC says why it may move).
@@ -124,6 +131,8 @@ def build_module(source: Path, out_dir: Path) -> ModuleBuild:
     _run([gcc, *TARGET, *link_flags, *link_outputs], f"linking {elf}", out_dir)
     _run([objcopy, "-O", "binary", elf, binary], f"writing {binary}", out_dir)
     _run([objcopy, "-O", "ihex", elf, hex_file], f"writing {hex_file}", out_dir)
+    if debug and source.parent != out_dir:
+        shutil.copyfile(source, out_dir / source.name)  # the DWARF names it relative: ./NAME.c
     return ModuleBuild(
         name=name,
         elf=out_dir / elf,
@@ -151,6 +160,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--out", type=Path, required=True, help="output directory")
     parser.add_argument(
+        "--gdb",
+        action="store_true",
+        help="build for gdb: -Og -g3 (locals and macros; a larger image), the source copied "
+        "beside the ELF (--debug is the traceback's, as in every command)",
+    )
+    parser.add_argument(
         "sources",
         nargs="*",
         type=input_file(),
@@ -164,7 +179,7 @@ def build_parser() -> argparse.ArgumentParser:
 def build_command(args: argparse.Namespace) -> None:
     """Build each source (the examples by default) and print one line per module."""
     for source in args.sources or example_sources():
-        built = build_module(source, args.out)
+        built = build_module(source, args.out, args.gdb)
         print(
             f"{built.name}: elf={built.elf} map={built.map} bin={built.bin} "
             f"(the module file: hexmigrate pack {built.elf} -o {built.name}.hex; "

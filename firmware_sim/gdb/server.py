@@ -30,6 +30,8 @@ class GdbServer:
         symbols = self.target.symbol_file(name)
         if symbols.elf is not None:
             self.say(f"gdb: add-symbol-file {symbols.elf} -o 0x{symbols.offset:X}")
+            # the SDK's DWARF names sources relative to the build folder (./gain.c)
+            self.say(f"gdb: directory {symbols.elf.parent}")
         else:
             self.say(
                 f"gdb: add-symbol-file {name}.elf -o 0x{symbols.offset:X}  (module {name!r}: "

@@ -21,6 +21,8 @@ import pytest
 from commandline.children import Child
 from firmware_sim.gdb.packets import PacketConnection
 from hexmigrate.elf import image_from_elf
+from module_sdk.build import EXAMPLES_DIR
+from module_sdk.build import main as build_main
 
 GDB = shutil.which("gdb-multiarch")
 pytestmark = pytest.mark.skipif(GDB is None, reason="needs gdb-multiarch (make test installs it)")
@@ -268,3 +270,22 @@ def test_a_listening_node_takes_gdb_between_jobs_for_a_module_that_arrived(gain,
     output = gdb(where, symbols, "break gain_cycle", "continue", "info registers pc", "detach")
     assert "Breakpoint 1, gain_cycle (ctx=0x3000" in output
     node.wait_for(r"gdb: gdb detached; the node runs on", LINE_TIMEOUT)
+
+
+def test_a_gdb_build_keeps_its_locals_and_gdb_finds_its_source_where_the_node_says(nodes, tmp_path):
+    """``python -m module_sdk.build --gdb`` (-Og -g3): after ``next`` gdb still prints ``ctx``
+    (-Os has it optimized out), and the node's ``gdb: directory`` line lets gdb list the source
+    the DWARF names relative to the build folder (issue 26, point 5)."""
+    out = tmp_path / "build"
+    assert build_main(["--gdb", "--out", str(out), str(EXAMPLES_DIR / "gain.c")]) == 0
+    image_from_elf(out / "gain.elf").write(out / "gain.hex")
+    node, where, symbols = start(nodes, "--module", f"{out / 'gain.hex'}@0x{LOAD_AT:08X}", *RUN)
+    directory = node.wait_for(r"gdb: (directory \S+)", LINE_TIMEOUT)[1]
+    assert directory == f"directory {out}"
+    commands = ("break gain_cycle", "continue", "next", "print ctx", "print PBO_MAX_PORTS", "list")
+    output = gdb(where, symbols, directory, *commands)
+    assert "optimized out" not in output
+    assert re.search(r"\$1 = \(struct pbo_context \*\) 0x[0-9a-f]+", output), output
+    assert "$2 = 8" in output  # a macro of the SDK: -g3 keeps them (-g does not)
+    assert "pbo_q16_mul" in output  # the listed source lines
+    node.stop()
