@@ -26,7 +26,7 @@ from campaign.engine import WORKERS_LOG, Runner, client, default_workers, execut
 from campaign.errors import CampaignFolderError
 from campaign.html import write_page
 from campaign.plan import plan
-from campaign.summary import lines, summarize
+from campaign.summary import lines, rounded, summarize
 from commandline import UsageError
 from commandline.arguments import integer
 from commandline.interrupts import stop_requests
@@ -218,7 +218,7 @@ def finish(out: Path, parameters: Mapping[str, Any], records: Sequence[dict[str,
     from campaign.plots import PLOTS, draw_plots  # matplotlib: the campaign extra's
 
     summary = summarize(records)
-    (out / SUMMARY).write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
+    (out / SUMMARY).write_text(json.dumps(rounded(summary), indent=1) + "\n", encoding="utf-8")
     plots = draw_plots(summary, out)
     write_page(summary, parameters, PLOTS, out / PAGE)
     print("\n".join(lines(summary)))

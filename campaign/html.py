@@ -63,7 +63,10 @@ def _overview(summary: Mapping[str, Any]) -> list[tuple[Any, ...]]:
         ("crashed", len(summary["crashed"])),
         ("with faults", summary["fault_runs"]),
         ("control (no fault)", summary["control_runs"]),
-        ("false detections (decisions / runs)", _pair(summary["false_detections"])),
+        (
+            "false detections (decisions / runs with one / finished runs)",
+            _pair(summary["false_detections"]),
+        ),
         ("stopped safely", summary["recovery"]["stopped"]),
         ("decisions", cost["decisions"]),
         ("migrations", cost["migrations"]),
@@ -72,7 +75,7 @@ def _overview(summary: Mapping[str, Any]) -> list[tuple[Any, ...]]:
 
 
 def _pair(false: Mapping[str, int]) -> str:
-    return f"{false['decisions']} / {false['runs']}"
+    return f"{false['decisions']} / {false['runs']} / {false['of']}"
 
 
 def _timing_rows(summary: Mapping[str, Any]) -> list[tuple[Any, ...]]:

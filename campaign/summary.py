@@ -79,7 +79,11 @@ def _false_detections(finished: Sequence[Record]) -> dict[str, Any]:
         at = record["draw"]["fault_at"]
         early = [d for d in record["decisions"] if at is None or d["detected_at"] < at - 1e-9]
         counts.append(len(early))
-    return {"decisions": sum(counts), "runs": sum(1 for c in counts if c)}
+    return {
+        "decisions": sum(counts),
+        "runs": sum(1 for c in counts if c),
+        "of": len(counts),
+    }
 
 
 def _location(firsts: Sequence[tuple[Record, dict[str, Any] | None]]) -> dict[str, Any]:
@@ -167,6 +171,18 @@ def _mean(values: Sequence[float]) -> float | None:
     return statistics.fmean(values) if values else None
 
 
+def rounded(value: Any) -> Any:
+    """`value` (a summary, or any part of it) with every float to six significant digits, as
+    a reader wants them in ``summary.json`` (0.204, not 0.20399999999999485)."""
+    if isinstance(value, float):
+        return float(f"{value:.6g}")
+    if isinstance(value, dict):
+        return {key: rounded(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [rounded(item) for item in value]
+    return value
+
+
 def lines(summary: Mapping[str, Any]) -> list[str]:
     """The summary as the lines a terminal shows."""
     detection, recovery, cost = summary["detection"], summary["recovery"], summary["cost"]
@@ -183,7 +199,11 @@ def lines(summary: Mapping[str, Any]) -> list[str]:
             f"{_seconds(detection['latency']['median'])}, p90 "
             f"{_seconds(detection['latency']['p90'])}",
         ),
-        ("false detections", f"{false['decisions']} in {false['runs']} run(s)"),
+        (
+            "false detections",
+            f"{false['decisions']} decision(s) before a fault or in a control run, in "
+            f"{false['runs']} of {false['of']} finished run(s)",
+        ),
         (
             "located",
             f"{percent(location['accuracy'].get('decided', {}).get('all'))} by the deciding "

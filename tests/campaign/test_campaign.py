@@ -20,7 +20,7 @@ from campaign.cli import CampaignSpec, add_campaign_arguments, run_campaign
 from campaign.errors import CampaignFolderError
 from campaign.plan import plan
 from campaign.record import crashed, reproducible
-from campaign.summary import distribution, summarize
+from campaign.summary import distribution, rounded, summarize
 from tests.campaign import toy
 
 TOY = CampaignSpec("toy", ("a", "b"), toy.draw, toy.run, Path("unused"))
@@ -71,7 +71,10 @@ def test_the_summary_plots_and_page_say_what_the_records_hold(finished):
     found = records(finished)
     ok = [r for r in found if r["status"] == "ok"]
     summary = json.loads((finished / "summary.json").read_text())
-    assert summary == json.loads(json.dumps(summarize(found)))
+    assert summary == json.loads(json.dumps(rounded(summarize(found))))
+    written = (finished / "summary.json").read_text()
+    assert not re.search(r"\d\.\d{7,}", written)  # six significant digits, not 0.2039999999
+    assert summary["false_detections"]["of"] == len(ok)
     assert summary["finished"] == len(ok) and len(summary["crashed"]) == 12 - len(ok)
     assert summary["detection"]["rate"] == 1.0
     assert summary["detection"]["latency"]["median"] == pytest.approx(0.5)
