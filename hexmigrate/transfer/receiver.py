@@ -819,24 +819,6 @@ may send them. The others read (``PING``, ``LS``, ``PS``, ``DESCRIBE``, ``READ``
 ``WATCH``: a watch is the connection's own) or open and close a session (``CHALLENGE``,
 ``AUTH``, ``BYE``)."""
 
-NOTED = frozenset(
-    {
-        Remove,
-        Begin,
-        Commit,
-        Abort,
-        HoldStart,
-        ResetNode,
-        StartPbo,
-        StopPbo,
-        ClearPbo,
-        SetConstant,
-        SetRate,
-        ConnectPorts,
-        DisconnectPorts,
-        ExportPort,
-        ImportPort,
-    }
-)
+NOTED = CHANGING - {Header, Data, HexLine, End, Resume, Signature, Advance}
 """The changing requests a node's log records (`Receiver.on_change`): not a transfer's blocks,
 nor a time master's Advances, which come by the hundred."""

@@ -88,6 +88,18 @@ initial = ["Source", "Soft"]
 """
 
 
+def one_slot_module(name: str, bitstream: str) -> str:
+    """The TOML of hardware module `name` on r's slot 0 (its gain), routed by `bitstream`."""
+    return f"""
+[schemas.filter.modules.{name}]
+robots = ["r"]
+inputs = {{ x = "level" }}
+outputs = {{ y = "filtered" }}
+source = {{ bitstreams = ["{bitstream}"] }}
+hardware = {{ functionalities = ["gain"], slots = [0] }}
+"""
+
+
 def loaded(tmp_path: Path, extra: str = "", slot1: SlotRoute | None = None) -> Loaded:
     file = tmp_path / "db.toml"
     file.write_text(database_text(tmp_path, extra, slot1))
@@ -227,14 +239,7 @@ def test_an_applier_sends_a_hardware_module_once_and_again_after_its_node_rejoin
 
 def test_a_hardware_module_whose_slot_another_took_meanwhile_is_sent_again(tmp_path):
     other = bitstream(tmp_path, "other.hex", 0, through_route(FABRIC, 0))
-    extra = f"""
-[schemas.filter.modules.Other]
-robots = ["r"]
-inputs = {{ x = "level" }}
-outputs = {{ y = "filtered" }}
-source = {{ bitstreams = ["{other}"] }}
-hardware = {{ functionalities = ["gain"], slots = [0] }}
-"""
+    extra = one_slot_module("Other", other)
     database = loaded(tmp_path, extra).database
     applier = MemoryApplier(database.robots)
     for name in ("Doubler", "Other", "Other", "Doubler"):
@@ -328,14 +333,7 @@ def test_a_hardware_module_whose_e_pbo_s_ports_are_not_the_database_s_is_refused
 
 def test_a_migration_that_fails_midway_leaves_no_slot_counted_as_configured(tmp_path):
     other = bitstream(tmp_path, "other.hex", 0, through_route(FABRIC, 0))
-    extra = f"""
-[schemas.filter.modules.Other]
-robots = ["r"]
-inputs = {{ x = "level" }}
-outputs = {{ y = "filtered" }}
-source = {{ bitstreams = ["{other}"] }}
-hardware = {{ functionalities = ["gain"], slots = [0] }}
-"""
+    extra = one_slot_module("Other", other)
     database = loaded(tmp_path, extra).database
 
     class Refusing(MemoryApplier):
@@ -360,14 +358,7 @@ def test_bitstreams_a_fresh_node_s_fabric_would_refuse_fail_refresh_check(tmp_pa
     # slot 1 reads input 1 itself, and a stream has one consumer (the node refuses the commit).
     selector = FABRIC.selector(0, Source(SourceKind.INPUT, 1))
     name = bitstream(tmp_path, "x.hex", 0, SlotRoute(selector, FABRIC.self_selector(0)))
-    extra = f"""
-[schemas.filter.modules.X]
-robots = ["r"]
-inputs = {{ x = "level" }}
-outputs = {{ y = "filtered" }}
-source = {{ bitstreams = ["{name}"] }}
-hardware = {{ functionalities = ["gain"], slots = [0] }}
-"""
+    extra = one_slot_module("X", name)
     database = loaded(tmp_path, extra).database
     with pytest.raises(DatabaseImageError) as raised:
         check_hardware(database, "db.toml")
@@ -388,14 +379,7 @@ def test_a_fabric_slot_with_spaces_or_control_characters_is_refused_where(tmp_pa
 
 def test_a_hardware_module_replaces_another_on_shared_slots_once_it_let_them_go(tmp_path):
     other = bitstream(tmp_path, "other.hex", 0, through_route(FABRIC, 0))
-    extra = f"""
-[schemas.filter.modules.Other]
-robots = ["r"]
-inputs = {{ x = "level" }}
-outputs = {{ y = "filtered" }}
-source = {{ bitstreams = ["{other}"] }}
-hardware = {{ functionalities = ["gain"], slots = [0] }}
-"""
+    extra = one_slot_module("Other", other)
     result = loaded(tmp_path, extra)
     database, task = result.database, result.task
     ports = {**PORTS, "Other": PORTS["Doubler"]}
