@@ -42,6 +42,8 @@ TARGET = ["-march=rv32im", "-mabi=ilp32"]
 COMPILE_FLAGS = [
     *TARGET,
     "-mcmodel=medany",  # PC-relative code: only descriptor words need fixing when the image moves
+    "-Os",
+    "-g",  # DWARF for fault messages and gdb: debug sections are not loaded, the image is unchanged
     "-nostdlib",
     "-ffreestanding",
     "-ffunction-sections",  # one .text.<function> input section each, named in the map file
@@ -52,11 +54,12 @@ COMPILE_FLAGS = [
     "-Wextra",
     "-Werror",
 ]
-OPTIMIZED = ["-Os", "-g"]
-"""The default build: small code (what flash and the link carry); DWARF for fault messages and
-gdb (debug sections are not loaded, the image is unchanged), but -Os keeps few locals alive."""
-DEBUG = ["-Og", "-g3"]
-"""``--gdb``: code gdb steps through with its locals (and the macros), a larger image."""
+OPTIMIZED = ("-Os", "-g")
+"""What COMPILE_FLAGS build for by default: small code (what flash and the link carry), but -Os
+keeps few locals alive for gdb."""
+DEBUG = ("-Og", "-g3")
+"""What ``--gdb`` builds for instead: code gdb steps through with its locals (and the macros),
+a larger image."""
 
 
 @dataclass(frozen=True)
@@ -122,8 +125,8 @@ def build_module(source: Path, out_dir: Path, debug: bool = False) -> ModuleBuil
         f"-ffile-prefix-map={SDK_DIR}/=sdk/",
         f"-ffile-prefix-map={out_dir}=.",
     ]
-    level = DEBUG if debug else OPTIMIZED
-    compile_command = [gcc, *COMPILE_FLAGS, *level, f"-I{SDK_DIR}", *prefixes, "-c", str(source)]
+    flags = [*(f for f in COMPILE_FLAGS if f not in OPTIMIZED), *DEBUG] if debug else COMPILE_FLAGS
+    compile_command = [gcc, *flags, f"-I{SDK_DIR}", *prefixes, "-c", str(source)]
     _run([*compile_command, "-o", obj], f"compiling {source.name}", out_dir)
     link_flags = ["-nostdlib", "-T", str(LINKER_SCRIPT), "-Wl,--emit-relocs"]
     # libgcc after the object: soft float, 64-bit division (LIBGCC says why it may move).
