@@ -69,6 +69,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     """Load modules into one node, start and wire its PBOs, run it, and report."""
     if not args.module and not args.native:
         raise UsageError("run: expected at least one --module or --native")
+    if args.plot_port and args.plot is None:
+        raise UsageError("--plot-port goes with --plot FILE.png (the ports to draw there)")
     config = NodeConfig(budget=args.budget, elves=tuple(args.elf))
     with Node(config=config) as node, into_node_log(node, echo=args.debug):
         codes: dict[str, ModuleCode] = {}
@@ -81,7 +83,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         seconds = DEFAULT_SECONDS if args.cycles is None and args.seconds is None else args.seconds
         with (
             debugging(DebugPort(node), args.gdb, _say, wait=True),
-            recording(node.kernel, args.trace, args.plot),
+            recording(node.kernel, args.trace, args.plot, args.plot_port),
         ):
             jobs = node.run(until=seconds, cycles=args.cycles)
         report = run_report(node, codes, jobs)
@@ -358,7 +360,16 @@ def _add_run(commands: argparse._SubParsersAction) -> None:
         "--plot",
         type=arguments.plot_file,
         metavar="FILE.png",
-        help="draw every numeric port of the run over time (needs the vision extra)",
+        help="draw the run's inputs and outputs over time, a panel per PBO (needs the vision "
+        "extra; constants only with --plot-port)",
+    )
+    command.add_argument(
+        "--plot-port",
+        type=arguments.port,
+        action="append",
+        default=[],
+        metavar="PBO.port",
+        help="a port to draw (repeatable): only these, constants too",
     )
     _add_pbo_options(
         command,

@@ -13,10 +13,15 @@ from pbort.trace.recorder import Recorder, TraceWriter
 
 
 @contextmanager
-def recording(kernel: Kernel, traces: Sequence[Path], plot: Path | None = None) -> Iterator[None]:
+def recording(
+    kernel: Kernel,
+    traces: Sequence[Path],
+    plot: Path | None = None,
+    plot_ports: Sequence[str] = (),
+) -> Iterator[None]:
     """Record every job of `kernel` into each of `traces` (by suffix) while the block runs, then
-    close them, whatever ended the block, and draw `plot`. Nothing is opened when there is
-    nothing to record."""
+    close them, whatever ended the block, and draw `plot` (of `plot_ports`, ``PBO.port``; none:
+    every input and output). Nothing is opened when there is nothing to record."""
     if not traces and plot is None:
         yield
         return
@@ -24,7 +29,7 @@ def recording(kernel: Kernel, traces: Sequence[Path], plot: Path | None = None) 
         writers: list[TraceWriter] = [
             files.enter_context(closing(open_trace(path))) for path in traces
         ]
-        drawing = PlotTrace() if plot is not None else None
+        drawing = PlotTrace(plot_ports) if plot is not None else None
         if drawing is not None:
             writers.append(drawing)
         recorder = Recorder(kernel, writers)

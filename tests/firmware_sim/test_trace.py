@@ -21,6 +21,9 @@ from hexmigrate.elf import image_from_elf
 from hexmigrate.links import open_link
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.sender import Sender
+from pbort.ports import PortSpec
+from pbort.trace.plot import PlotTrace
+from pbort.trace.recorder import Sample
 
 RUN = (
     "--native",
@@ -100,6 +103,30 @@ def test_the_plot_draws_the_ports(gain, tmp_path):
     pixels = matplotlib.image.imread(png)[:, :, :3].reshape(-1, 3)
     colours = np.unique((pixels * 255).astype(int), axis=0)
     assert len(colours) > 20  # lines, legends and grid, not a blank canvas
+
+
+def drawn(chosen: tuple[str, ...] = ()) -> dict[str, set[str]]:
+    """The ports a PlotTrace keeps of gain's and signal's samples, by PBO."""
+    plot = PlotTrace(chosen)
+    specs = {
+        "gain": (PortSpec.input("x"), PortSpec.output("y"), PortSpec.const("k")),
+        "signal": (PortSpec.output("y"), PortSpec.const("amplitude")),
+    }
+    plot.write(Sample(0.01, "gain", {"x": 3, "y": 6, "k": 131072}), specs["gain"])
+    plot.write(Sample(0.01, "signal", {"y": 3, "amplitude": 3}), specs["signal"])
+    return {pbo: set(series) for pbo, series in plot._series.items() if series}
+
+
+def test_a_plot_draws_signals_not_constants_unless_ports_are_named() -> None:
+    # gain.k = 131072 (2.0 in Q16.16) on gain's axis would flatten x and y (issue 26, point 10)
+    assert drawn() == {"gain": {"x", "y"}, "signal": {"y"}}
+    assert drawn(("gain.k", "signal.y")) == {"gain": {"k"}, "signal": {"y"}}
+
+
+def test_plot_ports_without_a_plot_is_a_usage_error(gain, tmp_path):
+    result = firmware_sim("run", "--module", gain, *RUN, "--plot-port", "gain.y")
+    assert result.returncode == 2
+    assert "--plot-port goes with --plot FILE.png" in result.stderr
 
 
 @pytest.mark.parametrize(
