@@ -32,7 +32,7 @@ def write_page(
         f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{_e(title)}</title>"
         f"<style>{STYLE}</style></head><body><h1>{_e(title)}</h1>",
         "<h2>Parameters</h2>",
-        _table(["parameter", "value"], [(k, json.dumps(v)) for k, v in parameters.items()]),
+        _table(["parameter", "value"], [(k, _parameter(v)) for k, v in parameters.items()]),
         "<h2>Runs</h2>",
         _table(["", "runs"], _overview(summary)),
         "<h2>Detection and recovery</h2>",
@@ -72,6 +72,16 @@ def _overview(summary: Mapping[str, Any]) -> list[tuple[Any, ...]]:
         ("migrations", cost["migrations"]),
         ("bytes migrated", cost["bytes"]),
     ]
+
+
+def _parameter(value: object) -> str:
+    """A campaign parameter as a reader wants it: ``the application's default`` for one not
+    given (not ``null``), a list's items separated by commas, a text without quotes."""
+    if value is None:
+        return "the application's default"
+    if isinstance(value, (list, tuple)):
+        return ", ".join(_parameter(item) for item in value)
+    return value if isinstance(value, str) else json.dumps(value)
 
 
 def _pair(false: Mapping[str, int]) -> str:

@@ -56,7 +56,8 @@ def _accuracy(accuracy: Mapping[str, Mapping[str, float | None]], path: Path) ->
     width = 0.8 / max(len(names), 1)
     for offset, name in enumerate(names):
         heights = [100 * (accuracy[name].get(g) or 0.0) for g in groups]
-        axes.bar(np.arange(len(groups)) + offset * width, heights, width, label=name)
+        bars = axes.bar(np.arange(len(groups)) + offset * width, heights, width, label=name)
+        axes.bar_label(bars, fmt="%.0f", fontsize=7)  # a 0 % bar has no height: its label shows
     ticks = np.arange(len(groups)) + width * (len(names) - 1) / 2
     axes.set_xticks(ticks, groups, fontsize=8, rotation=30, ha="right")
     axes.set_ylabel("runs located exactly (%)")

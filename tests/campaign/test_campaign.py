@@ -88,6 +88,8 @@ def test_the_summary_plots_and_page_say_what_the_records_hold(finished):
     for name in ("detection_latency.png", "recovery_time.png", "location_accuracy.png"):
         assert f"src='{name}'" in page
     assert toy.CRASH in page and "<table>" in page and "only faulty modules named" in page
+    parameters = page[page.index("<h2>Parameters</h2>") : page.index("<h2>Runs</h2>")]
+    assert "null" not in parameters and "&quot;" not in parameters  # as a reader wants them
 
 
 def test_an_interrupted_campaign_resumes_where_it_stopped(finished, tmp_path):
