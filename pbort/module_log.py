@@ -9,7 +9,9 @@ print them as they come (`Kernel.observe_log`), and a follower asks only for wha
 
 from __future__ import annotations
 
+import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 
 LINES = 64
@@ -53,3 +55,36 @@ def attributed(name: str, text: str) -> str:
     module wrote it there itself (many do: ``PBO_LOG("lowpass: ...")``), which would read
     ``lowpass: lowpass: ...``."""
     return text if text.startswith(f"{name}:") else f"{name}: {text}"
+
+
+ECHOED_PER_SECOND = 20
+"""Lines of one PBO a node prints in a second: a module logging every cycle would otherwise
+flood the operator's terminal and, through a pipe nobody reads, block the node itself."""
+
+
+class EchoLimit:
+    """Which module lines a node prints as they come: per PBO, at most `per_second` in each
+    second of the wall clock `now`; those past it are counted and said in one line when the
+    PBO prints again (each line stays in its PBO's log whether printed or not)."""
+
+    def __init__(
+        self, per_second: int = ECHOED_PER_SECOND, now: Callable[[], float] = time.monotonic
+    ) -> None:
+        self._per_second = per_second
+        self._now = now
+        self._windows: dict[str, tuple[int, int, int]] = {}
+        """Per PBO: the whole second it last printed in, lines printed then, lines held back."""
+
+    def shown(self, name: str, text: str) -> list[str]:
+        """The lines to print for `text`, which PBO `name` logged: none when over its limit;
+        else the line, preceded by how many were held back since it last printed."""
+        second = int(self._now())
+        start, printed, held = self._windows.get(name, (second, 0, 0))
+        if second != start:
+            start, printed = second, 0
+        if printed >= self._per_second:
+            self._windows[name] = (start, printed, held + 1)
+            return []
+        self._windows[name] = (start, printed + 1, 0)
+        note = [f"{name}: {held} more lines not printed (hexmigrate logs {name})"] if held else []
+        return [*note, attributed(name, text)]

@@ -50,7 +50,7 @@ from hexmigrate.transfer.receiver import Receiver
 from pbort.clock import Clock, RealTimeClock, VirtualClock
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
-from pbort.module_log import attributed
+from pbort.module_log import EchoLimit, LogLine
 from pbort.native import NativeModule
 from pbort.trace import recording
 
@@ -128,8 +128,9 @@ def listen(
         ) as node,
         into_node_log(node, echo=True),
     ):
-        # the kernel's warnings (a fault) go to the node's log; each module line is said too
-        node.kernel.observe_log(lambda pbo, line: say(one_line(attributed(pbo, line.text))))
+        # the kernel's warnings (a fault) go to the node's log; module lines are said too,
+        # a flood of them held back (they stay in each PBO's log)
+        node.kernel.observe_log(_echoing(say))
         if started is not None:
             started(node)
         pbos = PboSetup(
@@ -199,6 +200,17 @@ def _check_natives(
                 f"--native {name}: expected one of {', '.join(sorted(known))}, got no such "
                 f"native{needs}"
             )
+
+
+def _echoing(say: Callable[[str], None]) -> Callable[[str, LogLine], None]:
+    """Say each line a module logs, on one line, within the node's echo limit."""
+    limit = EchoLimit()
+
+    def echo(pbo: str, line: LogLine) -> None:
+        for shown in limit.shown(pbo, line.text):
+            say(one_line(shown))
+
+    return echo
 
 
 def _noting(node: Node, say: Callable[[str], None]) -> Callable[[str], None]:
