@@ -252,10 +252,22 @@ def cmd_send(args: argparse.Namespace) -> int:
         with _session(_sender(args)) as sender:
             node = NodeControl(sender)
             for setting in settings:
-                print(f"{node.set(setting)} on {args.to}")
+                _set_held(node, setting, result.name, args.to)
             if not args.no_start:
                 print(f"{node.start(result.name)} on {args.to}")
     return 0
+
+
+def _set_held(node: NodeControl, setting: str, module: str, url: str) -> None:
+    """Set one constant of `module`, which arrived held: when the node refuses it, say that
+    the module stays installed and off, and how to go on, rather than leave the user guessing."""
+    try:
+        print(f"{node.set(setting)} on {url}")
+    except TransferError as error:
+        raise TransferError(
+            f"{error}; {module} stays installed and off on {url} "
+            f"(hexmigrate set {module}.NAME=VALUE, then hexmigrate start {module})"
+        ) from error
 
 
 def _check_settings(settings: tuple[str, ...], module: str) -> None:

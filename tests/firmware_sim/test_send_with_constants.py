@@ -65,3 +65,12 @@ def test_a_setting_for_another_pbo_is_a_usage_error_before_anything_is_sent(gain
     assert "--set signal.amplitude=3: expected a constant of the module sent, gain.NAME" in (
         capsys.readouterr().err
     )
+
+
+def test_a_setting_the_node_refuses_says_the_module_stays_installed_and_off(gain_hex, capsys):
+    with NodeProcess("tcp-listen://127.0.0.1:0", *NODE) as node:
+        assert hexmigrate(["send", gain_hex, "--set", "gain.k=99999999999", "--to", node.url]) == 1
+        err = capsys.readouterr().err
+        assert "gain.k is int32 (a whole number from -2147483648 to 2147483647)" in err
+        assert f"gain stays installed and off on {node.url} (hexmigrate set gain.NAME" in err
+        assert states(node.url, capsys)["gain"] == "OFF"
