@@ -3,13 +3,19 @@ time, and the symbol lines that tell gdb where each module sits."""
 
 from __future__ import annotations
 
+import select
 import socket
+import time
 from collections.abc import Callable, Iterator
 from contextlib import closing, contextmanager
 
 from firmware_sim.core.debug_port import DebugPort
 from firmware_sim.gdb.packets import PacketConnection
 from firmware_sim.gdb.stub import GdbStub
+
+HELLO_TIMEOUT = 5.0
+"""Seconds a client has from connecting to sending its first byte (gdb sends at once): the node
+halts only for a client that speaks, so one that connects and says nothing cannot freeze it."""
 
 
 class GdbServer:
@@ -22,6 +28,8 @@ class GdbServer:
         self._listener = socket.create_server((host, port))
         self.host, self.port = self._listener.getsockname()[:2]
         self._stub: GdbStub | None = None
+        self._pending: tuple[socket.socket, tuple, float] | None = None
+        """A client that connected and has not spoken yet, its peer and its hello deadline."""
         where = f"{self.host}:{self.port}"
         say(f"gdb: listening on {where} (in gdb: target remote {where})")
 
@@ -39,28 +47,53 @@ class GdbServer:
             )
 
     def wait(self) -> None:
-        """Wait for gdb, then hold the node halted until gdb resumes it."""
-        connection, peer = self._listener.accept()
-        self._attach(connection, peer)
+        """Wait for gdb, then hold the node halted until gdb resumes it; a client that says
+        nothing within HELLO_TIMEOUT is let go and the wait goes on."""
+        while True:
+            connection, peer = self._listener.accept()
+            if select.select([connection], [], [], HELLO_TIMEOUT)[0]:
+                self._attach(connection, peer)
+                return
+            self._let_go(connection, peer)
 
     def poll(self) -> None:
-        """Between jobs: take a gdb that connected (and halt for it), or see an interrupt."""
+        """Between jobs: take a gdb that connected and spoke (and halt for it), or see an
+        interrupt. The node runs on while a client that connected has not spoken."""
         if self._stub is not None and self._stub.attached:
             self._stub.poll()
             return
+        if self._pending is None:
+            self._pending = self._accepted()
+        if self._pending is not None:
+            connection, peer, due = self._pending
+            if select.select([connection], [], [], 0)[0]:
+                self._pending = None
+                self._attach(connection, peer)
+            elif time.monotonic() > due:
+                self._pending = None
+                self._let_go(connection, peer)
+
+    def _accepted(self) -> tuple[socket.socket, tuple, float] | None:
+        """A client waiting to be taken, with its hello deadline; None when there is none."""
         self._listener.setblocking(False)
         try:
             connection, peer = self._listener.accept()
         except OSError:  # none waiting, or one that went away before it was taken
-            return
+            return None
         finally:
             self._listener.setblocking(True)
         connection.setblocking(True)
-        self._attach(connection, peer)
+        return connection, peer, time.monotonic() + HELLO_TIMEOUT
+
+    def _let_go(self, connection: socket.socket, peer: tuple) -> None:
+        connection.close()
+        self.say(f"gdb: {peer[0]}:{peer[1]} said nothing in {HELLO_TIMEOUT:g} s; let go")
 
     def close(self) -> None:
         """Stop listening and let the node run without gdb."""
         self.target.attach(None)
+        if self._pending is not None:
+            self._pending[0].close()
         self._listener.close()
 
     def _attach(self, connection: socket.socket, peer: tuple) -> None:

@@ -272,6 +272,22 @@ def test_a_listening_node_takes_gdb_between_jobs_for_a_module_that_arrived(gain,
     node.wait_for(r"gdb: gdb detached; the node runs on", LINE_TIMEOUT)
 
 
+def test_a_client_that_connects_to_gdb_and_says_nothing_does_not_halt_the_node(nodes):
+    node = nodes(
+        "listen", "--listen", "tcp-listen://127.0.0.1:0", "--native", "signal",
+        "--set", "signal.amplitude=3", "--set", "signal.period_ms=100", "--seconds", "60",
+    )  # fmt: skip
+    link = node.wait_for(r"--to (socket://127\.0\.0\.1:\d+)", LINE_TIMEOUT)[1]
+    host, port = node.wait_for(r"gdb: listening on (127\.0\.0\.1):(\d+)", LINE_TIMEOUT).groups()
+    with socket.create_connection((host, int(port))) as silent:
+        read = [sys.executable, "-m", "hexmigrate.cli", "get", "signal.y", "--to", link]
+        answered = subprocess.run(read, capture_output=True, text=True, timeout=60, check=False)
+        assert answered.returncode == 0, answered.stderr  # the node was not halted for it
+        node.wait_for(r"gdb: 127\.0\.0\.1:\d+ said nothing in 5 s; let go", LINE_TIMEOUT)
+        assert silent.recv(1) == b""  # its connection closed
+    assert "the node is halted" not in "\n".join(node.lines())
+
+
 def test_a_gdb_build_keeps_its_locals_and_gdb_finds_its_source_where_the_node_says(nodes, tmp_path):
     """``python -m module_sdk.build --gdb`` (-Og -g3): after ``next`` gdb still prints ``ctx``
     (-Os has it optimized out), and the node's ``gdb: directory`` line lets gdb list the source
