@@ -45,6 +45,7 @@ from pbort.scheduler import Scheduler
 from pbort.shadow import ShadowRun
 from pbort.stats import Stats
 from pbort.svt import StateVariableTable
+from pbort.timekeeping import Timekeeping
 
 _RUNNING = frozenset({State.ON})
 
@@ -247,6 +248,17 @@ class Kernel:
     def now(self) -> float:
         """The kernel's current time in seconds."""
         return self.clock.now()
+
+    @property
+    def next_release(self) -> float | None:
+        """When the next job is due on the kernel's clock (None: no job is released)."""
+        return self._scheduler.next_release()
+
+    @property
+    def timekeeping(self) -> Timekeeping:
+        """How far the jobs slipped behind their modelled schedule, and the releases missed
+        (`pbort.timekeeping`): 0 on the virtual clock, the host's lag on the real-time one."""
+        return self._scheduler.timekeeping
 
     # Observation.
 

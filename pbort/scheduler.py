@@ -26,6 +26,7 @@ from itertools import count
 
 from pbort.clock import Clock
 from pbort.stats import Counters
+from pbort.timekeeping import Timekeeping
 
 _SLACK = 1e-9
 """Seconds within which two times count as equal: grids that meet in theory (10 Hz and 100 Hz at
@@ -92,6 +93,8 @@ class Scheduler:
         self._sequence = count()
         self.observers: list[Callable[[str, float], None]] = []
         """Called with (PBO name, finish time) after each job completed (its outputs written)."""
+        self.timekeeping = Timekeeping()
+        """How far the jobs slipped behind their modelled schedule (pbort.timekeeping)."""
 
     def start(self, job: Job) -> None:
         """Make a job runnable; a periodic job is released now and then on its grid."""
@@ -107,6 +110,15 @@ class Scheduler:
         self._timeline.clear()
         self._ready.clear()
         self.clock.restart()
+        self.timekeeping.restart()
+
+    def next_release(self) -> float | None:
+        """When the next job is due (None: nothing is), so that a loop that also waits on other
+        things (a node's link) wakes in time for it."""
+        self._drop_stale()
+        if self._ready:
+            return self.clock.now()
+        return self._timeline[0][0] if self._timeline else None
 
     def stop(self, job: Job) -> None:
         """Make a job idle; a pending release is dropped."""
@@ -143,9 +155,9 @@ class Scheduler:
                 time, priority, order, seq, job = heappop(timeline)
                 heappush(ready, (priority, order, seq, time, job))
             if ready:
-                _, _, seq, _, job = heappop(ready)
+                _, _, seq, released, job = heappop(ready)
                 if job.pending == seq:
-                    self._dispatch(job)
+                    self._dispatch(job, released)
                     ran += 1
                 continue
             self._drop_stale()
@@ -162,8 +174,9 @@ class Scheduler:
         while timeline and timeline[0][4].pending != timeline[0][3]:
             heappop(timeline)
 
-    def _dispatch(self, job: Job) -> None:
-        """Run a job's calls, let their duration pass on the clock, then complete and count it."""
+    def _dispatch(self, job: Job, released: float) -> None:
+        """Run a job released at `released`: its calls, their duration passing on the clock,
+        then complete, count it and measure its slip."""
         clock = self.clock
         job.pending = _IDLE
         start = clock.now()
@@ -177,13 +190,15 @@ class Scheduler:
         counters = job.counters
         counters.cycles += 1
         counters.busy_time += finish - start
+        slip = self.timekeeping.job(released, duration, finish)
         if job.period is not None:
             if finish - start > job.period + _SLACK:
                 counters.long_jobs += 1  # its own fault, unlike the releases others made it skip
-            self._account_period(job, job.period, finish)
+            self._account_period(job, job.period, finish, slip)
 
-    def _account_period(self, job: Job, period: float, finish: float) -> None:
-        """Count a missed deadline and skipped releases, and release the job on its grid again."""
+    def _account_period(self, job: Job, period: float, finish: float, slip: float) -> None:
+        """Count a missed deadline and skipped releases (those the job's `slip` made it skip as
+        missed releases too), and release the job on its grid again."""
         next_index = job.index + 1
         if finish > job.phase + next_index * period + _SLACK:
             job.counters.missed_deadlines += 1
@@ -192,6 +207,9 @@ class Scheduler:
         first_free = math.ceil((finish - _SLACK - job.phase) / period)
         if first_free > next_index:
             job.counters.overruns += first_free - next_index
+            if slip:
+                modelled = math.ceil((finish - slip - _SLACK - job.phase) / period)
+                self.timekeeping.skipped(first_free - max(modelled, next_index))
             next_index = first_free
         job.index = next_index
         self._push(job, job.phase + next_index * period)

@@ -34,7 +34,8 @@ def serve(
     refuses (a host that stopped reading a pty) ends the watch, so the node is not held up by
     every later one; the host watches again.
     Between messages the values that came on the node's import links are taken, and the node
-    runs (after a message, the releases due by then; when the link is quiet, a poll on), unless
+    runs (after a message, the releases due by then; when the link is quiet, a poll on: the
+    wait on the link ends when the next release is due, so that it runs on time), unless
     its control is in lock-step time: then only an Advance runs it. Transfers idle too long are
     dropped (`Receiver.expire`).
 
@@ -53,7 +54,8 @@ def serve(
     free_running = control is None or not control.lock_step
     server = link if isinstance(link, ClientsLink) else None
     while not stop():
-        got = server.receive_from(poll) if server is not None else _unnamed(link.receive(poll))
+        wait = _until_due(node, poll) if free_running else poll
+        got = server.receive_from(wait) if server is not None else _unnamed(link.receive(wait))
         raw = None if got is None else got[1]
         if got is not None:
             peer, raw = got
@@ -78,6 +80,13 @@ def serve(
             except LinkError:
                 receiver.unwatch(watcher)
     return receiver
+
+
+def _until_due(node: Node, poll: float) -> float:
+    """How long to wait on the link before the node's next job is due (at most `poll`): a
+    release is run on time, not up to a poll late (the node's real time: pbort.timekeeping)."""
+    due = node.kernel.next_release
+    return poll if due is None else min(poll, max(0.0, due - node.kernel.now))
 
 
 def _shelter(server: ClientsLink, receiver: Receiver, peer: int) -> None:
