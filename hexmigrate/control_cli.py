@@ -3,11 +3,11 @@ clear, set, rate, connect, disconnect, watch and logs (docs/cli.md). Each one op
 names, sends its requests through a `NodeControl` and prints what the node answered; a refusal
 is the node's reason on one ``error:`` line.
 
-`watch` asks the node to push a report every `--period` seconds (its leftover power, each
-running PBO's evaluator outputs and the named ports) and a heartbeat every second, and prints
-them as they come. `logs` prints what a PBO's module logged (the lines the node keeps), and with
-`--follow` asks again every `FOLLOW_PERIOD` for what is new; a line is shown as data (control
-characters escaped).
+`watch` asks the node to push a report every `--period` seconds (its leftover power, how it
+kept real time, each running PBO's evaluator outputs and the named ports) and a heartbeat
+every second, and prints them as they come. `logs` prints what a PBO's module logged (the
+lines the node keeps), and with `--follow` asks again every `FOLLOW_PERIOD` for what is new; a
+line is shown as data (control characters escaped).
 """
 
 from __future__ import annotations
@@ -242,10 +242,12 @@ def add_control_commands(
         watch,
         "print a node's performance reports and ports as they come",
         "Have the node push a report every --period seconds of its clock for --seconds: its\n"
-        "leftover power (leftover, 0-100), every running PBO's latest evaluator outputs\n"
-        "(PBO:F0 functional, PBO:N0 non-functional, by index) and the --port values; and a\n"
-        "heartbeat every second. Each prints as one row with the report's sequence number and\n"
-        "node time; with --csv a CSV whose columns are time, seq and the first report's values.\n\n"
+        "leftover power (leftover, 0-100), how it kept real time (slip: its jobs' largest slip\n"
+        "since the report before, ms; missed: releases missed on slips), every running PBO's\n"
+        "latest evaluator outputs (PBO:F0 functional, PBO:N0 non-functional, by index) and\n"
+        "the --port values; and a heartbeat every second. Each prints as one row with the\n"
+        "report's sequence number and node time; with --csv a CSV whose columns are time, seq\n"
+        "and the first report's values.\n\n"
         "example:\n"
         "  hexmigrate watch --port gain.y --port signal.y --seconds 2 --csv "
         "--to socket://127.0.0.1:7777",

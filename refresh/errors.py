@@ -14,8 +14,10 @@ Tree::
     │   └── RateError                    a metric's module reports slower than the Decider looks
     ├── EstimationError (RuntimeError)   an estimator that could not estimate a configuration
     ├── ApplyError (RuntimeError)        a plan step the applier could not carry out
-    └── NodeLinkError (RuntimeError)     a node over a link that cannot be reached, stopped
-                                         answering or refused a request (refresh.remote)
+    ├── NodeLinkError (RuntimeError)     a node over a link that cannot be reached, stopped
+    │                                    answering or refused a request (refresh.remote)
+    └── RealTimeLost (RuntimeError)      a run in real time whose nodes or manager stayed
+                                         behind real time past the runtime's patience
 """
 
 from __future__ import annotations
@@ -73,3 +75,10 @@ class ApplyError(RefreshError, RuntimeError):
 class NodeLinkError(RefreshError, RuntimeError):
     """A node over a link (`refresh.remote`) that cannot be reached, stopped answering, or
     refused a request; the message names the robot, the node's URL and what the node said."""
+
+
+class RealTimeLost(RefreshError, RuntimeError):
+    """A run in real time whose nodes (or manager) stayed behind real time longer than the
+    runtime's patience: no measurement could be judged, so the run stops with that condition
+    rather than read the slip as module faults (the message names where, by how much, and
+    since when)."""

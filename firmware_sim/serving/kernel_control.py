@@ -245,11 +245,18 @@ class KernelControl:
         """The node's clock, in seconds."""
         return self.node.kernel.now
 
-    def performance(self) -> tuple[tuple[str, Number], ...]:
-        """The node's leftover power (0-100) and every running PBO's latest evaluator outputs,
-        ``PBO:F0`` (functional) and ``PBO:N0`` (non-functional) by index."""
+    def performance(self, since: float) -> tuple[tuple[str, Number], ...]:
+        """The node's leftover power (0-100), how it kept real time since time `since` (the
+        largest ``slip`` of a job, in ms rounded to 0.1 ms, and the releases ``missed`` on
+        slips: pbort.timekeeping) and every running PBO's latest evaluator outputs, ``PBO:F0``
+        (functional) and ``PBO:N0`` (non-functional) by index."""
         kernel = self.node.kernel
-        values: list[tuple[str, Number]] = [("leftover", self.node.power.leftover)]
+        keeping = kernel.timekeeping
+        values: list[tuple[str, Number]] = [
+            ("leftover", self.node.power.leftover),
+            ("slip", round(keeping.worst_since(since) * 1e3, 1)),
+            ("missed", keeping.missed),
+        ]
         for name in kernel.names:
             if kernel.state(name) is State.ON:
                 latest = {(r.kind, r.index): r.value for r in kernel.performance(name)}

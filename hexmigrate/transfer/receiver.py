@@ -411,7 +411,12 @@ class Receiver:
             control.read(name)  # refused by name now rather than missing from every report
         now = control.clock()
         self._session.subscription = Subscription(
-            message.period_ms / 1000, watched, self._text, now, now + HEARTBEAT_PERIOD
+            message.period_ms / 1000,
+            watched,
+            self._text,
+            now,
+            now + HEARTBEAT_PERIOD,
+            reported=now,
         )
         return Ack(message.tid, message.period_ms, "watching")
 

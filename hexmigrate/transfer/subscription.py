@@ -1,8 +1,9 @@
 """What a watched node pushes by itself: a host's `Watch` becomes a `Subscription`, which the
 node's serve loop asks for what is due (`Receiver.due`) between messages.
 
-Every `period` seconds of the node's clock a `PerformanceReport` (leftover power, every running
-PBO's latest evaluator outputs, the watched ports), every HEARTBEAT_PERIOD seconds a
+Every `period` seconds of the node's clock a `PerformanceReport` (leftover power, how well the
+node kept real time since the last report, every running PBO's latest evaluator outputs, the
+watched ports), every HEARTBEAT_PERIOD seconds a
 `Heartbeat` (a line about the node's PBOs); both carry the node's clock in milliseconds and one
 sequence number, so that a host sees what it missed. A watched port that cannot be read (its
 module was removed) is left out of the report; the node goes on.
@@ -34,6 +35,8 @@ class Subscription:
     next_report: float
     next_beat: float
     seq: int = 0
+    reported: float = float("-inf")
+    """The node's clock of the last report: the next tells how real time was kept since."""
 
     def due(self, control: ControlTarget) -> list[Message]:
         """The pushes due now on the node's clock (none, a report, a heartbeat or both); a
@@ -44,7 +47,8 @@ class Subscription:
             self.next_report += self.period
             if self.next_report <= now:  # late by a period or more: one period from now
                 self.next_report = now + self.period
-            values = control.performance() + _readable(control, self.ports)
+            values = control.performance(self.reported) + _readable(control, self.ports)
+            self.reported = now
             pushed.append(PerformanceReport(self._next_seq(), _ms(now), values_text(values)))
         if now >= self.next_beat:
             self.next_beat = now + HEARTBEAT_PERIOD
@@ -56,6 +60,7 @@ class Subscription:
         of the new clock, rather than at times of the old one it may take long to reach."""
         self.next_report = now
         self.next_beat = now + HEARTBEAT_PERIOD
+        self.reported = now
 
     def _next_seq(self) -> int:
         seq = self.seq

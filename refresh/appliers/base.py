@@ -44,6 +44,7 @@ from refresh.decider import PerformanceSource
 from refresh.errors import ApplyError, NodeLinkError
 from refresh.hardware import bitstream_images
 from refresh.images import migration_image
+from refresh.remote.reports import Slip
 
 
 class Applier(Protocol):
@@ -198,6 +199,12 @@ class ApplierBase(ABC):
     @abstractmethod
     def sources(self) -> Mapping[str, PerformanceSource]:
         """Each robot's performance source (the evaluators' reports), by robot."""
+
+    def slipped(self) -> Mapping[str, Slip]:
+        """The robots whose node slipped behind real time since the last call, with how far:
+        none for nodes on a virtual clock (the in-process back ends); nodes over links say so
+        in their reports (`refresh.remote.reports`)."""
+        return {}
 
     def read(self, robot: str, port: str) -> float:
         """The live value of scalar port `port` (``instance.port``) on `robot`; a lost robot's

@@ -49,14 +49,14 @@ from refresh.errors import ApplyError, NodeLinkError
 from refresh.hardware import scratch_port
 from refresh.remote.guard import GuardedControl
 from refresh.remote.remote_node import RemoteNode
-from refresh.remote.reports import ReportSource
+from refresh.remote.reports import ReportSource, Slip
 
 BRIDGE_PBO = re.compile(r"bridge(\d+)_(?:tx|rx)")
 """The name of a bridge's half on a node."""
 LOCAL_HOST = "127.0.0.1"
 """Where a bridge's importer listens when its node's URL names no host (a pty, a serial device,
 CAN): such a node is reached from the manager's own machine."""
-NODE_OPTIONS = ("mode", "period", "timeout", "retries", "key")
+NODE_OPTIONS = ("mode", "period", "timeout", "retries", "key", "tolerance")
 """The options of `LinkApplier.open` that go to each `RemoteNode`."""
 
 
@@ -133,6 +133,14 @@ class LinkApplier(ApplierBase):
     def sources(self) -> Mapping[str, ReportSource]:
         """Each robot's performance source, filled by its node's reports."""
         return {robot: node.source for robot, node in self.nodes.items()}
+
+    def slipped(self) -> dict[str, Slip]:
+        """The robots whose node slipped behind real time in the reports since the last call
+        (a lost node's are not asked), with how far and the releases it missed meanwhile."""
+        slips = {
+            robot: node.source.slipped() for robot, node in self.nodes.items() if node.lost is None
+        }
+        return {robot: slip for robot, slip in slips.items() if slip.seconds or slip.missed}
 
     def controls(self) -> Mapping[str, NodeControl]:
         """Each robot's node control, for a lock-step `TimeMaster` (hexmigrate) to advance the

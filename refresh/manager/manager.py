@@ -105,6 +105,7 @@ def manage(
                 wire=config.wire,
                 rate=config.rate,
                 migration_wire=config.migration_wire,
+                tolerance=config.settings.slip_tolerance,
             )
         )
         for robot, node in applier.nodes.items():

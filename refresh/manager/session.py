@@ -60,6 +60,10 @@ class Session:
         runtime.on_switch = self._switched
         runtime.on_rejoin = lambda robot, inventory: plant.rejoined(self.view, robot, inventory)
         runtime.applier.wait = self.wait
+        runtime.host_slip = self._lateness
+        self._due = 0.0  # the run's time the next sample is due, on the sample grid
+        self._late = 0.0  # the worst lateness of a sample since `_lateness` was asked
+        self._excused = False  # the last period decided: its overrun is no slip
 
     def run(self, until: float) -> None:
         """Start the plant, deploy the task and run the world to `until` seconds (math.inf:
@@ -67,6 +71,7 @@ class Session:
         self.plant.start(self.view)
         self.runtime.deploy()
         self.flush()
+        self._due = self.time.clock() + self.period  # in real time deploying took time
         self._run_to(until)
         self.flush()
 
@@ -75,21 +80,45 @@ class Session:
         self._run_to(self.time.clock() + seconds)
 
     def _run_to(self, until: float) -> None:
-        while (left := until - self.time.clock()) > EPSILON:
+        while until - self.time.clock() > EPSILON:
             self._fire_due()
             self.flush()
-            before = self.time.clock()
-            self.time.advance(min(self.period, left))
-            if self.time.clock() <= before:
-                raise ConfigurationError(
-                    f"advance: expected the run's clock to move on from {before:g} s, got "
-                    f"{self.time.clock():g} s"
-                )
+            self._advance(until)
             self._samples += 1
             self.plant.look(self.view)
             self.progress(self.time.clock())
             if self._samples % self.per_decision == 0:
+                decided = len(self.runtime.history.reconfigurations)
                 self.runtime.step()
+                self._excused = len(self.runtime.history.reconfigurations) != decided
+
+    def _advance(self, until: float) -> None:
+        """Let the world run to the next sample, due on the sample grid (not a period after
+        this one's work: in real time that work would stretch every period), and note how late
+        it came. A period whose work overran it is late by the overrun, unless it was a
+        decision's (a migration's time is the decision's, not a slip); the grid starts again
+        from now, rather than run the samples missed in a burst."""
+        before = self.time.clock()
+        due = min(until, self._due)
+        if due <= before + EPSILON:  # only in real time: the clocks of lock-step add up
+            if not (self._excused or self.runtime.deciding):
+                self._late = max(self._late, before - due)
+            due = min(until, before + EPSILON)
+        self.time.advance(due - before)
+        now = self.time.clock()
+        if now <= before:
+            raise ConfigurationError(
+                f"advance: expected the run's clock to move on from {before:g} s, got {now:g} s"
+            )
+        self._late = max(self._late, now - due)
+        self._due = due + self.period
+        self._excused = False
+
+    def _lateness(self) -> float:
+        """How late the samples since the last call came, at worst (s): the manager's own slip
+        behind real time (0 on a virtual clock)."""
+        late, self._late = self._late, 0.0
+        return late
 
     def _switched(self, configuration: Configuration) -> None:
         """An event for each configuration once it runs (``deployed`` for the first, ``switch``

@@ -23,6 +23,7 @@ again: a request to it fails at once, and its reports are not read.
 from __future__ import annotations
 
 import contextlib
+import math
 import threading
 import time
 from collections.abc import Callable
@@ -52,7 +53,8 @@ RETRIES = 5
 class RemoteNode:
     """Robot `robot`'s node at the other end of `link`: checked with a PING, the connection
     authenticated with `key` (a node that trusts keys takes changes only so: docs/security.md),
-    then watched (a report every `period` s), its pushes filed in `source`."""
+    then watched (a report every `period` s), its pushes filed in `source` (but for those it
+    made after slipping more than `tolerance` seconds behind real time)."""
 
     def __init__(
         self,
@@ -64,6 +66,7 @@ class RemoteNode:
         timeout: float = TIMEOUT,
         retries: int = RETRIES,
         key: PrivateKey | None = None,
+        tolerance: float = math.inf,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.robot = robot
@@ -75,6 +78,7 @@ class RemoteNode:
             "timeout": timeout,
             "retries": retries,
             "key": key,
+            "tolerance": tolerance,
         }
         """What the node was opened with, to open it again when it rejoins."""
         self.clock = clock
@@ -87,7 +91,7 @@ class RemoteNode:
         self._lock = threading.RLock()
         self.sender = Sender(link, mode, timeout=timeout, retries=retries)
         self.control = NodeControl(self.sender)
-        self.source = ReportSource(robot, self.poll)
+        self.source = ReportSource(robot, self.poll, tolerance=tolerance)
         self.sender.stray = self._take
         self.description = self.ask("PING", self.sender.ping)
         """What the node says it is (its answer to PING)."""

@@ -7,13 +7,21 @@ evaluator outputs (``PBO:F0`` functional index 0, ``PBO:N1`` non-functional inde
 every second of its clock. `ReportSource` files each report's values into one pbort
 `PerformanceBuffer` per PBO, stamped with the node's clock of the report (the time the node
 measured them, not the time they reached the host), so it is a `refresh.decider.PerformanceSource`
-like a kernel. Reports and beats share one sequence number: a gap counts as missed pushes, a
+like a kernel.
+
+Each report also says how the node kept real time since the report before (``slip``: its jobs'
+largest slip behind their modelled schedule, ms; ``missed``: the releases it missed on slips,
+counted since its clock started: `pbort.timekeeping`). A report that slipped more than
+`tolerance` was measured by a node that did not keep real time: its values are not filed, so
+the Decider never judges them, and `slipped()` tells the runtime (docs/refresh.md, "Real
+time"). Reports and beats share one sequence number: a gap counts as missed pushes, a
 number seen before (a duplicate, a late copy) is ignored. The node's millisecond clock travels as
 a u32 and is unwrapped here.
 """
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -29,6 +37,18 @@ KINDS = {"F": PerformanceKind.FUNCTIONAL, "N": PerformanceKind.NON_FUNCTIONAL}
 """The letter of an evaluator output's word (``PBO:F0``) -> its kind."""
 LEFTOVER = "leftover"
 """The word of a report that carries the node's leftover power (0-100)."""
+SLIP, MISSED = "slip", "missed"
+"""The words of a report that say how the node kept real time: its largest slip since the
+report before (ms), and the releases it missed on slips since its clock started."""
+
+
+@dataclass(frozen=True)
+class Slip:
+    """How a node kept real time over some reports: the largest slip (s) and the releases
+    missed on slips meanwhile."""
+
+    seconds: float
+    missed: int
 
 
 @dataclass(frozen=True)
@@ -46,15 +66,20 @@ class ReportSource:
     """The performance buffers of one robot's PBOs, filled from its node's pushes (`take`).
 
     `poll` is called before a buffer is read, so that what has arrived on the link is filed
-    first (`RemoteNode.poll`).
+    first (`RemoteNode.poll`). A report whose slip is above `tolerance` seconds is not filed.
     """
 
     def __init__(
-        self, robot: str, poll: Callable[[], None] = lambda: None, maxlen: int = 1024
+        self,
+        robot: str,
+        poll: Callable[[], None] = lambda: None,
+        maxlen: int = 1024,
+        tolerance: float = math.inf,
     ) -> None:
         self.robot = robot
         self.poll = poll
         self.maxlen = maxlen
+        self.tolerance = tolerance
         self.leftover: float | None = None
         """The node's leftover power in the last report (None before the first)."""
         self.ports: dict[str, Number] = {}
@@ -68,6 +93,11 @@ class ReportSource:
         """Pushes lost on the way (gaps in the sequence numbers)."""
         self.damaged = 0
         """Reports whose values could not be read (ignored whole)."""
+        self.slipped_reports = 0
+        """Reports not filed: the node slipped more than `tolerance` before them."""
+        self._slip = 0.0  # the largest slip reported since `slipped()` last asked
+        self._missed = 0  # the node's count of missed releases in its last report
+        self._missed_told = 0  # ... when `slipped()` last asked
         self._buffers: dict[str, PerformanceBuffer] = {}
         self._seq = WRAP - 1
         self._last_ms: int | None = None
@@ -103,14 +133,35 @@ class ReportSource:
             self.damaged += 1
             return
         self.reports += 1
+        if self._slipped(values):
+            self.slipped_reports += 1
+            return
         for name, value in values:
             self._file(clock, name, value)
+
+    def slipped(self) -> Slip:
+        """How the node kept real time in the reports taken since the last call: the largest
+        slip, and the releases it missed on slips meanwhile."""
+        self.poll()
+        slip = Slip(self._slip, max(0, self._missed - self._missed_told))
+        self._slip, self._missed_told = 0.0, self._missed
+        return slip
+
+    def _slipped(self, values: tuple[tuple[str, Number], ...]) -> bool:
+        """Take a report's real-time words; whether it slipped more than `tolerance`."""
+        words = dict(values)
+        slip = _count(words.get(SLIP, 0)) / 1e3
+        self._missed = int(_count(words.get(MISSED, self._missed)))
+        self._slip = max(self._slip, slip)
+        return slip > self.tolerance
 
     def _file(self, clock: float, name: str, value: Number) -> None:
         """One ``NAME=VALUE`` word of a report: the leftover power, an evaluator output or a
         watched port's value."""
         if name == LEFTOVER:
             self.leftover = float(value)
+            return
+        if name in (SLIP, MISSED):
             return
         pbo, colon, output = name.rpartition(":")
         if not colon:
@@ -142,3 +193,9 @@ class ReportSource:
             self._wraps += 1
         self._last_ms = clock_ms
         return (self._wraps * WRAP + clock_ms) / 1000
+
+
+def _count(value: Number) -> float:
+    """A real-time word's value (finite, as parsed) as a number from 0 to 1e12: a negative one
+    is 0, a huge one stays huge (a node that says it slipped is believed) but fits a float."""
+    return float(max(0, min(value, 10**12)))

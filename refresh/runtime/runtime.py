@@ -28,6 +28,14 @@ the robots that remain. A lost robot is tried again every `lost_after` seconds; 
 answers, the runtime reads what it has (its modules in flash, its PBOs and their states), stops
 any module of the task it still runs outside the running configuration, and counts its
 resources again.
+
+Real time (docs/refresh.md, "Real time"): each `step()` then asks the applier which nodes
+slipped behind real time since the last (their reports say: `pbort.timekeeping`) and `host_slip`
+how late the caller's own loop came. A period in which one slipped more than `slip_tolerance`
+is not judged: its measurements were taken by an emulator that fell behind, and a fault read
+into them would repair the wrong thing. "real time lost on NODE by X ms" is recorded when it
+starts, "real time held again" when a period is clean; real time lost for `real_time_patience`
+seconds stops the run (`RealTimeLost`), between decisions, never halfway through one.
 """
 
 from __future__ import annotations
@@ -40,7 +48,7 @@ from refresh.appliers.base import ApplierBase, Inventory
 from refresh.configuration import Configuration, initial_configuration
 from refresh.database import ModuleDatabase
 from refresh.decider import Decider, Detection
-from refresh.errors import ConfigurationError, NodeLinkError, RefreshError
+from refresh.errors import ConfigurationError, NodeLinkError, RealTimeLost, RefreshError
 from refresh.estimators.base import EstimatorFactory
 from refresh.events import EventLog
 from refresh.location import brute_force, compare
@@ -83,6 +91,9 @@ class Runtime:
         self.clock = clock
         self.on_switch: Callable[[Configuration], None] | None = None
         self.on_rejoin: Callable[[str, Inventory], None] | None = None
+        self.host_slip: Callable[[], float] = lambda: 0.0
+        """How late (s) the caller's own loop came since it was last asked (a real-time
+        session's sleeps under load); 0 on a virtual clock."""
         self.log = EventLog(clock=clock, start=0.0)
         """Every event, dated by the runtime's clock."""
         self.maintainer = Maintainer(database, applier, self.log)
@@ -93,6 +104,7 @@ class Runtime:
         self._good_since: float | None = None  # P_T = 1 since then, after a switch
         self._deciding = False  # a decision is being carried out: no second one meanwhile
         self._tried: dict[str, float] = {}  # a lost robot -> when it was last tried again
+        self._slipping_since: float | None = None  # real time lost since then
 
     def deploy(self) -> Configuration:
         """Start the task's initial configuration (its modules, constants and wiring) and return
@@ -105,6 +117,12 @@ class Runtime:
         target = initial_configuration(self.task, self.database)
         self._switch(target)
         return target
+
+    @property
+    def deciding(self) -> bool:
+        """Whether a decision is being carried out (the world may run meanwhile: a migration's
+        time)."""
+        return self._deciding
 
     def value(self, schema: str, port: str) -> float:
         """A scalar port of the module filling `schema` in the running configuration, on
@@ -139,6 +157,7 @@ class Runtime:
         """One decision period: judge, watch a recovery, and act on a declared fault. Returns
         the Decider's detection, if it declared one."""
         lost = self._watch_nodes()
+        slipping = self._watch_real_time()
         if self.current is None:
             return None
         if self._deciding:
@@ -149,6 +168,10 @@ class Runtime:
                 self._repair(self.current)
             finally:
                 self._deciding = False
+            return None
+        if slipping:  # nothing measured in this period is judged, nor counts to a recovery
+            self.decider.violations = 0
+            self._good_since = None
             return None
         try:
             detection = self.decider.step(self.current, self.applier.sources())
@@ -180,6 +203,53 @@ class Runtime:
                 self._tried[robot] = now
                 self._try_rejoin(robot)
         return set(self.database.lost)
+
+    def _watch_real_time(self) -> bool:
+        """Whether a node or the caller's loop slipped more than the tolerance in this period;
+        records when real time is lost and held again, and stops the run (RealTimeLost) once it
+        stayed lost for the patience."""
+        tolerance = self.settings.slip_tolerance
+        slips = {
+            f"robot {robot}'s node": (slip.seconds, slip.missed)
+            for robot, slip in self.applier.slipped().items()
+            if slip.seconds > tolerance
+        }
+        host = self.host_slip()
+        if host > tolerance:
+            slips["the manager"] = (host, 0)
+        now = self.clock()
+        if not slips:
+            if self._slipping_since is not None:
+                self.log.record(
+                    "real_time_held",
+                    f"real time held again after {now - self._slipping_since:.3f} s lost",
+                    seconds=now - self._slipping_since,
+                )
+                self._slipping_since = None
+            return False
+        if self._slipping_since is None:
+            self._slipping_since = now
+            for where, (slip, missed) in slips.items():
+                self.log.record(
+                    "real_time_lost",
+                    f"real time lost on {where} by {1e3 * slip:.0f} ms"
+                    + (f" ({missed} releases missed)" if missed else "")
+                    + ": its measurements are not judged",
+                    where=where,
+                    slip=slip,
+                    missed=missed,
+                )
+        lost_for = now - self._slipping_since
+        if lost_for >= self.settings.real_time_patience - _EPSILON and not self._deciding:
+            where, (slip, _) = max(slips.items(), key=lambda item: item[1][0])
+            patience = self.settings.real_time_patience
+            raise RealTimeLost(
+                f"real time lost on {where} by {1e3 * slip:.0f} ms, and lost for {lost_for:.3f} "
+                f"s since {self._slipping_since:.3f} s (at most {patience:g} s allowed): the run "
+                "stops, as no measurement can be judged (a machine less busy, fewer nodes per "
+                "core, or the run in lock-step keeps time)"
+            )
+        return True
 
     def _try_rejoin(self, robot: str) -> None:
         """Reach lost `robot` again; once it answers, stop what of the task it runs outside the

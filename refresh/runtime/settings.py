@@ -7,6 +7,9 @@ evaluators still hold values of the old one), half a second of P_T = 1 to count 
 recovery, 10 estimator steps per shadow run (enough to fill a matcher's window of frames), and a
 node declared lost after 1 s without a word from it (it pushes a report every 0.05 s or less
 while watched: twenty in a row lost is no stall), tried again every 1 s while it is lost.
+In real time, a node's measurements are judged only while it keeps real time within 20 ms (a
+frame at 30 frames/s is 33 ms apart: a slip of less than a frame leaves the camera's view
+as it was), and the run stops when real time stays lost for 3 s (docs/refresh.md, "Real time").
 """
 
 from __future__ import annotations
@@ -40,6 +43,13 @@ class RuntimeSettings:
     lost_after: float = 1.0
     """Seconds without a word from a node (no report, heartbeat or answer) before it is lost;
     also how often a lost node is tried again (`rejoin`)."""
+    slip_tolerance: float = 0.02
+    """Seconds a node (or the manager's own loop) may slip behind real time and its
+    measurements still be judged; a period with a larger slip is not judged, and
+    "real time lost" is recorded instead of a fault."""
+    real_time_patience: float = 3.0
+    """Seconds real time may stay lost before the run stops with that condition: no repair
+    can be judged meanwhile."""
     compare_locations: bool = False
     """At each decision, every fault-location strategy also locates the fault in shadow, each
     with a fresh estimator, and the reconfiguration keeps their answers (campaigns compare the
@@ -50,6 +60,8 @@ class RuntimeSettings:
         _seconds("settle", self.settle, positive=False)
         _seconds("recovery_hold", self.recovery_hold, positive=False)
         _seconds("lost_after", self.lost_after, positive=True)
+        _seconds("slip_tolerance", self.slip_tolerance, positive=False)
+        _seconds("real_time_patience", self.real_time_patience, positive=True)
         _count("debounce", self.debounce)
         _count("estimate_steps", self.estimate_steps)
         _count("repair_attempts", self.repair_attempts)

@@ -84,7 +84,7 @@ class Recording:
     def clock(self) -> float:
         return self.now
 
-    def performance(self) -> tuple[tuple[str, Number], ...]:
+    def performance(self, since: float) -> tuple[tuple[str, Number], ...]:
         return ()
 
     def state(self) -> str:

@@ -47,7 +47,7 @@ class Counting:
     def clock(self) -> float:
         return self.now
 
-    def performance(self) -> tuple[tuple[str, Number], ...]:
+    def performance(self, since: float) -> tuple[tuple[str, Number], ...]:
         return ()
 
     def state(self) -> str:

@@ -55,7 +55,14 @@ def run_with_a_wait(decision: int, seconds: float) -> float:
             applier.wait(seconds)
 
     settings = SimpleNamespace(decision_period=0.1)
-    runtime = SimpleNamespace(settings=settings, applier=applier, deploy=lambda: None, step=step)
+    runtime = SimpleNamespace(
+        settings=settings,
+        applier=applier,
+        deploy=lambda: None,
+        step=step,
+        deciding=False,
+        history=SimpleNamespace(reconfigurations=[]),
+    )
     with time.master:  # type: ignore[union-attr]
         Session(runtime, time, Frames()).run(3.0)  # type: ignore[arg-type]
     return time.clock()

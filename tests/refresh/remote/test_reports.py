@@ -90,3 +90,25 @@ def test_a_nodes_host_comes_from_its_socket_url_also_behind_faults():
     assert url_host("socket://[::1]:4000") == "::1"
     assert url_host("/dev/pts/5") is None
     assert url_host("can://virtual/node") is None
+
+
+def test_a_report_that_slipped_past_the_tolerance_is_not_filed_and_the_slip_is_told():
+    source = ReportSource("a", tolerance=0.05)
+    source.take(PerformanceReport(0, 1000, "leftover=90 slip=0.4 missed=0 gain:F0=0.25"))
+    source.take(PerformanceReport(1, 1050, "leftover=80 slip=120.5 missed=7 gain:F0=9.0"))
+    gain = source.performance("gain")
+    assert [(r.time, r.value) for r in gain] == [(1.0, 0.25)]  # the slipped 9.0 never judged
+    assert (source.leftover, source.slipped_reports) == (90.0, 1)
+    slip = source.slipped()
+    assert (slip.seconds, slip.missed) == (0.1205, 7)
+    source.take(PerformanceReport(2, 1100, "leftover=80 slip=0.0 missed=7 gain:F0=0.5"))
+    assert (source.slipped().seconds, source.slipped().missed) == (0.0, 0)  # told once
+    assert source.performance("gain").latest(F, 0).value == 0.5  # type: ignore[union-attr]
+
+
+def test_hostile_real_time_words_neither_fail_nor_go_negative():
+    source = ReportSource("a", tolerance=0.05)
+    source.take(PerformanceReport(0, 1000, f"slip=-5 missed={10**400} gain:F0=1"))
+    assert source.slipped().seconds == 0.0 and source.slipped_reports == 0
+    source.take(PerformanceReport(1, 1050, f"slip={10**400} missed=-3"))
+    assert source.slipped().seconds == 1e9 and source.slipped_reports == 1
