@@ -132,6 +132,8 @@ def manage_command(options: argparse.Namespace) -> None:
         estimate_steps=options.estimate_steps,
         repair_attempts=options.repair_attempts,
         lost_after=options.lost_after,
+        slip_tolerance=options.slip_tolerance,
+        real_time_patience=options.real_time_patience,
     )
     if options.quantum is not None and not options.lock_step:
         raise UsageError("--quantum: expected with --lock-step (real time has no quanta)")
@@ -319,6 +321,23 @@ def _add_manage(commands: argparse._SubParsersAction) -> None:
         help="seconds without a word from a node before it is lost (its modules count as "
         "failed), and between two tries to reach a lost node again (default "
         f"{DEFAULTS.lost_after:g})",
+    )
+    command.add_argument(
+        "--slip-tolerance",
+        type=real(0, MAX_SECONDS, unit="s"),
+        default=DEFAULTS.slip_tolerance,
+        metavar="S",
+        help="in real time, how far a node (or the manager) may slip behind real time and its "
+        "measurements still be judged; a period with a larger slip is not judged, and 'real "
+        f"time lost' is recorded (default {DEFAULTS.slip_tolerance:g})",
+    )
+    command.add_argument(
+        "--real-time-patience",
+        type=real(maximum=MAX_SECONDS, above=0, unit="s"),
+        default=DEFAULTS.real_time_patience,
+        metavar="S",
+        help="seconds real time may stay lost before the run stops with that condition "
+        f"(default {DEFAULTS.real_time_patience:g})",
     )
 
 
