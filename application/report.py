@@ -19,6 +19,7 @@ from typing import Any
 from application.declaration import Application
 from application.records import Outcome
 from pbort.trace.mcap_trace import McapTrace
+from refresh.events import EVENT_FIELDS
 from refresh.runtime import Reconfiguration
 
 REPORT = "report.json"
@@ -220,13 +221,6 @@ def write_timeline(outcome: Outcome, path: Path) -> None:
     """The events with their times, one a line."""
     lines = [f"{event.time:9.3f} s  {event.kind:<12} {event.message}" for event in outcome.log]
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-
-
-EVENT_FIELDS = {
-    "kind": {"type": "string"},
-    "message": {"type": "string"},
-    "data": {"type": "object", "description": "the event's figures"},
-}
 
 
 def write_mcap(application: Application, outcome: Outcome, path: Path) -> None:

@@ -72,6 +72,22 @@ def address(text: str) -> int:
     return value
 
 
+def host_port(example: int) -> Callable[[str], tuple[str, int]]:
+    """``HOST:PORT`` a server listens on (``[::1]:PORT`` for IPv6; port 0: any free one); a
+    refusal shows ``127.0.0.1:EXAMPLE``."""
+
+    def parse(text: str) -> tuple[str, int]:
+        host, colon, port = text.rpartition(":")
+        host = host.removeprefix("[").removesuffix("]")
+        if not colon or not host or not port.isdigit() or int(port) > 65535:
+            raise _expected(
+                f"HOST:PORT with a port from 0 to 65535, like 127.0.0.1:{example}", text
+            ) from None
+        return host, int(port)
+
+    return parse
+
+
 def named_url(name: str) -> Callable[[str], tuple[str, str]]:
     """``NAME=URL`` (`name` says what names it: ROBOT, NAME): the name and the URL, neither
     empty."""

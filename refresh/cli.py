@@ -22,7 +22,7 @@ import argparse
 from collections.abc import Sequence
 
 from commandline import CommandLineError, UsageError, add_command, command_parser, run
-from commandline.arguments import input_file, integer, named_url, output_file, real
+from commandline.arguments import host_port, input_file, integer, named_url, output_file, real
 from hexmigrate.errors import KeyFileError
 from hexmigrate.signing.keys import MAX_KEY_FILE, load_private
 from hexmigrate.transfer.control import MICROSECONDS
@@ -154,6 +154,7 @@ def manage_command(options: argparse.Namespace) -> None:
         settings=settings,
         location=options.location,
         plant=Plant() if options.plant is None else load_plant(options.plant),
+        foxglove=options.foxglove,
     )
     manage(loaded, config, lambda line: print(line, flush=True))
 
@@ -338,6 +339,15 @@ def _add_manage(commands: argparse._SubParsersAction) -> None:
         metavar="S",
         help="seconds real time may stay lost before the run stops with that condition "
         f"(default {DEFAULTS.real_time_patience:g})",
+    )
+    command.add_argument(
+        "--foxglove",
+        type=host_port(8765),
+        metavar="HOST:PORT",
+        help="serve a live view there over the Foxglove WebSocket protocol (port 0: any free "
+        "one; the manager prints ws://HOST:PORT): the events on /events (as in a run's "
+        "report.mcap), the running configuration on /configuration, each node's reports on "
+        "/reports/ROBOT (docs/traces.md)",
     )
 
 

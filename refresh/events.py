@@ -14,6 +14,14 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
+EVENT_FIELDS = {
+    "kind": {"type": "string"},
+    "message": {"type": "string"},
+    "data": {"type": "object", "description": "the event's figures"},
+}
+"""An event's fields in JSON schema (but its time): the ``/events`` channel of an application's
+report and of the manager's live view."""
+
 
 @dataclass(frozen=True)
 class Event:

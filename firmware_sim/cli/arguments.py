@@ -63,17 +63,6 @@ def fabric(text: str) -> str:
     return text
 
 
-def gdb_address(text: str) -> tuple[str, int]:
-    """``HOST:PORT`` for the GDB server (``[::1]:PORT`` for IPv6; port 0: any free one)."""
-    host, colon, port = text.rpartition(":")
-    host = host.removeprefix("[").removesuffix("]")
-    if not colon or not host or not port.isdigit() or int(port) > 65535:
-        raise argparse.ArgumentTypeError(
-            f"expected HOST:PORT with a port from 0 to 65535, like 127.0.0.1:3333, got {text!r}"
-        )
-    return host, int(port)
-
-
 def trace_file(text: str) -> Path:
     """A trace to write: a .csv or .mcap file in an existing folder."""
     path = output_file(text)

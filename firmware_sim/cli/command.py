@@ -12,7 +12,7 @@ import sys
 from collections.abc import Sequence
 
 from commandline import UsageError, add_command, command_parser, run
-from commandline.arguments import input_file, integer
+from commandline.arguments import host_port, input_file, integer
 from firmware_sim.cli import arguments
 from firmware_sim.cli.run_report import render, run_report
 from firmware_sim.core.debug_port import DebugPort
@@ -163,6 +163,7 @@ def cmd_listen(args: argparse.Namespace) -> int:
         elves=tuple(args.elf),
         traces=tuple(args.trace),
         gdb=args.gdb,
+        foxglove=args.foxglove,
         trust=TrustPolicy(
             tuple(load_public(path) for path in args.trust or ()), args.allow_downgrade
         ),
@@ -318,7 +319,7 @@ def _add_pbo_options(
     )
     command.add_argument(
         "--gdb",
-        type=arguments.gdb_address,
+        type=host_port(3333),
         metavar="HOST:PORT",
         help="serve the GDB remote protocol for the node's CPU there (port 0: any free one; "
         "the node prints where, and each module's add-symbol-file line): run waits for gdb "
@@ -500,6 +501,15 @@ def _add_listen(commands: argparse._SubParsersAction) -> None:
         "--allow-downgrade",
         action="store_true",
         help="with --trust, also install a module older than the installed one of its name",
+    )
+    command.add_argument(
+        "--foxglove",
+        type=host_port(8765),
+        metavar="HOST:PORT",
+        help="serve a live view there over the Foxglove WebSocket protocol (port 0: any free "
+        "one; the node prints ws://HOST:PORT): every PBO's ports after each job on the topics "
+        "and schemas of a --trace FILE.mcap, and /node (leftover power, real-time slip) "
+        "(docs/traces.md)",
     )
 
 

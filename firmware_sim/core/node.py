@@ -202,6 +202,18 @@ class Node:
             self.close()
             raise
 
+    def status(self, since: float) -> dict[str, float | int]:
+        """What a node says of itself beside its PBOs: its ``leftover`` power (0-100) and how
+        it kept real time since time `since` (``slip``, the largest of its jobs, in ms rounded
+        to 0.1 ms; ``missed``, the releases missed on slips since its clock started:
+        `pbort.timekeeping`)."""
+        keeping = self.kernel.timekeeping
+        return {
+            "leftover": self.power.leftover,
+            "slip": round(keeping.worst_since(since) * 1e3, 1),
+            "missed": keeping.missed,
+        }
+
     def __enter__(self) -> Node:
         return self
 

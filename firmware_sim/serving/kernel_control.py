@@ -246,17 +246,11 @@ class KernelControl:
         return self.node.kernel.now
 
     def performance(self, since: float) -> tuple[tuple[str, Number], ...]:
-        """The node's leftover power (0-100), how it kept real time since time `since` (the
-        largest ``slip`` of a job, in ms rounded to 0.1 ms, and the releases ``missed`` on
-        slips: pbort.timekeeping) and every running PBO's latest evaluator outputs, ``PBO:F0``
+        """The node's status since time `since` (leftover power, real-time slip and missed
+        releases: `Node.status`) and every running PBO's latest evaluator outputs, ``PBO:F0``
         (functional) and ``PBO:N0`` (non-functional) by index."""
         kernel = self.node.kernel
-        keeping = kernel.timekeeping
-        values: list[tuple[str, Number]] = [
-            ("leftover", self.node.power.leftover),
-            ("slip", round(keeping.worst_since(since) * 1e3, 1)),
-            ("missed", keeping.missed),
-        ]
+        values: list[tuple[str, Number]] = list(self.node.status(since).items())
         for name in kernel.names:
             if kernel.state(name) is State.ON:
                 latest = {(r.kind, r.index): r.value for r in kernel.performance(name)}

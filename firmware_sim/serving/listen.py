@@ -9,7 +9,10 @@ handed to the FPGA reconfiguration port (whose fabric the native ``fabric`` stre
 through: `firmware_sim.core.fabric_pbo`), and every second the ports named by `show` are printed.
 On the real-time clock, so a terminal user sees the node live; with `lock_step`
 (``--lock-step``) on a virtual clock that only a host's Advance moves (a time master's quanta,
-`hexmigrate.transfer.time_master`). One `Receiver` serves the node for its whole life, so a
+`hexmigrate.transfer.time_master`). With `foxglove`, a live view (`pbort.trace.live`) serves
+every PBO's ports after each job, as a trace records them, and the node's status (``/node``:
+leftover power, real-time slip, missed releases) ten times a second. One `Receiver` serves the
+node for its whole life, so a
 transfer cut with the connection (a host that reconnects to a ``tcp-listen://`` node, or reopens
 the pty) resumes. The node's bridges to other nodes are closed when it ends.
 """
@@ -18,6 +21,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
+from contextlib import ExitStack, closing
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -53,9 +57,18 @@ from pbort.errors import KernelError
 from pbort.module_log import EchoLimit, LogLine
 from pbort.native import NativeModule
 from pbort.trace import recording
+from pbort.trace.live import LiveView
 
 SHOW_INTERVAL = 1.0
 """Seconds between two lines of `show` values."""
+STATUS_INTERVAL = 0.1
+"""Seconds between two messages of the node's status on a live view."""
+STATUS_TOPIC = "/node"
+STATUS_FIELDS = {
+    "leftover": {"type": "number", "description": "leftover power, 0-100"},
+    "slip": {"type": "number", "description": "largest slip behind real time since the last, ms"},
+    "missed": {"type": "integer", "description": "releases missed on slips since the start"},
+}
 
 
 @dataclass(frozen=True)
@@ -66,7 +79,8 @@ class ListenConfig:
     show and for how long (None: until interrupted), and whether its clock is virtual and moved
     by Advance only (`lock_step`), which signed modules it admits
     (`trust`, firmware_sim/core/trust.py), the module ELFs its faults find source lines in
-    (`elves`), and the trace files it records its ports in (`traces`, pbort/trace)."""
+    (`elves`), the trace files it records its ports in (`traces`, pbort/trace), where it serves
+    gdb and where its Foxglove live view (`foxglove`, HOST and PORT)."""
 
     listen: str
     name: str = "node"
@@ -88,6 +102,7 @@ class ListenConfig:
     elves: tuple[Path, ...] = ()
     traces: tuple[Path, ...] = ()
     gdb: tuple[str, int] | None = None
+    foxglove: tuple[str, int] | None = None
 
 
 def listen(
@@ -157,8 +172,15 @@ def listen(
         with (
             open_listening(config.listen, say) as link,
             debugging(DebugPort(node), config.gdb, say, wait=False) as server,
+            ExitStack() as views,
         ):
             gdb += [server] if server is not None else []
+            live = []
+            if config.foxglove is not None:
+                view = views.enter_context(closing(LiveView(*config.foxglove, config.name)))
+                view.channel(STATUS_TOPIC, f"node {config.name}", STATUS_FIELDS)
+                live.append(view)
+                say(f"foxglove live view on {view.url} (Foxglove: open a connection to it)")
             for name, code in natives:
                 pbos.start(code, name)
             for module in list(node.modules.values()):
@@ -173,8 +195,11 @@ def listen(
                 target, control, trusted=config.trust.keys, on_change=_noting(node, say)
             )
             try:
-                with recording(node.kernel, config.traces), stop_requests() as requested:
-                    stop = _stopper(node, config, say, gdb, requested)
+                with (
+                    recording(node.kernel, config.traces, live=live),
+                    stop_requests() as requested,
+                ):
+                    stop = _stopper(node, config, say, gdb, requested, live)
                     serve(node, link, receiver=receiver, stop=stop)
                 if requested():
                     say("stopped")
@@ -237,20 +262,29 @@ def _stopper(
     say: Callable[[str], None],
     gdb: list[GdbServer],
     requested: Callable[[], bool],
+    live: list[LiveView],
 ) -> Callable[[], bool]:
-    """`serve`'s stop test: shows the ports every second, takes gdb when it connects, true once
-    `config.seconds` passed or a stop was `requested` (a signal)."""
+    """`serve`'s stop test: shows the ports every second and the node's status on the `live`
+    views ten times a second, takes gdb when it connects, true once `config.seconds` passed or
+    a stop was `requested` (a signal)."""
     deadline = None if config.seconds is None else time.monotonic() + config.seconds
     next_show = time.monotonic() + SHOW_INTERVAL
+    next_status, reported = time.monotonic(), node.kernel.now
 
     def stop() -> bool:
-        nonlocal next_show
+        nonlocal next_show, next_status, reported
         for server in gdb:
             server.poll()
         now = time.monotonic()
         if config.show and now >= next_show:
             next_show = now + SHOW_INTERVAL
             say("  ".join(f"{port}={_value(node, port)}" for port in config.show))
+        if live and now >= next_status:
+            next_status = now + STATUS_INTERVAL
+            status = node.status(reported)
+            reported = node.kernel.now
+            for view in live:
+                view.message(STATUS_TOPIC, reported, status)
         return requested() or (deadline is not None and now >= deadline)
 
     return stop

@@ -31,6 +31,10 @@ class CsvTrace:
         self._rows.writerow(HEADER)
         self._flushed = time.monotonic()
 
+    def wants(self, pbo: str) -> bool:
+        """Every sample."""
+        return True
+
     def write(self, sample: Sample, ports: Sequence[PortSpec]) -> None:
         """One row per port of the sample."""
         for name, value in sample.values.items():

@@ -26,6 +26,10 @@ class PlotTrace:
         self._series: dict[str, dict[str, tuple[list[float], list[float]]]] = defaultdict(dict)
         self._chosen = frozenset(chosen)
 
+    def wants(self, pbo: str) -> bool:
+        """Every sample."""
+        return True
+
     def write(self, sample: Sample, ports: Sequence[PortSpec]) -> None:
         """Keep the sample's numeric scalar values of the ports drawn."""
         series = self._series[sample.pbo]

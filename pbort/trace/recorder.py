@@ -25,7 +25,11 @@ class Sample:
 
 
 class TraceWriter(Protocol):
-    """Where samples go: a file format."""
+    """Where samples go: a file format, a plot, a live view."""
+
+    def wants(self, pbo: str) -> bool:
+        """Whether a sample of `pbo` would go anywhere now (a live view nobody watches takes
+        none: the samples are not even read)."""
 
     def write(self, sample: Sample, ports: Sequence[PortSpec]) -> None:
         """Write one sample of a PBO whose ports are `ports`."""
@@ -45,10 +49,13 @@ class Recorder:
         self.kernel.unobserve(self._observer)
 
     def _record(self, pbo: str, time: float) -> None:
+        writers = [writer for writer in self.writers if writer.wants(pbo)]
+        if not writers:
+            return
         ports = self.kernel.ports(pbo)
         values = {port.name: plain(self.kernel.value(f"{pbo}.{port.name}")) for port in ports}
         sample = Sample(time, pbo, values)
-        for writer in self.writers:
+        for writer in writers:
             writer.write(sample, ports)
 
 

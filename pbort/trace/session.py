@@ -18,16 +18,19 @@ def recording(
     traces: Sequence[Path],
     plot: Path | None = None,
     plot_ports: Sequence[str] = (),
+    live: Sequence[TraceWriter] = (),
 ) -> Iterator[None]:
     """Record every job of `kernel` into each of `traces` (by suffix) while the block runs, then
     close them, whatever ended the block, and draw `plot` (of `plot_ports`, ``PBO.port``; none:
-    every input and output). Nothing is opened when there is nothing to record."""
-    if not traces and plot is None:
+    every input and output). Samples go to the `live` writers too (a `pbort.trace.live`
+    view, which its caller closes). Nothing is opened when there is nothing to record."""
+    if not traces and plot is None and not live:
         yield
         return
     with ExitStack() as files:
         writers: list[TraceWriter] = [
-            files.enter_context(closing(open_trace(path))) for path in traces
+            *live,
+            *(files.enter_context(closing(open_trace(path))) for path in traces),
         ]
         drawing = PlotTrace(plot_ports) if plot is not None else None
         if drawing is not None:

@@ -56,7 +56,7 @@ BRIDGE_PBO = re.compile(r"bridge(\d+)_(?:tx|rx)")
 LOCAL_HOST = "127.0.0.1"
 """Where a bridge's importer listens when its node's URL names no host (a pty, a serial device,
 CAN): such a node is reached from the manager's own machine."""
-NODE_OPTIONS = ("mode", "period", "timeout", "retries", "key", "tolerance")
+NODE_OPTIONS = ("mode", "period", "timeout", "retries", "key", "tolerance", "on_report")
 """The options of `LinkApplier.open` that go to each `RemoteNode`."""
 
 

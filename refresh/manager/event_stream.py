@@ -19,14 +19,20 @@ from refresh.events import Event, EventLog
 
 class EventStream:
     """Writes the events of `log` not written yet: `say` gets each as a line, `out` (if any) each
-    as a JSON line, flushed at once so that a reader of the file follows the run."""
+    as a JSON line, flushed at once so that a reader of the file follows the run, and `live` (if
+    any) each as it is (a live view)."""
 
     def __init__(
-        self, log: EventLog, say: Callable[[str], None], out: TextIO | None = None
+        self,
+        log: EventLog,
+        say: Callable[[str], None],
+        out: TextIO | None = None,
+        live: Callable[[Event], None] | None = None,
     ) -> None:
         self.log = log
         self.say = say
         self.out = out
+        self.live = live
         self.written = 0
         """How many of the log's events were written."""
 
@@ -39,6 +45,8 @@ class EventStream:
             self.say(line(event))
             if self.out is not None:
                 self.out.write(json.dumps(event.as_dict()) + "\n")
+            if self.live is not None:
+                self.live(event)
         if self.out is not None and events:
             self.out.flush()
         self.written += len(events)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import math
 from collections.abc import Callable, Mapping, Sequence
+from contextlib import closing
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -29,11 +30,13 @@ from firmware_sim.errors import FirmwareSimError
 from hexmigrate.signing.keys import PrivateKey
 from pbort.code import ModuleCode
 from pbort.native import NativeModule
+from pbort.trace.live import LiveView
 from refresh.appliers.over_links import LinkApplier
 from refresh.errors import ConfigurationError, DatabaseError
 from refresh.estimators.host import HostEstimators, host_codes
 from refresh.load import Loaded, load
 from refresh.manager.event_stream import EventStream
+from refresh.manager.live_view import ManagerView
 from refresh.manager.plant import Plant
 from refresh.manager.session import Session
 from refresh.manager.time_modes import TimeMode
@@ -49,8 +52,9 @@ class ManagerConfig:
     trust keys, the fault-location strategy (None: the database's), the caller's plant model,
     what a bridge between two robots models (`wire` at `rate` bit/s: ``tcp`` models none), the
     wire a migration's time is modelled on (None: it takes none), the manager's host node (the
-    instruction budget its estimators run with) and how often each node reports (None: a few
-    times per decision period)."""
+    instruction budget its estimators run with), how often each node reports (None: a few
+    times per decision period) and where to serve the live view (`foxglove`: host and port;
+    None: none)."""
 
     nodes: Mapping[str, str]
     time: TimeMode
@@ -66,6 +70,7 @@ class ManagerConfig:
     migration_wire: str | None = None
     host: NodeConfig = field(default_factory=NodeConfig)
     report_period: float | None = None
+    foxglove: tuple[str, int] | None = None
 
 
 def manage(
@@ -88,6 +93,11 @@ def manage(
         out = None
         if config.events is not None:
             out = stack.enter_context(config.events.open("w", encoding="utf-8"))
+        view = None
+        if config.foxglove is not None:
+            served = stack.enter_context(closing(LiveView(*config.foxglove, "ReFrESH manager")))
+            view = ManagerView(served, config.nodes)
+            say(f"foxglove live view on {served.url} (Foxglove: open a connection to it)")
         host = stack.enter_context(Node("manager", config.host))
         codes = host_codes(loaded.database, host, natives)
         estimators = HostEstimators(
@@ -106,6 +116,7 @@ def manage(
                 rate=config.rate,
                 migration_wire=config.migration_wire,
                 tolerance=config.settings.slip_tolerance,
+                on_report=None if view is None else view.report,
             )
         )
         for robot, node in applier.nodes.items():
@@ -115,7 +126,7 @@ def manage(
         runtime = Runtime(
             loaded.database, task, applier, estimators, config.time.clock, config.settings
         )
-        stream = EventStream(runtime.log, say, out)
+        stream = EventStream(runtime.log, say, out, None if view is None else view.event)
         stack.callback(stream.flush)  # what came before an error or Ctrl-C is written too
         session = Session(runtime, config.time, config.plant, flush=stream.flush, progress=progress)
         say(

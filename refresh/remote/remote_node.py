@@ -37,7 +37,7 @@ from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import Message, decode
 from hexmigrate.transfer.sender import Sender
 from refresh.errors import NodeLinkError
-from refresh.remote.reports import ReportSource
+from refresh.remote.reports import ReportObserver, ReportSource
 
 T = TypeVar("T")
 
@@ -54,7 +54,8 @@ class RemoteNode:
     """Robot `robot`'s node at the other end of `link`: checked with a PING, the connection
     authenticated with `key` (a node that trusts keys takes changes only so: docs/security.md),
     then watched (a report every `period` s), its pushes filed in `source` (but for those it
-    made after slipping more than `tolerance` seconds behind real time)."""
+    made after slipping more than `tolerance` seconds behind real time), each told to
+    `on_report`."""
 
     def __init__(
         self,
@@ -67,6 +68,7 @@ class RemoteNode:
         retries: int = RETRIES,
         key: PrivateKey | None = None,
         tolerance: float = math.inf,
+        on_report: ReportObserver | None = None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.robot = robot
@@ -79,6 +81,7 @@ class RemoteNode:
             "retries": retries,
             "key": key,
             "tolerance": tolerance,
+            "on_report": on_report,
         }
         """What the node was opened with, to open it again when it rejoins."""
         self.clock = clock
@@ -91,7 +94,7 @@ class RemoteNode:
         self._lock = threading.RLock()
         self.sender = Sender(link, mode, timeout=timeout, retries=retries)
         self.control = NodeControl(self.sender)
-        self.source = ReportSource(robot, self.poll, tolerance=tolerance)
+        self.source = ReportSource(robot, self.poll, tolerance=tolerance, on_report=on_report)
         self.sender.stray = self._take
         self.description = self.ask("PING", self.sender.ping)
         """What the node says it is (its answer to PING)."""

@@ -42,6 +42,10 @@ SLIP, MISSED = "slip", "missed"
 report before (ms), and the releases it missed on slips since its clock started."""
 
 
+ReportObserver = Callable[[str, float, tuple[tuple[str, Number], ...]], None]
+"""Told of each report taken: the robot, the node's clock (s) and the report's values."""
+
+
 @dataclass(frozen=True)
 class Slip:
     """How a node kept real time over some reports: the largest slip (s) and the releases
@@ -67,6 +71,7 @@ class ReportSource:
 
     `poll` is called before a buffer is read, so that what has arrived on the link is filed
     first (`RemoteNode.poll`). A report whose slip is above `tolerance` seconds is not filed.
+    `on_report(robot, clock, values)` hears every report taken, filed or not (a live view).
     """
 
     def __init__(
@@ -75,8 +80,10 @@ class ReportSource:
         poll: Callable[[], None] = lambda: None,
         maxlen: int = 1024,
         tolerance: float = math.inf,
+        on_report: ReportObserver | None = None,
     ) -> None:
         self.robot = robot
+        self.on_report = on_report
         self.poll = poll
         self.maxlen = maxlen
         self.tolerance = tolerance
@@ -133,6 +140,8 @@ class ReportSource:
             self.damaged += 1
             return
         self.reports += 1
+        if self.on_report is not None:
+            self.on_report(self.robot, clock, values)
         if self._slipped(values):
             self.slipped_reports += 1
             return

@@ -27,6 +27,8 @@ import pytest
 from commandline.children import Child
 from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
+from refresh.events import EVENT_FIELDS
+from tests.foxglove_client import live_client
 
 DATA = Path(__file__).parent / "data"
 NATIVES = "tests.refresh.data.manage_natives"
@@ -277,3 +279,38 @@ def test_in_real_time_a_fault_counts_from_the_task_s_deployment(database, tmp_pa
     assert done.returncode == 0, done.stderr
     detection = next(e for e in events(out) if e["kind"] == "detection")
     assert detection["time"] >= 1.0
+
+
+def test_a_live_view_serves_the_events_the_configuration_and_the_reports(database, tmp_path):
+    command = [sys.executable, "-m", "refresh", "manage", "--db", str(database), "--task"]
+    command += ["levels", "--natives", NATIVES, "--real-time", *SETTINGS, "--seconds", "4"]
+    command += ["--foxglove", "127.0.0.1:0"]
+    with (
+        nodes("", "") as (_started, options),
+        Child.start("manager", [*command, *options], tmp_path / "manager.log") as manager,
+    ):
+        url = manager.wait_for(r"foxglove live view on (ws://127\.0\.0\.1:\d+) ")[1]
+        with live_client(url) as client:
+            channels = client.advertised("/events", "/configuration", "/reports/a", "/reports/b")
+            client.subscribe("/events", "/configuration", "/reports/a")
+            got = client.poll(3.0)
+            while not any(m.get("kind") == "recovered" for _, _, m in got):
+                got += client.messages(1)
+        assert manager.wait(MANAGER_TIMEOUT) == 0, manager.lines()
+    # The events' channel is the one of a run's report.mcap: a layout made for it works live.
+    assert channels["/events"]["schemaName"] == "ReFrESH event"
+    assert json.loads(channels["/events"]["schema"])["properties"] == {
+        "time": {"type": "number", "description": "seconds"},
+        **EVENT_FIELDS,
+    }
+    kinds = [m["kind"] for topic, _, m in got if topic == "/events"]
+    assert kinds.index("detection") < kinds.index("switch") < kinds.index("recovered")
+    *_, switched = [m for topic, _, m in got if topic == "/configuration"]
+    assert switched == {
+        "time": switched["time"],
+        "configuration": "{Sensor_alt@b, gain, Check}",
+        "kind": "switch",
+    }
+    reports = [m for topic, _, m in got if topic == "/reports/a"]
+    assert len(reports) > 10 and {"leftover", "slip", "missed"} <= reports[-1].keys()
+    assert any(key.endswith(":F0") for key in reports[-1])
