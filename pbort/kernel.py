@@ -294,6 +294,11 @@ class Kernel:
         first (`pbort.module_log`)."""
         return self._pbo(name).log.since(since)
 
+    def logged(self, name: str) -> int:
+        """How many lines PBO `name`'s module logged since it was added: the number of its
+        latest line (0: none yet)."""
+        return self._pbo(name).log.count
+
     def stats(self, name: str) -> Stats:
         """A snapshot of the PBO's counters."""
         return self._pbo(name).counters.snapshot()

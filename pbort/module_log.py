@@ -53,8 +53,8 @@ class ModuleLog:
 def attributed(name: str, text: str) -> str:
     """A module's line as a reader sees it, ``NAME: text``: the PBO's name first, unless the
     module wrote it there itself (many do: ``PBO_LOG("lowpass: ...")``), which would read
-    ``lowpass: lowpass: ...``."""
-    return text if text.startswith(f"{name}:") else f"{name}: {text}"
+    ``lowpass: lowpass: ...``; in any case, as a native HexMan writes ``hexman: ...``)."""
+    return text if text.lower().startswith(f"{name.lower()}:") else f"{name}: {text}"
 
 
 ECHOED_PER_SECOND = 20

@@ -247,11 +247,15 @@ class KernelControl:
 
     def performance(self, since: float) -> tuple[tuple[str, Number], ...]:
         """The node's status since time `since` (leftover power, real-time slip and missed
-        releases: `Node.status`) and every running PBO's latest evaluator outputs, ``PBO:F0``
-        (functional) and ``PBO:N0`` (non-functional) by index."""
+        releases: `Node.status`), every running PBO's latest evaluator outputs, ``PBO:F0``
+        (functional) and ``PBO:N0`` (non-functional) by index, and the number of the latest
+        line each PBO's module logged, ``PBO:L`` (a host asks LOGS for what it has not seen)."""
         kernel = self.node.kernel
         values: list[tuple[str, Number]] = list(self.node.status(since).items())
         for name in kernel.names:
+            logged = kernel.logged(name)
+            if logged:
+                values.append((f"{name}:L", logged))
             if kernel.state(name) is State.ON:
                 latest = {(r.kind, r.index): r.value for r in kernel.performance(name)}
                 values += [

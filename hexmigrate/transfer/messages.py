@@ -448,9 +448,9 @@ class PerformanceReport(Message, code=0x1B, verb="REPORT"):
     """Pushed by a watched node: report `seq` at `clock_ms` of the node's clock, with
     ``NAME=VALUE`` words: ``leftover`` (power, 0-100), ``slip`` (the largest slip of a job
     behind its modelled schedule since the last report, ms) and ``missed`` (releases missed on
-    slips since the node's clock started: pbort.timekeeping), each running PBO's latest
-    evaluator outputs (``PBO:F0`` functional, ``PBO:N0`` non-functional, by index) and the
-    watched ports."""
+    slips since the node's clock started: pbort.timekeeping), each PBO's latest module log line
+    number (``PBO:L``), each running PBO's latest evaluator outputs (``PBO:F0`` functional,
+    ``PBO:N0`` non-functional, by index) and the watched ports."""
 
     seq: int = u32()
     clock_ms: int = u32()

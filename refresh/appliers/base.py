@@ -38,6 +38,7 @@ from typing import Protocol
 
 from firmware_sim.wires.transfer import WireRun
 from hexmigrate.image import ModuleImage
+from hexmigrate.transfer.control import LoggedLine
 from morphing_crossbar.hex_image import configuration_cycles
 from refresh.database import Module
 from refresh.decider import PerformanceSource
@@ -45,6 +46,9 @@ from refresh.errors import ApplyError, NodeLinkError
 from refresh.hardware import bitstream_images
 from refresh.images import migration_image
 from refresh.remote.reports import Slip
+
+ModuleLine = tuple[str, str, LoggedLine]
+"""A line a module logged: the robot, the PBO and the line (number, node time, text)."""
 
 
 class Applier(Protocol):
@@ -185,6 +189,8 @@ class ApplierBase(ABC):
         self.configured: dict[str, dict[int, str]] = {}
         """The hardware module each fabric slot was configured for, by robot and slot: a slot
         another module took is configured again when its module starts anew."""
+        self.logs_seen: dict[tuple[str, str], int] = {}
+        """(robot, PBO) -> the number of its module's latest log line `module_logs` gave."""
         self.down: set[str] = set()
         """Robots known to be down, for an outage the caller knows of that is not over yet:
         `rejoin` does not try them (a node restarted early in wall time must not rejoin a run
@@ -205,6 +211,21 @@ class ApplierBase(ABC):
         none for nodes on a virtual clock (the in-process back ends); nodes over links say so
         in their reports (`refresh.remote.reports`)."""
         return {}
+
+    def module_logs(self) -> list[ModuleLine]:
+        """The lines the robots' modules logged since the last call, oldest first per PBO."""
+        return []
+
+    def _unseen(self, robot: str, pbo: str, latest: int) -> int | None:
+        """After which line to read PBO `pbo`'s log on `robot`, whose latest line is `latest`:
+        None when nothing is new. A PBO met for the first time starts from its latest line
+        unless the applier started it (the lines before are not this run's); one whose count
+        went back is a new PBO of that name, read from its first line."""
+        key = (robot, pbo)
+        seen = self.logs_seen.setdefault(key, latest)
+        if latest < seen:
+            seen = self.logs_seen[key] = 0
+        return seen if latest > seen else None
 
     def read(self, robot: str, port: str) -> float:
         """The live value of scalar port `port` (``instance.port``) on `robot`; a lost robot's

@@ -29,11 +29,12 @@ from firmware_sim.core.transfer_target import NodeTarget
 from firmware_sim.wires.transfer import WireRun, run_transfer
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.direct import DirectLink
+from hexmigrate.transfer.control import LoggedLine
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
-from refresh.appliers.base import ApplierBase, Bridge, Inventory, owner
+from refresh.appliers.base import ApplierBase, Bridge, Inventory, ModuleLine, owner
 from refresh.database import Module
 from refresh.decider import PerformanceSource
 from refresh.errors import ApplyError
@@ -116,6 +117,23 @@ class NodeApplier(ApplierBase):
     def sources(self) -> dict[str, PerformanceSource]:
         """Where each robot's evaluators report: its node's kernel."""
         return {robot: node.kernel for robot, node in self.nodes.items()}
+
+    def module_logs(self) -> list[ModuleLine]:
+        """Each PBO's new log lines, read from its node's kernel."""
+        found: list[ModuleLine] = []
+        for robot, node in self.nodes.items():
+            if robot in self.off:
+                continue
+            for name in node.kernel.names:
+                seen = self._unseen(robot, name, node.kernel.logged(name))
+                if seen is not None:
+                    lines = node.kernel.log(name, seen)
+                    found += [
+                        (robot, name, LoggedLine(line.number, line.time, line.text))
+                        for line in lines
+                    ]
+                    self.logs_seen[robot, name] = node.kernel.logged(name)
+        return found
 
     def _read(self, robot: str, ports: tuple[str, ...]) -> list[object]:
         wanted = ", ".join(ports)

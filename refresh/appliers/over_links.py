@@ -43,7 +43,7 @@ from hexmigrate.image import ModuleImage
 from hexmigrate.transfer.control import PboRow
 from hexmigrate.transfer.control_client import NodeControl
 from morphing_crossbar.hex_image import slot_base
-from refresh.appliers.base import ApplierBase, Bridge, Inventory, owner
+from refresh.appliers.base import ApplierBase, Bridge, Inventory, ModuleLine, owner
 from refresh.database import Module
 from refresh.errors import ApplyError, NodeLinkError
 from refresh.hardware import scratch_port
@@ -56,6 +56,9 @@ BRIDGE_PBO = re.compile(r"bridge(\d+)_(?:tx|rx)")
 LOCAL_HOST = "127.0.0.1"
 """Where a bridge's importer listens when its node's URL names no host (a pty, a serial device,
 CAN): such a node is reached from the manager's own machine."""
+LAST = (1 << 32) - 1
+"""The last line number a LOGS request can name: asked for lines after it, a node answers
+none, with the number of its PBO's latest."""
 NODE_OPTIONS = ("mode", "period", "timeout", "retries", "key", "tolerance", "on_report")
 """The options of `LinkApplier.open` that go to each `RemoteNode`."""
 
@@ -141,6 +144,26 @@ class LinkApplier(ApplierBase):
             robot: node.source.slipped() for robot, node in self.nodes.items() if node.lost is None
         }
         return {robot: slip for robot, slip in slips.items() if slip.seconds or slip.missed}
+
+    def module_logs(self) -> list[ModuleLine]:
+        """Each PBO's new log lines: its node's reports say the number of its latest line
+        (``PBO:L``), and LOGS reads the lines not seen yet (one answer per PBO and call: a
+        flood is read on over the next calls)."""
+        found: list[ModuleLine] = []
+        for robot, node in self.nodes.items():
+            if node.lost is not None:
+                continue
+            for name, latest in list(node.source.logged.items()):
+                seen = self._unseen(robot, name, latest)
+                if seen is None:
+                    continue
+                _, lines = node.ask(
+                    f"LOGS {name}",
+                    lambda node=node, name=name, seen=seen: node.control.log(name, seen),
+                )
+                found += [(robot, name, line) for line in lines]
+                self.logs_seen[robot, name] = lines[-1].number if lines else latest
+        return found
 
     def controls(self) -> Mapping[str, NodeControl]:
         """Each robot's node control, for a lock-step `TimeMaster` (hexmigrate) to advance the
@@ -278,7 +301,17 @@ class LinkApplier(ApplierBase):
             setting = f"{instance}.{port}={_number(value)}"
             node.ask(f"SET {setting}", lambda setting=setting: control.set(setting))
         node.source.forget(instance)
+        self._logs_from_now(node, robot, instance)
         node.ask(f"START {instance}", lambda: control.start(instance))
+
+    def _logs_from_now(self, node: RemoteNode, robot: str, instance: str) -> None:
+        """Have `module_logs` give the lines PBO `instance` logs from now on (when it starts),
+        not those of an earlier run: its latest line number as its reports said, or, before
+        any did, as the node answers a LOGS for lines after the last possible one."""
+        latest = node.source.logged.get(instance)
+        if latest is None:
+            latest, _ = node.ask(f"LOGS {instance}", lambda: node.control.log(instance, LAST))
+        self.logs_seen[robot, instance] = latest
 
     def _row(self, node: RemoteNode, module: Module) -> PboRow:
         """The node's PBO of `module`; refused when the node has none (a native the node was

@@ -37,6 +37,9 @@ KINDS = {"F": PerformanceKind.FUNCTIONAL, "N": PerformanceKind.NON_FUNCTIONAL}
 """The letter of an evaluator output's word (``PBO:F0``) -> its kind."""
 LEFTOVER = "leftover"
 """The word of a report that carries the node's leftover power (0-100)."""
+LOGGED = "L"
+"""The output letter of a report's word that gives a PBO's latest log line number
+(``gain:L=3``)."""
 SLIP, MISSED = "slip", "missed"
 """The words of a report that say how the node kept real time: its largest slip since the
 report before (ms), and the releases it missed on slips since its clock started."""
@@ -100,6 +103,8 @@ class ReportSource:
         """Pushes lost on the way (gaps in the sequence numbers)."""
         self.damaged = 0
         """Reports whose values could not be read (ignored whole)."""
+        self.logged: dict[str, int] = {}
+        """Each PBO's latest log line number, as the last report that named it said."""
         self.slipped_reports = 0
         """Reports not filed: the node slipped more than `tolerance` before them."""
         self._slip = 0.0  # the largest slip reported since `slipped()` last asked
@@ -175,6 +180,9 @@ class ReportSource:
         pbo, colon, output = name.rpartition(":")
         if not colon:
             self.ports[name] = value
+            return
+        if output == LOGGED:
+            self.logged[pbo] = int(_count(value))
             return
         kind, index = KINDS.get(output[:1]), output[1:]
         if pbo and kind is not None and index.isdigit():

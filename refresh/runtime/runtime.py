@@ -29,6 +29,10 @@ answers, the runtime reads what it has (its modules in flash, its PBOs and their
 any module of the task it still runs outside the running configuration, and counts its
 resources again.
 
+Module logs: each `step()` also records, as `module_log` events, the lines the robots' modules
+logged since the last (`applier.module_logs()`), so that a module saying why it misbehaves is
+heard in the manager's output, beside the decisions it led to.
+
 Real time (docs/refresh.md, "Real time"): each `step()` then asks the applier which nodes
 slipped behind real time since the last (their reports say: `pbort.timekeeping`) and `host_slip`
 how late the caller's own loop came. A period in which one slipped more than `slip_tolerance`
@@ -43,6 +47,8 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
+from commandline import one_line
+from pbort.module_log import EchoLimit
 from refresh.adaptation import decide
 from refresh.appliers.base import ApplierBase, Inventory
 from refresh.configuration import Configuration, initial_configuration
@@ -105,6 +111,7 @@ class Runtime:
         self._deciding = False  # a decision is being carried out: no second one meanwhile
         self._tried: dict[str, float] = {}  # a lost robot -> when it was last tried again
         self._slipping_since: float | None = None  # real time lost since then
+        self._echo: dict[str, EchoLimit] = {}  # by robot: its modules' lines shown per second
 
     def deploy(self) -> Configuration:
         """Start the task's initial configuration (its modules, constants and wiring) and return
@@ -157,6 +164,7 @@ class Runtime:
         """One decision period: judge, watch a recovery, and act on a declared fault. Returns
         the Decider's detection, if it declared one."""
         lost = self._watch_nodes()
+        self._record_module_logs()
         slipping = self._watch_real_time()
         if self.current is None:
             return None
@@ -203,6 +211,21 @@ class Runtime:
                 self._tried[robot] = now
                 self._try_rejoin(robot)
         return set(self.database.lost)
+
+    def _record_module_logs(self) -> None:
+        """An event for each line a module logged since the last look (its text as data, at
+        most `ECHOED_PER_SECOND` a second of the run per PBO, the rest counted)."""
+        for robot, pbo, line in self.applier.module_logs():
+            limit = self._echo.setdefault(robot, EchoLimit(now=self.clock))
+            for shown in limit.shown(pbo, one_line(line.text)):
+                self.log.record(
+                    "module_log",
+                    f"robot {robot}: {shown}",
+                    robot=robot,
+                    pbo=pbo,
+                    line=line.number,
+                    node_time=line.time,
+                )
 
     def _watch_real_time(self) -> bool:
         """Whether a node or the caller's loop slipped more than the tolerance in this period;

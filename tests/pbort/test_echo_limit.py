@@ -5,7 +5,7 @@ ECHOED_PER_SECOND lines in a second a PBO's lines are held back and counted."""
 from __future__ import annotations
 
 from firmware_sim.serving.listen import _echoing
-from pbort.module_log import EchoLimit, ModuleLog
+from pbort.module_log import EchoLimit, ModuleLog, attributed
 
 
 class Clock:
@@ -48,3 +48,9 @@ def test_a_listening_node_says_at_most_the_limit_of_a_module_logging_every_cycle
     assert 1 <= len(said) <= 2 * 20  # within a second or two of this test's wall clock
     assert all("\x1b" not in line for line in said)  # on one line, escapes shown, not sent
     assert len(log.since(0)) == 64  # the PBO keeps its lines whether printed or not
+
+
+def test_a_line_names_its_pbo_once_whatever_the_case_the_module_wrote_it_in():
+    assert attributed("gain", "k is not configured") == "gain: k is not configured"
+    assert attributed("lowpass", "lowpass: cut-off too high") == "lowpass: cut-off too high"
+    assert attributed("HexMan", "hexman: bus_off") == "hexman: bus_off"

@@ -146,6 +146,10 @@ def test_in_lock_step_the_fault_is_repaired_by_a_coalition_across_hosts(database
     # Stuck from 1 s: reports of 1.05 and 1.1 s violate, the second look declares the fault.
     assert by_kind["detection"]["time"] == pytest.approx(1.2)
     assert by_kind["location"]["data"]["module"] == "Sensor"
+    # What the module logged on its node is in the manager's output, as it came.
+    assert by_kind["module_log"]["message"] == "robot a: Sensor: stuck at 1000"
+    assert kinds.index("module_log") < kinds.index("detection")
+    assert by_kind["module_log"]["data"]["node_time"] == pytest.approx(1.0, abs=0.02)
     assert by_kind["switch"]["time"] == pytest.approx(1.2)
     assert by_kind["switch"]["data"] == {"configuration": "{Sensor_alt@b, gain, Check}"}
     connect = [

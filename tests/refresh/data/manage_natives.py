@@ -2,7 +2,8 @@
 (``--natives tests.refresh.data.manage_natives``).
 
 Sensor reads a level of `level` (its constant) until `fault_at` seconds of the clock it runs on
-(the node's, or the manager's host kernel in a shadow run), then 1000: a stuck reading.
+(the node's, or the manager's host kernel in a shadow run), then 1000: a stuck reading, which
+it logs once (a module saying why it misbehaves, heard in the manager's output).
 Sensor_alt reads `level` always. The guest `gain` doubles the reading; Check reports how far the
 doubled level is from its `target`, the task's metric.
 """
@@ -48,6 +49,15 @@ class Sensor(_Flow):
         PortSpec.const("level"),
         PortSpec.const("fault_at", dtype="<f8"),
     )
+
+    def on(self, io: PortIO) -> None:
+        self.said = False
+
+    def cycle(self, io: PortIO) -> None:
+        if io.now >= io["fault_at"] and not self.said:
+            io.log(f"stuck at {STUCK}")
+            self.said = True
+        super().cycle(io)
 
     def transform(self, io: PortIO) -> None:
         io["y"] = STUCK if io.now >= io["fault_at"] else io["level"]
