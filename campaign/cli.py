@@ -220,7 +220,7 @@ def finish(out: Path, parameters: Mapping[str, Any], records: Sequence[dict[str,
     summary = summarize(records)
     (out / SUMMARY).write_text(json.dumps(rounded(summary), indent=1) + "\n", encoding="utf-8")
     plots = draw_plots(summary, out)
-    write_page(summary, parameters, PLOTS, out / PAGE)
+    write_page(summary, parameters, PLOTS, records, out / PAGE)
     print("\n".join(lines(summary)))
     print(f"records: {out / store.RECORDS}")
     print(f"summary: {out / SUMMARY}")

@@ -1,5 +1,6 @@
-"""A campaign's page: its parameters, the summary's tables and the plots, in one HTML file
-beside them (the plots are linked by name, so the folder can be moved or served as it is)."""
+"""A campaign's page: its parameters, the summary's tables, the plots and a row per run, in one
+HTML file beside them (the plots are linked by name, so the folder can be moved or served as it
+is)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from campaign.record import OK
 from campaign.summary import percent
 
 STYLE = (
@@ -23,10 +25,11 @@ def write_page(
     summary: Mapping[str, Any],
     parameters: Mapping[str, Any],
     plots: Mapping[str, str],
+    records: Sequence[Mapping[str, Any]],
     path: Path,
 ) -> None:
     """Write the page for `summary` of the campaign of `parameters` to `path`, showing the
-    `plots` (file name beside the page -> caption)."""
+    `plots` (file name beside the page -> caption) and a row for each of the runs' `records`."""
     title = f"Campaign: {parameters.get('application', '')}, {summary['runs']} runs"
     parts = [
         f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{_e(title)}</title>"
@@ -51,8 +54,52 @@ def write_page(
             "<h2>Crashed runs</h2>",
             _table(["run", "error"], [(c["index"], c["error"]) for c in summary["crashed"]]),
         ]
+    parts += ["<h2>Every run</h2>", _table(RUN_COLUMNS, map(_run_row, records))]
     parts.append("</body></html>\n")
     path.write_text("\n".join(parts), encoding="utf-8")
+
+
+RUN_COLUMNS = (
+    "run",
+    "status",
+    "fault",
+    "at (s)",
+    "faulty modules",
+    "detected (s)",
+    "located",
+    "recovered (s)",
+    "decisions",
+    "run time (s)",
+)
+"""The columns of the page's table of every run; times are the run's, the run time the host's."""
+
+
+def _run_row(record: Mapping[str, Any]) -> tuple[Any, ...]:
+    """One run: what was drawn and what ReFrESH made of it (its first decision after the fault,
+    or its first at all in a control run); a crashed run says so and how it ended."""
+    draw = record["draw"]
+    decisions = record.get("decisions") or []
+    at = draw["fault_at"]
+    first = next((d for d in decisions if at is None or d["detected_at"] >= at - 1e-9), None)
+    recovered = "-" if first is None else _number(first["recovered_at"])
+    if record.get("stopped_at") is not None:
+        recovered = f"stopped at {_number(record['stopped_at'])}"
+    status = record["status"]
+    if status != OK:
+        said = (record.get("error") or "").strip().splitlines()
+        status = f"{status}: {said[-1] if said else 'no error recorded'}"
+    return (
+        record["index"],
+        status,
+        draw["fault_type"],
+        _number(at),
+        ", ".join(draw["truth"]) or "-",
+        "-" if first is None else _number(first["detected_at"]),
+        "-" if first is None else ", ".join(first["located"]) or "none",
+        recovered,
+        len(decisions),
+        _number(record["timing"]["run_seconds"]),
+    )
 
 
 def _overview(summary: Mapping[str, Any]) -> list[tuple[Any, ...]]:

@@ -99,6 +99,13 @@ def test_the_summary_plots_and_page_say_what_the_records_hold(finished):
     assert toy.CRASH in page and "<table>" in page and "only faulty modules named" in page
     parameters = page[page.index("<h2>Parameters</h2>") : page.index("<h2>Runs</h2>")]
     assert "null" not in parameters and "&quot;" not in parameters  # as a reader wants them
+    # A row per run, in order, saying what was drawn and what ReFrESH made of it.
+    every = page[page.index("<h2>Every run</h2>") :]
+    rows = re.findall(r"<tr><td>(\d+)</td><td>([^<]*)</td><td>([^<]*)</td>", every)
+    assert [int(index) for index, _, _ in rows] == list(range(12))
+    for record, (_, status, fault) in zip(found, rows, strict=True):
+        assert fault == record["draw"]["fault_type"]
+        assert status == "ok" or status == f"crashed: ValueError: {toy.CRASH}"
 
 
 def test_an_interrupted_campaign_resumes_where_it_stopped(finished, tmp_path):
