@@ -15,15 +15,20 @@ must be installed there too.
 The local cluster runs one single-threaded worker process per core (`--workers`): the runs hold
 the GIL (the emulated CPU, the kernel, NumPy between calls) and a worker's process owns its
 emulator. Its scheduler and workers listen on 127.0.0.1 only (the scheduler's HTTP routes on a
-free port of it), without the dashboard. The workers ignore Ctrl-C (the campaign's process
-stops them) and write their standard error (Dask's log lines, any traceback) into the
-campaign's folder, `WORKERS_LOG`, not on the user's terminal: a worker ending with its campaign
-can log a heartbeat that met its scheduler closing, a traceback that says nothing about the
-runs.
+free port of it), without the dashboard. The workers ignore Ctrl-C and write their standard
+error (Dask's log lines, any traceback) into the campaign's folder, `WORKERS_LOG`, not on the
+user's terminal: a worker ending with its campaign can log a heartbeat that met its scheduler
+closing, a traceback that says nothing about the runs.
+
+Ctrl-C (or an error) stops the campaign at once: the runs in flight are cancelled and the
+workers killed (the finished runs' records are written; `--resume` runs the rest), whenever it
+comes, also while the cluster still starts (the workers are born writing into the log, and the
+half-started cluster is closed before Dask's exit hook could complain).
 """
 
 from __future__ import annotations
 
+import atexit
 import collections
 import contextlib
 import functools
@@ -98,21 +103,80 @@ def client(workers: int, scheduler: str | None, log: Path | None = None) -> Iter
         with connected:
             yield connected
         return
-    cluster = LocalCluster(
-        n_workers=workers,
-        threads_per_worker=1,
-        processes=True,
-        host="127.0.0.1",
-        dashboard_address="127.0.0.1:0",  # the scheduler's HTTP routes (health), on loopback
-        scheduler_kwargs={"dashboard": False},
-        silence_logs=logging.ERROR,
-    )
-    with cluster, Client(cluster) as local:
-        local.register_plugin(_local_worker(log))
+    with _workers_born_quiet(log):
         try:
-            yield local
-        finally:
-            _workers_leave(cluster)
+            cluster = LocalCluster(
+                n_workers=workers,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address="127.0.0.1:0",  # the scheduler's routes (health), loopback
+                scheduler_kwargs={"dashboard": False},
+                silence_logs=logging.ERROR,
+            )
+        except KeyboardInterrupt:
+            _close_half_started()
+            raise
+    with cluster:
+        try:
+            with Client(cluster) as local:
+                local.register_plugin(_local_worker(log))
+                yield local
+                _workers_leave(cluster)
+        except BaseException:  # Ctrl-C, an error: no run is worth waiting for
+            _kill_workers(cluster)
+            raise
+
+
+@contextlib.contextmanager
+def _workers_born_quiet(log: Path | None) -> Iterator[None]:
+    """Start the local cluster with this process's standard error pointed at `log`, so that its
+    worker processes write there from birth: a Ctrl-C in the first second of a campaign reaches
+    workers not yet told to ignore it (`_local_worker`), and each printed a KeyboardInterrupt
+    traceback on the user's terminal. Standard error comes back whatever happens."""
+    if log is None:
+        yield
+        return
+    kept = os.dup(2)
+    try:
+        _log_into(log)
+        yield
+    finally:
+        os.dup2(kept, 2)
+        os.close(kept)
+
+
+def _kill_workers(cluster: Any) -> None:
+    """End the local cluster's worker processes at once (SIGKILL), the scheduler's complaints
+    about them silenced: after a Ctrl-C (or an error) the cluster would otherwise wait seconds
+    for runs to finish or workers to start before it closes. The records of the finished runs
+    are written already; the cancelled runs are left for --resume."""
+    _hush()
+    for nanny in list(cluster.workers.values()):
+        process = getattr(getattr(nanny, "process", None), "process", None)
+        pid = getattr(process, "pid", None)
+        if pid:
+            with contextlib.suppress(OSError):
+                os.kill(pid, signal.SIGKILL)
+
+
+def _close_half_started() -> None:
+    """Close a local cluster that Ctrl-C stopped while it started, now, its complaints into the
+    workers' log, rather than leave it to Dask's exit hook, which fails on workers still
+    starting and prints the failure's traceback after the campaign said "interrupted"."""
+    from distributed.deploy.spec import close_clusters
+
+    _hush()
+    atexit.unregister(close_clusters)
+    with contextlib.suppress(Exception):
+        close_clusters()
+
+
+def _hush() -> None:
+    """Silence Dask's and asyncio's loggers in this process, which is stopping: they would
+    tell the user's terminal of broadcasts to workers gone and of their futures."""
+    for talker in ("distributed", "asyncio"):
+        logging.getLogger(talker).setLevel(logging.CRITICAL)
 
 
 def _workers_leave(cluster: Any) -> None:

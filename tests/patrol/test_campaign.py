@@ -111,6 +111,34 @@ def test_ctrl_c_stops_the_campaign_between_records_and_resume_finishes_it(tmp_pa
     assert _records(out) == 8
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("after", [0.6, 1.0, 1.4, 2.0])
+def test_ctrl_c_while_the_cluster_starts_stops_at_once_and_says_only_interrupted(
+    tmp_path, after
+):
+    """Ctrl-C in the first seconds reaches workers still starting (each printed a
+    KeyboardInterrupt traceback, and Dask's exit hook one more) and a cluster still starting
+    (it took seconds to close): now the command says "interrupted" alone, and ends in well
+    under the seconds it took."""
+    command = [sys.executable, "-m", "patrol", "campaign", "--runs", "8", "--workers", "2"]
+    campaign = subprocess.Popen(
+        [*command, "--out", str(tmp_path / "campaign")],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        time.sleep(after)
+        os.killpg(campaign.pid, signal.SIGINT)
+        _, stderr = campaign.communicate(timeout=60)
+    finally:
+        if campaign.poll() is None:
+            os.killpg(campaign.pid, signal.SIGKILL)
+            campaign.wait()
+    assert (campaign.returncode, stderr) == (130, "interrupted\n")
+
+
 def _records(out) -> int:
     path = out / store.RECORDS
     return len(path.read_text().splitlines()) if path.exists() else 0
