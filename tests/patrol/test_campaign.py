@@ -113,9 +113,7 @@ def test_ctrl_c_stops_the_campaign_between_records_and_resume_finishes_it(tmp_pa
 
 @pytest.mark.slow
 @pytest.mark.parametrize("after", [0.6, 1.0, 1.4, 2.0])
-def test_ctrl_c_while_the_cluster_starts_stops_at_once_and_says_only_interrupted(
-    tmp_path, after
-):
+def test_ctrl_c_while_the_cluster_starts_stops_at_once_and_says_only_interrupted(tmp_path, after):
     """Ctrl-C in the first seconds reaches workers still starting (each printed a
     KeyboardInterrupt traceback, and Dask's exit hook one more) and a cluster still starting
     (it took seconds to close): now the command says "interrupted" alone, and ends in well
