@@ -92,10 +92,10 @@ def _until_due(node: Node, poll: float) -> float:
 def _shelter(server: ClientsLink, receiver: Receiver, peer: int) -> None:
     """Shelter a client that authenticated from being let go for a newcomer: before its answer
     goes out, since the host may open other connections as soon as it reads it (the listener
-    takes them on its own thread), and an unsheltered quiet host was let go for one of them."""
+    takes them on its own thread), and an unsheltered quiet host was let go for one of them.
+    A client whose session ended (BYE, a new challenge) is sheltered no more."""
     session = receiver.sessions.get(peer)
-    if session is not None and session.authenticated:
-        server.shelter(peer)
+    server.shelter(peer, session is not None and session.authenticated)
 
 
 def _unnamed(raw: bytes | None) -> tuple[None, bytes] | None:

@@ -63,8 +63,9 @@ class ClientsLink(Protocol):
     def hang_up(self, peer: int) -> None:
         """Disconnect client `peer`."""
 
-    def shelter(self, peer: int) -> None:
-        """Keep client `peer` when a newcomer needs room (an authenticated host)."""
+    def shelter(self, peer: int, sheltered: bool = True) -> None:
+        """Keep client `peer` when a newcomer needs room (an authenticated host); with
+        `sheltered` false, no longer (it said BYE)."""
 
 
 MAX_MESSAGE_SIZE = 1 << 20

@@ -248,5 +248,5 @@ class FaultyClientsLink(FaultyLink):
     def hang_up(self, peer: int) -> None:
         self.inner.hang_up(peer)
 
-    def shelter(self, peer: int) -> None:
-        self.inner.shelter(peer)
+    def shelter(self, peer: int, sheltered: bool = True) -> None:
+        self.inner.shelter(peer, sheltered)

@@ -247,14 +247,16 @@ class TcpListenLink(LinkBase):
                 self._end(client)
         self._wake()  # the server thread writes what waits without finishing its wait first
 
-    def shelter(self, peer: int) -> None:
-        """Never let client `peer` go to make room for a newcomer: a node shelters the host
-        that authenticated, so that strangers opening connections cannot push out a manager
-        that is quiet between its requests."""
+    def shelter(self, peer: int, sheltered: bool = True) -> None:
+        """Never let client `peer` go to make room for a newcomer (`sheltered`), or let it go
+        again: a node shelters the host that authenticated, so that strangers opening
+        connections cannot push out a manager that is quiet between its requests, and takes the
+        shelter back when the host's session ends (BYE), so that hosts that said goodbye and
+        stay connected cannot lock every newcomer out."""
         with self._lock:
             client = self._clients.get(peer)
             if client is not None:
-                client.sheltered = True
+                client.sheltered = sheltered
 
     def hang_up(self, peer: int) -> None:
         """Disconnect client `peer` and drop what it sent that was not received yet."""
