@@ -100,8 +100,9 @@ from hexmigrate.transfer.subscription import HEARTBEAT_PERIOD, MIN_PERIOD_MS, Su
 IMPLICIT = 0  # the transfer id of a module typed or pasted on a terminal without BEGIN
 REMEMBERED_COMMITS = 64
 REMEMBERED_CONTROLS = 64
-"""Control answers kept by tid, so that a request repeated after a lost answer is answered
-again, not done again."""
+"""Control answers kept, each by its connection and its whole request (tid and all), so that a
+request repeated after a lost answer is answered again, not done again; and a request of
+another connection, or another request that happens to carry the same tid, is done."""
 TRANSFER_IDLE = 60.0
 """Seconds a transfer may go without a message before the node drops it and gives back its
 flash reservation and SRAM buffer: a sender killed mid-transfer must not hold them forever. A
@@ -211,7 +212,7 @@ class Receiver:
         """Each connection's authentication and watch."""
         self._peer: Hashable = None  # the connection of the message being handled
         self._session = PeerSession()  # its session
-        self.controlled: OrderedDict[int, Message] = OrderedDict()
+        self.controlled: OrderedDict[tuple[Hashable, Message], Message] = OrderedDict()
         """The answers to recent control requests, by tid."""
         self._text = False  # the mode of the message being handled
         self.transfers: dict[int, Transfer] = {}
@@ -330,11 +331,14 @@ class Receiver:
     # Node control.
 
     def _controlled(self, message: Message) -> list[Message]:
-        """Do a control request once: a repeat of its tid gets the answer it got the first time.
-        A refusal (unknown name, wrong type, wrong state) is a fatal NAK whose reason names the
-        PBO, port or constant; the node goes on."""
+        """Do a control request once: the same request again on the same connection (its
+        answer was lost) gets the answer it got the first time; the same tid from another
+        connection or on another request is another request (a stranger's ``PS 4242`` must
+        not answer the host's ``STOP 4242``). A refusal (unknown name, wrong type, wrong state)
+        is a fatal NAK whose reason names the PBO, port or constant; the node goes on."""
         tid: int = getattr(message, "tid", IMPLICIT)
-        answer = self.controlled.get(tid)
+        asked = (self._peer, message)
+        answer = self.controlled.get(asked)
         if answer is None:
             try:
                 answer = self._control(message)
@@ -343,7 +347,7 @@ class Receiver:
                 if len(reason) > MAX_REFUSAL:
                     reason = reason[: MAX_REFUSAL - 3] + "..."
                 answer = Nak(tid, 0, reason, fatal=True)
-            self.controlled[tid] = answer
+            self.controlled[asked] = answer
             while len(self.controlled) > REMEMBERED_CONTROLS:
                 self.controlled.popitem(last=False)
         return [answer]

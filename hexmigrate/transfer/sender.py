@@ -11,7 +11,7 @@ requests that change it only after `authenticate` on the same connection.
 from __future__ import annotations
 
 import contextlib
-import random
+import secrets
 import time
 import zlib
 from collections.abc import Callable, Iterator
@@ -569,8 +569,9 @@ class _Window:
 
 
 def fresh_tid() -> int:
-    """A tid unlikely to be one the node remembers."""
-    return random.getrandbits(31) | 1
+    """A tid unlikely to be one the node remembers, and that no one can guess ahead (a node
+    tells a repeat from a new request by its connection and whole request, tid and all)."""
+    return secrets.randbits(31) | 1
 
 
 def _plural(count: int, one: str, many: str) -> str:

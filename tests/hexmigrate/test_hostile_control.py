@@ -16,10 +16,14 @@ from hexmigrate.errors import MessageError
 from hexmigrate.links import open_link, stream
 from hexmigrate.transfer.control import MAX_PORTS, Number, PboRow, parse_rows, parse_values
 from hexmigrate.transfer.messages import (
+    Ack,
+    ListPbos,
     Message,
     Nak,
+    PboTable,
     PerformanceReport,
     ReadPorts,
+    StopPbo,
     Watch,
     decode,
     encode,
@@ -54,9 +58,33 @@ class Counting:
         return "ok"
 
 
-def answer(receiver: Receiver, message: Message) -> Message:
-    (raw,) = receiver.handle(encode(message, False))
+def answer(receiver: Receiver, message: Message, peer: int | None = None) -> Message:
+    (raw,) = receiver.handle(encode(message, False), peer)
     return decode(raw)
+
+
+class Stopping(Counting):
+    """A node whose one PBO counts its stops."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.stops = 0
+
+    def stop(self, name: str) -> str:
+        self.stops += 1
+        return f"stopped {name}"
+
+
+def test_a_strangers_request_with_the_hosts_tid_does_not_answer_the_hosts_request() -> None:
+    node = Stopping()
+    receiver = Receiver(None, node)  # type: ignore[arg-type]
+    assert isinstance(answer(receiver, ListPbos(4242), peer=1), PboTable)  # the stranger
+    stopped = answer(receiver, StopPbo(4242, "signal"), peer=2)  # the host, same tid
+    assert isinstance(stopped, Ack) and stopped.text == "stopped signal" and node.stops == 1
+    # The host's own repeat (its answer lost) is answered again, not done again.
+    assert answer(receiver, StopPbo(4242, "signal"), peer=2) == stopped and node.stops == 1
+    # The same tid from another connection is another request, done.
+    assert answer(receiver, StopPbo(4242, "signal"), peer=3) == stopped and node.stops == 2
 
 
 def test_a_read_or_watch_of_too_many_ports_is_refused_before_any_is_read() -> None:
@@ -79,7 +107,8 @@ def test_a_refusal_of_a_huge_name_is_short() -> None:
     assert isinstance(refusal, Nak) and refusal.fatal
     assert refusal.reason.startswith("READ refused: ")
     assert len(refusal.reason) <= MAX_REFUSAL
-    assert len(receiver.controlled[1].reason) <= MAX_REFUSAL  # type: ignore[attr-defined]
+    (remembered,) = receiver.controlled.values()
+    assert len(remembered.reason) <= MAX_REFUSAL  # type: ignore[attr-defined]
 
 
 def test_a_report_missed_while_the_node_was_busy_is_not_made_up_for() -> None:
