@@ -143,6 +143,12 @@ def cmd_listen(args: argparse.Namespace) -> int:
         raise UsageError("--fpga-model goes with --fpga N (a node with no fabric has no model)")
     if args.fpga_width is not None and args.fpga is None:
         raise UsageError("--fpga-width goes with --fpga N (a node with no fabric has no samples)")
+    if args.gdb is not None and args.trust:
+        raise UsageError(
+            "--gdb: expected a node that trusts no key, got --trust too: gdb's remote protocol "
+            "has no authentication, so a debugger would be a way around the trust (it halts "
+            "the node and writes its memory); debug the module on a node without --trust"
+        )
     config = ListenConfig(
         listen=args.listen,
         name=args.name,

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
-from firmware_sim.core.memory_map import TRAMPOLINE
+from firmware_sim.core.memory_map import SRAM_BASE, TRAMPOLINE
 
 if TYPE_CHECKING:
     from firmware_sim.core.node import Node
@@ -102,6 +102,13 @@ class DebugPort:
     def read(self, address: int, size: int) -> bytes:
         """`size` bytes of guest memory at `address` (KernelAccessError outside the map)."""
         return self._cpu.read(address, size)
+
+    def writable(self, address: int, size: int) -> bool:
+        """Whether a debugger may write `size` bytes at `address`: within the node's SRAM only.
+        Flash holds the installed modules (signed, on a node that trusts keys) and the flash
+        directory; no debugger rewrites them, whatever the node trusts."""
+        end = SRAM_BASE + self._node.config.sram_size
+        return address >= SRAM_BASE and address + size <= end
 
     def write(self, address: int, data: bytes) -> None:
         """Write guest memory at `address` (KernelAccessError outside the map)."""

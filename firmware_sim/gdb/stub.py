@@ -17,6 +17,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from unicorn import UcError
+
 from firmware_sim.core.debug_port import DebugPort, Restart
 from firmware_sim.errors import KernelAccessError
 from firmware_sim.gdb.packets import Disconnected, PacketConnection
@@ -224,8 +226,8 @@ class GdbStub:
         }.get(command)
         try:
             reply = handler() if handler is not None else ""
-        except (ValueError, IndexError, OverflowError):
-            reply = "E01"  # a malformed packet: gdb's error reply, and the node runs on
+        except (ValueError, IndexError, OverflowError, UcError):
+            reply = "E01"  # a malformed packet, or one the emulator refuses: the node runs on
         self._send(reply)
         return None
 
@@ -303,10 +305,16 @@ class GdbStub:
             return "E14"  # EFAULT: outside the memory map
 
     def _write_memory(self, body: str) -> str:
+        """An ``M`` packet: within SRAM only (`DebugPort.writable`), else EACCES."""
         where, _, data = body.partition(":")
         address, _ = (int(x, 16) for x in where.split(","))
+        written = bytes.fromhex(data)
+        if not written:
+            return "OK"
+        if not self.port.writable(address, len(written)):
+            return "E0d"  # EACCES: flash and the rest of the map are not a debugger's to write
         try:
-            self.port.write(address, bytes.fromhex(data))
+            self.port.write(address, written)
         except KernelAccessError:
             return "E14"
         return "OK"
