@@ -377,13 +377,15 @@ class Node:
         )
         return self.admit(linked)
 
-    def admit(self, image: ModuleImage) -> int:
+    def admit(self, image: ModuleImage, versions_of: str | None = None) -> int:
         """The signed version word of `image` (the bytes that were signed), once the trust
-        policy admits it against the highest version the node keeps of its name: its installed
+        policy admits it against the highest version the node keeps of its name (or of
+        `versions_of`: a bitstream's slot, whatever name it was signed under): its installed
         module's, else its kept version. 0 when the node trusts no key; `TrustError` with the
         reason the sender is told otherwise."""
-        installed = self.modules.get(image.name)
-        highest = installed.entry.version if installed else self.kept_versions.get(image.name, 0)
+        name = image.name if versions_of is None else versions_of
+        installed = self.modules.get(name)
+        highest = installed.entry.version if installed else self.kept_versions.get(name, 0)
         version = self.config.trust.admit(
             image, version_of(highest) if highest else None, installed=installed is not None
         )

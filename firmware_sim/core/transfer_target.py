@@ -57,9 +57,11 @@ class NodeTarget:
 
         On a node that trusts keys the bitstream is admitted first, as a module is
         (`Node.admit`: signed by a trusted key, unchanged, not older than the highest version
-        kept of the name it was signed under), and its version kept in the flash directory
-        (`Node.keep_version`) before the port is touched: a refused one leaves the slot as it
-        was. An unsigned image is named "bitstream"; a signed one takes its signed name."""
+        kept of its slot, `slot_versions`, whatever name it was signed under: an older
+        bitstream renamed and signed again is still older), and its version kept in the flash
+        directory (`Node.keep_version`) before the port is touched: a refused one leaves the
+        slot as it was. An unsigned image is named "bitstream"; a signed one takes its signed
+        name."""
         assert self.fpga is not None
         try:
             bitstream = linked_image(
@@ -71,7 +73,8 @@ class NodeTarget:
                 image.init,
                 image.signature,
             )
-            self.node.keep_version(bitstream.name, self.node.admit(bitstream))
+            versions = slot_versions(image.link_base)
+            self.node.keep_version(versions, self.node.admit(bitstream, versions))
             record = self.fpga.load(bitstream)
         finally:
             self.node.discard(owner, image)
@@ -110,3 +113,10 @@ class NodeTarget:
             f"{node.name}: {len(node.modules)} module(s), {node.space.free_blocks} of "
             f"{node.flash.block_count} flash blocks free, {node.sram.free_bytes} bytes of SRAM free"
         )
+
+
+def slot_versions(link_base: int) -> str:
+    """The name a fabric slot's versions are kept under, from the window a bitstream is linked
+    at (its slot's: the signature covers it, so a bitstream signed for one slot configures no
+    other)."""
+    return f"fpga@{link_base:08x}"

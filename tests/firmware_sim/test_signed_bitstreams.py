@@ -2,8 +2,8 @@
 (firmware_sim/core/transfer_target.py `NodeTarget._configure`): a bitstream for the FPGA port is
 refused unsigned, signed by an unknown key, changed after signing or older than the highest version
 kept of its name, with the module's reasons, the flash copy erased and the slot's routing as it was;
-an admitted one's version is kept in the flash directory (per signed name, ``mx_slotN`` for the
-crossbar), over ``rm`` and a restart. A node that trusts no key applies any bitstream, as before."""
+an admitted one's version is kept in the flash directory (per slot, whatever name it was signed
+under: an older bitstream renamed and signed again is still older), over ``rm`` and a restart. A node that trusts no key applies any bitstream, as before."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from firmware_sim.core.node import Node, NodeConfig
-from firmware_sim.core.transfer_target import NodeTarget
+from firmware_sim.core.transfer_target import NodeTarget, slot_versions
 from firmware_sim.core.trust import TrustPolicy, version_of
 from hexmigrate.errors import TransferError
 from hexmigrate.image import ModuleImage
@@ -34,6 +34,8 @@ FABRIC = Fabric(4)
 SLOT = 2
 BEAT = Beat(10)
 V1_1, V1_2 = Version(1, 1, 0), Version(1, 2, 0)
+KEPT = slot_versions(CONFIG_BASE + 0x200)
+"""Where slot 2's versions are kept."""
 MODES = ["binary", "hex"]
 
 
@@ -115,7 +117,7 @@ def test_a_trusting_node_applies_only_what_its_key_signed(trusting, key, bypass,
     result = node.sender.send(signed)
     assert (result.name, result.load_address) == ("mx_slot2", CONFIG_BASE + 0x200)
     assert node.routes() == (SLOT, BEAT)  # now it passes the beat through
-    assert node.node.kept_versions == {"mx_slot2": 0x01020000}
+    assert node.node.kept_versions == {KEPT: 0x01020000}
     assert node.node.space.owners.keys() <= {"directory"}
     assert node.port.installed == {SLOT: "mx_slot2"}
 
@@ -131,13 +133,24 @@ def test_an_older_bitstream_is_refused_over_rm_and_a_restart(trusting, key, bypa
     assert node.state() == before
     node.close()
     again = trusting(mode)
-    assert version_of(again.node.kept_versions["mx_slot2"]) == V1_2
+    assert version_of(again.node.kept_versions[KEPT]) == V1_2
     before = again.state()
     assert older in again.refusal(sign_image(bypass, key, V1_1))
     assert again.state() == before
     again.sender.send(sign_image(bypass, key, Version(1, 3, 0)))
     assert again.routes() == (SLOT, BEAT)
-    assert version_of(again.node.kept_versions["mx_slot2"]) == Version(1, 3, 0)
+    assert version_of(again.node.kept_versions[KEPT]) == Version(1, 3, 0)
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_an_older_bitstream_renamed_and_signed_again_is_still_older(trusting, key, bypass, mode):
+    node = trusting(mode)
+    node.sender.send(sign_image(bypass, key, Version(2, 0, 0)))
+    renamed = dataclasses.replace(bypass, name="mx_slot2_v1")
+    before = node.state()
+    refusal = node.refusal(sign_image(renamed, key, V1_1))
+    assert "commit refused: version 1.1.0 is older than 2.0.0" in refusal
+    assert node.state() == before
 
 
 def test_allow_downgrade_applies_an_older_bitstream(key, bypass, tmp_path):
@@ -146,7 +159,7 @@ def test_allow_downgrade_applies_an_older_bitstream(key, bypass, tmp_path):
     with node.node:
         node.sender.send(sign_image(bypass, key, V1_2))
         node.sender.send(sign_image(bypass, key, V1_1))
-        assert node.node.kept_versions == {"mx_slot2": 0x01010000}
+        assert node.node.kept_versions == {KEPT: 0x01010000}
 
 
 @pytest.mark.parametrize("mode", MODES)
