@@ -450,8 +450,11 @@ class Sender:
         raise tries.failure(type(message).__name__)
 
     def _drain(self) -> None:
-        """Drop the answers that have already arrived (each passed to `stray`, if set)."""
-        while (raw := self.link.receive(0.0)) is not None:
+        """Drop the answers that have already arrived (each passed to `stray`, if set): at
+        most for one timeout, so that a node that never stops talking (a flood of pushes)
+        cannot hold the request back before it is even sent."""
+        deadline = time.monotonic() + self.timeout
+        while time.monotonic() < deadline and (raw := self.link.receive(0.0)) is not None:
             if self.stray is not None:
                 with contextlib.suppress(MessageError):
                     self.stray(decode(raw, checked=True))
@@ -464,11 +467,17 @@ class Sender:
         what: str | tuple[str, ...] = "",
     ) -> Message | None:
         """The next reply of one of `kinds` for `tid` within the timeout; an Ack must start
-        with `what`. Anything else is stale (a late answer to an earlier message) and skipped."""
+        with `what`. Anything else is stale (a late answer to an earlier message) and skipped,
+        and the timeout holds whatever arrives: a node that keeps talking without answering
+        does not keep the wait going."""
         deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
         heard = self.heard
+        late = 0  # messages taken after the deadline: what had arrived, up to LATE_LOOKS
         while True:  # at least one look, even with a zero timeout
-            raw = self.link.receive(max(0.0, deadline - time.monotonic()))
+            left = deadline - time.monotonic()
+            if left <= 0:
+                late += 1
+            raw = None if late > LATE_LOOKS else self.link.receive(max(0.0, left))
             if raw is None:
                 self.quiet = self.heard == heard
                 return None
@@ -566,6 +575,11 @@ class _Window:
         further back (a damaged answer may have misled us)."""
         self.known = max(self.acked, position)
         self.next = self.known
+
+
+LATE_LOOKS = 64
+"""Messages a wait still takes once its time is up, of what had arrived by then (a reply
+queued behind a node's pushes); a node that floods the link gets no more than that."""
 
 
 def fresh_tid() -> int:

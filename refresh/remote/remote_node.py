@@ -45,6 +45,9 @@ REPORT_PERIOD = 0.05
 """Seconds between two reports a node is asked for: a few per decision period of the runtime."""
 TIMEOUT = 1.0
 """Seconds a request waits for each answer."""
+MAX_POLLED = 1000
+"""Pushes one `poll` files at most (a node reports 20 times a second): one that floods the link
+cannot keep the manager filing forever; the rest waits on the link for the next poll."""
 RETRIES = 5
 """Tries after the first before a request gives up: a dead node fails a request within
 (RETRIES + 1) x TIMEOUT seconds."""
@@ -170,7 +173,10 @@ class RemoteNode:
             if self.lost is not None:
                 return
             try:
-                while (raw := self.link.receive(0.0)) is not None:
+                for _ in range(MAX_POLLED):  # a node that floods waits for the next poll
+                    raw = self.link.receive(0.0)
+                    if raw is None:
+                        break
                     with contextlib.suppress(MessageError):
                         self._take(decode(raw, checked=True))
             except (HexmigrateError, OSError) as error:

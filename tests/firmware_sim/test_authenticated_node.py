@@ -237,12 +237,14 @@ def test_hosts_that_said_bye_and_stay_connected_do_not_lock_a_newcomer_out(files
     shelter ended with their sessions, so a newcomer pushes the longest-silent one out and is
     answered."""
     key = keys.load_private(files["key"])
-    with NodeProcess("tcp-listen://127.0.0.1:0", "--trust", files["pub"]) as node:
-        with contextlib.ExitStack() as stack:
-            for _ in range(MAX_CLIENTS):
-                link = stack.enter_context(open_link(node.url))
-                sender = Sender(link, "hex", timeout=2.0)
-                sender.authenticate(key)
-                sender.end_session()
-            with open_link(node.url) as newcomer:
-                assert "node" in Sender(newcomer, "hex", timeout=2.0, retries=1).ping()
+    with (
+        NodeProcess("tcp-listen://127.0.0.1:0", "--trust", files["pub"]) as node,
+        contextlib.ExitStack() as stack,
+    ):
+        for _ in range(MAX_CLIENTS):
+            link = stack.enter_context(open_link(node.url))
+            sender = Sender(link, "hex", timeout=2.0)
+            sender.authenticate(key)
+            sender.end_session()
+        with open_link(node.url) as newcomer:
+            assert "node" in Sender(newcomer, "hex", timeout=2.0, retries=1).ping()

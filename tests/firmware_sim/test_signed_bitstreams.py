@@ -3,7 +3,8 @@
 refused unsigned, signed by an unknown key, changed after signing or older than the highest version
 kept of its name, with the module's reasons, the flash copy erased and the slot's routing as it was;
 an admitted one's version is kept in the flash directory (per slot, whatever name it was signed
-under: an older bitstream renamed and signed again is still older), over ``rm`` and a restart. A node that trusts no key applies any bitstream, as before."""
+under: an older bitstream renamed and signed again is still older), over ``rm`` and a restart.
+A node that trusts no key applies any bitstream, as before."""
 
 from __future__ import annotations
 

@@ -29,6 +29,7 @@ from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
 from refresh.events import EVENT_FIELDS
 from tests.foxglove_client import live_client
+from tests.hostile_node import hostile_node
 
 DATA = Path(__file__).parent / "data"
 NATIVES = "tests.refresh.data.manage_natives"
@@ -318,3 +319,15 @@ def test_a_live_view_serves_the_events_the_configuration_and_the_reports(databas
     reports = [m for topic, _, m in got if topic == "/reports/a"]
     assert len(reports) > 10 and {"leftover", "slip", "missed"} <= reports[-1].keys()
     assert any(key.endswith(":F0") for key in reports[-1])
+
+
+def test_nodes_that_flood_reports_cannot_hold_the_manager_past_its_deadlines(database):
+    """Two nodes that push reports without end and answer nothing: the manager printed nothing
+    for 90 s; now its first PING fails within its tries (6 of 1 s) and it says so."""
+    with hostile_node() as a, hostile_node() as b:
+        started = time.monotonic()
+        done = manage(database, "--node", f"a={a}", "--node", f"b={b}", "--seconds", "3")
+        took = time.monotonic() - started
+    assert done.returncode != 0 and "robot 'a'" in done.stderr, done.stderr
+    assert "no answer to Ping after 6 tries" in done.stderr
+    assert took < 6 + 4, (took, done.stderr)  # the tries, and the interpreter's start
