@@ -133,8 +133,18 @@ def _error_line(text: str, debug: bool) -> int:
     process or a file said, and a terminal must not take its escapes as commands."""
     if debug:
         traceback.print_exc()
+    if len(text) > MAX_ERROR:
+        text = f"{text[:MAX_ERROR]}... ({len(text) - MAX_ERROR} more characters)"
     print(f"error: {visible(text)}", file=sys.stderr)
     return EXIT_ERROR
+
+
+SHOWN = 400
+"""Characters of one text from a node or a module (a description, a name, an answer) a command
+shows at most, escaped (`one_line`)."""
+MAX_ERROR = 2000
+"""Characters of an error a command prints at most: a message may quote what a hostile node
+sent (one error line was 900 KB)."""
 
 
 LAYOUT = "\n\t"
@@ -151,10 +161,13 @@ def visible(text: str) -> str:
     return "".join(c if c.isprintable() or c in LAYOUT else repr(c)[1:-1] for c in text)
 
 
-def one_line(text: str) -> str:
+def one_line(text: str, limit: int | None = None) -> str:
     """`text` as one line of data: every character that is not printable, line breaks and tabs
     included, shown as Python escapes it. What a module or a node wrote is shown so, never acted
-    on by the terminal nor taken for lines of the program's own."""
+    on by the terminal nor taken for lines of the program's own. With `limit`, at most that many
+    characters of `text` are shown, and how many more there were is said."""
+    if limit is not None and len(text) > limit:
+        return f"{one_line(text[:limit])}... ({len(text) - limit} more characters)"
     if text.isprintable():
         return text
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)

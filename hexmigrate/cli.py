@@ -17,7 +17,15 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING
 
-from commandline import CommandLineError, UsageError, add_command, command_parser, run
+from commandline import (
+    SHOWN,
+    CommandLineError,
+    UsageError,
+    add_command,
+    command_parser,
+    one_line,
+    run,
+)
 from commandline.arguments import address, input_file, integer, output_file, real
 from commandline.progress import progress_bar
 from hexmigrate.checks import verify_file
@@ -243,7 +251,8 @@ def cmd_send(args: argparse.Namespace) -> int:
         result = _send_resuming(args, image, SendProgress(bar))
     rate = result.size / result.seconds if result.seconds else 0.0
     print(
-        f"{args.file}: module {result.name} installed at 0x{result.load_address:08X} on "
+        f"{args.file}: module {one_line(result.name, SHOWN)} installed at "
+        f"0x{result.load_address:08X} on "
         f"{args.to}: {result.size} bytes in {result.blocks} blocks, {result.seconds:.2f} s, "
         f"{rate / 1000:.1f} kB/s, {result.wire_bytes} bytes sent, "
         f"{result.retransmissions} retransmissions"
@@ -254,7 +263,7 @@ def cmd_send(args: argparse.Namespace) -> int:
             for setting in settings:
                 _set_held(node, setting, result.name, args.to)
             if not args.no_start:
-                print(f"{node.start(result.name)} on {args.to}")
+                print(f"{one_line(node.start(result.name), SHOWN)} on {args.to}")
     return 0
 
 
@@ -262,7 +271,7 @@ def _set_held(node: NodeControl, setting: str, module: str, url: str) -> None:
     """Set one constant of `module`, which arrived held: when the node refuses it, say that
     the module stays installed and off, and how to go on, rather than leave the user guessing."""
     try:
-        print(f"{node.set(setting)} on {url}")
+        print(f"{one_line(node.set(setting), SHOWN)} on {url}")
     except TransferError as error:
         raise TransferError(
             f"{error}; {module} stays installed and off on {url} "
@@ -330,7 +339,7 @@ def _session(sender: Sender) -> Iterator[Sender]:
 def cmd_ping(args: argparse.Namespace) -> int:
     """Ask a node who it is."""
     with _connected(args) as sender:
-        print(sender.ping())
+        print(one_line(sender.ping(), SHOWN))
     return 0
 
 
@@ -341,7 +350,7 @@ def cmd_ls(args: argparse.Namespace) -> int:
     if not modules:
         print(f"no modules on {args.to}")
     for name, location, size in modules:
-        print(f"{name:<16} 0x{location:08X}  {size} bytes")
+        print(f"{one_line(name, SHOWN):<16} 0x{location:08X}  {size} bytes")
     return 0
 
 

@@ -21,7 +21,7 @@ from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager
 from typing import Any
 
-from commandline import UsageError, add_command, one_line
+from commandline import SHOWN, UsageError, add_command, one_line
 from commandline.arguments import real
 from hexmigrate.errors import MessageError
 from hexmigrate.transfer.control import MAX_PORTS, Number, PboDetail, parse_values, wire
@@ -147,7 +147,7 @@ def add_control_commands(
     def one(action: Callable[[NodeControl, Any], str], field: str) -> Callable[..., int]:
         def command(args: argparse.Namespace) -> int:
             with control(args) as node:
-                print(f"{action(node, getattr(args, field))} on {args.to}")
+                print(f"{one_line(action(node, getattr(args, field)), SHOWN)} on {args.to}")
             return 0
 
         return command
@@ -308,7 +308,8 @@ def _watch(node: NodeControl, args: argparse.Namespace) -> None:
         for push in node.pushes(args.seconds):
             if isinstance(push, Heartbeat):
                 if not args.csv:
-                    print(f"heartbeat #{push.seq} t={push.clock_ms / 1000:.3f}s  {push.state}")
+                    state = one_line(push.state, SHOWN)
+                    print(f"heartbeat #{push.seq} t={push.clock_ms / 1000:.3f}s  {state}")
                 continue
             try:
                 values = dict(parse_values(push.values))

@@ -14,6 +14,7 @@ import json
 from collections.abc import Callable
 from typing import TextIO
 
+from commandline import one_line
 from refresh.events import Event, EventLog
 
 
@@ -53,5 +54,10 @@ class EventStream:
 
 
 def line(event: Event) -> str:
-    """An event as the terminal shows it: time (s) on the runtime's clock, kind, message."""
-    return f"{event.time:9.3f} s  {event.kind:<11} {event.message}"
+    """An event as the terminal shows it: time (s) on the runtime's clock, kind, message (a
+    message may quote what a node said: escaped, and bounded)."""
+    return f"{event.time:9.3f} s  {event.kind:<11} {one_line(event.message, MAX_EVENT)}"
+
+
+MAX_EVENT = 2000
+"""Characters of an event's message the terminal shows at most (its JSON line keeps it all)."""

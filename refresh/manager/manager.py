@@ -23,6 +23,7 @@ from contextlib import closing
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from commandline import SHOWN, one_line
 from commandline.imports import ModuleImportError, import_named
 from firmware_sim.core.natives import load_natives
 from firmware_sim.core.node import Node, NodeConfig
@@ -120,7 +121,7 @@ def manage(
             )
         )
         for robot, node in applier.nodes.items():
-            say(f"robot {robot}: {node.description} at {node.url}")
+            say(f"robot {robot}: {one_line(node.description, SHOWN)} at {node.url}")
         config.time.attach(applier)
         applier.use_clock(config.time.clock)
         runtime = Runtime(

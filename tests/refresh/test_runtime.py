@@ -16,7 +16,9 @@ from pbort import Kernel
 from refresh.appliers.in_process import NodeApplier
 from refresh.errors import ApplyError, ConfigurationError, RateError
 from refresh.estimators.host import HostEstimators
+from refresh.events import Event
 from refresh.location import STRATEGIES
+from refresh.manager.event_stream import MAX_EVENT, line
 from refresh.runtime import Runtime, RuntimeSettings
 from tests.refresh.line_follower import (
     ROBOT,
@@ -282,3 +284,9 @@ def test_the_node_applier_shows_the_kernels_and_reads_scalar_ports():
             applier.read(ROBOT, "Sensor.nope")
         with pytest.raises(ApplyError, match="robot 'mars'"):
             applier.read("mars", "Sensor.line")
+
+
+def test_an_event_that_quotes_a_node_is_shown_escaped_and_bounded():
+    shown = line(Event(1.0, "link_failed", "node said \x1b]0;pwned\x07\r\nforged" + "A" * 9000))
+    assert shown.isprintable() and "\\x1b]0;pwned\\x07\\r\\nforged" in shown
+    assert len(shown) < MAX_EVENT + 100 and shown.endswith("more characters)")
