@@ -26,6 +26,8 @@ from pathlib import Path
 from hexmigrate import descriptor as abi
 from hexmigrate.errors import (
     CompressedCodeError,
+    DescriptorCountError,
+    DescriptorError,
     HexError,
     InitAlignmentError,
     MissingRelocationsError,
@@ -33,7 +35,13 @@ from hexmigrate.errors import (
     PointerAlignmentError,
     PointerTargetError,
 )
-from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage, find_descriptor, read_module_text
+from hexmigrate.image import (
+    FLASH_BLOCK_SIZE,
+    ModuleImage,
+    descriptor_candidates,
+    find_descriptor,
+    read_module_text,
+)
 from hexmigrate.records import POINTER_SIZE, decode
 
 INSTRUCTION_SIZE = 4
@@ -61,6 +69,7 @@ def check_module(image: ModuleImage, lines: RecordLines | None = None) -> None:
     lines = lines or RecordLines()
     check_pointer_alignment(image, lines)
     check_pointer_targets(image, lines)
+    check_one_descriptor(image)
     found = find_descriptor(image)
     if found is None:
         return
@@ -69,6 +78,26 @@ def check_module(image: ModuleImage, lines: RecordLines | None = None) -> None:
     check_name(descriptor, address)
     check_init_boundary(image, lines)
     check_no_compressed_code(image, descriptor, lines)
+
+
+def check_one_descriptor(image: ModuleImage) -> None:
+    """At most one descriptor, and none that starts like one but does not decode (a name that
+    is no identifier, a bad port): a node registers the descriptor its init passes, while a
+    signature names the first one a scan finds, so a second one (a decoy in .rodata) would lend
+    its name to the signature; a name with escapes would reach every terminal."""
+    found = descriptor_candidates(image)
+    for address, outcome in found:
+        if isinstance(outcome, DescriptorError):
+            raise DescriptorCountError(
+                f"expected a valid PBO descriptor at 0x{address:08X} (it starts as one), got "
+                f"{outcome}"
+            )
+    if len(found) > 1:
+        listed = ", ".join(f"{d.name!r} at 0x{a:08X}" for a, d in found)  # type: ignore[union-attr]
+        raise DescriptorCountError(
+            f"expected one PBO descriptor, the one the module's init registers, got "
+            f"{len(found)}: {listed}; a node registers one, and a signature names the first"
+        )
 
 
 def verify_file(path: str | Path) -> ModuleImage:

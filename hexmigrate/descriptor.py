@@ -9,6 +9,7 @@ registers itself.
 
 from __future__ import annotations
 
+import re
 import struct
 from dataclasses import dataclass
 
@@ -76,9 +77,10 @@ class Descriptor:
             raise AbiMismatchError(f"expected ABI version {ABI_VERSION}, got {abi}")
         if port_count > MAX_PORTS:
             raise DescriptorError(f"expected at most {MAX_PORTS} ports, got {port_count}")
+        module = _identifier("the module's name", _c_string(name))
         ports = tuple(_decode_port(data, index) for index in range(port_count))
         methods = dict(zip(METHODS, _METHODS.unpack_from(data, METHODS_OFFSET), strict=True))
-        return cls(_c_string(name), abi, state_size, ports, methods)
+        return cls(module, abi, state_size, ports, methods)
 
 
 def method_slot(offset: int) -> str | None:
@@ -99,7 +101,12 @@ def _decode_port(data: bytes, index: int) -> PortSpec:
             f"{len(PORT_TYPES)}, got {direction} and {kind}"
         )
     port = PortSpec(
-        _c_string(name), PORT_DIRECTIONS[direction], PORT_TYPES[kind], element_size, rows, columns
+        _identifier(f"port {index}'s name", _c_string(name)),
+        PORT_DIRECTIONS[direction],
+        PORT_TYPES[kind],
+        element_size,
+        rows,
+        columns,
     )
     problem = _shape_problem(port)
     if problem is not None:
@@ -119,6 +126,19 @@ def _shape_problem(port: PortSpec) -> str | None:
     if port.type == "vector" and port.rows != 1:
         return f"expected a vector of 1xN (one row), got {shape}"
     return None
+
+
+IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+"""What a module's or a port's name may be: a C identifier, as the SDK's macros write it. A
+name is printed by every tool and node, and parsed in requests (``PBO.port``): no escape
+sequence, space, dot or ``=`` may hide in one."""
+
+
+def _identifier(what: str, name: str) -> str:
+    """`name` when it is an identifier; DescriptorError naming `what` otherwise."""
+    if not IDENTIFIER.fullmatch(name):
+        raise DescriptorError(f"{what}: expected a C identifier (letters, digits, _), got {name!a}")
+    return name
 
 
 def _c_string(raw: bytes) -> str:

@@ -49,7 +49,8 @@ Tree::
     │           ├── ImmovableRelocationError   a relocation no 07 record fixes (medlow code,
     │           │                              a global offset table, thread-local storage)
     │           ├── MapMismatchError           a map file from another build than the binary
-    │           └── NameLengthError            a descriptor name longer than 15 characters
+    │           ├── NameLengthError            a descriptor name longer than 15 characters
+    │           └── DescriptorCountError       no single valid descriptor: two, or a broken one
     ├── DescriptorError (ValueError)   bytes that are not a PBO module descriptor
     │   └── AbiMismatchError               a wrong magic or ABI version
     ├── MessageError (ValueError)      bytes that are not a transfer protocol message, or a
@@ -255,6 +256,12 @@ class MapMismatchError(ModuleCheckError):
 
 class NameLengthError(ModuleCheckError):
     """A descriptor name longer than the ABI's 15 characters (16 bytes with its NUL)."""
+
+
+class DescriptorCountError(ModuleCheckError):
+    """An image with more than one PBO descriptor, or with one that starts as a descriptor but
+    does not decode (a name that is no identifier): a node registers one, a signature names the
+    first a scan finds."""
 
 
 class DescriptorError(HexmigrateError, ValueError):

@@ -255,6 +255,26 @@ def find_descriptor(image: ModuleImage) -> tuple[int, abi.Descriptor] | None:
     return None
 
 
+def descriptor_candidates(image: ModuleImage) -> list[tuple[int, abi.Descriptor | DescriptorError]]:
+    """Every place that starts like a descriptor (magic ``PBO1`` at a 4-byte aligned address,
+    this ABI's version), with what it decodes to or why it does not: a module holds exactly
+    one, and a checker refuses the others (a decoy would lend its name to the signature)."""
+    magic = abi.MAGIC.to_bytes(4, "little")
+    version = abi.ABI_VERSION.to_bytes(2, "little")
+    found: list[tuple[int, abi.Descriptor | DescriptorError]] = []
+    position = image.data.find(magic)
+    while position >= 0:
+        address = image.link_base + position
+        chunk = image.data[position : position + abi.SIZE]
+        if address % 4 == 0 and chunk[4:6] == version:
+            try:
+                found.append((address, abi.Descriptor.decode(chunk)))
+            except DescriptorError as error:
+                found.append((address, error))
+        position = image.data.find(magic, position + 1)
+    return found
+
+
 def descriptor_name(image: ModuleImage) -> str | None:
     """The name in the image's descriptor, if it has one with a name."""
     found = find_descriptor(image)

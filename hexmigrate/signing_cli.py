@@ -9,6 +9,7 @@ from pathlib import Path
 
 from commandline import CommandLineError, add_command
 from commandline.arguments import input_file, output_file
+from hexmigrate.checks import check_one_descriptor
 from hexmigrate.image import ModuleImage
 from hexmigrate.signing import keys
 from hexmigrate.signing.sign import sign_image
@@ -35,6 +36,7 @@ def cmd_keygen(args: argparse.Namespace) -> int:
 def cmd_sign(args: argparse.Namespace) -> int:
     """Write the module with its version and signature (09 records)."""
     image = ModuleImage.read(args.file)
+    check_one_descriptor(image)  # the name signed is the one the node registers
     key = keys.load_private(args.key)
     signed = sign_image(image, key, Version.parse(args.version))
     signed.write(args.output, args.record_size)

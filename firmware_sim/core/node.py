@@ -51,6 +51,7 @@ from firmware_sim.errors import (
     FlashFullError,
     PowerReportError,
     RegistrationError,
+    TrustError,
 )
 from hexmigrate.image import ModuleImage
 from pbort.clock import Clock
@@ -337,8 +338,13 @@ class Node:
         ran, and a power cut at any moment leaves one of the two listed in the directory.
         """
         try:
-            version = self._admit(owner, image)
+            version, signed = self._admit(owner, image)
             code = self._register(image, taken=set(self.kernel.names) - set(self.modules))
+            if signed is not None and code.name != signed:
+                raise TrustError(
+                    f"it registers a PBO named {code.name!r} but was signed as {signed!r}: a "
+                    "signature binds the name the module registers"
+                )
             entry = self._entry(code.name, image, version)
             kept = [module.entry for name, module in self.modules.items() if name != code.name]
             versions = {name: v for name, v in self.kept_versions.items() if name != code.name}
@@ -360,12 +366,14 @@ class Node:
         )
         return module
 
-    def _admit(self, owner: str, image: InstalledImage) -> int:
-        """The signed version word for the directory (0 when the node trusts no key), once the
-        trust policy admits the image as it sits in flash (its CRC already checked), before
-        its init runs; `TrustError` with the reason otherwise."""
+    def _admit(self, owner: str, image: InstalledImage) -> tuple[int, str | None]:
+        """The signed version word for the directory and the name the image was signed under
+        (0 and None when the node trusts no key), once the trust policy admits the image as it
+        sits in flash (its CRC already checked), before its init runs; `TrustError` with the
+        reason otherwise. The name is the one its versions are checked against: the PBO its
+        init registers must bear it (a decoy descriptor must not lend its name)."""
         if not self.config.trust.enforced:
-            return 0
+            return 0, None
         linked = linked_image(
             owner,
             self.flash.read(image.load_base, image.size),
@@ -375,7 +383,7 @@ class Node:
             image.init,
             image.signature,
         )
-        return self.admit(linked)
+        return self.admit(linked), linked.name
 
     def admit(self, image: ModuleImage, versions_of: str | None = None) -> int:
         """The signed version word of `image` (the bytes that were signed), once the trust

@@ -6,17 +6,22 @@ exactly as it was, and the installed version outlives a restart."""
 from __future__ import annotations
 
 import dataclasses
+import subprocess
+import sys
 
 import pytest
 
 from firmware_sim.core.node import Node, NodeConfig
 from firmware_sim.core.trust import TrustPolicy, linked_image, version_of
 from firmware_sim.errors import DirectoryError, TrustError
+from hexmigrate.checks import verify_file
 from hexmigrate.elf import image_from_elf
-from hexmigrate.image import ModuleImage
+from hexmigrate.errors import DescriptorCountError
+from hexmigrate.image import ModuleImage, descriptor_name
 from hexmigrate.signing import keys
 from hexmigrate.signing.sign import sign_image
 from hexmigrate.signing.tlv import Version
+from module_sdk.build import EXAMPLES_DIR, build_module
 
 V1_1, V1_2 = Version(1, 1, 0), Version(1, 2, 0)
 
@@ -213,3 +218,61 @@ def test_a_full_directory_refuses_an_install_rather_than_forget_a_version(gain, 
             node.load(sign_image(gain, key, V1_2))
         assert state(node) == before
         assert len(node.directory.scan().newest.kept) == 12
+
+
+@pytest.fixture(scope="module")
+def decoy(tmp_path_factory) -> ModuleImage:
+    """gain with a second descriptor, named filter, in .rodata before its own: a scan of the
+    image finds the decoy (and signs its name), while gain's init registers gain."""
+    out = tmp_path_factory.mktemp("decoy")
+    source = (EXAMPLES_DIR / "gain.c").read_text()
+    real = source.index("static const struct pbo_descriptor gain_descriptor")
+    end = source.index("};", real) + 2
+    descriptor = source[real:end]
+    fake = descriptor.replace("gain_descriptor", "decoy_descriptor").replace('"gain"', '"filter"')
+    fake = fake.replace("PBO_DESCRIPTOR", "__attribute__((used, aligned(4)))")  # in .rodata
+    (out / "gain.c").write_text(source[:real] + fake + "\n\n" + source[real:])
+    elf = build_module(out / "gain.c", out).elf
+    with pytest.raises(DescriptorCountError, match="expected one PBO descriptor, the one the mo"):
+        image_from_elf(elf)  # pack refuses it; a hostile signer writes the file by hand
+    with pytest.MonkeyPatch.context() as unchecked:
+        unchecked.setattr("hexmigrate.elf.check_module", lambda image: None)
+        image = image_from_elf(elf)
+    assert descriptor_name(image) == "filter"  # the decoy comes first
+    return image
+
+
+def test_a_module_whose_init_registers_another_name_than_it_was_signed_under_is_refused(
+    gain, decoy, key
+):
+    """A decoy descriptor named filter, signed 1.0.0, must not replace gain 1.2.0 (nor let an
+    older gain in after it): the signature binds the name the module registers."""
+    trust = TrustPolicy((key.public_key(),))
+    with Node(config=NodeConfig(trust=trust)) as node:
+        node.load(sign_image(gain, key, V1_2))
+        before = state(node)
+        with pytest.raises(TrustError) as caught:
+            node.load(sign_image(decoy, key, Version(1, 0, 0)))
+        assert str(caught.value) == (
+            "it registers a PBO named 'gain' but was signed as 'filter': a signature binds the "
+            "name the module registers"
+        )
+        assert state(node) == before
+        with pytest.raises(TrustError, match=r"older than the installed 1\.2\.0"):
+            node.load(sign_image(gain, key, V1_1))
+
+
+def test_verify_and_sign_refuse_an_image_with_two_descriptors(decoy, key, tmp_path):
+    path = tmp_path / "gain.hex"
+    decoy.write(path)
+    (tmp_path / "k.pem").write_bytes(keys.private_pem(key))
+    with pytest.raises(DescriptorCountError) as caught:
+        verify_file(path)
+    assert "got 2: 'filter' at 0x" in str(caught.value)
+    signed = subprocess.run(
+        [sys.executable, "-m", "hexmigrate", "sign", str(path), "--key", str(tmp_path / "k.pem"),
+         "--version", "1.0.0", "-o", str(tmp_path / "signed.hex")],
+        capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert signed.returncode == 1 and "expected one PBO descriptor" in signed.stderr
+    assert not (tmp_path / "signed.hex").exists()
