@@ -16,6 +16,9 @@ arrives when it is received.
 
 from __future__ import annotations
 
+import contextlib
+import queue
+import threading
 import time
 
 from firmware_sim.bridge.halves import (
@@ -37,6 +40,11 @@ LINK_WIRES = {"serial": "serial", "can": "CAN", "tcp": None}
 """The wire words of ExportPort/ImportPort -> the modelled wire (None: none)."""
 POLL_SLICE = 0.05
 """Seconds a wait for a value listens at a time."""
+MAX_UNSENT = 64
+"""Values an exporting half holds that its link has not taken yet; past them, values are lost
+(counted): a node never waits for a peer to read."""
+WRITER_JOIN = 1.0
+"""Seconds closing an export waits for its writer thread (its link closed under it)."""
 
 
 def bridge_name(number: int) -> str:
@@ -63,7 +71,13 @@ def wire_model(number: int, wire: str, rate: int) -> WireModel | None:
 
 class LinkedExport:
     """The exporting half of bridge `number` (output port of type `spec`), its values sent to
-    `url`, opened now as a client."""
+    `url`, opened now as a client.
+
+    The node never waits on the link: each value goes into a queue of at most `MAX_UNSENT`,
+    and a thread of the bridge's own writes them. A peer that stops reading fills the queue
+    (the values past it are counted lost) and then fails the thread's write (the link's own
+    bound): the bridge is stuck, dropped (every later value counted lost, the link closed), and
+    the node goes on (`stuck` says why)."""
 
     def __init__(self, number: int, spec: PortSpec, wire: str, rate: int, url: str) -> None:
         if spec.size_bytes > MAX_PORT_BYTES:
@@ -75,20 +89,43 @@ class LinkedExport:
         self.number = number
         self.stats = BridgeStats()
         self.link = open_link(url)
+        self.stuck: str | None = None
+        """Why the bridge was dropped (its peer stopped taking values), once it was."""
+        self._unsent: queue.Queue[bytes | None] = queue.Queue(MAX_UNSENT)
+        self._writer = threading.Thread(
+            target=self._write, name=f"{bridge_name(number)} writer", daemon=True
+        )
+        self._writer.start()
         self.half = ExportHalf(bridge_name(number), spec, number, model, self._send, self.stats)
 
     def _send(self, carried: Carried) -> None:
+        if self.stuck is not None:
+            self.stats.lost += 1
+            return
         message = encode_value(
             self.number, carried.seq, carried.sent, carried.arrival, carried.data
         )
         try:
-            self.link.send(message)
-        except LinkError:  # the importer went away: the value is lost, the node goes on
+            self._unsent.put_nowait(message)
+        except queue.Full:  # the peer takes nothing: the value is lost, the node goes on
             self.stats.lost += 1
 
+    def _write(self) -> None:
+        """The writer thread: send what is queued until closed or the link fails."""
+        while (message := self._unsent.get()) is not None:
+            try:
+                self.link.send(message)
+            except LinkError as error:  # the importer went away or stopped reading
+                self.stuck = str(error)
+                self.stats.lost += 1 + self._unsent.qsize()
+                return
+
     def close(self) -> None:
-        """Close the link."""
+        """Stop the writer (a write under way ends with the link) and close the link."""
+        with contextlib.suppress(queue.Full):
+            self._unsent.put_nowait(None)
         self.link.close()
+        self._writer.join(timeout=WRITER_JOIN)
 
 
 class LinkedImport:
