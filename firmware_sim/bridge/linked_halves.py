@@ -1,8 +1,10 @@
 """A bridge's halves on two nodes in two processes, its values carried by a link given by URL.
 
 The importing node listens on the URL its `ImportPort` names (``tcp-listen://127.0.0.1:0``) and
-tells the host the URL to reach it (``socket://127.0.0.1:41234``); the exporting node opens that
-as a client and sends each value as one message (value_message.py). The importing node takes
+tells the host the URL to reach it, with a fresh key for the bridge
+(``socket://127.0.0.1:41234#key=HEX``); the exporting node opens that as a client and sends each
+value as one message tagged with the key (value_message.py): a stranger on the port forges
+nothing. The importing node takes
 what came whenever its serve loop polls (`LinkedImport.poll`) and before each cycle of its PBO.
 Values come in order, numbered from 1: one that is not newer than the last is dropped, so the two
 halves of a bridge are taken down and set up again together.
@@ -29,7 +31,14 @@ from firmware_sim.bridge.halves import (
     ImportHalf,
     WireModel,
 )
-from firmware_sim.bridge.value_message import MAX_PORT_BYTES, decode_value, encode_value
+from firmware_sim.bridge.value_message import (
+    MAX_PORT_BYTES,
+    bridge_key,
+    bridge_url,
+    decode_value,
+    encode_value,
+    new_key,
+)
 from firmware_sim.errors import BridgeError
 from hexmigrate.errors import LinkError
 from hexmigrate.links import open_link
@@ -86,9 +95,13 @@ class LinkedExport:
                 f"largest message), got {spec.name} of {spec.size_bytes}"
             )
         model = wire_model(number, wire, rate)
+        try:
+            where, self.key = bridge_key(url)
+        except ValueError as error:
+            raise BridgeError(f"bridge {number}: {error}") from None
         self.number = number
         self.stats = BridgeStats()
-        self.link = open_link(url)
+        self.link = open_link(where)
         self.stuck: str | None = None
         """Why the bridge was dropped (its peer stopped taking values), once it was."""
         self._unsent: queue.Queue[bytes | None] = queue.Queue(MAX_UNSENT)
@@ -103,7 +116,7 @@ class LinkedExport:
             self.stats.lost += 1
             return
         message = encode_value(
-            self.number, carried.seq, carried.sent, carried.arrival, carried.data
+            self.key, self.number, carried.seq, carried.sent, carried.arrival, carried.data
         )
         try:
             self._unsent.put_nowait(message)
@@ -142,8 +155,10 @@ class LinkedImport:
         self.stats = BridgeStats()
         self.link = open_link(node_side(url))
         server = tcp_server(self.link)
-        self.url = url if server is None else server.connect_url
-        """The URL the exporting node opens."""
+        self.key = new_key()
+        self.url = bridge_url(url if server is None else server.connect_url, self.key)
+        """The URL the exporting node opens, with the bridge's key: values tagged with any
+        other key (a stranger's on the same port) are dropped."""
         self.half = ImportHalf(bridge_name(number), spec, self.stats, refill=self.poll)
         self.broken: str | None = None
         """Why the link failed, once it has."""
@@ -176,7 +191,9 @@ class LinkedImport:
 
     def _take(self, raw: bytes, now: float) -> None:
         try:
-            seq, clock, arrival, data = decode_value(raw, self.number, self.spec.size_bytes)
+            seq, clock, arrival, data = decode_value(
+                raw, self.key, self.number, self.spec.size_bytes
+            )
             value = self.spec.decode(data)
         except ValueError:
             self.stats.dropped += 1

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from firmware_sim.bridge.port_bridge import PortBridge
-from firmware_sim.bridge.value_message import encode_value
+from firmware_sim.bridge.value_message import bridge_key, encode_value, new_key
 from firmware_sim.core.natives import Signal
 from firmware_sim.core.node import Node
 from firmware_sim.core.transfer_target import NodeTarget
@@ -146,25 +146,26 @@ def test_a_serial_wire_over_a_link_gives_the_in_process_arrival_times(pair) -> N
 def test_garbage_on_an_import_link_is_dropped_and_counted(pair) -> None:
     _, b, _, on_b = pair
     url = on_b.import_port(4, "sink.x", LISTEN, "tcp", 0)
-    first = encode_value(4, 1, 0.0, 0.0, (77).to_bytes(4, "little"))
-    good = encode_value(4, 2, 0.0, 0.0, (78).to_bytes(4, "little"))
+    where, key = bridge_key(url)
+    first = encode_value(key, 4, 1, 0.0, 0.0, (77).to_bytes(4, "little"))
+    good = encode_value(key, 4, 2, 0.0, 0.0, (78).to_bytes(4, "little"))
     damaged = bytearray(good)
-    damaged[-6] ^= 0x01
+    damaged[-20] ^= 0x01
     garbage = [
         b"\x18" + bytes(30),  # the type byte, then nonsense
-        bytes(damaged),  # a bit flipped: the CRC-32 fails
-        encode_value(5, 1, 0.0, 0.0, bytes(4)),  # another bridge's
-        encode_value(4, 1, 0.0, 0.0, bytes(7)),  # a port of another size
-        encode_value(4, 1, 0.0, float("nan"), bytes(4)),
+        bytes(damaged),  # a bit flipped: the tag fails
+        encode_value(key, 5, 1, 0.0, 0.0, bytes(4)),  # another bridge's
+        encode_value(key, 4, 1, 0.0, 0.0, bytes(7)),  # a port of another size
+        encode_value(key, 4, 1, 0.0, float("nan"), bytes(4)),
         b"EXPORT 1 2 3 a b c",  # a text line: not a value
     ]
-    with open_link(url) as hostile:
+    with open_link(where) as hostile:
         hostile.send(first)
         for raw in garbage:
             hostile.send(raw)
         hostile.send(good)
         hostile.send(good)  # a repeat of value 2: stale
-    with socket.create_connection(("127.0.0.1", int(url.rsplit(":", 1)[1]))) as raw_socket:
+    with socket.create_connection(("127.0.0.1", int(where.rsplit(":", 1)[1]))) as raw_socket:
         raw_socket.sendall(b"\x00\xff\xfe\x00junk without a line end")
     on_b.advance(0.05, {4: 2})
     assert b.kernel.value("sink.x") == 78
@@ -174,6 +175,29 @@ def test_garbage_on_an_import_link_is_dropped_and_counted(pair) -> None:
         on_b.poll_imports()
         time.sleep(0.01)
     assert stats.dropped == len(garbage) + 1 and stats.delivered == 2
+
+
+def test_a_strangers_forged_value_cannot_poison_the_sequence(pair) -> None:
+    """A stranger who connects to the import port and sends value 2^32-1 under another key:
+    it is dropped, and the exporter's values 1 and 2 are delivered after it (before, every
+    later legitimate value was dropped as stale, for good)."""
+    _, b, _, on_b = pair
+    url = on_b.import_port(4, "sink.x", LISTEN, "tcp", 0)
+    where, key = bridge_key(url)
+    with open_link(where) as stranger:
+        stranger.send(encode_value(new_key(), 4, 2**32 - 1, 0.0, 0.0, (666).to_bytes(4, "little")))
+    with open_link(where) as exporter:
+        exporter.send(encode_value(key, 4, 1, 0.0, 0.0, (77).to_bytes(4, "little")))
+        exporter.send(encode_value(key, 4, 2, 0.0, 0.0, (78).to_bytes(4, "little")))
+    on_b.advance(0.05, {4: 2})
+    assert b.kernel.value("sink.x") == 78
+    assert on_b.imports[4].stats.dropped == 1
+
+
+def test_an_export_to_a_url_without_the_importers_key_is_refused(pair) -> None:
+    _, _, on_a, _ = pair
+    with pytest.raises(BridgeError, match=r"bridge 3: expected the URL the importing node answe"):
+        on_a.export_port(3, "signal.y", "socket://127.0.0.1:9", "tcp", 0)
 
 
 def test_refusals_name_the_bridge_or_the_port(pair) -> None:

@@ -9,6 +9,7 @@ import time
 
 import pytest
 
+from firmware_sim.bridge.value_message import bridge_url, new_key
 from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.links import open_link
 from hexmigrate.transfer.control_client import NodeControl
@@ -25,7 +26,7 @@ def test_a_peer_that_never_reads_does_not_freeze_the_exporting_node() -> None:
         open_link(node.url) as link,
     ):
         deaf.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
-        url = f"socket://127.0.0.1:{deaf.getsockname()[1]}"
+        url = bridge_url(f"socket://127.0.0.1:{deaf.getsockname()[1]}", new_key())
         sender = Sender(link, timeout=1.0, retries=0)
         NodeControl(sender).export_port(1, "Frames.image", url)
         taken, _ = deaf.accept()  # and never read from
