@@ -22,6 +22,7 @@ from commandline.arguments import (
 from firmware_sim.core.memory_map import DEFAULT_FLASH_SIZE
 from firmware_sim.core.node import RATE_MAX, RATE_MIN
 from firmware_sim.core.port_values import Setting, setting
+from hexmigrate.links.url import network_host
 from pbort.trace import TraceFormatError, check_trace_name
 
 MODULE_FILE_LIMIT = 4 * DEFAULT_FLASH_SIZE
@@ -61,6 +62,14 @@ def fabric(text: str) -> str:
             f"of at most {FABRIC_TEXT_MAX} printable characters, got {shown}"
         )
     return text
+
+
+def bridge_host(text: str) -> str:
+    """A host bridges may use: an IPv4 or IPv6 address or a host name (`network_host`)."""
+    try:
+        return network_host(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def trace_file(text: str) -> Path:

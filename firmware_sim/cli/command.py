@@ -170,6 +170,7 @@ def cmd_listen(args: argparse.Namespace) -> int:
         traces=tuple(args.trace),
         gdb=args.gdb,
         foxglove=args.foxglove,
+        bridge_hosts=tuple(args.bridge_host),
         trust=TrustPolicy(
             tuple(load_public(path) for path in args.trust or ()), args.allow_downgrade
         ),
@@ -507,6 +508,16 @@ def _add_listen(commands: argparse._SubParsersAction) -> None:
         "--allow-downgrade",
         action="store_true",
         help="with --trust, also install a module older than the installed one of its name",
+    )
+    command.add_argument(
+        "--bridge-host",
+        action="append",
+        type=arguments.bridge_host,
+        default=[],
+        metavar="HOST",
+        help="a host this node's bridges to other nodes may listen on or connect to, besides "
+        "the loopback addresses and the host it listens on (a host's IMPORT or EXPORT naming "
+        "another is refused); repeatable",
     )
     command.add_argument(
         "--foxglove",

@@ -19,6 +19,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from firmware_sim.bridge.bridge_policy import BridgePolicy
 from firmware_sim.bridge.linked_halves import LinkedExport, LinkedImport, bridge_name
 from firmware_sim.core.node import RATE_MAX, RATE_MIN, Node
 from firmware_sim.core.port_values import Number, exact, setting
@@ -54,9 +55,13 @@ def _named(ports: tuple[PortSpec, ...], direction: Direction) -> tuple[str, ...]
 class KernelControl:
     """Control of the PBOs of `node`; with `lock_step` its kernel runs only on `advance`."""
 
-    def __init__(self, node: Node, lock_step: bool = False) -> None:
+    def __init__(
+        self, node: Node, lock_step: bool = False, bridges: BridgePolicy | None = None
+    ) -> None:
         self.node = node
         self.lock_step = lock_step
+        self.bridges = bridges or BridgePolicy()
+        """Which bridges a host may set up (transport, hosts, how many)."""
         self.exports: dict[int, LinkedExport] = {}
         self.imports: dict[int, LinkedImport] = {}
         self.held: set[str] = set()
@@ -101,6 +106,7 @@ class KernelControl:
         """Send output `source` as bridge `number` to the node that listens at `url`, through
         PBO ``bridge{N}_tx`` at the rate of `source`'s PBO."""
         kernel = self.node.kernel
+        self.bridges.check(number, url, True, len(self.exports) + len(self.imports))
         spec = self._bridged_port(number, "tx", source, Direction.OUT)
         export = LinkedExport(number, spec, wire, rate, url)
         try:
@@ -110,13 +116,14 @@ class KernelControl:
             self._take_down(export.half.module.name, export)
             raise
         self.exports[number] = export
-        return f"exported {source} as bridge {number} to {url}"
+        return f"exported {source} as bridge {number} to {url.partition('#')[0]}"
 
     def import_port(self, number: int, sink: str, url: str, wire: str, rate: int) -> str:
         """Feed input `sink` from bridge `number`, whose values come to `url` (listened on
         now), through PBO ``bridge{N}_rx`` at the rate of `sink`'s PBO; the URL the exporting
         node opens."""
         kernel = self.node.kernel
+        self.bridges.check(number, url, False, len(self.exports) + len(self.imports))
         spec = self._bridged_port(number, "rx", sink, Direction.IN)
         imported = LinkedImport(number, spec, wire, rate, url, self.lock_step)
         try:

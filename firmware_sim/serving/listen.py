@@ -27,6 +27,7 @@ from pathlib import Path
 
 from commandline import one_line
 from commandline.interrupts import stop_requests
+from firmware_sim.bridge.bridge_policy import BridgePolicy
 from firmware_sim.core.debug_port import DebugPort
 from firmware_sim.core.fabric_pbo import NAME as FABRIC
 from firmware_sim.core.fabric_pbo import fabric_native
@@ -80,7 +81,8 @@ class ListenConfig:
     by Advance only (`lock_step`), which signed modules it admits
     (`trust`, firmware_sim/core/trust.py), the module ELFs its faults find source lines in
     (`elves`), the trace files it records its ports in (`traces`, pbort/trace), where it serves
-    gdb and where its Foxglove live view (`foxglove`, HOST and PORT)."""
+    gdb and where its Foxglove live view (`foxglove`, HOST and PORT), and the hosts its bridges
+    may use besides the loopback ones and its own (`bridge_hosts`, bridge_policy.py)."""
 
     listen: str
     name: str = "node"
@@ -103,6 +105,7 @@ class ListenConfig:
     traces: tuple[Path, ...] = ()
     gdb: tuple[str, int] | None = None
     foxglove: tuple[str, int] | None = None
+    bridge_hosts: tuple[str, ...] = ()
 
 
 def listen(
@@ -160,7 +163,12 @@ def listen(
 
         gdb: list[GdbServer] = []  # the server, once there is one
 
-        control = KernelControl(node, lock_step=config.lock_step)
+        own = _listen_host(config.listen)
+        control = KernelControl(
+            node,
+            lock_step=config.lock_step,
+            bridges=BridgePolicy((*config.bridge_hosts, *([own] if own else []))),
+        )
 
         def installed(name: str, address: int) -> None:
             say(f"registered {name} at 0x{address:08X}")
@@ -208,6 +216,16 @@ def listen(
             finally:
                 control.close()
     return 0
+
+
+def _listen_host(url: str) -> str | None:
+    """The host a ``tcp-listen://HOST:PORT`` node listens on (also behind ``faulty+``), which
+    its bridges may use; None for another link."""
+    inner = url.removeprefix("faulty+").partition("#")[0].partition("?")[0]
+    if not inner.startswith("tcp-listen://"):
+        return None
+    host = inner.removeprefix("tcp-listen://").rpartition(":")[0]
+    return host.removeprefix("[").removesuffix("]") or None
 
 
 def _check_natives(

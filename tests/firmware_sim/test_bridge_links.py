@@ -7,6 +7,7 @@ a sleep; lock-step Advance waits for what it expects."""
 
 from __future__ import annotations
 
+import re
 import socket
 import threading
 import time
@@ -15,6 +16,7 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
+from firmware_sim.bridge.bridge_policy import MAX_BRIDGES, BridgePolicy
 from firmware_sim.bridge.port_bridge import PortBridge
 from firmware_sim.bridge.value_message import bridge_key, encode_value, new_key
 from firmware_sim.core.natives import Signal
@@ -276,7 +278,8 @@ def test_the_control_requests_set_a_bridge_up_and_advance_it(pair, mode: str) ->
     host_b = NodeControl(Sender(DirectLink(Receiver(NodeTarget(b), on_b)), mode))
     url = host_b.import_port(2, "sink.x", LISTEN)
     assert url.startswith("socket://127.0.0.1:")
-    assert host_a.export_port(2, "signal.y", url) == f"exported signal.y as bridge 2 to {url}"
+    said = host_a.export_port(2, "signal.y", url)
+    assert said == f"exported signal.y as bridge 2 to {url.partition('#')[0]}"  # no key
     assert host_a.advance(0.1, {}) == (0.1, {2: 10})
     assert host_b.advance(0.1, {2: 10}) == (0.1, {})
     assert b.kernel.value("sink.x") == 10  # the ramp's value at 0.1 s
@@ -297,3 +300,32 @@ def test_a_lock_step_node_s_reports_follow_its_clock(pair) -> None:
     on_b.advance(0.25, {})
     (report,) = (decode(raw) for raw in receiver.due())
     assert isinstance(report, PerformanceReport) and report.clock_ms == 250
+
+
+@pytest.mark.parametrize(
+    ("url", "exporting", "said"),
+    [
+        ("pty", False, "expected tcp-listen://HOST:PORT, got 'pty'"),
+        ("loop://", False, "expected tcp-listen://HOST:PORT, got 'loop://'"),
+        ("can://virtual/x?role=node", False, "expected tcp-listen://HOST:PORT"),
+        ("/dev/ptmx", True, "expected socket://HOST:PORT, got '/dev/ptmx'"),
+        ("tcp-listen://10.0.0.7:0", False, "expected a host the node allows bridges on"),
+        ("socket://192.0.2.1:80#key=00", True, "expected a host the node allows bridges on"),
+    ],
+)
+def test_a_bridge_takes_only_its_transport_on_an_allowed_host(pair, url, exporting, said):
+    _, _, on_a, _ = pair
+    before = set(on_a.node.kernel.names)
+    with pytest.raises(BridgeError, match=re.escape(said)):
+        if exporting:
+            on_a.export_port(6, "signal.y", url, "tcp", 0)
+        else:
+            on_a.import_port(6, "sink.x", url, "tcp", 0)
+    assert set(on_a.node.kernel.names) == before and not on_a.exports and not on_a.imports
+
+
+def test_the_hosts_an_operator_allows_and_the_bound_on_bridges() -> None:
+    policy = BridgePolicy(("10.0.0.7",))
+    policy.check(1, "socket://10.0.0.7:80#key=00", True, 0)  # allowed: no refusal
+    with pytest.raises(BridgeError, match=rf"at most {MAX_BRIDGES} bridges on a node"):
+        policy.check(1, "socket://127.0.0.1:80", True, MAX_BRIDGES)
