@@ -9,7 +9,7 @@ from pathlib import Path
 
 from commandline import CommandLineError, add_command
 from commandline.arguments import input_file, output_file
-from hexmigrate.checks import check_one_descriptor
+from hexmigrate.checks import MAX_NAME_CHARACTERS, check_one_descriptor
 from hexmigrate.image import ModuleImage
 from hexmigrate.signing import keys
 from hexmigrate.signing.sign import sign_image
@@ -37,11 +37,18 @@ def cmd_sign(args: argparse.Namespace) -> int:
     """Write the module with its version and signature (09 records)."""
     image = ModuleImage.read(args.file)
     check_one_descriptor(image)  # the name signed is the one the node registers
+    if len(image.name) > MAX_NAME_CHARACTERS:
+        raise CommandLineError(
+            f"{args.file}: expected a module name of at most {MAX_NAME_CHARACTERS} characters "
+            f"(what a node lists and keeps versions under), got {image.name!r} of "
+            f"{len(image.name)}: name the file shorter"
+        )
     key = keys.load_private(args.key)
-    signed = sign_image(image, key, Version.parse(args.version))
+    version = Version.parse(args.version)
+    signed = sign_image(image, key, version)
     signed.write(args.output, args.record_size)
     print(
-        f"{args.output}: module {signed.name} version {args.version}, signed by "
+        f"{args.output}: module {signed.name} version {version}, signed by "
         f"{keys.key_type(key)} key {keys.short_hash(key.public_key())}"
     )
     return 0

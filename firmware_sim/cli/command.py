@@ -10,6 +10,7 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from commandline import UsageError, add_command, command_parser, run
 from commandline.arguments import host_port, input_file, integer
@@ -33,7 +34,7 @@ from firmware_sim.wires.transfer import DEFAULT_WINDOW, run_transfer
 from hexmigrate.errors import HexmigrateError
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.listening import PTY
-from hexmigrate.signing.keys import MAX_KEY_FILE, load_public
+from hexmigrate.signing.keys import MAX_KEY_FILE, PublicKey, load_public
 from hexmigrate.transfer.sender import MODES
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
@@ -171,12 +172,23 @@ def cmd_listen(args: argparse.Namespace) -> int:
         gdb=args.gdb,
         foxglove=args.foxglove,
         bridge_hosts=tuple(args.bridge_host),
-        trust=TrustPolicy(
-            tuple(load_public(path) for path in args.trust or ()), args.allow_downgrade
-        ),
+        trust=TrustPolicy(tuple(_trusted(path) for path in args.trust or ()), args.allow_downgrade),
     )
     firmware = {name: NativeModule(native) for name, native in load_natives(args.natives).items()}
     return listen(config, _say, firmware=firmware)
+
+
+def _trusted(path: Path) -> PublicKey:
+    """The public key a node trusts, from `path`; a private key is refused: it signs modules
+    and opens sessions, and does not belong on a node (give its public half: hexmigrate keygen
+    --public, imgtool getpub -e pem)."""
+    if b"PRIVATE KEY" in path.read_bytes()[:4096]:
+        raise UsageError(
+            f"--trust {path}: expected a public key, got a private key (whoever reads the node's "
+            "files could sign modules with it): give its public half (hexmigrate keygen "
+            "--public, imgtool getpub -e pem)"
+        )
+    return load_public(path)
 
 
 def cmd_info(args: argparse.Namespace) -> int:

@@ -294,3 +294,28 @@ def test_keygen_sign_inspect_verify_from_the_command_line(image, tmp_path):
     assert result.returncode == 1
     assert "signature does not match (hash differs" in result.stderr
     assert "hash does NOT hold" in hexmigrate("inspect", signed).stdout
+
+
+def test_sign_refuses_a_name_no_node_takes_and_says_the_version_as_it_signed_it(tmp_path):
+    """An image without descriptor is named after its file: a name over 15 characters, which
+    every node refuses, is refused by sign; a version typed with leading zeros is said as it is
+    signed (1.2.3, not 00001.00002.00003)."""
+    key = tmp_path / "key.pem"
+    key.write_bytes(keys.private_pem(keys.generate("ed25519")))
+    bitstream = ModuleImage("x", 0x40000200, bytes(64), (), 0x40000200)
+    long_name, short = tmp_path / "a_very_long_bitstream.hex", tmp_path / "mx_slot2.hex"
+    for path in (long_name, short):
+        bitstream.write(path)
+
+    def sign(path: Path) -> subprocess.CompletedProcess[str]:
+        command = [sys.executable, "-m", "hexmigrate", "sign", str(path), "--key", str(key)]
+        command += ["--version", "00001.00002.00003", "-o", str(tmp_path / "signed.hex")]
+        return subprocess.run(command, capture_output=True, text=True, timeout=60)
+
+    refused = sign(long_name)
+    assert refused.returncode == 1 and "expected a module name of at most 15 characters" in (
+        refused.stderr
+    )
+    assert not (tmp_path / "signed.hex").exists()
+    signed = sign(short)
+    assert signed.returncode == 0 and "module mx_slot2 version 1.2.3, signed" in signed.stdout
