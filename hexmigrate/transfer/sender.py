@@ -192,6 +192,15 @@ class Sender:
         except TransferError:
             self._abandon(tid)
             raise
+        except KeyboardInterrupt:  # Ctrl-C: the node is told now, not after its 60 s
+            self._abort_once(tid)
+            raise
+
+    def _abort_once(self, tid: int) -> None:
+        """Send ABORT of `tid` once, without waiting for its answer (the user is leaving):
+        the node erases what the transfer wrote at once rather than keep it until it expires."""
+        with contextlib.suppress(LinkError, MessageError, OSError):
+            self._send(Abort(tid))
 
     def _abandon(self, tid: int) -> None:
         """Ask the node to erase what a failed transfer wrote (best effort: the link may be

@@ -4,12 +4,24 @@ caller that files the pushes (refresh's manager) loses none of them."""
 
 from __future__ import annotations
 
+import pytest
+
 from firmware_sim.core.natives import Signal
 from firmware_sim.core.node import Node
 from firmware_sim.core.transfer_target import NodeTarget
 from firmware_sim.serving.kernel_control import KernelControl
+from hexmigrate.image import ModuleImage
+from hexmigrate.links import direct
 from hexmigrate.transfer.control_client import NodeControl
-from hexmigrate.transfer.messages import Heartbeat, Message, PerformanceReport
+from hexmigrate.transfer.messages import (
+    Abort,
+    Data,
+    Heartbeat,
+    HexLine,
+    Message,
+    PerformanceReport,
+    decode,
+)
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from pbort.native import NativeModule
@@ -67,3 +79,29 @@ def test_pushes_that_come_while_requests_wait_all_reach_the_hook():
 
 def test_without_a_hook_the_pushes_are_skipped_and_the_answers_still_come():
     assert pushes_during_requests(None) == ["signal"] * LISTINGS
+
+
+def test_ctrl_c_during_a_transfer_tells_the_node_to_abort_it() -> None:
+    """A Ctrl-C in the middle of a send: the sender sends ABORT of the transfer before it
+    leaves, so the node gives back its flash at once (it kept it for 60 s)."""
+    with Node("abort") as node:
+        receiver = Receiver(NodeTarget(node))
+        sent: list[Message] = []
+        blocks = 0
+
+        def handle(raw: bytes) -> list[bytes]:
+            nonlocal blocks
+            message = decode(raw)
+            sent.append(message)
+            if isinstance(message, (Data, HexLine)):
+                blocks += 1
+                if blocks == 3:
+                    raise KeyboardInterrupt
+            return receiver.handle(raw)
+
+        sender = Sender(direct.DirectLink(handle), "hex", timeout=0.0)
+        image = ModuleImage("big", 0x10000, bytes(4096), (), 0x10000)
+        with pytest.raises(KeyboardInterrupt):
+            sender.send(image)
+        assert isinstance(sent[-1], Abort)
+        assert node.space.owners.keys() <= {"directory"}  # the reservation given back
