@@ -11,22 +11,42 @@ answer) or answered otherwise (an ACK of a harmless request, such as a BEGIN tha
 whether anything went wrong: the node exited, installed or removed a module, or the installed
 module's bytes in the flash file changed. The node's peak RSS is its VmHWM.
 
+Three more classes follow, each reporting crashes (a process that ended, a command that raised)
+and hangs (past its deadline): a debugger's packets (random framed packets of every kind to the
+node's gdb port, then a detach: the node must run on), a bridge's peers (strangers on an import
+port sending random bytes and value frames under other keys, some numbered 2^32-1: the node
+must keep answering, and the port take the real exporter's values), and hostile answers to the
+host (``hexmigrate`` commands against a fake node answering escapes, floods, huge texts and
+garbage: every command must end within its deadline and print no control character).
+
     python benchmarks/hostile.py [--inputs N] [--seed S]
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
+import os
 import random
+import socket
 import tempfile
+import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
+from firmware_sim.bridge.value_message import bridge_key, encode_value, new_key
 from firmware_sim.core.memory_map import FLASH_BASE
+from firmware_sim.gdb.packets import PacketConnection
 from firmware_sim.serving.node_process import NodeProcess
+from hexmigrate import cli
 from hexmigrate.elf import image_from_elf
+from hexmigrate.errors import HexmigrateError
+from hexmigrate.image import ModuleImage
 from hexmigrate.links import open_link
 from hexmigrate.links.framing import frame
+from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import (
     Abort,
     Ack,
@@ -37,6 +57,7 @@ from hexmigrate.transfer.messages import (
     Header,
     Message,
     Nak,
+    PerformanceReport,
     Remove,
     Resume,
     decode,
@@ -153,6 +174,162 @@ def main() -> None:
                 f"node alive: {alive}; installed module intact in flash: {intact}; "
                 f"node peak RSS: {peak_rss_mb(node.pid):.1f} MiB"
             )
+        more_classes(rng, arguments.inputs, image)
+
+
+def gdb_packets(rng: random.Random, count: int) -> dict[str, int]:
+    """`count` random framed packets to a listening node's gdb port (it halts once the client
+    speaks), then a detach; the node must answer each and run on."""
+    options = ("--native", "signal", "--gdb", "127.0.0.1:0")
+    outcome = {"packets": 0, "unanswered": 0, "crashes": 0}
+    with NodeProcess("tcp-listen://127.0.0.1:0", *options) as node:
+        host, port = node.wait_for(r"gdb: listening on (127\.0\.0\.1):(\d+)").groups()
+        client = PacketConnection(socket.create_connection((host, int(port)), timeout=10))
+        with contextlib.closing(client):
+            for _ in range(count):
+                client.send(_gdb_packet(rng))
+                outcome["packets"] += 1
+                if client.receive(timeout=10) is None:
+                    outcome["unanswered"] += 1
+                if node.child.process.poll() is not None:
+                    break
+            client.send("D")
+            with open_link(node.url) as link:
+                Sender(link, "binary", timeout=5.0, retries=2).ping()
+        outcome["crashes"] = int(node.child.process.poll() is not None)
+    return outcome
+
+
+def _gdb_packet(rng: random.Random) -> str:
+    numbers = [0, 1, FLASH_BASE, 0x20000000, 0xFFFFFFFF, 1 << 40, rng.getrandbits(36)]
+    number = f"{rng.choice(numbers):x}"
+    kind = rng.choice("mMgGpPZzqH?T")
+    payload = rng.randbytes(rng.randrange(0, 40)).hex()
+    return rng.choice(
+        [
+            f"{kind}{number},{rng.choice(numbers):x}:{payload}",
+            f"{kind}{payload}",
+            "".join(chr(rng.randrange(32, 256)) for _ in range(rng.randrange(1, 60))),
+        ]
+    ).lstrip("cCsSDkv")  # not a resume, detach or kill: those end the fuzz
+
+
+def bridge_peers(rng: random.Random, count: int, image: ModuleImage) -> dict[str, int]:
+    """Strangers on an import port (into gain's input, `image`): random bytes and values under
+    other keys; then the real exporter's value must still come through, and the node answer."""
+    outcome = {"inputs": 0, "crashes": 0, "poisoned": 0}
+    options = ("--set", "gain.k=0x20000", "--lock-step")
+    with NodeProcess("tcp-listen://127.0.0.1:0", *options) as node, open_link(node.url) as link:
+        sender = Sender(link, "binary", timeout=5.0, retries=2)
+        sender.send(image)
+        control = NodeControl(sender)
+        url = control.import_port(1, "gain.x", "tcp-listen://127.0.0.1:0")
+        where, key = bridge_key(url)
+        for _ in range(count):
+            with contextlib.suppress(OSError, ValueError), open_link(where) as stranger:
+                stranger.send(
+                    rng.choice(
+                        [
+                            rng.randbytes(rng.randrange(1, 200)),
+                            encode_value(new_key(), 1, U32, 0.0, 0.0, bytes(4)),
+                            encode_value(new_key(), 1, rng.getrandbits(32), 0.0, 0.0, bytes(4)),
+                        ]
+                    )
+                )
+            outcome["inputs"] += 1
+        with open_link(where) as exporter:
+            exporter.send(encode_value(key, 1, 1, 0.0, 0.0, (7).to_bytes(4, "little")))
+        try:
+            control.advance(0.01, {1: 1})
+        except HexmigrateError:
+            outcome["poisoned"] = 1
+        outcome["crashes"] = int(node.child.process.poll() is not None)
+    return outcome
+
+
+COMMANDS = (["ping"], ["ls"], ["ps"], ["get", "gain.y"], ["stop", "gain"], ["logs", "gain"])
+EVIL = ("\x1b]0;pwned\x07", "\x1b[2J", "\r", "\r\nerror: forged", "\x00", "A" * 100_000)
+
+
+def hostile_answers(rng: random.Random, count: int) -> dict[str, int]:
+    """`count` hexmigrate commands against a fake node answering hostile texts, garbage or a
+    flood; each must end within its deadline (2 tries of 0.5 s, and 1 s of slack) and print no
+    control character."""
+    outcome = {"commands": 0, "crashes": 0, "hangs": 0, "escapes printed": 0}
+    for _ in range(count):
+        behaviour = rng.choice(["text", "garbage", "flood"])
+        text = "".join(rng.choice(EVIL) for _ in range(rng.randrange(1, 4)))
+        with _fake_node(behaviour, text) as url:
+            out, err = io.StringIO(), io.StringIO()
+            started = time.monotonic()
+            try:
+                with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                    command = [*rng.choice(COMMANDS), "--to", url]
+                    cli.main([*command, "--timeout", "0.5", "--retries", "1"])
+            except Exception:
+                outcome["crashes"] += 1
+            if time.monotonic() - started > 2 * 0.5 + 1.0:  # its 2 tries, and slack
+                outcome["hangs"] += 1
+        printed = out.getvalue() + err.getvalue()
+        if not all(line.isprintable() for line in printed.splitlines()):
+            outcome["escapes printed"] += 1
+        outcome["commands"] += 1
+    return outcome
+
+
+@contextlib.contextmanager
+def _fake_node(behaviour: str, text: str) -> Iterator[str]:
+    """A fake node on a thread: it answers each request with `text` in a refusal (``text``),
+    with garbage (``garbage``), or pushes reports without end (``flood``)."""
+    server = socket.create_server(("127.0.0.1", 0))
+    server.settimeout(0.1)
+    stop = threading.Event()
+
+    def serve() -> None:
+        while not stop.is_set():
+            try:
+                client, _ = server.accept()
+            except OSError:
+                continue
+            with client:
+                client.settimeout(0.05)
+                while not stop.is_set():
+                    try:
+                        data = client.recv(65536)
+                    except TimeoutError:
+                        data = b"?"
+                    except OSError:
+                        break
+                    if not data:
+                        break
+                    if behaviour == "flood":
+                        reply = PerformanceReport(1, 1, "leftover=1")
+                        payload = frame(encode(reply, False)) * 64
+                    elif behaviour == "garbage":
+                        payload = os.urandom(512)
+                    else:
+                        payload = frame(encode(Nak(0, 0, text, fatal=True), False))
+                    with contextlib.suppress(OSError):
+                        client.sendall(payload)
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        yield f"socket://127.0.0.1:{server.getsockname()[1]}"
+    finally:
+        stop.set()
+        server.close()
+        thread.join(timeout=5)
+
+
+def more_classes(rng: random.Random, inputs: int, image: ModuleImage) -> None:
+    """The debugger's, the bridge peers' and the host's classes, each reported."""
+    for name, outcome in (
+        ("gdb packets", gdb_packets(rng, inputs // 4)),
+        ("bridge peers", bridge_peers(rng, inputs // 10, image)),
+        ("hostile answers to the host", hostile_answers(rng, inputs // 20)),
+    ):
+        print(f"{name}: " + ", ".join(f"{value} {key}" for key, value in outcome.items()))
 
 
 if __name__ == "__main__":
