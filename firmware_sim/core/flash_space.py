@@ -54,8 +54,9 @@ class FlashSpace:
         """Number of free blocks."""
         return sum(run.count for run in self.free_runs())
 
-    def allocate(self, owner: str, count: int | None = None) -> Extent:
-        """Give `owner` the first free run of `count` blocks, or the largest run if None."""
+    def allocate(self, owner: str, count: int | None = None, most: int | None = None) -> Extent:
+        """Give `owner` the first free run of `count` blocks, or if None the largest run (at
+        most `most` blocks of it)."""
         if owner in self._owners:
             raise ValueError(f"flash owner {owner!r} already holds blocks")
         runs = self.free_runs()
@@ -69,7 +70,8 @@ class FlashSpace:
                 f"expected {count or 1} free consecutive flash block(s) for {owner!r}, "
                 f"the largest free run is {largest}"
             )
-        extent = Extent(chosen.first, chosen.count if count is None else count)
+        taken = chosen.count if most is None else min(chosen.count, most)
+        extent = Extent(chosen.first, taken if count is None else count)
         self._owners[owner] = extent
         return extent
 

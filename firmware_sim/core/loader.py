@@ -147,6 +147,7 @@ class LoadSession:
         size: int | None = None,
         address: int | None = None,
         buffer: BlockBuffer | None = None,
+        most: int | None = None,
     ) -> None:
         self.flash = flash
         self.space = space
@@ -154,7 +155,7 @@ class LoadSession:
         self._buffer = buffer or HostBlockBuffer()
         self._progress = _Progress()
         self._lines = 0
-        self._extent = self._reserve(size, address)
+        self._extent = self._reserve(size, address, most)
         self._signature = bytearray()
         self._done = False
 
@@ -224,10 +225,12 @@ class LoadSession:
         self._progress.relocations.clear()
         self._progress.init = None
 
-    def _reserve(self, size: int | None, address: int | None) -> Extent:
+    def _reserve(self, size: int | None, address: int | None, most: int | None) -> Extent:
+        """Flash for the image: `size` bytes, or without a size the largest free run (at most
+        `most` blocks of it), at `address` if given."""
         count = None if size is None else max(1, -(-size // BLOCK_SIZE))
         if address is None:
-            return self.space.allocate(self.owner, count)
+            return self.space.allocate(self.owner, count, most)
         if (address - self.flash.base) % BLOCK_SIZE:
             raise LoadError(
                 f"expected a block-aligned load address (a multiple of {BLOCK_SIZE} from "

@@ -303,17 +303,22 @@ class Node:
     # Loading modules.
 
     def begin_load(
-        self, owner: str, size: int | None = None, address: int | None = None
+        self,
+        owner: str,
+        size: int | None = None,
+        address: int | None = None,
+        most: int | None = None,
     ) -> LoadSession:
         """Start receiving a module record by record (for a transfer); finish with `install`
-        (or `session.finish()`, then `commit` or `discard`).
+        (or `session.finish()`, then `commit` or `discard`). Without a `size`, the largest free
+        run of flash is reserved, at most `most` blocks of it.
 
         The block being received waits in a 256-byte buffer in SRAM, as on the paper's nodes.
         """
         buffer = SramBlockBuffer(self.cpu, self.sram, owner)
         try:
             return LoadSession(
-                self.flash, self.space, owner, size=size, address=address, buffer=buffer
+                self.flash, self.space, owner, size=size, address=address, buffer=buffer, most=most
             )
         except Exception:
             buffer.release()

@@ -37,8 +37,10 @@ class NodeTarget:
         """The hardware components the port took: name -> (slot, link address, size)."""
 
     def begin(self, owner: str, size: int | None, address: int | None) -> LoadSession:
-        """Reserve flash and open a load session."""
-        return self.node.begin_load(owner, size, address)
+        """Reserve flash and open a load session; a transfer that gives no size (a module
+        typed on a terminal without BEGIN: one stray record line starts one) reserves at most
+        `SIZELESS_BLOCKS`, not all the free flash, for as long as it lasts."""
+        return self.node.begin_load(owner, size, address, most=SIZELESS_BLOCKS)
 
     def commit(self, owner: str, image: InstalledImage) -> tuple[str, int]:
         """Register the verified image as the node's module (replacing one of the same name),
@@ -113,6 +115,11 @@ class NodeTarget:
             f"{node.name}: {len(node.modules)} module(s), {node.space.free_blocks} of "
             f"{node.flash.block_count} flash blocks free, {node.sram.free_bytes} bytes of SRAM free"
         )
+
+
+SIZELESS_BLOCKS = 256
+"""Flash blocks (64 KiB) a transfer without a size may reserve: a module typed on a terminal is
+small, and a larger one is sent with BEGIN, which names its size."""
 
 
 def slot_versions(link_base: int) -> str:

@@ -13,7 +13,7 @@ from collections.abc import Iterator
 import pytest
 
 from firmware_sim.core.node import Node
-from firmware_sim.core.transfer_target import NodeTarget
+from firmware_sim.core.transfer_target import SIZELESS_BLOCKS, NodeTarget
 from hexmigrate.transfer.messages import Ack, Begin, Header, Nak, decode, encode
 from hexmigrate.transfer.receiver import MAX_TRANSFERS, TRANSFER_IDLE, Receiver
 
@@ -50,6 +50,17 @@ def test_a_stray_record_line_is_refused_without_reserving_flash(node):
     assert isinstance(reply, Nak) and "bad record" in reply.reason, reply
     assert _free(node) == before
     assert receiver.transfers == {}
+
+
+def test_one_valid_record_line_without_begin_reserves_at_most_sixty_four_kib(node):
+    """A module typed on a terminal has no size: its transfer reserved all the free flash (an
+    open node lent every block to one stranger's line for 60 s); now at most SIZELESS_BLOCKS."""
+    receiver = Receiver(NodeTarget(node))
+    free = node.space.free_blocks
+    receiver.handle(b":0400000000000000FC")  # 4 data bytes at offset 0: a valid record
+    (transfer,) = receiver.transfers.values()
+    assert node.space.owners[transfer.owner].count == SIZELESS_BLOCKS < free
+    assert node.space.free_blocks == free - SIZELESS_BLOCKS
 
 
 def test_an_abandoned_transfer_gives_back_its_flash_and_sram_after_the_idle_time(node):
