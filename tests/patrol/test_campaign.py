@@ -11,6 +11,8 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
+from pathlib import Path
 
 import pytest
 
@@ -80,32 +82,37 @@ def test_the_campaign_command_writes_records_summary_and_page(tmp_path, capsys):
     assert "located" in capsys.readouterr().out
 
 
-@pytest.mark.slow
-def test_ctrl_c_stops_the_campaign_between_records_and_resume_finishes_it(tmp_path):
-    """Ctrl-C reaches every process of the terminal's group: the workers ignore it, the command
-    stops between two records, says "interrupted" and exits 130, without a traceback."""
-    out = tmp_path / "campaign"
+def interrupted(out: Path, when: Callable[[], bool]) -> tuple[int, str]:
+    """Run an 8-run patrol campaign into `out` as a terminal's job (a process group of its
+    own), press Ctrl-C once `when()` is true; its exit status and standard error."""
     command = [sys.executable, "-m", "patrol", "campaign", "--runs", "8", "--workers", "2"]
     campaign = subprocess.Popen(
         [*command, "--out", str(out)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-        start_new_session=True,  # a process group of its own, as a terminal's job
+        start_new_session=True,
     )
     try:
         deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and _records(out) < 2:
+        while time.monotonic() < deadline and not when():
             assert campaign.poll() is None, campaign.communicate()
-            time.sleep(0.1)
+            time.sleep(0.05)
         os.killpg(campaign.pid, signal.SIGINT)
         _, stderr = campaign.communicate(timeout=60)
     finally:
         if campaign.poll() is None:
             os.killpg(campaign.pid, signal.SIGKILL)
             campaign.wait()
-    assert campaign.returncode == 130
-    assert stderr == "interrupted\n"
+    return campaign.returncode, stderr
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_the_campaign_between_records_and_resume_finishes_it(tmp_path):
+    """Ctrl-C reaches every process of the terminal's group: the workers ignore it, the command
+    stops between two records, says "interrupted" and exits 130, without a traceback."""
+    out = tmp_path / "campaign"
+    assert interrupted(out, lambda: _records(out) >= 2) == (130, "interrupted\n")
     assert 2 <= _records(out) < 8
     assert main(APPLICATION, ["campaign", "--resume", "--workers", "2", "--out", str(out)]) == 0
     assert _records(out) == 8
@@ -116,25 +123,10 @@ def test_ctrl_c_stops_the_campaign_between_records_and_resume_finishes_it(tmp_pa
 def test_ctrl_c_while_the_cluster_starts_stops_at_once_and_says_only_interrupted(tmp_path, after):
     """Ctrl-C in the first seconds reaches workers still starting (each printed a
     KeyboardInterrupt traceback, and Dask's exit hook one more) and a cluster still starting
-    (it took seconds to close): now the command says "interrupted" alone, and ends in well
-    under the seconds it took."""
-    command = [sys.executable, "-m", "patrol", "campaign", "--runs", "8", "--workers", "2"]
-    campaign = subprocess.Popen(
-        [*command, "--out", str(tmp_path / "campaign")],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
-    try:
-        time.sleep(after)
-        os.killpg(campaign.pid, signal.SIGINT)
-        _, stderr = campaign.communicate(timeout=60)
-    finally:
-        if campaign.poll() is None:
-            os.killpg(campaign.pid, signal.SIGKILL)
-            campaign.wait()
-    assert (campaign.returncode, stderr) == (130, "interrupted\n")
+    (it took seconds to close): now the command says "interrupted" alone."""
+    pressed = time.monotonic() + after
+    outcome = interrupted(tmp_path / "campaign", lambda: time.monotonic() >= pressed)
+    assert outcome == (130, "interrupted\n")
 
 
 def _records(out) -> int:
