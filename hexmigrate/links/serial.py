@@ -34,8 +34,9 @@ if TYPE_CHECKING:
 DEFAULT_BAUDRATE = 115200
 READ_SIZE = 1 << 16
 PTY_WRITE_TIMEOUT = 5.0
-"""How long a pty's near end waits for the far end to take bytes before it calls the link dead:
-a pty buffers about 20 KiB, and nobody may have the far end open."""
+"""How long a pty's near end (or a serial device's writer) waits for the far end to take bytes
+before it calls the link dead: a pty buffers about 20 KiB, and nobody may have the far end open;
+a device with flow control may hold its bytes for good."""
 
 DEVICE_FORM = "serial:///dev/ttyUSB0?baudrate=115200 or a bare device path such as /dev/pts/5"
 LOOP_FORM = "loop:// (no host, path or parameters)"
@@ -108,7 +109,10 @@ def _open_pyserial(url: str, target: str, settings: dict[str, int]) -> SerialBas
     import serial
 
     try:
-        return serial.serial_for_url(target, timeout=POLL_INTERVAL, **settings)
+        # A device with flow control may never let bytes out: its writes are bounded too;
+        # loop:// holds a message whole in memory and has no far end to wait for.
+        bound = None if target.startswith("loop://") else PTY_WRITE_TIMEOUT
+        return serial.serial_for_url(target, timeout=POLL_INTERVAL, write_timeout=bound, **settings)
     except (OSError, ValueError) as error:
         raise LinkError(f"cannot open {url}: {error}") from error
 
