@@ -10,6 +10,11 @@ stream before each period, so a user sees them within a period of when they happ
 A migration over a modelled wire takes time in the run: the applier's `wait` is the session's
 `wait`, which lets the world run on the same way (sampled, stepped: the old configuration keeps
 working meanwhile, and the Decider keeps judging it, without starting a second decision).
+
+Samples are due on a grid of sample periods from the deployment, not a period after each
+sample's work: in real time that work (a read, the plant's look, a decision step) would stretch
+every period. How late a sample came (but for a decision's own time) is the manager's slip,
+which the runtime hears as `host_slip` and judges as a node's (docs/refresh.md, "Real time").
 """
 
 from __future__ import annotations
