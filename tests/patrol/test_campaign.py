@@ -125,8 +125,9 @@ def test_ctrl_c_while_the_cluster_starts_stops_at_once_and_says_only_interrupted
     KeyboardInterrupt traceback, and Dask's exit hook one more) and a cluster still starting
     (it took seconds to close): now the command says "interrupted" alone."""
     pressed = time.monotonic() + after
-    outcome = interrupted(tmp_path / "campaign", lambda: time.monotonic() >= pressed)
-    assert outcome == (130, "interrupted\n")
+    status, said = interrupted(tmp_path / "campaign", lambda: time.monotonic() >= pressed)
+    # 130, or killed by the SIGINT itself while the interpreter starts: a shell shows 130 both
+    assert said == "interrupted\n" and status in (130, -signal.SIGINT)
 
 
 def _records(out) -> int:
