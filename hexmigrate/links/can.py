@@ -44,6 +44,7 @@ import logging
 import math
 import re
 import socket
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -81,6 +82,8 @@ FRAME_TIMEOUT = 1.0
 the next consecutive frame, before it gives the transfer up."""
 RETRY_PAUSE = 0.02
 """Between two tries to reach a bus's server that refused the connection (seconds)."""
+OPEN_TIMEOUT = 10.0
+"""Seconds opening a bus may take (a remote server's handshake) before it is given up."""
 _BROKEN_SERVER = (
     AssertionError,
     AttributeError,
@@ -362,7 +365,8 @@ def open_bus(url: str, wait: float = 0.0) -> can.BusABC:
     server that does not speak python-can-remote or serves another channel. A server that
     refuses the connection is tried again for `wait` seconds: a process started at the same time
     as the one that serves its bus may be ready first. One that accepts the connection and says
-    nothing is waited for (python-can-remote's client sets no timeout)."""
+    nothing for OPEN_TIMEOUT seconds is given up (python-can-remote's client sets no timeout of
+    its own: its opening runs on a thread the caller does not wait for past that)."""
     return _open_bus(url, parse_url(url), wait)
 
 
@@ -371,7 +375,7 @@ def _open_bus(url: str, settings: CanSettings, wait: float = 0.0) -> can.BusABC:
     deadline = time.monotonic() + wait
     while True:
         try:
-            bus = can.Bus(**settings.bus_config())
+            bus = _bus_within(url, settings, OPEN_TIMEOUT)
             break
         except ConnectionRefusedError as error:
             if not time.monotonic() < deadline:  # NaN waits no more than 0 s
@@ -386,6 +390,30 @@ def _open_bus(url: str, settings: CanSettings, wait: float = 0.0) -> can.BusABC:
     if settings.interface == "remote":
         _check_remote_channel(url, bus, settings.channel.partition("/")[2])
     return bus
+
+
+def _bus_within(url: str, settings: CanSettings, timeout: float) -> can.BusABC:
+    """python-can's bus for `settings`, made on a thread of its own and waited for `timeout`
+    seconds at most: a remote server that accepts the connection and never answers its
+    handshake would hold the caller forever. Its errors are raised here; past the timeout a
+    LinkError says so, and the thread is left to end with its connection."""
+    made: list[can.BusABC] = []
+    failed: list[BaseException] = []
+
+    def make() -> None:
+        try:
+            made.append(can.Bus(**settings.bus_config()))
+        except BaseException as error:  # raised again on the caller's thread
+            failed.append(error)
+
+    opening = threading.Thread(target=make, name=f"open {url}", daemon=True)
+    opening.start()
+    opening.join(timeout)
+    if failed:
+        raise failed[0]
+    if not made:
+        raise LinkError(f"cannot open {url}: the other end said nothing for {timeout:g} s")
+    return made[0]
 
 
 def _shut_down(bus: can.BusABC) -> None:

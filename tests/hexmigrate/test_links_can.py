@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import socket
 import threading
+import time
 from pathlib import Path
 
 import can
@@ -11,6 +12,7 @@ import pytest
 
 from commandline.children import Child
 from hexmigrate.errors import LinkError
+from hexmigrate.links import can as can_link
 from hexmigrate.links import open_link, remote_server
 from hexmigrate.links.can import CanLink, parse_url
 from hexmigrate.links.remote_server import RemoteCanServer, ServedChannel
@@ -179,3 +181,15 @@ def test_socketcan_round_trip_on_vcan0() -> None:
     ):
         host.send(b"\x02" + bytes(range(256)) * 16)
         assert node.receive(10.0) == b"\x02" + bytes(range(256)) * 16
+
+
+def test_a_remote_server_that_accepts_and_says_nothing_is_given_up(monkeypatch) -> None:
+    """python-can-remote's client sets no timeout: a server that takes the connection and never
+    answers the handshake held open_bus forever; now it is given up after OPEN_TIMEOUT."""
+    monkeypatch.setattr(can_link, "OPEN_TIMEOUT", 1.0)
+    with socket.create_server(("127.0.0.1", 0)) as silent:
+        url = f"can://remote/127.0.0.1:{silent.getsockname()[1]}/one"
+        started = time.monotonic()
+        with pytest.raises(LinkError, match=r"the other end said nothing for 1 s"):
+            can_link.open_bus(url)
+        assert time.monotonic() - started < 5.0
