@@ -73,7 +73,7 @@ def test_malformed_packets_are_answered_and_the_node_runs_on(halted) -> None:
     node, client = halted
 
     @settings(
-        max_examples=300,
+        max_examples=150,
         deadline=None,
         derandomize=True,
         suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],

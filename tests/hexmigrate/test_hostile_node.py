@@ -16,6 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hexmigrate import cli
+from hexmigrate.errors import MessageError
 from hexmigrate.transfer.messages import (
     Ack,
     Heartbeat,
@@ -88,13 +89,17 @@ def answers(text: str, kind: str) -> Callable[[Message], list[bytes]]:
             replies = [LogLines(tid, 1, text)]
         else:
             replies = [Ack(tid, 0, text)]
-        return [encode(reply, False) for reply in replies]
+        encoded = []
+        for reply in replies:
+            with contextlib.suppress(MessageError, ValueError):  # not encodable: not sent
+                encoded.append(encode(reply, False))
+        return encoded
 
     return answer
 
 
 @pytest.mark.slow
-@settings(max_examples=40, deadline=None, derandomize=True)
+@settings(max_examples=30, deadline=None, derandomize=True)
 @given(texts, st.sampled_from(["own", "refuse", "push"]), st.sampled_from(COMMANDS))
 def test_whatever_a_node_answers_a_command_prints_no_control_character(text, kind, command):
     with hostile_node(answers(text, kind)) as url, redirect() as (out, err):
