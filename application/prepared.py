@@ -80,12 +80,7 @@ def _copy_bitstreams(loaded: Loaded, origin: Path, work: Path) -> None:
     or written to elsewhere), and be a regular module file (a device is refused unread)."""
     for module in loaded.database.modules():
         for path in module.source.bitstreams:
-            relative = path.relative_to(work) if path.is_relative_to(work) else None
-            if relative is None or ".." in relative.parts:
-                raise ApplicationSetupError(
-                    f"hardware module {module.name}: expected its bitstream inside the "
-                    f"database's folder (a relative path without '..'), got {relative or path}"
-                )
+            relative = _inside(work, path, f"hardware module {module.name}: its bitstream")
             try:
                 text = read_module_text(origin / relative)
                 path.parent.mkdir(parents=True, exist_ok=True)
@@ -96,6 +91,19 @@ def _copy_bitstreams(loaded: Loaded, origin: Path, work: Path) -> None:
                     f"hardware module {module.name}: expected its bitstream {origin / relative}, "
                     f"got {why or error}"
                 ) from None
+
+
+def _inside(work: Path, path: Path, what: str) -> Path:
+    """`path` relative to `work`, where the database's files go; ApplicationSetupError saying
+    `what` when it is elsewhere (absolute, or with ``..``): nothing is read from or written
+    outside the run's folder."""
+    relative = path.relative_to(work) if path.is_relative_to(work) else None
+    if relative is None or ".." in relative.parts:
+        raise ApplicationSetupError(
+            f"{what}: expected it inside the database's folder (a relative path without "
+            f"'..'), got {relative or path}"
+        )
+    return relative
 
 
 def _build(name: str, source: Path, loaded: Loaded, work: Path) -> ModuleImage:
@@ -111,6 +119,7 @@ def _build(name: str, source: Path, loaded: Loaded, work: Path) -> ModuleImage:
         raise ApplicationSetupError(
             f"guest {name}: expected the database to name its image, got native code"
         )
+    _inside(work, module.source.image, f"guest {name}: its image")
     try:
         build = build_module(source, work / "build")
     except BuildError as error:

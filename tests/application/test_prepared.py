@@ -1,5 +1,6 @@
 """`prepare` copies a hardware module's bitstreams from beside the database into the run's
-folder, where the database written there names them, and nowhere else."""
+folder, where the database written there names them, and writes its guests' images there, and
+nowhere else."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from application.declaration import Application
 from application.errors import ApplicationSetupError
 from application.prepared import prepare
 from application.scenario import Scenario
+from module_sdk.build import EXAMPLES_DIR
 
 DATABASE = """
 [robots.r]
@@ -65,14 +67,14 @@ def test_a_bitstream_path_that_leaves_the_database_s_folder_is_refused_and_nothi
     tmp_path, named
 ):
     (tmp_path / "escaped.hex").write_text(BITSTREAM)
-    with pytest.raises(ApplicationSetupError, match=r"module Hw: expected its bitstream .*inside"):
+    with pytest.raises(ApplicationSetupError, match=r"Hw: its bitstream: expected it inside"):
         prepared_with(tmp_path, named)
     assert not (tmp_path / "runs" / "escaped.hex").exists()
 
 
 def test_an_absolute_bitstream_path_is_refused_as_a_setup_error(tmp_path):
     (tmp_path / "absolute.hex").write_text(BITSTREAM)
-    with pytest.raises(ApplicationSetupError, match=r"module Hw: expected its bitstream .*inside"):
+    with pytest.raises(ApplicationSetupError, match=r"Hw: its bitstream: expected it inside"):
         prepared_with(tmp_path, f'"{tmp_path / "absolute.hex"}"')
 
 
@@ -82,3 +84,39 @@ def test_a_bitstream_that_is_a_device_is_refused_unread(tmp_path):
     (tmp_path / "app" / "zero.hex").symlink_to("/dev/zero")
     with pytest.raises(ApplicationSetupError, match=r"zero\.hex.*regular"):
         prepared_with(tmp_path, '"zero.hex"')
+
+
+GUEST_DATABASE = """
+[robots.r]
+resources.power = {{ capacity = 100, reserve = 20 }}
+
+[schemas.filter]
+kind = "computation"
+[schemas.filter.modules.gain]
+robots = ["r"]
+source = {{ image = {image} }}
+
+[task]
+name = "t"
+robot = "r"
+states = ["run"]
+schemas = ["filter"]
+initial = ["gain"]
+"""
+
+
+@pytest.mark.parametrize("named", ['"../escaped.hex"', '"build/../../escaped.hex"'])
+def test_a_guest_image_path_that_leaves_the_run_s_folder_is_refused_and_nothing_written(
+    tmp_path, named
+):
+    origin = tmp_path / "app"
+    origin.mkdir()
+    (origin / "db.toml").write_text(GUEST_DATABASE.format(image=named))
+    scenarios = (Scenario("s", "a scenario", "nothing"),)
+    application = Application(
+        "app", "An application.", origin / "db.toml", scenarios, "s",
+        guests={"gain": EXAMPLES_DIR / "gain.c"},
+    )  # fmt: skip
+    with pytest.raises(ApplicationSetupError, match=r"guest gain: its image: expected it inside"):
+        prepare(application, application.scenario("s"), tmp_path / "runs" / "run")
+    assert not (tmp_path / "runs" / "escaped.hex").exists()
