@@ -13,6 +13,8 @@ import time
 import can
 from can.bus import BusState
 
+from hexmigrate.links.can import shut_down
+
 BUS_OFF_REASON = "bus-off: transmit error counter passed 255, the controller left the bus"
 
 
@@ -49,5 +51,10 @@ class BusOffController(can.BusABC):
         return self.inner.recv(timeout), False
 
     def shutdown(self) -> None:
-        self.inner.shutdown()
-        super().shutdown()
+        """Shut the inner bus down, also when its remote server is gone already (the servos'
+        process stopped first at the end of a run: its shutdown raised and left both buses
+        unshut, with python-can's warnings on the node's log), then this wrapper."""
+        try:
+            shut_down(self.inner)
+        finally:
+            super().shutdown()

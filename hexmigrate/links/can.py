@@ -304,7 +304,7 @@ class CanLink(LinkBase):
     def _close(self) -> None:
         self._stack.stop()
         self._notifier.stop(timeout=10 * NOTIFIER_TIMEOUT + 1.0)
-        _shut_down(self._bus)
+        shut_down(self._bus)
 
     def _read_frame(self, timeout: float) -> isotp.CanMessage | None:
         """can-isotp's receive function: the next data frame from the Notifier, if any."""
@@ -416,7 +416,7 @@ def _bus_within(url: str, settings: CanSettings, timeout: float) -> can.BusABC:
     return made[0]
 
 
-def _shut_down(bus: can.BusABC) -> None:
+def shut_down(bus: can.BusABC) -> None:
     """Shut `bus` down even if its connection is already gone: python-can-remote's shutdown then
     raises before it closes its socket and marks the bus shut down (its finalizer would raise
     again), so both are done here."""
@@ -436,7 +436,7 @@ def _check_remote_channel(url: str, bus: can.BusABC, channel: str) -> None:
     (``Virtual bus channel two words on ws://...``) names the channel between spaces or
     quotes."""
     if not re.search(rf"(?<![^\s'\"]){re.escape(channel)}(?![^\s'\"])", bus.channel_info):
-        _shut_down(bus)
+        shut_down(bus)
         raise LinkError(
             f"cannot open {url}: expected a server of channel {channel!r}, got {bus.channel_info!r}"
         )

@@ -115,7 +115,7 @@ class ServoingWorld(WorldPlant):
 
     def _connect(self, link: str, bus: can.BusABC) -> None:
         controller = BusOffController(bus)
-        self._stack.callback(_shut_down, controller)
+        self._stack.callback(controller.shutdown)
         self._controllers[link] = controller
         self.servo_buses[link] = CanServoBus(controller, self.geometry, self.setting.stamp)
 
@@ -301,13 +301,6 @@ class ServoingWorld(WorldPlant):
         return Launched(
             devices={link: f"{url}?role=host" for link, url in buses.items()}, ready=ready
         )
-
-
-def _shut_down(controller: BusOffController) -> None:
-    """Leave a CAN bus; one whose server has gone already (a run's processes stopping) is left
-    already."""
-    with contextlib.suppress(OSError):
-        controller.shutdown()
 
 
 def _over_links(view: View) -> LinkApplier:
