@@ -52,6 +52,8 @@ POLL_SLICE = 0.05
 MAX_UNSENT = 64
 """Values an exporting half holds that its link has not taken yet; past them, values are lost
 (counted): a node never waits for a peer to read."""
+FLUSH_POLL = 0.0005
+"""Seconds between two looks at an export's queue while it is flushed."""
 WRITER_JOIN = 1.0
 """Seconds closing an export waits for its writer thread (its link closed under it)."""
 
@@ -132,6 +134,18 @@ class LinkedExport:
                 self.stuck = str(error)
                 self.stats.lost += 1 + self._unsent.qsize()
                 return
+            finally:
+                self._unsent.task_done()
+
+    def flush(self, deadline: float) -> bool:
+        """Wait until every queued value is written (or the bridge is stuck), until `deadline`
+        (`time.monotonic`); whether it was. Lock-step time counts a value sent once it is on
+        the link: the importer waits for it."""
+        while self._unsent.unfinished_tasks and self.stuck is None:
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(FLUSH_POLL)
+        return self.stuck is None
 
     def close(self) -> None:
         """Stop the writer (a write under way ends with the link) and close the link."""

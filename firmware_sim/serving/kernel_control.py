@@ -138,7 +138,9 @@ class KernelControl:
     def advance(self, until: float, expect: Mapping[int, int]) -> tuple[float, dict[int, int]]:
         """Lock-step time: run the kernel to `until` once each imported bridge N has brought
         value `expect[N]` (waiting at most ADVANCE_WAIT s), letting its importer take values up
-        to that one; the node's clock and the values each export sent so far. The node's clock
+        to that one; the node's clock and the values each export sent so far, once written on
+        their links (an importer waits for them: a node killed after its answer must not have
+        left them in its queue). The node's clock
         may be past `until` already (a PBO released before the last time granted ran on beyond
         it, each call taking its time, as on any kernel): the node then runs nothing more, and a
         time before the last one granted is refused."""
@@ -166,6 +168,8 @@ class KernelControl:
         for number, seq in expect.items():
             self.imports[number].half.release(seq)
         self.node.run(until=until)
+        for export in self.exports.values():  # the values counted are on their way, not queued
+            export.flush(time.monotonic() + ADVANCE_WAIT)
         return kernel.now, self.counts()
 
     def counts(self) -> dict[int, int]:
