@@ -40,9 +40,7 @@ class BridgePolicy:
         where = url.partition("#")[0]
         host = where.removeprefix(scheme).rpartition(":")[0].removeprefix("[").removesuffix("]")
         if not where.startswith(scheme) or not host:
-            raise BridgeError(
-                f"bridge {number}: expected {scheme}HOST:PORT, got {url.partition('#')[0][:80]!r}"
-            )
+            raise BridgeError(f"bridge {number}: expected {scheme}HOST:PORT, got {where[:80]!r}")
         if not (_loopback(host) or host in self.hosts):
             allowed = ", ".join([LOOPBACK, *self.hosts])
             raise BridgeError(

@@ -396,19 +396,31 @@ def _bus_within(url: str, settings: CanSettings, timeout: float) -> can.BusABC:
     """python-can's bus for `settings`, made on a thread of its own and waited for `timeout`
     seconds at most: a remote server that accepts the connection and never answers its
     handshake would hold the caller forever. Its errors are raised here; past the timeout a
-    LinkError says so, and the thread is left to end with its connection."""
+    LinkError says so, and the thread is left to end with its connection (a bus it still
+    opens then is shut down, not leaked)."""
     made: list[can.BusABC] = []
     failed: list[BaseException] = []
+    given_up = threading.Event()
+    lock = threading.Lock()
 
     def make() -> None:
         try:
-            made.append(can.Bus(**settings.bus_config()))
+            bus = can.Bus(**settings.bus_config())
         except BaseException as error:  # raised again on the caller's thread
             failed.append(error)
+            return
+        with lock:
+            if not given_up.is_set():
+                made.append(bus)
+                return
+        shut_down(bus)  # it answered after all, but nobody waits for it any more
 
     opening = threading.Thread(target=make, name=f"open {url}", daemon=True)
     opening.start()
     opening.join(timeout)
+    with lock:
+        if not made:
+            given_up.set()
     if failed:
         raise failed[0]
     if not made:

@@ -193,3 +193,22 @@ def test_a_remote_server_that_accepts_and_says_nothing_is_given_up(monkeypatch) 
         with pytest.raises(LinkError, match=r"the other end said nothing for 1 s"):
             can_link.open_bus(url)
         assert time.monotonic() - started < 5.0
+
+
+def test_a_bus_that_opens_after_it_was_given_up_is_shut_down_not_leaked(monkeypatch) -> None:
+    opened: list[can.BusABC] = []
+
+    def late_bus(**config: object) -> can.BusABC:
+        time.sleep(0.6)  # past the caller's patience
+        bus = can.interface.Bus(interface="virtual", channel="late")
+        opened.append(bus)
+        return bus
+
+    monkeypatch.setattr(can_link, "OPEN_TIMEOUT", 0.2)
+    monkeypatch.setattr(can_link.can, "Bus", late_bus)
+    with pytest.raises(LinkError, match=r"said nothing for 0\.2 s"):
+        can_link.open_bus("can://virtual/late")
+    deadline = time.monotonic() + 5.0
+    while not (opened and opened[0]._is_shutdown) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert opened and opened[0]._is_shutdown
