@@ -337,7 +337,8 @@ def _add_manage(commands: argparse._SubParsersAction) -> None:
         type=real(maximum=MAX_SECONDS, above=0, unit="s"),
         default=DEFAULTS.real_time_patience,
         metavar="S",
-        help="seconds real time may stay lost before the run stops with that condition "
+        help="seconds nothing may be judged for want of real time (lost, or the loop catching "
+        "up after) before the run stops with that condition "
         f"(default {DEFAULTS.real_time_patience:g})",
     )
     command.add_argument(

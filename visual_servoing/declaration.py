@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from application.declaration import Application, Figure, SampleField
+from refresh.runtime.settings import RuntimeSettings
 from visual_servoing.dehazer_guest import INSTRUCTION_BUDGET, NAME, SOURCE
 from visual_servoing.errors import ServoingError
 from visual_servoing.experiment.campaign import CAMPAIGN
@@ -60,10 +61,12 @@ APPLICATION = Application(
         beside="true",
         beside_label="true deviation",
     ),
-    # The runtime's default settings are the experiment's: a look of the Decider every 3
-    # frames, a fault declared after 0.5 s of violations, 0.5 s to settle after a switch (the
-    # new configuration's evaluators still hold frames of the old one) and for a recovery to
-    # hold, 10 estimator steps to fill the matcher's window of frames.
+    # The runtime's defaults but the debounce: a look of the Decider every 3 frames, 0.5 s to
+    # settle after a switch (the new configuration's evaluators still hold frames of the old
+    # one) and for a recovery to hold, 10 estimator steps to fill the matcher's window of frames;
+    # a fault after 6 violating looks, as the platform's widest turn alone keeps P_T at 0 for 4
+    # (docs/experiment.md, "The run").
+    settings=RuntimeSettings(debounce=6),
     sample_period=FRAME,
     step=0.001,
     quantum=0.01,

@@ -37,9 +37,13 @@ Real time (docs/refresh.md, "Real time"): each `step()` then asks the applier wh
 slipped behind real time since the last (their reports say: `pbort.timekeeping`) and `host_slip`
 how late the caller's own loop came. A period in which one slipped more than `slip_tolerance`
 is not judged: its measurements were taken by an emulator that fell behind, and a fault read
-into them would repair the wrong thing. "real time lost on NODE by X ms" is recorded when it
-starts, "real time held again" when a period is clean; real time lost for `real_time_patience`
-seconds stops the run (`RealTimeLost`), between decisions, never halfway through one.
+into them would repair the wrong thing. Such a period neither counts towards a detection (the
+violations seen so far are forgotten) nor towards or against a recovery (only judged periods
+make up its hold), nor do the periods within `settle` of real time held again, while the loop
+catches up. "real time lost on NODE by X ms" is recorded when it starts, "real time held
+again" when a period is clean. When nothing could be judged for `real_time_patience` seconds
+(real time lost, or the loop catching up after), the run stops with `RealTimeLost`, between
+decisions, never halfway through one.
 """
 
 from __future__ import annotations
@@ -108,9 +112,12 @@ class Runtime:
         self.current: Configuration | None = None
         """What runs: None before `deploy()` and after a safe stop."""
         self._good_since: float | None = None  # P_T = 1 since then, after a switch
+        self._good_periods = 0  # judged periods with P_T = 1 after `_good_since`
         self._deciding = False  # a decision is being carried out: no second one meanwhile
         self._tried: dict[str, float] = {}  # a lost robot -> when it was last tried again
         self._slipping_since: float | None = None  # real time lost since then
+        self._held_at: float | None = None  # real time held again then, after it was lost
+        self._unjudged_since: float | None = None  # no period judged since then, lacking time
         self._echo: dict[str, EchoLimit] = {}  # by robot: its modules' lines shown per second
 
     def deploy(self) -> Configuration:
@@ -177,10 +184,10 @@ class Runtime:
             finally:
                 self._deciding = False
             return None
-        if slipping:  # nothing measured in this period is judged, nor counts to a recovery
+        if slipping or self._catching_up():  # nothing measured in this period is judged
             self.decider.violations = 0
-            self._good_since = None
             return None
+        self._unjudged_since = None
         try:
             detection = self.decider.step(self.current, self.applier.sources())
         except NodeLinkError as error:  # a link failed as the Decider read: lost at the next look
@@ -229,8 +236,8 @@ class Runtime:
 
     def _watch_real_time(self) -> bool:
         """Whether a node or the caller's loop slipped more than the tolerance in this period;
-        records when real time is lost and held again, and stops the run (RealTimeLost) once it
-        stayed lost for the patience."""
+        records when real time is lost and held again, and stops the run (RealTimeLost) once
+        nothing was judged for the patience for want of real time (lost, or caught up after)."""
         tolerance = self.settings.slip_tolerance
         slips = {
             f"robot {robot}'s node": (slip.seconds, slip.missed)
@@ -249,28 +256,31 @@ class Runtime:
                     seconds=now - self._slipping_since,
                 )
                 self._slipping_since = None
+                self._held_at = now
             return False
         if self._slipping_since is None:
             self._slipping_since = now
+            if self._unjudged_since is None:
+                self._unjudged_since = now
             for where, (slip, missed) in slips.items():
                 self.log.record(
                     "real_time_lost",
-                    f"real time lost on {where} by {1e3 * slip:.0f} ms"
-                    + (f" ({missed} releases missed)" if missed else "")
-                    + ": its measurements are not judged",
+                    f"real time lost on {where} {_how(slip, missed)}: its measurements are "
+                    "not judged",
                     where=where,
                     slip=slip,
                     missed=missed,
                 )
-        lost_for = now - self._slipping_since
-        if lost_for >= self.settings.real_time_patience - _EPSILON and not self._deciding:
-            where, (slip, _) = max(slips.items(), key=lambda item: item[1][0])
+        since = self._unjudged_since
+        assert since is not None
+        if now - since >= self.settings.real_time_patience - _EPSILON and not self._deciding:
+            where, (slip, missed) = max(slips.items(), key=lambda item: item[1])
             patience = self.settings.real_time_patience
             raise RealTimeLost(
-                f"real time lost on {where} by {1e3 * slip:.0f} ms, and lost for {lost_for:.3f} "
-                f"s since {self._slipping_since:.3f} s (at most {patience:g} s allowed): the run "
-                "stops, as no measurement can be judged (a machine less busy, fewer nodes per "
-                "core, or the run in lock-step keeps time)"
+                f"real time lost on {where} {_how(slip, missed)}, and nothing judged for "
+                f"{now - since:.3f} s since {since:.3f} s (at most {patience:g} s allowed): the "
+                "run stops, as no measurement can be judged (a machine less busy, fewer nodes "
+                "per core, or the run in lock-step keeps time)"
             )
         return True
 
@@ -317,22 +327,32 @@ class Runtime:
         self.decider.violations = 0  # what it counted was about the old configuration
         self.history.configurations.append((self.clock(), target.label()))
 
+    def _catching_up(self) -> bool:
+        """True within `settle` seconds of real time held again: a closed loop that lost real
+        time (frames late, a tracker left behind) takes that long to be itself again, and what
+        it measures meanwhile is the loss, not a module."""
+        held = self._held_at
+        return held is not None and self.clock() - held < self.settings.settle - _EPSILON
+
     def _settling(self) -> bool:
         """True within `settle` seconds of the last switch."""
         last = self.history.switched_at()
         return last is not None and self.clock() - last < self.settings.settle - _EPSILON
 
     def _watch_recovery(self, pending: Reconfiguration) -> None:
-        """Confirm recovery once P_T has held for `recovery_hold` since it first came back."""
+        """Confirm recovery once P_T has held for `recovery_hold` in judged periods since it
+        first came back (a period not judged for lack of real time adds nothing)."""
         assert pending.applied_at is not None
         if self.decider.violations:
             self._good_since = None
             return
-        now = self.clock()
         if self._good_since is None:
-            self._good_since = now
+            self._good_since, self._good_periods = self.clock(), 0
+            return
+        self._good_periods += 1
         since = self._good_since
-        if now - since >= self.settings.recovery_hold - _EPSILON:
+        held = self._good_periods * self.settings.decision_period
+        if held >= self.settings.recovery_hold - _EPSILON:
             pending.recovered_at = since
             self.log.record(
                 "recovered",
@@ -395,3 +415,10 @@ class Runtime:
         self.history.stopped_at = self.clock()
         self.log.record("stopped", f"no repair ({reason}): the task is stopped", reason=reason)
         self.current = None
+
+
+def _how(slip: float, missed: int) -> str:
+    """How real time was lost, in words: by how much, and the releases missed."""
+    if not missed:
+        return f"by {1e3 * slip:.0f} ms"
+    return f"by {1e3 * slip:.0f} ms ({missed} release{'s' if missed != 1 else ''} missed)"

@@ -48,8 +48,8 @@ class RuntimeSettings:
     measurements still be judged; a period with a larger slip is not judged, and
     "real time lost" is recorded instead of a fault."""
     real_time_patience: float = 3.0
-    """Seconds real time may stay lost before the run stops with that condition: no repair
-    can be judged meanwhile."""
+    """Seconds nothing may be judged for want of real time (lost, or the loop catching up
+    after) before the run stops with that condition: no repair can be judged meanwhile."""
     compare_locations: bool = False
     """At each decision, every fault-location strategy also locates the fault in shadow, each
     with a fresh estimator, and the reconfiguration keeps their answers (campaigns compare the

@@ -64,9 +64,9 @@ def test_a_draw_of_an_unknown_scenario_is_refused_naming_the_known_ones():
 
 
 def test_the_experiment_runs_on_the_runtime_settings_of_the_paper():
-    """The declaration takes the runtime's defaults: they must stay the experiment's."""
+    """The declaration takes the runtime's defaults but the debounce (docs/experiment.md)."""
     assert APPLICATION.settings == RuntimeSettings(
-        decision_period=0.1, debounce=5, settle=0.5, recovery_hold=0.5, estimate_steps=10
+        decision_period=0.1, debounce=6, settle=0.5, recovery_hold=0.5, estimate_steps=10
     )
 
 

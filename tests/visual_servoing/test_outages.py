@@ -93,7 +93,12 @@ def test_across_processes_the_node_is_really_lost_and_the_run_ends_as_in_process
         assert "ADVANCE to 7.01 s" in lost["message"]  # the quantum it died in
     if name == "rejoin":
         assert (tmp_path / "processes" / "rotation-2.log").read_text().startswith("listening on")
-    for mine, theirs in zip(got["reconfigurations"], expected["reconfigurations"], strict=True):
+    pairs = zip(got["reconfigurations"], expected["reconfigurations"], strict=True)
+    for index, (mine, theirs) in enumerate(pairs):
         assert mine["chosen"] == theirs["chosen"]
+        # The blackout's and the outage's repairs come at the same looks both ways. The frames
+        # differ by a few pixels (docs/experiment.md), so by 11 s the task's turns may fall a
+        # look or two apart, and a turn that meets the battery's sag counts to its debounce.
+        slack = QUANTUM if index < 2 else APPLICATION.settings.decision_period + QUANTUM
         for key in ("detected_at", "applied_at"):
-            assert mine[key] == pytest.approx(theirs[key], abs=QUANTUM), key
+            assert mine[key] == pytest.approx(theirs[key], abs=slack), key
