@@ -5,8 +5,11 @@ VENV := .venv
 PY := $(VENV)/bin/python
 INSTALLED := $(VENV)/.installed
 SYSTEM_TOOLS := gcc=gcc riscv64-unknown-elf-gcc=gcc-riscv64-unknown-elf iverilog=iverilog yosys=yosys \
-	ccache=ccache /usr/include/lz4.h=liblz4-dev gdb-multiarch=gdb-multiarch
+	ccache=ccache /usr/include/lz4.h=liblz4-dev gdb-multiarch=gdb-multiarch \
+	qemu-system-riscv32=qemu-system-misc
 BUILD := build
+
+include firmware/firmware.mk
 
 .PHONY: demo test lint tools modules bench clean
 
@@ -34,7 +37,7 @@ lint: $(INSTALLED)
 # The suite on every core (pytest-xdist), a test file per worker: the files that share a build
 # folder (the HDL simulations' per-parameter builds) or a fixture never run at once. The tests
 # that judge processes on their real-time clocks (`serial`) run alone afterwards.
-test: tools $(INSTALLED) lint
+test: tools $(INSTALLED) lint firmware firmware-host
 	$(PY) -m pytest -n auto --dist loadfile -m "not serial"
 	$(PY) -m pytest -m serial
 

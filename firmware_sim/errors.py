@@ -32,8 +32,10 @@ Tree::
     ├── ReconfigurationPortError (LookupError)
     │                                   no FPGA reconfiguration port is installed, or the one
     │                                   installed cannot build the fabric asked for
-    └── BridgeError (RuntimeError)      a port between nodes that cannot be set up, or a lock-step
-                                        step that cannot run (a bridge's value did not come)
+    ├── BridgeError (RuntimeError)      a port between nodes that cannot be set up, or a lock-step
+    │                                   step that cannot run (a bridge's value did not come)
+    └── QemuError (RuntimeError)        QEMU or the C firmware could not be built, started or
+                                        reached (``firmware-sim qemu``)
 
 Two exceptions of firmware_sim stand outside the tree on purpose, because they are control flow
 and not failures a caller should report:
@@ -134,3 +136,8 @@ class ReconfigurationPortError(FirmwareSimError, LookupError):
 class BridgeError(FirmwareSimError, RuntimeError):
     """A port between nodes that cannot be set up (a busy bridge number, a port too large for a
     link, an unknown wire), or a lock-step Advance whose imported values did not come."""
+
+
+class QemuError(FirmwareSimError, RuntimeError):
+    """QEMU or the firmware could not be started, built or reached: the message says which and
+    what to do."""

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
+from hexmigrate.elf import image_from_elf
 from module_sdk.build import ModuleBuild, build_examples
 
 
@@ -18,3 +21,16 @@ def example_builds(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Module
 def example(request: pytest.FixtureRequest, example_builds: dict[str, ModuleBuild]) -> ModuleBuild:
     """Each example module in turn."""
     return example_builds[request.param]
+
+
+@pytest.fixture(scope="session")
+def example_hex(
+    example_builds: dict[str, ModuleBuild], tmp_path_factory: pytest.TempPathFactory
+) -> dict[str, Path]:
+    """The example modules as the module files ``hexmigrate send`` takes, by name."""
+    folder = tmp_path_factory.mktemp("hex")
+    files = {}
+    for name, build in example_builds.items():
+        files[name] = folder / f"{name}.hex"
+        image_from_elf(build.elf).write(files[name])
+    return files

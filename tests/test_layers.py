@@ -49,6 +49,7 @@ ROOMS: dict[str, dict[str, int]] = {
         "core": 0,
         "wires": 1,
         "gdb": 1,
+        "qemu": 1,
         "bridge": 2,
         "serving": 3,
         "cli": 4,

@@ -15,6 +15,7 @@ from pathlib import Path
 from commandline import UsageError, add_command, command_parser, run
 from commandline.arguments import host_port, input_file, integer
 from firmware_sim.cli import arguments
+from firmware_sim.cli.qemu_command import add_qemu
 from firmware_sim.cli.run_report import render, run_report
 from firmware_sim.core.debug_port import DebugPort
 from firmware_sim.core.fpga_port import DEFAULT_MODEL, DEFAULT_WIDTH, MODELS
@@ -260,6 +261,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_run(commands)
     _add_listen(commands)
     _add_transfer(commands)
+    add_qemu(commands, _say)
     info = add_command(commands, "info", cmd_info, "print the memory map and the service table")
     info.add_argument("--json", action="store_true", help="print them as JSON")
     return parser

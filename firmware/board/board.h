@@ -1,0 +1,63 @@
+/*
+ * board.h - what the node firmware needs of a board, and nothing more.
+ *
+ * Porting the firmware to another RV32 board is writing one file that implements these
+ * functions (firmware/board/qemu_virt.c is the first). Everything above this line, the loader,
+ * the flash directory and the protocol, is the same on every board.
+ *
+ * Three things: a byte stream to the host (the link), the flash the modules live in, and a
+ * clock. None of them may block the node for long: the UART is polled, and a flash operation
+ * returns when the chip says it is done.
+ *
+ * Flash geometry. The node lays its flash out in 256-byte blocks, as the Python node does (the
+ * same directory bytes, docs/node.md), and programs one block at a time. Real NOR flash erases
+ * in larger sectors (QEMU virt's CFI flash: 256 KiB), so the board says how large its erase
+ * sector is and the layer above (src/flash_layout.c) never erases a sector that holds anything
+ * it must keep. A board whose flash erases single blocks reports a sector of 256 bytes.
+ */
+#ifndef BOARD_H
+#define BOARD_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#define BOARD_BLOCK_SIZE 256u
+
+/* Set the board up (UART, flash in read mode); called once, first thing in main. */
+void board_init(void);
+
+/* A short name for the board, shown in the node's PONG and banner. */
+const char *board_name(void);
+
+/* The next byte the host sent, if one is waiting: true and *byte set, or false at once. */
+bool board_uart_read(uint8_t *byte);
+
+/* Send `length` bytes to the host (waits only for the UART's transmit register). */
+void board_uart_write(const uint8_t *bytes, size_t length);
+
+/* Microseconds since the board started; never goes back. */
+uint64_t board_time_us(void);
+
+/* Where the flash is mapped (the address modules run from), its size and its erase sector. */
+uint32_t board_flash_base(void);
+uint32_t board_flash_size(void);
+uint32_t board_flash_sector_size(void);
+
+/* Copy `length` bytes at `offset` from the flash's start into `destination`. */
+void board_flash_read(uint32_t offset, void *destination, size_t length);
+
+/* Erase the sector that starts at `offset` (a multiple of the sector size) to 0xFF; false when
+ * the chip reports an error. */
+bool board_flash_erase_sector(uint32_t offset);
+
+/* Program `length` bytes (1..256, a whole number of 4-byte words) at `offset` (word aligned,
+ * inside one block). Every word must be erased (0xFFFFFFFF) before: NOR flash only clears bits,
+ * and QEMU's model replaces a word programmed twice, so the board refuses (false) rather than
+ * hide a bug of the layer above. False too when the chip reports an error. */
+bool board_flash_program(uint32_t offset, const void *source, size_t length);
+
+/* Free bytes of RAM the node does not use (for the PONG line). */
+uint32_t board_ram_free(void);
+
+#endif /* BOARD_H */

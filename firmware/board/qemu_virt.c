@@ -1,0 +1,204 @@
+/*
+ * qemu_virt.c - the board file of QEMU's `virt` machine (qemu-system-riscv32 -M virt).
+ *
+ * The only file that knows the machine: an ns16550a UART at 0x10000000 (QEMU puts it on a pty
+ * with -serial pty), the second CFI flash bank at 0x22000000 (-drive if=pflash,unit=1 keeps it in
+ * a file) driven with its real Intel command set, and the CLINT's mtime at 10 MHz. A real board
+ * replaces this file and nothing else (docs/firmware.md).
+ */
+#include "board.h"
+
+/* ns16550a registers (byte wide, QEMU maps them one byte apart). */
+#define UART_BASE 0x10000000u
+#define UART_RBR 0u /* receive buffer (read) */
+#define UART_THR 0u /* transmit holding (write) */
+#define UART_FCR 2u /* FIFO control */
+#define UART_LCR 3u /* line control */
+#define UART_LSR 5u /* line status */
+#define LSR_DATA_READY 0x01u
+#define LSR_THR_EMPTY 0x20u
+
+/* CFI flash, bank 1 (unit=1): 32 MiB of 256 KiB sectors, 32-bit bus (two x16 chips). */
+#define FLASH_BASE 0x22000000u
+#define FLASH_SIZE (32u * 1024u * 1024u)
+#define FLASH_SECTOR (256u * 1024u)
+#define CFI_READ_ARRAY 0x00FF00FFu
+#define CFI_CLEAR_STATUS 0x00500050u
+#define CFI_BLOCK_ERASE 0x00200020u
+#define CFI_ERASE_CONFIRM 0x00D000D0u
+#define CFI_WORD_PROGRAM 0x00400040u
+#define CFI_STATUS_READY 0x80u
+#define CFI_STATUS_ERRORS 0x3Au /* erase, program, voltage and lock errors */
+#define CFI_POLLS 1000000u      /* a bound: a chip that never gets ready is an error, not a hang */
+
+/* CLINT: mtime counts at 10 MHz on virt. */
+#define CLINT_MTIME_LOW 0x0200BFF8u
+#define CLINT_MTIME_HIGH 0x0200BFFCu
+#define MTIME_PER_US 10u /* divide_by_ten below relies on it */
+
+extern char __bss_end[];   /* from the linker script: the end of the node's static RAM */
+extern char __stack_low[]; /* the lowest address the stack may reach */
+
+static volatile uint8_t *uart(uint32_t reg)
+{
+    return (volatile uint8_t *)(UART_BASE + reg);
+}
+
+static volatile uint32_t *flash_word(uint32_t offset)
+{
+    return (volatile uint32_t *)(FLASH_BASE + offset);
+}
+
+void board_init(void)
+{
+    *uart(UART_LCR) = 0x03; /* 8N1 */
+    *uart(UART_FCR) = 0x07; /* FIFOs on and cleared */
+    *flash_word(0) = CFI_READ_ARRAY;
+}
+
+const char *board_name(void)
+{
+    return "qemu-virt";
+}
+
+bool board_uart_read(uint8_t *byte)
+{
+    if (!(*uart(UART_LSR) & LSR_DATA_READY)) {
+        return false;
+    }
+    *byte = *uart(UART_RBR);
+    return true;
+}
+
+void board_uart_write(const uint8_t *bytes, size_t length)
+{
+    for (size_t i = 0; i < length; i++) {
+        while (!(*uart(UART_LSR) & LSR_THR_EMPTY)) {
+        }
+        *uart(UART_THR) = bytes[i];
+    }
+}
+
+/* n / 10 by shifts and adds (Hacker's Delight, divu10): no 64-bit division from libgcc. */
+static uint64_t divide_by_ten(uint64_t n)
+{
+    uint64_t q = (n >> 1) + (n >> 2);
+    q += q >> 4;
+    q += q >> 8;
+    q += q >> 16;
+    q += q >> 32;
+    q >>= 3;
+    uint64_t r = n - q * 10;
+    return q + ((r + 6) >> 4);
+}
+
+uint64_t board_time_us(void)
+{
+    /* Read high, low, high again: a carry between the two halves is seen and retried. */
+    volatile uint32_t *low = (volatile uint32_t *)CLINT_MTIME_LOW;
+    volatile uint32_t *high = (volatile uint32_t *)CLINT_MTIME_HIGH;
+    uint32_t before, after, value;
+    do {
+        before = *high;
+        value = *low;
+        after = *high;
+    } while (before != after);
+    return divide_by_ten(((uint64_t)after << 32) | value);
+}
+
+uint32_t board_flash_base(void)
+{
+    return FLASH_BASE;
+}
+
+uint32_t board_flash_size(void)
+{
+    return FLASH_SIZE;
+}
+
+uint32_t board_flash_sector_size(void)
+{
+    return FLASH_SECTOR;
+}
+
+void board_flash_read(uint32_t offset, void *destination, size_t length)
+{
+    const volatile uint8_t *source = (const volatile uint8_t *)(FLASH_BASE + offset);
+    uint8_t *out = destination;
+    for (size_t i = 0; i < length; i++) {
+        out[i] = source[i];
+    }
+}
+
+/* Wait for the chip's ready bit; true when it finished without an error bit. The chip is then
+ * put back into read-array mode, whatever happened, so the flash reads as memory again. */
+static bool cfi_wait(uint32_t offset)
+{
+    uint32_t status = 0;
+    for (uint32_t polls = 0; polls < CFI_POLLS; polls++) {
+        status = *flash_word(offset);
+        if (status & CFI_STATUS_READY) {
+            break;
+        }
+    }
+    bool ok = (status & CFI_STATUS_READY) && !(status & CFI_STATUS_ERRORS);
+    if (!ok) {
+        *flash_word(offset) = CFI_CLEAR_STATUS;
+    }
+    *flash_word(offset) = CFI_READ_ARRAY;
+    return ok;
+}
+
+bool board_flash_erase_sector(uint32_t offset)
+{
+    if (offset % FLASH_SECTOR || offset >= FLASH_SIZE) {
+        return false;
+    }
+    *flash_word(offset) = CFI_BLOCK_ERASE;
+    *flash_word(offset) = CFI_ERASE_CONFIRM;
+    return cfi_wait(offset);
+}
+
+/* True when every word of the range reads erased. */
+static bool words_erased(uint32_t offset, size_t length)
+{
+    for (size_t i = 0; i < length; i += 4) {
+        if (*flash_word(offset + i) != 0xFFFFFFFFu) {
+            return false;
+        }
+    }
+    return true;
+}
+
+static bool program_word(uint32_t offset, uint32_t value)
+{
+    if (value == 0xFFFFFFFFu) {
+        return true; /* an erased word stays erased: nothing to program */
+    }
+    *flash_word(offset) = CFI_WORD_PROGRAM;
+    *flash_word(offset) = value;
+    return cfi_wait(offset);
+}
+
+bool board_flash_program(uint32_t offset, const void *source, size_t length)
+{
+    const uint8_t *bytes = source;
+    if (offset % 4 || length % 4 || length == 0 || length > BOARD_BLOCK_SIZE ||
+        offset / BOARD_BLOCK_SIZE != (offset + length - 1) / BOARD_BLOCK_SIZE ||
+        offset + length > FLASH_SIZE || !words_erased(offset, length)) {
+        return false;
+    }
+    for (size_t i = 0; i < length; i += 4) {
+        uint32_t value = (uint32_t)bytes[i] | (uint32_t)bytes[i + 1] << 8 |
+                         (uint32_t)bytes[i + 2] << 16 | (uint32_t)bytes[i + 3] << 24;
+        if (!program_word(offset + i, value)) {
+            return false;
+        }
+    }
+    return true;
+}
+
+uint32_t board_ram_free(void)
+{
+    return (uint32_t)(__stack_low - __bss_end);
+}

@@ -1,0 +1,47 @@
+# The node firmware's build (docs/firmware.md), included by the top Makefile.
+#
+#   make firmware        build/firmware/node.elf for QEMU virt (RV32IM, no libc)
+#   make firmware-host   build/firmware/host/receiver_harness: the same loader and receiver for
+#                        the host, with a RAM flash, under ASan and UBSan (tests/firmware)
+#
+# A board is one file: FIRMWARE_BOARD selects it. The kernel's sources (firmware/kernel) join
+# the link through FIRMWARE_KERNEL_SOURCES once it implements the seams of
+# firmware/src/modules.h and control.h; until then weak defaults stand in.
+
+FIRMWARE_CC ?= riscv64-unknown-elf-gcc
+FIRMWARE_BOARD ?= firmware/board/qemu_virt.c
+FIRMWARE_KERNEL_SOURCES ?=
+FIRMWARE_OUT := $(BUILD)/firmware
+FIRMWARE_ELF := $(FIRMWARE_OUT)/node.elf
+FIRMWARE_SOURCES := $(wildcard firmware/src/*.c) firmware/src/start.S $(FIRMWARE_BOARD) \
+	$(FIRMWARE_KERNEL_SOURCES)
+FIRMWARE_HEADERS := $(wildcard firmware/src/*.h firmware/board/*.h)
+FIRMWARE_ARCH := -march=rv32im_zicsr -mabi=ilp32
+FIRMWARE_CFLAGS := $(FIRMWARE_ARCH) -nostdlib -ffreestanding -Os -msave-restore -g -std=c11 -Wall -Wextra \
+	-Werror -ffunction-sections -fdata-sections -fno-common
+FIRMWARE_LDFLAGS := -T firmware/src/link.ld -Wl,--gc-sections -Wl,--no-warn-rwx-segments \
+	-Wl,-Map=$(FIRMWARE_OUT)/node.map
+
+HOST_CC ?= gcc
+FIRMWARE_HOST := $(FIRMWARE_OUT)/host/receiver_harness
+FIRMWARE_HOST_SOURCES := $(filter-out firmware/src/main.c,$(wildcard firmware/src/*.c)) \
+	$(wildcard firmware/host/*.c)
+FIRMWARE_HOST_CFLAGS := -DFIRMWARE_HOST -std=c11 -g -O1 -Wall -Wextra -Werror \
+	-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
+
+.PHONY: firmware firmware-host
+
+firmware: $(FIRMWARE_ELF)
+firmware-host: $(FIRMWARE_HOST)
+
+# libgcc of the rv32im/ilp32 multilib: the 64-bit divisions of the clock and of decimal output.
+$(FIRMWARE_ELF): $(FIRMWARE_SOURCES) $(FIRMWARE_HEADERS) firmware/src/link.ld firmware/firmware.mk
+	@mkdir -p $(FIRMWARE_OUT)
+	$(FIRMWARE_CC) $(FIRMWARE_CFLAGS) $(FIRMWARE_LDFLAGS) -o $@ $(FIRMWARE_SOURCES) \
+		$$($(FIRMWARE_CC) -march=rv32im -mabi=ilp32 -print-libgcc-file-name)
+	riscv64-unknown-elf-size $@
+
+$(FIRMWARE_HOST): $(FIRMWARE_HOST_SOURCES) $(FIRMWARE_HEADERS) $(wildcard firmware/host/*.h) \
+		firmware/firmware.mk
+	@mkdir -p $(dir $@)
+	$(HOST_CC) $(FIRMWARE_HOST_CFLAGS) -o $@ $(FIRMWARE_HOST_SOURCES)

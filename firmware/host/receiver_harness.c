@@ -1,0 +1,111 @@
+/*
+ * receiver_harness.c - the node's main loop on the host: bytes from stdin, answers on stdout,
+ * with a few directives for tests (tests/firmware/test_host_fuzz.py).
+ *
+ * The bytes go through the same line reader and receiver as on QEMU. With --directives, a line
+ * that starts with STX (0x02) is the harness's, not the node's:
+ *   STX R        restart: the node boots again from its flash (what a reset leaves)
+ *   STX T        the clock moves on 61 s (idle transfers expire)
+ *   STX C N      the power fails during the N-th next flash operation (then STX R restores it)
+ *   STX S PATH   the flash written to the file PATH (the test reads its directory)
+ *   STX L PATH   the flash read from the file PATH, then a restart (a state to start from)
+ *   STX P        `#pending` when a planned power cut is still to come, before the `#ok`
+ * Each directive is answered `#ok`. Without --directives the stream is passed on untouched.
+ */
+#include "../board/board.h"
+#include "../src/flash_layout.h"
+#include "../src/line_reader.h"
+#include "../src/node.h"
+#include "../src/receiver.h"
+#include "host_board.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static struct line_reader reader;
+
+static void send_bytes(const char *bytes, size_t length)
+{
+    board_uart_write((const uint8_t *)bytes, length);
+}
+
+static void say(const char *line)
+{
+    printf("%s\n", line);
+    fflush(stdout);
+}
+
+static void boot(void)
+{
+    board_init();
+    if (!flash_layout_init()) {
+        fprintf(stderr, "host board: flash geometry refused\n");
+        exit(2);
+    }
+    node_boot(say);
+    receiver_init(send_bytes);
+    line_reader_init(&reader);
+    say("refresh-node host ready");
+}
+
+static void directive(const char *line)
+{
+    if (line[1] == 'R') {
+        host_board_restore_power();
+        boot();
+    } else if (line[1] == 'T') {
+        host_board_advance(61000000ull);
+        receiver_expire();
+    } else if (line[1] == 'C') {
+        host_board_cut_power_after((uint32_t)strtoul(line + 2, 0, 10));
+    } else if (line[1] == 'S') {
+        host_board_save(line + 3);
+    } else if (line[1] == 'P') {
+        if (host_board_cut_pending()) {
+            say("#pending");
+        }
+    } else if (line[1] == 'L') {
+        host_board_load(line + 3);
+        host_board_restore_power();
+        boot();
+    }
+    say("#ok");
+}
+
+/* A directive line: STX, then its text up to the line end. */
+static void read_directive(void)
+{
+    char line[512] = {0x02};
+    size_t length = 1;
+    uint8_t byte;
+    while (board_uart_read(&byte) && byte != '\n') {
+        if (length + 1 < sizeof line) {
+            line[length++] = (char)byte;
+        }
+    }
+    line[length] = '\0';
+    directive(line);
+}
+
+int main(int argc, char **argv)
+{
+    int directives = argc > 1 && strcmp(argv[1], "--directives") == 0;
+    boot();
+    uint8_t byte;
+    int line_start = 1;
+    while (board_uart_read(&byte)) {
+        if (directives && line_start && byte == 0x02) {
+            read_directive();
+            continue;
+        }
+        line_start = byte == '\n';
+        enum line_event event = line_reader_feed(&reader, byte);
+        if (event == LINE_TEXT) {
+            receiver_handle_line(reader.line, reader.length);
+        } else if (event == LINE_BINARY) {
+            receiver_handle_binary();
+        }
+    }
+    return 0;
+}

@@ -1,0 +1,416 @@
+/*
+ * loader.c - the streaming module loader (loader.h).
+ */
+#include "loader.h"
+
+#include "crc.h"
+
+/* The signature area of the one transfer that may hold one at a time: 4 KiB is a quarter of
+ * the node's RAM budget, and signed modules are sent one after another. */
+static uint8_t signature_area[SIGNATURE_AREA_MAX];
+static const struct load_session *signature_owner;
+
+static void add_owner(struct phrase *why, const struct load_session *session)
+{
+    phrase_add_repr(why, session->owner, name_length(session->owner, sizeof session->owner));
+}
+
+static uint32_t session_offset(const struct load_session *session)
+{
+    return session->extent.first * flash_sector_size();
+}
+
+uint32_t loader_load_base(const struct load_session *session)
+{
+    return flash_base() + session_offset(session);
+}
+
+uint32_t loader_received(const struct load_session *session)
+{
+    return session->programmed_blocks * FLASH_BLOCK + session->buffered;
+}
+
+uint32_t loader_programmed(const struct load_session *session)
+{
+    return session->programmed_blocks * FLASH_BLOCK;
+}
+
+static void name_owner(struct load_session *session, uint32_t tid)
+{
+    struct phrase owner;
+    phrase_start(&owner, session->owner, sizeof session->owner);
+    phrase_add(&owner, "transfer:");
+    phrase_add_hex(&owner, tid, 8);
+}
+
+static void no_room(const struct load_session *session, uint32_t blocks, struct phrase *why)
+{
+    phrase_add(why, "expected ");
+    phrase_add_decimal(why, blocks);
+    phrase_add(why, " free consecutive flash block(s) for ");
+    add_owner(why, session);
+    phrase_add(why, ", the largest free run is ");
+    phrase_add_decimal(why, (uint64_t)flash_largest_run() * (flash_sector_size() / FLASH_BLOCK));
+}
+
+/* The sectors at flash address `address`, which must start a free module sector. */
+static bool reserve_at(struct load_session *session, uint32_t address, uint32_t sectors,
+                       struct phrase *why)
+{
+    uint32_t offset = address - flash_base();
+    if (address < flash_base() || offset >= flash_size() || offset % flash_sector_size()) {
+        phrase_add(why, "expected a load address at a flash sector boundary (a multiple of ");
+        phrase_add_decimal(why, flash_sector_size());
+        phrase_add(why, " from 0x");
+        phrase_add_hex(why, flash_base(), 8);
+        phrase_add(why, "), got 0x");
+        phrase_add_hex(why, address, 8);
+        return false;
+    }
+    if (!flash_place(flash_sector_of(offset), sectors, &session->extent)) {
+        phrase_add(why, "expected free flash for ");
+        add_owner(why, session);
+        phrase_add(why, " at 0x");
+        phrase_add_hex(why, address, 8);
+        phrase_add(why, ", but it is taken or past the module area");
+        return false;
+    }
+    return true;
+}
+
+bool loader_begin(struct load_session *session, uint32_t tid, bool sized, uint32_t size, bool at,
+                  uint32_t address, struct phrase *why)
+{
+    *session = (struct load_session){0};
+    name_owner(session, tid);
+    uint32_t blocks = sized ? size / FLASH_BLOCK + (size % FLASH_BLOCK != 0) : SIZELESS_BLOCKS;
+    session->block_limit = blocks ? blocks : 1;
+    uint32_t sectors = flash_sectors_for(session->block_limit * FLASH_BLOCK);
+    if (at) {
+        if (!reserve_at(session, address, sectors, why)) {
+            return false;
+        }
+    } else if (!flash_allocate(sized ? sectors : 0, sectors, &session->extent)) {
+        no_room(session, session->block_limit, why);
+        return false;
+    }
+    session->open = true;
+    return true;
+}
+
+void loader_rewind(struct load_session *session)
+{
+    session->next_address -= session->buffered;
+    session->buffered = 0;
+}
+
+bool loader_has_relocation(const struct load_session *session, uint32_t location)
+{
+    for (uint16_t i = 0; i < session->relocation_count; i++) {
+        if (session->relocations[i] == location) {
+            return true;
+        }
+    }
+    return false;
+}
+
+bool loader_feed_relocation(struct load_session *session, uint32_t location, struct phrase *why)
+{
+    if (location % 4) {
+        phrase_add(why, "line 0: expected a 4-byte aligned pointer word, got 0x");
+        phrase_add_hex(why, location, 8);
+        phrase_add(why, " (the node fixes whole words; `hexmigrate verify` refuses this file too)");
+        return false;
+    }
+    uint64_t offset = (uint64_t)location - session->link_base;
+    if (session->has_link_base && location >= session->link_base &&
+        offset < loader_programmed(session)) {
+        phrase_add(why, "line 0: the pointer word at 0x");
+        phrase_add_hex(why, location, 8);
+        phrase_add(why, " arrived after its flash block was programmed; a module file must give "
+                        "its 07 records before the data (canonical form, as `hexmigrate pack` "
+                        "writes it)");
+        return false;
+    }
+    if (session->relocation_count >= LOADER_MAX_RELOCATIONS) {
+        phrase_add(why, "expected at most 64 pointer locations, got 65");
+        return false;
+    }
+    session->applied[session->relocation_count] = false;
+    session->relocations[session->relocation_count++] = location;
+    return true;
+}
+
+bool loader_feed_init(struct load_session *session, uint32_t target, struct phrase *why)
+{
+    if (session->has_init) {
+        phrase_add(why, "expected one module initialization pointer (08), got a second one "
+                        "(the first is on line 0)");
+        return false;
+    }
+    session->has_init = true;
+    session->init = target;
+    return true;
+}
+
+static bool owns_signature(const struct load_session *session)
+{
+    return signature_owner == session;
+}
+
+bool loader_feed_signature(struct load_session *session, uint32_t offset, const uint8_t *data,
+                           uint32_t length, struct phrase *why)
+{
+    if (signature_owner != 0 && !owns_signature(session)) {
+        phrase_add(why, "expected one signed module at a time, got a signature area while "
+                        "another transfer holds the node's: send the modules one by one");
+        return false;
+    }
+    uint32_t end = offset + length;
+    bool repeat = end <= session->signature_length;
+    for (uint32_t i = 0; repeat && i < length; i++) {
+        repeat = signature_area[offset + i] == data[i];
+    }
+    if (repeat) {
+        return true; /* the header sent again after a lost acknowledgement */
+    }
+    if (offset != session->signature_length) {
+        phrase_add(why, "expected signature bytes for offset ");
+        phrase_add_decimal(why, session->signature_length);
+        phrase_add(why, ", got offset ");
+        phrase_add_decimal(why, offset);
+        return false;
+    }
+    if (end > SIGNATURE_AREA_MAX) {
+        phrase_add(why, "expected a signature area of at most 4096 bytes, got ");
+        phrase_add_decimal(why, end);
+        return false;
+    }
+    signature_owner = session;
+    for (uint32_t i = 0; i < length; i++) {
+        signature_area[offset + i] = data[i];
+    }
+    session->signature_length = end;
+    return true;
+}
+
+/* Add the move to every pointer word inside the block about to be programmed. */
+static bool relocate_block(struct load_session *session, uint32_t length, struct phrase *why)
+{
+    uint64_t start = (uint64_t)session->link_base + (uint64_t)session->programmed_blocks *
+                                                        FLASH_BLOCK;
+    uint32_t delta = loader_load_base(session) - session->link_base;
+    for (uint16_t i = 0; i < session->relocation_count; i++) {
+        uint64_t location = session->relocations[i];
+        if (location < start || location - start >= length) {
+            continue;
+        }
+        uint32_t offset = (uint32_t)(location - start);
+        if (offset + 4 > length) {
+            if (length == FLASH_BLOCK) {
+                phrase_add(why, "line 0: the pointer word at 0x");
+                phrase_add_hex(why, (uint32_t)location, 8);
+                phrase_add(why, " straddles a flash block boundary; pointer words must be "
+                                "4-byte aligned");
+                return false;
+            }
+            continue; /* past the end of the image: loader_finish says so */
+        }
+        uint8_t *word = session->buffer + offset;
+        uint32_t value = (uint32_t)word[0] | (uint32_t)word[1] << 8 | (uint32_t)word[2] << 16 |
+                         (uint32_t)word[3] << 24;
+        value += delta;
+        word[0] = (uint8_t)value, word[1] = (uint8_t)(value >> 8);
+        word[2] = (uint8_t)(value >> 16), word[3] = (uint8_t)(value >> 24);
+        session->applied[i] = true;
+    }
+    return true;
+}
+
+static bool program_buffer(struct load_session *session, struct phrase *why)
+{
+    uint32_t index = session->programmed_blocks;
+    if (index >= session->block_limit) {
+        phrase_add(why, "module ");
+        add_owner(why, session);
+        phrase_add(why, " does not fit: ");
+        phrase_add_decimal(why, session->block_limit);
+        phrase_add(why, " block(s) of 256 bytes reserved at 0x");
+        phrase_add_hex(why, loader_load_base(session), 8);
+        phrase_add(why, ", more data arrived");
+        return false;
+    }
+    uint32_t length = session->buffered;
+    if (!relocate_block(session, length, why)) {
+        return false;
+    }
+    uint32_t offset = session_offset(session) + index * FLASH_BLOCK;
+    bool sector_start = offset % flash_sector_size() == 0;
+    if ((sector_start && !flash_make_blank(flash_sector_of(offset))) ||
+        !flash_program_block(offset, session->buffer, length)) {
+        phrase_add(why, "the flash refused to erase or program the block at 0x");
+        phrase_add_hex(why, flash_base() + offset, 8);
+        return false;
+    }
+    session->crc = crc32_update(session->crc, session->buffer, length);
+    session->programmed_blocks++;
+    session->buffered = 0;
+    return true;
+}
+
+bool loader_flush(struct load_session *session, struct phrase *why)
+{
+    return session->buffered == 0 || program_buffer(session, why);
+}
+
+static void discontinuity(const struct load_session *session, uint32_t address,
+                          struct phrase *why)
+{
+    uint32_t expected = session->next_address;
+    if (address > expected) {
+        phrase_add(why, "expected one contiguous run of data (a module fills consecutive flash "
+                        "blocks), got a gap at 0x");
+        phrase_add_hex(why, expected, 8);
+        phrase_add(why, "..0x");
+        phrase_add_hex(why, address - 1, 8);
+        return;
+    }
+    phrase_add(why, "expected data records in ascending address order (at 0x");
+    phrase_add_hex(why, expected, 8);
+    phrase_add(why, "), got 0x");
+    phrase_add_hex(why, address, 8);
+    phrase_add(why, " after line 0");
+}
+
+bool loader_feed_data(struct load_session *session, uint32_t address, const uint8_t *data,
+                      uint32_t length, struct phrase *why)
+{
+    if (!length) {
+        return true;
+    }
+    if (!session->has_link_base) {
+        session->has_link_base = true;
+        session->link_base = session->next_address = address;
+    }
+    if (address != session->next_address) {
+        discontinuity(session, address, why);
+        return false;
+    }
+    for (uint32_t position = 0; position < length;) {
+        uint32_t room = FLASH_BLOCK - session->buffered;
+        uint32_t piece = length - position < room ? length - position : room;
+        for (uint32_t i = 0; i < piece; i++) {
+            session->buffer[session->buffered + i] = data[position + i];
+        }
+        session->buffered += piece;
+        position += piece;
+        if (session->buffered == FLASH_BLOCK && !program_buffer(session, why)) {
+            return false;
+        }
+    }
+    session->next_address = address + length;
+    return true;
+}
+
+static void add_span(struct phrase *why, uint32_t link_base, uint32_t size)
+{
+    phrase_add(why, "0x");
+    phrase_add_hex(why, link_base, 8);
+    phrase_add(why, "..0x");
+    phrase_add_hex(why, link_base + size - 1, 8);
+}
+
+static bool check_pointers(const struct load_session *session, uint32_t size, struct phrase *why)
+{
+    for (uint16_t i = 0; i < session->relocation_count; i++) {
+        if (!session->applied[i]) {
+            phrase_add(why, "line 0: expected the pointer word at ");
+            add_span(why, session->relocations[i], 4);
+            phrase_add(why, " inside the image data (");
+            add_span(why, session->link_base, size);
+            phrase_add(why, "), got it outside");
+            return false;
+        }
+    }
+    if ((uint64_t)session->init < session->link_base ||
+        (uint64_t)session->init >= (uint64_t)session->link_base + size) {
+        phrase_add(why, "line 0: expected the init subroutine at 0x");
+        phrase_add_hex(why, session->init, 8);
+        phrase_add(why, " inside the image data (");
+        add_span(why, session->link_base, size);
+        phrase_add(why, "), got it outside");
+        return false;
+    }
+    return true;
+}
+
+static bool check_read_back(const struct load_session *session, uint32_t size, struct phrase *why)
+{
+    uint32_t written = flash_crc32(session_offset(session), size);
+    if (written == session->crc) {
+        return true;
+    }
+    phrase_add(why, "flash read-back of module ");
+    add_owner(why, session);
+    phrase_add(why, " at 0x");
+    phrase_add_hex(why, loader_load_base(session), 8);
+    phrase_add(why, " gives CRC-32 0x");
+    phrase_add_hex(why, written, 8);
+    phrase_add(why, ", expected 0x");
+    phrase_add_hex(why, session->crc, 8);
+    return false;
+}
+
+bool loader_finish(struct load_session *session, struct loaded_image *image, struct phrase *why)
+{
+    if (!session->has_init) {
+        phrase_add(why, "expected a module initialization pointer (record 08), got none: this is "
+                        "a plain HEX file, not a module");
+        return false;
+    }
+    if (!session->has_link_base) {
+        phrase_add(why, "expected the module's data, got no data records");
+        return false;
+    }
+    if (!loader_flush(session, why)) {
+        return false;
+    }
+    uint32_t size = session->next_address - session->link_base;
+    if (!check_pointers(session, size, why) || !check_read_back(session, size, why)) {
+        return false;
+    }
+    flash_shrink(&session->extent, flash_sectors_for(loader_programmed(session)));
+    *image = (struct loaded_image){session->link_base, loader_load_base(session), size,
+                                   session->init, session->relocation_count, session->crc,
+                                   session->extent};
+    if (owns_signature(session)) {
+        signature_owner = 0; /* kept until here; checked here once the node trusts keys */
+    }
+    session->open = false;
+    return true;
+}
+
+void loader_erase_extent(const struct extent *extent)
+{
+    for (uint32_t i = 0; i < extent->count; i++) {
+        flash_make_blank(extent->first + i);
+    }
+    flash_release(extent);
+}
+
+void loader_abort(struct load_session *session)
+{
+    if (!session->open) {
+        return;
+    }
+    session->open = false;
+    if (owns_signature(session)) {
+        signature_owner = 0;
+    }
+    loader_erase_extent(&session->extent);
+}
+
+void loader_discard(const struct loaded_image *image)
+{
+    loader_erase_extent(&image->extent);
+}

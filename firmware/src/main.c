@@ -1,0 +1,85 @@
+/*
+ * main.c - the node firmware: boot the flash directory, say so on the link, then serve.
+ *
+ * One loop, no interrupts: poll the UART, hand each whole line to the receiver, drop idle
+ * transfers. The banner is the first line a host sees after a reset; lines about modules
+ * skipped at boot come before it. It is no protocol message, so a host that reads it as an
+ * answer drops it as one it cannot decode.
+ *
+ * Until the first byte from the host arrives the banner is said again every 50 ms: a line
+ * that no one listened to (QEMU drops what the guest writes to a pty nobody holds open, a real
+ * board's host may plug in late) is said again, and a launcher needs no luck to hear it.
+ */
+#include "../board/board.h"
+#include "flash_layout.h"
+#include "line_reader.h"
+#include "node.h"
+#include "phrase.h"
+#include "receiver.h"
+
+#define BANNER_MAX 200
+#define BANNER_EVERY_US 50000u
+
+static struct line_reader reader;
+
+static void send_bytes(const char *bytes, size_t length)
+{
+    board_uart_write((const uint8_t *)bytes, length);
+}
+
+static void say(const char *line)
+{
+    send_bytes(line, name_length(line, 400));
+    send_bytes("\n", 1);
+}
+
+static void banner(void)
+{
+    char text[BANNER_MAX];
+    struct phrase line;
+    phrase_start(&line, text, sizeof text);
+    phrase_add(&line, "refresh-node ");
+    phrase_add(&line, board_name());
+    phrase_add(&line, " ready: ");
+    node_describe(&line);
+    say(text);
+}
+
+static void serve(void)
+{
+    bool heard = false;
+    uint64_t announced = board_time_us();
+    for (;;) {
+        uint8_t byte;
+        if (!board_uart_read(&byte)) {
+            receiver_expire();
+            if (!heard && board_time_us() - announced >= BANNER_EVERY_US) {
+                banner();
+                announced = board_time_us();
+            }
+            continue;
+        }
+        heard = true;
+        enum line_event event = line_reader_feed(&reader, byte);
+        if (event == LINE_TEXT) {
+            receiver_handle_line(reader.line, reader.length);
+        } else if (event == LINE_BINARY) {
+            receiver_handle_binary();
+        }
+    }
+}
+
+int main(void)
+{
+    board_init();
+    if (!flash_layout_init()) {
+        say("refresh-node: the board's flash geometry does not fit this firmware; halted");
+        return 1;
+    }
+    node_boot(say);
+    receiver_init(send_bytes);
+    line_reader_init(&reader);
+    banner();
+    serve();
+    return 0;
+}

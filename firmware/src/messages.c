@@ -1,0 +1,456 @@
+/*
+ * messages.c - the hex-mode message table, its reader and its writers (messages.h).
+ */
+#include "messages.h"
+
+#include "crc.h"
+#include "number_word.h"
+
+#define U8 FIELD_U8
+#define U16 FIELD_U16
+#define U32 FIELD_U32
+#define U64 FIELD_U64
+#define TID {"tid", U32}
+
+static const struct verb_spec VERBS[VERB_COUNT] = {
+    [VERB_PING] = {"PING", 0, {{0}}},
+    [VERB_LS] = {"LS", 0, {{0}}},
+    [VERB_RM] = {"RM", 1, {{"name", FIELD_WORD}}},
+    [VERB_BEGIN] = {"BEGIN", 6, {TID, {"name", FIELD_WORD}, {"size", U32}, {"relocations", U16},
+                                 {"link_base", U32}, {"base", FIELD_ADDRESS}}},
+    [VERB_END] = {"END", 2, {TID, {"crc", U32}}},
+    [VERB_COMMIT] = {"COMMIT", 1, {TID}},
+    [VERB_ABORT] = {"ABORT", 1, {TID}},
+    [VERB_RESUME] = {"RESUME", 1, {TID}},
+    [VERB_PS] = {"PS", 1, {TID}},
+    [VERB_START] = {"START", 2, {TID, {"name", FIELD_WORD}}},
+    [VERB_STOP] = {"STOP", 2, {TID, {"name", FIELD_WORD}}},
+    [VERB_SET] = {"SET", 2, {TID, {"setting", FIELD_WORD}}},
+    [VERB_CONNECT] = {"CONNECT", 2, {TID, {"wire", FIELD_WORD}}},
+    [VERB_DISCONNECT] = {"DISCONNECT", 2, {TID, {"wire", FIELD_WORD}}},
+    [VERB_RATE] = {"RATE", 3, {TID, {"millihertz", U32}, {"name", FIELD_WORD}}},
+    [VERB_WATCH] = {"WATCH", 3, {TID, {"period_ms", U32}, {"ports", FIELD_REST}}},
+    [VERB_READ] = {"READ", 2, {TID, {"ports", FIELD_REST}}},
+    [VERB_EXPORT] = {"EXPORT", 6, {TID, {"number", U16}, {"rate", U32}, {"source", FIELD_WORD},
+                                   {"wire", FIELD_WORD}, {"url", FIELD_WORD}}},
+    [VERB_IMPORT] = {"IMPORT", 6, {TID, {"number", U16}, {"rate", U32}, {"sink", FIELD_WORD},
+                                   {"wire", FIELD_WORD}, {"url", FIELD_WORD}}},
+    [VERB_ADVANCE] = {"ADVANCE", 3, {TID, {"until_us", U64}, {"expect", FIELD_REST}}},
+    [VERB_CHALLENGE] = {"CHALLENGE", 1, {TID}},
+    [VERB_AUTH] = {"AUTH", 3, {TID, {"key", FIELD_WORD}, {"signature", FIELD_WORD}}},
+    [VERB_BYE] = {"BYE", 1, {TID}},
+    [VERB_LOGS] = {"LOGS", 3, {TID, {"since", U32}, {"name", FIELD_WORD}}},
+    [VERB_DESCRIBE] = {"DESCRIBE", 2, {TID, {"name", FIELD_WORD}}},
+    [VERB_CLEAR] = {"CLEAR", 2, {TID, {"name", FIELD_WORD}}},
+    [VERB_RESET] = {"RESET", 1, {TID}},
+    [VERB_HOLD] = {"HOLD", 2, {TID, {"name", FIELD_WORD}}},
+    [VERB_PONG] = {"PONG", 1, {{"text", FIELD_REST}}},
+    [VERB_MODULES] = {"MODULES", 1, {{"modules", FIELD_LISTING}}},
+    [VERB_ACK] = {"ACK", 3, {TID, {"value", U32}, {"text", FIELD_REST}}},
+    [VERB_NAK] = {"NAK", 4, {TID, {"value", U32}, {"fatal", FIELD_FLAG}, {"reason", FIELD_REST}}},
+    [VERB_PBOS] = {"PBOS", 2, {TID, {"pbos", FIELD_REST}}},
+    [VERB_VALUES] = {"VALUES", 2, {TID, {"values", FIELD_REST}}},
+    [VERB_LOGLINES] = {"LOGLINES", 3, {TID, {"latest", U32}, {"lines", FIELD_REST}}},
+    [VERB_DESCRIPTION] = {"DESCRIPTION", 2, {TID, {"text", FIELD_REST}}},
+    [VERB_REPORT] = {"REPORT", 3, {{"seq", U32}, {"clock_ms", U32}, {"values", FIELD_REST}}},
+    [VERB_BEAT] = {"BEAT", 3, {{"seq", U32}, {"clock_ms", U32}, {"state", FIELD_REST}}},
+};
+
+bool verb_is_request(enum verb verb)
+{
+    return verb < VERB_PONG;
+}
+
+const char *verb_word(enum verb verb)
+{
+    return VERBS[verb].word;
+}
+
+bool ascii_space(char c)
+{
+    return c == ' ' || (c >= '\t' && c <= '\r') || (c >= 0x1C && c <= 0x1F);
+}
+
+/* A piece of the line: `start` and `length`. */
+struct span {
+    const char *start;
+    size_t length;
+};
+
+static struct span strip(struct span s)
+{
+    while (s.length && ascii_space(s.start[0])) {
+        s.start++, s.length--;
+    }
+    while (s.length && ascii_space(s.start[s.length - 1])) {
+        s.length--;
+    }
+    return s;
+}
+
+/* The first word of `rest` and, in `rest`, what follows it without its leading blanks (as
+ * Python's split(None, 1)); false when `rest` holds no word. */
+static bool next_word(struct span *rest, struct span *word)
+{
+    struct span s = *rest;
+    while (s.length && ascii_space(s.start[0])) {
+        s.start++, s.length--;
+    }
+    if (!s.length) {
+        return false;
+    }
+    size_t n = 0;
+    while (n < s.length && !ascii_space(s.start[n])) {
+        n++;
+    }
+    *word = (struct span){s.start, n};
+    rest->start = s.start + n;
+    rest->length = s.length - n;
+    while (rest->length && ascii_space(rest->start[0])) {
+        rest->start++, rest->length--;
+    }
+    return true;
+}
+
+static void add_line_repr(struct phrase *why, const struct message *message, size_t most)
+{
+    size_t length = message->line_length < most ? message->line_length : most;
+    phrase_add_repr(why, message->line, length);
+}
+
+static void add_usage(struct phrase *why, const struct verb_spec *spec)
+{
+    phrase_add(why, spec->word);
+    for (int i = 0; i < spec->count; i++) {
+        const struct field_spec *field = &spec->fields[i];
+        phrase_add_char(why, ' ');
+        if (field->kind == FIELD_FLAG) {
+            phrase_add(why, "RETRY|FATAL");
+            continue;
+        }
+        bool bracket = field->kind == FIELD_ADDRESS || field->kind == FIELD_REST ||
+                       field->kind == FIELD_LISTING;
+        phrase_add(why, bracket ? "[" : "");
+        for (const char *c = field->name; *c; c++) {
+            phrase_add_char(why, *c >= 'a' && *c <= 'z' ? (char)(*c - 32) : *c);
+        }
+        phrase_add(why, bracket ? "]" : "");
+    }
+}
+
+static uint64_t field_limit(uint8_t kind)
+{
+    switch (kind) {
+    case FIELD_U8: return 0xFF;
+    case FIELD_U16: return 0xFFFF;
+    case FIELD_U64: return UINT64_MAX;
+    case FIELD_ADDRESS: return 0xFFFFFFFEu;
+    default: return 0xFFFFFFFFu;
+    }
+}
+
+/* A number field's value, refused as fields.py's Number refuses it. */
+static bool parse_number(struct span word, uint8_t kind, uint64_t *value, struct phrase *why)
+{
+    struct number_word number;
+    if (!number_word_parse(word.start, word.length, &number)) {
+        phrase_add(why, "expected a number, got ");
+        phrase_add_repr(why, word.start, word.length);
+        return false;
+    }
+    if (number.negative) {
+        phrase_add(why, "expected a whole number >= 0, got ");
+        number_word_show(word.start, word.length, &number, why);
+        return false;
+    }
+    if (number.overflow || number.value > field_limit(kind)) {
+        phrase_add(why, "expected 0..");
+        phrase_add_decimal(why, field_limit(kind));
+        phrase_add(why, ", got ");
+        number_word_show(word.start, word.length, &number, why);
+        return false;
+    }
+    *value = number.value;
+    return true;
+}
+
+/* One NAME@0xADDRESS:SIZE word of a listing. */
+static bool parse_module_word(struct span word, struct phrase *why)
+{
+    size_t at = word.length;
+    while (at && word.start[at - 1] != '@') {
+        at--;
+    }
+    size_t colon = at;
+    while (colon < word.length && word.start[colon] != ':') {
+        colon++;
+    }
+    if (at <= 1 || colon >= word.length) {
+        phrase_add(why, "expected NAME@0xADDRESS:SIZE, got ");
+        phrase_add_repr(why, word.start, word.length);
+        return false;
+    }
+    uint64_t ignored;
+    struct span address = {word.start + at, colon - at};
+    struct span size = {word.start + colon + 1, word.length - colon - 1};
+    return parse_number(address, FIELD_U32, &ignored, why) &&
+           parse_number(size, FIELD_U32, &ignored, why);
+}
+
+static bool parse_listing(struct span text, struct phrase *why)
+{
+    struct span word;
+    while (next_word(&text, &word)) {
+        if (!parse_module_word(word, why)) {
+            return false;
+        }
+    }
+    return true;
+}
+
+static bool parse_flag(struct span word, uint64_t *value, struct phrase *why)
+{
+    static const char *const WORDS[2] = {"RETRY", "FATAL"};
+    for (int w = 0; w < 2; w++) {
+        size_t n = name_length(WORDS[w], 8);
+        bool same = word.length == n;
+        for (size_t i = 0; same && i < n; i++) {
+            char c = word.start[i];
+            same = (c >= 'a' && c <= 'z' ? (char)(c - 32) : c) == WORDS[w][i];
+        }
+        if (same) {
+            *value = (uint64_t)w;
+            return true;
+        }
+    }
+    phrase_add(why, "expected RETRY or FATAL, got ");
+    phrase_add_repr(why, word.start, word.length);
+    return false;
+}
+
+static bool parse_field(const struct field_spec *field, struct span word, struct message *message,
+                        int index, struct phrase *why)
+{
+    message->present[index] = true;
+    message->text[index] = word.start;
+    message->text_length[index] = word.length;
+    switch (field->kind) {
+    case FIELD_WORD: case FIELD_REST: return true;
+    case FIELD_LISTING: return parse_listing(word, why);
+    case FIELD_FLAG: return parse_flag(word, &message->number[index], why);
+    default: return parse_number(word, field->kind, &message->number[index], why);
+    }
+}
+
+static void usage_error(const struct verb_spec *spec, const struct message *message,
+                        struct phrase *why)
+{
+    phrase_add(why, "expected ");
+    add_usage(why, spec);
+    phrase_add(why, ", got ");
+    add_line_repr(why, message, 60);
+}
+
+/* The fields after the verb, one word each, the free text taking what is left. */
+static bool decode_fields(const struct verb_spec *spec, struct span rest, struct message *message,
+                          struct phrase *why)
+{
+    for (int i = 0; i < spec->count; i++) {
+        const struct field_spec *field = &spec->fields[i];
+        struct span word;
+        if (field->kind == FIELD_REST || field->kind == FIELD_LISTING) {
+            word = strip(rest);
+            rest.length = 0;
+        } else if (!next_word(&rest, &word)) {
+            if (field->kind == FIELD_ADDRESS) {
+                continue; /* left out: no address */
+            }
+            usage_error(spec, message, why);
+            return false;
+        }
+        char reason[240];
+        struct phrase inner;
+        phrase_start(&inner, reason, sizeof reason);
+        if (!parse_field(field, word, message, i, &inner)) {
+            phrase_add(why, field->name);
+            phrase_add(why, " of ");
+            add_line_repr(why, message, 60);
+            phrase_add(why, " (the form: ");
+            add_usage(why, spec);
+            phrase_add(why, "): ");
+            phrase_add(why, reason);
+            return false;
+        }
+    }
+    if (strip(rest).length) {
+        usage_error(spec, message, why);
+        return false;
+    }
+    return true;
+}
+
+static bool hex_pair(const char *s)
+{
+    for (int i = 0; i < 2; i++) {
+        char c = s[i];
+        if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f') || (c >= 'A' && c <= 'F'))) {
+            return false;
+        }
+    }
+    return true;
+}
+
+/* The line without its ` *XX`, checked; a line with a `*` but no valid checksum at its end is
+ * refused (on a noisy line the damage to the checksum may come with damage to the command). */
+static bool strip_checksum(const struct message *message, struct span *body, struct phrase *why)
+{
+    const char *line = message->line;
+    size_t n = message->line_length;
+    size_t star = n;
+    for (size_t i = n; i >= 2; i--) {
+        if (line[i - 2] == ' ' && line[i - 1] == '*') {
+            star = i - 2;
+            break;
+        }
+    }
+    bool found = star < n && n - (star + 2) == 2 && hex_pair(line + star + 2);
+    if (!found) {
+        for (size_t i = 0; i < n; i++) {
+            if (line[i] == '*') {
+                phrase_add(why, "expected a checksum ' *XX' at the end, got ");
+                phrase_add_repr(why, line + (n > 8 ? n - 8 : 0), n > 8 ? 8 : n);
+                return false;
+            }
+        }
+        *body = (struct span){line, n};
+        return true;
+    }
+    uint8_t sum = crc8_line(line, star);
+    uint8_t given = (uint8_t)((line[star + 2] <= '9' ? line[star + 2] - '0'
+                                                    : (line[star + 2] | 0x20) - 'a' + 10) << 4 |
+                              (line[star + 3] <= '9' ? line[star + 3] - '0'
+                                                    : (line[star + 3] | 0x20) - 'a' + 10));
+    if (sum != given) {
+        phrase_add(why, "expected checksum ");
+        phrase_add_hex(why, sum, 2);
+        phrase_add(why, ", got ");
+        phrase_add_bytes(why, line + star + 2, 2);
+        phrase_add(why, " in ");
+        add_line_repr(why, message, 40);
+        return false;
+    }
+    *body = (struct span){line, star};
+    return true;
+}
+
+static int find_verb(struct span word)
+{
+    for (int v = 0; v < VERB_COUNT; v++) {
+        const char *w = VERBS[v].word;
+        size_t i = 0;
+        while (i < word.length && w[i]) {
+            char c = word.start[i];
+            if ((c >= 'a' && c <= 'z' ? (char)(c - 32) : c) != w[i]) {
+                break;
+            }
+            i++;
+        }
+        if (i == word.length && !w[i]) {
+            return v;
+        }
+    }
+    return -1;
+}
+
+bool message_decode(const char *raw, size_t length, struct message *message, struct phrase *why)
+{
+    for (size_t i = 0; i < length; i++) {
+        if ((uint8_t)raw[i] >= 0x80) {
+            phrase_add(why, "expected an ASCII line");
+            return false;
+        }
+    }
+    struct span line = strip((struct span){raw, length});
+    *message = (struct message){.line = line.start, .line_length = line.length};
+    if (line.length && line.start[0] == ':') {
+        message->record = true;
+        return true;
+    }
+    struct span body, verb;
+    if (!strip_checksum(message, &body, why)) {
+        return false;
+    }
+    int found = next_word(&body, &verb) ? find_verb(verb) : -1;
+    if (found < 0) {
+        phrase_add(why, "expected a command or a record line, got ");
+        add_line_repr(why, message, 30);
+        return false;
+    }
+    message->verb = (enum verb)found;
+    return decode_fields(&VERBS[found], body, message, why);
+}
+
+/* Writers. Each ends the line with its CRC-8 and a line end. */
+
+void reply_end(struct phrase *line)
+{
+    static const char HEX[] = "0123456789ABCDEF";
+    uint8_t sum = crc8_line(line->buffer, line->length);
+    phrase_add(line, " *");
+    phrase_add_char(line, HEX[sum >> 4]);
+    phrase_add_char(line, HEX[sum & 0xFu]);
+    phrase_add_char(line, '\n');
+}
+
+/* Free text as hex mode writes it: its ends stripped, left out when empty. */
+static void add_free_text(struct phrase *line, const char *text)
+{
+    struct span s = strip((struct span){text, name_length(text, REPLY_MAX)});
+    if (s.length) {
+        phrase_add_char(line, ' ');
+        phrase_add_bytes(line, s.start, s.length);
+    }
+}
+
+void reply_ack(struct phrase *line, uint32_t tid, uint32_t value, const char *text)
+{
+    phrase_add(line, "ACK ");
+    phrase_add_decimal(line, tid);
+    phrase_add_char(line, ' ');
+    phrase_add_decimal(line, value);
+    add_free_text(line, text);
+    reply_end(line);
+}
+
+void reply_nak(struct phrase *line, uint32_t tid, uint32_t value, bool fatal, const char *reason)
+{
+    phrase_add(line, "NAK ");
+    phrase_add_decimal(line, tid);
+    phrase_add_char(line, ' ');
+    phrase_add_decimal(line, value);
+    phrase_add(line, fatal ? " FATAL" : " RETRY");
+    add_free_text(line, reason);
+    reply_end(line);
+}
+
+void reply_pong(struct phrase *line, const char *text)
+{
+    phrase_add(line, "PONG");
+    add_free_text(line, text);
+    reply_end(line);
+}
+
+void reply_modules_start(struct phrase *line)
+{
+    phrase_add(line, "MODULES");
+}
+
+void reply_module(struct phrase *line, const char *name, uint32_t address, uint32_t size)
+{
+    phrase_add_char(line, ' ');
+    phrase_add(line, name);
+    phrase_add(line, "@0x");
+    phrase_add_hex(line, address, 8);
+    phrase_add_char(line, ':');
+    phrase_add_decimal(line, size);
+}

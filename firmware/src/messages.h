@@ -1,0 +1,81 @@
+/*
+ * messages.h - hex-mode messages: every verb the protocol declares, read from a line and
+ * written to one, in the words of hexmigrate/transfer/messages.py.
+ *
+ * A command is its verb, one word per field, the free-text field last, then ` *XX` (CRC-8 of
+ * the line); a person at a terminal may leave the checksum out. The table below declares each
+ * verb once with its fields, as messages.py does, and one reader decodes them all: a field that
+ * is not what its type takes is refused naming the field, the line and the form, exactly as the
+ * Python node refuses it (`NAK 0 0 RETRY bad message: ...`), so the host prints the same error
+ * whichever node it talks to. Answers (ACK, PONG, ...) are decoded too (a malformed one is
+ * refused like any line) but never answered.
+ */
+#ifndef NODE_MESSAGES_H
+#define NODE_MESSAGES_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "phrase.h"
+
+#define MESSAGE_MAX_FIELDS 6
+#define REPLY_MAX 640
+
+enum verb {
+    VERB_PING, VERB_LS, VERB_RM, VERB_BEGIN, VERB_END, VERB_COMMIT, VERB_ABORT, VERB_RESUME,
+    VERB_PS, VERB_START, VERB_STOP, VERB_SET, VERB_CONNECT, VERB_DISCONNECT, VERB_RATE,
+    VERB_WATCH, VERB_READ, VERB_EXPORT, VERB_IMPORT, VERB_ADVANCE, VERB_CHALLENGE, VERB_AUTH,
+    VERB_BYE, VERB_LOGS, VERB_DESCRIBE, VERB_CLEAR, VERB_RESET, VERB_HOLD,
+    VERB_PONG, VERB_MODULES, VERB_ACK, VERB_NAK, VERB_PBOS, VERB_VALUES, VERB_LOGLINES,
+    VERB_DESCRIPTION, VERB_REPORT, VERB_BEAT,
+    VERB_COUNT
+};
+
+enum field_kind { FIELD_U8, FIELD_U16, FIELD_U32, FIELD_U64, FIELD_ADDRESS, FIELD_FLAG,
+                  FIELD_WORD, FIELD_REST, FIELD_LISTING };
+
+struct field_spec {
+    const char *name;
+    uint8_t kind;
+};
+
+struct verb_spec {
+    const char *word;
+    uint8_t count;
+    struct field_spec fields[MESSAGE_MAX_FIELDS]; /* in text order: free text last */
+};
+
+/* A decoded line: a command (its fields' numbers and words point into the line), or a record
+ * line passed as it is. */
+struct message {
+    bool record;
+    enum verb verb;
+    const char *line; /* the stripped line */
+    size_t line_length;
+    bool present[MESSAGE_MAX_FIELDS];
+    uint64_t number[MESSAGE_MAX_FIELDS];
+    const char *text[MESSAGE_MAX_FIELDS];
+    size_t text_length[MESSAGE_MAX_FIELDS];
+};
+
+/* Decode one line (without its line end); false with the reason (after "bad message: "). */
+bool message_decode(const char *raw, size_t length, struct message *message, struct phrase *why);
+
+/* True for a request the node answers (not an answer such as ACK or PONG). */
+bool verb_is_request(enum verb verb);
+const char *verb_word(enum verb verb);
+
+/* Answers, ` *XX` and the line end included, in `line` (REPLY_MAX bytes). */
+void reply_ack(struct phrase *line, uint32_t tid, uint32_t value, const char *text);
+void reply_nak(struct phrase *line, uint32_t tid, uint32_t value, bool fatal, const char *reason);
+void reply_pong(struct phrase *line, const char *text);
+/* MODULES: the caller adds `name@0xADDRESS:SIZE` words with reply_module, then reply_end. */
+void reply_modules_start(struct phrase *line);
+void reply_module(struct phrase *line, const char *name, uint32_t address, uint32_t size);
+void reply_end(struct phrase *line);
+
+/* Python's str.isspace() for an ASCII character: what split() and strip() cut at. */
+bool ascii_space(char c);
+
+#endif

@@ -1,0 +1,158 @@
+/*
+ * number_word.c - Python's int(text, 0) grammar (number_word.h).
+ */
+#include "number_word.h"
+
+#define MAX_DECIMAL_DIGITS 1300 /* a 1024-character line of hex digits, in decimal */
+
+static int digit_value(char c)
+{
+    if (c >= '0' && c <= '9') {
+        return c - '0';
+    }
+    if (c >= 'a' && c <= 'z') {
+        return c - 'a' + 10;
+    }
+    if (c >= 'A' && c <= 'Z') {
+        return c - 'A' + 10;
+    }
+    return 99;
+}
+
+/* The base a prefix names (0x, 0o, 0b) and how many characters it takes; 10 and 0 without. */
+static unsigned prefix_base(const char *text, size_t length, size_t *skip)
+{
+    *skip = 0;
+    if (length >= 2 && text[0] == '0') {
+        char p = text[1];
+        *skip = 2;
+        if (p == 'x' || p == 'X') {
+            return 16;
+        }
+        if (p == 'o' || p == 'O') {
+            return 8;
+        }
+        if (p == 'b' || p == 'B') {
+            return 2;
+        }
+        *skip = 0;
+    }
+    return 10;
+}
+
+/* Digits of `base` with single underscores between them (and, after a prefix, before the
+ * first); true when well formed. */
+static bool digits_ok(const char *text, size_t length, unsigned base, bool prefixed)
+{
+    if (length == 0) {
+        return false;
+    }
+    bool previous_digit = prefixed; /* "0x_1f" is a number, "_1" is not */
+    for (size_t i = 0; i < length; i++) {
+        if (text[i] == '_') {
+            if (!previous_digit) {
+                return false;
+            }
+            previous_digit = false;
+            continue;
+        }
+        if ((unsigned)digit_value(text[i]) >= base) {
+            return false;
+        }
+        previous_digit = true;
+    }
+    return text[length - 1] != '_';
+}
+
+/* A decimal with a leading zero is a number only when it is all zeros ("00", "0_0"). */
+static bool leading_zero_ok(const char *text, size_t length)
+{
+    if (text[0] != '0') {
+        return true;
+    }
+    for (size_t i = 0; i < length; i++) {
+        if (text[i] != '0' && text[i] != '_') {
+            return false;
+        }
+    }
+    return true;
+}
+
+bool number_word_parse(const char *text, size_t length, struct number_word *number)
+{
+    number->negative = false;
+    number->overflow = false;
+    number->value = 0;
+    if (length && (text[0] == '+' || text[0] == '-')) {
+        number->negative = text[0] == '-';
+        text++;
+        length--;
+    }
+    size_t skip;
+    unsigned base = prefix_base(text, length, &skip);
+    if (!digits_ok(text + skip, length - skip, base, skip != 0)) {
+        return false;
+    }
+    if (base == 10 && !leading_zero_ok(text, length)) {
+        return false;
+    }
+    for (size_t i = skip; i < length; i++) {
+        if (text[i] == '_') {
+            continue;
+        }
+        uint64_t digit = (uint64_t)digit_value(text[i]);
+        if (__builtin_mul_overflow(number->value, (uint64_t)base, &number->value) ||
+            __builtin_add_overflow(number->value, digit, &number->value)) {
+            number->overflow = true;
+        }
+    }
+    if (number->value == 0 && !number->overflow) {
+        number->negative = false; /* -0 is 0 */
+    }
+    return true;
+}
+
+/* Multiply the little-endian decimal digits by `base` and add `digit`. */
+static size_t decimal_step(uint8_t *decimal, size_t count, unsigned base, unsigned digit)
+{
+    unsigned carry = digit;
+    for (size_t i = 0; i < count; i++) {
+        unsigned value = decimal[i] * base + carry;
+        decimal[i] = (uint8_t)(value % 10);
+        carry = value / 10;
+    }
+    while (carry && count < MAX_DECIMAL_DIGITS) {
+        decimal[count++] = (uint8_t)(carry % 10);
+        carry /= 10;
+    }
+    return count;
+}
+
+void number_word_show(const char *text, size_t length, const struct number_word *number,
+                      struct phrase *phrase)
+{
+    if (number->negative) {
+        phrase_add_char(phrase, '-');
+    }
+    if (!number->overflow) {
+        phrase_add_decimal(phrase, number->value);
+        return;
+    }
+    static uint8_t decimal[MAX_DECIMAL_DIGITS];
+    size_t count = 1;
+    decimal[0] = 0;
+    if (length && (text[0] == '+' || text[0] == '-')) {
+        text++;
+        length--;
+    }
+    size_t skip;
+    unsigned base = prefix_base(text, length, &skip);
+    for (size_t i = skip; i < length; i++) {
+        if (text[i] != '_') {
+            count = decimal_step(decimal, count, base, (unsigned)digit_value(text[i]));
+        }
+    }
+    while (count) {
+        phrase_add_char(phrase, (char)('0' + decimal[--count]));
+    }
+}

@@ -1,0 +1,667 @@
+/*
+ * receiver.c - the hex-mode protocol state machine (receiver.h). Each handler answers one
+ * request with the lines hexmigrate/transfer/receiver.py answers it with; the reasons are its
+ * words, so the host tells the user the same thing whichever node refused.
+ */
+#include "receiver.h"
+
+#include "../board/board.h"
+#include "control.h"
+#include "hex_record.h"
+#include "loader.h"
+#include "messages.h"
+#include "node.h"
+#include "session.h"
+
+#define IMPLICIT 0u
+#define MAX_IMPLICIT_RELOCATIONS 1024u
+#define REASON_MAX 400
+
+struct transfer {
+    bool used;
+    uint32_t tid;
+    uint32_t order; /* when it was opened: record lines go to the newest open one */
+    struct load_session session;
+    bool has_link_base, announced, sized, header_done, verified;
+    uint32_t link_base, relocations, size, acked, base;
+    struct loaded_image image;
+    uint64_t touched;
+};
+
+struct commit_answer {
+    uint32_t tid, address;
+    char name[DIRECTORY_NAME_LEN + 1];
+};
+
+static struct {
+    void (*send)(const char *bytes, size_t length);
+    struct transfer transfers[MAX_TRANSFERS];
+    uint32_t opened;
+    struct commit_answer commits[REMEMBERED_COMMITS];
+    uint32_t commit_count, commit_next;
+} receiver;
+
+/* A fatal refusal: the reason, and the transfer it ends (NULL: none). */
+struct refusal {
+    char reason[REASON_MAX];
+    struct phrase why;
+};
+
+void receiver_init(void (*send)(const char *bytes, size_t length))
+{
+    for (int i = 0; i < MAX_TRANSFERS; i++) {
+        receiver.transfers[i].used = false; /* a restart forgets transfers: boot frees flash */
+    }
+    receiver.commit_count = receiver.commit_next = 0;
+    receiver.send = send;
+    session_reset();
+}
+
+/* Answers. */
+
+static void send_line(struct phrase *line)
+{
+    receiver.send(line->buffer, line->length);
+}
+
+static void ack(uint32_t tid, uint32_t value, const char *text)
+{
+    char buffer[REPLY_MAX];
+    struct phrase line;
+    phrase_start(&line, buffer, sizeof buffer);
+    reply_ack(&line, tid, value, text);
+    send_line(&line);
+}
+
+static void nak(uint32_t tid, uint32_t value, bool fatal, const char *reason)
+{
+    char buffer[REPLY_MAX];
+    struct phrase line;
+    phrase_start(&line, buffer, sizeof buffer);
+    reply_nak(&line, tid, value, fatal, reason);
+    send_line(&line);
+}
+
+static void start_refusal(struct refusal *refusal)
+{
+    phrase_start(&refusal->why, refusal->reason, sizeof refusal->reason);
+}
+
+/* Transfers. */
+
+static struct transfer *find_transfer(uint32_t tid)
+{
+    for (int i = 0; i < MAX_TRANSFERS; i++) {
+        if (receiver.transfers[i].used && receiver.transfers[i].tid == tid) {
+            return &receiver.transfers[i];
+        }
+    }
+    return 0;
+}
+
+static uint32_t open_count(void)
+{
+    uint32_t count = 0;
+    for (int i = 0; i < MAX_TRANSFERS; i++) {
+        count += receiver.transfers[i].used;
+    }
+    return count;
+}
+
+static struct transfer *free_slot(void)
+{
+    for (int i = 0; i < MAX_TRANSFERS; i++) {
+        if (!receiver.transfers[i].used) {
+            return &receiver.transfers[i];
+        }
+    }
+    return 0;
+}
+
+/* Erase what a transfer wrote and forget it. */
+static void drop(struct transfer *transfer)
+{
+    if (!transfer || !transfer->used) {
+        return;
+    }
+    if (transfer->verified) {
+        loader_discard(&transfer->image);
+    } else {
+        loader_abort(&transfer->session);
+    }
+    transfer->used = false;
+}
+
+void receiver_expire(void)
+{
+    uint64_t now = board_time_us();
+    for (int i = 0; i < MAX_TRANSFERS; i++) {
+        struct transfer *t = &receiver.transfers[i];
+        if (t->used && now - t->touched > TRANSFER_IDLE_US) {
+            drop(t);
+        }
+    }
+}
+
+/* The transfer `tid` names, touched; a fatal refusal when there is none. */
+static struct transfer *known_transfer(uint32_t tid, struct refusal *refusal)
+{
+    struct transfer *transfer = find_transfer(tid);
+    if (!transfer) {
+        phrase_add(&refusal->why, "unknown transfer ");
+        phrase_add_decimal(&refusal->why, tid);
+        phrase_add(&refusal->why, ": send BEGIN first");
+        return 0;
+    }
+    transfer->touched = board_time_us();
+    return transfer;
+}
+
+static struct transfer *open_transfer(uint32_t tid)
+{
+    struct transfer *transfer = free_slot();
+    *transfer = (struct transfer){.used = true, .tid = tid, .order = ++receiver.opened,
+                                  .touched = board_time_us()};
+    return transfer;
+}
+
+/* Requests that are not transfers. */
+
+static void handle_ping(void)
+{
+    char text[200];
+    struct phrase describe;
+    phrase_start(&describe, text, sizeof text);
+    node_describe(&describe);
+    char buffer[REPLY_MAX];
+    struct phrase line;
+    phrase_start(&line, buffer, sizeof buffer);
+    reply_pong(&line, text);
+    send_line(&line);
+}
+
+static void handle_list(void)
+{
+    char buffer[REPLY_MAX];
+    struct phrase line;
+    phrase_start(&line, buffer, sizeof buffer);
+    reply_modules_start(&line);
+    for (uint32_t i = 0; i < node_module_count(); i++) {
+        const struct directory_entry *entry = &node_module(i)->entry;
+        reply_module(&line, entry->name, entry->load_address, entry->size);
+    }
+    reply_end(&line);
+    send_line(&line);
+}
+
+static void handle_remove(const struct message *m)
+{
+    char name[DIRECTORY_NAME_LEN + 1];
+    struct refusal refusal;
+    start_refusal(&refusal);
+    size_t length = m->text_length[0];
+    bool fits = length <= DIRECTORY_NAME_LEN;
+    for (size_t i = 0; fits && i < length; i++) {
+        name[i] = m->text[0][i];
+    }
+    name[fits ? length : 0] = '\0';
+    if (!fits || !node_remove(name, &refusal.why)) {
+        if (!refusal.why.length) {
+            phrase_add(&refusal.why, "no module named ");
+            phrase_add_repr(&refusal.why, m->text[0], length);
+        }
+        nak(0, 0, true, refusal.reason);
+        return;
+    }
+    struct refusal said;
+    start_refusal(&said);
+    phrase_add(&said.why, "removed ");
+    phrase_add(&said.why, name);
+    ack(0, 0, said.reason);
+}
+
+/* CHALLENGE, AUTH and BYE: session.c answers them. */
+static void handle_session(void (*answer)(uint32_t, struct phrase *), uint32_t tid)
+{
+    char buffer[REPLY_MAX];
+    struct phrase reply;
+    phrase_start(&reply, buffer, sizeof buffer);
+    answer(tid, &reply);
+    send_line(&reply);
+}
+
+static void handle_control(const struct message *m)
+{
+    char buffer[REPLY_MAX];
+    struct phrase reply;
+    phrase_start(&reply, buffer, sizeof buffer);
+    if (node_control(m, &reply)) {
+        send_line(&reply);
+        return;
+    }
+    struct refusal refusal;
+    start_refusal(&refusal);
+    phrase_add(&refusal.why, verb_word(m->verb));
+    phrase_add(&refusal.why, " refused: this node takes no control requests");
+    nak((uint32_t)m->number[0], 0, true, refusal.reason);
+}
+
+/* A transfer. */
+
+static void handle_begin(const struct message *m)
+{
+    uint32_t tid = (uint32_t)m->number[0], size = (uint32_t)m->number[2];
+    uint32_t link_base = (uint32_t)m->number[4];
+    struct transfer *existing = find_transfer(tid);
+    struct refusal refusal;
+    start_refusal(&refusal);
+    if (existing) { /* our ACK was lost and the sender asks again */
+        ack(tid, loader_load_base(&existing->session), "begun");
+        return;
+    }
+    phrase_add(&refusal.why, "cannot begin: ");
+    if ((uint64_t)link_base + size > 0x100000000ull) {
+        phrase_add(&refusal.why, "an image of ");
+        phrase_add_decimal(&refusal.why, size);
+        phrase_add(&refusal.why, " bytes linked at 0x");
+        phrase_add_hex(&refusal.why, link_base, 8);
+        phrase_add(&refusal.why, " ends past the 32-bit address space");
+        nak(tid, 0, true, refusal.reason);
+        return;
+    }
+    if (open_count() >= MAX_TRANSFERS) {
+        phrase_add(&refusal.why, "4 transfers are open (an idle one ends after 60 s)");
+        nak(tid, 0, true, refusal.reason);
+        return;
+    }
+    struct transfer *transfer = open_transfer(tid);
+    if (!loader_begin(&transfer->session, tid, true, size, m->present[5], (uint32_t)m->number[5],
+                      &refusal.why)) {
+        transfer->used = false;
+        nak(tid, 0, true, refusal.reason);
+        return;
+    }
+    transfer->has_link_base = transfer->announced = transfer->sized = true;
+    transfer->link_base = link_base;
+    transfer->relocations = (uint32_t)m->number[3];
+    transfer->size = size;
+    ack(tid, loader_load_base(&transfer->session), "begun");
+}
+
+/* The progress acknowledgement of hex mode: `ACK tid programmed`. */
+static void progress(const struct transfer *transfer)
+{
+    ack(transfer->tid, loader_programmed(&transfer->session), "");
+}
+
+/* Data at a link address (transfer.py's _feed): in order it is loaded, a repeat acknowledged,
+ * a gap refused with the first byte the node lacks. False: a fatal refusal in `refusal`. */
+static bool feed(struct transfer *t, uint32_t address, const uint8_t *data, uint32_t length,
+                 struct refusal *refusal)
+{
+    struct load_session *session = &t->session;
+    if (!t->has_link_base) {
+        t->has_link_base = true;
+        t->link_base = address;
+    }
+    if (!t->header_done && t->announced) {
+        loader_rewind(session);
+        nak(t->tid, loader_programmed(session), false, "header incomplete: send it again");
+        return true;
+    }
+    uint64_t expected = (uint64_t)t->link_base + loader_received(session);
+    if ((uint64_t)address + length <= expected) {
+        if (loader_programmed(session) >= loader_received(session)) {
+            progress(t);
+        } else {
+            ack(t->tid, loader_received(session), "repeat");
+        }
+        return true;
+    }
+    if (address > expected) {
+        struct refusal gap;
+        start_refusal(&gap);
+        phrase_add(&gap.why, "expected data at 0x");
+        phrase_add_hex(&gap.why, (uint32_t)expected, 8);
+        phrase_add(&gap.why, ", got 0x");
+        phrase_add_hex(&gap.why, address, 8);
+        nak(t->tid, loader_received(session), false, gap.reason);
+        return true;
+    }
+    uint32_t skip = (uint32_t)(expected - address);
+    if (!loader_feed_data(session, (uint32_t)expected, data + skip, length - skip,
+                          &refusal->why)) {
+        return false;
+    }
+    if (t->sized && loader_received(session) >= t->size && !loader_flush(session, &refusal->why)) {
+        return false;
+    }
+    if (loader_programmed(session) > t->acked) {
+        t->acked = loader_programmed(session);
+        progress(t);
+    }
+    return true;
+}
+
+/* The pointer count a header may reach: what BEGIN announced, no more words than the image
+ * has, and what the loader keeps. */
+static bool relocation_room(const struct transfer *t, uint32_t count, struct refusal *refusal)
+{
+    uint32_t limit = t->announced ? t->relocations : MAX_IMPLICIT_RELOCATIONS;
+    if (t->sized && t->size / 4 < limit) {
+        limit = t->size / 4;
+    }
+    if (limit > LOADER_MAX_RELOCATIONS) {
+        limit = LOADER_MAX_RELOCATIONS;
+    }
+    if (count <= limit) {
+        return true;
+    }
+    phrase_add(&refusal->why, "expected at most ");
+    phrase_add_decimal(&refusal->why, limit);
+    phrase_add(&refusal->why, " pointer locations, got ");
+    phrase_add_decimal(&refusal->why, count);
+    return false;
+}
+
+static bool pointer_line(struct transfer *t, const struct hex_record *record,
+                         struct refusal *refusal)
+{
+    struct load_session *session = &t->session;
+    uint32_t value = hex_record_value(record);
+    if (record->type == RECORD_POINTER) {
+        if (loader_has_relocation(session, value)) {
+            return true;
+        }
+        return relocation_room(t, session->relocation_count + 1u, refusal) &&
+               loader_feed_relocation(session, value, &refusal->why);
+    }
+    if (!t->header_done) {
+        if (!session->has_init && !loader_feed_init(session, value, &refusal->why)) {
+            return false;
+        }
+        uint32_t got = session->relocation_count;
+        if (t->announced && got > t->relocations) {
+            phrase_add(&refusal->why, "expected ");
+            phrase_add_decimal(&refusal->why, t->relocations);
+            phrase_add(&refusal->why, " pointer records (BEGIN), got ");
+            phrase_add_decimal(&refusal->why, got);
+            return false;
+        }
+        if (t->announced && got < t->relocations) {
+            struct refusal missing; /* the records that came stay; the lost ones fill in */
+            start_refusal(&missing);
+            phrase_add(&missing.why, "header incomplete: ");
+            phrase_add_decimal(&missing.why, t->relocations - got);
+            phrase_add(&missing.why, " missing");
+            nak(t->tid, 0, false, missing.reason);
+            return true;
+        }
+        t->header_done = true;
+    }
+    ack(t->tid, loader_programmed(session), "header"); /* also for a header sent again */
+    return true;
+}
+
+/* END, or the EOF record (`check` false): the image read back from flash, its CRC-32 checked. */
+static bool end_transfer(struct transfer *t, bool check, uint32_t crc, struct refusal *refusal)
+{
+    if (!t->verified) {
+        t->session.ended = true;
+        char reason[REASON_MAX - 32];
+        struct phrase why;
+        phrase_start(&why, reason, sizeof reason);
+        if (!loader_finish(&t->session, &t->image, &why)) {
+            phrase_add(&refusal->why, "not a valid module: ");
+            phrase_add(&refusal->why, reason);
+            return false;
+        }
+        t->verified = true;
+    }
+    if (check && t->image.crc32 != crc) {
+        phrase_add(&refusal->why, "CRC-32 of the programmed image is 0x");
+        phrase_add_hex(&refusal->why, t->image.crc32, 8);
+        phrase_add(&refusal->why, ", expected 0x");
+        phrase_add_hex(&refusal->why, crc, 8);
+        return false;
+    }
+    struct refusal said;
+    start_refusal(&said);
+    phrase_add(&said.why, "verified crc=0x");
+    phrase_add_hex(&said.why, t->image.crc32, 8);
+    ack(t->tid, t->image.size, said.reason);
+    return true;
+}
+
+/* The open transfer record lines go to: the newest not yet verified. */
+static struct transfer *newest_open(void)
+{
+    struct transfer *newest = 0;
+    for (int i = 0; i < MAX_TRANSFERS; i++) {
+        struct transfer *t = &receiver.transfers[i];
+        if (t->used && !t->verified && (!newest || t->order > newest->order)) {
+            newest = t;
+        }
+    }
+    if (newest) {
+        newest->touched = board_time_us();
+    }
+    return newest;
+}
+
+/* The transfer of a record line: the open one, or the implicit one of a module typed on a
+ * terminal without BEGIN. */
+static struct transfer *text_transfer(struct refusal *refusal)
+{
+    struct transfer *transfer = newest_open();
+    if (transfer) {
+        return transfer;
+    }
+    if (find_transfer(IMPLICIT)) {
+        phrase_add(&refusal->why,
+                   "a module sent without BEGIN is loading on another connection: send BEGIN");
+        return 0;
+    }
+    if (open_count() >= MAX_TRANSFERS) {
+        phrase_add(&refusal->why, "cannot begin: 4 transfers are open (an idle one ends after "
+                                  "60 s)");
+        return 0;
+    }
+    transfer = open_transfer(IMPLICIT);
+    char reason[REASON_MAX - 32];
+    struct phrase why;
+    phrase_start(&why, reason, sizeof reason);
+    if (!loader_begin(&transfer->session, IMPLICIT, false, 0, false, 0, &why)) {
+        transfer->used = false;
+        phrase_add(&refusal->why, "cannot begin: ");
+        phrase_add(&refusal->why, reason);
+        return 0;
+    }
+    return transfer;
+}
+
+static bool record_line(struct transfer *t, const struct hex_record *record,
+                        struct refusal *refusal)
+{
+    switch (record->type) {
+    case RECORD_DATA:
+        return feed(t, t->base + record->address, record->data, record->length, refusal);
+    case RECORD_LINEAR:
+        t->base = hex_record_value(record) << 16;
+        return true;
+    case RECORD_SEGMENT:
+        t->base = hex_record_value(record) << 4;
+        return true;
+    case RECORD_POINTER:
+    case RECORD_INIT:
+        return pointer_line(t, record, refusal);
+    case RECORD_SIGNATURE:
+        return loader_feed_signature(&t->session, record->address, record->data, record->length,
+                                     &refusal->why);
+    case RECORD_EOF:
+        return end_transfer(t, false, 0, refusal);
+    default:
+        return true; /* start addresses mean nothing for a module: 08 is its entry */
+    }
+}
+
+static void handle_record(const struct message *m)
+{
+    static struct hex_record record;
+    struct refusal refusal;
+    start_refusal(&refusal);
+    if (!hex_record_decode(m->line, m->line_length, &record, &refusal.why)) {
+        struct transfer *open = newest_open(); /* refused before it opens a transfer */
+        struct refusal bad;
+        start_refusal(&bad);
+        phrase_add(&bad.why, "bad record: ");
+        phrase_add(&bad.why, refusal.reason);
+        nak(open ? open->tid : IMPLICIT, open ? loader_received(&open->session) : 0, false,
+            bad.reason);
+        return;
+    }
+    struct transfer *transfer = text_transfer(&refusal);
+    if (!transfer || !record_line(transfer, &record, &refusal)) {
+        drop(transfer);
+        nak(IMPLICIT, 0, true, refusal.reason); /* a record line has no tid: 0, as in Python */
+    }
+}
+
+static void handle_end(uint32_t tid, uint32_t crc)
+{
+    struct refusal refusal;
+    start_refusal(&refusal);
+    struct transfer *t = known_transfer(tid, &refusal);
+    if (!t || !end_transfer(t, true, crc, &refusal)) {
+        drop(t);
+        nak(tid, 0, true, refusal.reason);
+    }
+}
+
+static const struct commit_answer *remembered_commit(uint32_t tid)
+{
+    for (uint32_t i = 0; i < receiver.commit_count; i++) {
+        if (receiver.commits[i].tid == tid) {
+            return &receiver.commits[i];
+        }
+    }
+    return 0;
+}
+
+static void send_installed(const struct commit_answer *answer)
+{
+    struct refusal said;
+    start_refusal(&said);
+    phrase_add(&said.why, "installed ");
+    phrase_add(&said.why, answer->name);
+    ack(answer->tid, answer->address, said.reason);
+}
+
+static void remember_commit(const struct commit_answer *answer)
+{
+    receiver.commits[receiver.commit_next] = *answer;
+    receiver.commit_next = (receiver.commit_next + 1) % REMEMBERED_COMMITS;
+    if (receiver.commit_count < REMEMBERED_COMMITS) {
+        receiver.commit_count++;
+    }
+}
+
+static void handle_commit(uint32_t tid)
+{
+    const struct commit_answer *known = remembered_commit(tid);
+    if (known) {
+        send_installed(known);
+        return;
+    }
+    struct refusal refusal;
+    start_refusal(&refusal);
+    struct transfer *t = known_transfer(tid, &refusal);
+    if (!t) {
+        nak(tid, 0, true, refusal.reason);
+        return;
+    }
+    if (!t->verified) {
+        nak(tid, loader_programmed(&t->session), false, "not verified: send END first");
+        return;
+    }
+    t->used = false;
+    struct commit_answer answer = {tid, 0, {0}};
+    char reason[REASON_MAX - 32];
+    struct phrase why;
+    phrase_start(&why, reason, sizeof reason);
+    if (!node_commit(&t->image, answer.name, &answer.address, &why)) {
+        phrase_add(&refusal.why, "commit refused: ");
+        phrase_add(&refusal.why, reason);
+        nak(tid, 0, true, refusal.reason);
+        return;
+    }
+    remember_commit(&answer);
+    send_installed(&answer);
+}
+
+static void handle_abort(uint32_t tid)
+{
+    drop(find_transfer(tid));
+    ack(tid, 0, "aborted");
+}
+
+static void handle_resume(uint32_t tid)
+{
+    struct refusal refusal;
+    start_refusal(&refusal);
+    struct transfer *t = known_transfer(tid, &refusal);
+    if (!t) {
+        nak(tid, 0, true, refusal.reason);
+        return;
+    }
+    const char *state = t->verified ? "verified" : t->header_done ? "header" : "begun";
+    loader_rewind(&t->session);
+    ack(tid, loader_programmed(&t->session), state);
+}
+
+static void dispatch(const struct message *m)
+{
+    uint32_t tid = (uint32_t)m->number[0];
+    switch (m->verb) {
+    case VERB_PING: handle_ping(); break;
+    case VERB_LS: handle_list(); break;
+    case VERB_RM: handle_remove(m); break;
+    case VERB_BEGIN: handle_begin(m); break;
+    case VERB_END: handle_end(tid, (uint32_t)m->number[1]); break;
+    case VERB_COMMIT: handle_commit(tid); break;
+    case VERB_ABORT: handle_abort(tid); break;
+    case VERB_RESUME: handle_resume(tid); break;
+    case VERB_CHALLENGE: handle_session(session_challenge, tid); break;
+    case VERB_AUTH: handle_session(session_authenticate, tid); break;
+    case VERB_BYE: handle_session(session_end, tid); break;
+    default:
+        if (verb_is_request(m->verb)) {
+            handle_control(m);
+        } /* an answer (ACK, PONG, ...): a node never answers one */
+    }
+}
+
+void receiver_handle_line(const char *line, size_t length)
+{
+    static struct message message;
+    receiver_expire();
+    struct refusal refusal;
+    start_refusal(&refusal);
+    phrase_add(&refusal.why, "bad message: ");
+    if (!message_decode(line, length, &message, &refusal.why)) {
+        nak(0, 0, false, refusal.reason);
+        return;
+    }
+    if (message.record) {
+        handle_record(&message);
+    } else {
+        dispatch(&message);
+    }
+}
+
+void receiver_handle_binary(void)
+{
+    nak(0, 0, true,
+        "bad message: expected a hex-mode line, got a binary frame: this node speaks hex mode "
+        "(hexmigrate --mode hex)");
+}

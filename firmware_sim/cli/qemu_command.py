@@ -1,0 +1,92 @@
+"""`firmware-sim qemu`: the node firmware in C on QEMU virt, reached over a pty.
+
+It builds the firmware if needed (firmware/firmware.mk, through make), creates the flash file
+when missing, starts QEMU and, once the firmware answered a PING, prints the same ``listening
+on PTY (connect with: hexmigrate send FILE.hex --to PTY)`` line that ``firmware-sim listen
+--listen pty`` prints, as its first line, so launchers and tests read both alike. It runs
+until Ctrl-C or SIGTERM (or --seconds), then stops QEMU. The firmware speaks hex mode for now:
+hexmigrate needs --mode hex.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from collections.abc import Callable
+from contextlib import ExitStack
+from pathlib import Path
+
+from commandline import add_command
+from commandline.arguments import input_file, output_file
+from commandline.interrupts import stop_requests
+from firmware_sim.cli import arguments
+from firmware_sim.errors import QemuError
+from firmware_sim.qemu.firmware_build import firmware_elf
+from firmware_sim.qemu.flash_file import FLASH_SIZE, ensure_flash
+from firmware_sim.qemu.machine import QemuNode
+
+WATCH = 0.05
+"""Seconds between two looks at the stop request and at QEMU."""
+BANNER = "refresh-node "
+"""How the firmware's banner starts: a line about the node, said again until a host speaks."""
+
+
+def cmd_qemu(args: argparse.Namespace, say: Callable[[str], None]) -> int:
+    """Run the firmware on QEMU until interrupted (or for --seconds)."""
+    firmware = args.firmware or firmware_elf()
+    with ExitStack() as stack, stop_requests() as requested:
+        flash = args.flash
+        if flash is None:  # no file named: the node forgets its modules when it stops
+            folder = stack.enter_context(tempfile.TemporaryDirectory(prefix="qemu-flash-"))
+            flash = Path(folder) / "flash.img"
+        node = stack.enter_context(QemuNode(firmware, ensure_flash(flash)))
+        url = node.start()
+        say(f"listening on {url} (connect with: hexmigrate send FILE.hex --to {url})")
+        say(f"qemu: {node.pong}; flash {flash}; it speaks hex mode: hexmigrate --mode hex")
+        for line in node.heard:
+            if not line.startswith(BANNER):
+                say(f"qemu: {line}")
+        deadline = None if args.seconds is None else time.monotonic() + args.seconds
+        while not requested() and node.running():
+            if deadline is not None and time.monotonic() >= deadline:
+                break
+            time.sleep(WATCH)
+        if not node.running() and not requested():
+            raise QemuError(f"QEMU ended by itself (its log: {node.log})")
+    say("stopped")
+    return 0
+
+
+def add_qemu(commands: argparse._SubParsersAction, say: Callable[[str], None]) -> None:
+    """The ``qemu`` subcommand of `firmware-sim`."""
+    command = add_command(
+        commands,
+        "qemu",
+        lambda args: cmd_qemu(args, say),
+        "run the node firmware in C on QEMU virt, on a pty",
+        "Build the node firmware (firmware/, C for RV32IM), start it on QEMU's virt machine with\n"
+        "its UART on a pty and its flash in a file, and print where a host reaches it.\n\n"
+        "example:\n"
+        "  firmware-sim qemu --flash node.img\n"
+        "  hexmigrate send gain.hex --to /dev/pts/N --mode hex",
+    )
+    command.add_argument(
+        "--flash",
+        type=output_file,
+        metavar="FILE",
+        help=f"the flash's file ({FLASH_SIZE // (1 << 20)} MiB, created erased when missing): "
+        "the modules survive a restart (default: a temporary flash)",
+    )
+    command.add_argument(
+        "--firmware",
+        type=input_file(),
+        metavar="FILE.elf",
+        help="the firmware to run (default: build/firmware/node.elf, built with make)",
+    )
+    command.add_argument(
+        "--seconds",
+        type=arguments.seconds,
+        metavar="S",
+        help="stop after this long (default: run until interrupted)",
+    )

@@ -1,0 +1,53 @@
+"""The firmware's ELF for QEMU virt: `make firmware` builds it (firmware/firmware.mk holds the
+one set of compiler flags), and a launcher asks make again, which rebuilds only what changed.
+Two launchers at once (test workers, two nodes) take turns: a lock file beside the build keeps
+two compilers from writing one ELF."""
+
+from __future__ import annotations
+
+import fcntl
+import shutil
+import subprocess
+from pathlib import Path
+
+from firmware_sim.errors import QemuError
+
+ROOT = Path(__file__).resolve().parents[2]
+"""The project's folder: where the Makefile and firmware/ are."""
+ELF = Path("build") / "firmware" / "node.elf"
+"""Where `make firmware` writes the ELF, below ROOT."""
+BUILD_TIMEOUT = 300.0
+
+
+def firmware_elf(root: Path = ROOT) -> Path:
+    """The firmware's ELF, brought up to date by make; QemuError when it cannot be built."""
+    make_target(ELF, root)
+    return root / ELF
+
+
+def make_target(target: Path, root: Path = ROOT) -> None:
+    """`make TARGET` in `root`, one process at a time; QemuError with make's last lines."""
+    if not (root / "firmware" / "firmware.mk").is_file():
+        raise QemuError(
+            f"expected the firmware's sources in {root / 'firmware'}, got none: run from a "
+            "clone of the project, or give --firmware FILE.elf"
+        )
+    make = shutil.which("make")
+    if make is None:
+        raise QemuError("expected `make` on PATH to build the firmware, got none")
+    lock = root / ELF.parent / ".build.lock"
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    with lock.open("w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        try:
+            done = subprocess.run(
+                [make, "--no-print-directory", "-s", "-C", str(root), str(target)],
+                capture_output=True,
+                text=True,
+                timeout=BUILD_TIMEOUT,
+            )
+        except subprocess.TimeoutExpired:
+            raise QemuError(f"the firmware's build took more than {BUILD_TIMEOUT:g} s") from None
+    if done.returncode != 0:
+        tail = " | ".join((done.stdout + done.stderr).strip().splitlines()[-5:])
+        raise QemuError(f"the firmware's build failed (make {target}): {tail}")

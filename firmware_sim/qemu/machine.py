@@ -1,0 +1,168 @@
+"""`QemuNode`: the C firmware running in ``qemu-system-riscv32 -M virt``, its UART on a pty.
+
+QEMU starts with the firmware's ELF loaded into RAM (``-bios none -device loader``: ``-kernel``
+is ignored once a pflash drive is given), the flash file as the second CFI bank, and its UART
+on a socket that a `PtyRelay` joins to a pty (relay.py says why not QEMU's own pty). A byte sent
+before the firmware set its UART up is lost, so the node is reached by a handshake: PING until a
+PONG comes.
+
+`stop` asks QEMU to quit (SIGINT, as Ctrl-C) and kills it if it does not; `kill` is the power
+cut: SIGKILL, the flash file keeps what the chip held at that instant.
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import shutil
+import signal
+import tempfile
+import time
+from pathlib import Path
+
+from commandline.children import Child
+from firmware_sim.errors import QemuError
+from firmware_sim.qemu.relay import PtyRelay
+from hexmigrate.transfer.layout import line_sum
+
+QEMU = "qemu-system-riscv32"
+START_TIMEOUT = 10.0
+"""Seconds QEMU may take to connect its UART, and the firmware to answer the handshake."""
+PING_EVERY = 0.05
+"""Seconds between two PINGs of the handshake: a boot takes about 40 ms."""
+QUIET = 0.05
+"""Seconds without a byte that end the handshake's draining of late answers."""
+_PING = b"PING *%02X\n" % line_sum("PING")
+
+
+class QemuNode:
+    """The firmware `firmware` (an ELF) on QEMU virt with `flash` (32 MiB, see flash_file) as
+    its flash, QEMU's output into `log` (None: a temporary one). A context manager: leaving it
+    stops QEMU."""
+
+    def __init__(self, firmware: Path, flash: Path, log: Path | None = None) -> None:
+        self.firmware = firmware
+        self.flash = flash
+        self._folder: tempfile.TemporaryDirectory[str] | None = None
+        if log is None:
+            self._folder = tempfile.TemporaryDirectory(prefix="qemu-node-")
+            log = Path(self._folder.name) / "qemu.log"
+        self.log = log
+        self.child: Child | None = None
+        self.relay: PtyRelay | None = None
+        self._sockets: tempfile.TemporaryDirectory[str] | None = None
+        self.url = ""
+        """The pty's path, once started: the URL a host gives hexmigrate."""
+        self.pong = ""
+        """What the node answered the handshake's PING: its line about itself."""
+        self.heard: list[str] = []
+        """Lines the firmware said before its PONG (its banner, boot notes), if any came."""
+
+    def command(self, uart: Path) -> list[str]:
+        """QEMU's command line, its UART a client of the Unix socket `uart`."""
+        return [
+            _qemu(),
+            *("-M", "virt", "-bios", "none", "-nographic", "-monitor", "none"),
+            *("-chardev", f"socket,id=uart,path={uart}", "-serial", "chardev:uart"),
+            *("-device", f"loader,file={self.firmware},cpu-num=0"),
+            *("-drive", f"if=pflash,unit=1,format=raw,file={self.flash}"),
+        ]
+
+    def start(self) -> str:
+        """Start QEMU, reach the firmware, and return the pty's path; QemuError when QEMU or
+        the firmware does not come up within START_TIMEOUT."""
+        # A folder of its own, short: a Unix socket's path may not exceed 107 bytes.
+        self._sockets = tempfile.TemporaryDirectory(prefix="qemu-uart-")
+        uart = Path(self._sockets.name) / "uart"
+        self.relay = PtyRelay(uart)
+        try:
+            self.child = Child.start(f"{QEMU} (node firmware)", self.command(uart), self.log)
+            self.relay.start(START_TIMEOUT)
+            self.url = self.relay.path
+            self.pong, self.heard = handshake(self.relay.holder, START_TIMEOUT)
+        except BaseException:
+            self.kill()
+            raise
+        return self.url
+
+    def running(self) -> bool:
+        """Whether QEMU still runs."""
+        return self.child is not None and self.child.process.poll() is None
+
+    def stop(self) -> None:
+        """QEMU asked to quit (SIGINT), killed if it does not; idempotent."""
+        if self.child is not None:
+            self.child.stop()
+        self._clean()
+
+    def kill(self) -> None:
+        """A power cut: QEMU killed at once (SIGKILL); idempotent."""
+        if self.child is not None and self.child.process.poll() is None:
+            self.child.process.send_signal(signal.SIGKILL)
+            self.child.process.wait()
+        self._clean()
+
+    def _clean(self) -> None:
+        if self.relay is not None:
+            self.relay.close()
+            self.relay = None
+        if self._sockets is not None:
+            self._sockets.cleanup()
+            self._sockets = None
+        if self._folder is not None and not self.running():
+            self._folder.cleanup()
+            self._folder = None
+
+    def __enter__(self) -> QemuNode:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.stop()
+
+
+def _qemu() -> str:
+    found = shutil.which(QEMU)
+    if found is None:
+        raise QemuError(
+            f"expected {QEMU} on PATH, got none: install it with apt-get install -y "
+            "qemu-system-misc (make test does as root)"
+        )
+    return found
+
+
+def handshake(descriptor: int, timeout: float) -> tuple[str, list[str]]:
+    """PING the firmware on the pty open as `descriptor` until it answers: its PONG's text,
+    and the lines it said before (a banner, notes from its boot). QemuError when nothing
+    answers in `timeout` s."""
+    heard: list[str] = []
+    deadline = time.monotonic() + timeout
+    pending = b""
+    while time.monotonic() < deadline:
+        os.write(descriptor, _PING)
+        pending, lines = _read_lines(descriptor, pending, PING_EVERY)
+        for line in lines:
+            if line.startswith("PONG "):
+                _drain(descriptor)
+                return line.removeprefix("PONG ").rpartition(" *")[0], heard
+            heard.append(line)
+    raise QemuError(
+        f"the firmware did not answer PING in {timeout:g} s (heard: "
+        f"{' | '.join(heard[-3:]) or 'nothing'})"
+    )
+
+
+def _read_lines(descriptor: int, pending: bytes, wait: float) -> tuple[bytes, list[str]]:
+    """The whole lines that arrive within `wait` seconds, and what is left of a line."""
+    end = time.monotonic() + wait
+    while (left := end - time.monotonic()) > 0:
+        if select.select([descriptor], [], [], left)[0]:
+            pending += os.read(descriptor, 4096)
+    *lines, pending = pending.split(b"\n")
+    return pending, [line.decode("ascii", "replace").rstrip("\r") for line in lines]
+
+
+def _drain(descriptor: int) -> None:
+    """Read until the line is quiet: the answers to earlier PINGs must not wait for the host
+    that opens the pty next."""
+    while select.select([descriptor], [], [], QUIET)[0]:
+        os.read(descriptor, 4096)

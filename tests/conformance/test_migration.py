@@ -1,0 +1,146 @@
+"""Conformance: a module's way onto a node and off it, the same on every node (`nodes.KINDS`),
+with the real ``hexmigrate`` over a pty: ping, send, ls, rm; a restart on the same flash file;
+power cut at any moment of a transfer or a commit.
+"""
+
+from __future__ import annotations
+
+import random
+import re
+import threading
+from pathlib import Path
+
+import pytest
+
+from hexmigrate.elf import image_from_elf
+from hexmigrate.errors import LinkError, TransferError
+from hexmigrate.image import ModuleImage
+from hexmigrate.links import open_link
+from hexmigrate.transfer.sender import Progress, Sender
+from module_sdk.build import build_module, example_sources
+from tests.conformance.nodes import MODE, BoardUnderTest
+from tests.firmware_sim.host_side import hexmigrate
+
+LISTED = re.compile(r"^(\w+) +0x([0-9A-F]{8}) +(\d+) bytes", re.MULTILINE)
+"""A module in ``hexmigrate ls``'s output: name, load address, size."""
+CUTS = 6
+"""Power cuts per test, each at a random moment of a transfer or a commit."""
+COMMIT_WINDOW = 0.1
+"""Seconds after a transfer's last block in which a power cut may fall (END, COMMIT)."""
+
+
+def listed(url: str) -> dict[str, tuple[int, int]]:
+    """The node's modules by name: (load address, size)."""
+    out = hexmigrate("ls", "--to", url, *MODE)
+    return {name: (int(address, 16), int(size)) for name, address, size in LISTED.findall(out)}
+
+
+def send(path: object, url: str, *options: str) -> str:
+    return hexmigrate("send", path, "--to", url, *MODE, "--quiet", *options)
+
+
+@pytest.mark.timeout(120)
+def test_ping_answers_with_a_line_about_the_node(boot):
+    board = boot()
+    assert "module(s)" in hexmigrate("ping", "--to", board.url, *MODE)
+
+
+@pytest.mark.timeout(120)
+def test_a_module_sent_is_listed_with_its_size_and_removed(boot, example_hex):
+    board = boot()
+    send(example_hex["gain"], board.url)
+    send(example_hex["moving_average"], board.url)
+    modules = listed(board.url)
+    assert set(modules) == {"gain", "moving_average"}
+    sizes = {name: example_hex[name].stat().st_size for name in modules}
+    assert all(0 < size < sizes[name] for name, (_, size) in modules.items())  # bytes, not lines
+    hexmigrate("rm", "gain", "--to", board.url, *MODE)
+    assert set(listed(board.url)) == {"moving_average"}
+
+
+@pytest.mark.timeout(120)
+def test_the_modules_outlive_a_restart_on_the_same_flash_file(boot, example_hex):
+    board = boot()
+    send(example_hex["gain"], board.url)
+    send(example_hex["moving_average"], board.url)
+    before = listed(board.url)
+    board.stop()
+    assert listed(boot().url) == before
+
+
+@pytest.mark.timeout(120)
+def test_a_module_sent_again_replaces_the_one_of_its_name(boot, example_hex):
+    board = boot()
+    send(example_hex["gain"], board.url)
+    send(example_hex["gain"], board.url)
+    modules = listed(board.url)
+    assert list(modules) == ["gain"]
+
+
+class PowerCut(Exception):
+    """The sender's own signal that it pulled the plug (ends its transfer)."""
+
+
+def send_until_cut(board: BoardUnderTest, path: Path, cut: float) -> None:
+    """Send `path` and cut the board's power once `cut` of the image was acknowledged, or
+    (`cut` beyond 1) `cut - 1` of COMMIT_WINDOW after its last block: in END, in the commit, or
+    after it."""
+    image = ModuleImage.read(path)
+    late = threading.Timer((cut - 1) * COMMIT_WINDOW, board.cut_power)
+
+    def progress(where: Progress) -> None:
+        if cut < 1 and where.acknowledged >= cut * where.total:
+            board.cut_power()
+            raise PowerCut
+        if where.acknowledged >= where.total and not late.is_alive():
+            late.start()
+
+    try:
+        with open_link(board.url) as link:
+            Sender(link, "hex", timeout=0.5, retries=2, progress=progress).send(image)
+    except (PowerCut, TransferError, LinkError):
+        pass
+    if late.is_alive():
+        late.join()
+    elif cut >= 1:  # the transfer failed before its last block: cut now
+        board.cut_power()
+
+
+@pytest.fixture(scope="module")
+def larger_gain(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """gain with 512 bytes more of constant data: a module of the same name, of another size."""
+    folder = tmp_path_factory.mktemp("larger")
+    source = folder / "gain.c"
+    gain = next(path for path in example_sources() if path.stem == "gain")
+    padding = "__attribute__((used)) static const unsigned char padding[512] = {1};\n"
+    source.write_text(gain.read_text() + padding)
+    build = build_module(source, folder)
+    path = folder / "gain.hex"
+    image_from_elf(build.elf).write(path)
+    return path
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(300)
+def test_a_power_cut_at_any_moment_leaves_the_old_module_or_the_new_never_a_half(
+    boot, example_hex, larger_gain
+):
+    board = boot()
+    versions = [example_hex["gain"], larger_gain]
+    send(versions[0], board.url)
+    sizes = [listed(board.url)["gain"][1]]
+    send(versions[1], board.url)
+    sizes.append(listed(board.url)["gain"][1])
+    assert sizes[1] > sizes[0]
+    draw = random.Random(28)
+    for cut in range(CUTS):
+        old = sizes[(cut + 1) % 2]
+        new = sizes[cut % 2]
+        send_until_cut(board, versions[cut % 2], draw.uniform(0.0, 1.5))
+        board = boot()
+        modules = {name: size for name, (_, size) in listed(board.url).items()}
+        assert modules in ({"gain": old}, {"gain": new}), f"cut {cut}"
+        if modules["gain"] == old:  # the next cut starts from the version it expects
+            send(versions[cut % 2], board.url)
+    send(example_hex["moving_average"], board.url)  # the flash is sound: it still installs
+    assert set(listed(board.url)) == {"gain", "moving_average"}

@@ -1,0 +1,159 @@
+"""The C firmware on QEMU virt, driven by the real ``hexmigrate`` over a pty: it boots, answers
+ping, installs the SDK's example modules, lists and removes them, keeps them across a restart
+on the same flash file, and writes the Python node's directory bytes (tests/firmware/
+flash_image.py reads them with the Python node's own decoder).
+
+Every QEMU a test starts is stopped by its fixture; every wait is bounded.
+"""
+
+from __future__ import annotations
+
+import os
+import pty
+import sys
+
+import pytest
+
+from commandline.children import Child
+from firmware_sim.errors import QemuError
+from firmware_sim.qemu.machine import handshake
+from hexmigrate.links import open_link
+from hexmigrate.links.listening import CONNECT_URL
+from hexmigrate.transfer.messages import Nak, encode
+from hexmigrate.transfer.sender import Sender
+from tests.firmware.flash_image import FLASH_BASE, committed
+from tests.firmware_sim.host_side import CLI_TIMEOUT, hexmigrate, hexmigrate_refused
+
+SECTOR = 256 * 1024
+"""QEMU virt's flash erase sector: the firmware places each module at a sector boundary."""
+
+
+@pytest.mark.timeout(30)
+def test_the_firmware_boots_and_answers_ping(boot, flash_file):
+    node = boot(flash_file)
+    assert node.pong.startswith("node: 0 module(s), ")
+    assert node.pong.endswith("qemu-virt firmware")
+    said = hexmigrate("ping", "--to", node.url, "--mode", "hex")
+    assert said.startswith("node: 0 module(s), 129024 of 131072 flash blocks free")
+
+
+@pytest.mark.timeout(60)
+def test_send_ls_and_rm_with_the_real_hexmigrate(boot, flash_file, example_hex):
+    node = boot(flash_file)
+    for name in ("gain", "moving_average"):
+        sent = hexmigrate("send", example_hex[name], "--to", node.url, "--mode", "hex")
+        assert f"module {name} installed at 0x" in sent
+    listing = hexmigrate("ls", "--to", node.url, "--mode", "hex").split()
+    assert listing == [
+        "gain", f"0x{FLASH_BASE:08X}", "1120", "bytes",
+        "moving_average", f"0x{FLASH_BASE + SECTOR:08X}", "1120", "bytes",
+    ]  # fmt: skip
+    removed = hexmigrate("rm", "moving_average", "--to", node.url, "--mode", "hex")
+    assert removed == f"removed moving_average from {node.url}\n"
+    assert hexmigrate("ls", "--to", node.url, "--mode", "hex").split()[0::4] == ["gain"]
+    refused = hexmigrate_refused("rm", "moving_average", "--to", node.url, "--mode", "hex")
+    assert "the node refused: no module named 'moving_average'" in refused
+    assert set(committed(flash_file)) == {"gain"}
+
+
+@pytest.mark.timeout(60)
+def test_the_modules_survive_a_restart_on_the_same_flash(boot, flash_file, images):
+    first = boot(flash_file)
+    with open_link(first.url) as link:
+        sender = Sender(link, "hex")
+        sender.send(images["gain"])
+        sender.send(images["moving_average"])
+    first.stop()
+    entries = committed(flash_file)
+    assert sorted(entries) == ["gain", "moving_average"]
+    assert entries["gain"].init_address == FLASH_BASE + images["gain"].init - 0x10000
+
+    second = boot(flash_file)
+    assert second.pong.startswith("node: 2 module(s), ")
+    with open_link(second.url) as link:
+        sender = Sender(link, "hex")
+        listed = sender.modules()
+        assert listed == (("gain", FLASH_BASE, 1120), ("moving_average", FLASH_BASE + SECTOR, 1120))
+        result = sender.send(images["gain"])  # a resend replaces it, the name stays listed once
+        assert [name for name, _, _ in sender.modules()] == ["moving_average", "gain"]
+    assert result.load_address == FLASH_BASE + 2 * SECTOR
+    assert sorted(committed(flash_file)) == ["gain", "moving_average"]
+
+
+@pytest.mark.timeout(30)
+def test_a_binary_mode_host_hears_why_it_is_refused(boot, flash_file):
+    node = boot(flash_file)
+    refused = hexmigrate_refused("ping", "--to", node.url)
+    assert "this node speaks hex mode (hexmigrate --mode hex)" in refused
+
+
+@pytest.mark.timeout(30)
+def test_a_control_request_is_refused_as_the_python_node_refuses_it(boot, flash_file):
+    node = boot(flash_file)
+    with open_link(node.url) as link:
+        link.send(b"PS 77")
+        refusal = Nak(77, 0, "PS refused: this node takes no control requests", fatal=True)
+        assert link.receive(5.0) == encode(refusal, True)
+        link.send(b"LS *00")
+        assert link.receive(5.0).startswith(b"NAK 0 0 RETRY bad message: expected checksum")
+
+
+@pytest.mark.timeout(60)
+def test_firmware_sim_qemu_prints_the_listening_line_and_stops_on_sigint(tmp_path, firmware):
+    flash = tmp_path / "node.img"
+    command = [sys.executable, "-m", "firmware_sim", "qemu", "--flash", str(flash)]
+    with Child.start("firmware-sim qemu", command, tmp_path / "qemu.log") as child:
+        url = child.wait_for(CONNECT_URL, CLI_TIMEOUT)[1]
+        assert child.lines()[0] == (
+            f"listening on {url} (connect with: hexmigrate send FILE.hex --to {url})"
+        )
+        assert hexmigrate("ping", "--to", url, "--mode", "hex").startswith("node: 0 module(s)")
+        child.stop()
+        assert child.process.returncode == 0
+        assert child.lines()[-1] == "stopped"
+    assert flash.stat().st_size == 32 * 1024 * 1024
+
+
+def test_the_handshake_names_what_it_heard_when_no_pong_comes():
+    master, slave = pty.openpty()
+    try:
+        os.write(master, b"some noise\n")
+        with pytest.raises(QemuError, match=r"did not answer PING in 0.2 s \(heard: some noise\)"):
+            handshake(slave, 0.2)
+    finally:
+        os.close(master)
+        os.close(slave)
+
+
+@pytest.mark.timeout(60)
+def test_a_module_whose_image_was_damaged_is_skipped_at_boot(boot, flash_file, images):
+    node = boot(flash_file)
+    with open_link(node.url) as link:
+        Sender(link, "hex").send(images["gain"])
+    node.stop()
+    flash = bytearray(flash_file.read_bytes())
+    flash[100] ^= 0x01  # one bit of gain's code, at the start of the flash
+    flash_file.write_bytes(flash)
+
+    again = boot(flash_file)
+    assert again.heard[0] == (
+        "boot: skipped module 'gain': the image's CRC-32 is not the directory's"
+    )
+    assert again.pong.startswith("node: 0 module(s), ")
+
+
+@pytest.mark.timeout(60)
+def test_a_signed_module_sent_with_a_key_installs_on_a_node_that_trusts_none(
+    boot, flash_file, example_hex, tmp_path
+):
+    """The node answers CHALLENGE and AUTH as a node that trusts no key (it guards nothing)
+    and takes the signed module's 09 lines; its directory records version 0, as the Python
+    node's does when it trusts no key."""
+    key, signed = tmp_path / "key.pem", tmp_path / "gain.signed.hex"
+    hexmigrate("keygen", "-o", key)
+    hexmigrate("sign", example_hex["gain"], "--key", key, "--version", "1.2.3", "-o", signed)
+    node = boot(flash_file)
+    sent = hexmigrate("send", signed, "--to", node.url, "--mode", "hex", "--key", key)
+    assert "module gain installed at 0x22000000" in sent
+    node.stop()
+    assert committed(flash_file)["gain"].version == 0
