@@ -1,0 +1,38 @@
+/*
+ * performance.h - the latest value of each (kind, index) an evaluator or an estimator reported
+ * (pbort/performance_buffer.py's `latest`). A node answers a host with the latest values only,
+ * so the firmware keeps those and not the Python buffer's history.
+ */
+#ifndef KERNEL_PERFORMANCE_H
+#define KERNEL_PERFORMANCE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "config.h"
+
+struct performance_value {
+    uint64_t time_us;    /* the kernel's time of the report */
+    uint32_t index;      /* which value of its kind */
+    int32_t value_milli; /* thousandths of its unit (a power of 1.25 mW is 1250) */
+    uint8_t kind;        /* enum performance_kind */
+};
+
+struct performance {
+    uint32_t count;   /* values in use, in the order their (kind, index) first came */
+    uint32_t dropped; /* reports of a new (kind, index) once all PERFORMANCE_VALUES were used */
+    struct performance_value values[PERFORMANCE_VALUES];
+};
+
+void performance_clear(struct performance *performance);
+void performance_file(struct performance *performance, uint64_t time_us, uint8_t kind,
+                      uint32_t index, int32_t value_milli);
+/* The latest value of (kind, index), or NULL when none was filed. */
+const struct performance_value *performance_latest(const struct performance *performance,
+                                                   uint8_t kind, uint32_t index);
+
+/* The n-th value in (kind, index) order, the order a report lists them in; NULL past the last. */
+const struct performance_value *performance_ranked(const struct performance *performance,
+                                                   uint32_t n);
+
+#endif /* KERNEL_PERFORMANCE_H */
