@@ -60,4 +60,23 @@ bool board_flash_program(uint32_t offset, const void *source, size_t length);
 /* Free bytes of RAM the node does not use (for the PONG line). */
 uint32_t board_ram_free(void);
 
+/* The RAM the kernel gives module code (docs/firmware.md, "Memory map"): SRAM for instance
+ * areas, the task window a running instance works in, and the stack module code runs on. Each
+ * is a power of two in size and aligned to its size: the trap file guards each with one NAPOT
+ * PMP region. */
+struct board_region {
+    uint32_t base, size;
+};
+void board_module_memory(struct board_region *sram, struct board_region *window,
+                         struct board_region *stack);
+
+/* The watchdog of module code: the machine timer interrupt `after_us` from now (it traps only
+ * while module code runs in user mode: the firmware keeps mstatus.MIE clear), and its cancel. */
+void board_alarm_in(uint32_t after_us);
+void board_alarm_cancel(void);
+
+/* False when the one who started the board asked for its modules to be left off when they are
+ * installed (`firmware-sim qemu --no-start`), for a host to start them. */
+bool board_start_modules(void);
+
 #endif /* BOARD_H */

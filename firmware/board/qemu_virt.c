@@ -35,9 +35,20 @@
 #define CLINT_MTIME_LOW 0x0200BFF8u
 #define CLINT_MTIME_HIGH 0x0200BFFCu
 #define MTIME_PER_US 10u /* divide_by_ten below relies on it */
+#define CLINT_MTIMECMP_LOW 0x02004000u /* hart 0 */
+#define CLINT_MTIMECMP_HIGH 0x02004004u
+#define MIE_MTIE 0x80u
+
+/* What `firmware-sim qemu --no-start` writes at __boot_options (QEMU's generic loader, before
+ * the hart starts); RAM is zero otherwise. */
+#define BOOT_NO_START 0x4E4F5354u /* "NOST" */
 
 extern char __bss_end[];   /* from the linker script: the end of the node's static RAM */
 extern char __stack_low[]; /* the lowest address the stack may reach */
+extern char __module_sram[], __module_sram_size[]; /* the module regions, link.ld */
+extern char __task_window[], __task_window_size[];
+extern char __module_stack[], __module_stack_size[];
+extern volatile uint32_t __boot_options[];
 
 static volatile uint8_t *uart(uint32_t reg)
 {
@@ -92,9 +103,10 @@ static uint64_t divide_by_ten(uint64_t n)
     return q + ((r + 6) >> 4);
 }
 
-uint64_t board_time_us(void)
+/* The CLINT's 64-bit counter: high, low, high again, so a carry between the halves is seen
+ * and the read retried. */
+static uint64_t mtime(void)
 {
-    /* Read high, low, high again: a carry between the two halves is seen and retried. */
     volatile uint32_t *low = (volatile uint32_t *)CLINT_MTIME_LOW;
     volatile uint32_t *high = (volatile uint32_t *)CLINT_MTIME_HIGH;
     uint32_t before, after, value;
@@ -103,7 +115,12 @@ uint64_t board_time_us(void)
         value = *low;
         after = *high;
     } while (before != after);
-    return divide_by_ten(((uint64_t)after << 32) | value);
+    return ((uint64_t)after << 32) | value;
+}
+
+uint64_t board_time_us(void)
+{
+    return divide_by_ten(mtime());
 }
 
 uint32_t board_flash_base(void)
@@ -201,4 +218,38 @@ bool board_flash_program(uint32_t offset, const void *source, size_t length)
 uint32_t board_ram_free(void)
 {
     return (uint32_t)(__stack_low - __bss_end);
+}
+
+void board_module_memory(struct board_region *sram, struct board_region *window,
+                         struct board_region *stack)
+{
+    *sram = (struct board_region){(uint32_t)__module_sram, (uint32_t)__module_sram_size};
+    *window = (struct board_region){(uint32_t)__task_window, (uint32_t)__task_window_size};
+    *stack = (struct board_region){(uint32_t)__module_stack, (uint32_t)__module_stack_size};
+}
+
+static void set_compare(uint64_t when)
+{
+    /* High word to all ones first: no moment where a half-written compare value is due. */
+    volatile uint32_t *low = (volatile uint32_t *)CLINT_MTIMECMP_LOW;
+    volatile uint32_t *high = (volatile uint32_t *)CLINT_MTIMECMP_HIGH;
+    *high = 0xFFFFFFFFu;
+    *low = (uint32_t)when;
+    *high = (uint32_t)(when >> 32);
+}
+
+void board_alarm_in(uint32_t after_us)
+{
+    set_compare(mtime() + (uint64_t)after_us * MTIME_PER_US);
+    __asm__ volatile("csrs mie, %0" : : "r"(MIE_MTIE));
+}
+
+void board_alarm_cancel(void)
+{
+    set_compare(UINT64_MAX);
+}
+
+bool board_start_modules(void)
+{
+    return __boot_options[0] != BOOT_NO_START;
 }

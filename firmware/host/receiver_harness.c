@@ -2,8 +2,8 @@
  * receiver_harness.c - the node's main loop on the host: bytes from stdin, answers on stdout,
  * with a few directives for tests (tests/firmware/test_host_fuzz.py).
  *
- * The bytes go through the same line reader and receiver as on QEMU. With --directives, a line
- * that starts with STX (0x02) is the harness's, not the node's:
+ * The bytes go through the same line reader and receiver as on QEMU, in both modes. With
+ * --directives, a line that starts with STX (0x02) is the harness's, not the node's:
  *   STX R        restart: the node boots again from its flash (what a reset leaves)
  *   STX T        the clock moves on 61 s (idle transfers expire)
  *   STX C N      the power fails during the N-th next flash operation (then STX R restores it)
@@ -99,12 +99,14 @@ int main(int argc, char **argv)
             read_directive();
             continue;
         }
-        line_start = byte == '\n';
         enum line_event event = line_reader_feed(&reader, byte);
+        /* A directive starts a line, never inside a binary frame, whose bytes may hold 0x02
+         * after 0x0A; a frame's closing 0x00 is a line's start too. */
+        line_start = !reader.in_frame && (byte == '\n' || byte == 0x00);
         if (event == LINE_TEXT) {
             receiver_handle_line(reader.line, reader.length);
         } else if (event == LINE_BINARY) {
-            receiver_handle_binary();
+            receiver_handle_binary(reader.frame, reader.length);
         }
     }
     return 0;

@@ -10,10 +10,7 @@
 #if defined(__riscv)
 
 /* ra, sp, s0..s11: what a call preserves, so what a jump back must restore. */
-typedef uint32_t jump_point[14];
-
-int module_call_save(jump_point point) __attribute__((returns_twice));
-_Noreturn void module_call_jump(jump_point point);
+typedef module_jump_point jump_point;
 
 __asm__(".text\n"
         ".globl module_call_save\n"
@@ -36,8 +33,18 @@ __asm__(".text\n"
 
 typedef int32_t (*guest_code)(uint32_t argument);
 
+static module_runner runner;
+
+void module_call_use(module_runner board_runner)
+{
+    runner = board_runner;
+}
+
 static int32_t run(uint32_t entry, uint32_t argument)
 {
+    if (runner != 0) {
+        return runner(entry, argument);
+    }
     /* The loader fixed the pointer (record 07) or named the init subroutine (record 08): the
      * address is where the code is. */
     return ((guest_code)(uintptr_t)entry)(argument);

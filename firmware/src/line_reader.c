@@ -6,7 +6,7 @@
 void line_reader_init(struct line_reader *reader)
 {
     reader->length = 0;
-    reader->overflowed = reader->in_frame = reader->frame_has_bytes = reader->complete = false;
+    reader->overflowed = reader->in_frame = reader->complete = false;
     reader->dropped = 0;
 }
 
@@ -37,13 +37,19 @@ static enum line_event end_line(struct line_reader *reader)
 static enum line_event frame_byte(struct line_reader *reader, uint8_t byte)
 {
     if (byte != 0x00) {
-        reader->frame_has_bytes = true;
+        frame_decoder_byte(&reader->decoder, byte);
         return LINE_NONE;
     }
-    if (!reader->frame_has_bytes) {
+    if (!frame_decoder_heard(&reader->decoder)) {
         return LINE_NONE; /* two 0x00 in a row: still in a frame (how a stream resynchronises) */
     }
-    reader->in_frame = reader->frame_has_bytes = false;
+    reader->in_frame = false;
+    reader->length = frame_decoder_end(&reader->decoder);
+    if (!reader->length) {
+        reader->dropped++;
+        return LINE_NONE;
+    }
+    reader->complete = true; /* the next byte starts afresh */
     return LINE_BINARY;
 }
 
@@ -62,6 +68,7 @@ enum line_event line_reader_feed(struct line_reader *reader, uint8_t byte)
         }
         reset(reader);
         reader->in_frame = true;
+        frame_decoder_start(&reader->decoder, reader->frame, sizeof reader->frame);
         return LINE_NONE;
     }
     if (byte == '\n') {

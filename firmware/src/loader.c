@@ -114,6 +114,17 @@ bool loader_has_relocation(const struct load_session *session, uint32_t location
     return false;
 }
 
+bool loader_reset_pointers(struct load_session *session, struct phrase *why)
+{
+    if (session->programmed_blocks) {
+        phrase_add(why, "the pointer records cannot change once a block is programmed");
+        return false;
+    }
+    session->relocation_count = 0;
+    session->has_init = false;
+    return true;
+}
+
 bool loader_feed_relocation(struct load_session *session, uint32_t location, struct phrase *why)
 {
     if (location % 4) {

@@ -58,6 +58,9 @@ void loader_rewind(struct load_session *session);
 /* Program the partly filled last block now (the sender waits for its acknowledgement). */
 bool loader_flush(struct load_session *session, struct phrase *why);
 
+/* Forget the pointer words and the init taken so far, for a header sent again (binary mode's
+ * HEADER); refused once a block is programmed. */
+bool loader_reset_pointers(struct load_session *session, struct phrase *why);
 bool loader_feed_relocation(struct load_session *session, uint32_t location, struct phrase *why);
 bool loader_feed_init(struct load_session *session, uint32_t target, struct phrase *why);
 bool loader_feed_signature(struct load_session *session, uint32_t offset, const uint8_t *data,

@@ -2,9 +2,14 @@
  * main.c - the node firmware: boot the flash directory, say so on the link, then serve.
  *
  * One loop, no interrupts: poll the UART, hand each whole line to the receiver, drop idle
- * transfers. The banner is the first line a host sees after a reset; lines about modules
- * skipped at boot come before it. It is no protocol message, so a host that reads it as an
- * answer drops it as one it cannot decode.
+ * transfers; between lines, start the modules that arrived, run the kernel's due job and push
+ * what a watch is due. A job runs in one piece (the watchdog bounds it, trap.h): bytes that
+ * arrive meanwhile wait in the UART, which QEMU does not overrun (it flow-controls the socket
+ * behind it; a real board needs an interrupt-fed ring buffer).
+ *
+ * The banner is the first line a host sees after a reset; lines about modules skipped at boot
+ * come before it. It is no protocol message, so a host that reads it as an answer drops it as
+ * one it cannot decode.
  *
  * Until the first byte from the host arrives the banner is said again every 50 ms: a line
  * that no one listened to (QEMU drops what the guest writes to a pty nobody holds open, a real
@@ -16,6 +21,8 @@
 #include "node.h"
 #include "phrase.h"
 #include "receiver.h"
+#include "runtime.h"
+#include "watch.h"
 
 #define BANNER_MAX 200
 #define BANNER_EVERY_US 50000u
@@ -52,6 +59,8 @@ static void serve(void)
     for (;;) {
         uint8_t byte;
         if (!board_uart_read(&byte)) {
+            runtime_step();
+            watch_push(send_bytes);
             receiver_expire();
             if (!heard && board_time_us() - announced >= BANNER_EVERY_US) {
                 banner();
@@ -64,7 +73,10 @@ static void serve(void)
         if (event == LINE_TEXT) {
             receiver_handle_line(reader.line, reader.length);
         } else if (event == LINE_BINARY) {
-            receiver_handle_binary();
+            receiver_handle_binary(reader.frame, reader.length);
+        }
+        if (event != LINE_NONE) {
+            runtime_step(); /* a stream of messages (a transfer) leaves room for due jobs */
         }
     }
 }
@@ -76,6 +88,7 @@ int main(void)
         say("refresh-node: the board's flash geometry does not fit this firmware; halted");
         return 1;
     }
+    runtime_init(); /* before the boot: each intact module's init runs as it is found */
     node_boot(say);
     receiver_init(send_bytes);
     line_reader_init(&reader);

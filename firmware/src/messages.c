@@ -405,7 +405,7 @@ void reply_end(struct phrase *line)
 /* Free text as hex mode writes it: its ends stripped, left out when empty. */
 static void add_free_text(struct phrase *line, const char *text)
 {
-    struct span s = strip((struct span){text, name_length(text, REPLY_MAX)});
+    struct span s = strip((struct span){text, name_length(text, ANSWER_MAX)});
     if (s.length) {
         phrase_add_char(line, ' ');
         phrase_add_bytes(line, s.start, s.length);
@@ -453,4 +453,28 @@ void reply_module(struct phrase *line, const char *name, uint32_t address, uint3
     phrase_add_hex(line, address, 8);
     phrase_add_char(line, ':');
     phrase_add_decimal(line, size);
+}
+
+void reply_answer(struct phrase *line, enum verb verb, const uint32_t *numbers, const char *text)
+{
+    const struct verb_spec *spec = &VERBS[verb];
+    phrase_add(line, spec->word);
+    for (int i = 0; i < spec->count; i++) {
+        if (spec->fields[i].kind != FIELD_REST) {
+            phrase_add_char(line, ' ');
+            phrase_add_decimal(line, *numbers++);
+        }
+    }
+    add_free_text(line, text);
+    reply_end(line);
+}
+
+const struct verb_spec *verb_spec(enum verb verb)
+{
+    return &VERBS[verb];
+}
+
+bool listing_check(const char *text, size_t length, struct phrase *why)
+{
+    return parse_listing((struct span){text, length}, why);
 }

@@ -21,6 +21,7 @@
 
 #define MESSAGE_MAX_FIELDS 6
 #define REPLY_MAX 640
+#define ANSWER_MAX 1024 /* a control answer's line: up to 800 characters of text (LOGLINES) */
 
 enum verb {
     VERB_PING, VERB_LS, VERB_RM, VERB_BEGIN, VERB_END, VERB_COMMIT, VERB_ABORT, VERB_RESUME,
@@ -74,6 +75,15 @@ void reply_pong(struct phrase *line, const char *text);
 void reply_modules_start(struct phrase *line);
 void reply_module(struct phrase *line, const char *name, uint32_t address, uint32_t size);
 void reply_end(struct phrase *line);
+
+/* An answer whose fields are numbers and then free text (PBOS, VALUES, LOGLINES, DESCRIPTION,
+ * REPORT, BEAT), in `line` (ANSWER_MAX bytes): `numbers` in the table's order, then `text`. */
+void reply_answer(struct phrase *line, enum verb verb, const uint32_t *numbers, const char *text);
+
+/* The fields of `verb`, in text order (the binary codec reads them too, binary_messages.c). */
+const struct verb_spec *verb_spec(enum verb verb);
+/* Whether `text` is a listing's NAME@0xADDRESS:SIZE words; false with the reason. */
+bool listing_check(const char *text, size_t length, struct phrase *why);
 
 /* Python's str.isspace() for an ASCII character: what split() and strip() cut at. */
 bool ascii_space(char c);

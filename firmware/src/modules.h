@@ -12,6 +12,7 @@
 #ifndef NODE_MODULES_H
 #define NODE_MODULES_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 /* Module `name` (its descriptor's) now lives at `load_address` (`size` bytes, relocated), its
@@ -22,5 +23,13 @@ const char *node_module_installed(const char *name, uint32_t load_address, uint3
 
 /* Module `name` is gone: stop it and forget it (its flash is erased next). */
 void node_module_removed(const char *name);
+
+#define NODE_MODULE_NAME_MAX 16 /* a module's name: the descriptor's 16 bytes at most */
+
+/* The next module installed (committed, or found at boot) and not yet taken, oldest first:
+ * its name in `name` (NODE_MODULE_NAME_MAX + 1 bytes) and true, or false when none waits. The
+ * main loop takes each once the line that committed it is answered, to start it (or leave it
+ * off, held) as firmware-sim listen does. */
+bool node_module_arrived(char *name);
 
 #endif

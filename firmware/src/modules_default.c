@@ -16,3 +16,9 @@ __attribute__((weak)) void node_module_removed(const char *name)
 {
     (void)name;
 }
+
+__attribute__((weak)) bool node_module_arrived(char *name)
+{
+    (void)name;
+    return false;
+}

@@ -6,6 +6,7 @@
 #include "receiver.h"
 
 #include "../board/board.h"
+#include "binary_messages.h"
 #include "control.h"
 #include "hex_record.h"
 #include "loader.h"
@@ -39,6 +40,7 @@ static struct {
     uint32_t opened;
     struct commit_answer commits[REMEMBERED_COMMITS];
     uint32_t commit_count, commit_next;
+    bool binary; /* the message being answered came in binary mode: so do its answers */
 } receiver;
 
 /* A fatal refusal: the reason, and the transfer it ends (NULL: none). */
@@ -57,10 +59,21 @@ void receiver_init(void (*send)(const char *bytes, size_t length))
     session_reset();
 }
 
+bool receiver_answering_binary(void)
+{
+    return receiver.binary;
+}
+
 /* Answers. */
 
+/* Every answer is written once, as hex mode's line; a binary request's answer is that line
+ * re-encoded as the binary message of its verb. */
 static void send_line(struct phrase *line)
 {
+    if (receiver.binary) {
+        binary_send_line(receiver.send, line->buffer, line->length);
+        return;
+    }
     receiver.send(line->buffer, line->length);
 }
 
@@ -203,6 +216,7 @@ static void handle_remove(const struct message *m)
     bool fits = length <= DIRECTORY_NAME_LEN;
     for (size_t i = 0; fits && i < length; i++) {
         name[i] = m->text[0][i];
+        fits = name[i] != '\0'; /* a binary name may hold one: it names no module */
     }
     name[fits ? length : 0] = '\0';
     if (!fits || !node_remove(name, &refusal.why)) {
@@ -232,7 +246,7 @@ static void handle_session(void (*answer)(uint32_t, struct phrase *), uint32_t t
 
 static void handle_control(const struct message *m)
 {
-    char buffer[REPLY_MAX];
+    static char buffer[ANSWER_MAX]; /* static: a description or log lines take 800 bytes */
     struct phrase reply;
     phrase_start(&reply, buffer, sizeof buffer);
     if (node_control(m, &reply)) {
@@ -288,9 +302,14 @@ static void handle_begin(const struct message *m)
     ack(tid, loader_load_base(&transfer->session), "begun");
 }
 
-/* The progress acknowledgement of hex mode: `ACK tid programmed`. */
+/* The progress acknowledgement: `ACK tid programmed` in hex mode, the 7-byte BlockAck in
+ * binary mode (one per DATA message, once its blocks are programmed). */
 static void progress(const struct transfer *transfer)
 {
+    if (receiver.binary) {
+        binary_send_block_ack(receiver.send, transfer->tid, loader_programmed(&transfer->session));
+        return;
+    }
     ack(transfer->tid, loader_programmed(&transfer->session), "");
 }
 
@@ -327,6 +346,12 @@ static bool feed(struct transfer *t, uint32_t address, const uint8_t *data, uint
         phrase_add_hex(&gap.why, address, 8);
         nak(t->tid, loader_received(session), false, gap.reason);
         return true;
+    }
+    if (t->verified) { /* binary DATA may name it: its flash past the image was given back */
+        phrase_add(&refusal->why, "expected no data after END: transfer ");
+        phrase_add_decimal(&refusal->why, t->tid);
+        phrase_add(&refusal->why, " is verified, send COMMIT or ABORT");
+        return false;
     }
     uint32_t skip = (uint32_t)(expected - address);
     if (!loader_feed_data(session, (uint32_t)expected, data + skip, length - skip,
@@ -619,6 +644,86 @@ static void handle_resume(uint32_t tid)
     ack(tid, loader_programmed(&t->session), state);
 }
 
+/* Binary mode's HEADER: all pointer words and the init at once (hex mode's 07 and 08 lines),
+ * taken once; sent again after a lost answer it is only acknowledged again. */
+static bool take_header(struct transfer *t, const struct message *m, struct refusal *refusal)
+{
+    const uint8_t *words = (const uint8_t *)m->text[BINARY_WORDS];
+    uint32_t count = (uint32_t)(m->text_length[BINARY_WORDS] / 4);
+    if (!relocation_room(t, count, refusal) || !loader_reset_pointers(&t->session, &refusal->why)) {
+        return false;
+    }
+    for (uint32_t i = 0; i < count; i++, words += 4) {
+        uint32_t location = (uint32_t)words[0] | (uint32_t)words[1] << 8 |
+                            (uint32_t)words[2] << 16 | (uint32_t)words[3] << 24;
+        if (loader_has_relocation(&t->session, location)) {
+            phrase_add(&refusal->why, "line 0: expected each pointer word once, got 0x");
+            phrase_add_hex(&refusal->why, location, 8);
+            phrase_add(&refusal->why, " again (first on line 0)");
+            return false;
+        }
+        if (!loader_feed_relocation(&t->session, location, &refusal->why)) {
+            return false;
+        }
+    }
+    if (!loader_feed_init(&t->session, (uint32_t)m->number[BINARY_INIT], &refusal->why)) {
+        return false;
+    }
+    t->header_done = true;
+    return true;
+}
+
+static void handle_header(const struct message *m)
+{
+    uint32_t tid = (uint32_t)m->number[BINARY_TID];
+    struct refusal refusal;
+    start_refusal(&refusal);
+    struct transfer *t = known_transfer(tid, &refusal);
+    if (!t || (!t->header_done && !take_header(t, m, &refusal))) {
+        drop(t);
+        nak(tid, 0, true, refusal.reason);
+        return;
+    }
+    ack(tid, loader_programmed(&t->session), "header");
+}
+
+/* Binary mode's SIGNATURE: the signature area (hex mode's 09 lines), acknowledged on its own;
+ * the same area again is taken without complaint, other bytes end the transfer. */
+static void handle_signature(const struct message *m)
+{
+    uint32_t tid = (uint32_t)m->number[BINARY_TID];
+    struct refusal refusal;
+    start_refusal(&refusal);
+    struct transfer *t = known_transfer(tid, &refusal);
+    /* A verified transfer's area was taken, and the node's one area may be another's now. */
+    bool take = t && !t->verified;
+    if (!t || (take && !loader_feed_signature(&t->session, 0,
+                                              (const uint8_t *)m->text[BINARY_AREA],
+                                              (uint32_t)m->text_length[BINARY_AREA],
+                                              &refusal.why))) {
+        drop(t);
+        nak(tid, 0, true, refusal.reason);
+        return;
+    }
+    ack(tid, loader_programmed(&t->session), "signature");
+}
+
+/* Binary mode's DATA: the bytes at a link address, loaded as a record line's are; its blocks
+ * are programmed once the whole message is here, then acknowledged with one BlockAck. */
+static void handle_data(const struct message *m)
+{
+    uint32_t tid = (uint32_t)m->number[BINARY_TID];
+    struct refusal refusal;
+    start_refusal(&refusal);
+    struct transfer *t = known_transfer(tid, &refusal);
+    const uint8_t *payload = (const uint8_t *)m->text[BINARY_PAYLOAD];
+    if (!t || !feed(t, (uint32_t)m->number[BINARY_ADDRESS], payload,
+                    (uint32_t)m->text_length[BINARY_PAYLOAD], &refusal)) {
+        drop(t);
+        nak(tid, 0, true, refusal.reason);
+    }
+}
+
 static void dispatch(const struct message *m)
 {
     uint32_t tid = (uint32_t)m->number[0];
@@ -645,6 +750,7 @@ void receiver_handle_line(const char *line, size_t length)
 {
     static struct message message;
     receiver_expire();
+    receiver.binary = false;
     struct refusal refusal;
     start_refusal(&refusal);
     phrase_add(&refusal.why, "bad message: ");
@@ -659,9 +765,23 @@ void receiver_handle_line(const char *line, size_t length)
     }
 }
 
-void receiver_handle_binary(void)
+void receiver_handle_binary(const uint8_t *raw, size_t length)
 {
-    nak(0, 0, true,
-        "bad message: expected a hex-mode line, got a binary frame: this node speaks hex mode "
-        "(hexmigrate --mode hex)");
+    static struct binary_message decoded;
+    receiver_expire();
+    receiver.binary = true;
+    struct refusal refusal;
+    start_refusal(&refusal);
+    phrase_add(&refusal.why, "bad message: ");
+    if (!binary_decode(raw, length, &decoded, &refusal.why)) {
+        nak(0, 0, false, refusal.reason);
+        return;
+    }
+    switch (decoded.kind) {
+    case BINARY_VERB: dispatch(&decoded.message); break;
+    case BINARY_HEADER: handle_header(&decoded.message); break;
+    case BINARY_SIGNATURE: handle_signature(&decoded.message); break;
+    case BINARY_DATA: handle_data(&decoded.message); break;
+    default: break; /* a BlockAck: an answer, never answered */
+    }
 }

@@ -4,8 +4,10 @@ It builds the firmware if needed (firmware/firmware.mk, through make), creates t
 when missing, starts QEMU and, once the firmware answered a PING, prints the same ``listening
 on PTY (connect with: hexmigrate send FILE.hex --to PTY)`` line that ``firmware-sim listen
 --listen pty`` prints, as its first line, so launchers and tests read both alike. It runs
-until Ctrl-C or SIGTERM (or --seconds), then stops QEMU. The firmware speaks hex mode for now:
-hexmigrate needs --mode hex.
+until Ctrl-C or SIGTERM (or --seconds), then stops QEMU. The firmware speaks both modes of the
+transfer protocol, so hexmigrate's default (binary) works as --mode hex does. It runs each
+module installed (or found in flash at boot), as ``firmware-sim listen`` does, or with
+--no-start leaves it off for a host to start.
 """
 
 from __future__ import annotations
@@ -40,10 +42,12 @@ def cmd_qemu(args: argparse.Namespace, say: Callable[[str], None]) -> int:
         if flash is None:  # no file named: the node forgets its modules when it stops
             folder = stack.enter_context(tempfile.TemporaryDirectory(prefix="qemu-flash-"))
             flash = Path(folder) / "flash.img"
-        node = stack.enter_context(QemuNode(firmware, ensure_flash(flash)))
+        node = stack.enter_context(
+            QemuNode(firmware, ensure_flash(flash), start_modules=not args.no_start)
+        )
         url = node.start()
         say(f"listening on {url} (connect with: hexmigrate send FILE.hex --to {url})")
-        say(f"qemu: {node.pong}; flash {flash}; it speaks hex mode: hexmigrate --mode hex")
+        say(f"qemu: {node.pong}; flash {flash}; it speaks binary and hex mode")
         for line in node.heard:
             if not line.startswith(BANNER):
                 say(f"qemu: {line}")
@@ -69,7 +73,7 @@ def add_qemu(commands: argparse._SubParsersAction, say: Callable[[str], None]) -
         "its UART on a pty and its flash in a file, and print where a host reaches it.\n\n"
         "example:\n"
         "  firmware-sim qemu --flash node.img\n"
-        "  hexmigrate send gain.hex --to /dev/pts/N --mode hex",
+        "  hexmigrate send gain.hex --to /dev/pts/N        (binary mode, or --mode hex)",
     )
     command.add_argument(
         "--flash",
@@ -83,6 +87,12 @@ def add_qemu(commands: argparse._SubParsersAction, say: Callable[[str], None]) -
         type=input_file(),
         metavar="FILE.elf",
         help="the firmware to run (default: build/firmware/node.elf, built with make)",
+    )
+    command.add_argument(
+        "--no-start",
+        action="store_true",
+        help="create each installed PBO but leave it off, for a host to set its constants, "
+        "wire it and start it (hexmigrate set, connect, start)",
     )
     command.add_argument(
         "--seconds",

@@ -33,6 +33,16 @@ PING_EVERY = 0.05
 QUIET = 0.05
 """Seconds without a byte that end the handshake's draining of late answers."""
 _PING = b"PING *%02X\n" % line_sum("PING")
+_BARRIER_TID = 0xFFFF_FFFF
+_BARRIER = b"ABORT %d *%02X\n" % (_BARRIER_TID, line_sum(f"ABORT {_BARRIER_TID}"))
+"""The handshake's last request: aborting a transfer no one began is answered, changes nothing."""
+_BARRIER_ANSWER = f"ACK {_BARRIER_TID} 0 aborted"
+BOOT_OPTIONS = 0x8007_0000
+"""Where the firmware reads its boot options (firmware/src/link.ld's __boot_options): QEMU's
+generic loader writes the word there before the hart starts."""
+NO_START = 0x4E4F_5354
+"""The word that asks the firmware to leave installed modules off ("NOST",
+firmware/board/qemu_virt.c)."""
 
 
 class QemuNode:
@@ -40,9 +50,14 @@ class QemuNode:
     its flash, QEMU's output into `log` (None: a temporary one). A context manager: leaving it
     stops QEMU."""
 
-    def __init__(self, firmware: Path, flash: Path, log: Path | None = None) -> None:
+    def __init__(
+        self, firmware: Path, flash: Path, log: Path | None = None, *, start_modules: bool = True
+    ) -> None:
         self.firmware = firmware
         self.flash = flash
+        self.start_modules = start_modules
+        """False: each module installed (or found at boot) is created and left off, as
+        ``firmware-sim listen --no-start`` leaves it, for a host to start."""
         self._folder: tempfile.TemporaryDirectory[str] | None = None
         if log is None:
             self._folder = tempfile.TemporaryDirectory(prefix="qemu-node-")
@@ -60,11 +75,17 @@ class QemuNode:
 
     def command(self, uart: Path) -> list[str]:
         """QEMU's command line, its UART a client of the Unix socket `uart`."""
+        options = (
+            []
+            if self.start_modules
+            else ["-device", f"loader,addr=0x{BOOT_OPTIONS:X},data=0x{NO_START:X},data-len=4"]
+        )
         return [
             _qemu(),
             *("-M", "virt", "-bios", "none", "-nographic", "-monitor", "none"),
             *("-chardev", f"socket,id=uart,path={uart}", "-serial", "chardev:uart"),
             *("-device", f"loader,file={self.firmware},cpu-num=0"),
+            *options,
             *("-drive", f"if=pflash,unit=1,format=raw,file={self.flash}"),
         ]
 
@@ -162,7 +183,14 @@ def _read_lines(descriptor: int, pending: bytes, wait: float) -> tuple[bytes, li
 
 
 def _drain(descriptor: int) -> None:
-    """Read until the line is quiet: the answers to earlier PINGs must not wait for the host
-    that opens the pty next."""
-    while select.select([descriptor], [], [], QUIET)[0]:
-        os.read(descriptor, 4096)
+    """Read up to the answer of one last request: the answers to earlier PINGs must not wait
+    for the host that opens the pty next. The firmware answers in order, so they all come
+    before it; a quiet spell alone is no proof (a loaded host delays a late PONG past it)."""
+    os.write(descriptor, _BARRIER)
+    pending = b""
+    deadline = time.monotonic() + START_TIMEOUT
+    while time.monotonic() < deadline:
+        pending, lines = _read_lines(descriptor, pending, QUIET)
+        if any(line.startswith(_BARRIER_ANSWER) for line in lines):
+            return
+    raise QemuError(f"the firmware did not answer ABORT {_BARRIER_TID} in {START_TIMEOUT:g} s")

@@ -1,4 +1,5 @@
-"""Fixtures of the conformance suite: every test runs against each node of `nodes.KINDS`."""
+"""Fixtures of the conformance suite: every test runs against each node of `nodes.KINDS`, and
+a test that takes `mode` in each transfer mode of `nodes.MODES`."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conformance.nodes import KINDS, BoardUnderTest
+from tests.conformance.nodes import KINDS, MODES, BoardUnderTest
 
 
 @pytest.fixture(params=KINDS)
@@ -16,15 +17,23 @@ def kind(request: pytest.FixtureRequest) -> str:
     return request.param
 
 
+@pytest.fixture(params=MODES)
+def mode(request: pytest.FixtureRequest) -> str:
+    """The transfer mode a test speaks (hexmigrate's --mode)."""
+    return request.param
+
+
 @pytest.fixture
-def boot(kind: str, tmp_path: Path) -> Iterator[Callable[[], BoardUnderTest]]:
-    """Start the node under test on the test's flash file (again: a restart on the same file);
-    every board started is stopped at the end."""
+def boot(kind: str, tmp_path: Path) -> Iterator[Callable[..., BoardUnderTest]]:
+    """Start the node under test on the test's flash file (again: a restart on the same file),
+    leaving the modules it installs off unless `switch_on`; every board started is stopped at
+    the end."""
     boards: list[BoardUnderTest] = []
     flash = tmp_path / "flash.img"
 
-    def start() -> BoardUnderTest:
-        board = BoardUnderTest(kind, flash, tmp_path / f"node-{len(boards)}.log")
+    def start(*, switch_on: bool = False) -> BoardUnderTest:
+        log = tmp_path / f"node-{len(boards)}.log"
+        board = BoardUnderTest(kind, flash, log, switch_on)
         boards.append(board)
         return board
 

@@ -1,6 +1,7 @@
 """Conformance: a module's way onto a node and off it, the same on every node (`nodes.KINDS`),
 with the real ``hexmigrate`` over a pty: ping, send, ls, rm; a restart on the same flash file;
-power cut at any moment of a transfer or a commit.
+power cut at any moment of a transfer or a commit. The transfers and the power cuts run in both
+transfer modes (`nodes.MODES`), the rest in the default one.
 """
 
 from __future__ import annotations
@@ -18,62 +19,64 @@ from hexmigrate.image import ModuleImage
 from hexmigrate.links import open_link
 from hexmigrate.transfer.sender import Progress, Sender
 from module_sdk.build import build_module, example_sources
-from tests.conformance.nodes import MODE, BoardUnderTest
+from tests.conformance.nodes import BoardUnderTest
 from tests.firmware_sim.host_side import hexmigrate
 
 LISTED = re.compile(r"^(\w+) +0x([0-9A-F]{8}) +(\d+) bytes", re.MULTILINE)
 """A module in ``hexmigrate ls``'s output: name, load address, size."""
-CUTS = 6
+CUTS = 4
 """Power cuts per test, each at a random moment of a transfer or a commit."""
+DEFAULT_MODE = "binary"
+"""The mode of the tests whose subject is not the transfer itself (hexmigrate's default)."""
 COMMIT_WINDOW = 0.1
 """Seconds after a transfer's last block in which a power cut may fall (END, COMMIT)."""
 
 
-def listed(url: str) -> dict[str, tuple[int, int]]:
+def listed(url: str, mode: str) -> dict[str, tuple[int, int]]:
     """The node's modules by name: (load address, size)."""
-    out = hexmigrate("ls", "--to", url, *MODE)
+    out = hexmigrate("ls", "--to", url, "--mode", mode)
     return {name: (int(address, 16), int(size)) for name, address, size in LISTED.findall(out)}
 
 
-def send(path: object, url: str, *options: str) -> str:
-    return hexmigrate("send", path, "--to", url, *MODE, "--quiet", *options)
+def send(path: object, url: str, mode: str, *options: str) -> str:
+    return hexmigrate("send", path, "--to", url, "--mode", mode, "--quiet", *options)
 
 
 @pytest.mark.timeout(120)
 def test_ping_answers_with_a_line_about_the_node(boot):
     board = boot()
-    assert "module(s)" in hexmigrate("ping", "--to", board.url, *MODE)
+    assert "module(s)" in hexmigrate("ping", "--to", board.url, "--mode", DEFAULT_MODE)
 
 
 @pytest.mark.timeout(120)
-def test_a_module_sent_is_listed_with_its_size_and_removed(boot, example_hex):
+def test_a_module_sent_is_listed_with_its_size_and_removed(boot, mode, example_hex):
     board = boot()
-    send(example_hex["gain"], board.url)
-    send(example_hex["moving_average"], board.url)
-    modules = listed(board.url)
+    send(example_hex["gain"], board.url, mode)
+    send(example_hex["moving_average"], board.url, mode)
+    modules = listed(board.url, mode)
     assert set(modules) == {"gain", "moving_average"}
     sizes = {name: example_hex[name].stat().st_size for name in modules}
     assert all(0 < size < sizes[name] for name, (_, size) in modules.items())  # bytes, not lines
-    hexmigrate("rm", "gain", "--to", board.url, *MODE)
-    assert set(listed(board.url)) == {"moving_average"}
+    hexmigrate("rm", "gain", "--to", board.url, "--mode", mode)
+    assert set(listed(board.url, mode)) == {"moving_average"}
 
 
 @pytest.mark.timeout(120)
 def test_the_modules_outlive_a_restart_on_the_same_flash_file(boot, example_hex):
     board = boot()
-    send(example_hex["gain"], board.url)
-    send(example_hex["moving_average"], board.url)
-    before = listed(board.url)
+    send(example_hex["gain"], board.url, DEFAULT_MODE)
+    send(example_hex["moving_average"], board.url, DEFAULT_MODE)
+    before = listed(board.url, DEFAULT_MODE)
     board.stop()
-    assert listed(boot().url) == before
+    assert listed(boot().url, DEFAULT_MODE) == before
 
 
 @pytest.mark.timeout(120)
 def test_a_module_sent_again_replaces_the_one_of_its_name(boot, example_hex):
     board = boot()
-    send(example_hex["gain"], board.url)
-    send(example_hex["gain"], board.url)
-    modules = listed(board.url)
+    send(example_hex["gain"], board.url, DEFAULT_MODE)
+    send(example_hex["gain"], board.url, DEFAULT_MODE)
+    modules = listed(board.url, DEFAULT_MODE)
     assert list(modules) == ["gain"]
 
 
@@ -81,7 +84,7 @@ class PowerCut(Exception):
     """The sender's own signal that it pulled the plug (ends its transfer)."""
 
 
-def send_until_cut(board: BoardUnderTest, path: Path, cut: float) -> None:
+def send_until_cut(board: BoardUnderTest, path: Path, cut: float, mode: str) -> None:
     """Send `path` and cut the board's power once `cut` of the image was acknowledged, or
     (`cut` beyond 1) `cut - 1` of COMMIT_WINDOW after its last block: in END, in the commit, or
     after it."""
@@ -97,7 +100,7 @@ def send_until_cut(board: BoardUnderTest, path: Path, cut: float) -> None:
 
     try:
         with open_link(board.url) as link:
-            Sender(link, "hex", timeout=0.5, retries=2, progress=progress).send(image)
+            Sender(link, mode, timeout=0.5, retries=2, progress=progress).send(image)
     except (PowerCut, TransferError, LinkError):
         pass
     if late.is_alive():
@@ -123,24 +126,24 @@ def larger_gain(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.mark.slow
 @pytest.mark.timeout(300)
 def test_a_power_cut_at_any_moment_leaves_the_old_module_or_the_new_never_a_half(
-    boot, example_hex, larger_gain
+    boot, mode, example_hex, larger_gain
 ):
     board = boot()
     versions = [example_hex["gain"], larger_gain]
-    send(versions[0], board.url)
-    sizes = [listed(board.url)["gain"][1]]
-    send(versions[1], board.url)
-    sizes.append(listed(board.url)["gain"][1])
+    send(versions[0], board.url, mode)
+    sizes = [listed(board.url, mode)["gain"][1]]
+    send(versions[1], board.url, mode)
+    sizes.append(listed(board.url, mode)["gain"][1])
     assert sizes[1] > sizes[0]
     draw = random.Random(28)
     for cut in range(CUTS):
         old = sizes[(cut + 1) % 2]
         new = sizes[cut % 2]
-        send_until_cut(board, versions[cut % 2], draw.uniform(0.0, 1.5))
+        send_until_cut(board, versions[cut % 2], draw.uniform(0.0, 1.5), mode)
         board = boot()
-        modules = {name: size for name, (_, size) in listed(board.url).items()}
+        modules = {name: size for name, (_, size) in listed(board.url, mode).items()}
         assert modules in ({"gain": old}, {"gain": new}), f"cut {cut}"
         if modules["gain"] == old:  # the next cut starts from the version it expects
-            send(versions[cut % 2], board.url)
-    send(example_hex["moving_average"], board.url)  # the flash is sound: it still installs
-    assert set(listed(board.url)) == {"gain", "moving_average"}
+            send(versions[cut % 2], board.url, mode)
+    send(example_hex["moving_average"], board.url, mode)  # the flash is sound: it still installs
+    assert set(listed(board.url, mode)) == {"gain", "moving_average"}

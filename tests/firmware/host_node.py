@@ -1,6 +1,7 @@
 """The firmware's loader and receiver built for the host (firmware/host, under ASan and UBSan),
-driven as a node: lines in, answers out, and the harness's directives (restart, clock, power
-cut, flash dump). A sanitizer finding ends the process with its report on stderr, which every
+driven as a node: lines and binary frames in, answers out (cut by hexmigrate's own Deframer, so
+binary answers come whole), and the harness's directives (restart, clock, power cut, flash
+dump). A sanitizer finding ends the process with its report on stderr, which every
 check here raises with."""
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ import subprocess
 import time
 from pathlib import Path
 
+from hexmigrate.links.framing import Deframer, cobs_encode
 from hexmigrate.transfer.layout import line_sum
 
 ANSWER_TIMEOUT = 10.0
@@ -30,7 +32,8 @@ class HostNode:
             stderr=subprocess.PIPE,
             env=env,
         )
-        self._pending = b""
+        self._deframer = Deframer(max_line=4096)  # an answer line may be longer than a request
+        self._pending: list[bytes] = []
         self.read_until(b"refresh-node host ready")
 
     def send(self, data: bytes) -> None:
@@ -47,14 +50,15 @@ class HostNode:
         self.send(b"%s *%02X\n" % (text.encode(), line_sum(text)))
 
     def read_until(self, start: bytes) -> list[bytes]:
-        """The lines that come up to and including the first that starts with `start`."""
+        """The messages (lines, binary messages) that come up to and including the first line
+        that starts with `start`."""
         lines: list[bytes] = []
         deadline = time.monotonic() + ANSWER_TIMEOUT
         assert self.process.stdout is not None
         out = self.process.stdout.fileno()
         while True:
-            while b"\n" in self._pending:
-                line, self._pending = self._pending.split(b"\n", 1)
+            while self._pending:
+                line = self._pending.pop(0)
                 lines.append(line)
                 if line.startswith(start):
                     return lines
@@ -64,13 +68,22 @@ class HostNode:
             chunk = os.read(out, 65536)
             if not chunk:
                 raise AssertionError(f"the harness ended: {self.errors()}")
-            self._pending += chunk
+            self._pending += self._deframer.feed(chunk)
 
     def answers(self, data: bytes) -> list[bytes]:
         """What the node answers to `data` (whole lines), up to a PING's PONG (left out). An
         STX in `data` is sent as ETX: at a line's start it would be the harness's directive,
         and to the node both are the same, a control byte no message starts with."""
         self.send(data.replace(STX, b"\x03"))
+        self.command("PING")
+        return self.read_until(b"PONG")[:-1]
+
+    def binary(self, messages: list[bytes], raw: bytes = b"") -> list[bytes]:
+        """What the node answers to binary `messages`, each framed as 0x00 COBS 0x00 (whatever
+        its first byte), then `raw` as it is: the messages up to a PING's PONG (left out).
+        Frames go untouched: the harness knows a frame from a directive."""
+        framed = (b"\x00" + cobs_encode(message) + b"\x00" for message in messages)
+        self.send(b"".join(framed) + raw)
         self.command("PING")
         return self.read_until(b"PONG")[:-1]
 

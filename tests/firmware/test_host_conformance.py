@@ -1,6 +1,7 @@
 """The C receiver and loader against the Python node's, message by message: the same transfer
-scripts, lines lost, repeated and sent again as a go-back-N sender and a noisy line make them,
-get the same answers from both nodes (load addresses aside: the C node's flash is elsewhere).
+scripts, lines (binary mode: messages) lost, repeated and sent again as a go-back-N sender and a
+noisy line make them, get the same answers from both nodes (load addresses aside: the C node's
+flash is elsewhere), in hex mode and in binary mode.
 
 A script is gain's module file after a BEGIN, its lines perturbed: dropped, doubled, or
 followed by a go-back to an earlier line; then repeats of the EOF record, COMMIT, RESUME, LS,
@@ -11,6 +12,8 @@ the line belonged to, where the Python node drops the terminal's transfer 0 (doc
 from __future__ import annotations
 
 import re
+import zlib
+from dataclasses import replace
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -19,8 +22,26 @@ from hypothesis import strategies as st
 from firmware_sim.core.node import Node
 from firmware_sim.core.transfer_target import NodeTarget
 from hexmigrate.image import ModuleImage
-from hexmigrate.links.framing import Deframer
+from hexmigrate.links.framing import Deframer, frame
 from hexmigrate.transfer.layout import line_sum
+from hexmigrate.transfer.messages import (
+    Abort,
+    Ack,
+    Begin,
+    BlockAck,
+    Commit,
+    Data,
+    End,
+    Header,
+    Listing,
+    ListModules,
+    Nak,
+    Remove,
+    Resume,
+    Signature,
+    decode,
+    encode,
+)
 from hexmigrate.transfer.receiver import Receiver
 from tests.firmware.host_node import HostNode
 
@@ -123,4 +144,138 @@ def test_a_perturbed_transfer_gets_the_same_answers(harness, gain, data):
     with HostNode(harness) as node:
         c = until_fatal([normal(answer) for answer in c_answers(node, script)])
     python = until_fatal([normal(answer) for answer in python_answers(script)])
+    assert c == python
+
+
+# Binary mode: the same transfers as the Sender makes them (BEGIN, a signed module's SIGNATURE,
+# HEADER, DATA of up to two blocks, END with the CRC of the image at the node's load address),
+# messages lost, doubled, sent again and damaged on the way.
+
+END_CRC = -1
+"""END's CRC in a script: the image's CRC-32 at the load address the node's BEGIN answer gave."""
+AREA = bytes(range(256)) * 3 + b"signed"
+"""A signature area: a node that trusts no key keeps it during the transfer and checks nothing."""
+
+
+def binary_begin(image: ModuleImage) -> bytes:
+    return encode(Begin(TID, "gain", image.size, len(image.relocations), image.link_base), False)
+
+
+@st.composite
+def binary_scripts(draw, image: ModuleImage) -> list[bytes]:
+    """gain's binary transfer after its BEGIN: DATA cut at random sizes (as a Sender's flight
+    shrinks and grows), lost, doubled, sent again, damaged; then the requests that end it. END's
+    CRC is END_CRC, filled in per node."""
+    sent = [encode(Signature(TID, AREA), False)] if draw(st.booleans()) else []
+    sent.append(encode(Header(TID, image.init, image.relocations), False))
+    pieces, offset = [], 0
+    while offset < image.size:
+        step = min(draw(st.sampled_from([32, 64, 256, 512, 512, 512])), image.size - offset)
+        data = image.data[offset : offset + step]
+        pieces.append(encode(Data(TID, image.link_base + offset, data), False))
+        offset += step
+    position = 0
+    while position < len(pieces):
+        fate = draw(st.sampled_from(["send"] * 8 + ["drop", "double", "back", "damage"]))
+        if fate == "back":
+            position = max(0, position - draw(st.integers(1, 4)))
+        if fate == "damage":
+            message = bytearray(pieces[position])
+            message[draw(st.integers(0, len(message) - 1))] ^= 1 << draw(st.integers(0, 7))
+            sent.append(bytes(message))
+        elif fate != "drop":
+            sent.append(pieces[position])
+        if fate == "double":
+            sent.append(pieces[position])
+        position += 1
+    end = encode(End(TID, 0), False)[:-4] + b"END?"  # the CRC to fill in, see with_crc
+    ending = [end, encode(Commit(TID), False), encode(Resume(TID), False)]
+    ending += [encode(ListModules(), False), encode(Abort(TID), False), end]
+    ending += [encode(Commit(TID), False), encode(Remove("gain"), False)]
+    return sent + draw(st.permutations(ending))
+
+
+def with_crc(script: list[bytes], image: ModuleImage, begun: bytes) -> list[bytes]:
+    """The script with END's CRC, that of the image at the load address BEGIN's answer gave."""
+    answer = decode(begun)
+    assert isinstance(answer, Ack) and answer.text == "begun", answer
+    end = encode(End(TID, zlib.crc32(image.relocate(answer.value))), False)
+    return [end if message.endswith(b"END?") else message for message in script]
+
+
+def binary_normal(answer: bytes) -> object:
+    """A binary answer decoded, its load addresses and image CRCs replaced by marks."""
+    message = decode(answer)
+    if isinstance(message, Ack) and (message.text == "begun" or "installed" in message.text):
+        return replace(message, value=0)
+    if isinstance(message, Ack) and message.text.startswith("verified"):
+        return replace(message, text="verified crc=CRC")
+    if isinstance(message, Listing):
+        return replace(message, modules=tuple((n, 0, size) for n, _, size in message.modules))
+    return message
+
+
+def python_binary_answers(image: ModuleImage, script: list[bytes]) -> list[bytes]:
+    """What the Python node answers to BEGIN and then the script, each message framed and cut
+    by its deframer as a link delivers it."""
+    with Node() as node:
+        receiver = Receiver(NodeTarget(node))
+        deframer = Deframer()
+
+        def handled(message: bytes) -> list[bytes]:
+            return [a for m in deframer.feed(frame(message)) for a in receiver.handle(m)]
+
+        answers = handled(binary_begin(image))
+        for message in with_crc(script, image, answers[0]):
+            answers += handled(message)
+    return answers
+
+
+def c_binary_answers(node: HostNode, image: ModuleImage, script: list[bytes]) -> list[bytes]:
+    """What the C node answers to BEGIN and then the whole script."""
+    answers = node.binary([binary_begin(image)])
+    answers += node.binary(with_crc(script, image, answers[0]))
+    node.directive("R")
+    node.answers(b"RM gain\n")  # the next script starts from an empty node
+    return answers
+
+
+def until_fatal_binary(answers: list[object]) -> list[object]:
+    for index, answer in enumerate(answers):
+        if isinstance(answer, Nak) and answer.fatal:
+            return answers[: index + 1]
+    return answers
+
+
+@pytest.mark.timeout(300)
+def test_the_clean_binary_transfer_gets_the_same_answers(harness, gain):
+    pieces = [
+        encode(Data(TID, gain.link_base + offset, gain.data[offset : offset + 512]), False)
+        for offset in range(0, gain.size, 512)
+    ]
+    script = [encode(Header(TID, gain.init, gain.relocations), False), *pieces]
+    script += [encode(End(TID, 0), False)[:-4] + b"END?", encode(Commit(TID), False)]
+    script.append(encode(ListModules(), False))
+    with HostNode(harness) as node:
+        c = [binary_normal(a) for a in c_binary_answers(node, gain, script)]
+    python = [binary_normal(a) for a in python_binary_answers(gain, script)]
+    assert c == python
+    assert c[-1] == Listing((("gain", 0, 1120),))
+    assert [a for a in c if isinstance(a, BlockAck)] == [
+        BlockAck(TID, 512),
+        BlockAck(TID, 1024),
+        BlockAck(TID, 1280),  # the last block, partly filled, programmed at the image end
+    ]
+
+
+@pytest.mark.timeout(600)
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(data=st.data())
+def test_a_perturbed_binary_transfer_gets_the_same_answers(harness, gain, data):
+    script = data.draw(binary_scripts(gain))
+    with HostNode(harness) as node:
+        c = until_fatal_binary([binary_normal(a) for a in c_binary_answers(node, gain, script)])
+    python = until_fatal_binary([binary_normal(a) for a in python_binary_answers(gain, script)])
     assert c == python

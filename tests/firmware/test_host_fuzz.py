@@ -5,20 +5,37 @@ Whatever arrives (random bytes, over-long lines, damaged commands, record lines 
 and size, transfers that lie about their size and pointers), the node answers the next PING
 and the sanitizers report nothing: a finding aborts the harness with its report, which fails
 the test. Where the Python node refuses a line as not a message (or not a record), the C node
-refuses it with the same bytes, so the host shows the same error for both nodes.
+refuses it with the same bytes, so the host shows the same error for both nodes. The same holds
+in binary mode: random frames, messages of every type with hostile fields, lying transfers.
 """
 
 from __future__ import annotations
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from hexmigrate.errors import HexError, MessageError
 from hexmigrate.links.framing import Deframer
 from hexmigrate.records import Record, RecordType, decode_record
-from hexmigrate.transfer.layout import line_sum
-from hexmigrate.transfer.messages import Nak, decode, encode
+from hexmigrate.transfer.layout import CRC16, CRC32, line_sum
+from hexmigrate.transfer.messages import (
+    _BY_CODE,
+    Abort,
+    Begin,
+    Commit,
+    Data,
+    End,
+    Header,
+    Listing,
+    ListModules,
+    Nak,
+    Remove,
+    Resume,
+    Signature,
+    decode,
+    encode,
+)
 from tests.firmware.host_node import HostNode
 
 VERBS = [
@@ -205,3 +222,150 @@ def test_lying_transfers_never_crash_the_loader(node, script, expire):
             node.directive("T")
     node.directive("R")  # a restart reads back whatever the directory holds
     assert node.answers(b"LS\n")[0].startswith(b"MODULES")
+
+
+# Binary mode: frames of random bytes, and messages of every type whose check is right but whose
+# fields lie (a flag of 7, a word that is not UTF-8, a length byte past the tail, a u32 array of
+# 5 bytes, a listing that is no listing, a body too short or too long).
+
+CODES = [*sorted(_BY_CODE), 0x10C, 0x1FF]  # the declared types, and two unknown extended ones
+TAILS = st.one_of(
+    st.binary(max_size=60),
+    st.text(max_size=30).map(lambda text: text.encode("utf-8", "surrogatepass")),
+    st.lists(
+        st.sampled_from([b"gain@0x22000000:1120", b"x@0x1:2", b"@0x1:2", b"m@1", b"m@0x:3"]),
+        max_size=3,
+    ).map(b" ".join),
+    st.builds(lambda n, rest: bytes([n]) + rest, st.integers(0, 255), st.binary(max_size=40)),
+)
+
+
+def checked(body: bytes, code: int) -> bytes:
+    """`body` after the type's prefix, with the check its type ends in (a BlockAck: CRC-16)."""
+    prefix = bytes([0, code & 0xFF]) if code > 0xFF else bytes([code])
+    check = CRC16 if code == 0x15 else CRC32
+    return check.append(prefix + body)
+
+
+@st.composite
+def binary_messages(draw) -> bytes:
+    """A binary message of any type, its fixed fields random, its tail hostile, its check
+    right (or, now and then, wrong)."""
+    code = draw(st.sampled_from(CODES))
+    layout = _BY_CODE.get(code)
+    fixed = layout.struct.size if layout is not None else 0
+    size = draw(st.sampled_from([fixed, fixed, fixed, max(0, fixed - 1), fixed + 1]))
+    byte = st.one_of(st.sampled_from([0, 1, 2, 0xFF]), st.integers(0, 255))  # edges often
+    body = bytes(draw(st.lists(byte, min_size=size, max_size=size))) + draw(TAILS)
+    message = checked(body, code)
+    if draw(st.integers(0, 9)) == 0:
+        message = message[:-1] + bytes([message[-1] ^ 0x40])
+    return message
+
+
+@pytest.mark.timeout(300)
+@SETTINGS
+@given(frames=st.lists(st.binary(max_size=600), max_size=8), tail=st.binary(max_size=300))
+def test_any_binary_frames_leave_the_node_answering(node, frames, tail):
+    raw = tail.replace(b"\x00", b"")  # COBS bytes that may not decode, in a frame of their own
+    node.binary([f for f in frames if f], b"\x00" + raw + b"\x00" if raw else b"")
+
+
+@pytest.mark.timeout(300)
+@SETTINGS
+@given(message=binary_messages())
+@example(message=checked(bytes(8) + b"\x02" + b"flag", 0x14))  # NAK's flag is 0 or 1
+@example(message=checked(bytes(4) + b"\x09ab", 0x102))  # AUTH's key: 9 bytes, 2 follow
+@example(message=checked(bytes(8) + b"\x01\x02\x03", 0x05))  # HEADER: 3 bytes of words
+@example(message=checked(b"gain@0x1", 0x12))  # a listing that is none
+@example(message=checked(b"\xc0\x80", 0x11))  # an overlong 0x00: no UTF-8
+@example(message=checked(b"\xed\xa0\x80", 0x03))  # a surrogate: no UTF-8
+@example(message=checked(bytes(3), 0x07))  # END's body too short
+def test_a_refused_binary_message_gets_the_python_nodes_very_refusal(node, message):
+    if message[0] >= 0x20:
+        return  # no binary message: the deframer drops it (both nodes alike)
+    try:
+        decode(message)
+    except MessageError as error:
+        expected = encode(Nak(0, 0, f"bad message: {error}"), False)
+        assert node.binary([message])[:1] == [expected]
+    else:
+        node.binary([message])  # a message: answered (or not, an answer) as the receiver does
+    node.directive("R")  # a BEGIN that opened a transfer: forgotten again
+
+
+@st.composite
+def binary_transfers(draw) -> list[bytes]:
+    """A binary transfer that may lie: BEGIN with any size and pointer count, SIGNATURE,
+    HEADER and DATA of any size, at any address, in any order, then END and COMMIT."""
+    tid = draw(st.integers(0, 5))
+    size = draw(st.integers(0, 3000))
+    messages = [Begin(tid, "m", size, draw(st.integers(0, 70)), 0x10000)]
+    for _ in range(draw(st.integers(0, 20))):
+        kind = draw(st.sampled_from(["data", "data", "data", "header", "signature", "resume"]))
+        if kind == "data":
+            address = draw(st.integers(0xFF00, 0x11300))
+            messages.append(Data(tid, address, draw(st.binary(max_size=600))))
+        elif kind == "header":
+            words = st.integers(0xFFF0, 0x11300)
+            messages.append(Header(tid, draw(words), tuple(draw(st.lists(words, max_size=80)))))
+        elif kind == "signature":
+            most = draw(st.sampled_from([40, 4096]))  # a whole area, now and then
+            messages.append(Signature(tid, draw(st.binary(max_size=most))))
+        else:
+            messages.append(Resume(tid))
+    messages += [End(tid, draw(st.integers(0, (1 << 32) - 1))), Commit(tid)]
+    messages.append(draw(st.sampled_from([ListModules(), Remove("m"), Abort(1)])))
+    return [encode(message, False) for message in messages]
+
+
+@pytest.mark.timeout(300)
+@SETTINGS
+@given(script=st.lists(binary_transfers(), min_size=1, max_size=3), expire=st.booleans())
+def test_lying_binary_transfers_never_crash_the_loader(node, script, expire):
+    for messages in script:
+        node.binary(messages)
+        if expire:
+            node.directive("T")
+    node.directive("R")
+    (listing,) = node.binary([encode(ListModules(), False)])
+    assert isinstance(decode(listing), Listing)
+
+
+@pytest.mark.timeout(60)
+def test_a_message_longer_than_the_node_takes_is_dropped_whole(node):
+    too_long = encode(Signature(1, bytes(4097)), False)
+    assert node.binary([too_long]) == []
+    assert node.binary([b"\x01"]) != []  # the stream goes on: the next frame is read
+
+
+@pytest.mark.timeout(60)
+def test_a_refusal_quoting_a_long_name_is_cut_never_overrun(node):
+    """A name of 3,000 bytes (a `*` in it or not): its refusal quotes it cut to the node's
+    400-byte reason (the Python node quotes it whole), a whole binary answer all the same."""
+    for name in ("g" * 3000, "g*" * 1500):
+        (answer,) = node.binary([encode(Remove(name), False)])
+        refusal = decode(answer)
+        assert isinstance(refusal, Nak) and refusal.fatal
+        assert refusal.reason.startswith("no module named 'g")
+        assert len(refusal.reason) < 400
+
+
+@pytest.mark.timeout(60)
+def test_data_for_a_verified_transfer_never_reaches_flash_given_back(node, images):
+    """A module typed without BEGIN reserves 64 KiB and gives back all but its image at its EOF
+    record; binary DATA may still name its transfer (tid 0). Data past the image is refused and
+    the transfer dropped: it is never written over the sectors given back, here another
+    transfer's. (The Python node fails on it with an AssertionError: its block buffer is gone.)"""
+    gain = images["gain"]
+    verified = node.answers(gain.to_hex().encode())
+    assert verified[-1].startswith(b"ACK 0 1120 verified crc=0x")
+    node.command(f"BEGIN 2 other 512 0 {gain.link_base}")
+    assert node.read_until(b"ACK 2")[-1].startswith(b"ACK 2 ")
+    beyond = encode(Data(0, gain.link_base + gain.size, bytes(4000)), False)
+    (refusal,) = node.binary([beyond])
+    reason = "expected no data after END: transfer 0 is verified, send COMMIT or ABORT"
+    assert decode(refusal) == Nak(0, 0, reason, fatal=True)
+    assert node.binary([encode(Commit(0), False)]) == [
+        encode(Nak(0, 0, "unknown transfer 0: send BEGIN first", fatal=True), False)
+    ]

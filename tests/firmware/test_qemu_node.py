@@ -19,7 +19,7 @@ from firmware_sim.errors import QemuError
 from firmware_sim.qemu.machine import handshake
 from hexmigrate.links import open_link
 from hexmigrate.links.listening import CONNECT_URL
-from hexmigrate.transfer.messages import Nak, encode
+from hexmigrate.transfer.messages import Commit, Nak, PboTable, encode
 from hexmigrate.transfer.sender import Sender
 from tests.firmware.flash_image import FLASH_BASE, committed
 from tests.firmware_sim.host_side import CLI_TIMEOUT, hexmigrate, hexmigrate_refused
@@ -80,20 +80,40 @@ def test_the_modules_survive_a_restart_on_the_same_flash(boot, flash_file, image
     assert sorted(committed(flash_file)) == ["gain", "moving_average"]
 
 
-@pytest.mark.timeout(30)
-def test_a_binary_mode_host_hears_why_it_is_refused(boot, flash_file):
+@pytest.mark.timeout(60)
+def test_hexmigrate_in_its_default_binary_mode_pings_sends_lists_and_removes(
+    boot, flash_file, example_hex
+):
     node = boot(flash_file)
-    refused = hexmigrate_refused("ping", "--to", node.url)
-    assert "this node speaks hex mode (hexmigrate --mode hex)" in refused
+    assert hexmigrate("ping", "--to", node.url).startswith("node: 0 module(s), ")
+    sent = hexmigrate("send", example_hex["gain"], "--to", node.url)
+    assert f"module gain installed at 0x{FLASH_BASE:08X}" in sent
+    assert hexmigrate("ls", "--to", node.url).split() == [
+        "gain", f"0x{FLASH_BASE:08X}", "1120", "bytes"
+    ]  # fmt: skip
+    assert set(committed(flash_file)) == {"gain"}
+    assert hexmigrate("rm", "gain", "--to", node.url) == f"removed gain from {node.url}\n"
+    with open_link(node.url) as link:  # a binary request's refusal: binary, the Python words
+        link.send(encode(Commit(5), False))
+        refusal = Nak(5, 0, "unknown transfer 5: send BEGIN first", fatal=True)
+        assert link.receive(5.0) == encode(refusal, False)
+    assert committed(flash_file) == {}
 
 
 @pytest.mark.timeout(30)
-def test_a_control_request_is_refused_as_the_python_node_refuses_it(boot, flash_file):
+def test_control_requests_are_answered_and_a_missing_feature_refused_by_name(boot, flash_file):
     node = boot(flash_file)
     with open_link(node.url) as link:
         link.send(b"PS 77")
-        refusal = Nak(77, 0, "PS refused: this node takes no control requests", fatal=True)
-        assert link.receive(5.0) == encode(refusal, True)
+        assert link.receive(5.0) == encode(PboTable(77, ""), True)
+        link.send(b"ADVANCE 78 1000")
+        refusal = (
+            "ADVANCE refused: this node runs on the real-time clock: the firmware has no "
+            "lock-step time"
+        )
+        assert link.receive(5.0) == encode(Nak(78, 0, refusal, fatal=True), True)
+        link.send(b"EXPORT 79 1 100 gain.y raw socket://127.0.0.1:9")
+        assert link.receive(5.0).startswith(b"NAK 79 0 FATAL EXPORT refused: this node has no ")
         link.send(b"LS *00")
         assert link.receive(5.0).startswith(b"NAK 0 0 RETRY bad message: expected checksum")
 
@@ -143,17 +163,18 @@ def test_a_module_whose_image_was_damaged_is_skipped_at_boot(boot, flash_file, i
 
 
 @pytest.mark.timeout(60)
+@pytest.mark.parametrize("mode", ["binary", "hex"])
 def test_a_signed_module_sent_with_a_key_installs_on_a_node_that_trusts_none(
-    boot, flash_file, example_hex, tmp_path
+    boot, flash_file, example_hex, tmp_path, mode
 ):
     """The node answers CHALLENGE and AUTH as a node that trusts no key (it guards nothing)
-    and takes the signed module's 09 lines; its directory records version 0, as the Python
-    node's does when it trusts no key."""
+    and takes the signed module's signature area (09 lines, or binary mode's SIGNATURE); its
+    directory records version 0, as the Python node's does when it trusts no key."""
     key, signed = tmp_path / "key.pem", tmp_path / "gain.signed.hex"
     hexmigrate("keygen", "-o", key)
     hexmigrate("sign", example_hex["gain"], "--key", key, "--version", "1.2.3", "-o", signed)
     node = boot(flash_file)
-    sent = hexmigrate("send", signed, "--to", node.url, "--mode", "hex", "--key", key)
+    sent = hexmigrate("send", signed, "--to", node.url, "--mode", mode, "--key", key)
     assert "module gain installed at 0x22000000" in sent
     node.stop()
     assert committed(flash_file)["gain"].version == 0

@@ -8,13 +8,15 @@ connection's. The node is a real `Node`; the clock is the test's, so no test wai
 
 from __future__ import annotations
 
+import zlib
 from collections.abc import Iterator
 
 import pytest
 
 from firmware_sim.core.node import Node
 from firmware_sim.core.transfer_target import SIZELESS_BLOCKS, NodeTarget
-from hexmigrate.transfer.messages import Ack, Begin, Header, Nak, decode, encode
+from hexmigrate.elf import image_from_elf
+from hexmigrate.transfer.messages import Ack, Begin, Data, End, Header, Nak, decode, encode
 from hexmigrate.transfer.receiver import MAX_TRANSFERS, TRANSFER_IDLE, Receiver
 
 
@@ -140,3 +142,30 @@ def test_an_image_linked_past_the_address_space_is_refused(node):
     refusal = _answer(receiver, encode(Begin(3, "m", 4096, 0, 0xFFFFFF00), True))
     assert isinstance(refusal, Nak) and refusal.fatal and "32-bit" in refusal.reason, refusal
     assert _free(node) == before
+
+
+def test_data_past_the_image_of_a_verified_transfer_is_refused_not_a_crash(node, example_builds):
+    """After END the transfer's image is read back and its SRAM block buffer given back: data
+    that comes then (a confused or hostile sender) ends the transfer with a fatal refusal, as the
+    C firmware's receiver does (tests/firmware/test_host_fuzz.py)."""
+    image = image_from_elf(example_builds["gain"].elf)
+    receiver = Receiver(NodeTarget(node))
+    tid = 9
+    begun = _answer(
+        receiver,
+        encode(Begin(tid, image.name, image.size, len(image.relocations), image.link_base), False),
+    )
+    assert isinstance(begun, Ack), begun
+    load_base = begun.value
+    receiver.handle(encode(Header(tid, image.init, image.relocations), False))
+    for offset in range(0, image.size, 256):
+        receiver.handle(
+            encode(Data(tid, image.link_base + offset, image.data[offset : offset + 256]), False)
+        )
+    crc = zlib.crc32(image.relocate(load_base))
+    blocks = -(-image.size // 256)  # the data programmed, padded to whole blocks
+    assert isinstance(_answer(receiver, encode(End(tid, crc), False)), Ack)
+    reply = _answer(
+        receiver, encode(Data(tid, image.link_base + 256 * blocks, b"\x01" * 64), False)
+    )
+    assert isinstance(reply, Nak) and reply.fatal, reply

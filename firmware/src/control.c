@@ -1,0 +1,432 @@
+/*
+ * control.c - the node's control requests answered on the firmware's kernel (control.h), as
+ * the Python node answers them: hexmigrate/transfer/receiver.py picks the answer,
+ * firmware_sim/serving/kernel_control.py does the request. A refusal is `NAK TID 0 FATAL VERB
+ * refused: REASON`, the reason in the Python node's words and cut to 200 characters as there.
+ *
+ * What this node cannot do is refused as a node without the feature refuses it: bridges to
+ * other nodes (EXPORT, IMPORT) need a link of their own, and lock-step time (ADVANCE) a node
+ * started for it.
+ *
+ * A request that changes the node, sent again because its answer was lost (the host's retry),
+ * gets the answer it got, as on the Python node: START done twice would be refused the second
+ * time, and the host would report a failure that did not happen. The answers of the last
+ * REMEMBERED such requests are kept, by their decoded fields (a binary request has no line);
+ * the Python node keeps 64 of every request, and the reads done again change nothing.
+ */
+#include "control.h"
+
+#include "../kernel/kernel.h"
+#include "control_text.h"
+#include "crc.h"
+#include "number_word.h"
+#include "ports.h"
+#include "runtime.h"
+#include "setting.h"
+#include "watch.h"
+
+#define MAX_REFUSAL 200   /* receiver.py's MAX_REFUSAL */
+#define NAME_MAX 40       /* a name copied from a request; any PBO's is 16 at most */
+#define RATE_MIN_MHZ 10u  /* 0.01 Hz: node.py's RATE_MIN */
+#define RATE_MAX_MHZ 100000000u
+#define REMEMBERED 8
+#define REMEMBERED_ANSWER 272 /* an ACK, or a NAK of a 200-character refusal, and its header */
+
+/* One request being answered: its line, its tid, where the answer goes. */
+struct request {
+    const struct message *message;
+    uint32_t tid;
+    struct phrase *reply;
+};
+
+/* Field `field`'s word as a NUL-terminated name (a longer word is cut: it names no PBO). */
+static void field_name(const struct request *r, int field, char *name)
+{
+    size_t length = r->message->text_length[field];
+    name_copy(name, r->message->text[field], (length < NAME_MAX ? length : NAME_MAX) + 1);
+}
+
+static bool refuse(const struct request *r, const char *reason)
+{
+    char text[MAX_REFUSAL + 56];
+    struct phrase why;
+    phrase_start(&why, text, sizeof text);
+    phrase_add(&why, verb_word(r->message->verb));
+    phrase_add(&why, " refused: ");
+    phrase_add(&why, reason);
+    if (why.length > MAX_REFUSAL) { /* the reason's start, and "..." to say it goes on */
+        name_copy(text + MAX_REFUSAL - 3, "...", 4);
+    }
+    reply_nak(r->reply, r->tid, 0, true, text);
+    return true;
+}
+
+static bool acknowledge(const struct request *r, const char *text)
+{
+    reply_ack(r->reply, r->tid, 0, text);
+    return true;
+}
+
+/* The kernel's answer: `said` ("started gain") when it did it, else its reason. */
+static bool kernel_answer(const struct request *r, int result, const char *said)
+{
+    return result == KERNEL_OK ? acknowledge(r, said) : refuse(r, kernel_message());
+}
+
+/* START, STOP, CLEAR: the PBO named in field 1, and what the ACK says. */
+static bool lifecycle(const struct request *r)
+{
+    char name[NAME_MAX + 1], said[NAME_MAX + 32];
+    struct phrase text;
+    int result;
+
+    field_name(r, 1, name);
+    phrase_start(&text, said, sizeof said);
+    if (r->message->verb == VERB_START) {
+        result = kernel_start(name);
+        phrase_add(&text, "started ");
+        phrase_add(&text, name);
+    } else if (r->message->verb == VERB_STOP) {
+        result = kernel_stop(name);
+        phrase_add(&text, "stopped ");
+        phrase_add(&text, name);
+    } else {
+        result = kernel_clear(name);
+        phrase_add(&text, "cleared ");
+        phrase_add(&text, name);
+        phrase_add(&text, ": now OFF");
+    }
+    return kernel_answer(r, result, said);
+}
+
+static bool list_pbos(const struct request *r)
+{
+    struct phrase rows;
+    phrase_start(&rows, control_scratch, sizeof control_scratch);
+    control_pbo_rows(&rows);
+    reply_answer(r->reply, VERB_PBOS, &r->tid, control_scratch);
+    return true;
+}
+
+/* The port's row in PS (direction, element size, kind): what the kernel's SET does not say
+ * of a port when the value is a fraction it cannot take at all. */
+static bool port_row(const char *port, uint8_t *direction, uint16_t *size, uint8_t *kind)
+{
+    struct kernel_pbo pbo;
+    char full[2 * NAME_MAX];
+    struct phrase name;
+
+    for (uint32_t index = 0; kernel_pbo_at(index, &pbo); index++) {
+        for (uint32_t p = 0; p < pbo.port_count; p++) {
+            phrase_start(&name, full, sizeof full);
+            phrase_add(&name, pbo.name);
+            phrase_add_char(&name, '.');
+            phrase_add(&name, pbo.port_names[p]);
+            if (name_equal(full, port)) {
+                *direction = pbo.port_directions[p];
+                *size = pbo.element_sizes[p];
+                *kind = pbo.port_kinds[p];
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+/* VALUE as Python shows the number it read: an integer in decimal, a float as given. */
+static void show_value(const struct setting *setting, struct phrase *why)
+{
+    struct number_word number;
+    if (setting->whole && number_word_parse(setting->text, setting->text_length, &number)) {
+        number_word_show(setting->text, setting->text_length, &number, why);
+        return;
+    }
+    setting_show(setting, why);
+}
+
+/* A value the kernel cannot take at all (a fraction, or past 64 bits): refused after the
+ * checks the kernel makes first, as port_values.py's exact() refuses it. */
+static bool refuse_value(const struct request *r, const struct setting *setting)
+{
+    static const char *const DIRECTIONS[] = {"in", "out", "const", "resource"};
+    char text[MAX_REFUSAL + 56];
+    struct phrase why;
+    uint8_t direction, kind;
+    uint16_t size;
+    int32_t ignored;
+
+    if (!port_row(setting->port, &direction, &size, &kind)) {
+        (void)kernel_read(setting->port, &ignored); /* says "unknown PBO" or "unknown port" */
+        return refuse(r, kernel_message());
+    }
+    phrase_start(&why, text, sizeof text);
+    phrase_add(&why, setting->port);
+    if (direction != 2) {
+        phrase_add(&why, " is an ");
+        phrase_add(&why, DIRECTIONS[direction & 3u]);
+        phrase_add(&why, " port, not a constant");
+        return refuse(r, text);
+    }
+    if (kind != 0) {
+        (void)kernel_set_constant(setting->port, 0); /* refuses a vector by its kind */
+        return refuse(r, kernel_message());
+    }
+    phrase_add(&why, size == 1   ? " is uint8 (a whole number from 0 to 255), got "
+                     : size == 2 ? " is int16 (a whole number from -32768 to 32767), got "
+                                 : " is int32 (a whole number from -2147483648 to "
+                                   "2147483647), got ");
+    show_value(setting, &why);
+    if (!setting->whole) {
+        phrase_add(&why, ": give a fixed-point constant as its raw integer (0x8000 is 0.5 in "
+                         "Q16.16)");
+    }
+    return refuse(r, text);
+}
+
+static bool set_constant(const struct request *r)
+{
+    struct setting setting;
+    char reason[MAX_REFUSAL + 56], said[96];
+    struct phrase why, text;
+
+    phrase_start(&why, reason, sizeof reason);
+    if (!setting_parse(r->message->text[1], r->message->text_length[1], &setting, &why)) {
+        return refuse(r, reason);
+    }
+    if (!setting.whole || setting.too_large) {
+        return refuse_value(r, &setting);
+    }
+    if (kernel_set_constant(setting.port, setting.value) != KERNEL_OK) {
+        return refuse(r, kernel_message());
+    }
+    phrase_start(&text, said, sizeof said);
+    phrase_add(&text, "set ");
+    phrase_add(&text, setting.port);
+    phrase_add_char(&text, '=');
+    control_add_signed(&text, setting.value);
+    return acknowledge(r, said);
+}
+
+static bool set_rate(const struct request *r)
+{
+    const uint32_t millihertz = (uint32_t)r->message->number[1];
+    char name[NAME_MAX + 1], said[NAME_MAX + 80];
+    struct phrase text;
+
+    field_name(r, 2, name);
+    phrase_start(&text, said, sizeof said);
+    if (millihertz < RATE_MIN_MHZ || millihertz > RATE_MAX_MHZ) {
+        phrase_add(&text, "PBO ");
+        phrase_add_repr(&text, name, name_length(name, NAME_MAX));
+        phrase_add(&text, ": expected a rate of 0.01 to 100000 Hz, got ");
+        control_add_hertz(&text, millihertz);
+        return refuse(r, said);
+    }
+    phrase_add(&text, "rate ");
+    phrase_add(&text, name);
+    phrase_add_char(&text, '=');
+    control_add_hertz(&text, millihertz);
+    phrase_add(&text, " Hz");
+    return kernel_answer(r, kernel_set_rate(name, millihertz), said);
+}
+
+/* CONNECT, DISCONNECT: OUT_PBO.port=IN_PBO.port. */
+static bool wire(const struct request *r)
+{
+    const char *text = r->message->text[1];
+    const size_t length = r->message->text_length[1];
+    char source[NAME_MAX + 1], sink[NAME_MAX + 1], said[2 * NAME_MAX + 20];
+    struct phrase why;
+    size_t equals = 0;
+    bool connect = r->message->verb == VERB_CONNECT;
+
+    while (equals < length && text[equals] != '=') {
+        equals++;
+    }
+    phrase_start(&why, said, sizeof said);
+    if (equals == length || !ports_is_port(text, equals) ||
+        !ports_is_port(text + equals + 1, length - equals - 1) || equals > NAME_MAX ||
+        length - equals - 1 > NAME_MAX) {
+        phrase_add(&why, "expected OUT_PBO.port=IN_PBO.port, got ");
+        phrase_add_repr(&why, text, length > 60 ? 60 : length);
+        return refuse(r, said);
+    }
+    name_copy(source, text, equals + 1);
+    name_copy(sink, text + equals + 1, length - equals);
+    phrase_add(&why, connect ? "connected " : "disconnected ");
+    phrase_add_bytes(&why, text, length);
+    return kernel_answer(r, connect ? kernel_connect(source, sink)
+                                    : kernel_disconnect(source, sink), said);
+}
+
+static bool read_ports(const struct request *r)
+{
+    static struct port_list ports;
+    struct phrase values;
+
+    phrase_start(&values, control_scratch, sizeof control_scratch);
+    if (!ports_parse(r->message->text[1], r->message->text_length[1], &ports, &values) ||
+        !ports_readable(&ports, &values)) {
+        return refuse(r, control_scratch);
+    }
+    ports_add_values(&ports, &values);
+    reply_answer(r->reply, VERB_VALUES, &r->tid, control_scratch);
+    return true;
+}
+
+static bool log_lines(const struct request *r)
+{
+    char name[NAME_MAX + 1];
+    struct phrase lines;
+    uint32_t numbers[2] = {r->tid, 0};
+
+    field_name(r, 2, name);
+    phrase_start(&lines, control_scratch, sizeof control_scratch);
+    if (!control_log_lines(&lines, name, (uint32_t)r->message->number[1], &numbers[1])) {
+        return refuse(r, kernel_message());
+    }
+    reply_answer(r->reply, VERB_LOGLINES, numbers, control_scratch);
+    return true;
+}
+
+static bool describe(const struct request *r)
+{
+    char name[NAME_MAX + 1];
+    struct phrase description;
+
+    field_name(r, 1, name);
+    phrase_start(&description, control_scratch, sizeof control_scratch);
+    if (!control_description(&description, name)) {
+        return refuse(r, kernel_message());
+    }
+    reply_answer(r->reply, VERB_DESCRIPTION, &r->tid, control_scratch);
+    return true;
+}
+
+static bool hold(const struct request *r)
+{
+    char name[NAME_MAX + 1], said[MAX_REFUSAL];
+    struct phrase text;
+    field_name(r, 1, name);
+    phrase_start(&text, said, sizeof said);
+    return runtime_hold(name, &text) ? acknowledge(r, said) : refuse(r, said);
+}
+
+static bool reset(const struct request *r)
+{
+    uint32_t switched_off, wires;
+    char said[120];
+    struct phrase text;
+
+    kernel_reset(&switched_off, &wires);
+    runtime_forget_holds();
+    watch_restart(); /* the watch follows the clock's restart */
+    phrase_start(&text, said, sizeof said);
+    phrase_add(&text, "reset: ");
+    phrase_add_decimal(&text, switched_off);
+    phrase_add(&text, " PBO(s) switched off, ");
+    phrase_add_decimal(&text, wires);
+    phrase_add(&text, " wire(s) and 0 bridge(s) undone, clock at 0 s");
+    return acknowledge(r, said);
+}
+
+static bool watch(const struct request *r)
+{
+    char reason[MAX_REFUSAL + 56];
+    struct phrase why;
+    phrase_start(&why, reason, sizeof reason);
+    return watch_request(r->message, r->reply, &why) || refuse(r, reason);
+}
+
+static struct {
+    uint32_t key;
+    uint16_t length; /* 0: no answer kept */
+    char answer[REMEMBERED_ANSWER];
+} remembered[REMEMBERED];
+static uint32_t remembered_next;
+
+static bool changes_the_node(enum verb verb)
+{
+    return verb == VERB_START || verb == VERB_STOP || verb == VERB_CLEAR || verb == VERB_SET ||
+           verb == VERB_RATE || verb == VERB_CONNECT || verb == VERB_DISCONNECT ||
+           verb == VERB_HOLD || verb == VERB_RESET || verb == VERB_WATCH;
+}
+
+/* The request's identity: its verb and every field, as the Python node compares messages. */
+static uint32_t request_key(const struct message *request)
+{
+    uint32_t key = crc32_update(0, &request->verb, sizeof request->verb);
+    for (int i = 0; i < MESSAGE_MAX_FIELDS; i++) {
+        if (request->present[i]) {
+            key = crc32_update(key, &request->number[i], sizeof request->number[i]);
+            key = crc32_update(key, request->text[i], request->text_length[i]);
+        }
+    }
+    return key;
+}
+
+static bool answer_again(uint32_t key, struct phrase *reply)
+{
+    for (uint32_t i = 0; i < REMEMBERED; i++) {
+        if (remembered[i].length && remembered[i].key == key) {
+            phrase_add_bytes(reply, remembered[i].answer, remembered[i].length);
+            return true;
+        }
+    }
+    return false;
+}
+
+static void remember(uint32_t key, const struct phrase *reply)
+{
+    if (reply->length >= REMEMBERED_ANSWER) {
+        return; /* no answer of these is longer; one cut would be worse than none */
+    }
+    remembered[remembered_next].key = key;
+    remembered[remembered_next].length = (uint16_t)reply->length;
+    name_copy(remembered[remembered_next].answer, reply->buffer, reply->length + 1);
+    remembered_next = (remembered_next + 1u) % REMEMBERED;
+}
+
+static bool answer(const struct message *request, struct phrase *reply);
+
+bool node_control(const struct message *request, struct phrase *reply)
+{
+    const uint32_t key = changes_the_node(request->verb) ? request_key(request) : 0;
+
+    if (key != 0 && answer_again(key, reply)) {
+        return true;
+    }
+    if (!answer(request, reply)) {
+        return false;
+    }
+    if (key != 0) {
+        remember(key, reply);
+    }
+    return true;
+}
+
+static bool answer(const struct message *request, struct phrase *reply)
+{
+    const struct request r = {request, (uint32_t)request->number[0], reply};
+
+    switch (request->verb) {
+    case VERB_PS: return list_pbos(&r);
+    case VERB_START: case VERB_STOP: case VERB_CLEAR: return lifecycle(&r);
+    case VERB_SET: return set_constant(&r);
+    case VERB_RATE: return set_rate(&r);
+    case VERB_CONNECT: case VERB_DISCONNECT: return wire(&r);
+    case VERB_READ: return read_ports(&r);
+    case VERB_LOGS: return log_lines(&r);
+    case VERB_DESCRIBE: return describe(&r);
+    case VERB_HOLD: return hold(&r);
+    case VERB_RESET: return reset(&r);
+    case VERB_WATCH: return watch(&r);
+    case VERB_EXPORT: case VERB_IMPORT:
+        return refuse(&r, "this node has no bridges: the firmware's one link is its host's "
+                          "(run the PBOs that exchange ports on one node)");
+    case VERB_ADVANCE:
+        return refuse(&r, "this node runs on the real-time clock: the firmware has no "
+                          "lock-step time");
+    default: return false;
+    }
+}

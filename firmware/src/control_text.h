@@ -1,0 +1,40 @@
+/*
+ * control_text.h - the free text of control answers, written as hexmigrate/transfer/control.py
+ * writes it on the Python node: numbers as Python prints them, PS rows, a PBO's description
+ * and its log lines as JSON (json.dumps with its default separators and ensure_ascii).
+ */
+#ifndef NODE_CONTROL_TEXT_H
+#define NODE_CONTROL_TEXT_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "phrase.h"
+
+/* Characters of log lines or description one answer carries at most (control.py's
+ * MAX_LOG_TEXT): a hex-mode line holds 1,024. */
+#define CONTROL_TEXT_MAX 800
+
+/* The one buffer the free text of an answer or a push is built in (they never overlap: both
+ * come from the main loop, one at a time), ANSWER_MAX less room for the verb and checksum. */
+#define CONTROL_SCRATCH 992
+extern char control_scratch[CONTROL_SCRATCH];
+
+/* A rate as Python's f"{hertz:g}" prints millihertz / 1000: "100", "12.5", "0.01". */
+void control_add_hertz(struct phrase *text, uint32_t millihertz);
+/* Thousandths as a Python float's repr of value / 1000 for 3 decimals: "99.999", "100.0". */
+void control_add_milli(struct phrase *text, int64_t milli);
+void control_add_signed(struct phrase *text, int64_t value);
+
+/* PS: every PBO's NAME:STATE:RATE:IN,..:OUT,..:CONST,.. word. */
+void control_pbo_rows(struct phrase *text);
+/* DESCRIBE: PBO `name`'s description (control.py's description_text); false when the kernel
+ * does not know it (kernel_message() says why). */
+bool control_description(struct phrase *text, const char *name);
+/* LOGS: PBO `name`'s lines after `since` as log_text writes them, and its latest line number;
+ * false when the kernel does not know it. */
+bool control_log_lines(struct phrase *text, const char *name, uint32_t since, uint32_t *latest);
+/* The heartbeat's line: "node: 2 PBOs: 1 OFF, 1 ON". */
+void control_state_line(struct phrase *text);
+
+#endif

@@ -1,0 +1,35 @@
+/*
+ * ports.h - the PBO.port names of a READ or a WATCH (hexmigrate/transfer/control.py's
+ * `ports`), and their values as `NAME=VALUE` words.
+ */
+#ifndef NODE_PORTS_H
+#define NODE_PORTS_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "phrase.h"
+
+#define PORTS_MAX 32      /* control.py's MAX_PORTS */
+#define PORT_NAME_MAX 29  /* a PBO's 16 characters, the dot, a port's 12 */
+
+struct port_list {
+    uint32_t count;
+    char names[PORTS_MAX][PORT_NAME_MAX + 1];
+};
+
+/* True when `text` is `PBO.port` (one dot, a name on each side, no `=`). */
+bool ports_is_port(const char *text, size_t length);
+
+/* The names of `text`, refused as control.py refuses them (none, more than 32, one that is
+ * not PBO.port); a name longer than any port's is refused as unknown. */
+bool ports_parse(const char *text, size_t length, struct port_list *ports, struct phrase *why);
+
+/* Whether every port reads; else false with the kernel's reason. */
+bool ports_readable(const struct port_list *ports, struct phrase *why);
+
+/* ` NAME=VALUE` of each port that reads (a port gone with its module is left out). */
+void ports_add_values(const struct port_list *ports, struct phrase *text);
+
+#endif

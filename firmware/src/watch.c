@@ -1,0 +1,139 @@
+/* watch.c - a host's watch and what it pushes (watch.h). */
+#include "watch.h"
+
+#include "../kernel/kernel.h"
+#include "binary_messages.h"
+#include "control_text.h"
+#include "ports.h"
+#include "receiver.h"
+
+#define HEARTBEAT_US 1000000u
+#define MIN_PERIOD_MS 10u
+
+static struct {
+    bool on;
+    bool binary; /* pushed in binary mode: the watch came in it */
+    uint32_t period_us;
+    uint64_t next_report, next_beat, reported;
+    uint32_t seq;
+    struct port_list ports;
+} watch;
+
+bool watch_request(const struct message *request, struct phrase *reply, struct phrase *why)
+{
+    const uint32_t tid = (uint32_t)request->number[0];
+    const uint32_t period_ms = (uint32_t)request->number[1];
+    struct port_list ports;
+
+    if (period_ms == 0) {
+        watch.on = false;
+        reply_ack(reply, tid, 0, "unwatched");
+        return true;
+    }
+    if (period_ms < MIN_PERIOD_MS) {
+        phrase_add(why, "expected a report period of at least 10 ms, got ");
+        phrase_add_decimal(why, period_ms);
+        return false;
+    }
+    ports.count = 0;
+    if (request->text_length[2] > 0 &&
+        (!ports_parse(request->text[2], request->text_length[2], &ports, why) ||
+         !ports_readable(&ports, why))) {
+        return false; /* refused by name now rather than missing from every report */
+    }
+    watch.on = true;
+    watch.binary = receiver_answering_binary();
+    watch.period_us = period_ms * 1000u;
+    watch.seq = 0;
+    watch.ports = ports;
+    watch_restart(); /* the first report at once, the first beat a second on */
+    reply_ack(reply, tid, period_ms, "watching");
+    return true;
+}
+
+void watch_restart(void)
+{
+    uint64_t now = kernel_time_us();
+    watch.next_report = now;
+    watch.next_beat = now + HEARTBEAT_US;
+    watch.reported = now;
+}
+
+/* leftover=.. slip=.. missed=.., then PBO:L, PBO:F0 .. of each PBO, then the watched ports. */
+static void report_values(struct phrase *text)
+{
+    struct kernel_status status;
+    struct kernel_pbo pbo;
+    struct kernel_stats stats;
+
+    kernel_status(watch.reported, &status);
+    phrase_add(text, "leftover=");
+    control_add_milli(text, status.leftover_milli);
+    phrase_add(text, " slip=");
+    control_add_milli(text, (int64_t)((status.slip_us + 50u) / 100u) * 100); /* 0.1 ms */
+    phrase_add(text, " missed=");
+    phrase_add_decimal(text, status.missed);
+    for (uint32_t index = 0; kernel_pbo_at(index, &pbo); index++) {
+        uint8_t kind;
+        uint32_t value_index;
+        int32_t value;
+        if (kernel_stats(pbo.name, &stats) == KERNEL_OK && stats.logged) {
+            phrase_add_char(text, ' ');
+            phrase_add(text, pbo.name);
+            phrase_add(text, ":L=");
+            phrase_add_decimal(text, stats.logged);
+        }
+        for (uint32_t n = 0; kernel_performance_at(index, n, &kind, &value_index, &value); n++) {
+            phrase_add_char(text, ' ');
+            phrase_add(text, pbo.name);
+            phrase_add(text, kind == 0 ? ":F" : ":N");
+            phrase_add_decimal(text, value_index);
+            phrase_add_char(text, '=');
+            control_add_milli(text, value);
+        }
+    }
+    ports_add_values(&watch.ports, text);
+}
+
+static void push(void (*send)(const char *, size_t), enum verb verb, uint64_t now,
+                 const char *text)
+{
+    static char buffer[ANSWER_MAX];
+    struct phrase line;
+    const uint32_t numbers[2] = {watch.seq++, (uint32_t)(now / 1000u)};
+    phrase_start(&line, buffer, sizeof buffer);
+    reply_answer(&line, verb, numbers, text);
+    if (watch.binary) {
+        binary_send_line(send, line.buffer, line.length);
+        return;
+    }
+    send(line.buffer, line.length);
+}
+
+void watch_push(void (*send)(const char *bytes, size_t length))
+{
+    char *buffer = control_scratch;
+    struct phrase text;
+    uint64_t now;
+
+    if (!watch.on) {
+        return;
+    }
+    now = kernel_time_us();
+    if (now >= watch.next_report) {
+        watch.next_report += watch.period_us;
+        if (watch.next_report <= now) { /* late by a period or more: one period from now */
+            watch.next_report = now + watch.period_us;
+        }
+        phrase_start(&text, buffer, sizeof control_scratch);
+        report_values(&text);
+        watch.reported = now;
+        push(send, VERB_REPORT, now, buffer);
+    }
+    if (now >= watch.next_beat) {
+        watch.next_beat = now + HEARTBEAT_US;
+        phrase_start(&text, buffer, sizeof control_scratch);
+        control_state_line(&text);
+        push(send, VERB_BEAT, now, buffer);
+    }
+}
