@@ -6,13 +6,15 @@
 #    both routes (ELF relocations, and the paper's binary + map file), inspected, verified and
 #    relocated, then run on an emulated node behind a native signal source.
 # 2. Serial loopback: a node listening on a pty pair takes both modules over the wire and runs them.
-# 3. The paper's section 6 experiment on two emulated robots: noise in the camera, ReFrESH
+# 3. The node firmware in C on QEMU virt: the same hexmigrate sends a module, lists it, and the
+#    firmware's kernel runs it (its state, counters and a watch of its output).
+# 4. The paper's section 6 experiment on two emulated robots: noise in the camera, ReFrESH
 #    detects it, locates CamReader with Base Choice, chooses the Dehazer, migrates its image and
 #    the task recovers. It ends with the summary table and where the report and plot are.
-# 4. The same experiment across processes: the two robots' nodes and the servo emulator (which
+# 5. The same experiment across processes: the two robots' nodes and the servo emulator (which
 #    serves its CAN buses itself) on loopback links, the manager in the command's process, in
 #    lock-step virtual time.
-# 5. The hardware half of ReFrESH: fog on the camera of a HexManipulator whose CPU cannot run
+# 6. The hardware half of ReFrESH: fog on the camera of a HexManipulator whose CPU cannot run
 #    the software Dehazer; ReFrESH chooses the Dehazer on its FPGA, sends the two partial
 #    bitstreams over the serial line and the frames stream through the fabric's median and
 #    stretch (the transaction-level model of their Verilog); in process, then across processes.
@@ -111,6 +113,37 @@ if [[ $node_status -ne 0 ]]; then
     echo "the node exited with status $node_status"
     exit 1
 fi
+
+echo
+echo "=== the node firmware in C on QEMU virt: the same hexmigrate sends, lists and runs a module ==="
+qemu_log="$out/qemu-node.log"
+qemu_command=(firmware-sim qemu --flash "$out/qemu-flash.img" --seconds 60)
+echo "\$ ${qemu_command[*]} > $qemu_log 2>&1 &"
+: >"$qemu_log"
+"${qemu_command[@]}" >>"$qemu_log" 2>&1 &
+node_pid=$!
+pty=""
+for _ in $(seq 300); do # the firmware is built first when missing: 30 s at most
+    pty=$(sed -n 's|^listening on \(/dev/pts/[0-9]*\) .*|\1|p' "$qemu_log" || true)
+    if [[ -n "$pty" ]] || ! kill -0 "$node_pid" 2>/dev/null; then
+        break
+    fi
+    sleep 0.1
+done
+if [[ -z "$pty" ]]; then
+    echo "the QEMU node did not say where it listens:"
+    cat "$qemu_log"
+    exit 1
+fi
+echo "(the QEMU node listens on $pty)"
+echo
+run hexmigrate send "$out/gain.hex" --to "$pty" --set gain.k=0x28000 --quiet
+run hexmigrate ls --to "$pty"
+run hexmigrate ps --verbose --to "$pty"
+run hexmigrate watch --seconds 0.3 --period 0.1 --port gain.y --to "$pty"
+stop_node
+echo "the QEMU node's output ($qemu_log):"
+sed 's/^/  /' "$qemu_log"
 
 echo
 echo "=== the paper's experiment: two robots, noise in the camera, ReFrESH repairs the task ==="
