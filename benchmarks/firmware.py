@@ -7,8 +7,8 @@
 - **install** of a 4 KiB and a 64 KiB module over the pty, in each mode both nodes speak: the
   seconds from BEGIN to the acknowledged COMMIT and the image's bytes per second, the QEMU node
   against the Python node (``firmware-sim listen --listen pty``), best of `--repeats`;
-- **round trips**: PING, and LS (a request whose answer the node builds from its directory),
-  median of `--pings`, on both nodes;
+- **round trips**: PING, LS (a request whose answer the node builds from its directory) and a
+  control request, READ of one port of a PBO the node runs, median of `--pings`, on both nodes;
 - **boot**: from starting the node to its answer to the first PING.
 
 The modules are the compiled ``gain`` example padded with random data and pointer words
@@ -37,6 +37,7 @@ from hexmigrate.elf import image_from_elf
 from hexmigrate.errors import HexmigrateError
 from hexmigrate.image import ModuleImage
 from hexmigrate.links import open_link
+from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.sender import Sender
 from module_sdk.build import EXAMPLES_DIR, build_module
 
@@ -134,6 +135,10 @@ def measure(kind: str, images: list[ModuleImage], repeats: int, pings: int) -> d
         figures["boot"] = boot
         figures["ping"] = round_trip(url, Sender.ping, pings)
         figures["ls"] = round_trip(url, Sender.modules, pings)
+        install_seconds(url, images[0], "binary")  # a PBO to read a port of
+        figures["read a port"] = round_trip(
+            url, lambda sender: NodeControl(sender).read(("gain.y",)), pings
+        )
         for image in images:
             for mode in MODES:
                 try:
