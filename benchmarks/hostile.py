@@ -11,8 +11,10 @@ answer) or answered otherwise (an ACK of a harmless request, such as a BEGIN tha
 whether anything went wrong: the node exited, installed or removed a module, or the installed
 module's bytes in the flash file changed. The node's peak RSS is its VmHWM.
 
-Three more classes follow, each reporting crashes (a process that ended, a command that raised)
-and hangs (past its deadline): a debugger's packets (random framed packets of every kind to the
+Four more classes follow, each reporting crashes (a process that ended, a command that raised)
+and hangs (past its deadline): the same hostile inputs to the C firmware on QEMU (`firmware-sim
+qemu`) on its pty, each followed by a PING it must answer, its installed module unchanged; a
+debugger's packets (random framed packets of every kind to the
 node's gdb port, then a detach: the node must run on), a bridge's peers (strangers on an import
 port sending random bytes and value frames under other keys, some numbered 2^32-1: the node
 must keep answering, and the port take the real exporter's values), and hostile answers to the
@@ -38,7 +40,11 @@ from pathlib import Path
 
 from firmware_sim.bridge.value_message import bridge_key, encode_value, new_key
 from firmware_sim.core.memory_map import FLASH_BASE
+from firmware_sim.errors import QemuError
 from firmware_sim.gdb.packets import PacketConnection
+from firmware_sim.qemu.firmware_build import firmware_elf
+from firmware_sim.qemu.flash_file import ensure_flash
+from firmware_sim.qemu.machine import QemuNode, handshake
 from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate import cli
 from hexmigrate.elf import image_from_elf
@@ -71,6 +77,14 @@ QUIET = 0.2
 ANSWER_LIMIT = 10.0
 """Seconds one input's answers are read for at most (a node that answers without end)."""
 U32 = (1 << 32) - 1
+PTY_RATE = 5000.0
+"""Bytes per second QEMU's UART takes from a host at least (it took 8 kB/s here): a 100 kB
+input is read for 20 s before the PING after it can be."""
+REMOVAL = b"RM gain"
+"""The installed module's removal, in an HTTP request's body: refused with the request on a
+TCP node, but a valid command on a serial line, where a node without --trust obeys any."""
+QEMU_FLASH_BASE = 0x2200_0000
+"""Where QEMU virt's flash bank 1 (the C firmware's flash) starts: the flash file's offset 0."""
 
 
 def hostile_input(rng: random.Random, module: int) -> bytes:
@@ -322,12 +336,61 @@ def _fake_node(behaviour: str, text: str) -> Iterator[str]:
         thread.join(timeout=5)
 
 
+def qemu_node(rng: random.Random, count: int, image: ModuleImage) -> dict[str, int]:
+    """The same hostile inputs to the C firmware on QEMU (`firmware-sim qemu`'s node), one
+    after another on its pty, each followed by a PING that must be answered; the
+    installed module must stay listed and its bytes in the flash file unchanged."""
+    outcome = {"inputs": 0, "unanswered": 0, "crashes": 0, "module changed": 0}
+    with tempfile.TemporaryDirectory() as folder:
+        flash = ensure_flash(Path(folder) / "qemu.img")
+        with QemuNode(firmware_elf(), flash) as qemu:
+            with open_link(qemu.start()) as link:
+                sender = Sender(link, "hex", timeout=10.0, retries=0)
+                installed = sender.send(image)
+            offset = installed.load_address - QEMU_FLASH_BASE
+            before = flash.read_bytes()[offset : offset + image.size]
+            descriptor = os.open(qemu.url, os.O_RDWR | os.O_NOCTTY)
+            try:
+                for _ in range(count):
+                    data = hostile_input(rng, installed.load_address)
+                    if REMOVAL in data:  # a serial line's valid command: obeyed, as it should be
+                        continue
+                    os.write(descriptor, data + b"\n")
+                    outcome["inputs"] += 1
+                    outcome["unanswered"] += not _answers(descriptor, len(data))
+                    if not qemu.running():
+                        break
+            finally:
+                os.close(descriptor)
+            outcome["crashes"] = int(not qemu.running())
+            with open_link(qemu.url) as link:
+                listed = Sender(link, "hex", timeout=5.0, retries=2).modules()
+            after = flash.read_bytes()[offset : offset + image.size]
+            outcome["module changed"] = int(after != before or len(listed) != 1)
+    return outcome
+
+
+def _answers(descriptor: int, sent: int) -> bool:
+    """Whether the node on the pty `descriptor` answers a PING after an input of `sent` bytes
+    (which the UART carries at PTY_RATE first), as a host would reach it: by a line, and if the
+    input left a binary frame open (which swallows lines until its closing 0x00), after a
+    delimiter that closes it, as a host's next binary message would."""
+    for _ in range(2):
+        try:
+            handshake(descriptor, ANSWER_LIMIT / 2 + sent / PTY_RATE)
+            return True
+        except QemuError:
+            os.write(descriptor, b"\x00")
+    return False
+
+
 def more_classes(rng: random.Random, inputs: int, image: ModuleImage) -> None:
-    """The debugger's, the bridge peers' and the host's classes, each reported."""
+    """The debugger's, the bridge peers', the host's and the C firmware's classes."""
     for name, outcome in (
         ("gdb packets", gdb_packets(rng, inputs // 4)),
         ("bridge peers", bridge_peers(rng, inputs // 10, image)),
         ("hostile answers to the host", hostile_answers(rng, inputs // 20)),
+        ("the C firmware on QEMU", qemu_node(rng, inputs // 10, image)),
     ):
         print(f"{name}: " + ", ".join(f"{value} {key}" for key, value in outcome.items()))
 
