@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 from firmware_sim.core.node import Node
 from firmware_sim.core.transfer_target import NodeTarget
 from hexmigrate.image import ModuleImage
-from hexmigrate.links.framing import Deframer, frame
+from hexmigrate.links.framing import Deframer, cobs_encode
 from hexmigrate.transfer.layout import line_sum
 from hexmigrate.transfer.messages import (
     Abort,
@@ -216,14 +216,16 @@ def binary_normal(answer: bytes) -> object:
 
 
 def python_binary_answers(image: ModuleImage, script: list[bytes]) -> list[bytes]:
-    """What the Python node answers to BEGIN and then the script, each message framed and cut
-    by its deframer as a link delivers it."""
+    """What the Python node answers to BEGIN and then the script, each message framed as the C
+    node gets it (0x00 COBS 0x00, whatever its first byte: a damaged type byte may look like
+    text, and `frame` would send it as a line) and cut by its deframer as a link delivers it."""
     with Node() as node:
         receiver = Receiver(NodeTarget(node))
         deframer = Deframer()
 
         def handled(message: bytes) -> list[bytes]:
-            return [a for m in deframer.feed(frame(message)) for a in receiver.handle(m)]
+            framed = b"\x00" + cobs_encode(message) + b"\x00"
+            return [a for m in deframer.feed(framed) for a in receiver.handle(m)]
 
         answers = handled(binary_begin(image))
         for message in with_crc(script, image, answers[0]):
