@@ -144,13 +144,6 @@ static void add_field(struct phrase *why, const struct field_spec *field,
     phrase_add(why, ": ");
 }
 
-/* Python's repr of bytes: b'...'. */
-static void add_bytes_repr(struct phrase *why, const uint8_t *data, size_t length)
-{
-    phrase_add_char(why, 'b');
-    phrase_add_repr(why, (const char *)data, length);
-}
-
 /* Strict UTF-8, as Python's decoder takes it: no overlong forms, no surrogates, at most
  * U+10FFFF. */
 static size_t utf8_sequence(const uint8_t *s, size_t left)
@@ -330,7 +323,7 @@ static bool parse_tail(const struct field_spec *field, const struct message *m, 
     if (!utf8_valid(data, length)) {
         add_field(why, field, type);
         phrase_add(why, "expected UTF-8 text, got ");
-        add_bytes_repr(why, data, length < 40 ? length : 40);
+        phrase_add_bytes_repr(why, data, length < 40 ? length : 40);
         return false;
     }
     if (field->kind != FIELD_LISTING) {

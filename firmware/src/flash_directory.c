@@ -137,8 +137,8 @@ static bool bad_header(const uint8_t *block, struct phrase *why)
     if (magic && version >= 1 && version <= VERSION) {
         return false;
     }
-    phrase_add(why, "expected magic b'RFMD' version 1 to 3, got b");
-    phrase_add_repr(why, (const char *)block, 4);
+    phrase_add(why, "expected magic b'RFMD' version 1 to 3, got ");
+    phrase_add_bytes_repr(why, block, 4);
     phrase_add(why, " version ");
     phrase_add_decimal(why, version);
     return true;

@@ -102,12 +102,70 @@ static void add_escaped(struct phrase *phrase, char c, char quote)
     }
 }
 
+/* The code point of the UTF-8 sequence at `text` (its `length` bytes left), and its size in
+ * `used`; 0 bytes used when no well-formed sequence of two to four bytes starts there. */
+static uint32_t utf8_point(const unsigned char *text, size_t length, size_t *used)
+{
+    static const uint32_t SMALLEST[5] = {0, 0, 0x80, 0x800, 0x10000};
+    size_t size = text[0] >= 0xF0 ? 4 : text[0] >= 0xE0 ? 3 : text[0] >= 0xC0 ? 2 : 0;
+    *used = 0;
+    if (size == 0 || size > length || text[0] >= 0xF8) {
+        return 0;
+    }
+    uint32_t point = text[0] & (0x7Fu >> size);
+    for (size_t i = 1; i < size; i++) {
+        if ((text[i] & 0xC0u) != 0x80u) {
+            return 0;
+        }
+        point = (point << 6) | (text[i] & 0x3Fu);
+    }
+    if (point < SMALLEST[size] || point > 0x10FFFF || (point >= 0xD800 && point <= 0xDFFF)) {
+        return 0;
+    }
+    *used = size;
+    return point;
+}
+
+/* A character beyond ASCII as Python's repr escapes one it does not print: \xNN below 0x100,
+ * \uNNNN below 0x10000, \UNNNNNNNN above. (Python prints the printable ones as they are; the
+ * node cannot tell which those are, so its refusal differs from the Python node's there.) */
+static void add_escaped_point(struct phrase *phrase, uint32_t point)
+{
+    static const char HEX[] = "0123456789abcdef";
+    int digits = point < 0x100 ? 2 : point < 0x10000 ? 4 : 8;
+    phrase_add(phrase, point < 0x100 ? "\\x" : point < 0x10000 ? "\\u" : "\\U");
+    for (int i = digits - 1; i >= 0; i--) {
+        phrase_add_char(phrase, HEX[(point >> (4 * i)) & 0xFu]);
+    }
+}
+
+void phrase_add_bytes_repr(struct phrase *phrase, const uint8_t *data, size_t length)
+{
+    char quote = repr_quote((const char *)data, length);
+    phrase_add_char(phrase, 'b');
+    phrase_add_char(phrase, quote);
+    for (size_t i = 0; i < length; i++) {
+        add_escaped(phrase, (char)data[i], quote);
+    }
+    phrase_add_char(phrase, quote);
+}
+
 void phrase_add_repr(struct phrase *phrase, const char *text, size_t length)
 {
     char quote = repr_quote(text, length);
     phrase_add_char(phrase, quote);
     for (size_t i = 0; i < length; i++) {
-        add_escaped(phrase, text[i], quote);
+        size_t used = 0;
+        uint32_t point = 0;
+        if ((unsigned char)text[i] >= 0x80) {
+            point = utf8_point((const unsigned char *)text + i, length - i, &used);
+        }
+        if (used) {
+            add_escaped_point(phrase, point);
+            i += used - 1;
+        } else {
+            add_escaped(phrase, text[i], quote);
+        }
     }
     phrase_add_char(phrase, quote);
 }

@@ -25,8 +25,11 @@ void phrase_add_char(struct phrase *phrase, char c);
 void phrase_add_decimal(struct phrase *phrase, uint64_t value);
 /* `digits` upper-case hexadecimal digits, zero-padded (Python's {:08X}); 0: as many as needed. */
 void phrase_add_hex(struct phrase *phrase, uint32_t value, int digits);
-/* The text as Python's repr() shows an ASCII str: 'gain', "it's", 'a\tb'. */
+/* The text as Python's repr() shows a str: 'gain', "it's", 'a\tb'; a character beyond ASCII
+ * (UTF-8) escaped by its code point, as repr escapes one it does not print. */
 void phrase_add_repr(struct phrase *phrase, const char *text, size_t length);
+/* The bytes as Python's repr() shows bytes: b'RFMD', b'\xc2\x80'. */
+void phrase_add_bytes_repr(struct phrase *phrase, const uint8_t *data, size_t length);
 
 /* Helpers for NUL-terminated names, in place of <string.h>. */
 size_t name_length(const char *name, size_t most);
