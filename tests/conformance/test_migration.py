@@ -1,7 +1,8 @@
 """Conformance: a module's way onto a node and off it, the same on every node (`nodes.KINDS`),
 with the real ``hexmigrate`` over a pty: ping, send, ls, rm; a restart on the same flash file;
-power cut at any moment of a transfer or a commit. The transfers and the power cuts run in both
-transfer modes (`nodes.MODES`), the rest in the default one.
+power cut at any moment of a transfer or a commit. The transfers run in both transfer modes
+(`nodes.MODES`), the rest in the default one (tests/firmware/test_qemu_power_cut.py cuts the
+C node's power in hex mode).
 """
 
 from __future__ import annotations
@@ -126,24 +127,26 @@ def larger_gain(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.mark.slow
 @pytest.mark.timeout(300)
 def test_a_power_cut_at_any_moment_leaves_the_old_module_or_the_new_never_a_half(
-    boot, mode, example_hex, larger_gain
+    boot, example_hex, larger_gain
 ):
     board = boot()
     versions = [example_hex["gain"], larger_gain]
-    send(versions[0], board.url, mode)
-    sizes = [listed(board.url, mode)["gain"][1]]
-    send(versions[1], board.url, mode)
-    sizes.append(listed(board.url, mode)["gain"][1])
+    send(versions[0], board.url, DEFAULT_MODE)
+    sizes = [listed(board.url, DEFAULT_MODE)["gain"][1]]
+    send(versions[1], board.url, DEFAULT_MODE)
+    sizes.append(listed(board.url, DEFAULT_MODE)["gain"][1])
     assert sizes[1] > sizes[0]
     draw = random.Random(28)
     for cut in range(CUTS):
         old = sizes[(cut + 1) % 2]
         new = sizes[cut % 2]
-        send_until_cut(board, versions[cut % 2], draw.uniform(0.0, 1.5), mode)
+        send_until_cut(board, versions[cut % 2], draw.uniform(0.0, 1.5), DEFAULT_MODE)
         board = boot()
-        modules = {name: size for name, (_, size) in listed(board.url, mode).items()}
+        modules = {name: size for name, (_, size) in listed(board.url, DEFAULT_MODE).items()}
         assert modules in ({"gain": old}, {"gain": new}), f"cut {cut}"
         if modules["gain"] == old:  # the next cut starts from the version it expects
-            send(versions[cut % 2], board.url, mode)
-    send(example_hex["moving_average"], board.url, mode)  # the flash is sound: it still installs
-    assert set(listed(board.url, mode)) == {"gain", "moving_average"}
+            send(versions[cut % 2], board.url, DEFAULT_MODE)
+    send(
+        example_hex["moving_average"], board.url, DEFAULT_MODE
+    )  # the flash is sound: it still installs
+    assert set(listed(board.url, DEFAULT_MODE)) == {"gain", "moving_average"}
