@@ -32,6 +32,9 @@ WATCH = 0.05
 """Seconds between two looks at the stop request and at QEMU."""
 BANNER = "refresh-node "
 """How the firmware's banner starts: a line about the node, said again until a host speaks."""
+HANDSHAKE_REFUSAL = "NAK 0 0 RETRY bad message: "
+"""How the firmware answers a handshake PING that lost its first bytes to the UART's reset:
+the handshake's own noise, not the firmware's to report."""
 
 
 def cmd_qemu(args: argparse.Namespace, say: Callable[[str], None]) -> int:
@@ -49,7 +52,7 @@ def cmd_qemu(args: argparse.Namespace, say: Callable[[str], None]) -> int:
         say(f"listening on {url} (connect with: hexmigrate send FILE.hex --to {url})")
         say(f"qemu: {node.pong}; flash {flash}; it speaks binary and hex mode")
         for line in node.heard:
-            if not line.startswith(BANNER):
+            if not line.startswith((BANNER, HANDSHAKE_REFUSAL)):
                 say(f"qemu: {line}")
         deadline = None if args.seconds is None else time.monotonic() + args.seconds
         while not requested() and node.running():
