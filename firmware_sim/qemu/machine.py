@@ -83,10 +83,10 @@ class QemuNode:
         return [
             _qemu(),
             *("-M", "virt", "-bios", "none", "-nographic", "-monitor", "none"),
-            *("-chardev", f"socket,id=uart,path={uart}", "-serial", "chardev:uart"),
-            *("-device", f"loader,file={self.firmware},cpu-num=0"),
+            *("-chardev", f"socket,id=uart,path={_value(uart)}", "-serial", "chardev:uart"),
+            *("-device", f"loader,file={_value(self.firmware)},cpu-num=0"),
             *options,
-            *("-drive", f"if=pflash,unit=1,format=raw,file={self.flash}"),
+            *("-drive", f"if=pflash,unit=1,format=raw,file={_value(self.flash)}"),
         ]
 
     def start(self) -> str:
@@ -139,6 +139,12 @@ class QemuNode:
 
     def __exit__(self, *exc_info: object) -> None:
         self.stop()
+
+
+def _value(path: Path) -> str:
+    """`path` as the value of a QEMU option: its commas doubled, or a name such as
+    ``node,readonly=on.img`` would end the value there and set an option of its own."""
+    return str(path).replace(",", ",,")
 
 
 def _qemu() -> str:

@@ -16,6 +16,7 @@ import pytest
 
 from commandline.children import Child
 from firmware_sim.errors import QemuError
+from firmware_sim.qemu.flash_file import ensure_flash
 from firmware_sim.qemu.machine import handshake
 from hexmigrate.links import open_link
 from hexmigrate.links.listening import CONNECT_URL
@@ -178,3 +179,13 @@ def test_a_signed_module_sent_with_a_key_installs_on_a_node_that_trusts_none(
     assert "module gain installed at 0x22000000" in sent
     node.stop()
     assert committed(flash_file)["gain"].version == 0
+
+
+@pytest.mark.timeout(60)
+def test_a_flash_file_whose_name_holds_a_comma_is_the_flash(boot, tmp_path, example_hex):
+    """QEMU reads a comma as the end of an option's value: a name such as
+    ``node,readonly=on.img`` set an option of its own, and the node never answered."""
+    flash = ensure_flash(tmp_path / "node,readonly=on.img")
+    node = boot(flash)
+    hexmigrate("send", example_hex["gain"], "--to", node.url, "--quiet")
+    assert set(committed(flash)) == {"gain"}
