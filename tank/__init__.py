@@ -8,5 +8,7 @@ opens the inlet valve below its band; robot b has a backup gauge. The files are 
 ``tank_natives``    the native E-PBOs: the gauges
 ``level_alarm.c``   the guest E-PBO: the level alarm
 ``declaration``     `APPLICATION`: the scenarios, what a run samples, what a campaign draws
+``tank_qemu.toml``  the same task with robot b on the C firmware (QEMU): docs/firmware.md
+``backup_gauge.c``  robot b's backup gauge as a guest module, for that node
 ==================  ==========================================================================
 """

@@ -15,7 +15,10 @@ Each step becomes requests of the transfer protocol on the node's own link:
 - connect on one robot: CONNECT ``OUT=IN``; disconnect: DISCONNECT of the wire made;
 - connect across robots: a bridge, numbered uniquely by this applier: IMPORT on the sink's node
   (listening on the sink node's host, port 0), then EXPORT on the source's node to the URL the
-  importer answered. Taking it down is a STOP of ``bridge{N}_rx`` and ``bridge{N}_tx``.
+  importer answered. Taking it down is a STOP of ``bridge{N}_rx`` and ``bridge{N}_tx``. A source
+  node that refuses EXPORT (one whose only link is its host's: the C firmware on a UART) gets a
+  relay instead: the manager reads the port there and sends the values to the importer itself
+  (`refresh.remote.relay`), in real time, for scalar ports of guest modules.
 
 With a modelled migration wire, a migration then takes, in the run's time, what the same image
 takes on that wire (`firmware_sim.wires.transfer`, a model of the wire alone). `sources()` gives
@@ -37,18 +40,22 @@ from collections.abc import Callable, Iterable, Mapping
 from typing import Protocol
 from urllib.parse import urlsplit
 
+from firmware_sim.core.guest import port_spec
 from firmware_sim.core.node import Node
 from firmware_sim.wires.transfer import WireRun, run_transfer
-from hexmigrate.image import ModuleImage
+from hexmigrate.errors import HexmigrateError
+from hexmigrate.image import ModuleImage, find_descriptor
 from hexmigrate.transfer.control import PboRow
 from hexmigrate.transfer.control_client import NodeControl
 from morphing_crossbar.hex_image import slot_base
+from pbort.ports import PortSpec
 from refresh.appliers.base import ApplierBase, Bridge, Inventory, ModuleLine, owner
 from refresh.database import Module
 from refresh.errors import ApplyError, NodeLinkError
 from refresh.hardware import scratch_port
 from refresh.remote.guard import GuardedControl
-from refresh.remote.remote_node import RemoteNode
+from refresh.remote.relay import HostRelay
+from refresh.remote.remote_node import REPORT_PERIOD, RemoteNode, link_failed
 from refresh.remote.reports import ReportSource, Slip
 
 BRIDGE_PBO = re.compile(r"bridge(\d+)_(?:tx|rx)")
@@ -102,6 +109,11 @@ class LinkApplier(ApplierBase):
         self.router: Router | None = None
         """In lock-step time, the `TimeMaster` of the nodes (built on `controls()`, set before
         the first bridge), told of every bridge put up or taken down."""
+        self.started: dict[tuple[str, str], Module] = {}
+        """(robot, PBO) -> the module it was started as: a relay reads its ports' types."""
+        self.relays: dict[int, HostRelay] = {}
+        """The bridges the manager carries itself (their source node refused EXPORT), by
+        number."""
 
     @classmethod
     def open(cls, urls: Mapping[str, str], **options: object) -> LinkApplier:
@@ -303,6 +315,7 @@ class LinkApplier(ApplierBase):
         node.source.forget(instance)
         self._logs_from_now(node, robot, instance)
         node.ask(f"START {instance}", lambda: control.start(instance))
+        self.started[robot, instance] = module
 
     def _logs_from_now(self, node: RemoteNode, robot: str, instance: str) -> None:
         """Have `module_logs` give the lines PBO `instance` logs from now on (when it starts),
@@ -372,18 +385,48 @@ class LinkApplier(ApplierBase):
             lambda: importer.control.import_port(number, bridge.sink, listen, self.wire, self.rate),
         )
         try:
+            self._export(bridge, exporter, url)
+        except (NodeLinkError, ApplyError):
+            with contextlib.suppress(NodeLinkError):  # the export's failure is the one to tell
+                _stop(importer, f"bridge{number}_rx")
+            raise
+        if self.router is not None:
+            self.router.route(number, bridge.source_robot, bridge.sink_robot)
+
+    def _export(self, bridge: Bridge, exporter: RemoteNode, url: str) -> None:
+        """EXPORT on the source's node; if the node refuses it (it answered: its link works),
+        a relay of the manager's carries the values instead."""
+        number = bridge.number
+        try:
             exporter.ask(
                 f"EXPORT bridge{number} from {bridge.source} to {url}",
                 lambda: exporter.control.export_port(
                     number, bridge.source, url, self.wire, self.rate
                 ),
             )
-        except NodeLinkError:
-            with contextlib.suppress(NodeLinkError):  # the export's failure is the one to tell
-                _stop(importer, f"bridge{number}_rx")
-            raise
-        if self.router is not None:
-            self.router.route(number, bridge.source_robot, bridge.sink_robot)
+        except NodeLinkError as error:
+            if link_failed(error.__cause__ or error) or self.router is not None:
+                raise
+            self.relays[number] = self._relay(bridge, exporter, url, refused=str(error))
+
+    def _relay(self, bridge: Bridge, exporter: RemoteNode, url: str, refused: str) -> HostRelay:
+        """The manager's relay of `bridge`, whose source node refused EXPORT (`refused`): it
+        reads the source port at its PBO's rate and sends each value to the importer."""
+        robot, pbo = bridge.source_robot, owner(bridge.source)
+        module = self.started.get((robot, pbo))
+        port = bridge.source.partition(".")[2]
+        found = None if module is None or module.source.native else _port(self, module, port)
+        if found is None:
+            raise ApplyError(
+                f"{refused}; the manager relays the output ports of the guest modules it started, "
+                f"got {bridge.source} on {robot}"
+            )
+        frequency = self.frequencies.get((robot, pbo), 0.0)
+        period = 1 / frequency if frequency > 0 else REPORT_PERIOD
+        try:
+            return HostRelay(bridge.number, exporter, bridge.source, found, url, period)
+        except (HexmigrateError, OSError, ValueError, TypeError) as error:
+            raise ApplyError(f"{refused}; relaying it instead: {error}") from error
 
     def host(self, robot: str) -> str:
         """The host `robot`'s node listens on for a bridge: given in `hosts`, else the one its
@@ -392,17 +435,30 @@ class LinkApplier(ApplierBase):
         return f"[{host}]" if ":" in host else host
 
     def _stop_pbo(self, robot: str, pbo: str) -> None:
+        """STOP a bridge's half; a relayed bridge's exporting half is the manager's relay."""
+        found = BRIDGE_PBO.fullmatch(pbo)
+        relay = self.relays.pop(int(found[1]), None) if pbo.endswith("_tx") and found else None
+        if relay is not None:
+            relay.close()
+            return
         _stop(self.nodes[robot], pbo)
 
     def _bridge_down(self, bridge: Bridge) -> None:
-        """A half that would not stop carries nothing either: the router forgets the bridge."""
+        """A half that would not stop carries nothing either: the router forgets the bridge
+        (and a relay of it, its source robot lost, stops)."""
+        relay = self.relays.pop(bridge.number, None)
+        if relay is not None:
+            relay.close()
         if self.router is not None:
             self.router.unroute(bridge.number)
 
     # Closing.
 
     def close(self) -> None:
-        """Stop every node's pushes and close the links (the nodes keep running)."""
+        """Stop the relays, every node's pushes and close the links (the nodes keep running)."""
+        for relay in self.relays.values():
+            relay.close()
+        self.relays.clear()
         for node in self.nodes.values():
             node.close()
 
@@ -420,6 +476,13 @@ def url_host(url: str) -> str | None:
     if not inner.startswith("socket://"):
         return None
     return urlsplit(inner).hostname
+
+
+def _port(applier: LinkApplier, module: Module, name: str) -> PortSpec | None:
+    """The type of port `name` of `module`, from its image's descriptor (None if it has none)."""
+    found = find_descriptor(applier.image_of(module))
+    ports = [] if found is None else found[1].ports
+    return next((port_spec(port) for port in ports if port.name == name), None)
 
 
 def _stop(node: RemoteNode, pbo: str) -> None:
