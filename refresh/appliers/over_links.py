@@ -425,7 +425,7 @@ class LinkApplier(ApplierBase):
         period = 1 / frequency if frequency > 0 else REPORT_PERIOD
         try:
             return HostRelay(bridge.number, exporter, bridge.source, found, url, period)
-        except (HexmigrateError, OSError, ValueError, TypeError) as error:
+        except (HexmigrateError, OSError, ValueError, TypeError, OverflowError) as error:
             raise ApplyError(f"{refused}; relaying it instead: {error}") from error
 
     def host(self, robot: str) -> str:

@@ -80,7 +80,14 @@ class HostRelay:
         while not self._stop.is_set():
             try:
                 self._carry()
-            except (NodeLinkError, HexmigrateError, OSError, ValueError, TypeError) as error:
+            except (
+                NodeLinkError,
+                HexmigrateError,
+                OSError,
+                ValueError,
+                TypeError,
+                OverflowError,
+            ) as error:
                 if not self._stop.is_set():
                     self.stuck = str(error)
                 return
