@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
@@ -22,23 +21,13 @@ def run(*args: object) -> subprocess.CompletedProcess[str]:
     )
 
 
-@pytest.fixture(scope="module")
-def hex_files(example_builds, tmp_path_factory) -> dict[str, Path]:
-    out = tmp_path_factory.mktemp("hex")
-    files = {}
-    for name, build in example_builds.items():
-        files[name] = out / f"{name}.hex"
-        image_from_elf(build.elf).write(files[name])
-    return files
-
-
-def test_run_reports_modules_ports_and_stats_as_json(hex_files):
+def test_run_reports_modules_ports_and_stats_as_json(example_hex):
     result = run(
         "run",
         "--module",
-        hex_files["gain"],
+        example_hex["gain"],
         "--module",
-        f"{hex_files['moving_average']}@0x08010000",
+        f"{example_hex['moving_average']}@0x08010000",
         "--native",
         "signal",
         "--set",
@@ -69,16 +58,16 @@ def test_run_reports_modules_ports_and_stats_as_json(hex_files):
     assert report["power"]["leftover"] <= 100
 
 
-def test_a_budget_too_small_for_a_module_s_code_is_the_watchdog_s_error(hex_files):
-    common = ("run", "--module", hex_files["gain"], "--set", "gain.k=1", "--seconds", "0.05")
+def test_a_budget_too_small_for_a_module_s_code_is_the_watchdog_s_error(example_hex):
+    common = ("run", "--module", example_hex["gain"], "--set", "gain.k=1", "--seconds", "0.05")
     result = run(*common, "--budget", "5")
     assert result.returncode == 1
     assert "watchdog: instruction budget of 5 exhausted" in result.stderr
     assert json.loads(run(*common, "--json").stdout)["stats"]["gain"]["cycles"] == 5
 
 
-def test_run_text_output(hex_files):
-    result = run("run", "--module", hex_files["gain"], "--set", "gain.k=65536", "--cycles", "5")
+def test_run_text_output(example_hex):
+    result = run("run", "--module", example_hex["gain"], "--set", "gain.k=65536", "--cycles", "5")
     assert result.returncode == 0, result.stderr
     assert "gain             0x08000000" in result.stdout
     assert "gain.y = 0" in result.stdout
@@ -118,8 +107,8 @@ def test_errors(args, status, message):
     assert "Traceback" not in result.stderr
 
 
-def test_a_module_that_refuses_to_start_shows_what_it_logged(hex_files):
-    result = run("run", "--module", hex_files["gain"])  # gain refuses k = 0, and says so
+def test_a_module_that_refuses_to_start_shows_what_it_logged(example_hex):
+    result = run("run", "--module", example_hex["gain"])  # gain refuses k = 0, and says so
     assert result.returncode == 1
     assert result.stderr.startswith(
         "error: gain did not start: PBO 'gain': on returned -1; now ERROR; it logged: "
@@ -156,12 +145,12 @@ def test_a_listening_node_says_where_first_then_why_a_pbo_did_not_start():
         ),
     ],
 )
-def test_a_value_its_port_cannot_hold_exactly_is_refused(hex_files, setting, message):
-    result = run("run", "--module", hex_files["gain"], "--set", setting, "--cycles", "1")
+def test_a_value_its_port_cannot_hold_exactly_is_refused(example_hex, setting, message):
+    result = run("run", "--module", example_hex["gain"], "--set", setting, "--cycles", "1")
     assert (result.returncode, result.stderr) == (1, message)
 
 
-def test_a_whole_number_written_with_a_fraction_sets_an_integer_port(hex_files):
+def test_a_whole_number_written_with_a_fraction_sets_an_integer_port(example_hex):
     result = run(
         "run", "--native", "signal", "--set", "signal.amplitude=3.0", "--cycles", "2", "--json"
     )
@@ -184,8 +173,8 @@ def test_pbos_are_registered_in_data_flow_order():
     assert data_flow_order(["a", "b"], [("a.y", "b.x"), ("b.y", "a.x")]) == ["a", "b"]
 
 
-def test_a_corrupt_module_names_file_and_line(hex_files, tmp_path):
-    lines = hex_files["gain"].read_text().splitlines()
+def test_a_corrupt_module_names_file_and_line(example_hex, tmp_path):
+    lines = example_hex["gain"].read_text().splitlines()
     lines[12] = lines[12][:-2] + "00"
     bad = tmp_path / "bad.hex"
     bad.write_text("\n".join(lines) + "\n")
@@ -208,10 +197,10 @@ def test_info_lists_the_memory_map_and_services():
     assert "PERF_REPORT" in run("info").stdout
 
 
-def test_transfer_reports_virtual_time_against_the_wire_limit(hex_files, example_builds):
-    serial = json.loads(run("transfer", hex_files["gain"], "--json").stdout)
-    slow = json.loads(run("transfer", hex_files["gain"], "--bit-rate", 9600, "--json").stdout)
-    can = json.loads(run("transfer", hex_files["gain"], "--medium", "can", "--json").stdout)
+def test_transfer_reports_virtual_time_against_the_wire_limit(example_hex, example_builds):
+    serial = json.loads(run("transfer", example_hex["gain"], "--json").stdout)
+    slow = json.loads(run("transfer", example_hex["gain"], "--bit-rate", 9600, "--json").stdout)
+    can = json.loads(run("transfer", example_hex["gain"], "--medium", "can", "--json").stdout)
     size = image_from_elf(example_builds["gain"].elf).size
     assert serial["bytes"] == slow["bytes"] == can["bytes"] == size
     assert serial["limit"] == 11520 and slow["limit"] == 960
@@ -222,7 +211,7 @@ def test_transfer_reports_virtual_time_against_the_wire_limit(hex_files, example
         assert 0.5 < figures["of_limit"] < 1 and figures["retransmissions"] == 0
         parts = figures["setup_seconds"] + figures["data_seconds"] + figures["finish_seconds"]
         assert parts == pytest.approx(figures["seconds"])
-    text = run("transfer", hex_files["gain"], "--medium", "can", "--mode", "binary").stdout
+    text = run("transfer", example_hex["gain"], "--medium", "can", "--mode", "binary").stdout
     assert "over CAN at 500000 bit/s" in text and "% of the" in text
 
 
@@ -235,8 +224,8 @@ def test_transfer_of_a_missing_file_is_a_usage_error_naming_it(tmp_path):
     )
 
 
-def test_a_transfer_the_wire_is_too_slow_for_is_one_error_line(hex_files):
-    result = run("transfer", hex_files["gain"], "--bit-rate", 300)
+def test_a_transfer_the_wire_is_too_slow_for_is_one_error_line(example_hex):
+    result = run("transfer", example_hex["gain"], "--bit-rate", 300)
     assert result.returncode == 1
     assert result.stderr.startswith("error: transfer ")
     assert "the node stopped answering" in result.stderr

@@ -75,16 +75,6 @@ def images(example_builds) -> dict[str, ModuleImage]:
     return {name: image_from_elf(build.elf) for name, build in example_builds.items()}
 
 
-@pytest.fixture(scope="module")
-def hex_files(images, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    folder = tmp_path_factory.mktemp("hex")
-    files = {}
-    for name, image in images.items():
-        files[name] = folder / f"{name}.hex"
-        image.write(files[name])
-    return files
-
-
 class NodeThread:
     """A node served by `serve` in a thread of its own, on each of `urls` (a URL, or a function
     that opens a link) in turn with one
@@ -257,7 +247,7 @@ def test_a_client_past_the_limit_takes_the_place_of_the_one_silent_the_longest()
 
 
 @pytest.mark.slow
-def test_a_pty_pair_between_two_processes(hex_files, tmp_path):
+def test_a_pty_pair_between_two_processes(example_hex, tmp_path):
     flash = ("--flash", str(tmp_path / "flash.bin"))
     with NodeProcess(
         "pty", *GAIN_SET, "--show", "gain.y", "--show", "moving_average.y", *flash
@@ -269,9 +259,9 @@ def test_a_pty_pair_between_two_processes(hex_files, tmp_path):
             node.lines()[0]
             == f"listening on {pty} (connect with: hexmigrate send FILE.hex --to {pty})"
         )
-        sent = hexmigrate("send", hex_files["gain"], "--to", pty, "--quiet", "--mode", "hex")
+        sent = hexmigrate("send", example_hex["gain"], "--to", pty, "--quiet", "--mode", "hex")
         assert "module gain installed at 0x" in sent
-        hexmigrate("send", hex_files["moving_average"], "--to", pty, "--quiet")
+        hexmigrate("send", example_hex["moving_average"], "--to", pty, "--quiet")
         addresses = check_node_output(node, ["gain", "moving_average"])
         listing = hexmigrate("ls", "--to", pty).splitlines()
         assert [line.split()[:2] for line in listing] == [
@@ -292,7 +282,7 @@ def test_a_pty_pair_between_two_processes(hex_files, tmp_path):
         assert check_node_output(node, ["gain"]) == {"gain": addresses["gain"]}
 
 
-def test_tcp_listen_between_two_processes_and_resume_after_a_cut(hex_files, images):
+def test_tcp_listen_between_two_processes_and_resume_after_a_cut(example_hex, images):
     with NodeProcess("tcp-listen://127.0.0.1:0", *GAIN_SET, "--show", "gain.y") as node:
         listening = node.wait_for(
             r"^listening on tcp-listen://127\.0\.0\.1:(\d+) \(connect with: hexmigrate send "
@@ -300,7 +290,7 @@ def test_tcp_listen_between_two_processes_and_resume_after_a_cut(hex_files, imag
         )
         port, to = listening[1], listening[2]
         assert port == listening[3] != "0"
-        hexmigrate("send", hex_files["gain"], "--to", to, "--quiet", "--mode", "hex")
+        hexmigrate("send", example_hex["gain"], "--to", to, "--quiet", "--mode", "hex")
         check_node_output(node, ["gain"])
 
         # A cable pulled mid-transfer, then a new connection to the same node: RESUME.
@@ -322,7 +312,7 @@ def test_tcp_listen_between_two_processes_and_resume_after_a_cut(hex_files, imag
         check_node_output(node, ["gain", "moving_average"])
 
 
-def test_faults_on_both_ends_of_a_tcp_link_between_processes(hex_files):
+def test_faults_on_both_ends_of_a_tcp_link_between_processes(example_hex):
     with NodeProcess(
         f"faulty+tcp-listen://127.0.0.1:0#{FAULTS}&seed=5", *GAIN_SET, "--show", "gain.y"
     ) as node:
@@ -333,20 +323,20 @@ def test_faults_on_both_ends_of_a_tcp_link_between_processes(hex_files):
         to = f"faulty+{listening[2]}#{FAULTS}&seed=6"
         for mode in ("hex", "binary"):
             sent = hexmigrate(
-                "send", hex_files["gain"], "--to", to, "--quiet", "--mode", mode,
+                "send", example_hex["gain"], "--to", to, "--quiet", "--mode", mode,
                 "--timeout", "0.3", "--retries", "20",
             )  # fmt: skip
             assert "module gain installed at 0x" in sent
         check_node_output(node, ["gain"])
 
 
-def test_can_through_a_remote_server_between_two_processes(hex_files, images):
+def test_can_through_a_remote_server_between_two_processes(example_hex, images):
     with (
         RemoteCanServer(unique("e2e-remote")) as server,
         NodeProcess(server.url(role="node"), *GAIN_SET, "--show", "gain.y") as node,
     ):
         node.wait_for(r"^listening on can://remote/127\.0\.0\.1:\d+/e2e-remote-\w+\?role=node$")
-        hexmigrate("send", hex_files["gain"], "--to", server.url(), "--quiet")
+        hexmigrate("send", example_hex["gain"], "--to", server.url(), "--quiet")
         with open_link(server.url()) as link:
             sender = Sender(link, "hex")
             assert sender.send(images["moving_average"]).name == "moving_average"
@@ -355,16 +345,18 @@ def test_can_through_a_remote_server_between_two_processes(hex_files, images):
         check_node_output(node, ["gain", "moving_average"])
 
 
-def test_slcan_on_a_pty_between_two_processes(hex_files, images):
+def test_slcan_on_a_pty_between_two_processes(example_hex, images):
     channel = unique("e2e-slcan")
     with (
         SlcanDevice(channel) as device,
         NodeThread([f"can://virtual/{channel}?role=node"], images) as node,
     ):
         assert device.url.startswith("can://slcan//dev/pts/")
-        sent = hexmigrate("send", hex_files["gain"], "--to", device.url, "--quiet", "--mode", "hex")
+        sent = hexmigrate(
+            "send", example_hex["gain"], "--to", device.url, "--quiet", "--mode", "hex"
+        )
         assert "module gain installed at 0x" in sent
-        hexmigrate("send", hex_files["moving_average"], "--to", device.url, "--quiet")
+        hexmigrate("send", example_hex["moving_average"], "--to", device.url, "--quiet")
         listing = hexmigrate("ls", "--to", device.url)
         assert [line.split()[0] for line in listing.splitlines()] == ["gain", "moving_average"]
         node.wait_running()
@@ -479,7 +471,7 @@ def test_a_cut_link_resumes_on_a_new_link_with_the_same_receiver(images, mode, c
     assert_installed_and_ran(node, ["gain"])
 
 
-def test_send_reconnects_and_resumes_by_itself(hex_files, images):
+def test_send_reconnects_and_resumes_by_itself(example_hex, images):
     """`hexmigrate send` over a link that dies after 700 bytes each time it is opened: it opens
     the link again and resumes where the node got to, until the module is installed."""
     with NodeProcess("tcp-listen://127.0.0.1:0", *GAIN_SET, "--show", "gain.y") as node:
@@ -491,7 +483,7 @@ def test_send_reconnects_and_resumes_by_itself(hex_files, images):
                 "-m",
                 "hexmigrate",
                 "send",
-                str(hex_files["moving_average"]),
+                str(example_hex["moving_average"]),
                 "--to",
                 flaky,
                 "--quiet",
@@ -509,7 +501,7 @@ def test_send_reconnects_and_resumes_by_itself(hex_files, images):
         assert f"{images['moving_average'].size} bytes" in listing
 
 
-def test_a_listening_node_wires_a_module_each_time_it_arrives(hex_files):
+def test_a_listening_node_wires_a_module_each_time_it_arrives(example_hex):
     """`--native signal --wire signal.y=gain.x`: the wire is made once gain arrives, and gain
     then computes 2 x the ramp (the --show lines), not 0; made again when gain is sent again
     (the new gain replaces the old one and its connections), and when it is removed and sent
@@ -520,7 +512,7 @@ def test_a_listening_node_wires_a_module_each_time_it_arrives(hex_files):
 
         def send_and_see_gain_run() -> None:
             start = len(node.lines())
-            hexmigrate("send", hex_files["gain"], "--to", to, "--quiet")
+            hexmigrate("send", example_hex["gain"], "--to", to, "--quiet")
             index, _ = node.wait_for_line(r"^registered gain at 0x", start=start)
             shown = node.wait_for(r"gain\.y=([1-9]\d*)", start=index)  # 0 until the first cycles
             assert int(shown[1]) % 6 == 0  # 2 x k=2.0 x a ramp of +3 per cycle
