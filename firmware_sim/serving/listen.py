@@ -24,6 +24,7 @@ from collections.abc import Callable, Mapping
 from contextlib import ExitStack, closing
 from dataclasses import dataclass, field
 from pathlib import Path
+from urllib.parse import urlsplit
 
 from commandline import one_line
 from commandline.interrupts import stop_requests
@@ -221,11 +222,13 @@ def listen(
 def _listen_host(url: str) -> str | None:
     """The host a ``tcp-listen://HOST:PORT`` node listens on (also behind ``faulty+``), which
     its bridges may use; None for another link."""
-    inner = url.removeprefix("faulty+").partition("#")[0].partition("?")[0]
+    inner = url.removeprefix("faulty+").partition("#")[0]
     if not inner.startswith("tcp-listen://"):
         return None
-    host = inner.removeprefix("tcp-listen://").rpartition(":")[0]
-    return host.removeprefix("[").removesuffix("]") or None
+    try:
+        return urlsplit(inner).hostname or None
+    except ValueError:  # a malformed one: the link refuses it by name when it opens
+        return None
 
 
 def _check_natives(
