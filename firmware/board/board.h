@@ -57,9 +57,6 @@ bool board_flash_erase_sector(uint32_t offset);
  * hide a bug of the layer above. False too when the chip reports an error. */
 bool board_flash_program(uint32_t offset, const void *source, size_t length);
 
-/* Free bytes of RAM the node does not use (for the PONG line). */
-uint32_t board_ram_free(void);
-
 /* The RAM the kernel gives module code (docs/firmware.md, "Memory map"): SRAM for instance
  * areas, the task window a running instance works in, and the stack module code runs on. Each
  * is a power of two in size and aligned to its size: the trap file guards each with one NAPOT

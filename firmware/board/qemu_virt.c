@@ -43,8 +43,6 @@
  * the hart starts); RAM is zero otherwise. */
 #define BOOT_NO_START 0x4E4F5354u /* "NOST" */
 
-extern char __bss_end[];   /* from the linker script: the end of the node's static RAM */
-extern char __stack_low[]; /* the lowest address the stack may reach */
 extern char __module_sram[], __module_sram_size[]; /* the module regions, link.ld */
 extern char __task_window[], __task_window_size[];
 extern char __module_stack[], __module_stack_size[];
@@ -213,11 +211,6 @@ bool board_flash_program(uint32_t offset, const void *source, size_t length)
         }
     }
     return true;
-}
-
-uint32_t board_ram_free(void)
-{
-    return (uint32_t)(__stack_low - __bss_end);
 }
 
 void board_module_memory(struct board_region *sram, struct board_region *window,

@@ -55,7 +55,15 @@ void host_board_advance(uint64_t microseconds) { clock_us += microseconds; }
 uint32_t board_flash_base(void) { return HOST_FLASH_BASE; }
 uint32_t board_flash_size(void) { return HOST_FLASH_SIZE; }
 uint32_t board_flash_sector_size(void) { return HOST_SECTOR; }
-uint32_t board_ram_free(void) { return 65536; }
+
+/* The QEMU board's module regions (firmware/src/link.ld), never touched: no module runs here. */
+void board_module_memory(struct board_region *sram, struct board_region *window,
+                         struct board_region *stack)
+{
+    *sram = (struct board_region){0x80040000u, 128u << 10};
+    *window = (struct board_region){0x80060000u, 64u << 10};
+    *stack = (struct board_region){0x80070000u, 8u << 10};
+}
 
 void board_flash_read(uint32_t offset, void *destination, size_t length)
 {

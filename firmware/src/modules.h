@@ -32,4 +32,8 @@ void node_module_removed(const char *name);
  * off, held) as firmware-sim listen does. */
 bool node_module_arrived(char *name);
 
+/* Bytes of module SRAM free for instance areas (the kernel's allocator), as the PONG line says
+ * them: the Python node says its allocator's free bytes there too. */
+uint32_t node_sram_free(void);
+
 #endif

@@ -5,6 +5,8 @@
  */
 #include "modules.h"
 
+#include "../board/board.h"
+
 __attribute__((weak)) const char *node_module_installed(const char *name, uint32_t load_address,
                                                         uint32_t size, uint32_t init_address)
 {
@@ -21,4 +23,12 @@ __attribute__((weak)) bool node_module_arrived(char *name)
 {
     (void)name;
     return false;
+}
+
+/* No kernel: all of the board's module SRAM is free. */
+__attribute__((weak)) uint32_t node_sram_free(void)
+{
+    struct board_region sram, window, stack;
+    board_module_memory(&sram, &window, &stack);
+    return sram.size;
 }

@@ -252,7 +252,7 @@ void node_describe(struct phrase *line)
     phrase_add(line, " of ");
     phrase_add_decimal(line, flash_block_count());
     phrase_add(line, " flash blocks free, ");
-    phrase_add_decimal(line, board_ram_free());
+    phrase_add_decimal(line, node_sram_free());
     phrase_add(line, " bytes of SRAM free, ");
     phrase_add(line, board_name());
     phrase_add(line, " firmware");

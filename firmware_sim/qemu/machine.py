@@ -37,7 +37,7 @@ _BARRIER_TID = 0xFFFF_FFFF
 _BARRIER = b"ABORT %d *%02X\n" % (_BARRIER_TID, line_sum(f"ABORT {_BARRIER_TID}"))
 """The handshake's last request: aborting a transfer no one began is answered, changes nothing."""
 _BARRIER_ANSWER = f"ACK {_BARRIER_TID} 0 aborted"
-BOOT_OPTIONS = 0x8007_0000
+BOOT_OPTIONS = 0x8007_2000
 """Where the firmware reads its boot options (firmware/src/link.ld's __boot_options): QEMU's
 generic loader writes the word there before the hart starts."""
 NO_START = 0x4E4F_5354

@@ -43,10 +43,22 @@ def send(path: object, url: str, mode: str, *options: str) -> str:
     return hexmigrate("send", path, "--to", url, "--mode", mode, "--quiet", *options)
 
 
+def sram_free(url: str) -> int:
+    """The module SRAM free as the node's PING answer says it."""
+    said = hexmigrate("ping", "--to", url, "--mode", DEFAULT_MODE)
+    found = re.search(r" (\d+) bytes of SRAM free", said)
+    assert found, said
+    return int(found[1])
+
+
 @pytest.mark.timeout(120)
-def test_ping_answers_with_a_line_about_the_node(boot):
+def test_ping_answers_with_a_line_about_the_node_and_its_module_sram(boot, example_hex):
+    """Both nodes have 128 KiB of module SRAM, and say what their modules' areas leave of it."""
     board = boot()
-    assert "module(s)" in hexmigrate("ping", "--to", board.url, "--mode", DEFAULT_MODE)
+    assert "0 module(s)" in hexmigrate("ping", "--to", board.url, "--mode", DEFAULT_MODE)
+    assert sram_free(board.url) == 128 << 10
+    send(example_hex["gain"], board.url, DEFAULT_MODE)
+    assert 0 < sram_free(board.url) < 128 << 10
 
 
 @pytest.mark.timeout(120)
