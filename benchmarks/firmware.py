@@ -500,9 +500,7 @@ def measure_cycles(
 def hook_times(url: str, pid: int, jobs: tuple[Target, ...]) -> dict[str, list[float]]:
     """Seconds of each of `jobs`' cycle hook by the node's clock, "NAME hook": its ``micros``
     variant sent, run at 50 Hz and its ``micros`` READ `TIMED_READS` times, 30 ms apart (a
-    new job's value each time). On a node of its own: the QEMU node once refused the COMMIT
-    of gain's ``micros`` variant replacing its counted one after `cycle_times` (``REGISTER
-    refused (ERR_ABI): expected descriptor magic ...``), though it listed the new one after."""
+    new job's value each time). On a node of its own, without `cycle_times`' counters."""
     figures = {}
     for target in jobs:
         install_seconds(url, target.timed, "binary")

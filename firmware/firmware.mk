@@ -16,7 +16,7 @@ FIRMWARE_ELF := $(FIRMWARE_OUT)/node.elf
 FIRMWARE_SOURCES := $(wildcard firmware/src/*.c) firmware/src/start.S $(FIRMWARE_BOARD) \
 	$(FIRMWARE_KERNEL_SOURCES)
 FIRMWARE_HEADERS := $(wildcard firmware/src/*.h firmware/board/*.h firmware/kernel/*.h)
-FIRMWARE_ARCH := -march=rv32imc_zicsr -mabi=ilp32 # C for the firmware only: modules stay RV32IM
+FIRMWARE_ARCH := -march=rv32imc_zicsr_zifencei -mabi=ilp32 # C for the firmware only: modules stay RV32IM
 FIRMWARE_CFLAGS := $(FIRMWARE_ARCH) -nostdlib -ffreestanding -Os -msave-restore -g -std=c11 -Wall -Wextra \
 	-Werror -ffunction-sections -fdata-sections -fno-common
 FIRMWARE_LDFLAGS := -T firmware/src/link.ld -Wl,--gc-sections -Wl,--no-warn-rwx-segments \

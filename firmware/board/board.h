@@ -57,6 +57,13 @@ bool board_flash_erase_sector(uint32_t offset);
  * hide a bug of the layer above. False too when the chip reports an error. */
 bool board_flash_program(uint32_t offset, const void *source, size_t length);
 
+/* Whether code programmed over flash that held code the CPU ran runs as programmed once
+ * board_flash_program returned (which makes the CPU see it: fence.i, or an instruction cache
+ * invalidated). False on QEMU virt: its CFI flash model writes the chip's memory without
+ * dropping QEMU's translations of the code that ran there, so the old code would run on. The
+ * loader then gives a module's sectors out again only after a restart. */
+bool board_code_reusable(void);
+
 /* The RAM the kernel gives module code (docs/firmware.md, "Memory map"): SRAM for instance
  * areas, the task window a running instance works in, and the stack module code runs on. Each
  * is a power of two in size and aligned to its size: the trap file guards each with one NAPOT

@@ -210,7 +210,16 @@ bool board_flash_program(uint32_t offset, const void *source, size_t length)
             return false;
         }
     }
+    __asm__ volatile("fence.i" ::: "memory"); /* new code is seen: no-op in QEMU's TCG, below */
     return true;
+}
+
+/* QEMU's pflash model (hw/block/pflash_cfi01.c) programs and erases its memory without
+ * invalidating the translated blocks of code that ran from it, and fence.i does not flush
+ * them: a module programmed where another one ran would run the old one's code. */
+bool board_code_reusable(void)
+{
+    return false;
 }
 
 void board_module_memory(struct board_region *sram, struct board_region *window,

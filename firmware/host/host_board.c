@@ -56,6 +56,9 @@ uint32_t board_flash_base(void) { return HOST_FLASH_BASE; }
 uint32_t board_flash_size(void) { return HOST_FLASH_SIZE; }
 uint32_t board_flash_sector_size(void) { return HOST_SECTOR; }
 
+/* No code runs here: every sector may be programmed again. */
+bool board_code_reusable(void) { return true; }
+
 /* The QEMU board's module regions (firmware/src/link.ld), never touched: no module runs here. */
 void board_module_memory(struct board_region *sram, struct board_region *window,
                          struct board_region *stack)

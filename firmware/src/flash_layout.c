@@ -6,8 +6,13 @@
 #include "../board/board.h"
 #include "crc.h"
 
+/* What a sector is to the allocator. RETIRED: it held a module whose code ran, and this board
+ * does not program code over code it ran before the node restarts (board_code_reusable). */
+enum { FREE, TAKEN, RETIRED };
+
 static struct {
     uint32_t base, size, sector, sectors, module_sectors, scratch;
+    bool reusable; /* board_code_reusable(): a retired sector is free again at once */
     uint8_t used[MAX_SECTORS];
 } layout;
 
@@ -26,8 +31,9 @@ bool flash_layout_init(void)
     }
     layout.scratch = directory_sector - 1;
     layout.module_sectors = layout.scratch;
+    layout.reusable = board_code_reusable();
     for (uint32_t i = 0; i < MAX_SECTORS; i++) {
-        layout.used[i] = i >= layout.module_sectors;
+        layout.used[i] = i >= layout.module_sectors ? TAKEN : FREE;
     }
     return true;
 }
@@ -64,7 +70,7 @@ uint32_t flash_sectors_for(uint32_t bytes)
 static uint32_t run_at(uint32_t first)
 {
     uint32_t end = first;
-    while (end < layout.module_sectors && !layout.used[end]) {
+    while (end < layout.module_sectors && layout.used[end] == FREE) {
         end++;
     }
     return end - first;
@@ -97,7 +103,7 @@ bool flash_allocate(uint32_t count, uint32_t most, struct extent *extent)
     if (!count && most && best.count > most) {
         best.count = most;
     }
-    mark(&best, 1);
+    mark(&best, TAKEN);
     *extent = best;
     return true;
 }
@@ -109,13 +115,18 @@ bool flash_place(uint32_t first, uint32_t count, struct extent *extent)
         return false;
     }
     *extent = (struct extent){first, count};
-    mark(extent, 1);
+    mark(extent, TAKEN);
     return true;
 }
 
 void flash_release(const struct extent *extent)
 {
-    mark(extent, 0);
+    mark(extent, FREE);
+}
+
+void flash_retire(const struct extent *extent)
+{
+    mark(extent, layout.reusable ? FREE : RETIRED);
 }
 
 void flash_shrink(struct extent *extent, uint32_t count)
@@ -124,7 +135,7 @@ void flash_shrink(struct extent *extent, uint32_t count)
         return;
     }
     struct extent tail = {extent->first + count, extent->count - count};
-    mark(&tail, 0);
+    mark(&tail, FREE);
     extent->count = count;
 }
 
@@ -143,9 +154,18 @@ uint32_t flash_free_sectors(void)
 {
     uint32_t free = 0;
     for (uint32_t i = 0; i < layout.module_sectors; i++) {
-        free += !layout.used[i];
+        free += layout.used[i] == FREE;
     }
     return free;
+}
+
+uint32_t flash_retired_sectors(void)
+{
+    uint32_t retired = 0;
+    for (uint32_t i = 0; i < layout.module_sectors; i++) {
+        retired += layout.used[i] == RETIRED;
+    }
+    return retired;
 }
 
 bool flash_blank(uint32_t offset, size_t length)

@@ -52,9 +52,14 @@ uint32_t flash_sectors_for(uint32_t bytes);   /* at least 1 */
 bool flash_allocate(uint32_t count, uint32_t most, struct extent *extent);
 bool flash_place(uint32_t first, uint32_t count, struct extent *extent);
 void flash_release(const struct extent *extent);
+/* Give back sectors that held a module whose code ran: on a board that does not program code
+ * over code it ran (board_code_reusable false: QEMU keeps its translations of the old code),
+ * they stay out of use, retired, until the node restarts. */
+void flash_retire(const struct extent *extent);
 void flash_shrink(struct extent *extent, uint32_t count);
 uint32_t flash_largest_run(void);
 uint32_t flash_free_sectors(void);
+uint32_t flash_retired_sectors(void);
 
 /* Chip operations with the layer's checks: a sector erased only if not blank already, a
  * block programmed only on erased words (the board refuses otherwise). */

@@ -51,6 +51,13 @@ static void no_room(const struct load_session *session, uint32_t blocks, struct 
     add_owner(why, session);
     phrase_add(why, ", the largest free run is ");
     phrase_add_decimal(why, (uint64_t)flash_largest_run() * (flash_sector_size() / FLASH_BLOCK));
+    uint32_t retired = flash_retired_sectors();
+    if (retired) {
+        phrase_add(why, "; ");
+        phrase_add_decimal(why, (uint64_t)retired * (flash_sector_size() / FLASH_BLOCK));
+        phrase_add(why, " more held modules that ran, which this board programs again only "
+                        "after a restart");
+    }
 }
 
 /* The sectors at flash address `address`, which must start a free module sector. */
@@ -401,12 +408,17 @@ bool loader_finish(struct load_session *session, struct loaded_image *image, str
     return true;
 }
 
-void loader_erase_extent(const struct extent *extent)
+static void erase(const struct extent *extent)
 {
     for (uint32_t i = 0; i < extent->count; i++) {
         flash_make_blank(extent->first + i);
     }
-    flash_release(extent);
+}
+
+void loader_erase_extent(const struct extent *extent)
+{
+    erase(extent);
+    flash_retire(extent);
 }
 
 void loader_abort(struct load_session *session)
@@ -423,5 +435,6 @@ void loader_abort(struct load_session *session)
 
 void loader_discard(const struct loaded_image *image)
 {
-    loader_erase_extent(&image->extent);
+    erase(&image->extent);
+    flash_release(&image->extent);
 }

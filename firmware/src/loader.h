@@ -74,9 +74,11 @@ bool loader_finish(struct load_session *session, struct loaded_image *image, str
 
 /* Erase what the session programmed and give its flash back (a closed session: nothing). */
 void loader_abort(struct load_session *session);
-/* Erase a verified image that will not be committed and give its flash back. */
+/* Erase a verified image that will not be committed, none of its code run, and give its
+ * flash back. */
 void loader_discard(const struct loaded_image *image);
-/* Erase and give back the sectors of `extent`. */
+/* Erase the sectors of `extent`, which held a module whose code ran (its init at least), and
+ * retire them (flash_retire). */
 void loader_erase_extent(const struct extent *extent);
 
 #endif

@@ -135,7 +135,11 @@ static bool restore(const struct directory_entry *entry, struct phrase *why)
     if (!named || refusal) {
         phrase_add(why, crc != entry->crc32 ? "the image's CRC-32 is not the directory's" : "");
         phrase_add(why, refusal ? refusal : "");
-        flash_release(&module.extent);
+        if (refusal) { /* its init ran */
+            flash_retire(&module.extent);
+        } else {
+            flash_release(&module.extent);
+        }
         return false;
     }
     node.modules[node.count++] = module;
@@ -200,16 +204,16 @@ bool node_commit(const struct loaded_image *image, char *name, uint32_t *address
     struct directory_entry entry = entry_of(image, name);
     const char *refusal =
         node_module_installed(name, image->load_base, image->size, entry.init_address);
-    if (refusal) {
+    if (refusal) { /* its init ran */
         phrase_add(why, refusal);
-        loader_discard(image);
+        loader_erase_extent(&image->extent);
         return false;
     }
     int old = find_module(name);
     make_record(&record, name, &entry);
     if (!directory_write(&record, why)) {
         undo_registration(name, old);
-        loader_discard(image);
+        loader_erase_extent(&image->extent);
         return false;
     }
     drop_kept(name);

@@ -18,10 +18,12 @@ from commandline.children import Child
 from firmware_sim.errors import QemuError
 from firmware_sim.qemu.flash_file import ensure_flash
 from firmware_sim.qemu.machine import handshake
+from hexmigrate.elf import image_from_elf
 from hexmigrate.links import open_link
 from hexmigrate.links.listening import CONNECT_URL
 from hexmigrate.transfer.messages import Commit, Nak, PboTable, encode
 from hexmigrate.transfer.sender import Sender
+from module_sdk.build import build_module
 from tests.firmware.flash_image import FLASH_BASE, committed
 from tests.firmware_sim.host_side import CLI_TIMEOUT, hexmigrate, hexmigrate_refused
 
@@ -189,3 +191,54 @@ def test_a_flash_file_whose_name_holds_a_comma_is_the_flash(boot, tmp_path, exam
     node = boot(flash)
     hexmigrate("send", example_hex["gain"], "--to", node.url, "--quiet")
     assert set(committed(flash)) == {"gain"}
+
+
+MODULE = """
+#include "pbo_module.h"
+static int32_t ok(struct pbo_context *ctx) { (void)ctx; return PBO_OK; }
+%(code)s
+static const struct pbo_descriptor descriptor PBO_DESCRIPTOR = {
+    .magic = PBO_MAGIC, .abi_version = PBO_ABI_VERSION, .port_count = 1, .name = "%(name)s",
+    .ports = {{"y", PBO_PORT_OUT, PBO_SCALAR, 4, 1, 1}},
+    .init = ok, .on = ok, .cycle = cycle, .off = ok, .kill = ok, .error = ok, .clear = ok,
+};
+PBO_MODULE(descriptor)
+"""
+SHORT = "static int32_t cycle(struct pbo_context *ctx) { *(int32_t *)ctx->ports[0] = 1; return 0; }"
+LONG = """
+static int32_t cycle(struct pbo_context *ctx)
+{
+    int32_t sum = 0; /* 4242 the long way (2121 x 3 - 2121): more code before the descriptor */
+    for (volatile int32_t i = 0; i < 4242; i++) {
+        sum += (i & 1) ? 3 : -1;
+    }
+    *(int32_t *)ctx->ports[0] = sum;
+    return PBO_OK;
+}
+"""
+
+
+@pytest.mark.timeout(60)
+def test_a_module_programmed_after_another_was_removed_runs_its_own_code(
+    boot, flash_file, tmp_path
+):
+    """QEMU's flash model keeps its translations of code that ran after the chip is erased and
+    programmed again: a module placed where a removed one had run would run the removed one's
+    init (its descriptor looked for at the old offset: ERR_ABI) and code. The firmware gives
+    such sectors out again only after a restart (board_code_reusable)."""
+    files = {}
+    for name, code in (("short", SHORT), ("long", LONG)):
+        source = tmp_path / f"{name}.c"
+        source.write_text(MODULE % {"code": code, "name": name})
+        files[name] = tmp_path / f"{name}.hex"
+        image_from_elf(build_module(source, tmp_path / name).elf).write(files[name])
+    node = boot(flash_file)
+    hexmigrate("send", files["short"], "--to", node.url)
+    hexmigrate("rm", "short", "--to", node.url)
+    sent = hexmigrate("send", files["long"], "--to", node.url)
+    assert f"module long installed at 0x{FLASH_BASE + SECTOR:08X}" in sent
+    assert hexmigrate("get", "long.y", "--to", node.url).strip() == "long.y=4242"
+    node.stop()
+    node = boot(flash_file)  # a restart: every free sector may take code again
+    hexmigrate("send", files["short"], "--to", node.url)
+    assert hexmigrate("ls", "--to", node.url).split()[4:6] == ["short", f"0x{FLASH_BASE:08X}"]
