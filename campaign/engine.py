@@ -52,6 +52,9 @@ WORKERS_LOG = "workers.log"
 """The local workers' log, in the campaign's folder."""
 WORKERS_LEAVE = 10.0
 """Seconds the local workers have to leave before their scheduler closes."""
+SCHEDULER_TIMEOUT = 10.0
+"""Seconds a campaign tries to reach the Dask scheduler given (--scheduler) before it says it
+is not there."""
 
 Runner = Callable[[Spec], dict[str, Any]]
 """An application's run: its spec in, its outcome out (``decisions``, ``stopped_at``, and
@@ -95,7 +98,7 @@ def client(workers: int, scheduler: str | None, log: Path | None = None) -> Iter
 
     if scheduler is not None:
         try:
-            connected = Client(scheduler, timeout="10s")
+            connected = Client(scheduler, timeout=f"{SCHEDULER_TIMEOUT}s")
         except (OSError, TimeoutError, ValueError) as error:
             raise CampaignError(
                 f"--scheduler: expected a Dask scheduler at {scheduler}, got {error}"

@@ -103,7 +103,7 @@ def answers(text: str, kind: str) -> Callable[[Message], list[bytes]]:
 @given(texts, st.sampled_from(["own", "refuse", "push"]), st.sampled_from(COMMANDS))
 def test_whatever_a_node_answers_a_command_prints_no_control_character(text, kind, command):
     with hostile_node(answers(text, kind)) as url, redirect() as (out, err):
-        status = cli.main([*command, "--to", url, "--timeout", "0.3", "--retries", "1"])
+        status = cli.main([*command, "--to", url, "--timeout", "0.15", "--retries", "1"])
     printed = out.getvalue() + err.getvalue()
     assert status in (0, 1), printed
     assert "Traceback" not in printed

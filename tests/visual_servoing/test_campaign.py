@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from application import cli
-from campaign import store
+from campaign import engine, store
 from campaign.record import reproducible
 from refresh.location import STRATEGIES
 from refresh.runtime import RuntimeSettings
@@ -107,7 +107,10 @@ def test_the_same_seed_gives_the_same_records_after_an_interruption(campaign, tm
 
 
 @pytest.mark.slow
-def test_a_scheduler_that_is_not_there_is_one_error_line_and_leaves_no_folder(tmp_path, capsys):
+def test_a_scheduler_that_is_not_there_is_one_error_line_and_leaves_no_folder(
+    tmp_path, capsys, monkeypatch
+):
+    monkeypatch.setattr(engine, "SCHEDULER_TIMEOUT", 1.0)  # the tries are the same, shorter
     out = tmp_path / "c"
     argv = ["campaign", "--runs", "1", "--scheduler", "tcp://127.0.0.1:9", "--out", str(out)]
     assert main(argv) == 1
