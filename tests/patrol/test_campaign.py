@@ -126,8 +126,9 @@ def test_ctrl_c_while_the_cluster_starts_stops_at_once_and_says_only_interrupted
     (it took seconds to close): now the command says "interrupted" alone."""
     pressed = time.monotonic() + after
     status, said = interrupted(tmp_path / "campaign", lambda: time.monotonic() >= pressed)
-    # 130, or killed by the SIGINT itself while the interpreter starts: a shell shows 130 both
-    assert said == "interrupted\n" and status in (130, -signal.SIGINT)
+    # 130 and "interrupted", or killed by the SIGINT itself while the interpreter still starts
+    # (a loaded machine: no handler yet, so nothing said): a shell shows 130 both
+    assert (status, said) in ((130, "interrupted\n"), (-signal.SIGINT, "")), (status, said)
 
 
 def _records(out) -> int:
