@@ -43,7 +43,6 @@ from urllib.parse import urlsplit
 from firmware_sim.core.guest import port_spec
 from firmware_sim.core.node import Node
 from firmware_sim.wires.transfer import WireRun, run_transfer
-from hexmigrate.errors import HexmigrateError
 from hexmigrate.image import ModuleImage, find_descriptor
 from hexmigrate.transfer.control import PboRow
 from hexmigrate.transfer.control_client import NodeControl
@@ -54,7 +53,7 @@ from refresh.database import Module
 from refresh.errors import ApplyError, NodeLinkError
 from refresh.hardware import scratch_port
 from refresh.remote.guard import GuardedControl
-from refresh.remote.relay import HostRelay
+from refresh.remote.relay import CARRY_ERRORS, HostRelay
 from refresh.remote.remote_node import REPORT_PERIOD, RemoteNode, link_failed
 from refresh.remote.reports import ReportSource, Slip
 
@@ -425,7 +424,7 @@ class LinkApplier(ApplierBase):
         period = 1 / frequency if frequency > 0 else REPORT_PERIOD
         try:
             return HostRelay(bridge.number, exporter, bridge.source, found, url, period)
-        except (HexmigrateError, OSError, ValueError, TypeError, OverflowError) as error:
+        except CARRY_ERRORS as error:
             raise ApplyError(f"{refused}; relaying it instead: {error}") from error
 
     def host(self, robot: str) -> str:

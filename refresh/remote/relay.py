@@ -33,6 +33,9 @@ from refresh.remote.remote_node import RemoteNode
 MIN_PERIOD = 0.01
 """The shortest period a relay reads at (100 Hz): each value costs a round trip on the source
 node's link, which the manager's own requests share."""
+CARRY_ERRORS = (NodeLinkError, HexmigrateError, OSError, ValueError, TypeError, OverflowError)
+"""What stops a relay: the source node's link or refusal, the importer's link, a value the port's
+type cannot hold (a hostile node's answer)."""
 JOIN = 2.0
 """Seconds `close` waits for the relay's thread (a READ under way ends within the node's
 bounded tries)."""
@@ -75,30 +78,27 @@ class HostRelay:
         self._thread.start()
 
     def _run(self) -> None:
-        """Read, send, wait a period; until closed or a side fails."""
+        """Wait a period, read, send (the constructor carried the first value); until closed
+        or a side fails."""
         next_read = time.monotonic()
-        while not self._stop.is_set():
+        while True:
+            next_read = max(next_read + self.period, time.monotonic())
+            if self._stop.wait(next_read - time.monotonic()):
+                return
             try:
                 self._carry()
-            except (
-                NodeLinkError,
-                HexmigrateError,
-                OSError,
-                ValueError,
-                TypeError,
-                OverflowError,
-            ) as error:
+            except CARRY_ERRORS as error:
                 if not self._stop.is_set():
                     self.stuck = str(error)
                 return
-            next_read = max(next_read + self.period, time.monotonic())
-            self._stop.wait(next_read - time.monotonic())
 
     def _carry(self) -> None:
         """One value: READ on the source node, then sent to the importer."""
         node, source = self.node, self.source
-        (pair,) = node.ask(f"READ {source}", lambda: node.control.read((source,)))
-        data = self.spec.encode(self.spec.coerce(pair[1]))
+        values = node.ask(f"READ {source}", lambda: node.control.read((source,)))
+        if len(values) != 1 or values[0][0] != source:
+            raise ValueError(f"READ {source}: expected its value alone, got {values!r:.200}")
+        data = self.spec.encode(self.spec.coerce(values[0][1]))
         clock = time.monotonic() - self._started
         self.sent += 1
         self.link.send(encode_value(self.key, self.number, self.sent, clock, clock, data))

@@ -23,9 +23,10 @@ class FakeSource:
     """What a relay asks of a `RemoteNode`: `ask` and `control.read`; the values it answers
     come from `values` (a NodeLinkError once they run out: the node went silent)."""
 
-    def __init__(self, values: list[Any]) -> None:
+    def __init__(self, values: list[Any], answers: tuple[str, ...] | None = None) -> None:
         self.robot = "b"
         self.values = values
+        self.answers = answers  # the port names it answers with (None: the ones asked)
         self.control = self
         self.reads = 0
 
@@ -36,7 +37,8 @@ class FakeSource:
         self.reads += 1
         if not self.values:
             raise NodeLinkError("robot 'b': READ: no answer")
-        return ((ports[0], self.values.pop(0)),)
+        value = self.values.pop(0)
+        return tuple((name, value) for name in (self.answers or ports))
 
 
 @pytest.fixture
@@ -90,3 +92,11 @@ def test_a_source_port_that_is_not_a_scalar_is_refused_by_name(importer):
         ApplyError, match="relays scalar ports only; expected a scalar, got a frame"
     ):
         HostRelay(0, FakeSource([0]), "cam.image", frame, importer.url, 0.01)
+
+
+@pytest.mark.parametrize("answers", [("other.y",), ("backup_gauge.mm", "backup_gauge.mm")])
+def test_a_node_that_answers_other_ports_is_refused_at_once(importer, answers):
+    with pytest.raises(ValueError, match=r"READ backup_gauge\.mm: expected its value alone, got"):
+        HostRelay(0, FakeSource([500], answers), "backup_gauge.mm", PortSpec.output("mm"),
+                  importer.url, 0.01)  # fmt: skip
+    assert importer.half.latest == 0
