@@ -142,10 +142,9 @@ def cluster(tmp_path) -> Iterator[str]:
             start(f"{name}.log", "worker", address, "--nthreads", "1", "--name", name)
         _wait_for_workers(address, 2)
         yield address
-    finally:
+    finally:  # the workers first, while their scheduler still answers their goodbye
         for process in reversed(started):
             process.terminate()
-        for process in started:
             try:
                 process.wait(timeout=20)
             except subprocess.TimeoutExpired:
