@@ -8,15 +8,18 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Iterable, Iterator
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
-from tqdm import tqdm
+if TYPE_CHECKING:  # tqdm loads with the first bar: a command that draws none starts faster
+    from tqdm import tqdm
 
 T = TypeVar("T")
 
 
 def progress_bar(total: float | None, description: str, unit: str = "B") -> tqdm:
     """A bar to advance with ``update(n)`` and close (it is a context manager)."""
+    from tqdm import tqdm
+
     return tqdm(
         total=total,
         desc=description,
@@ -31,6 +34,8 @@ def progress_bar(total: float | None, description: str, unit: str = "B") -> tqdm
 
 def track(items: Iterable[T], description: str, total: int | None = None) -> Iterator[T]:
     """`items`, one step of a bar each."""
+    from tqdm import tqdm
+
     yield from tqdm(
         items,
         total=total,

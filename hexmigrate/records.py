@@ -34,7 +34,6 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from enum import IntEnum
 
-from hexmigrate.bulk import parse_well_formed
 from hexmigrate.errors import (
     AddressFieldError,
     AddressOverflowError,
@@ -432,6 +431,8 @@ def decode(text: str) -> HexContent:
     Well-formed files take the vectorised path of `hexmigrate.bulk`; anything it cannot prove
     well formed goes line by line, which reports the first error exactly.
     """
+    from hexmigrate.bulk import parse_well_formed  # numpy, loaded by the first file decoded
+
     lines = _record_lines(text)
     parsed = parse_well_formed(lines)
     if parsed is not None:
