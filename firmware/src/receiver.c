@@ -145,6 +145,14 @@ static void drop(struct transfer *transfer)
     transfer->used = false;
 }
 
+/* A fatal refusal ends the transfer it names (if the node knows it): its flash given back, then
+ * the NAK that says why. */
+static void refuse_transfer(struct transfer *t, uint32_t tid, const struct refusal *refusal)
+{
+    drop(t);
+    nak(tid, 0, true, refusal->reason);
+}
+
 void receiver_expire(void)
 {
     uint64_t now = board_time_us();
@@ -558,8 +566,7 @@ static void handle_end(uint32_t tid, uint32_t crc)
     start_refusal(&refusal);
     struct transfer *t = known_transfer(tid, &refusal);
     if (!t || !end_transfer(t, true, crc, &refusal)) {
-        drop(t);
-        nak(tid, 0, true, refusal.reason);
+        refuse_transfer(t, tid, &refusal);
     }
 }
 
@@ -680,8 +687,7 @@ static void handle_header(const struct message *m)
     start_refusal(&refusal);
     struct transfer *t = known_transfer(tid, &refusal);
     if (!t || (!t->header_done && !take_header(t, m, &refusal))) {
-        drop(t);
-        nak(tid, 0, true, refusal.reason);
+        refuse_transfer(t, tid, &refusal);
         return;
     }
     ack(tid, loader_programmed(&t->session), "header");
@@ -701,8 +707,7 @@ static void handle_signature(const struct message *m)
                                               (const uint8_t *)m->text[BINARY_AREA],
                                               (uint32_t)m->text_length[BINARY_AREA],
                                               &refusal.why))) {
-        drop(t);
-        nak(tid, 0, true, refusal.reason);
+        refuse_transfer(t, tid, &refusal);
         return;
     }
     ack(tid, loader_programmed(&t->session), "signature");
@@ -719,8 +724,7 @@ static void handle_data(const struct message *m)
     const uint8_t *payload = (const uint8_t *)m->text[BINARY_PAYLOAD];
     if (!t || !feed(t, (uint32_t)m->number[BINARY_ADDRESS], payload,
                     (uint32_t)m->text_length[BINARY_PAYLOAD], &refusal)) {
-        drop(t);
-        nak(tid, 0, true, refusal.reason);
+        refuse_transfer(t, tid, &refusal);
     }
 }
 
