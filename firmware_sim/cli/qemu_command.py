@@ -19,7 +19,7 @@ from collections.abc import Callable
 from contextlib import ExitStack
 from pathlib import Path
 
-from commandline import add_command
+from commandline import SHOWN, add_command, one_line
 from commandline.arguments import input_file, output_file
 from commandline.interrupts import stop_requests
 from firmware_sim.cli import arguments
@@ -50,10 +50,8 @@ def cmd_qemu(args: argparse.Namespace, say: Callable[[str], None]) -> int:
         )
         url = node.start()
         say(f"listening on {url} (connect with: hexmigrate send FILE.hex --to {url})")
-        say(f"qemu: {node.pong}; flash {flash}; it speaks binary and hex mode")
-        for line in node.heard:
-            if not line.startswith((BANNER, HANDSHAKE_REFUSAL)):
-                say(f"qemu: {line}")
+        for line in startup_lines(node.pong, node.heard, flash):
+            say(line)
         deadline = None if args.seconds is None else time.monotonic() + args.seconds
         while not requested() and node.running():
             if deadline is not None and time.monotonic() >= deadline:
@@ -63,6 +61,18 @@ def cmd_qemu(args: argparse.Namespace, say: Callable[[str], None]) -> int:
             raise QemuError(f"QEMU ended by itself (its log: {node.log})")
     say("stopped")
     return 0
+
+
+def startup_lines(pong: str, heard: list[str], flash: Path) -> list[str]:
+    """What the command says of the firmware once it answered: its PONG, then what it said
+    before that is not the banner or the handshake's noise, each as one line of data (a
+    firmware of the user's, or a broken one, may send escape sequences: the terminal shows
+    them, never acts on them), at most SHOWN characters of each."""
+    lines = [f"qemu: {one_line(pong, SHOWN)}; flash {flash}; it speaks binary and hex mode"]
+    for line in heard:
+        if not line.startswith((BANNER, HANDSHAKE_REFUSAL)):
+            lines.append(f"qemu: {one_line(line, SHOWN)}")
+    return lines
 
 
 def add_qemu(commands: argparse._SubParsersAction, say: Callable[[str], None]) -> None:

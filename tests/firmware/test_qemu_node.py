@@ -14,7 +14,9 @@ import sys
 
 import pytest
 
+from commandline import SHOWN
 from commandline.children import Child
+from firmware_sim.cli.qemu_command import startup_lines
 from firmware_sim.errors import QemuError
 from firmware_sim.qemu.flash_file import ensure_flash
 from firmware_sim.qemu.machine import handshake
@@ -146,6 +148,17 @@ def test_the_handshake_names_what_it_heard_when_no_pong_comes():
     finally:
         os.close(master)
         os.close(slave)
+
+
+def test_what_the_firmware_said_at_its_start_is_shown_escaped_and_cut(tmp_path):
+    """A firmware of the user's (--firmware) or a broken one may send escape sequences and
+    floods before its PONG: the command shows them as data, never as terminal commands."""
+    heard = ["refresh-node banner", "\x1b[2Jcleared", "x" * 5000]
+    lines = startup_lines("node: 0 module(s)\x1b]0;title\x07", heard, tmp_path / "f.img")
+    assert lines[0].startswith("qemu: node: 0 module(s)\\x1b]0;title\\x07; flash ")
+    assert lines[1] == "qemu: \\x1b[2Jcleared"
+    assert lines[2].endswith(f"... ({5000 - SHOWN} more characters)")
+    assert len(lines) == 3 and all(line.isprintable() for line in lines)
 
 
 @pytest.mark.timeout(60)
