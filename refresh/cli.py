@@ -289,7 +289,8 @@ def _add_manage(commands: argparse._SubParsersAction) -> None:
         type=real(0, MAX_SECONDS, unit="s"),
         default=DEFAULTS.settle,
         metavar="S",
-        help=f"seconds after a switch before a fault is acted on (default {DEFAULTS.settle:g})",
+        help=f"seconds after a switch before looks count towards a fault "
+        f"(default {DEFAULTS.settle:g})",
     )
     command.add_argument(
         "--recovery-hold",

@@ -63,7 +63,8 @@ APPLICATION = Application(
     ),
     # The runtime's defaults but the debounce: a look of the Decider every 3 frames, 0.5 s to
     # settle after a switch (the new configuration's evaluators still hold frames of the old
-    # one) and for a recovery to hold, 10 estimator steps to fill the matcher's window of frames;
+    # one, and in real time a slow switch left the loop further to go) and for a recovery to
+    # hold, 10 estimator steps to fill the matcher's window of frames;
     # a fault after 6 violating looks, as the platform's widest turn alone keeps P_T at 0 for 4
     # (docs/experiment.md, "The run").
     settings=RuntimeSettings(debounce=6),

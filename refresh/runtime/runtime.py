@@ -7,13 +7,15 @@ or it hands `run(until, advance)` a function that lets the world run on for some
 
 `deploy()` starts the task's initial configuration through the Maintainer's plan, as any later one.
 At each `step()` the Decider reads the evaluators' reports (`applier.sources()`) and judges the
-period; a declared fault is acted on unless the configuration switched less than `settle` seconds
-ago. Acting on it is one decision (`refresh.adaptation.decide`: locate with the task's strategy,
-Base Choice by default; synthesize around each faulty module; choose), estimated by a fresh
-estimator from the caller's factory, then the plan to the chosen configuration applied (images
-migrate first, while the old configuration runs on), or, when nothing helps, a safe stop: every
-module of the task is stopped and nothing runs. After a switch, the task counts as recovered once
-P_T has stayed 1 for `recovery_hold` seconds; the recovery is dated from when P_T first came back.
+period; a look less than `settle` seconds after a switch counts towards no detection (the new
+configuration's loop settles first), so a fault is declared `debounce` violating looks after it
+at the earliest. Acting on it is one decision (`refresh.adaptation.decide`: locate with the
+task's strategy, Base Choice by default; synthesize around each faulty module; choose),
+estimated by a fresh estimator from the caller's factory, then the plan to the chosen
+configuration applied (images migrate first, while the old configuration runs on), or, when
+nothing helps, a safe stop: every module of the task is stopped and nothing runs. After a
+switch, the task counts as recovered once P_T has stayed 1 for `recovery_hold` seconds; the
+recovery is dated from when P_T first came back.
 
 The applier may let the world run while it works (a migration over a slow wire): a `step()` that
 comes meanwhile judges as usual but starts no second decision. Every event goes to `log`, on the
@@ -196,7 +198,10 @@ class Runtime:
         pending = self.history.pending_recovery()
         if pending is not None:
             self._watch_recovery(pending)
-        if detection is not None and not self._deciding and not self._settling():
+        if self._settling():  # the new configuration's loop is still settling: no fault yet
+            self.decider.violations = 0
+            return None
+        if detection is not None and not self._deciding:
             self._deciding = True
             try:
                 self._repair(self.current)

@@ -29,7 +29,9 @@ class RuntimeSettings:
     debounce: int = 5
     """Consecutive violating looks before the Decider declares a fault."""
     settle: float = 0.5
-    """Seconds after a switch during which a detection is not acted on."""
+    """Seconds after a switch during which no look counts towards a detection: the new
+    configuration's loop settles (its evaluators still hold values of the old one, and a switch
+    that took long in real time left the loop further to go)."""
     recovery_hold: float = 0.5
     """Seconds P_T must stay 1 after a reconfiguration for the task to count as recovered."""
     estimate_steps: int = 10

@@ -146,6 +146,20 @@ def test_a_detection_during_the_settle_time_is_not_acted_on():
         assert record.detected_at == pytest.approx(0.5)
 
 
+def test_violating_looks_while_the_configuration_settles_count_towards_no_detection():
+    """A loop still settling after a switch (in real time, further behind after a slow switch)
+    violates: those looks are not the new configuration's fault. Counting them, a run beside
+    two CPU hogs declared a fault 0.52 s after its repair and repaired again, wrongly."""
+    settings = RuntimeSettings(
+        decision_period=0.1, debounce=3, settle=0.5, recovery_hold=0.3, estimate_steps=3
+    )
+    with rover(0.05, settings=settings) as (runtime, node):
+        runtime.deploy()
+        runtime.run(1.0, advance(node))
+        (record,) = runtime.history.reconfigurations
+        assert record.detected_at == pytest.approx(0.7)  # looks at 0.5, 0.6 and 0.7
+
+
 def test_when_nothing_helps_the_task_is_stopped_safely():
     with rover(FAULT_AT, alt_broken=True) as (runtime, node):
         runtime.deploy()
