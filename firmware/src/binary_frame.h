@@ -15,9 +15,10 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* The longest binary message the node takes: a SIGNATURE carrying a whole signature area
- * (type 00 03, tid, 4,096 bytes, CRC-32). Every message a sender makes is shorter. */
-#define BINARY_MESSAGE_MAX (2 + 4 + 4096 + 4)
+/* The longest binary message the node takes, as long as a line (MAX_LINE): the longest a sender
+ * makes are a DATA of two blocks and a SIGNATURE of a 512-byte piece (type 00 03, tid, offset,
+ * the piece, CRC-32: 526 bytes). A longer one is dropped whole, as a longer line is. */
+#define BINARY_MESSAGE_MAX 1024
 
 struct frame_decoder {
     uint8_t *buffer;

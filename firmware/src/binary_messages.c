@@ -25,7 +25,7 @@
 static const struct verb_spec BINARY_ONLY[] = {
     [BINARY_HEADER] = {"", 3, {TID, {"init", FIELD_U32}, {"relocations", FIELD_U32_ARRAY}}},
     [BINARY_DATA] = {"", 3, {TID, {"address", FIELD_U32}, {"payload", FIELD_PAYLOAD}}},
-    [BINARY_SIGNATURE] = {"", 2, {TID, {"area", FIELD_PAYLOAD}}},
+    [BINARY_SIGNATURE] = {"", 3, {TID, {"offset", FIELD_U32}, {"area", FIELD_PAYLOAD}}},
     [BINARY_BLOCK_ACK] = {"", 2, {{"tag", FIELD_U16}, {"value", FIELD_BLOCKS}}},
 };
 

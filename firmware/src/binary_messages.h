@@ -8,7 +8,8 @@
  * addresses, flags) in their order and then the tail (words and free text; of several words
  * each but the last after its length in one byte). A frame decodes into the `struct message` a
  * hex-mode line decodes into, so one receiver serves both modes. Four types have no verb:
- * HEADER, DATA and SIGNATURE (a transfer's pointer words, blocks and signature area) and the
+ * HEADER, DATA and SIGNATURE (a transfer's pointer words, blocks and a piece of its signature
+ * area) and the
  * BlockAck; they are declared here.
  */
 #ifndef NODE_BINARY_MESSAGES_H
@@ -25,7 +26,7 @@ enum binary_kind { BINARY_VERB, BINARY_HEADER, BINARY_DATA, BINARY_SIGNATURE, BI
 
 /* Where the fields of the types without a verb land in `struct message`. */
 enum { BINARY_TID = 0, BINARY_INIT = 1, BINARY_ADDRESS = 1, BINARY_WORDS = 2, BINARY_PAYLOAD = 2,
-       BINARY_AREA = 1 };
+       BINARY_OFFSET = 1, BINARY_AREA = 2 };
 
 /* A decoded binary message: `message` holds a verb's fields at their index in messages.c's
  * table (a tail's bytes in text[] and text_length[], pointing into the frame), or those of a

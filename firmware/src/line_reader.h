@@ -22,7 +22,7 @@
 enum line_event { LINE_NONE, LINE_TEXT, LINE_BINARY };
 
 struct line_reader {
-    union { /* one buffer: 4 KiB for a frame, of which a line takes 1 KiB */
+    union { /* one buffer for a line or a frame */
         char line[MAX_LINE + 2];
         uint8_t frame[BINARY_MESSAGE_MAX];
     };

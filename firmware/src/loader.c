@@ -5,9 +5,9 @@
 
 #include "crc.h"
 
-/* The signature area of the one transfer that may hold one at a time: 4 KiB is a quarter of
- * the node's RAM budget, and signed modules are sent one after another. */
-static uint8_t signature_area[SIGNATURE_AREA_MAX];
+/* The signature area of the one transfer that may hold one at a time: signed modules are sent
+ * one after another. */
+static struct signature_area signature;
 static const struct load_session *signature_owner;
 
 static void add_owner(struct phrase *why, const struct load_session *session)
@@ -176,6 +176,16 @@ static bool owns_signature(const struct load_session *session)
     return signature_owner == session;
 }
 
+bool loader_signature_fits(uint64_t end, struct phrase *why)
+{
+    if (end > SIGNATURE_AREA_MAX) {
+        phrase_add(why, "expected a signature area of at most 4096 bytes, got ");
+        phrase_add_decimal(why, end);
+        return false;
+    }
+    return true;
+}
+
 bool loader_feed_signature(struct load_session *session, uint32_t offset, const uint8_t *data,
                            uint32_t length, struct phrase *why)
 {
@@ -184,31 +194,24 @@ bool loader_feed_signature(struct load_session *session, uint32_t offset, const 
                         "another transfer holds the node's: send the modules one by one");
         return false;
     }
-    uint32_t end = offset + length;
-    bool repeat = end <= session->signature_length;
-    for (uint32_t i = 0; repeat && i < length; i++) {
-        repeat = signature_area[offset + i] == data[i];
+    if (!owns_signature(session)) {
+        signature_area_clear(&signature);
     }
-    if (repeat) {
+    if (signature_area_holds(&signature, offset, data, length)) {
         return true; /* the header sent again after a lost acknowledgement */
     }
-    if (offset != session->signature_length) {
+    if (offset != signature.length) {
         phrase_add(why, "expected signature bytes for offset ");
-        phrase_add_decimal(why, session->signature_length);
+        phrase_add_decimal(why, signature.length);
         phrase_add(why, ", got offset ");
         phrase_add_decimal(why, offset);
         return false;
     }
-    if (end > SIGNATURE_AREA_MAX) {
-        phrase_add(why, "expected a signature area of at most 4096 bytes, got ");
-        phrase_add_decimal(why, end);
+    if (!loader_signature_fits((uint64_t)offset + length, why)) {
         return false;
     }
     signature_owner = session;
-    for (uint32_t i = 0; i < length; i++) {
-        signature_area[offset + i] = data[i];
-    }
-    session->signature_length = end;
+    signature_area_append(&signature, data, length);
     return true;
 }
 

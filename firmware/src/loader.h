@@ -17,9 +17,9 @@
 
 #include "flash_layout.h"
 #include "phrase.h"
+#include "signature_area.h"
 
 #define LOADER_MAX_RELOCATIONS 64 /* per module; a descriptor has 9 method pointers */
-#define SIGNATURE_AREA_MAX 4096   /* hexmigrate.records.MAX_SIGNATURE_AREA */
 #define SIZELESS_BLOCKS 256       /* a module typed without BEGIN: at most 64 KiB */
 
 /* A verified image in flash, not yet committed. */
@@ -40,7 +40,6 @@ struct load_session {
     uint16_t relocation_count;
     uint32_t relocations[LOADER_MAX_RELOCATIONS];
     bool applied[LOADER_MAX_RELOCATIONS];
-    uint32_t signature_length;
 };
 
 /* Reserve flash for transfer `tid`: `size` bytes (or, without, SIZELESS_BLOCKS at most), at
@@ -63,6 +62,8 @@ bool loader_flush(struct load_session *session, struct phrase *why);
 bool loader_reset_pointers(struct load_session *session, struct phrase *why);
 bool loader_feed_relocation(struct load_session *session, uint32_t location, struct phrase *why);
 bool loader_feed_init(struct load_session *session, uint32_t target, struct phrase *why);
+/* Whether a signature area of `end` bytes fits the node's; false with the refusal if not. */
+bool loader_signature_fits(uint64_t end, struct phrase *why);
 bool loader_feed_signature(struct load_session *session, uint32_t offset, const uint8_t *data,
                            uint32_t length, struct phrase *why);
 bool loader_feed_data(struct load_session *session, uint32_t address, const uint8_t *data,

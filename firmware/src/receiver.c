@@ -693,20 +693,21 @@ static void handle_header(const struct message *m)
     ack(tid, loader_programmed(&t->session), "header");
 }
 
-/* Binary mode's SIGNATURE: the signature area (hex mode's 09 lines), acknowledged on its own;
- * the same area again is taken without complaint, other bytes end the transfer. */
+/* Binary mode's SIGNATURE: a piece of the signature area (hex mode's 09 lines), acknowledged on
+ * its own; the same piece again is taken without complaint, other bytes end the transfer. */
 static void handle_signature(const struct message *m)
 {
     uint32_t tid = (uint32_t)m->number[BINARY_TID];
     struct refusal refusal;
     start_refusal(&refusal);
     struct transfer *t = known_transfer(tid, &refusal);
+    uint32_t offset = (uint32_t)m->number[BINARY_OFFSET];
+    uint32_t length = (uint32_t)m->text_length[BINARY_AREA];
     /* A verified transfer's area was taken, and the node's one area may be another's now. */
     bool take = t && !t->verified;
-    if (!t || (take && !loader_feed_signature(&t->session, 0,
-                                              (const uint8_t *)m->text[BINARY_AREA],
-                                              (uint32_t)m->text_length[BINARY_AREA],
-                                              &refusal.why))) {
+    if (!t || !loader_signature_fits((uint64_t)offset + length, &refusal.why) ||
+        (take && !loader_feed_signature(&t->session, offset, (const uint8_t *)m->text[BINARY_AREA],
+                                        length, &refusal.why))) {
         refuse_transfer(t, tid, &refusal);
         return;
     }

@@ -372,9 +372,12 @@ class HoldStart(Message, code=extended(0x08), verb="HOLD"):
 
 
 class Signature(Message, code=extended(0x03)):
-    """Binary mode: the signature area of transfer `tid` (hex mode sends its 09 lines)."""
+    """Binary mode: the bytes of transfer `tid`'s signature area at `offset` (hex mode sends
+    them as 09 lines). A sender cuts the area into pieces, so that no message a node takes is
+    longer than a line: a node with little RAM keeps no 4 KiB buffer for one area."""
 
     tid: int = u32()
+    offset: int = u32()
     area: bytes = payload()
 
 

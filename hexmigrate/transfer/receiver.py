@@ -515,16 +515,17 @@ class Receiver:
         return [Ack(message.tid, transfer.session.programmed, "header")]
 
     def _signature(self, message: Signature) -> list[Message]:
-        """Binary mode: the signature area, which hex mode sends as 09 lines; a node that
-        trusts keys checks it at COMMIT. Sent again after a lost ACK, the same area is taken
-        again; a larger area than the 09 records may hold is refused before it is kept."""
+        """Binary mode: a piece of the signature area, which hex mode sends as 09 lines; a node
+        that trusts keys checks the area at COMMIT. Sent again after a lost ACK, the same piece
+        is taken again; a piece that would make the area larger than the 09 records may hold is
+        refused before it is kept."""
         transfer = self._transfer(message.tid)
-        if len(message.area) > MAX_SIGNATURE_AREA:
+        end = message.offset + len(message.area)
+        if end > MAX_SIGNATURE_AREA:
             raise _FatalRefusal(
-                f"expected a signature area of at most {MAX_SIGNATURE_AREA} bytes, got "
-                f"{len(message.area)}"
+                f"expected a signature area of at most {MAX_SIGNATURE_AREA} bytes, got {end}"
             )
-        _guard(transfer.session.feed_signature, 0, message.area)
+        _guard(transfer.session.feed_signature, message.offset, message.area)
         return [Ack(message.tid, transfer.session.programmed, "signature")]
 
     def _data(self, message: Data) -> list[Message]:

@@ -60,6 +60,9 @@ BLOCKS_PER_DATA = 2
 # bytes) almost never arrives, while one of 32 bytes (45) does more often than not.
 MIN_PAYLOAD = 32
 RECORD_SIZE = 16  # data bytes per record line in hex mode
+SIGNATURE_PIECE = BLOCKS_PER_DATA * FLASH_BLOCK_SIZE
+"""Signature area bytes per binary SIGNATURE message: as many as a DATA message carries, so the
+longest message a node must take stays a DATA message (an Ed25519 area takes one piece)."""
 CHALLENGE_WORD = "challenge "
 """How the node's answer to ``CHALLENGE`` starts, before the nonce in hex."""
 REFUSALS_PER_RETRY = 20
@@ -269,13 +272,14 @@ class Sender:
 
     def _send_header(self, image: ModuleImage, tid: int) -> None:
         """The 07 and 08 records: a HEADER message, or in hex mode their lines, acknowledged
-        after the 08. A signed module's signature area goes before them: in binary mode a
-        SIGNATURE message (an extended type, 00 03) acknowledged on its own, in hex mode its 09
-        lines. Both are sent again when the header is (a retry, a resume before the header's
-        ACK): the node takes the same area again."""
+        after the 08. A signed module's signature area goes before them: in binary mode
+        SIGNATURE messages (an extended type, 00 03) of SIGNATURE_PIECE bytes, each acknowledged
+        on its own, in hex mode its 09 lines. Both are sent again when the header is (a retry,
+        a resume before the header's ACK): the node takes the same area again."""
         if not self.text:
-            if image.signature:
-                self.request(Signature(tid, image.signature), Ack, tid, what="signature")
+            for offset in range(0, len(image.signature), SIGNATURE_PIECE):
+                piece = image.signature[offset : offset + SIGNATURE_PIECE]
+                self.request(Signature(tid, offset, piece), Ack, tid, what="signature")
             self.request(Header(tid, image.init, image.relocations), Ack, tid, what="header")
             return
         lines = [

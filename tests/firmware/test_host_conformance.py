@@ -43,6 +43,7 @@ from hexmigrate.transfer.messages import (
     encode,
 )
 from hexmigrate.transfer.receiver import Receiver
+from hexmigrate.transfer.sender import SIGNATURE_PIECE
 from tests.firmware.host_node import HostNode
 
 TID = 9
@@ -154,7 +155,8 @@ def test_a_perturbed_transfer_gets_the_same_answers(harness, gain, data):
 END_CRC = -1
 """END's CRC in a script: the image's CRC-32 at the load address the node's BEGIN answer gave."""
 AREA = bytes(range(256)) * 3 + b"signed"
-"""A signature area: a node that trusts no key keeps it during the transfer and checks nothing."""
+"""A signature area of two pieces: a node that trusts no key keeps it during the transfer and
+checks nothing."""
 
 
 def binary_begin(image: ModuleImage) -> bytes:
@@ -166,7 +168,11 @@ def binary_scripts(draw, image: ModuleImage) -> list[bytes]:
     """gain's binary transfer after its BEGIN: DATA cut at random sizes (as a Sender's flight
     shrinks and grows), lost, doubled, sent again, damaged; then the requests that end it. END's
     CRC is END_CRC, filled in per node."""
-    sent = [encode(Signature(TID, AREA), False)] if draw(st.booleans()) else []
+    sent = []
+    if draw(st.booleans()):
+        area = range(0, len(AREA), SIGNATURE_PIECE)
+        sent = [encode(Signature(TID, at, AREA[at : at + SIGNATURE_PIECE]), False) for at in area]
+        sent += sent[: draw(st.integers(0, len(sent)))]  # sent again after a lost ACK
     sent.append(encode(Header(TID, image.init, image.relocations), False))
     pieces, offset = [], 0
     while offset < image.size:

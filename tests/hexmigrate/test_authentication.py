@@ -168,7 +168,7 @@ CHANGING_REQUESTS: list[Message] = [
     Commit(5),
     Abort(5),
     Resume(5),
-    Signature(5, b"\x00" * 8),
+    Signature(5, 0, b"\x00" * 8),
     StartPbo(6, "gain"),
     StopPbo(7, "gain"),
     ClearPbo(7, "gain"),

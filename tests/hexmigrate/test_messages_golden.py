@@ -327,7 +327,7 @@ GOLDEN: list[tuple[Message, bool, str]] = [
     (Authenticate(7, "ab01", "cd02"), BINARY, "0002070000000461623031636430320ea7adff"),
     (EndSession(5), TEXT, "4259452035202a3335"),
     (EndSession(5), BINARY, "00040500000051f79c73"),
-    (Signature(3, b"\x07\x69"), BINARY, "000303000000076961f871a9"),
+    (Signature(3, 64, b"\x07\x69"), BINARY, "0003030000004000000007693a5e777d"),
     (ReadLog(12, 3, "gain"), TEXT, "4c4f47532031322033206761696e202a3335"),
     (ReadLog(12, 3, "gain"), BINARY, "00050c000000030000006761696eaa72c0b6"),
     (

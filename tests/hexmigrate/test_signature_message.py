@@ -1,8 +1,8 @@
-"""Signed modules in binary mode: the sender's SIGNATURE message (extended type 00 03) carries
-the signature area that hex mode sends as 09 lines, so a node that trusts keys checks a module
-sent in either mode. Before it existed, binary mode dropped the area and such a node refused
-every module sent in binary mode as "not signed". The node is a real `Node`, in one process;
-tests/firmware_sim/test_signed_modules.py sends over TCP and a pty to a node process."""
+"""Signed modules in binary mode: the sender's SIGNATURE messages (extended type 00 03) carry
+the signature area that hex mode sends as 09 lines, in pieces, so a node that trusts keys checks
+a module sent in either mode. Before it existed, binary mode dropped the area and such a node
+refused every module sent in binary mode as "not signed". The node is a real `Node`, in one
+process; tests/firmware_sim/test_signed_modules.py sends over TCP and a pty to a node process."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ from hexmigrate.signing.sign import sign_image
 from hexmigrate.signing.tlv import Version
 from hexmigrate.transfer.messages import Ack, Begin, Message, Nak, Signature, decode, encode
 from hexmigrate.transfer.receiver import Receiver
-from hexmigrate.transfer.sender import Sender
+from hexmigrate.transfer.sender import SIGNATURE_PIECE, Sender
 from tests.hexmigrate.transfer_harness import DirectLink
 
 V1_2 = Version(1, 2, 0)
@@ -67,6 +67,30 @@ def test_an_altered_signature_area_is_refused_in_binary_mode(node, gain, key):
     assert state(node) == before
 
 
+def test_an_area_longer_than_a_piece_goes_in_pieces_each_acknowledged(gain, key):
+    """An area longer than SIGNATURE_PIECE (a signature from a larger key, or TLVs of its
+    own) travels as pieces at their offsets, which a node takes only in order; one that trusts
+    no key installs the module."""
+    signed = sign_image(gain, key, V1_2)
+    padded = dataclasses.replace(signed, signature=signed.signature + bytes(2 * SIGNATURE_PIECE))
+    sent: list[Signature] = []
+
+    def note(message: bytes) -> list[bytes]:
+        if isinstance(decode(message), Signature):
+            sent.append(decode(message))
+        return [message]
+
+    with Node() as node:
+        Sender(DirectLink(Receiver(NodeTarget(node)), outbound=note), "binary").send(padded)
+        assert "gain" in node.modules
+    assert [(m.offset, len(m.area)) for m in sent] == [
+        (0, SIGNATURE_PIECE),
+        (SIGNATURE_PIECE, SIGNATURE_PIECE),
+        (2 * SIGNATURE_PIECE, len(signed.signature)),
+    ]
+    assert b"".join(m.area for m in sent) == padded.signature
+
+
 def test_a_lost_acknowledgement_of_the_signature_sends_it_again(node, gain, key):
     lost: list[bytes] = []
 
@@ -94,12 +118,12 @@ def test_an_area_larger_than_a_signature_area_can_be_is_refused(node, gain):
     before = state(node)
     begun = ask(receiver, Begin(9, "gain", gain.size, len(gain.relocations), gain.link_base))
     assert isinstance(begun, Ack)
-    refused = ask(receiver, Signature(9, bytes(MAX_SIGNATURE_AREA + 1)))
+    refused = ask(receiver, Signature(9, MAX_SIGNATURE_AREA - 1, bytes(2)))
     assert isinstance(refused, Nak) and refused.fatal
     assert refused.reason == (
         f"expected a signature area of at most {MAX_SIGNATURE_AREA} bytes, got "
         f"{MAX_SIGNATURE_AREA + 1}"
     )
     assert receiver.transfers == {} and state(node) == before  # its flash given back
-    unknown = ask(receiver, Signature(9, b"\x08\x69"))
+    unknown = ask(receiver, Signature(9, 0, b"\x08\x69"))
     assert isinstance(unknown, Nak) and "unknown transfer 9" in unknown.reason
