@@ -15,6 +15,10 @@ static struct {
     struct kept_version kept[DIRECTORY_MAX_KEPT];
 } node;
 
+/* The directory record being read at boot or written by a commit or a removal: 608 bytes, off
+ * the small stack, and one for the three, which never run inside one another. */
+static struct directory_record record_buffer;
+
 uint32_t node_module_count(void)
 {
     return node.count;
@@ -148,25 +152,24 @@ static bool restore(const struct directory_entry *entry, struct phrase *why)
 
 void node_boot(void (*report)(const char *line))
 {
-    static struct directory_record record; /* 400 bytes: off the small stack */
     node.count = 0;
     node.kept_count = 0;
-    if (!directory_load(&record, report)) {
+    if (!directory_load(&record_buffer, report)) {
         return;
     }
-    for (uint32_t i = 0; i < record.kept_count; i++) {
-        node.kept[node.kept_count++] = record.kept[i];
+    for (uint32_t i = 0; i < record_buffer.kept_count; i++) {
+        node.kept[node.kept_count++] = record_buffer.kept[i];
     }
-    for (uint32_t i = 0; i < record.entry_count; i++) {
+    for (uint32_t i = 0; i < record_buffer.entry_count; i++) {
         char reason[160];
         struct phrase why;
         phrase_start(&why, reason, sizeof reason);
-        if (find_module(record.entries[i].name) >= 0) {
+        if (find_module(record_buffer.entries[i].name) >= 0) {
             phrase_add(&why, "a module of that name came earlier in the directory");
         }
-        if (why.length || !restore(&record.entries[i], &why)) {
-            say(report, "boot: skipped module ", record.entries[i].name, reason);
-            keep_version(record.entries[i].name, record.entries[i].version);
+        if (why.length || !restore(&record_buffer.entries[i], &why)) {
+            say(report, "boot: skipped module ", record_buffer.entries[i].name, reason);
+            keep_version(record_buffer.entries[i].name, record_buffer.entries[i].version);
         }
     }
 }
@@ -195,7 +198,6 @@ static void undo_registration(const char *name, int old)
 bool node_commit(const struct loaded_image *image, char *name, uint32_t *address,
                  struct phrase *why)
 {
-    static struct directory_record record;
     uint32_t offset = image->load_base - flash_base();
     if (!descriptor_find_name(offset, image->size, image->link_base, name, why)) {
         loader_discard(image);
@@ -210,8 +212,8 @@ bool node_commit(const struct loaded_image *image, char *name, uint32_t *address
         return false;
     }
     int old = find_module(name);
-    make_record(&record, name, &entry);
-    if (!directory_write(&record, why)) {
+    make_record(&record_buffer, name, &entry);
+    if (!directory_write(&record_buffer, why)) {
         undo_registration(name, old);
         loader_erase_extent(&image->extent);
         return false;
@@ -229,15 +231,14 @@ bool node_commit(const struct loaded_image *image, char *name, uint32_t *address
 
 bool node_remove(const char *name, struct phrase *why)
 {
-    static struct directory_record record;
     int index = find_module(name);
     if (index < 0) {
         return false;
     }
     struct installed_module module = node.modules[index];
     keep_version(name, module.entry.version);
-    make_record(&record, name, 0);
-    if (!directory_write(&record, why)) {
+    make_record(&record_buffer, name, 0);
+    if (!directory_write(&record_buffer, why)) {
         return false;
     }
     forget_module((uint32_t)index);
