@@ -102,9 +102,9 @@ static bool lifecycle(const struct request *r)
 static bool list_pbos(const struct request *r)
 {
     struct phrase rows;
-    phrase_start(&rows, control_scratch, sizeof control_scratch);
+    reply_text_start(r->reply, VERB_PBOS, &r->tid, &rows);
     control_pbo_rows(&rows);
-    reply_answer(r->reply, VERB_PBOS, &r->tid, control_scratch);
+    reply_text_end(r->reply, &rows);
     return true;
 }
 
@@ -262,15 +262,17 @@ static bool wire(const struct request *r)
 static bool read_ports(const struct request *r)
 {
     static struct port_list ports;
-    struct phrase values;
+    char reason[MAX_REFUSAL + 1];
+    struct phrase why, values;
 
-    phrase_start(&values, control_scratch, sizeof control_scratch);
-    if (!ports_parse(r->message->text[1], r->message->text_length[1], &ports, &values) ||
-        !ports_readable(&ports, &values)) {
-        return refuse(r, control_scratch);
+    phrase_start(&why, reason, sizeof reason);
+    if (!ports_parse(r->message->text[1], r->message->text_length[1], &ports, &why) ||
+        !ports_readable(&ports, &why)) {
+        return refuse(r, reason);
     }
+    reply_text_start(r->reply, VERB_VALUES, &r->tid, &values);
     ports_add_values(&ports, &values);
-    reply_answer(r->reply, VERB_VALUES, &r->tid, control_scratch);
+    reply_text_end(r->reply, &values);
     return true;
 }
 
@@ -281,11 +283,12 @@ static bool log_lines(const struct request *r)
     uint32_t numbers[2] = {r->tid, 0};
 
     field_name(r, 2, name);
-    phrase_start(&lines, control_scratch, sizeof control_scratch);
-    if (!control_log_lines(&lines, name, (uint32_t)r->message->number[1], &numbers[1])) {
+    if (!control_log_latest(name, &numbers[1])) {
         return refuse(r, kernel_message());
     }
-    reply_answer(r->reply, VERB_LOGLINES, numbers, control_scratch);
+    reply_text_start(r->reply, VERB_LOGLINES, numbers, &lines);
+    control_log_lines(&lines, name, (uint32_t)r->message->number[1]);
+    reply_text_end(r->reply, &lines);
     return true;
 }
 
@@ -295,11 +298,12 @@ static bool describe(const struct request *r)
     struct phrase description;
 
     field_name(r, 1, name);
-    phrase_start(&description, control_scratch, sizeof control_scratch);
+    reply_text_start(r->reply, VERB_DESCRIPTION, &r->tid, &description);
     if (!control_description(&description, name)) {
+        phrase_start(r->reply, r->reply->buffer, r->reply->capacity); /* the refusal instead */
         return refuse(r, kernel_message());
     }
-    reply_answer(r->reply, VERB_DESCRIPTION, &r->tid, control_scratch);
+    reply_text_end(r->reply, &description);
     return true;
 }
 

@@ -5,8 +5,6 @@
 
 #define NODE_NAME "node" /* firmware-sim listen's default --name */
 
-char control_scratch[CONTROL_SCRATCH];
-
 void control_add_signed(struct phrase *text, int64_t value)
 {
     if (value < 0) {
@@ -179,20 +177,23 @@ static void take_line(const struct log_line *line, void *context)
     writer->taken++;
 }
 
-bool control_log_lines(struct phrase *text, const char *name, uint32_t since, uint32_t *latest)
+bool control_log_latest(const char *name, uint32_t *latest)
 {
     struct kernel_stats stats;
-    struct log_writer writer = {text, 0, false};
-
     if (kernel_stats(name, &stats) != KERNEL_OK) {
         return false;
     }
     *latest = stats.logged;
+    return true;
+}
+
+void control_log_lines(struct phrase *text, const char *name, uint32_t since)
+{
+    struct log_writer writer = {text, 0, false};
     (void)kernel_log(name, since, take_line, &writer);
     if (writer.taken) {
         phrase_add_char(text, ']');
     }
-    return true;
 }
 
 /* The description with the first `wires` wires and `constants` constants, the failure cut

@@ -15,11 +15,6 @@
  * MAX_LOG_TEXT): a hex-mode line holds 1,024. */
 #define CONTROL_TEXT_MAX 800
 
-/* The one buffer the free text of an answer or a push is built in (they never overlap: both
- * come from the main loop, one at a time), ANSWER_MAX less room for the verb and checksum. */
-#define CONTROL_SCRATCH 992
-extern char control_scratch[CONTROL_SCRATCH];
-
 /* A rate as Python's f"{hertz:g}" prints millihertz / 1000: "100", "12.5", "0.01". */
 void control_add_hertz(struct phrase *text, uint32_t millihertz);
 /* Thousandths as a Python float's repr of value / 1000 for 3 decimals: "99.999", "100.0". */
@@ -31,9 +26,10 @@ void control_pbo_rows(struct phrase *text);
 /* DESCRIBE: PBO `name`'s description (control.py's description_text); false when the kernel
  * does not know it (kernel_message() says why). */
 bool control_description(struct phrase *text, const char *name);
-/* LOGS: PBO `name`'s lines after `since` as log_text writes them, and its latest line number;
- * false when the kernel does not know it. */
-bool control_log_lines(struct phrase *text, const char *name, uint32_t since, uint32_t *latest);
+/* LOGS: PBO `name`'s latest line number; false when the kernel does not know it. */
+bool control_log_latest(const char *name, uint32_t *latest);
+/* LOGS: PBO `name`'s lines after `since` as log_text writes them. */
+void control_log_lines(struct phrase *text, const char *name, uint32_t since);
 /* The heartbeat's line: "node: 2 PBOs: 1 OFF, 1 ON". */
 void control_state_line(struct phrase *text);
 

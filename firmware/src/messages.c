@@ -12,6 +12,8 @@
 #define U64 FIELD_U64
 #define TID {"tid", U32}
 
+char answer_line[ANSWER_MAX];
+
 static const struct verb_spec VERBS[VERB_COUNT] = {
     [VERB_PING] = {"PING", 0, {{0}}},
     [VERB_LS] = {"LS", 0, {{0}}},
@@ -455,7 +457,8 @@ void reply_module(struct phrase *line, const char *name, uint32_t address, uint3
     phrase_add_decimal(line, size);
 }
 
-void reply_answer(struct phrase *line, enum verb verb, const uint32_t *numbers, const char *text)
+void reply_text_start(struct phrase *line, enum verb verb, const uint32_t *numbers,
+                      struct phrase *text)
 {
     const struct verb_spec *spec = &VERBS[verb];
     phrase_add(line, spec->word);
@@ -465,7 +468,21 @@ void reply_answer(struct phrase *line, enum verb verb, const uint32_t *numbers, 
             phrase_add_decimal(line, *numbers++);
         }
     }
-    add_free_text(line, text);
+    size_t at = line->length + 1; /* after the blank before the text */
+    size_t end = sizeof " *XX\n" - 1;
+    phrase_start(text, line->buffer + at, line->capacity > at + end ? line->capacity - at - end : 0);
+}
+
+void reply_text_end(struct phrase *line, const struct phrase *text)
+{
+    struct span s = strip((struct span){text->buffer, text->length});
+    if (s.length) {
+        line->buffer[line->length++] = ' ';
+        for (size_t i = 0; i < s.length; i++) { /* moves left, over the stripped blanks */
+            line->buffer[line->length++] = s.start[i];
+        }
+        line->buffer[line->length] = '\0';
+    }
     reply_end(line);
 }
 

@@ -23,6 +23,10 @@
 #define REPLY_MAX 640
 #define ANSWER_MAX 1024 /* a control answer's line: up to 800 characters of text (LOGLINES) */
 
+/* The one buffer the long lines are written in, a control answer's or a watch's push: the node
+ * writes them one at a time, from its main loop, and sends each before the next. */
+extern char answer_line[ANSWER_MAX];
+
 enum verb {
     VERB_PING, VERB_LS, VERB_RM, VERB_BEGIN, VERB_END, VERB_COMMIT, VERB_ABORT, VERB_RESUME,
     VERB_PS, VERB_START, VERB_STOP, VERB_SET, VERB_CONNECT, VERB_DISCONNECT, VERB_RATE,
@@ -77,8 +81,14 @@ void reply_module(struct phrase *line, const char *name, uint32_t address, uint3
 void reply_end(struct phrase *line);
 
 /* An answer whose fields are numbers and then free text (PBOS, VALUES, LOGLINES, DESCRIPTION,
- * REPORT, BEAT), in `line` (ANSWER_MAX bytes): `numbers` in the table's order, then `text`. */
-void reply_answer(struct phrase *line, enum verb verb, const uint32_t *numbers, const char *text);
+ * REPORT, BEAT), in `line` (answer_line): `numbers` in the table's order go in, and `text` is
+ * started where the free text goes, so the caller writes it straight into the line (no second
+ * buffer of a kilobyte), with the room the line's end needs kept free. */
+void reply_text_start(struct phrase *line, enum verb verb, const uint32_t *numbers,
+                      struct phrase *text);
+/* The line's end after the free text written in `text`, its ends stripped, as hex mode writes
+ * free text (none when it is empty). */
+void reply_text_end(struct phrase *line, const struct phrase *text);
 
 /* The fields of `verb`, in text order (the binary codec reads them too, binary_messages.c). */
 const struct verb_spec *verb_spec(enum verb verb);

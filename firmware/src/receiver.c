@@ -254,9 +254,8 @@ static void handle_session(void (*answer)(uint32_t, struct phrase *), uint32_t t
 
 static void handle_control(const struct message *m)
 {
-    static char buffer[ANSWER_MAX]; /* static: a description or log lines take 800 bytes */
     struct phrase reply;
-    phrase_start(&reply, buffer, sizeof buffer);
+    phrase_start(&reply, answer_line, sizeof answer_line);
     if (node_control(m, &reply)) {
         send_line(&reply);
         return;

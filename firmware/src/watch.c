@@ -95,14 +95,16 @@ static void report_values(struct phrase *text)
     ports_add_values(&watch.ports, text);
 }
 
+/* A REPORT or a BEAT, its text written by `write`. */
 static void push(void (*send)(const char *, size_t), enum verb verb, uint64_t now,
-                 const char *text)
+                 void (*write)(struct phrase *text))
 {
-    static char buffer[ANSWER_MAX];
-    struct phrase line;
+    struct phrase line, text;
     const uint32_t numbers[2] = {watch.seq++, (uint32_t)(now / 1000u)};
-    phrase_start(&line, buffer, sizeof buffer);
-    reply_answer(&line, verb, numbers, text);
+    phrase_start(&line, answer_line, sizeof answer_line);
+    reply_text_start(&line, verb, numbers, &text);
+    write(&text);
+    reply_text_end(&line, &text);
     if (watch.binary) {
         binary_send_line(send, line.buffer, line.length);
         return;
@@ -112,8 +114,6 @@ static void push(void (*send)(const char *, size_t), enum verb verb, uint64_t no
 
 void watch_push(void (*send)(const char *bytes, size_t length))
 {
-    char *buffer = control_scratch;
-    struct phrase text;
     uint64_t now;
 
     if (!watch.on) {
@@ -125,15 +125,11 @@ void watch_push(void (*send)(const char *bytes, size_t length))
         if (watch.next_report <= now) { /* late by a period or more: one period from now */
             watch.next_report = now + watch.period_us;
         }
-        phrase_start(&text, buffer, sizeof control_scratch);
-        report_values(&text);
+        push(send, VERB_REPORT, now, report_values);
         watch.reported = now;
-        push(send, VERB_REPORT, now, buffer);
     }
     if (now >= watch.next_beat) {
         watch.next_beat = now + HEARTBEAT_US;
-        phrase_start(&text, buffer, sizeof control_scratch);
-        control_state_line(&text);
-        push(send, VERB_BEAT, now, buffer);
+        push(send, VERB_BEAT, now, control_state_line);
     }
 }
