@@ -3,7 +3,6 @@
  */
 #include "binary_frame.h"
 
-#define COBS_RUN 254        /* the most non-zero bytes one code covers */
 #define TEXT_FIRST_BYTE 0x20 /* a binary message's type is below it (hexmigrate.links.base) */
 
 void frame_decoder_start(struct frame_decoder *decoder, uint8_t *buffer, size_t capacity)
@@ -52,42 +51,47 @@ size_t frame_decoder_end(struct frame_decoder *decoder)
     return valid ? decoder->length : 0;
 }
 
-static void send_run(void (*send)(const char *bytes, size_t length), const uint8_t *run,
-                     size_t length)
+static const char DELIMITER = 0x00;
+
+static void send_run(struct frame_writer *writer)
 {
-    char code = (char)(length + 1u);
-    send(&code, 1);
-    send((const char *)run, length);
+    char code = (char)(writer->length + 1u);
+    writer->send(&code, 1);
+    writer->send((const char *)writer->run, writer->length);
+    writer->length = 0;
 }
 
-/* framing.cobs_encode's canonical output, chunk by chunk (the pieces between 0x00 bytes): full
- * runs of 254, then the rest with its code, which also stands for the 0x00 after the chunk; a
- * message whose last chunk is a whole number of full runs ends with them. */
-void binary_frame_send(void (*send)(const char *bytes, size_t length), const uint8_t *message,
-                       size_t length)
+void frame_writer_start(struct frame_writer *writer,
+                        void (*send)(const char *bytes, size_t length))
 {
-    static const char DELIMITER = 0x00;
+    writer->send = send;
+    writer->length = 0;
+    writer->after_full = false;
     send(&DELIMITER, 1);
-    size_t chunk = 0;
-    for (;;) {
-        size_t end = chunk;
-        while (end < length && message[end] != 0x00) {
-            end++;
+}
+
+void frame_writer_put(struct frame_writer *writer, const uint8_t *bytes, size_t length)
+{
+    for (size_t i = 0; i < length; i++) {
+        writer->after_full = false;
+        if (bytes[i] == 0x00) {
+            send_run(writer); /* its code stands for this 0x00 */
+            continue;
         }
-        bool last = end == length;
-        size_t start = chunk;
-        for (; end - start >= COBS_RUN; start += COBS_RUN) {
-            send_run(send, message + start, COBS_RUN);
+        writer->run[writer->length++] = bytes[i];
+        if (writer->length == COBS_RUN) {
+            send_run(writer); /* code 0xFF: no 0x00 after it */
+            writer->after_full = true;
         }
-        if (start == chunk || start < end || !last) {
-            send_run(send, message + start, end - start);
-        }
-        if (last) {
-            break;
-        }
-        chunk = end + 1;
     }
-    send(&DELIMITER, 1);
+}
+
+void frame_writer_end(struct frame_writer *writer)
+{
+    if (!writer->after_full) {
+        send_run(writer); /* the last run, even an empty one; its code stands for no 0x00 */
+    }
+    writer->send(&DELIMITER, 1);
 }
 
 uint16_t crc16_ccitt(const uint8_t *data, size_t length)

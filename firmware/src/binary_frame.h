@@ -43,9 +43,27 @@ bool frame_decoder_heard(const struct frame_decoder *decoder);
  * too long for the buffer, nothing, or a first byte that no binary message starts with). */
 size_t frame_decoder_end(struct frame_decoder *decoder);
 
-/* Write `message` on the link as one frame, through `send`, run by run: no second buffer. */
-void binary_frame_send(void (*send)(const char *bytes, size_t length), const uint8_t *message,
-                       size_t length);
+#define COBS_RUN 254 /* the most non-zero bytes one code covers */
+
+/* A frame written on the link as its message is made, byte by byte: a run's code (its length)
+ * goes before its bytes, so the writer holds one run, 254 bytes, never the whole message. The
+ * output is framing.cobs_encode's canonical one: full runs of 254 (code 0xFF, no 0x00 after),
+ * a shorter run's code standing for the 0x00 after it; a message ending in a full run ends
+ * with it. */
+struct frame_writer {
+    void (*send)(const char *bytes, size_t length);
+    uint8_t run[COBS_RUN];
+    size_t length;  /* bytes in `run` */
+    bool after_full; /* nothing came since a full run was sent */
+};
+
+/* The opening 0x00. */
+void frame_writer_start(struct frame_writer *writer,
+                        void (*send)(const char *bytes, size_t length));
+void frame_writer_put(struct frame_writer *writer, const uint8_t *bytes, size_t length);
+/* The last run and the closing 0x00. */
+void frame_writer_end(struct frame_writer *writer);
+
 
 /* binascii.crc_hqx(data, 0xFFFF): CRC-16/CCITT, polynomial 0x1021, initial value 0xFFFF. */
 uint16_t crc16_ccitt(const uint8_t *data, size_t length);

@@ -12,7 +12,7 @@
 #define MAX_LEADING_WORD 0xFF /* a word before the last of a tail: its length in one byte */
 #define BLOCK 256u            /* a BlockAck counts flash blocks */
 #define NO_ADDRESS 0xFFFFFFFFu
-#define BINARY_REPLY_MAX (ANSWER_MAX + 16) /* the longest answer line, re-encoded */
+#define CANNOT_ANSWER_MAX 224 /* "cannot answer: " and a reason of at most 200 characters */
 
 /* The field kinds of the types without a verb, after messages.h's. */
 #define FIELD_U32_ARRAY (FIELD_LISTING + 1)
@@ -387,79 +387,115 @@ bool binary_decode(const uint8_t *raw, size_t length, struct binary_message *dec
 
 /* Encoding. */
 
-static size_t encode_tail(const struct message *m, const struct verb_spec *spec, uint8_t *out,
-                          size_t at, size_t capacity)
+/* The binary answer being written, straight onto the link as it is made (one at a time): no
+ * buffer of a whole message, only its frame's run. */
+static struct {
+    struct frame_writer frame;
+    uint32_t crc;
+} out;
+
+static void out_start(void (*send)(const char *bytes, size_t length))
+{
+    frame_writer_start(&out.frame, send);
+    out.crc = 0;
+}
+
+static void out_put(const uint8_t *bytes, size_t length)
+{
+    out.crc = crc32_update(out.crc, bytes, length);
+    frame_writer_put(&out.frame, bytes, length);
+}
+
+static void out_number(uint64_t value, size_t size)
+{
+    uint8_t bytes[8];
+    write_le(bytes, value, size);
+    out_put(bytes, size);
+}
+
+/* The CRC-32 of what was put, and the frame's end. */
+static void out_end(void)
+{
+    uint8_t crc[CRC32_SIZE];
+    write_le(crc, out.crc, CRC32_SIZE);
+    frame_writer_put(&out.frame, crc, CRC32_SIZE);
+    frame_writer_end(&out.frame);
+}
+
+/* The index of the tail's last field, the one whose length the message's end gives. */
+static int last_tail(const struct verb_spec *spec)
 {
     int last = -1;
     for (int i = 0; i < spec->count; i++) {
         last = fixed_size(spec->fields[i].kind) ? last : i;
     }
-    for (int i = 0; i < spec->count && at; i++) {
+    return last;
+}
+
+static size_t tail_length(const struct message *m, int i)
+{
+    return m->present[i] ? m->text_length[i] : 0;
+}
+
+/* Whether `m` has a binary form: each tail field before the last fits its length byte. */
+static bool encodable(const struct message *m, const struct verb_spec *spec)
+{
+    int last = last_tail(spec);
+    for (int i = 0; i < last; i++) {
+        if (!fixed_size(spec->fields[i].kind) && tail_length(m, i) > MAX_LEADING_WORD) {
+            return false;
+        }
+    }
+    return true;
+}
+
+/* Send the binary form of an encodable message of `type`, CRC-32 included. */
+static void send_encoded(void (*send)(const char *, size_t), const struct binary_type *type,
+                         const struct message *m)
+{
+    const struct verb_spec *spec = spec_of(type);
+    out_start(send);
+    if (type->code & EXTENDED) {
+        out_number(0x00, 1);
+    }
+    out_number((uint8_t)type->code, 1);
+    for (int i = 0; i < spec->count; i++) {
+        size_t bytes = fixed_size(spec->fields[i].kind);
+        if (bytes) {
+            bool absent = spec->fields[i].kind == FIELD_ADDRESS && !m->present[i];
+            out_number(absent ? NO_ADDRESS : m->number[i], bytes);
+        }
+    }
+    int last = last_tail(spec);
+    for (int i = 0; i < spec->count; i++) {
         if (fixed_size(spec->fields[i].kind)) {
             continue;
         }
-        size_t length = m->present[i] ? m->text_length[i] : 0;
-        bool counted = i != last;
-        if ((counted && length > MAX_LEADING_WORD) || at + counted + length > capacity) {
-            return 0;
+        size_t length = tail_length(m, i);
+        if (i != last) {
+            out_number(length, 1);
         }
-        if (counted) {
-            out[at++] = (uint8_t)length;
-        }
-        for (size_t j = 0; j < length; j++) {
-            out[at++] = (uint8_t)m->text[i][j];
-        }
+        out_put((const uint8_t *)m->text[i], length);
     }
-    return at;
+    out_end();
 }
-
-/* The binary form of a decoded message of `type`, CRC-32 included, in `out`; 0 when it does
- * not fit (an answer too long, a leading word of more than 255 bytes). */
-static size_t encode(const struct binary_type *type, const struct message *m, uint8_t *out,
-                     size_t capacity)
-{
-    const struct verb_spec *spec = spec_of(type);
-    size_t at = 0;
-    if (type->code & EXTENDED) {
-        out[at++] = 0x00;
-    }
-    out[at++] = (uint8_t)type->code;
-    for (int i = 0; i < spec->count; i++) {
-        size_t bytes = fixed_size(spec->fields[i].kind);
-        if (bytes && at + bytes <= capacity) {
-            bool absent = spec->fields[i].kind == FIELD_ADDRESS && !m->present[i];
-            write_le(out + at, absent ? NO_ADDRESS : m->number[i], bytes);
-            at += bytes;
-        }
-    }
-    at = encode_tail(m, spec, out, at, capacity - CRC32_SIZE);
-    if (!at) {
-        return 0;
-    }
-    write_le(out + at, crc32_update(0, out, at), CRC32_SIZE);
-    return at + CRC32_SIZE;
-}
-
-/* The binary answer being written: one at a time, and a refusal that it cannot be written
- * replaces it, so one buffer serves both. */
-static uint8_t out[BINARY_REPLY_MAX];
 
 /* An answer that could not be written: the refusal `NAK tid 0 RETRY cannot answer: WHY`, as
- * receiver._encoded makes it, written straight into `out` (no second buffer on the stack). */
+ * receiver._encoded makes it. */
 static void send_cannot_answer(void (*send)(const char *, size_t), uint32_t tid, const char *why)
 {
-    enum { REASON_AT = 1 + 4 + 4 + 1 }; /* type, tid, value, fatal */
-    out[0] = 0x14;
-    write_le(out + 1, tid, 4);
-    write_le(out + 5, 0, 4);
-    out[9] = 0; /* RETRY */
+    char text[CANNOT_ANSWER_MAX];
     struct phrase reason;
-    phrase_start(&reason, (char *)out + REASON_AT, sizeof out - REASON_AT - CRC32_SIZE);
+    phrase_start(&reason, text, sizeof text);
     phrase_add(&reason, "cannot answer: ");
     phrase_add(&reason, why);
-    size_t length = REASON_AT + reason.length;
-    write_le(out + length, crc32_update(0, out, length), CRC32_SIZE);
-    binary_frame_send(send, out, length + CRC32_SIZE);
+    out_start(send);
+    out_number(0x14, 1);
+    out_number(tid, 4);
+    out_number(0, 4);
+    out_number(0, 1); /* RETRY */
+    out_put((const uint8_t *)text, reason.length);
+    out_end();
 }
 
 void binary_send_line(void (*send)(const char *bytes, size_t length), const char *line,
@@ -474,12 +510,11 @@ void binary_send_line(void (*send)(const char *bytes, size_t length), const char
         return;
     }
     const struct binary_type *type = type_by_verb(answer.verb);
-    size_t size = type ? encode(type, &answer, out, sizeof out) : 0;
-    if (!size) {
+    if (!type || !encodable(&answer, spec_of(type))) {
         send_cannot_answer(send, (uint32_t)answer.number[0], "the answer does not fit a message");
         return;
     }
-    binary_frame_send(send, out, size);
+    send_encoded(send, type, &answer);
 }
 
 void binary_send_block_ack(void (*send)(const char *bytes, size_t length), uint32_t tid,
@@ -496,9 +531,11 @@ void binary_send_block_ack(void (*send)(const char *bytes, size_t length), uint3
         send_cannot_answer(send, 0, reason); /* a BlockAck has no tid: 0, as in Python */
         return;
     }
-    uint8_t out[1 + 2 + 2 + CRC16_SIZE] = {0x15};
-    write_le(out + 1, tid & 0xFFFFu, 2);
-    write_le(out + 3, blocks, 2);
-    write_le(out + 5, crc16_ccitt(out, 5), CRC16_SIZE);
-    binary_frame_send(send, out, sizeof out);
+    uint8_t ack[1 + 2 + 2 + CRC16_SIZE] = {0x15};
+    write_le(ack + 1, tid & 0xFFFFu, 2);
+    write_le(ack + 3, blocks, 2);
+    write_le(ack + 5, crc16_ccitt(ack, 5), CRC16_SIZE);
+    frame_writer_start(&out.frame, send);
+    frame_writer_put(&out.frame, ack, sizeof ack);
+    frame_writer_end(&out.frame);
 }
