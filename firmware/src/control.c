@@ -261,7 +261,7 @@ static bool wire(const struct request *r)
 
 static bool read_ports(const struct request *r)
 {
-    static struct port_list ports;
+    struct port_list ports;
     char reason[MAX_REFUSAL + 1];
     struct phrase why, values;
 

@@ -43,42 +43,53 @@ static void refuse_name(struct phrase *why, const char *text, size_t start, size
 
 bool ports_parse(const char *text, size_t length, struct port_list *ports, struct phrase *why)
 {
-    size_t at = 0, start, end;
+    size_t at = 0, start, end, count = 0;
     size_t bad_start = 0, bad_end = 0;
     bool bad = false;
 
-    ports->count = 0;
     while (next_word(text, length, &at, &start, &end)) {
-        if (ports->count == PORTS_MAX) {
+        if (count++ == PORTS_MAX) {
             phrase_add(why, "expected at most 32 ports, got more");
             return false;
         }
         if (!bad && !ports_is_port(text + start, end - start)) {
             bad = true, bad_start = start, bad_end = end; /* the first bad one is named */
         }
-        name_copy(ports->names[ports->count], text + start,
-                  end - start < PORT_NAME_MAX ? end - start + 1 : PORT_NAME_MAX + 1);
-        if (end - start > PORT_NAME_MAX) {
-            ports->names[ports->count][PORT_NAME_MAX - 1] = '?'; /* matches no port */
-        }
-        ports->count++;
     }
-    if (bad || ports->count == 0) {
-        if (bad) {
-            refuse_name(why, text, bad_start, bad_end);
-        } else {
-            phrase_add(why, "expected PBO.port names, got none");
-        }
+    if (bad) {
+        refuse_name(why, text, bad_start, bad_end);
         return false;
+    }
+    if (count == 0) {
+        phrase_add(why, "expected PBO.port names, got none");
+        return false;
+    }
+    *ports = (struct port_list){text, length};
+    return true;
+}
+
+/* The next name as a NUL-terminated string; one longer than any port's is cut and marked so
+ * that it names no port. */
+static bool next_name(const struct port_list *ports, size_t *at, char name[PORT_NAME_MAX + 1])
+{
+    size_t start, end;
+    if (!next_word(ports->text, ports->length, at, &start, &end)) {
+        return false;
+    }
+    size_t length = end - start;
+    name_copy(name, ports->text + start, (length < PORT_NAME_MAX ? length : PORT_NAME_MAX) + 1);
+    if (length > PORT_NAME_MAX) {
+        name[PORT_NAME_MAX - 1] = '?';
     }
     return true;
 }
 
 bool ports_readable(const struct port_list *ports, struct phrase *why)
 {
-    for (uint32_t i = 0; i < ports->count; i++) {
+    char name[PORT_NAME_MAX + 1];
+    for (size_t at = 0; next_name(ports, &at, name);) {
         int32_t value;
-        if (kernel_read(ports->names[i], &value) != KERNEL_OK) {
+        if (kernel_read(name, &value) != KERNEL_OK) {
             phrase_add(why, kernel_message());
             return false;
         }
@@ -88,13 +99,14 @@ bool ports_readable(const struct port_list *ports, struct phrase *why)
 
 void ports_add_values(const struct port_list *ports, struct phrase *text)
 {
-    for (uint32_t i = 0; i < ports->count; i++) {
+    char name[PORT_NAME_MAX + 1];
+    for (size_t at = 0; next_name(ports, &at, name);) {
         int32_t value;
-        if (kernel_read(ports->names[i], &value) == KERNEL_OK) {
+        if (kernel_read(name, &value) == KERNEL_OK) {
             if (text->length) {
                 phrase_add_char(text, ' ');
             }
-            phrase_add(text, ports->names[i]);
+            phrase_add(text, name);
             phrase_add_char(text, '=');
             if (value < 0) {
                 phrase_add_char(text, '-');
@@ -104,4 +116,18 @@ void ports_add_values(const struct port_list *ports, struct phrase *text)
             }
         }
     }
+}
+
+void ports_keep(struct port_list *ports, char *kept)
+{
+    struct phrase names;
+    char name[PORT_NAME_MAX + 1];
+    phrase_start(&names, kept, PORTS_TEXT_MAX);
+    for (size_t at = 0; next_name(ports, &at, name);) {
+        if (names.length) {
+            phrase_add_char(&names, ' ');
+        }
+        phrase_add(&names, name);
+    }
+    *ports = (struct port_list){kept, names.length};
 }

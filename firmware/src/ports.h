@@ -13,17 +13,20 @@
 
 #define PORTS_MAX 32      /* control.py's MAX_PORTS */
 #define PORT_NAME_MAX 29  /* a PBO's 16 characters, the dot, a port's 12 */
+#define PORTS_TEXT_MAX (PORTS_MAX * (PORT_NAME_MAX + 1)) /* ports_keep's names, a blank apart */
 
+/* The names as the request gave them, blank-separated words that ports_parse checked: read
+ * where they are, so a READ copies none (a copy of 32 names would take 1 KiB of RAM). */
 struct port_list {
-    uint32_t count;
-    char names[PORTS_MAX][PORT_NAME_MAX + 1];
+    const char *text;
+    size_t length;
 };
 
 /* True when `text` is `PBO.port` (one dot, a name on each side, no `=`). */
 bool ports_is_port(const char *text, size_t length);
 
 /* The names of `text`, refused as control.py refuses them (none, more than 32, one that is
- * not PBO.port); a name longer than any port's is refused as unknown. */
+ * not PBO.port); a name longer than any port's is refused as unknown (ports_readable). */
 bool ports_parse(const char *text, size_t length, struct port_list *ports, struct phrase *why);
 
 /* Whether every port reads; else false with the kernel's reason. */
@@ -31,5 +34,9 @@ bool ports_readable(const struct port_list *ports, struct phrase *why);
 
 /* ` NAME=VALUE` of each port that reads (a port gone with its module is left out). */
 void ports_add_values(const struct port_list *ports, struct phrase *text);
+
+/* Copy readable names (each PORT_NAME_MAX at most) a blank apart into `kept`, PORTS_TEXT_MAX
+ * bytes, and point `ports` there: a WATCH's outlive its request's line. */
+void ports_keep(struct port_list *ports, char *kept);
 
 #endif

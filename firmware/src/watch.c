@@ -16,14 +16,15 @@ static struct {
     uint32_t period_us;
     uint64_t next_report, next_beat, reported;
     uint32_t seq;
-    struct port_list ports;
+    struct port_list ports; /* in `kept`, or none */
+    char kept[PORTS_TEXT_MAX];
 } watch;
 
 bool watch_request(const struct message *request, struct phrase *reply, struct phrase *why)
 {
     const uint32_t tid = (uint32_t)request->number[0];
     const uint32_t period_ms = (uint32_t)request->number[1];
-    struct port_list ports;
+    struct port_list ports = {0, 0};
 
     if (period_ms == 0) {
         watch.on = false;
@@ -35,7 +36,6 @@ bool watch_request(const struct message *request, struct phrase *reply, struct p
         phrase_add_decimal(why, period_ms);
         return false;
     }
-    ports.count = 0;
     if (request->text_length[2] > 0 &&
         (!ports_parse(request->text[2], request->text_length[2], &ports, why) ||
          !ports_readable(&ports, why))) {
@@ -46,6 +46,7 @@ bool watch_request(const struct message *request, struct phrase *reply, struct p
     watch.period_us = period_ms * 1000u;
     watch.seq = 0;
     watch.ports = ports;
+    ports_keep(&watch.ports, watch.kept);
     watch_restart(); /* the first report at once, the first beat a second on */
     reply_ack(reply, tid, period_ms, "watching");
     return true;

@@ -23,8 +23,11 @@ from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import (
     Ack,
     HoldStart,
+    Message,
     Nak,
     PerformanceReport,
+    PortValues,
+    ReadPorts,
     StartPbo,
     Watch,
     decode,
@@ -211,6 +214,42 @@ def test_a_chain_fed_a_constant_gives_the_same_values(boot, example_hex, test_mo
         said = NodeControl(Sender(link, "binary")).reset()
     assert said == "reset: 2 PBO(s) switched off, 1 wire(s) and 0 bridge(s) undone, clock at 0 s"
     assert [row.split()[1] for row in control(url, "ps").splitlines()] == ["OFF"] * 3
+
+
+def ask(url: str, request: Message) -> Message:
+    with open_link(url) as link:
+        link.send(encode(request, True))
+        return decode(link.receive(5.0) or b"")
+
+
+@pytest.mark.timeout(120)
+def test_port_lists_are_read_and_watched_in_order_and_bad_ones_refused_in_the_same_words(
+    boot, example_hex
+):
+    """READ and WATCH take their ports as the request's words, blanks between as they come; a
+    list of more than 32 or a word that is no PBO.port is refused, the first bad word named."""
+    url = boot().url
+    send(url, example_hex["gain"])
+    control(url, "set", "gain.k=7")
+    spaced = "  gain.k \t gain.y   gain.k "
+    assert ask(url, ReadPorts(5, spaced)) == PortValues(5, "gain.k=7 gain.y=0 gain.k=7")
+    with open_link(url) as link:
+        link.send(encode(Watch(6, 50, spaced), True))
+        answers = [decode(link.receive(2.0) or b"") for _ in range(2)]
+        link.send(encode(Watch(7, 0), True))
+    assert answers[0] == Ack(6, 50, "watching")
+    assert isinstance(answers[1], PerformanceReport), answers
+    assert answers[1].values.endswith(" missed=0 gain.k=7 gain.y=0 gain.k=7"), answers
+    prefix = "READ refused: "
+    assert ask(url, ReadPorts(8, " ".join(["gain.y"] * 33))) == Nak(
+        8, 0, prefix + "expected at most 32 ports, got more", fatal=True
+    )
+    assert ask(url, ReadPorts(9, "gain.y gain gain.k=1")) == Nak(
+        9, 0, prefix + "expected PBO.port names, got 'gain'", fatal=True
+    )
+    assert ask(url, ReadPorts(10, "gain.y gain.z")) == Nak(
+        10, 0, prefix + "unknown port 'gain.z'; expected one of 'x', 'y', 'k'", fatal=True
+    )
 
 
 @pytest.mark.timeout(120)
