@@ -3,7 +3,10 @@
  */
 #include "number_word.h"
 
-#define MAX_DECIMAL_DIGITS 1300 /* a 1024-character line of hex digits, in decimal */
+/* A number past 64 bits is shown in decimal from limbs of four digits (half the RAM of one
+ * byte a digit): 326 of them hold the 1,234 digits of a 1,024-character line of hex digits. */
+#define LIMB 10000u
+#define MAX_LIMBS 326
 
 static int digit_value(char c)
 {
@@ -112,20 +115,28 @@ bool number_word_parse(const char *text, size_t length, struct number_word *numb
     return true;
 }
 
-/* Multiply the little-endian decimal digits by `base` and add `digit`. */
-static size_t decimal_step(uint8_t *decimal, size_t count, unsigned base, unsigned digit)
+/* Multiply the little-endian limbs (base LIMB) by `base` and add `digit`. */
+static size_t decimal_step(uint16_t *limbs, size_t count, unsigned base, unsigned digit)
 {
-    unsigned carry = digit;
+    uint32_t carry = digit;
     for (size_t i = 0; i < count; i++) {
-        unsigned value = decimal[i] * base + carry;
-        decimal[i] = (uint8_t)(value % 10);
-        carry = value / 10;
+        uint32_t value = limbs[i] * base + carry;
+        limbs[i] = (uint16_t)(value % LIMB);
+        carry = value / LIMB;
     }
-    while (carry && count < MAX_DECIMAL_DIGITS) {
-        decimal[count++] = (uint8_t)(carry % 10);
-        carry /= 10;
+    while (carry && count < MAX_LIMBS) {
+        limbs[count++] = (uint16_t)(carry % LIMB);
+        carry /= LIMB;
     }
     return count;
+}
+
+/* A limb below the first: its four digits, zeros included. */
+static void add_limb(struct phrase *phrase, unsigned limb)
+{
+    for (unsigned power = LIMB / 10; power; power /= 10) {
+        phrase_add_char(phrase, (char)('0' + limb / power % 10));
+    }
 }
 
 void number_word_show(const char *text, size_t length, const struct number_word *number,
@@ -138,9 +149,9 @@ void number_word_show(const char *text, size_t length, const struct number_word 
         phrase_add_decimal(phrase, number->value);
         return;
     }
-    static uint8_t decimal[MAX_DECIMAL_DIGITS];
+    static uint16_t limbs[MAX_LIMBS];
     size_t count = 1;
-    decimal[0] = 0;
+    limbs[0] = 0;
     if (length && (text[0] == '+' || text[0] == '-')) {
         text++;
         length--;
@@ -149,10 +160,11 @@ void number_word_show(const char *text, size_t length, const struct number_word 
     unsigned base = prefix_base(text, length, &skip);
     for (size_t i = skip; i < length; i++) {
         if (text[i] != '_') {
-            count = decimal_step(decimal, count, base, (unsigned)digit_value(text[i]));
+            count = decimal_step(limbs, count, base, (unsigned)digit_value(text[i]));
         }
     }
+    phrase_add_decimal(phrase, limbs[--count]);
     while (count) {
-        phrase_add_char(phrase, (char)('0' + decimal[--count]));
+        add_limb(phrase, limbs[--count]);
     }
 }

@@ -86,6 +86,7 @@ NUMBERS = st.one_of(
     st.integers(0, 1 << 40).map(hex),
     st.integers(0, 1 << 40).map(bin),
     st.integers(0, 1 << 40).map(oct),
+    st.integers(-(1 << 400), 1 << 400).map(hex),  # past 64 bits: refused in decimal
     st.sampled_from(["0", "00", "007", "1_000", "0x_1F", "_1", "1__0", "0x", "+5", "-0", "1e3"]),
 )
 WORDS = st.one_of(NUMBERS, st.text(st.characters(min_codepoint=33, max_codepoint=126), max_size=20))
@@ -183,6 +184,31 @@ def test_a_refused_line_gets_the_python_nodes_very_refusal(node, line):
     if expected is not None:
         assert answers[:1] == [expected]
     node.directive("R")  # a BEGIN or a record that opened a transfer: forgotten again
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize(
+    "number",
+    [
+        hex(1 << 64),
+        "-" + hex((1 << 64) + 1),
+        str(10**20),  # zeros across the node's 4-digit limbs
+        "0x" + "f" * 250,
+        "0x" + "1" + "0" * 200,
+        "0o" + "7" * 300,
+        "0b1" + "0_1" * 150,
+        "0X_DEAD_BEEF_DEAD_BEEF_DEAD_BEEF",
+    ],
+)
+def test_a_number_past_64_bits_is_refused_in_decimal_as_python_shows_it(node, number):
+    """Shown whole, or cut with the rest of the node's 400-character reason (the Python node
+    shows it whole): the digits shown are the number's leading ones."""
+    line = f"END 1 {number}".encode()
+    (answer,) = node.answers(line + b"\n")[:1]
+    shown, python = decode(answer), decode(python_refusal(line) or b"")
+    assert isinstance(shown, Nak) and isinstance(python, Nak)
+    assert python.reason.startswith(shown.reason)
+    assert shown.reason == python.reason or len(shown.reason) > 300
 
 
 @st.composite
