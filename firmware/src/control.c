@@ -17,6 +17,7 @@
 #include "control.h"
 
 #include "../kernel/kernel.h"
+#include "answer_memory.h"
 #include "control_text.h"
 #include "crc.h"
 #include "number_word.h"
@@ -29,8 +30,6 @@
 #define NAME_MAX 40       /* a name copied from a request; any PBO's is 16 at most */
 #define RATE_MIN_MHZ 10u  /* 0.01 Hz: node.py's RATE_MIN */
 #define RATE_MAX_MHZ 100000000u
-#define REMEMBERED 8
-#define REMEMBERED_ANSWER 272 /* an ACK, or a NAK of a 200-character refusal, and its header */
 
 /* One request being answered: its line, its tid, where the answer goes. */
 struct request {
@@ -342,13 +341,6 @@ static bool watch(const struct request *r)
     return watch_request(r->message, r->reply, &why) || refuse(r, reason);
 }
 
-static struct {
-    uint32_t key;
-    uint16_t length; /* 0: no answer kept */
-    char answer[REMEMBERED_ANSWER];
-} remembered[REMEMBERED];
-static uint32_t remembered_next;
-
 static bool changes_the_node(enum verb verb)
 {
     return verb == VERB_START || verb == VERB_STOP || verb == VERB_CLEAR || verb == VERB_SET ||
@@ -369,42 +361,20 @@ static uint32_t request_key(const struct message *request)
     return key;
 }
 
-static bool answer_again(uint32_t key, struct phrase *reply)
-{
-    for (uint32_t i = 0; i < REMEMBERED; i++) {
-        if (remembered[i].length && remembered[i].key == key) {
-            phrase_add_bytes(reply, remembered[i].answer, remembered[i].length);
-            return true;
-        }
-    }
-    return false;
-}
-
-static void remember(uint32_t key, const struct phrase *reply)
-{
-    if (reply->length >= REMEMBERED_ANSWER) {
-        return; /* no answer of these is longer; one cut would be worse than none */
-    }
-    remembered[remembered_next].key = key;
-    remembered[remembered_next].length = (uint16_t)reply->length;
-    name_copy(remembered[remembered_next].answer, reply->buffer, reply->length + 1);
-    remembered_next = (remembered_next + 1u) % REMEMBERED;
-}
-
 static bool answer(const struct message *request, struct phrase *reply);
 
 bool node_control(const struct message *request, struct phrase *reply)
 {
     const uint32_t key = changes_the_node(request->verb) ? request_key(request) : 0;
 
-    if (key != 0 && answer_again(key, reply)) {
+    if (key != 0 && answer_memory_find(key, reply)) {
         return true;
     }
     if (!answer(request, reply)) {
         return false;
     }
     if (key != 0) {
-        remember(key, reply);
+        answer_memory_keep(key, reply->buffer, reply->length);
     }
     return true;
 }

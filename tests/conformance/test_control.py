@@ -158,7 +158,12 @@ def test_gain_without_its_constant_refuses_to_start_logs_why_and_is_cleared(boot
         for _ in range(2):
             link.send(encode(StartPbo(4242, "gain"), True))
             answers.append(link.receive(5.0))
-    assert answers == [encode(Ack(4242, 0, "started gain"), True)] * 2
+        for tid in range(5000, 5008):  # other requests that change the node, in between
+            link.send(encode(HoldStart(tid, f"h{tid}"), True))
+            assert isinstance(decode(link.receive(5.0) or b""), Ack)
+        link.send(encode(StartPbo(4242, "gain"), True))
+        answers.append(link.receive(5.0))
+    assert answers == [encode(Ack(4242, 0, "started gain"), True)] * 3
     assert control(url, "ps").startswith("gain             ON ")
     assert refused(url, "start", "gain").endswith("cannot on from state ON; allowed from OFF")
 
