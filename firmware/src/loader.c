@@ -10,9 +10,15 @@
 static struct signature_area signature;
 static const struct load_session *signature_owner;
 
+/* The reservation's name as the Python node gives it: 'transfer:0000002A'. */
 static void add_owner(struct phrase *why, const struct load_session *session)
 {
-    phrase_add_repr(why, session->owner, name_length(session->owner, sizeof session->owner));
+    char name[20];
+    struct phrase owner;
+    phrase_start(&owner, name, sizeof name);
+    phrase_add(&owner, "transfer:");
+    phrase_add_hex(&owner, session->tid, 8);
+    phrase_add_repr(why, name, owner.length);
 }
 
 static uint32_t session_offset(const struct load_session *session)
@@ -33,14 +39,6 @@ uint32_t loader_received(const struct load_session *session)
 uint32_t loader_programmed(const struct load_session *session)
 {
     return session->programmed_blocks * FLASH_BLOCK;
-}
-
-static void name_owner(struct load_session *session, uint32_t tid)
-{
-    struct phrase owner;
-    phrase_start(&owner, session->owner, sizeof session->owner);
-    phrase_add(&owner, "transfer:");
-    phrase_add_hex(&owner, tid, 8);
 }
 
 static void no_room(const struct load_session *session, uint32_t blocks, struct phrase *why)
@@ -89,7 +87,7 @@ bool loader_begin(struct load_session *session, uint32_t tid, bool sized, uint32
                   uint32_t address, struct phrase *why)
 {
     *session = (struct load_session){0};
-    name_owner(session, tid);
+    session->tid = tid;
     uint32_t blocks = sized ? size / FLASH_BLOCK + (size % FLASH_BLOCK != 0) : SIZELESS_BLOCKS;
     session->block_limit = blocks ? blocks : 1;
     uint32_t sectors = flash_sectors_for(session->block_limit * FLASH_BLOCK);
@@ -154,7 +152,7 @@ bool loader_feed_relocation(struct load_session *session, uint32_t location, str
         phrase_add(why, "expected at most 64 pointer locations, got 65");
         return false;
     }
-    session->applied[session->relocation_count] = false;
+    session->applied &= ~(1ull << session->relocation_count);
     session->relocations[session->relocation_count++] = location;
     return true;
 }
@@ -243,7 +241,7 @@ static bool relocate_block(struct load_session *session, uint32_t length, struct
         value += delta;
         word[0] = (uint8_t)value, word[1] = (uint8_t)(value >> 8);
         word[2] = (uint8_t)(value >> 16), word[3] = (uint8_t)(value >> 24);
-        session->applied[i] = true;
+        session->applied |= 1ull << i;
     }
     return true;
 }
@@ -344,7 +342,7 @@ static void add_span(struct phrase *why, uint32_t link_base, uint32_t size)
 static bool check_pointers(const struct load_session *session, uint32_t size, struct phrase *why)
 {
     for (uint16_t i = 0; i < session->relocation_count; i++) {
-        if (!session->applied[i]) {
+        if (!(session->applied >> i & 1u)) {
             phrase_add(why, "line 0: expected the pointer word at ");
             add_span(why, session->relocations[i], 4);
             phrase_add(why, " inside the image data (");

@@ -20,6 +20,7 @@
 #include "signature_area.h"
 
 #define LOADER_MAX_RELOCATIONS 64 /* per module; a descriptor has 9 method pointers */
+_Static_assert(LOADER_MAX_RELOCATIONS <= 64, "load_session.applied holds a bit each");
 #define SIZELESS_BLOCKS 256       /* a module typed without BEGIN: at most 64 KiB */
 
 /* A verified image in flash, not yet committed. */
@@ -30,7 +31,7 @@ struct loaded_image {
 
 struct load_session {
     bool open;
-    char owner[20]; /* "transfer:0000002A", as the Python node names the reservation */
+    uint32_t tid; /* its reservation is named by it, as the Python node names it */
     struct extent extent;
     uint32_t block_limit;
     uint8_t buffer[FLASH_BLOCK];
@@ -39,7 +40,7 @@ struct load_session {
     uint32_t link_base, next_address, init, crc;
     uint16_t relocation_count;
     uint32_t relocations[LOADER_MAX_RELOCATIONS];
-    bool applied[LOADER_MAX_RELOCATIONS];
+    uint64_t applied; /* bit i: relocations[i] was fixed in a programmed block */
 };
 
 /* Reserve flash for transfer `tid`: `size` bytes (or, without, SIZELESS_BLOCKS at most), at
