@@ -23,6 +23,7 @@ from firmware_sim.core.node import Node
 from firmware_sim.core.transfer_target import NodeTarget
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.framing import Deframer, cobs_encode
+from hexmigrate.records import Record, RecordType
 from hexmigrate.transfer.layout import line_sum
 from hexmigrate.transfer.messages import (
     Abort,
@@ -133,6 +134,25 @@ def test_the_clean_transfer_gets_the_same_answers(harness, gain):
     python = python_answers(script)
     assert [normal(a) for a in c] == [normal(a) for a in python]
     assert normal(c[-1]) == b"MODULES gain@ADDR:1120"
+
+
+@pytest.mark.timeout(300)
+def test_a_pointer_word_outside_the_image_is_refused_in_the_same_words(harness, gain):
+    """The node fixes each 07 pointer word as its block is programmed and, at the end, refuses
+    a transfer whose pointer word no block held: gain's own are fixed, one past it is not."""
+    outside = Record.pointer(RecordType.OFFSET_FUNCTION_POINTER, gain.link_base + gain.size + 4)
+    lines = gain.to_hex().splitlines()
+    lines.insert(next(i for i, line in enumerate(lines) if line[7:9] == "07"), outside.encode())
+    count = len(gain.relocations) + 1
+    script = [
+        signed(f"BEGIN {TID} gain {gain.size} {count} {gain.link_base}"),
+        *(line.encode() for line in lines),
+    ]
+    with HostNode(harness) as node:
+        c = c_answers(node, script)
+    python = python_answers(script)
+    assert [normal(a) for a in c] == [normal(a) for a in python]
+    assert b"FATAL" in c[-1] and b"inside the image data" in c[-1]
 
 
 @pytest.mark.timeout(600)
