@@ -8,42 +8,55 @@ uint64_t area_align(uint64_t value)
     return (value + AREA_ALIGNMENT - 1u) & ~(uint64_t)(AREA_ALIGNMENT - 1u);
 }
 
-static uint64_t port_bytes(const struct port_spec *port)
+/* Where the port buffers start: after the context, and the state when there is one. */
+static uint64_t ports_start(const struct module *module)
 {
-    return (uint64_t)port->element_size * port->rows * port->columns;
+    return area_align(area_align(ABI_CONTEXT_SIZE) + module->state_size);
 }
 
 uint64_t area_plan(struct module *module, uint32_t limit)
 {
-    uint64_t offsets[ABI_MAX_PORTS];
-    uint64_t offset = area_align(ABI_CONTEXT_SIZE);
-    uint64_t state = 0;
+    uint64_t size = ports_start(module);
 
-    if (module->state_size != 0) {
-        state = offset;
-        offset = area_align(offset + module->state_size);
-    }
     for (uint32_t i = 0; i < module->port_count; i++) {
-        offsets[i] = offset;
-        offset = area_align(offset + port_bytes(&module->ports[i]));
+        const struct port_spec *port = &module->ports[i];
+        size = area_align(size + (uint64_t)port->element_size * port->rows * port->columns);
     }
-    if (offset <= limit) {
-        module->layout.state = (uint32_t)state;
-        for (uint32_t i = 0; i < module->port_count; i++) {
-            module->layout.ports[i] = (uint32_t)offsets[i];
-            module->ports[i].size = (uint32_t)port_bytes(&module->ports[i]);
+    if (size <= limit) {
+        module->area_size = (uint32_t)size;
+    }
+    return size;
+}
+
+uint32_t area_packed(const struct module *module, uint32_t port, uint32_t directions)
+{
+    uint32_t offset = 0;
+
+    for (uint32_t i = 0; i < port; i++) {
+        if ((DIRECTIONS(module->ports[i].direction) & directions) != 0) {
+            offset += (uint32_t)area_align(port_size(&module->ports[i]));
         }
-        module->layout.size = (uint32_t)offset;
     }
     return offset;
 }
 
+uint32_t area_port(const struct module *module, uint32_t port)
+{
+    return (uint32_t)ports_start(module) + area_packed(module, port, ALL_DIRECTIONS);
+}
+
 void area_write_context(const struct module *module, uint32_t base)
 {
-    const struct area_layout *layout = &module->layout;
+    const uint32_t state = base + (uint32_t)area_align(ABI_CONTEXT_SIZE);
+    uint32_t next = base + (uint32_t)ports_start(module); /* the ports in order, as area_port */
 
-    guest_write32(base, layout->state != 0 ? base + layout->state : 0);
+    guest_write32(base, module->state_size != 0 ? state : 0);
     for (uint32_t i = 0; i < ABI_MAX_PORTS; i++) {
-        guest_write32(base + 4u + 4u * i, i < module->port_count ? base + layout->ports[i] : 0);
+        uint32_t port = 0;
+        if (i < module->port_count) {
+            port = next;
+            next += (uint32_t)area_align(port_size(&module->ports[i]));
+        }
+        guest_write32(base + 4u + 4u * i, port);
     }
 }

@@ -9,9 +9,10 @@
 /* PBOs registered at once; REGISTER refuses a module past it with STATUS_ERR_NO_MEMORY. */
 #define KERNEL_MAX_PBOS 8u
 
-/* SRAM blocks at once: each PBO's executor area and its output variables, an estimator
- * area each, and the loader's block buffer. */
-#define SRAM_MAX_BLOCKS (3u * KERNEL_MAX_PBOS + 4u)
+/* SRAM blocks at once, the most the kernel can hold: each PBO's executor area and its store
+ * (pbo.h), and the one shadow run's area, inputs and outputs (estimator.h). So the table never
+ * refuses a block: only the free bytes do. */
+#define SRAM_MAX_BLOCKS (2u * KERNEL_MAX_PBOS + 3u)
 
 /* Latest performance values a PBO keeps, one per (kind, index); an evaluator that reports
  * more pairs has the extra ones counted as dropped. */

@@ -75,14 +75,15 @@ static int32_t refuse_identifier(struct text *why, const char *name)
     return STATUS_ERR_INVALID;
 }
 
-/* Writes why no buffer can hold `port` (hexmigrate's _shape_problem); false when one can. */
-static bool add_shape_problem(struct text *why, const struct port_spec *port)
+/* Writes why no buffer can hold `port` (hexmigrate's _shape_problem); false when one can.
+ * `element_size` is the descriptor's 16-bit field: the port keeps it in 8 bits once valid. */
+static bool add_shape_problem(struct text *why, const struct port_spec *port,
+                              uint32_t element_size)
 {
     const char *expected;
 
-    if (port->element_size != 1 && port->element_size != 2 && port->element_size != 4) {
-        text_format(why, "expected an element size in (1, 2, 4), got %u",
-                    (uint32_t)port->element_size);
+    if (element_size != 1 && element_size != 2 && element_size != 4) {
+        text_format(why, "expected an element size in (1, 2, 4), got %u", element_size);
         return true;
     }
     if (port->rows < 1 || port->columns < 1) {
@@ -103,16 +104,16 @@ static int32_t decode_port(uint32_t address, uint32_t index, struct port_spec *p
                            struct text *why)
 {
     const uint32_t at = address + ABI_OFFSET_PORTS + index * ABI_PORT_SIZE;
+    const uint32_t element_size = guest_read16(at + ABI_PORT_OFFSET_ELEMENT_SIZE);
     char problem_buffer[64];
     struct text problem;
 
     read_name(at, ABI_PORT_NAME_LEN, port->name);
     port->direction = guest_read8(at + ABI_PORT_OFFSET_DIRECTION);
     port->kind = guest_read8(at + ABI_PORT_OFFSET_TYPE);
-    port->element_size = guest_read16(at + ABI_PORT_OFFSET_ELEMENT_SIZE);
+    port->element_size = (uint8_t)element_size; /* refused below unless 1, 2 or 4 */
     port->rows = guest_read16(at + ABI_PORT_OFFSET_ROWS);
     port->columns = guest_read16(at + ABI_PORT_OFFSET_COLUMNS);
-    port->size = 0;
     if (port->direction >= DIRECTION_COUNT || port->kind >= KIND_COUNT) {
         text_format(why, "port %u: expected direction < 4 and type < 3, got %u and %u", index,
                     (uint32_t)port->direction, (uint32_t)port->kind);
@@ -123,7 +124,7 @@ static int32_t decode_port(uint32_t address, uint32_t index, struct port_spec *p
         return refuse_identifier(why, port->name);
     }
     text_start(&problem, problem_buffer, sizeof problem_buffer);
-    if (add_shape_problem(&problem, port)) {
+    if (add_shape_problem(&problem, port, element_size)) {
         text_format(why, "port %u (%q): %s", index, port->name, problem_buffer);
         return STATUS_ERR_INVALID;
     }
@@ -135,6 +136,7 @@ static int32_t decode(uint32_t address, struct module *module, struct text *why)
 {
     const uint32_t magic = guest_read32(address + ABI_OFFSET_MAGIC);
     const uint32_t version = guest_read16(address + ABI_OFFSET_ABI_VERSION);
+    const uint32_t port_count = guest_read16(address + ABI_OFFSET_PORT_COUNT);
 
     if (magic != ABI_MAGIC) {
         text_format(why, "expected descriptor magic 0x314F4250, got %a", magic);
@@ -144,11 +146,11 @@ static int32_t decode(uint32_t address, struct module *module, struct text *why)
         text_format(why, "expected ABI version 1, got %u", version);
         return STATUS_ERR_ABI;
     }
-    module->port_count = guest_read16(address + ABI_OFFSET_PORT_COUNT);
-    if (module->port_count > ABI_MAX_PORTS) {
-        text_format(why, "expected at most 8 ports, got %u", module->port_count);
+    if (port_count > ABI_MAX_PORTS) {
+        text_format(why, "expected at most 8 ports, got %u", port_count);
         return STATUS_ERR_INVALID;
     }
+    module->port_count = (uint8_t)port_count;
     read_name(address + ABI_OFFSET_NAME, ABI_NAME_LEN, module->name);
     if (!is_identifier(module->name)) {
         text_add(why, "the module's name");

@@ -15,32 +15,33 @@ static struct {
     struct performance performance;
     uint32_t inputs;       /* SRAM block: each IN port's value, as of the run's start or given */
     uint32_t outputs;      /* SRAM block: each OUT port's value after the last good step */
-    uint32_t offsets[ABI_MAX_PORTS];
     bool started;          /* init ran */
     bool initialized;      /* and worked: kill at close */
     uint32_t steps;        /* estimates that worked */
     char failure[FAILURE_TEXT];
 } run;
 
+/* Both blocks hold every port's buffer, at the same offsets. */
+static uint32_t offset_of(uint32_t port)
+{
+    return area_packed(&run.pbo->module, port, ALL_DIRECTIONS);
+}
+
 static uint32_t input_of(uint32_t port)
 {
-    return run.inputs + run.offsets[port];
+    return run.inputs + offset_of(port);
 }
 
 static uint32_t output_of(uint32_t port)
 {
-    return run.outputs + run.offsets[port];
+    return run.outputs + offset_of(port);
 }
 
 /* One block for the inputs and one for the outputs, with the same offsets. */
 static bool allocate_blocks(const struct module *module, struct text *why)
 {
-    uint32_t size = 0;
+    const uint32_t size = area_packed(module, module->port_count, ALL_DIRECTIONS);
 
-    for (uint32_t port = 0; port < module->port_count; port++) {
-        run.offsets[port] = size;
-        size += (uint32_t)area_align(module->ports[port].size);
-    }
     run.inputs = size != 0 ? sram_allocate(size, "a shadow run's inputs", why) : 0;
     run.outputs = run.inputs != 0 ? sram_allocate(size, "a shadow run's outputs", why) : 0;
     return size == 0 || run.outputs != 0;
@@ -62,7 +63,7 @@ static void take_settings(struct pbo *pbo)
     const struct module *module = &pbo->module;
 
     for (uint32_t port = 0; port < module->port_count; port++) {
-        const uint32_t size = module->ports[port].size;
+        const uint32_t size = port_size(&module->ports[port]);
         const uint32_t live = svt_value(pbo, port);
         if (module->ports[port].direction == DIRECTION_IN) {
             if (live != 0) {
@@ -153,7 +154,7 @@ int kernel_estimate_give(const char *name, int64_t value)
     if (spec->direction == DIRECTION_IN) {
         port_value_store(input_of(port), spec->element_size, value);
     } else {
-        port_value_store(run.instance.area + pbo->module.layout.ports[port], spec->element_size,
+        port_value_store(run.instance.area + area_port(&pbo->module, port), spec->element_size,
                          value);
     }
     return KERNEL_OK;
@@ -241,7 +242,7 @@ int kernel_estimate_read(const char *name, int32_t *value)
         return kernel_refuse(KERNEL_ERR_REFUSED, "%s is a %s; only scalar ports are read", name,
                              spec->kind == KIND_VECTOR ? "vector" : "frame");
     }
-    address = run.instance.area + pbo->module.layout.ports[port]; /* a constant: in the instance */
+    address = run.instance.area + area_port(&pbo->module, port); /* a constant: in the instance */
     if (spec->direction == DIRECTION_IN || spec->direction == DIRECTION_OUT) {
         address = spec->direction == DIRECTION_IN ? input_of(port) : output_of(port);
     }
@@ -252,15 +253,7 @@ int kernel_estimate_read(const char *name, int32_t *value)
 bool kernel_estimate_performance_at(uint32_t n, uint8_t *kind, uint32_t *index,
                                     int32_t *value_milli)
 {
-    const struct performance_value *value =
-        run.pbo != 0 ? performance_ranked(&run.performance, n) : 0;
-    if (value == 0) {
-        return false;
-    }
-    *kind = value->kind;
-    *index = value->index;
-    *value_milli = value->value_milli;
-    return true;
+    return run.pbo != 0 && performance_ranked(&run.performance, n, kind, index, value_milli);
 }
 
 const char *kernel_estimate_failure(void)

@@ -22,7 +22,7 @@ bool instance_create(struct instance *instance, const struct module *module, enu
 
     text_start(&label, owner, sizeof owner);
     add_label(&label, module, (uint8_t)role);
-    instance->area = sram_allocate(module->layout.size, owner, why);
+    instance->area = sram_allocate(module->area_size, owner, why);
     instance->role = (uint8_t)role;
     if (instance->area == 0) {
         return false;
@@ -42,26 +42,26 @@ void instance_release(struct instance *instance)
 void instance_put(const struct instance *instance, const struct module *module, uint32_t port,
                   uint32_t value)
 {
-    guest_copy(instance->area + module->layout.ports[port], value, module->ports[port].size);
+    guest_copy(instance->area + area_port(module, port), value, port_size(&module->ports[port]));
 }
 
 void instance_get(const struct instance *instance, const struct module *module, uint32_t port,
                   uint32_t value)
 {
-    guest_copy(value, instance->area + module->layout.ports[port], module->ports[port].size);
+    guest_copy(value, instance->area + area_port(module, port), port_size(&module->ports[port]));
 }
 
 void instance_zero(const struct instance *instance, const struct module *module, uint32_t port)
 {
-    const uint32_t size = module->ports[port].size;
-    bytes_zero(guest_bytes(instance->area + module->layout.ports[port], size), size);
+    const uint32_t size = port_size(&module->ports[port]);
+    bytes_zero(guest_bytes(instance->area + area_port(module, port), size), size);
 }
 
 /* The area's place in the task window during a call: its end. */
 static uint32_t window_of(const struct module *module)
 {
     const struct guest_region *window = guest_memory_region(REGION_WINDOW);
-    return window->base + window->size - module->layout.size;
+    return window->base + window->size - module->area_size;
 }
 
 static void fill_fault(struct call_result *result, const char *label, enum method method)
@@ -77,7 +77,7 @@ void instance_call(const struct instance *instance, const struct module *module,
 {
     const uint32_t entry = module->methods[method];
     const uint32_t window = window_of(module);
-    const uint32_t body = module->layout.size - ABI_CONTEXT_SIZE;
+    const uint32_t body = module->area_size - ABI_CONTEXT_SIZE;
     const uint64_t start = kernel_now_us();
     char label_buffer[64];
     struct text label;

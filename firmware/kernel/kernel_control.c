@@ -174,9 +174,10 @@ int kernel_disconnect(const char *source, const char *sink)
     struct pbo *from = kernel_find_port(source, &out);
     struct pbo *to = from != 0 ? kernel_find_port(sink, &in) : 0;
     struct text why = kernel_message_text();
+    uint32_t bound;
 
     if (to != 0 && to->module.ports[in].direction == DIRECTION_IN &&
-        to->source_pbo[in] == kernel_slot_of(from) && to->source_port[in] == out) {
+        pbo_source(to, in, &bound) == from && bound == out) {
         return svt_disconnect(to, in, &why) == 0 ? KERNEL_OK : KERNEL_ERR_REFUSED;
     }
     return kernel_refuse(KERNEL_ERR_REFUSED, "input %q is not connected to %q", sink, source);
@@ -212,8 +213,8 @@ void kernel_reset(uint32_t *switched_off, uint32_t *wires)
             (*switched_off)++;
         }
         for (uint32_t port = 0; kernel_admitted(pbo) && port < ABI_MAX_PORTS; port++) {
-            *wires += pbo->source_pbo[port] != UNBOUND ? 1u : 0u;
-            pbo->source_pbo[port] = UNBOUND;
+            *wires += pbo->sources[port] != UNBOUND ? 1u : 0u;
+            pbo->sources[port] = UNBOUND;
         }
     }
     kernel_account_power(); /* what was drawn until now stays drawn */

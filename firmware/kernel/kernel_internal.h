@@ -22,10 +22,10 @@
 
 struct kernel_state {
     struct kernel_config config;
+    uint32_t serials; /* here, not after the flags: fills the gap before the 8-aligned PBOs */
     struct pbo pbos[KERNEL_MAX_PBOS];
     uint32_t draws_uw[KERNEL_MAX_PBOS]; /* each ON PBO's accepted power draw */
     bool draw_refused[KERNEL_MAX_PBOS]; /* its latest draw report was negative: noted once */
-    uint32_t serials;
     uint64_t epoch_us; /* the board's time when the kernel's clock (re)started */
     struct timekeeping keeping;
     struct power power;

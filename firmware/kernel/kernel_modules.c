@@ -18,24 +18,13 @@ static struct pbo *free_slot(void)
     return 0;
 }
 
-static bool stored(uint8_t direction)
-{
-    return direction != DIRECTION_IN;
-}
-
 /* One SRAM block for the PBO's variables and constants (pbo.h). */
 static bool allocate_store(struct pbo *pbo, struct text *why)
 {
-    uint32_t size = 0;
+    const uint32_t size = area_packed(&pbo->module, pbo->module.port_count, STORED);
     char owner[48];
     struct text label;
 
-    for (uint32_t port = 0; port < pbo->module.port_count; port++) {
-        pbo->store_offsets[port] = size;
-        if (stored(pbo->module.ports[port].direction)) {
-            size += (uint32_t)area_align(pbo->module.ports[port].size);
-        }
-    }
     pbo->store = 0;
     if (size == 0) {
         return true;
@@ -124,7 +113,7 @@ static void admit(struct pbo *pbo, uint32_t millihertz)
     performance_clear(&pbo->performance);
     pbo->logged = 0;
     for (uint32_t port = 0; port < ABI_MAX_PORTS; port++) {
-        pbo->source_pbo[port] = UNBOUND;
+        pbo->sources[port] = UNBOUND;
     }
     kernel.draws_uw[slot] = 0;
     kernel.draw_refused[slot] = false;

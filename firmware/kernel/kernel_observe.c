@@ -91,17 +91,17 @@ bool kernel_wire_at(const char *name, uint32_t n, char *source, char *sink)
     for (uint32_t rank = 0; kernel_at_rank(rank) != 0; rank++) {
         const struct pbo *pbo = kernel_at_rank(rank);
         for (uint32_t port = 0; port < pbo->module.port_count; port++) {
-            const struct pbo *from;
-            if (pbo->source_pbo[port] == UNBOUND) {
+            uint32_t out;
+            const struct pbo *from = pbo_source(pbo, port, &out);
+            if (from == 0) {
                 continue;
             }
-            from = &kernel.pbos[pbo->source_pbo[port]];
             if (name != 0 && !text_equal(name, pbo->module.name) &&
                 !text_equal(name, from->module.name)) {
                 continue;
             }
             if (n-- == 0) {
-                port_text(source, from, pbo->source_port[port]);
+                port_text(source, from, out);
                 port_text(sink, pbo, port);
                 return true;
             }
@@ -159,14 +159,7 @@ bool kernel_performance_at(uint32_t index, uint32_t n, uint8_t *kind, uint32_t *
                            int32_t *value_milli)
 {
     const struct pbo *pbo = kernel_at_rank(index);
-    const struct performance_value *value =
-        pbo != 0 && pbo->state == STATE_ON ? performance_ranked(&pbo->performance, n) : 0;
 
-    if (value == 0) {
-        return false;
-    }
-    *kind = value->kind;
-    *value_index = value->index;
-    *value_milli = value->value_milli;
-    return true;
+    return pbo != 0 && pbo->state == STATE_ON &&
+           performance_ranked(&pbo->performance, n, kind, value_index, value_milli);
 }

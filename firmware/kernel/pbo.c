@@ -1,13 +1,33 @@
 /* pbo.c - one PBO's lifecycle calls and its job (see pbo.h). */
 #include "pbo.h"
 
+#include "area.h"
 #include "guest_memory.h"
 #include "kernel_internal.h"
 #include "module_log.h"
 
 uint32_t pbo_stored(const struct pbo *pbo, uint32_t port)
 {
-    return pbo->store + pbo->store_offsets[port];
+    return pbo->store + area_packed(&pbo->module, port, STORED);
+}
+
+/* A binding is one byte, the source's slot and its OUT port: slot x ABI_MAX_PORTS + port. */
+_Static_assert(KERNEL_MAX_PBOS * ABI_MAX_PORTS <= UNBOUND, "a binding fits a byte");
+
+struct pbo *pbo_source(const struct pbo *pbo, uint32_t port, uint32_t *out)
+{
+    const uint8_t source = pbo->sources[port];
+
+    if (source == UNBOUND) {
+        return 0;
+    }
+    *out = source % ABI_MAX_PORTS;
+    return kernel_slot(source / ABI_MAX_PORTS);
+}
+
+void pbo_bind(struct pbo *pbo, uint32_t port, const struct pbo *source, uint32_t out)
+{
+    pbo->sources[port] = (uint8_t)(kernel_slot_of(source) * ABI_MAX_PORTS + out);
 }
 
 static void call(struct pbo *pbo, enum method method, struct call_result *result)
@@ -150,15 +170,16 @@ int32_t pbo_control(struct pbo *pbo, enum method method, struct text *why)
 static void put_inputs(struct pbo *pbo)
 {
     for (uint32_t port = 0; port < pbo->module.port_count; port++) {
+        uint32_t out;
+        const struct pbo *source;
         if (pbo->module.ports[port].direction != DIRECTION_IN) {
             continue;
         }
-        if (pbo->source_pbo[port] == UNBOUND) {
+        source = pbo_source(pbo, port, &out);
+        if (source == 0) {
             instance_zero(&pbo->executor, &pbo->module, port);
         } else {
-            const struct pbo *source = kernel_slot(pbo->source_pbo[port]);
-            instance_put(&pbo->executor, &pbo->module, port,
-                         pbo_stored(source, pbo->source_port[port]));
+            instance_put(&pbo->executor, &pbo->module, port, pbo_stored(source, out));
         }
     }
 }

@@ -12,6 +12,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "area.h"
 #include "instance.h"
 #include "lifecycle.h"
 #include "module.h"
@@ -22,24 +23,29 @@
 
 #define UNBOUND 0xFFu
 
+/* The ports whose buffers a PBO's store holds. */
+#define STORED (DIRECTIONS(DIRECTION_OUT) | DIRECTIONS(DIRECTION_CONST) | \
+                DIRECTIONS(DIRECTION_RESOURCE))
+
+/* The byte and 32-bit fields first, then the 8-byte aligned job and counters, ordered so that
+ * hardly any padding comes between fields: the kernel's table holds KERNEL_MAX_PBOS of these. */
 struct pbo {
     bool used;
-    bool pending; /* registered by its module, not yet admitted to the kernel (kernel.h) */
+    bool pending;  /* registered by its module, not yet admitted to the kernel (kernel.h) */
+    uint8_t state; /* enum pbo_state */
     uint32_t serial; /* registration order: listings, ties between jobs, its log lines */
+    uint32_t logged; /* lines its module logged: the number of the latest */
     struct module module;
-    enum pbo_state state;
     struct instance executor;
     /* One SRAM block holding a buffer for each OUT port (its variable in the state-variable
      * table) and each CONST and RESOURCE port (its configured value), so that both outlive
-     * the executor, as in the Python kernel. 0 when the module has no such port. */
+     * the executor, as in the Python kernel; laid out as area_packed(STORED) says. 0 when the
+     * module has no such port. */
     uint32_t store;
-    uint32_t store_offsets[ABI_MAX_PORTS];
-    uint8_t source_pbo[ABI_MAX_PORTS];  /* an IN port's variable: the PBO's slot, or UNBOUND */
-    uint8_t source_port[ABI_MAX_PORTS]; /* and its OUT port */
+    uint8_t sources[ABI_MAX_PORTS]; /* an IN port's variable (pbo_source), or UNBOUND */
     struct job job;
     struct counters counters;
     struct performance performance;
-    uint32_t logged; /* lines its module logged: the number of the latest */
 };
 
 /* A failed lifecycle call (init, on, off, kill, clear) asked for by the caller, after the state
@@ -56,5 +62,10 @@ void pbo_complete(struct pbo *pbo);
 
 /* The guest address of a port's buffer in the store (OUT, CONST, RESOURCE ports). */
 uint32_t pbo_stored(const struct pbo *pbo, uint32_t port);
+
+/* The PBO whose OUT port `*out` input `port` is bound to, or NULL when it is unbound. */
+struct pbo *pbo_source(const struct pbo *pbo, uint32_t port, uint32_t *out);
+/* Bind input `port` to OUT port `out` of `source`. */
+void pbo_bind(struct pbo *pbo, uint32_t port, const struct pbo *source, uint32_t out);
 
 #endif /* KERNEL_PBO_H */

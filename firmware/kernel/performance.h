@@ -11,28 +11,32 @@
 
 #include "config.h"
 
+/* No time of the report: nothing a node answers says when a value came. */
 struct performance_value {
-    uint64_t time_us;    /* the kernel's time of the report */
     uint32_t index;      /* which value of its kind */
     int32_t value_milli; /* thousandths of its unit (a power of 1.25 mW is 1250) */
-    uint8_t kind;        /* enum performance_kind */
 };
 
 struct performance {
-    uint32_t count;   /* values in use, in the order their (kind, index) first came */
-    uint32_t dropped; /* reports of a new (kind, index) once all PERFORMANCE_VALUES were used */
     struct performance_value values[PERFORMANCE_VALUES];
+    uint32_t dropped; /* reports of a new (kind, index) once all PERFORMANCE_VALUES were used */
+    uint8_t count;    /* values in use, in the order their (kind, index) first came */
+    /* Bit i: values[i] is PERFORMANCE_NON_FUNCTIONAL, else PERFORMANCE_FUNCTIONAL, the ABI's
+     * only kinds (PERF_REPORT refuses others): a bit each instead of a padded byte. */
+    uint8_t non_functional;
 };
 
 void performance_clear(struct performance *performance);
-void performance_file(struct performance *performance, uint64_t time_us, uint8_t kind,
-                      uint32_t index, int32_t value_milli);
+/* `kind` is an enum performance_kind. */
+void performance_file(struct performance *performance, uint8_t kind, uint32_t index,
+                      int32_t value_milli);
 /* The latest value of (kind, index), or NULL when none was filed. */
 const struct performance_value *performance_latest(const struct performance *performance,
                                                    uint8_t kind, uint32_t index);
 
-/* The n-th value in (kind, index) order, the order a report lists them in; NULL past the last. */
-const struct performance_value *performance_ranked(const struct performance *performance,
-                                                   uint32_t n);
+/* The n-th value in (kind, index) order, the order a report lists them in; false past the
+ * last. */
+bool performance_ranked(const struct performance *performance, uint32_t n, uint8_t *kind,
+                        uint32_t *index, int32_t *value_milli);
 
 #endif /* KERNEL_PERFORMANCE_H */

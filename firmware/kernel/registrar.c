@@ -9,12 +9,15 @@
 #include "services.h"
 #include "sram.h"
 
+/* The caller's `why` holds the outcome while the subroutine runs, after the image and the
+ * subroutine it names: no buffer of the registrar's own for a REGISTER's refusal. */
 static struct {
     struct module *module; /* filled by an accepted REGISTER */
+    struct text *why;      /* the caller's, its outcome after `named` characters */
+    uint32_t named;
     bool registered;
     bool replacing;
     int32_t status; /* of the last REGISTER */
-    char refusal[FAILURE_TEXT];
 } run;
 
 static bool taken(const char *name)
@@ -27,6 +30,13 @@ static const char *status_name(int32_t status)
     static const char *const names[] = {"OK", "ERR_INVALID", "ERR_ABI", "ERR_NO_MEMORY",
                                         "ERR_EXISTS"};
     return names[-status];
+}
+
+/* `why` emptied back to the image and subroutine, to say the outcome after them. */
+static struct text *outcome(void)
+{
+    text_cut(run.why, run.named);
+    return run.why;
 }
 
 static int32_t accept(uint32_t address, struct text *why)
@@ -52,7 +62,6 @@ int32_t registrar_register(uint32_t descriptor)
 {
     char reason[FAILURE_TEXT];
     struct text why;
-    struct text refusal;
 
     text_start(&why, reason, sizeof reason);
     run.status = accept(descriptor, &why);
@@ -60,8 +69,7 @@ int32_t registrar_register(uint32_t descriptor)
         run.registered = true;
         return STATUS_OK;
     }
-    text_start(&refusal, run.refusal, sizeof run.refusal);
-    text_format(&refusal, "REGISTER refused (%s): %s", status_name(run.status), reason);
+    text_format(outcome(), "REGISTER refused (%s): %s", status_name(run.status), reason);
     return run.status;
 }
 
@@ -69,7 +77,8 @@ int32_t registrar_run(uint32_t base, uint32_t size, uint32_t init, bool replacin
                       struct module *module, struct text *why)
 {
     const struct call_scope scope = {0, 0, 0, 0, 0};
-    struct call_outcome outcome;
+    const uint32_t start = why->length;
+    struct call_outcome called;
 
     if (size == 0 || !guest_readable(base, size)) {
         /* the loader's bug, not the module's: no descriptor can be read there */
@@ -83,14 +92,20 @@ int32_t registrar_run(uint32_t base, uint32_t size, uint32_t init, bool replacin
     run.registered = false;
     run.replacing = replacing;
     run.status = STATUS_ERR_INVALID;
-    text_copy(run.refusal, "returned without calling REGISTER", sizeof run.refusal);
+    text_format(why, "module image at %a, init subroutine at %a: ", base, init);
+    run.why = why;
+    run.named = why->length;
+    text_add(why, "returned without calling REGISTER");
     services_enter(&scope);
-    outcome = module_call(init, 0);
+    called = module_call(init, 0);
     services_leave();
-    if (!outcome.faulted && run.registered) {
+    if (called.faulted) {
+        text_add(outcome(), services_fault());
+        return STATUS_ERR_INVALID;
+    }
+    if (run.registered) {
+        text_cut(why, start);
         return STATUS_OK;
     }
-    text_format(why, "module image at %a, init subroutine at %a: %s", base, init,
-                outcome.faulted ? services_fault() : run.refusal);
-    return outcome.faulted ? STATUS_ERR_INVALID : run.status;
+    return run.status;
 }

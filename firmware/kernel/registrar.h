@@ -24,7 +24,8 @@ int32_t registrar_register(uint32_t descriptor);
  * module it registers in `module`. `replacing`: a name already registered is free (the new
  * module will replace that PBO), as when a host sends a new version; otherwise (at boot) every
  * name is taken. Returns STATUS_OK, REGISTER's refusal, or STATUS_ERR_INVALID when the
- * subroutine faulted or returned without registering; `why` says which.
+ * subroutine faulted or returned without registering; `why` says which. It holds the outcome
+ * so far while the subroutine runs, and is as it was when the module registered.
  */
 int32_t registrar_run(uint32_t base, uint32_t size, uint32_t init, bool replacing,
                       struct module *module, struct text *why);

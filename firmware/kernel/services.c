@@ -3,6 +3,7 @@
 
 #include <stdarg.h>
 
+#include "area.h"
 #include "guest_memory.h"
 #include "kernel.h"
 #include "kernel_internal.h"
@@ -90,7 +91,7 @@ static bool check_port(uint32_t context, uint32_t port, const char *service)
         return true;
     }
     fault("%s: expected a port index below %u, got %u", service,
-          current.scope.module->port_count, port);
+          (uint32_t)current.scope.module->port_count, port);
     return false;
 }
 
@@ -111,12 +112,12 @@ static void refuse_buffer(const char *service, uint32_t port, const char *end, u
 
 static uint32_t window_port(uint32_t port)
 {
-    return current.scope.window + current.scope.module->layout.ports[port];
+    return current.scope.window + area_port(current.scope.module, port);
 }
 
-static uint32_t port_size(uint32_t port)
+static uint32_t buffer_size(uint32_t port)
 {
-    return current.scope.module->ports[port].size;
+    return port_size(&current.scope.module->ports[port]);
 }
 
 static int32_t port_read(uint32_t context, uint32_t port, uint32_t destination, uint32_t length)
@@ -126,7 +127,7 @@ static int32_t port_read(uint32_t context, uint32_t port, uint32_t destination, 
     if (!check_port(context, port, "PORT_READ")) {
         return 0;
     }
-    count = length < port_size(port) ? length : port_size(port);
+    count = length < buffer_size(port) ? length : buffer_size(port);
     /* the kernel's copy is not bound by the guest's permissions: it must not write where the
      * module itself could not (flash, another module's SRAM) */
     if (count != 0 && !guest_writable(destination, count)) {
@@ -153,7 +154,7 @@ static int32_t port_write(uint32_t context, uint32_t port, uint32_t source, uint
                      port, current.scope.module->ports[port].name,
                      direction == DIRECTION_IN ? "IN" : "CONST");
     }
-    count = length < port_size(port) ? length : port_size(port);
+    count = length < buffer_size(port) ? length : buffer_size(port);
     if (count != 0 && !guest_readable(source, count)) {
         refuse_buffer("PORT_WRITE", port, " from its source", source, count,
                       "inside guest-readable memory");
@@ -172,8 +173,7 @@ static int32_t perf_report(uint32_t context, uint32_t kind, uint32_t index, uint
         return fault("PERF_REPORT: expected kind 0 (functional) or 1 (non-functional), got %u",
                      kind);
     }
-    performance_file(current.scope.performance, kernel_now_us(), (uint8_t)kind, index,
-                     (int32_t)value);
+    performance_file(current.scope.performance, (uint8_t)kind, index, (int32_t)value);
     return 0;
 }
 

@@ -42,11 +42,12 @@ int32_t svt_connect(struct pbo *source, uint32_t source_port, struct pbo *sink,
 {
     const struct port_spec *out = &source->module.ports[source_port];
     const struct port_spec *into = &sink->module.ports[sink_port];
+    uint32_t bound;
+    const struct pbo *connected = pbo_source(sink, sink_port, &bound);
 
-    if (sink->source_pbo[sink_port] != UNBOUND) {
+    if (connected != 0) {
         add_ports(why, "input '%s.%s' is already connected to '%s.%s'; disconnect it first", sink,
-                  sink_port, kernel_slot(sink->source_pbo[sink_port]),
-                  sink->source_port[sink_port]);
+                  sink_port, connected, bound);
         return -1;
     }
     if (out->element_size != into->element_size || elements(out) != elements(into)) {
@@ -57,30 +58,29 @@ int32_t svt_connect(struct pbo *source, uint32_t source_port, struct pbo *sink,
         text_add(why, "): expected the same element type and element count");
         return -1;
     }
-    sink->source_pbo[sink_port] = (uint8_t)kernel_slot_of(source);
-    sink->source_port[sink_port] = (uint8_t)source_port;
+    pbo_bind(sink, sink_port, source, source_port);
     return 0;
 }
 
 int32_t svt_disconnect(struct pbo *sink, uint32_t sink_port, struct text *why)
 {
-    if (sink->source_pbo[sink_port] == UNBOUND) {
+    if (sink->sources[sink_port] == UNBOUND) {
         text_format(why, "input '%s.%s' is not connected", sink->module.name,
                     sink->module.ports[sink_port].name);
         return -1;
     }
-    sink->source_pbo[sink_port] = UNBOUND;
+    sink->sources[sink_port] = UNBOUND;
     return 0;
 }
 
 void svt_forget(const struct pbo *source)
 {
-    const uint32_t slot = kernel_slot_of(source);
     for (uint32_t i = 0; i < KERNEL_MAX_PBOS; i++) {
         struct pbo *pbo = kernel_slot(i);
         for (uint32_t port = 0; pbo->used && port < ABI_MAX_PORTS; port++) {
-            if (pbo->source_pbo[port] == slot) {
-                pbo->source_pbo[port] = UNBOUND;
+            uint32_t out;
+            if (pbo_source(pbo, port, &out) == source) {
+                pbo->sources[port] = UNBOUND;
             }
         }
     }
@@ -88,11 +88,12 @@ void svt_forget(const struct pbo *source)
 
 uint32_t svt_value(const struct pbo *pbo, uint32_t port)
 {
+    uint32_t out;
+    const struct pbo *source;
+
     if (pbo->module.ports[port].direction != DIRECTION_IN) {
         return pbo_stored(pbo, port);
     }
-    if (pbo->source_pbo[port] == UNBOUND) {
-        return 0;
-    }
-    return pbo_stored(kernel_slot(pbo->source_pbo[port]), pbo->source_port[port]);
+    source = pbo_source(pbo, port, &out);
+    return source != 0 ? pbo_stored(source, out) : 0;
 }

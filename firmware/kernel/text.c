@@ -17,6 +17,14 @@ void text_add_bytes(struct text *text, const char *bytes, uint32_t length)
     text->buffer[text->length] = '\0';
 }
 
+void text_cut(struct text *text, uint32_t length)
+{
+    if (length < text->length) {
+        text->length = length;
+        text->buffer[length] = '\0';
+    }
+}
+
 void text_add(struct text *text, const char *string)
 {
     text_add_bytes(text, string, text_length(string, UINT32_MAX));

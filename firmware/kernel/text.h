@@ -23,6 +23,8 @@ struct text {
 void text_start(struct text *text, char *buffer, uint32_t capacity);
 void text_add(struct text *text, const char *string);
 void text_add_bytes(struct text *text, const char *bytes, uint32_t length);
+/* Back to its first `length` characters, a length it had: what came after is taken back. */
+void text_cut(struct text *text, uint32_t length);
 /* A name as Python's repr quotes an identifier: 'gain'. */
 void text_add_quoted(struct text *text, const char *name);
 void text_add_unsigned(struct text *text, uint64_t value);

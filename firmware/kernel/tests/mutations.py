@@ -26,7 +26,7 @@ MUTATIONS = [
     ),
     (
         "pbo.c",
-        "if (pbo->source_pbo[port] == UNBOUND) {\n            instance_zero",
+        "if (source == 0) {\n            instance_zero",
         "if (1) {\n            instance_zero",
         "through_the_table",
     ),
@@ -57,8 +57,8 @@ MUTATIONS = [
     ),
     (
         "descriptor.c",
-        "if (module->port_count > ABI_MAX_PORTS) {",
-        "if (module->port_count > 0xFFFF) {",
+        "if (port_count > ABI_MAX_PORTS) {",
+        "if (port_count > 0xFFFF) {",
         "fuzzed",
     ),
     ("descriptor.c", "if (c >= 0x80) {", "if (c >= 0xFF) {", "fuzzed"),
