@@ -43,11 +43,33 @@ def summary(application: Application, outcome: Outcome) -> dict[str, Any]:
             _reconfiguration(application, outcome, record) for record in outcome.reconfigurations
         ],
     }
+    lost = _real_time_lost(outcome)
+    if lost is not None:
+        figures["real_time_lost"] = lost
     figure = application.figure
     if figure is not None:
         values = [abs(sample[figure.field]) for sample in outcome.samples]
         figures["worst"] = {figure.field: max(values, default=None), "limit": figure.limit}
     return figures
+
+
+def _real_time_lost(outcome: Outcome) -> dict[str, Any] | None:
+    """How long a real-time run's measurements went unjudged for want of real time: each
+    stretch from "real time lost" to "held again", and one still open when the run ended (to
+    its duration, or its stop). A fault that struck then may have gone undetected: the summary
+    says so rather than show a run that merely did not repair. None when real time held."""
+    seconds, stretches, since = 0.0, 0, None
+    for event in outcome.log:
+        if event.kind == "real_time_lost" and since is None:
+            since, stretches = event.time, stretches + 1
+        elif event.kind == "real_time_held" and since is not None:
+            seconds, since = seconds + event.time - since, None
+    if stretches == 0:
+        return None
+    end = outcome.stopped_at if outcome.stopped_at is not None else outcome.scenario.duration
+    if since is not None:
+        seconds += max(0.0, end - since)
+    return {"seconds": seconds, "stretches": stretches, "at_the_end": since is not None}
 
 
 def _reconfiguration(
@@ -169,6 +191,16 @@ def table(figures: dict[str, Any]) -> str:
                     f"{r['applied_at']:.3f} s",
                 )
             )
+    lost = figures.get("real_time_lost")
+    if lost is not None:
+        until = ", until the run ended" if lost["at_the_end"] else ""
+        rows.append(
+            (
+                "real time lost",
+                f"{lost['seconds']:.3f} s in {lost['stretches']} stretch(es){until}: "
+                "measurements then not judged (a fault may have gone undetected)",
+            )
+        )
     if figures["stopped_at"] is not None:
         rows.append(("task stopped", f"{figures['stopped_at']:.3f} s: no repair"))
     rows.append(("final configuration", figures["final"] or "(stopped)"))

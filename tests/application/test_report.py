@@ -1,9 +1,16 @@
 """The summary table: the worst value of the figure's field is read by its keys, so a summary
-read back from JSON whose keys come in another order prints the same line."""
+read back from JSON whose keys come in another order prints the same line; the time a real-time
+run lost is summed from its events and said."""
 
 from __future__ import annotations
 
-from application.report import table
+from pathlib import Path
+
+from application.declaration import Application
+from application.records import Outcome
+from application.report import summary, table
+from application.scenario import Scenario
+from refresh.events import EventLog
 
 SUMMARY = {
     "scenario": "calm",
@@ -29,3 +36,39 @@ def test_the_worst_value_is_read_by_its_keys_in_any_order():
 def test_a_run_without_samples_has_no_worst_value():
     shown = table({**SUMMARY, "worst": {"limit": 5, "level": None}})
     assert last_row(shown) == "worst level no sample (the task allows 5)"
+
+
+def lost_and_held(times: list[tuple[str, float]], duration: float = 10.0) -> dict:
+    """The summary of a run whose log holds these real-time events, at these times."""
+    clock = iter([time for _, time in times])
+    log = EventLog(clock=lambda: next(clock), start=0.0)
+    for kind, _ in times:
+        log.record(kind, kind.replace("_", " "))
+    scenario = Scenario("s", "a scenario", "nothing", duration=duration)
+    application = Application("app", "An application.", Path("db.toml"), (scenario,), "s")
+    return summary(application, Outcome(scenario, configurations=[(0.0, "{A}")], log=log))
+
+
+def test_real_time_lost_is_summed_over_its_stretches_and_to_the_run_s_end():
+    """A loss recorded for two places at once is one stretch; one still open at the end counts
+    to the run's end, and the table says a fault may have gone undetected."""
+    figures = lost_and_held(
+        [
+            ("real_time_lost", 1.0),
+            ("real_time_lost", 1.0),
+            ("real_time_held", 1.5),
+            ("real_time_lost", 9.0),
+        ]
+    )
+    assert figures["real_time_lost"] == {"seconds": 1.5, "stretches": 2, "at_the_end": True}
+    assert (
+        "real time lost 1.500 s in 2 stretch(es), until the run ended: measurements then not "
+        "judged (a fault may have gone undetected)"
+        in [" ".join(row.split()) for row in table(figures).splitlines()]
+    )
+
+
+def test_a_run_that_held_real_time_says_nothing_of_it():
+    figures = lost_and_held([])
+    assert "real_time_lost" not in figures
+    assert "real time lost" not in table(figures)
