@@ -45,7 +45,9 @@ static void field_name(const struct request *r, int field, char *name)
     name_copy(name, r->message->text[field], (length < NAME_MAX ? length : NAME_MAX) + 1);
 }
 
-static bool refuse(const struct request *r, const char *reason)
+/* Apart from the handlers (never inlined), so that its text is on the stack only while it
+ * writes, not while the kernel runs a module's method for the request. */
+__attribute__((noinline)) static bool refuse(const struct request *r, const char *reason)
 {
     char text[MAX_REFUSAL + 56];
     struct phrase why;

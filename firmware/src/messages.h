@@ -20,7 +20,6 @@
 #include "phrase.h"
 
 #define MESSAGE_MAX_FIELDS 6
-#define REPLY_MAX 640
 #define ANSWER_MAX 1024 /* a control answer's line: up to 800 characters of text (LOGLINES) */
 
 /* The one buffer the long lines are written in, a control answer's or a watch's push: the node
@@ -71,7 +70,7 @@ bool message_decode(const char *raw, size_t length, struct message *message, str
 bool verb_is_request(enum verb verb);
 const char *verb_word(enum verb verb);
 
-/* Answers, ` *XX` and the line end included, in `line` (REPLY_MAX bytes). */
+/* Answers, ` *XX` and the line end included, in `line` (answer_line). */
 void reply_ack(struct phrase *line, uint32_t tid, uint32_t value, const char *text);
 void reply_nak(struct phrase *line, uint32_t tid, uint32_t value, bool fatal, const char *reason);
 void reply_pong(struct phrase *line, const char *text);

@@ -16,7 +16,7 @@
 /* Forget any challenge (a restart). */
 void session_reset(void);
 
-/* The answer line (messages.h's writers) to each request, in `reply` (REPLY_MAX bytes). */
+/* The answer line (messages.h's writers) to each request, in `reply` (answer_line). */
 void session_challenge(uint32_t tid, struct phrase *reply);
 void session_authenticate(uint32_t tid, struct phrase *reply);
 void session_end(uint32_t tid, struct phrase *reply);
