@@ -216,6 +216,12 @@ class ApplierBase(ABC):
         """The lines the robots' modules logged since the last call, oldest first per PBO."""
         return []
 
+    def stopped_bridges(self) -> list[str]:
+        """What stopped carrying a bridge's values since the last call, one sentence each: the
+        manager's own relays (a node that cannot export, `refresh.remote.relay`); none for
+        bridges the nodes carry themselves."""
+        return []
+
     def _unseen(self, robot: str, pbo: str, latest: int) -> int | None:
         """After which line to read PBO `pbo`'s log on `robot`, whose latest line is `latest`:
         None when nothing is new. A PBO met for the first time starts from its latest line

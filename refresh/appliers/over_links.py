@@ -113,6 +113,8 @@ class LinkApplier(ApplierBase):
         self.relays: dict[int, HostRelay] = {}
         """The bridges the manager carries itself (their source node refused EXPORT), by
         number."""
+        self.relays_said: set[HostRelay] = set()
+        """The relays `stopped_bridges` said had stopped."""
 
     @classmethod
     def open(cls, urls: Mapping[str, str], **options: object) -> LinkApplier:
@@ -426,6 +428,19 @@ class LinkApplier(ApplierBase):
             return HostRelay(bridge.number, exporter, bridge.source, found, url, period)
         except CARRY_ERRORS as error:
             raise ApplyError(f"{refused}; relaying it instead: {error}") from error
+
+    def stopped_bridges(self) -> list[str]:
+        """The relays that stopped since the last call (each said once): the bridge goes on
+        carrying nothing, so its importer's input keeps its last value."""
+        said: list[str] = []
+        for number, relay in self.relays.items():
+            if relay.stuck is not None and relay not in self.relays_said:
+                self.relays_said.add(relay)
+                said.append(
+                    f"bridge{number} from {relay.source} on {relay.node.robot}, relayed by the "
+                    f"manager, stopped after {relay.sent} value(s): {relay.stuck}"
+                )
+        return said
 
     def host(self, robot: str) -> str:
         """The host `robot`'s node listens on for a bridge: given in `hosts`, else the one its

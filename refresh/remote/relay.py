@@ -13,8 +13,9 @@ What it costs: a READ round trip on the source node's link per value (about 1 ms
 node's pty), and the value's age grows by that round trip and the manager's scheduling. It
 carries scalar ports (a READ answers a number); in real time only (a lock-step master counts the
 values a node exports, and the relay is no node). A source node that stops answering, or an
-importer that stops taking values, stops the relay (`stuck` says why); the manager's outage
-handling sees the node's silence on its own.
+importer that stops taking values, stops the relay (`stuck` says why, and the run's log says it
+once: `LinkApplier.stopped_bridges`, a ``bridge_stopped`` event); the manager's outage handling
+sees the node's silence on its own.
 """
 
 from __future__ import annotations

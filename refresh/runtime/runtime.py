@@ -174,6 +174,8 @@ class Runtime:
         the Decider's detection, if it declared one."""
         lost = self._watch_nodes()
         self._record_module_logs()
+        for why in self.applier.stopped_bridges():
+            self.log.record("bridge_stopped", why)
         slipping = self._watch_real_time()
         if self.current is None:
             return None

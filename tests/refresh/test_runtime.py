@@ -209,6 +209,26 @@ class UnreachableSensorApplier(NodeApplier):
         super().stop(robot, instance)
 
 
+class StoppedBridgeApplier(NodeApplier):
+    """A node applier one of whose bridges stopped, as a relay of the manager's does."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.to_say = ["bridge3 from Sensor.line on mars, relayed by the manager, stopped: x"]
+
+    def stopped_bridges(self) -> list[str]:
+        said, self.to_say = self.to_say, []
+        return said
+
+
+def test_a_bridge_that_stopped_is_an_event_of_the_run():
+    with rover(FAULT_AT, applier_class=StoppedBridgeApplier) as (runtime, node):
+        runtime.deploy()
+        runtime.run(1.0, advance(node))
+    (stopped,) = runtime.log.of_kind("bridge_stopped")
+    assert stopped.message.startswith("bridge3 from Sensor.line on mars, relayed by the manager")
+
+
 def test_a_module_that_cannot_be_stopped_does_not_keep_the_others_running():
     with rover(FAULT_AT, alt_broken=True, applier_class=UnreachableSensorApplier) as (
         runtime,

@@ -13,6 +13,7 @@ import pytest
 
 from firmware_sim.bridge.linked_halves import LinkedImport
 from pbort.ports import PortKind, PortSpec
+from refresh.appliers.over_links import LinkApplier
 from refresh.errors import ApplyError, NodeLinkError
 from refresh.remote.relay import HostRelay
 
@@ -84,6 +85,26 @@ def test_a_value_no_int32_holds_stops_the_relay_not_the_manager(importer):
         assert node.values == [7]  # nothing read after the hostile value
     finally:
         relay.close()
+
+
+def test_a_relay_that_stopped_is_said_once_by_its_applier(importer):
+    """The manager's run log says it (`Runtime.step` records each sentence as an event): the
+    bridge's importer would otherwise hold its last value without a word."""
+    applier = LinkApplier({})
+    node = FakeSource([500, 2**40])
+    applier.relays[3] = HostRelay(
+        3, node, "backup_gauge.mm", PortSpec.output("mm"), importer.url, 0.01
+    )
+    try:
+        assert stopped(applier.relays[3])
+        (said,) = applier.stopped_bridges()
+        assert said.startswith(
+            "bridge3 from backup_gauge.mm on b, relayed by the manager, stopped after 1 value(s): "
+        )
+        assert "out of bounds for int32" in said
+        assert applier.stopped_bridges() == []
+    finally:
+        applier.close()
 
 
 def test_a_source_port_that_is_not_a_scalar_is_refused_by_name(importer):
