@@ -9,12 +9,28 @@
 /* What a sector is to the allocator. RETIRED: it held a module whose code ran, and this board
  * does not program code over code it ran before the node restarts (board_code_reusable). */
 enum { FREE, TAKEN, RETIRED };
+#define STATE_BITS 2u /* a sector's state, FREE to RETIRED */
+#define STATES_A_BYTE (8u / STATE_BITS)
+#define STATE_MASK ((1u << STATE_BITS) - 1u)
 
 static struct {
     uint32_t base, size, sector, sectors, module_sectors, scratch;
     bool reusable; /* board_code_reusable(): a retired sector is free again at once */
-    uint8_t used[MAX_SECTORS];
+    uint8_t used[MAX_SECTORS / STATES_A_BYTE]; /* each sector's state, packed */
 } layout;
+
+static unsigned state_of(uint32_t sector)
+{
+    unsigned shift = sector % STATES_A_BYTE * STATE_BITS;
+    return layout.used[sector / STATES_A_BYTE] >> shift & STATE_MASK;
+}
+
+static void set_state(uint32_t sector, unsigned state)
+{
+    uint8_t *byte = &layout.used[sector / STATES_A_BYTE];
+    unsigned shift = sector % STATES_A_BYTE * STATE_BITS;
+    *byte = (uint8_t)((*byte & ~(STATE_MASK << shift)) | state << shift);
+}
 
 bool flash_layout_init(void)
 {
@@ -33,7 +49,7 @@ bool flash_layout_init(void)
     layout.module_sectors = layout.scratch;
     layout.reusable = board_code_reusable();
     for (uint32_t i = 0; i < MAX_SECTORS; i++) {
-        layout.used[i] = i >= layout.module_sectors ? TAKEN : FREE;
+        set_state(i, i >= layout.module_sectors ? TAKEN : FREE);
     }
     return true;
 }
@@ -70,16 +86,16 @@ uint32_t flash_sectors_for(uint32_t bytes)
 static uint32_t run_at(uint32_t first)
 {
     uint32_t end = first;
-    while (end < layout.module_sectors && layout.used[end] == FREE) {
+    while (end < layout.module_sectors && state_of(end) == FREE) {
         end++;
     }
     return end - first;
 }
 
-static void mark(const struct extent *extent, uint8_t used)
+static void mark(const struct extent *extent, unsigned state)
 {
     for (uint32_t i = 0; i < extent->count; i++) {
-        layout.used[extent->first + i] = used;
+        set_state(extent->first + i, state);
     }
 }
 
@@ -154,7 +170,7 @@ uint32_t flash_free_sectors(void)
 {
     uint32_t free = 0;
     for (uint32_t i = 0; i < layout.module_sectors; i++) {
-        free += layout.used[i] == FREE;
+        free += state_of(i) == FREE;
     }
     return free;
 }
@@ -163,7 +179,7 @@ uint32_t flash_retired_sectors(void)
 {
     uint32_t retired = 0;
     for (uint32_t i = 0; i < layout.module_sectors; i++) {
-        retired += layout.used[i] == RETIRED;
+        retired += state_of(i) == RETIRED;
     }
     return retired;
 }
