@@ -470,7 +470,8 @@ void reply_text_start(struct phrase *line, enum verb verb, const uint32_t *numbe
     }
     size_t at = line->length + 1; /* after the blank before the text */
     size_t end = sizeof " *XX\n" - 1;
-    phrase_start(text, line->buffer + at, line->capacity > at + end ? line->capacity - at - end : 0);
+    size_t room = line->capacity > at + end ? line->capacity - at - end : 0;
+    phrase_start(text, line->buffer + at, room);
 }
 
 void reply_text_end(struct phrase *line, const struct phrase *text)
