@@ -501,7 +501,7 @@ static void send_cannot_answer(void (*send)(const char *, size_t), uint32_t tid,
 void binary_send_line(void (*send)(const char *bytes, size_t length), const char *line,
                       size_t length)
 {
-    static struct message answer;
+    struct message answer;
     char reason[200];
     struct phrase why;
     phrase_start(&why, reason, sizeof reason);

@@ -545,7 +545,7 @@ static bool record_line(struct transfer *t, const struct hex_record *record,
 
 static void handle_record(const struct message *m)
 {
-    static struct hex_record record;
+    struct hex_record record;
     struct refusal refusal;
     start_refusal(&refusal);
     if (!hex_record_decode(m->line, m->line_length, &record, &refusal.why)) {
