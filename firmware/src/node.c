@@ -15,9 +15,6 @@ static struct {
     struct kept_version kept[DIRECTORY_MAX_KEPT];
 } node;
 
-/* The directory record being read at boot or written by a commit or a removal: 608 bytes, off
- * the small stack, and one for the three, which never run inside one another. */
-static struct directory_record record_buffer;
 
 uint32_t node_module_count(void)
 {
@@ -150,26 +147,41 @@ static bool restore(const struct directory_entry *entry, struct phrase *why)
     return true;
 }
 
+/* The directory's kept versions into the node's table, and its entries into `entries`: the
+ * 608-byte record is on the stack only while it is read, never while a module's init runs
+ * (noinline). How many entries; 0 when no record holds. */
+__attribute__((noinline)) static uint32_t load_directory(void (*report)(const char *line),
+                                                         struct directory_entry *entries)
+{
+    struct directory_record record;
+    if (!directory_load(&record, report)) {
+        return 0;
+    }
+    for (uint32_t i = 0; i < record.kept_count; i++) {
+        node.kept[node.kept_count++] = record.kept[i];
+    }
+    for (uint32_t i = 0; i < record.entry_count; i++) {
+        entries[i] = record.entries[i];
+    }
+    return record.entry_count;
+}
+
 void node_boot(void (*report)(const char *line))
 {
+    struct directory_entry entries[DIRECTORY_MAX_ENTRIES + 1]; /* as a record holds them */
     node.count = 0;
     node.kept_count = 0;
-    if (!directory_load(&record_buffer, report)) {
-        return;
-    }
-    for (uint32_t i = 0; i < record_buffer.kept_count; i++) {
-        node.kept[node.kept_count++] = record_buffer.kept[i];
-    }
-    for (uint32_t i = 0; i < record_buffer.entry_count; i++) {
+    uint32_t count = load_directory(report, entries);
+    for (uint32_t i = 0; i < count; i++) {
         char reason[160];
         struct phrase why;
         phrase_start(&why, reason, sizeof reason);
-        if (find_module(record_buffer.entries[i].name) >= 0) {
+        if (find_module(entries[i].name) >= 0) {
             phrase_add(&why, "a module of that name came earlier in the directory");
         }
-        if (why.length || !restore(&record_buffer.entries[i], &why)) {
-            say(report, "boot: skipped module ", record_buffer.entries[i].name, reason);
-            keep_version(record_buffer.entries[i].name, record_buffer.entries[i].version);
+        if (why.length || !restore(&entries[i], &why)) {
+            say(report, "boot: skipped module ", entries[i].name, reason);
+            keep_version(entries[i].name, entries[i].version);
         }
     }
 }
@@ -195,6 +207,17 @@ static void undo_registration(const char *name, int old)
     node_module_installed(entry->name, entry->load_address, entry->size, entry->init_address);
 }
 
+/* Write the directory record of the modules but `skip` (plus `extra`, if any): its 608 bytes
+ * are on the stack only while it is written, never while a module's code runs (noinline). */
+__attribute__((noinline)) static bool write_record(const char *skip,
+                                                   const struct directory_entry *extra,
+                                                   struct phrase *why)
+{
+    struct directory_record record;
+    make_record(&record, skip, extra);
+    return directory_write(&record, why);
+}
+
 bool node_commit(const struct loaded_image *image, char *name, uint32_t *address,
                  struct phrase *why)
 {
@@ -212,8 +235,7 @@ bool node_commit(const struct loaded_image *image, char *name, uint32_t *address
         return false;
     }
     int old = find_module(name);
-    make_record(&record_buffer, name, &entry);
-    if (!directory_write(&record_buffer, why)) {
+    if (!write_record(name, &entry, why)) {
         undo_registration(name, old);
         loader_erase_extent(&image->extent);
         return false;
@@ -237,8 +259,7 @@ bool node_remove(const char *name, struct phrase *why)
     }
     struct installed_module module = node.modules[index];
     keep_version(name, module.entry.version);
-    make_record(&record_buffer, name, 0);
-    if (!directory_write(&record_buffer, why)) {
+    if (!write_record(name, 0, why)) {
         return false;
     }
     forget_module((uint32_t)index);
