@@ -53,6 +53,8 @@ bench: tools $(INSTALLED)
 	$(PY) benchmarks/servoing_task.py
 	$(PY) benchmarks/control.py
 	$(PY) benchmarks/fleet.py
+	$(PY) benchmarks/firmware.py
+	$(PY) benchmarks/firmware_stack.py
 
 clean:
 	rm -rf $(BUILD) .pytest_cache .ruff_cache .hypothesis
