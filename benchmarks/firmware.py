@@ -59,7 +59,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from firmware_sim.core.node import Node, NodeConfig
-from firmware_sim.qemu.firmware_build import firmware_elf
+from firmware_sim.qemu.firmware_build import elf_symbols, firmware_elf, linked_stack
 from firmware_sim.qemu.flash_file import ensure_flash
 from firmware_sim.qemu.machine import QemuNode
 from firmware_sim.serving.node_process import NodeProcess
@@ -107,22 +107,10 @@ def sections(elf: Path) -> dict[str, int]:
     return sizes
 
 
-def symbols(elf: Path) -> dict[str, int]:
-    """The ELF's symbol values by name (``riscv64-unknown-elf-nm``)."""
-    out = subprocess.run(
-        ["riscv64-unknown-elf-nm", str(elf)], capture_output=True, text=True, check=True
-    ).stdout
-    return {
-        fields[2]: int(fields[0], 16)
-        for fields in map(str.split, out.splitlines())
-        if len(fields) == 3
-    }
-
-
 def print_size(elf: Path) -> None:
-    found, named = sections(elf), symbols(elf)
+    found, named = sections(elf), elf_symbols(elf, MODULE_AREAS)
     code = sum(size for name, size in found.items() if name in CODE_SECTIONS)
-    stack = named["__stack_top"] - named["__stack_low"]
+    stack = linked_stack(elf)
     ram = sum(found.values()) - code + stack
     modules = sum(named[name] for name in MODULE_AREAS)
     print(f"size of {elf}:")

@@ -53,9 +53,8 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from elftools.elf.elffile import ELFFile
-
-from firmware_sim.qemu.firmware_build import firmware_elf
+from firmware_sim.errors import QemuError
+from firmware_sim.qemu.firmware_build import firmware_elf, linked_stack
 
 ROOT = Path(__file__).resolve().parent.parent
 INDIRECT = "__indirect_call"
@@ -408,16 +407,6 @@ def print_path(functions: dict[str, Function], entry: str, path: list[str]) -> N
         print(f"  {frame.frame:>5} {depth:>6}  {title} ({frame.kind})")
 
 
-def linked_stack(elf: Path) -> int:
-    """The bytes of the stack the firmware links: ``__stack_top - __stack_low`` (link.ld)."""
-    with elf.open("rb") as stream:
-        table = ELFFile(stream).get_section_by_name(".symtab")
-        top, low = (table.get_symbol_by_name(name) for name in ("__stack_top", "__stack_low"))
-        if not top or not low:
-            raise StackError(f"{elf}: expected __stack_top and __stack_low, got no such symbols")
-        return top[0]["st_value"] - low[0]["st_value"]
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument(
@@ -438,7 +427,7 @@ def main() -> None:
                 "trap": deepest(functions, "trap", {}),
             }
             anywhere = total(functions, deepest(functions, "main", {}))
-        except StackError as error:
+        except (StackError, QemuError) as error:  # QemuError: the ELF would not build or read
             sys.exit(f"firmware_stack: {error}")
         finally:
             if args.keep:

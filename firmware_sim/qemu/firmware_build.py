@@ -8,7 +8,11 @@ from __future__ import annotations
 import fcntl
 import shutil
 import subprocess
+from collections.abc import Iterable
 from pathlib import Path
+
+from elftools.common.exceptions import ELFError
+from elftools.elf.elffile import ELFFile
 
 from firmware_sim.errors import QemuError
 
@@ -51,3 +55,24 @@ def make_target(target: Path, root: Path = ROOT) -> None:
     if done.returncode != 0:
         tail = " | ".join((done.stdout + done.stderr).strip().splitlines()[-5:])
         raise QemuError(f"the firmware's build failed (make {target}): {tail}")
+
+
+def elf_symbols(elf: Path, names: Iterable[str]) -> dict[str, int]:
+    """The values of the symbols `names` in `elf` (link.ld's layout: the stack, the module
+    regions); QemuError naming the file when one is missing or the file is no ELF."""
+    try:
+        with elf.open("rb") as stream:
+            table = ELFFile(stream).get_section_by_name(".symtab")
+            found = {name: table.get_symbol_by_name(name) if table else None for name in names}
+    except (OSError, ELFError) as error:
+        raise QemuError(f"{elf}: expected the firmware's ELF, got {error}") from None
+    missing = [name for name, symbol in found.items() if not symbol]
+    if missing:
+        raise QemuError(f"{elf}: expected the symbols {', '.join(missing)}, got none of them")
+    return {name: symbol[0]["st_value"] for name, symbol in found.items()}
+
+
+def linked_stack(elf: Path) -> int:
+    """The bytes of the stack the firmware links: ``__stack_top - __stack_low`` (link.ld)."""
+    symbols = elf_symbols(elf, ("__stack_top", "__stack_low"))
+    return symbols["__stack_top"] - symbols["__stack_low"]
