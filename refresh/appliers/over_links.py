@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import contextlib
 import re
+import weakref
 from collections.abc import Callable, Iterable, Mapping
 from typing import Protocol
 from urllib.parse import urlsplit
@@ -113,8 +114,8 @@ class LinkApplier(ApplierBase):
         self.relays: dict[int, HostRelay] = {}
         """The bridges the manager carries itself (their source node refused EXPORT), by
         number."""
-        self.relays_said: set[HostRelay] = set()
-        """The relays `stopped_bridges` said had stopped."""
+        self.relays_said: weakref.WeakSet[HostRelay] = weakref.WeakSet()
+        """The relays `stopped_bridges` said had stopped (forgotten with them)."""
 
     @classmethod
     def open(cls, urls: Mapping[str, str], **options: object) -> LinkApplier:
