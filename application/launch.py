@@ -6,8 +6,9 @@ The processes, each with its output in a log file of the run's folder (``ROLE.lo
 - the plant's own processes, if it has any (`WorldPlant.launch`: the paper's servo emulator,
   serving its CAN buses), with the URLs of their devices, waited for until they serve;
 - one node per robot, ``python -m APP node``, on a pty where the application wants a serial line
-  (`Application.listen`), else on a TCP port of 127.0.0.1 the launcher picks, its flash in
-  ``ROBOT.flash``.
+  (`Application.listen`), else on a TCP port of 127.0.0.1 the system picks when the node listens
+  (``tcp-listen://127.0.0.1:0``: a port picked ahead could be taken by another program before
+  the node binds it), its flash in ``ROBOT.flash``.
 
 Each process says where it listens in its first line, which the launcher waits for (bounded);
 meanwhile it builds the guests. Then it runs the manager (`application.runs.run_managed`, what
@@ -20,9 +21,9 @@ SIGKILL to any that has not ended); once the run is over they are interrupted be
 are written, and end meanwhile.
 
 A node the scenario kills (it sends itself SIGKILL on its clock) ends without error; when the
-scenario brings it back, the launcher starts it again at once, on the same port and from the same
-flash file (its output in ``ROBOT-2.log``), and watches it as any other: its second run must not
-end.
+scenario brings it back, the launcher starts it again at once, on the port it said it listened
+on and from the same flash file (its output in ``ROBOT-2.log``), and watches it as any other: its
+second run must not end.
 """
 
 from __future__ import annotations
@@ -124,6 +125,7 @@ def run_processes(
         for robot in robots:
             (child,) = [c for c in launch.children if c.role == robot]
             launch.urls[robot] = child.wait_for(CONNECT_URL)[1]
+            arguments[robot] = _listening_again(arguments[robot], launch.urls[robot])
         restart = None
         if killed is not None and scenario.outage is not None and scenario.outage.back is not None:
             restart = _Restart(launch, killed, arguments[killed])
@@ -180,13 +182,23 @@ def _killed(application: Application, scenario: Scenario, robots: list[str]) -> 
 
 
 def _where(application: Application, robot: str, out: Path) -> list[str]:
-    """Where `robot`'s node listens (a pty, or a TCP port picked now, which a restarted node
-    listens on again) and its flash file, empty at the run's start (a run in the same folder
-    must not find the modules an earlier run installed)."""
-    listen = application.listen.get(robot) or f"tcp-listen://{HOST}:{free_port()}"
+    """Where `robot`'s node listens (a pty, or a TCP port the system picks) and its flash file,
+    empty at the run's start (a run in the same folder must not find the modules an earlier run
+    installed)."""
+    listen = application.listen.get(robot) or f"tcp-listen://{HOST}:0"
     flash = out / f"{robot}.flash"
     flash.unlink(missing_ok=True)
     return ["--listen", listen, "--flash", str(flash)]
+
+
+def _listening_again(arguments: list[str], url: str) -> list[str]:
+    """`arguments` of a node that listened on TCP, to listen again on the port it said (`url`,
+    ``tcp://HOST:PORT``) when it is started again; a node on a pty keeps its arguments."""
+    at = arguments.index("--listen") + 1
+    if not arguments[at].startswith("tcp-listen://"):
+        return arguments
+    port = url.rsplit(":", 1)[1]
+    return [*arguments[:at], f"tcp-listen://{HOST}:{port}", *arguments[at + 1 :]]
 
 
 def free_port() -> int:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from application.launch import Launch, _Restart
+from application.launch import Launch, _listening_again, _Restart
 from commandline.children import ChildError
 
 
@@ -23,3 +23,19 @@ def test_a_killed_node_may_end_but_not_once_it_is_started_again(tmp_path):
             launch.check("rotation")
     finally:
         launch.stop()
+
+
+def test_a_node_started_again_listens_on_the_port_the_system_picked_for_its_first_run():
+    first = ["-m", "patrol", "node", "--listen", "tcp-listen://127.0.0.1:0", "--flash", "f"]
+    again = _listening_again(first, "tcp://127.0.0.1:40123")
+    assert again == [
+        "-m",
+        "patrol",
+        "node",
+        "--listen",
+        "tcp-listen://127.0.0.1:40123",
+        "--flash",
+        "f",
+    ]
+    on_a_pty = ["-m", "patrol", "node", "--listen", "pty", "--flash", "f"]
+    assert _listening_again(on_a_pty, "/dev/pts/3") == on_a_pty
