@@ -22,10 +22,13 @@ Commands understood (each ends with CR; the reply is CR for OK, BEL for refused)
     V / N      hardware and software version (V1013) / serial number (NRFSH)
     Z0         timestamps off (the only setting supported)
 
-Frames from the bus go to the pty in the same t/T/r/R form while the channel is open. The bridge
-adds no bit-rate timing: it moves frames as fast as both processes do. Refused: FD frames and
-rates (d, D, b, B, Y), acceptance filters (M, m) and timestamps (Z1), which python-can's driver
-does not use.
+Frames from the bus go to the pty in the same t/T/r/R form while the channel is open. As an
+adapter receives only what is on the wire while it is open, a frame stamped while the channel was
+closed (python-can stamps with time.time(); since the device started) is dropped even when a busy
+process hands it on after the channel opened; a stamp of another clock (a bus that preserves its
+senders' stamps) is not judged. The bridge adds no bit-rate timing: it moves frames as fast as
+both processes do. Refused: FD frames and rates (d, D, b, B, Y), acceptance filters (M, m) and
+timestamps (Z1), which python-can's driver does not use.
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ from __future__ import annotations
 import os
 import select
 import threading
+import time
 import tty
 from collections.abc import Callable
 
@@ -73,6 +77,9 @@ class SlcanDevice:
         self.overruns = 0
         """Frames for the host dropped because it did not read the pty."""
         self._mode = "closed"
+        self._started_at = time.time()
+        self._opened_at = self._started_at
+        """When the channel last opened (time.time(), the clock of python-can's timestamps)."""
         self._flags = 0
         self._stalled = False
         self._write_lock = threading.Lock()
@@ -154,6 +161,7 @@ class SlcanDevice:
     def _switch(self, mode: str) -> bytes:
         if mode != "closed" and self._mode != "closed":
             return BELL
+        self._opened_at = time.time()
         self._mode = mode
         return OK
 
@@ -178,6 +186,8 @@ class SlcanDevice:
         """Notifier callback: a frame from the bus, written to the host while open."""
         if self._mode == "closed" or frame.is_error_frame or frame.is_fd:
             return
+        if self._started_at <= frame.timestamp < self._opened_at:
+            return  # on the wire while the channel was closed
         if self._write(format_frame(frame).encode() + b"\r"):
             self.to_host += 1
         else:

@@ -115,3 +115,34 @@ def test_bus_frames_are_not_forwarded_while_the_channel_is_closed(device: SlcanD
             assert host.recv(0.2) is None
     assert device.to_host == 0
     assert device.url == f"can://slcan/{device.path}"
+
+
+def test_a_frame_sent_before_the_channel_opened_is_not_forwarded_when_handed_on_late(
+    device: SlcanDevice,
+) -> None:
+    with can.Bus(interface="virtual", channel="slcan-unit", preserve_timestamps=True) as node:
+        on_the_wire = time.time()  # the channel is closed
+        with slcanBus(device.path, sleep_after_open=0) as host:
+            assert host.get_version(2.0) == (10, 13)  # the device has read the driver's O: open
+            # A frame on the bus before the channel opened, that a busy process hands on only now.
+            node.send(
+                can.Message(timestamp=on_the_wire, arbitration_id=0x100, is_extended_id=False)
+            )
+            node.send(
+                can.Message(timestamp=time.time(), arbitration_id=0x101, is_extended_id=False)
+            )
+            received = host.recv(2.0)
+            assert received is not None and received.arbitration_id == 0x101
+            assert host.recv(0.1) is None
+    assert device.to_host == 1
+
+
+def test_a_frame_stamped_on_another_clock_is_forwarded(device: SlcanDevice) -> None:
+    with (
+        can.Bus(interface="virtual", channel="slcan-unit", preserve_timestamps=True) as node,
+        slcanBus(device.path, sleep_after_open=0) as host,
+    ):
+        assert host.get_version(2.0) == (10, 13)
+        node.send(can.Message(timestamp=7.01, arbitration_id=0x102, is_extended_id=False))
+        received = host.recv(2.0)
+        assert received is not None and received.arbitration_id == 0x102
