@@ -29,7 +29,7 @@ FIRMWARE_HOST := $(FIRMWARE_OUT)/host/receiver_harness
 FIRMWARE_ON_KERNEL := firmware/src/main.c firmware/src/control.c firmware/src/control_text.c \
 	firmware/src/ports.c firmware/src/runtime.c firmware/src/setting.c firmware/src/trap.c \
 	firmware/src/watch.c
-FIRMWARE_HOST_SOURCES := $(filter-out $(FIRMWARE_ON_KERNEL),$(wildcard firmware/src/*.c)) \
+FIRMWARE_HOST_SOURCES := $(filter-out $(FIRMWARE_ON_KERNEL),$(wildcard firmware/src/*.c)) firmware/kernel/text.c \
 	$(wildcard firmware/host/*.c)
 FIRMWARE_HOST_CFLAGS := -DFIRMWARE_HOST -std=c11 -g -O1 -Wall -Wextra -Werror \
 	-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer

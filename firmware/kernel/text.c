@@ -1,4 +1,4 @@
-/* text.c - bounded text and the few byte helpers the kernel needs (see text.h). */
+/* text.c - bounded text and the few byte helpers the firmware needs (see text.h). */
 #include "text.h"
 
 void text_start(struct text *text, char *buffer, uint32_t capacity)
@@ -6,15 +6,25 @@ void text_start(struct text *text, char *buffer, uint32_t capacity)
     text->buffer = buffer;
     text->capacity = capacity;
     text->length = 0;
-    buffer[0] = '\0';
+    if (capacity != 0) {
+        buffer[0] = '\0';
+    }
 }
 
 void text_add_bytes(struct text *text, const char *bytes, uint32_t length)
 {
+    if (text->capacity == 0) {
+        return; /* no room even for the NUL */
+    }
     for (uint32_t i = 0; i < length && text->length + 1 < text->capacity; i++) {
         text->buffer[text->length++] = bytes[i];
     }
     text->buffer[text->length] = '\0';
+}
+
+void text_add_char(struct text *text, char c)
+{
+    text_add_bytes(text, &c, 1);
 }
 
 void text_cut(struct text *text, uint32_t length)
@@ -32,9 +42,108 @@ void text_add(struct text *text, const char *string)
 
 void text_add_quoted(struct text *text, const char *name)
 {
-    text_add(text, "'");
-    text_add(text, name);
-    text_add(text, "'");
+    text_add_repr(text, name, text_length(name, UINT32_MAX));
+}
+
+/* The quote Python's repr picks: ' unless the text holds a ' and no ". */
+static char repr_quote(const char *string, uint32_t length)
+{
+    bool single = false, double_ = false;
+    for (uint32_t i = 0; i < length; i++) {
+        single |= string[i] == '\'';
+        double_ |= string[i] == '"';
+    }
+    return single && !double_ ? '"' : '\'';
+}
+
+static void add_escaped(struct text *text, char c, char quote)
+{
+    static const char HEX[] = "0123456789abcdef";
+    unsigned char byte = (unsigned char)c;
+    if (c == quote || c == '\\') {
+        text_add_char(text, '\\');
+        text_add_char(text, c);
+    } else if (c == '\t') {
+        text_add(text, "\\t");
+    } else if (c == '\n') {
+        text_add(text, "\\n");
+    } else if (c == '\r') {
+        text_add(text, "\\r");
+    } else if (byte < 0x20 || byte >= 0x7F) {
+        text_add(text, "\\x");
+        text_add_char(text, HEX[byte >> 4]);
+        text_add_char(text, HEX[byte & 0xFu]);
+    } else {
+        text_add_char(text, c);
+    }
+}
+
+/* The code point of the UTF-8 sequence at `string` (its `length` bytes left), and its size in
+ * `used`; 0 bytes used when no well-formed sequence of two to four bytes starts there. */
+static uint32_t utf8_point(const unsigned char *string, uint32_t length, uint32_t *used)
+{
+    static const uint32_t SMALLEST[5] = {0, 0, 0x80, 0x800, 0x10000};
+    uint32_t size = string[0] >= 0xF0 ? 4 : string[0] >= 0xE0 ? 3 : string[0] >= 0xC0 ? 2 : 0;
+    *used = 0;
+    if (size == 0 || size > length || string[0] >= 0xF8) {
+        return 0;
+    }
+    uint32_t point = string[0] & (0x7Fu >> size);
+    for (uint32_t i = 1; i < size; i++) {
+        if ((string[i] & 0xC0u) != 0x80u) {
+            return 0;
+        }
+        point = (point << 6) | (string[i] & 0x3Fu);
+    }
+    if (point < SMALLEST[size] || point > 0x10FFFF || (point >= 0xD800 && point <= 0xDFFF)) {
+        return 0;
+    }
+    *used = size;
+    return point;
+}
+
+/* A character beyond ASCII as Python's repr escapes one it does not print: \xNN below 0x100,
+ * \uNNNN below 0x10000, \UNNNNNNNN above. (Python prints the printable ones as they are; the
+ * node cannot tell which those are, so its refusal differs from the Python node's there.) */
+static void add_escaped_point(struct text *text, uint32_t point)
+{
+    static const char HEX[] = "0123456789abcdef";
+    int digits = point < 0x100 ? 2 : point < 0x10000 ? 4 : 8;
+    text_add(text, point < 0x100 ? "\\x" : point < 0x10000 ? "\\u" : "\\U");
+    for (int i = digits - 1; i >= 0; i--) {
+        text_add_char(text, HEX[(point >> (4 * i)) & 0xFu]);
+    }
+}
+
+void text_add_bytes_repr(struct text *text, const uint8_t *data, uint32_t length)
+{
+    char quote = repr_quote((const char *)data, length);
+    text_add_char(text, 'b');
+    text_add_char(text, quote);
+    for (uint32_t i = 0; i < length; i++) {
+        add_escaped(text, (char)data[i], quote);
+    }
+    text_add_char(text, quote);
+}
+
+void text_add_repr(struct text *text, const char *string, uint32_t length)
+{
+    char quote = repr_quote(string, length);
+    text_add_char(text, quote);
+    for (uint32_t i = 0; i < length; i++) {
+        uint32_t used = 0;
+        uint32_t point = 0;
+        if ((unsigned char)string[i] >= 0x80) {
+            point = utf8_point((const unsigned char *)string + i, length - i, &used);
+        }
+        if (used) {
+            add_escaped_point(text, point);
+            i += used - 1;
+        } else {
+            add_escaped(text, string[i], quote);
+        }
+    }
+    text_add_char(text, quote);
 }
 
 void text_add_unsigned(struct text *text, uint64_t value)
@@ -62,15 +171,22 @@ void text_add_signed(struct text *text, int64_t value)
     text_add_unsigned(text, (uint64_t)value);
 }
 
+void text_add_hex(struct text *text, uint32_t value, int digits)
+{
+    static const char HEX[] = "0123456789ABCDEF";
+    int count = 8;
+    while (count > 1 && count > digits && !(value >> (4 * (count - 1)))) {
+        count--;
+    }
+    for (int i = count - 1; i >= 0; i--) {
+        text_add_char(text, HEX[(value >> (4 * i)) & 0xFu]);
+    }
+}
+
 void text_add_address(struct text *text, uint32_t value)
 {
-    static const char hex[] = "0123456789ABCDEF";
-    char digits[10] = {'0', 'x'};
-
-    for (uint32_t i = 0; i < 8; i++) {
-        digits[2 + i] = hex[(value >> (28u - 4u * i)) & 0xFu];
-    }
-    text_add_bytes(text, digits, sizeof digits);
+    text_add(text, "0x");
+    text_add_hex(text, value, 8);
 }
 
 static void add_conversion(struct text *text, char conversion, va_list *arguments)

@@ -21,11 +21,11 @@ static size_t read_length(size_t at)
     return (size_t)memory.bytes[at + 4] | (size_t)memory.bytes[at + 5] << 8;
 }
 
-bool answer_memory_find(uint32_t key, struct phrase *reply)
+bool answer_memory_find(uint32_t key, struct text *reply)
 {
     for (size_t at = 0; at < memory.used; at += HEADER + read_length(at)) {
         if (read_key(at) == key) {
-            phrase_add_bytes(reply, (const char *)memory.bytes + at + HEADER, read_length(at));
+            text_add_bytes(reply, (const char *)memory.bytes + at + HEADER, read_length(at));
             return true;
         }
     }

@@ -15,13 +15,13 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "phrase.h"
+#include "../kernel/text.h"
 
 #define ANSWER_MEMORY_BYTES 1024
 
 /* The answer kept for the request `key` (a CRC of the whole request) added to `reply`; false
  * when none is kept. */
-bool answer_memory_find(uint32_t key, struct phrase *reply);
+bool answer_memory_find(uint32_t key, struct text *reply);
 
 /* Keep `answer` for `key`; one longer than a quarter of the memory is not kept. */
 void answer_memory_keep(uint32_t key, const char *answer, size_t length);

@@ -117,31 +117,31 @@ static void write_le(uint8_t *bytes, uint64_t value, size_t size)
 }
 
 /* How refusals name a code (layout.code_text) and a type (Layout.title). */
-static void add_code(struct phrase *why, uint16_t code)
+static void add_code(struct text *why, uint16_t code)
 {
-    phrase_add(why, code & EXTENDED ? "0x00 0x" : "0x");
-    phrase_add_hex(why, code & 0xFFu, 2);
+    text_add(why, code & EXTENDED ? "0x00 0x" : "0x");
+    text_add_hex(why, code & 0xFFu, 2);
 }
 
-static void add_title(struct phrase *why, const struct binary_type *type)
+static void add_title(struct text *why, const struct binary_type *type)
 {
-    phrase_add(why, type->name);
-    phrase_add(why, " (type ");
+    text_add(why, type->name);
+    text_add(why, " (type ");
     add_code(why, type->code);
     if (type->kind == BINARY_VERB) {
-        phrase_add(why, ", ");
-        phrase_add(why, verb_word((enum verb)type->verb));
+        text_add(why, ", ");
+        text_add(why, verb_word((enum verb)type->verb));
     }
-    phrase_add_char(why, ')');
+    text_add_char(why, ')');
 }
 
-static void add_field(struct phrase *why, const struct field_spec *field,
+static void add_field(struct text *why, const struct field_spec *field,
                       const struct binary_type *type)
 {
-    phrase_add(why, field->name);
-    phrase_add(why, " of ");
+    text_add(why, field->name);
+    text_add(why, " of ");
     add_title(why, type);
-    phrase_add(why, ": ");
+    text_add(why, ": ");
 }
 
 /* Strict UTF-8, as Python's decoder takes it: no overlong forms, no surrogates, at most
@@ -181,25 +181,25 @@ static bool utf8_valid(const uint8_t *data, size_t length)
 
 /* Decoding. */
 
-static bool refuse_type(const uint8_t *raw, size_t length, struct phrase *why)
+static bool refuse_type(const uint8_t *raw, size_t length, struct text *why)
 {
-    phrase_add(why, "expected a binary message type among ");
+    text_add(why, "expected a binary message type among ");
     for (size_t i = 0; i < TYPE_COUNT; i++) {
-        phrase_add(why, i ? ", " : "");
+        text_add(why, i ? ", " : "");
         add_code(why, TYPES[i].code);
     }
     static const char HEX[] = "0123456789abcdef";
-    phrase_add(why, ", got ");
+    text_add(why, ", got ");
     if (raw[0] != 0) {
-        phrase_add(why, "0x");
-        phrase_add_hex(why, raw[0], 2);
+        text_add(why, "0x");
+        text_add_hex(why, raw[0], 2);
         return false;
     }
-    phrase_add(why, "00");
+    text_add(why, "00");
     if (length > 1) {
-        phrase_add_char(why, ' ');
-        phrase_add_char(why, HEX[raw[1] >> 4]);
-        phrase_add_char(why, HEX[raw[1] & 0xFu]);
+        text_add_char(why, ' ');
+        text_add_char(why, HEX[raw[1] >> 4]);
+        text_add_char(why, HEX[raw[1] & 0xFu]);
     }
     return false;
 }
@@ -214,15 +214,15 @@ static bool check_ok(const struct binary_type *type, const uint8_t *raw, size_t 
            crc32_update(0, raw, length - CRC32_SIZE) == read_le(raw + length - CRC32_SIZE, 4);
 }
 
-static bool refuse_check(const struct binary_type *type, size_t length, struct phrase *why)
+static bool refuse_check(const struct binary_type *type, size_t length, struct text *why)
 {
-    phrase_add(why, "expected a binary message of type ");
+    text_add(why, "expected a binary message of type ");
     add_code(why, type->code);
-    phrase_add(why, type->kind == BINARY_BLOCK_ACK
+    text_add(why, type->kind == BINARY_BLOCK_ACK
                         ? " ending in a valid CRC-16/CCITT (initial value 0xFFFF), got "
                         : " ending in a valid CRC-32, got ");
-    phrase_add_decimal(why, length);
-    phrase_add(why, " bytes that do not");
+    text_add_unsigned(why, length);
+    text_add(why, " bytes that do not");
     return false;
 }
 
@@ -233,7 +233,7 @@ struct body {
 
 /* The fixed fields, in order; the tail is what follows them. */
 static bool decode_fixed(const struct binary_type *type, struct body *body, struct message *m,
-                         struct phrase *why)
+                         struct text *why)
 {
     const struct verb_spec *spec = spec_of(type);
     size_t size = 0;
@@ -243,12 +243,12 @@ static bool decode_fixed(const struct binary_type *type, struct body *body, stru
         tails |= fixed_size(spec->fields[i].kind) == 0;
     }
     if (body->length < size || (!tails && body->length > size)) {
-        phrase_add(why, tails ? "expected at least " : "expected ");
-        phrase_add_decimal(why, size);
-        phrase_add(why, tails ? " bytes in the body of " : " bytes in the body of ");
+        text_add(why, tails ? "expected at least " : "expected ");
+        text_add_unsigned(why, size);
+        text_add(why, tails ? " bytes in the body of " : " bytes in the body of ");
         add_title(why, type);
-        phrase_add(why, ", got ");
-        phrase_add_decimal(why, body->length);
+        text_add(why, ", got ");
+        text_add_unsigned(why, body->length);
         return false;
     }
     for (int i = 0; i < spec->count; i++) {
@@ -261,8 +261,8 @@ static bool decode_fixed(const struct binary_type *type, struct body *body, stru
         body->bytes += bytes, body->length -= bytes;
         if (field->kind == FIELD_FLAG && value > 1) {
             add_field(why, field, type);
-            phrase_add(why, "expected 0 or 1, got ");
-            phrase_add_decimal(why, value);
+            text_add(why, "expected 0 or 1, got ");
+            text_add_unsigned(why, value);
             return false;
         }
         m->number[i] = field->kind == FIELD_BLOCKS ? value * BLOCK : value;
@@ -273,7 +273,7 @@ static bool decode_fixed(const struct binary_type *type, struct body *body, stru
 
 /* The tail cut into its fields: each but the last after its one-byte length. */
 static bool split_tail(const struct binary_type *type, struct body tail, struct message *m,
-                       struct phrase *why)
+                       struct text *why)
 {
     const struct verb_spec *spec = spec_of(type);
     int last = -1;
@@ -288,10 +288,10 @@ static bool split_tail(const struct binary_type *type, struct body tail, struct 
         if (i != last) {
             if (!tail.length || tail.bytes[0] >= tail.length) {
                 add_field(why, &spec->fields[i], type);
-                phrase_add(why, "expected a length byte and that many bytes before the next "
+                text_add(why, "expected a length byte and that many bytes before the next "
                                 "field, got ");
-                phrase_add_decimal(why, tail.length);
-                phrase_add(why, " bytes");
+                text_add_unsigned(why, tail.length);
+                text_add(why, " bytes");
                 return false;
             }
             length = tail.bytes[0];
@@ -306,15 +306,15 @@ static bool split_tail(const struct binary_type *type, struct body tail, struct 
 }
 
 static bool parse_tail(const struct field_spec *field, const struct message *m, int i,
-                       const struct binary_type *type, struct phrase *why)
+                       const struct binary_type *type, struct text *why)
 {
     const uint8_t *data = (const uint8_t *)m->text[i];
     size_t length = m->text_length[i];
     if (field->kind == FIELD_U32_ARRAY && length % 4) {
         add_field(why, field, type);
-        phrase_add(why, "expected 4 bytes per number, got ");
-        phrase_add_decimal(why, length);
-        phrase_add(why, " bytes");
+        text_add(why, "expected 4 bytes per number, got ");
+        text_add_unsigned(why, length);
+        text_add(why, " bytes");
         return false;
     }
     if (field->kind == FIELD_U32_ARRAY || field->kind == FIELD_PAYLOAD) {
@@ -322,26 +322,26 @@ static bool parse_tail(const struct field_spec *field, const struct message *m, 
     }
     if (!utf8_valid(data, length)) {
         add_field(why, field, type);
-        phrase_add(why, "expected UTF-8 text, got ");
-        phrase_add_bytes_repr(why, data, length < 40 ? length : 40);
+        text_add(why, "expected UTF-8 text, got ");
+        text_add_bytes_repr(why, data, length < 40 ? length : 40);
         return false;
     }
     if (field->kind != FIELD_LISTING) {
         return true;
     }
     char reason[240];
-    struct phrase inner;
-    phrase_start(&inner, reason, sizeof reason);
+    struct text inner;
+    text_start(&inner, reason, sizeof reason);
     if (listing_check(m->text[i], length, &inner)) {
         return true;
     }
     add_field(why, field, type);
-    phrase_add(why, reason);
+    text_add(why, reason);
     return false;
 }
 
 static bool decode_tails(const struct binary_type *type, struct body tail, struct message *m,
-                         struct phrase *why)
+                         struct text *why)
 {
     if (!split_tail(type, tail, m, why)) {
         return false;
@@ -356,10 +356,10 @@ static bool decode_tails(const struct binary_type *type, struct body tail, struc
 }
 
 bool binary_decode(const uint8_t *raw, size_t length, struct binary_message *decoded,
-                   struct phrase *why)
+                   struct text *why)
 {
     if (!length) {
-        phrase_add(why, "expected a message, got nothing");
+        text_add(why, "expected a message, got nothing");
         return false;
     }
     bool extended = raw[0] == 0;
@@ -485,10 +485,10 @@ static void send_encoded(void (*send)(const char *, size_t), const struct binary
 static void send_cannot_answer(void (*send)(const char *, size_t), uint32_t tid, const char *why)
 {
     char text[CANNOT_ANSWER_MAX];
-    struct phrase reason;
-    phrase_start(&reason, text, sizeof text);
-    phrase_add(&reason, "cannot answer: ");
-    phrase_add(&reason, why);
+    struct text reason;
+    text_start(&reason, text, sizeof text);
+    text_add(&reason, "cannot answer: ");
+    text_add(&reason, why);
     out_start(send);
     out_number(0x14, 1);
     out_number(tid, 4);
@@ -503,8 +503,8 @@ void binary_send_line(void (*send)(const char *bytes, size_t length), const char
 {
     struct message answer;
     char reason[200];
-    struct phrase why;
-    phrase_start(&why, reason, sizeof reason);
+    struct text why;
+    text_start(&why, reason, sizeof reason);
     if (!message_decode(line, length, &answer, &why) || answer.record) {
         send_cannot_answer(send, 0, answer.record ? "a record line is no answer" : reason);
         return;
@@ -523,11 +523,11 @@ void binary_send_block_ack(void (*send)(const char *bytes, size_t length), uint3
     uint32_t blocks = programmed / BLOCK;
     if (programmed % BLOCK || blocks > 0xFFFFu) {
         char reason[120];
-        struct phrase why;
-        phrase_start(&why, reason, sizeof reason);
-        phrase_add(&why, "BlockAck.value: expected a whole number of 256-byte blocks, "
+        struct text why;
+        text_start(&why, reason, sizeof reason);
+        text_add(&why, "BlockAck.value: expected a whole number of 256-byte blocks, "
                          "0..16776960, got ");
-        phrase_add_decimal(&why, programmed);
+        text_add_unsigned(&why, programmed);
         send_cannot_answer(send, 0, reason); /* a BlockAck has no tid: 0, as in Python */
         return;
     }

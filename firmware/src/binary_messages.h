@@ -20,7 +20,7 @@
 #include <stdint.h>
 
 #include "messages.h"
-#include "phrase.h"
+#include "../kernel/text.h"
 
 enum binary_kind { BINARY_VERB, BINARY_HEADER, BINARY_DATA, BINARY_SIGNATURE, BINARY_BLOCK_ACK };
 
@@ -38,7 +38,7 @@ struct binary_message {
 
 /* Decode one message (a frame's content); false with the reason (after "bad message: "). */
 bool binary_decode(const uint8_t *raw, size_t length, struct binary_message *decoded,
-                   struct phrase *why);
+                   struct text *why);
 
 /* Send an answer line a hex-mode writer made (messages.h, ` *XX` and line end included) as the
  * binary message of its verb, framed; a line that is no whole answer goes out as the refusal

@@ -35,14 +35,14 @@
 struct request {
     const struct message *message;
     uint32_t tid;
-    struct phrase *reply;
+    struct text *reply;
 };
 
 /* Field `field`'s word as a NUL-terminated name (a longer word is cut: it names no PBO). */
 static void field_name(const struct request *r, int field, char *name)
 {
     size_t length = r->message->text_length[field];
-    name_copy(name, r->message->text[field], (length < NAME_MAX ? length : NAME_MAX) + 1);
+    text_copy(name, r->message->text[field], (length < NAME_MAX ? length : NAME_MAX) + 1);
 }
 
 /* Apart from the handlers (never inlined), so that its text is on the stack only while it
@@ -50,13 +50,13 @@ static void field_name(const struct request *r, int field, char *name)
 __attribute__((noinline)) static bool refuse(const struct request *r, const char *reason)
 {
     char text[MAX_REFUSAL + 56];
-    struct phrase why;
-    phrase_start(&why, text, sizeof text);
-    phrase_add(&why, verb_word(r->message->verb));
-    phrase_add(&why, " refused: ");
-    phrase_add(&why, reason);
+    struct text why;
+    text_start(&why, text, sizeof text);
+    text_add(&why, verb_word(r->message->verb));
+    text_add(&why, " refused: ");
+    text_add(&why, reason);
     if (why.length > MAX_REFUSAL) { /* the reason's start, and "..." to say it goes on */
-        name_copy(text + MAX_REFUSAL - 3, "...", 4);
+        text_copy(text + MAX_REFUSAL - 3, "...", 4);
     }
     reply_nak(r->reply, r->tid, 0, true, text);
     return true;
@@ -78,31 +78,31 @@ static bool kernel_answer(const struct request *r, int result, const char *said)
 static bool lifecycle(const struct request *r)
 {
     char name[NAME_MAX + 1], said[NAME_MAX + 32];
-    struct phrase text;
+    struct text text;
     int result;
 
     field_name(r, 1, name);
-    phrase_start(&text, said, sizeof said);
+    text_start(&text, said, sizeof said);
     if (r->message->verb == VERB_START) {
         result = kernel_start(name);
-        phrase_add(&text, "started ");
-        phrase_add(&text, name);
+        text_add(&text, "started ");
+        text_add(&text, name);
     } else if (r->message->verb == VERB_STOP) {
         result = kernel_stop(name);
-        phrase_add(&text, "stopped ");
-        phrase_add(&text, name);
+        text_add(&text, "stopped ");
+        text_add(&text, name);
     } else {
         result = kernel_clear(name);
-        phrase_add(&text, "cleared ");
-        phrase_add(&text, name);
-        phrase_add(&text, ": now OFF");
+        text_add(&text, "cleared ");
+        text_add(&text, name);
+        text_add(&text, ": now OFF");
     }
     return kernel_answer(r, result, said);
 }
 
 static bool list_pbos(const struct request *r)
 {
-    struct phrase rows;
+    struct text rows;
     reply_text_start(r->reply, VERB_PBOS, &r->tid, &rows);
     control_pbo_rows(&rows);
     reply_text_end(r->reply, &rows);
@@ -115,15 +115,15 @@ static bool port_row(const char *port, uint8_t *direction, uint16_t *size, uint8
 {
     struct kernel_pbo pbo;
     char full[2 * NAME_MAX];
-    struct phrase name;
+    struct text name;
 
     for (uint32_t index = 0; kernel_pbo_at(index, &pbo); index++) {
         for (uint32_t p = 0; p < pbo.port_count; p++) {
-            phrase_start(&name, full, sizeof full);
-            phrase_add(&name, pbo.name);
-            phrase_add_char(&name, '.');
-            phrase_add(&name, pbo.port_names[p]);
-            if (name_equal(full, port)) {
+            text_start(&name, full, sizeof full);
+            text_add(&name, pbo.name);
+            text_add_char(&name, '.');
+            text_add(&name, pbo.port_names[p]);
+            if (text_equal(full, port)) {
                 *direction = pbo.port_directions[p];
                 *size = pbo.element_sizes[p];
                 *kind = pbo.port_kinds[p];
@@ -135,7 +135,7 @@ static bool port_row(const char *port, uint8_t *direction, uint16_t *size, uint8
 }
 
 /* VALUE as Python shows the number it read: an integer in decimal, a float as given. */
-static void show_value(const struct setting *setting, struct phrase *why)
+static void show_value(const struct setting *setting, struct text *why)
 {
     struct number_word number;
     if (setting->whole && number_word_parse(setting->text, setting->text_length, &number)) {
@@ -151,7 +151,7 @@ static bool refuse_value(const struct request *r, const struct setting *setting)
 {
     static const char *const DIRECTIONS[] = {"in", "out", "const", "resource"};
     char text[MAX_REFUSAL + 56];
-    struct phrase why;
+    struct text why;
     uint8_t direction, kind;
     uint16_t size;
     int32_t ignored;
@@ -160,25 +160,25 @@ static bool refuse_value(const struct request *r, const struct setting *setting)
         (void)kernel_read(setting->port, &ignored); /* says "unknown PBO" or "unknown port" */
         return refuse(r, kernel_message());
     }
-    phrase_start(&why, text, sizeof text);
-    phrase_add(&why, setting->port);
+    text_start(&why, text, sizeof text);
+    text_add(&why, setting->port);
     if (direction != 2) {
-        phrase_add(&why, " is an ");
-        phrase_add(&why, DIRECTIONS[direction & 3u]);
-        phrase_add(&why, " port, not a constant");
+        text_add(&why, " is an ");
+        text_add(&why, DIRECTIONS[direction & 3u]);
+        text_add(&why, " port, not a constant");
         return refuse(r, text);
     }
     if (kind != 0) {
         (void)kernel_set_constant(setting->port, 0); /* refuses a vector by its kind */
         return refuse(r, kernel_message());
     }
-    phrase_add(&why, size == 1   ? " is uint8 (a whole number from 0 to 255), got "
+    text_add(&why, size == 1   ? " is uint8 (a whole number from 0 to 255), got "
                      : size == 2 ? " is int16 (a whole number from -32768 to 32767), got "
                                  : " is int32 (a whole number from -2147483648 to "
                                    "2147483647), got ");
     show_value(setting, &why);
     if (!setting->whole) {
-        phrase_add(&why, ": give a fixed-point constant as its raw integer (0x8000 is 0.5 in "
+        text_add(&why, ": give a fixed-point constant as its raw integer (0x8000 is 0.5 in "
                          "Q16.16)");
     }
     return refuse(r, text);
@@ -188,9 +188,9 @@ static bool set_constant(const struct request *r)
 {
     struct setting setting;
     char reason[MAX_REFUSAL + 56], said[96];
-    struct phrase why, text;
+    struct text why, text;
 
-    phrase_start(&why, reason, sizeof reason);
+    text_start(&why, reason, sizeof reason);
     if (!setting_parse(r->message->text[1], r->message->text_length[1], &setting, &why)) {
         return refuse(r, reason);
     }
@@ -200,10 +200,10 @@ static bool set_constant(const struct request *r)
     if (kernel_set_constant(setting.port, setting.value) != KERNEL_OK) {
         return refuse(r, kernel_message());
     }
-    phrase_start(&text, said, sizeof said);
-    phrase_add(&text, "set ");
-    phrase_add(&text, setting.port);
-    phrase_add_char(&text, '=');
+    text_start(&text, said, sizeof said);
+    text_add(&text, "set ");
+    text_add(&text, setting.port);
+    text_add_char(&text, '=');
     control_add_signed(&text, setting.value);
     return acknowledge(r, said);
 }
@@ -212,22 +212,22 @@ static bool set_rate(const struct request *r)
 {
     const uint32_t millihertz = (uint32_t)r->message->number[1];
     char name[NAME_MAX + 1], said[NAME_MAX + 80];
-    struct phrase text;
+    struct text text;
 
     field_name(r, 2, name);
-    phrase_start(&text, said, sizeof said);
+    text_start(&text, said, sizeof said);
     if (millihertz < RATE_MIN_MHZ || millihertz > RATE_MAX_MHZ) {
-        phrase_add(&text, "PBO ");
-        phrase_add_repr(&text, name, name_length(name, NAME_MAX));
-        phrase_add(&text, ": expected a rate of 0.01 to 100000 Hz, got ");
+        text_add(&text, "PBO ");
+        text_add_repr(&text, name, text_length(name, NAME_MAX));
+        text_add(&text, ": expected a rate of 0.01 to 100000 Hz, got ");
         control_add_hertz(&text, millihertz);
         return refuse(r, said);
     }
-    phrase_add(&text, "rate ");
-    phrase_add(&text, name);
-    phrase_add_char(&text, '=');
+    text_add(&text, "rate ");
+    text_add(&text, name);
+    text_add_char(&text, '=');
     control_add_hertz(&text, millihertz);
-    phrase_add(&text, " Hz");
+    text_add(&text, " Hz");
     return kernel_answer(r, kernel_set_rate(name, millihertz), said);
 }
 
@@ -237,25 +237,25 @@ static bool wire(const struct request *r)
     const char *text = r->message->text[1];
     const size_t length = r->message->text_length[1];
     char source[NAME_MAX + 1], sink[NAME_MAX + 1], said[2 * NAME_MAX + 20];
-    struct phrase why;
+    struct text why;
     size_t equals = 0;
     bool connect = r->message->verb == VERB_CONNECT;
 
     while (equals < length && text[equals] != '=') {
         equals++;
     }
-    phrase_start(&why, said, sizeof said);
+    text_start(&why, said, sizeof said);
     if (equals == length || !ports_is_port(text, equals) ||
         !ports_is_port(text + equals + 1, length - equals - 1) || equals > NAME_MAX ||
         length - equals - 1 > NAME_MAX) {
-        phrase_add(&why, "expected OUT_PBO.port=IN_PBO.port, got ");
-        phrase_add_repr(&why, text, length > 60 ? 60 : length);
+        text_add(&why, "expected OUT_PBO.port=IN_PBO.port, got ");
+        text_add_repr(&why, text, length > 60 ? 60 : length);
         return refuse(r, said);
     }
-    name_copy(source, text, equals + 1);
-    name_copy(sink, text + equals + 1, length - equals);
-    phrase_add(&why, connect ? "connected " : "disconnected ");
-    phrase_add_bytes(&why, text, length);
+    text_copy(source, text, equals + 1);
+    text_copy(sink, text + equals + 1, length - equals);
+    text_add(&why, connect ? "connected " : "disconnected ");
+    text_add_bytes(&why, text, length);
     return kernel_answer(r, connect ? kernel_connect(source, sink)
                                     : kernel_disconnect(source, sink), said);
 }
@@ -264,9 +264,9 @@ static bool read_ports(const struct request *r)
 {
     struct port_list ports;
     char reason[MAX_REFUSAL + 1];
-    struct phrase why, values;
+    struct text why, values;
 
-    phrase_start(&why, reason, sizeof reason);
+    text_start(&why, reason, sizeof reason);
     if (!ports_parse(r->message->text[1], r->message->text_length[1], &ports, &why) ||
         !ports_readable(&ports, &why)) {
         return refuse(r, reason);
@@ -280,7 +280,7 @@ static bool read_ports(const struct request *r)
 static bool log_lines(const struct request *r)
 {
     char name[NAME_MAX + 1];
-    struct phrase lines;
+    struct text lines;
     uint32_t numbers[2] = {r->tid, 0};
 
     field_name(r, 2, name);
@@ -296,12 +296,12 @@ static bool log_lines(const struct request *r)
 static bool describe(const struct request *r)
 {
     char name[NAME_MAX + 1];
-    struct phrase description;
+    struct text description;
 
     field_name(r, 1, name);
     reply_text_start(r->reply, VERB_DESCRIPTION, &r->tid, &description);
     if (!control_description(&description, name)) {
-        phrase_start(r->reply, r->reply->buffer, r->reply->capacity); /* the refusal instead */
+        text_start(r->reply, r->reply->buffer, r->reply->capacity); /* the refusal instead */
         return refuse(r, kernel_message());
     }
     reply_text_end(r->reply, &description);
@@ -311,9 +311,9 @@ static bool describe(const struct request *r)
 static bool hold(const struct request *r)
 {
     char name[NAME_MAX + 1], said[MAX_REFUSAL];
-    struct phrase text;
+    struct text text;
     field_name(r, 1, name);
-    phrase_start(&text, said, sizeof said);
+    text_start(&text, said, sizeof said);
     return runtime_hold(name, &text) ? acknowledge(r, said) : refuse(r, said);
 }
 
@@ -321,25 +321,25 @@ static bool reset(const struct request *r)
 {
     uint32_t switched_off, wires;
     char said[120];
-    struct phrase text;
+    struct text text;
 
     kernel_reset(&switched_off, &wires);
     runtime_forget_holds();
     watch_restart(); /* the watch follows the clock's restart */
-    phrase_start(&text, said, sizeof said);
-    phrase_add(&text, "reset: ");
-    phrase_add_decimal(&text, switched_off);
-    phrase_add(&text, " PBO(s) switched off, ");
-    phrase_add_decimal(&text, wires);
-    phrase_add(&text, " wire(s) and 0 bridge(s) undone, clock at 0 s");
+    text_start(&text, said, sizeof said);
+    text_add(&text, "reset: ");
+    text_add_unsigned(&text, switched_off);
+    text_add(&text, " PBO(s) switched off, ");
+    text_add_unsigned(&text, wires);
+    text_add(&text, " wire(s) and 0 bridge(s) undone, clock at 0 s");
     return acknowledge(r, said);
 }
 
 static bool watch(const struct request *r)
 {
     char reason[MAX_REFUSAL + 56];
-    struct phrase why;
-    phrase_start(&why, reason, sizeof reason);
+    struct text why;
+    text_start(&why, reason, sizeof reason);
     return watch_request(r->message, r->reply, &why) || refuse(r, reason);
 }
 
@@ -363,9 +363,9 @@ static uint32_t request_key(const struct message *request)
     return key;
 }
 
-static bool answer(const struct message *request, struct phrase *reply);
+static bool answer(const struct message *request, struct text *reply);
 
-bool node_control(const struct message *request, struct phrase *reply)
+bool node_control(const struct message *request, struct text *reply)
 {
     const uint32_t key = changes_the_node(request->verb) ? request_key(request) : 0;
 
@@ -381,7 +381,7 @@ bool node_control(const struct message *request, struct phrase *reply)
     return true;
 }
 
-static bool answer(const struct message *request, struct phrase *reply)
+static bool answer(const struct message *request, struct text *reply)
 {
     const struct request r = {request, (uint32_t)request->number[0], reply};
 

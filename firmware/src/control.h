@@ -13,8 +13,8 @@
 #include <stdbool.h>
 
 #include "messages.h"
-#include "phrase.h"
+#include "../kernel/text.h"
 
-bool node_control(const struct message *request, struct phrase *reply);
+bool node_control(const struct message *request, struct text *reply);
 
 #endif

@@ -4,7 +4,7 @@
  */
 #include "control.h"
 
-__attribute__((weak)) bool node_control(const struct message *request, struct phrase *reply)
+__attribute__((weak)) bool node_control(const struct message *request, struct text *reply)
 {
     (void)request, (void)reply;
     return false;

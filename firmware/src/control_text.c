@@ -5,19 +5,19 @@
 
 #define NODE_NAME "node" /* firmware-sim listen's default --name */
 
-void control_add_signed(struct phrase *text, int64_t value)
+void control_add_signed(struct text *text, int64_t value)
 {
     if (value < 0) {
-        phrase_add_char(text, '-');
-        phrase_add_decimal(text, (uint64_t)0 - (uint64_t)value);
+        text_add_char(text, '-');
+        text_add_unsigned(text, (uint64_t)0 - (uint64_t)value);
         return;
     }
-    phrase_add_decimal(text, (uint64_t)value);
+    text_add_unsigned(text, (uint64_t)value);
 }
 
 /* The digits of `thousandths` (0..999) after the point, at most `decimals`, trailing zeros
  * dropped; nothing at all when they are all zero. */
-static void add_fraction(struct phrase *text, uint32_t thousandths, bool keep_one)
+static void add_fraction(struct text *text, uint32_t thousandths, bool keep_one)
 {
     char digits[4] = {(char)('0' + thousandths / 100u), (char)('0' + thousandths / 10u % 10u),
                       (char)('0' + thousandths % 10u), 0};
@@ -26,12 +26,12 @@ static void add_fraction(struct phrase *text, uint32_t thousandths, bool keep_on
         length--;
     }
     if (length > 0) {
-        phrase_add_char(text, '.');
-        phrase_add_bytes(text, digits, (size_t)length);
+        text_add_char(text, '.');
+        text_add_bytes(text, digits, (uint32_t)length);
     }
 }
 
-void control_add_hertz(struct phrase *text, uint32_t millihertz)
+void control_add_hertz(struct text *text, uint32_t millihertz)
 {
     uint32_t whole = millihertz / 1000u;
     uint32_t thousandths = millihertz % 1000u;
@@ -45,45 +45,45 @@ void control_add_hertz(struct phrase *text, uint32_t millihertz)
             whole++, thousandths = 0;
         }
     }
-    phrase_add_decimal(text, whole);
+    text_add_unsigned(text, whole);
     add_fraction(text, thousandths, false);
 }
 
-void control_add_milli(struct phrase *text, int64_t milli)
+void control_add_milli(struct text *text, int64_t milli)
 {
     uint64_t magnitude = milli < 0 ? (uint64_t)0 - (uint64_t)milli : (uint64_t)milli;
     if (milli < 0) {
-        phrase_add_char(text, '-');
+        text_add_char(text, '-');
     }
-    phrase_add_decimal(text, magnitude / 1000u);
+    text_add_unsigned(text, magnitude / 1000u);
     add_fraction(text, (uint32_t)(magnitude % 1000u), true);
 }
 
 /* The names of `pbo`'s ports of one direction, comma-separated. */
-static void add_ports(struct phrase *text, const struct kernel_pbo *pbo, uint8_t direction)
+static void add_ports(struct text *text, const struct kernel_pbo *pbo, uint8_t direction)
 {
     bool first = true;
     for (uint32_t port = 0; port < pbo->port_count; port++) {
         if (pbo->port_directions[port] == direction) {
-            phrase_add(text, first ? "" : ",");
-            phrase_add(text, pbo->port_names[port]);
+            text_add(text, first ? "" : ",");
+            text_add(text, pbo->port_names[port]);
             first = false;
         }
     }
 }
 
-void control_pbo_rows(struct phrase *text)
+void control_pbo_rows(struct text *text)
 {
     struct kernel_pbo pbo;
     for (uint32_t index = 0; kernel_pbo_at(index, &pbo); index++) {
-        phrase_add(text, index == 0 ? "" : " ");
-        phrase_add(text, pbo.name);
-        phrase_add_char(text, ':');
-        phrase_add(text, pbo.state);
-        phrase_add_char(text, ':');
+        text_add(text, index == 0 ? "" : " ");
+        text_add(text, pbo.name);
+        text_add_char(text, ':');
+        text_add(text, pbo.state);
+        text_add_char(text, ':');
         control_add_hertz(text, pbo.millihertz);
         for (uint8_t direction = 0; direction < 3; direction++) { /* IN, OUT, CONST */
-            phrase_add_char(text, ':');
+            text_add_char(text, ':');
             add_ports(text, &pbo, direction);
         }
     }
@@ -91,26 +91,26 @@ void control_pbo_rows(struct phrase *text)
 
 /* A JSON string as json.dumps writes it with ensure_ascii (a byte above 0x7F as its Latin-1
  * code point: the Python node decodes module text so). */
-static void add_json_string(struct phrase *text, const char *string, uint32_t length)
+static void add_json_string(struct text *text, const char *string, uint32_t length)
 {
     static const char HEX[] = "0123456789abcdef";
-    phrase_add_char(text, '"');
+    text_add_char(text, '"');
     for (uint32_t i = 0; i < length; i++) {
         uint8_t c = (uint8_t)string[i];
         const char *escape = c == '"' ? "\\\"" : c == '\\' ? "\\\\" : c == '\n' ? "\\n"
                              : c == '\r' ? "\\r" : c == '\t' ? "\\t" : c == '\b' ? "\\b"
                              : c == '\f' ? "\\f" : 0;
         if (escape != 0) {
-            phrase_add(text, escape);
+            text_add(text, escape);
         } else if (c < 0x20 || c >= 0x80) {
-            phrase_add(text, "\\u00");
-            phrase_add_char(text, HEX[c >> 4]);
-            phrase_add_char(text, HEX[c & 0xFu]);
+            text_add(text, "\\u00");
+            text_add_char(text, HEX[c >> 4]);
+            text_add_char(text, HEX[c & 0xFu]);
         } else {
-            phrase_add_char(text, (char)c);
+            text_add_char(text, (char)c);
         }
     }
-    phrase_add_char(text, '"');
+    text_add_char(text, '"');
 }
 
 static uint32_t json_string_length(const char *string, uint32_t length)
@@ -118,8 +118,8 @@ static uint32_t json_string_length(const char *string, uint32_t length)
     char scratch[8];
     uint32_t total = 2;
     for (uint32_t i = 0; i < length; i++) {
-        struct phrase one;
-        phrase_start(&one, scratch, sizeof scratch);
+        struct text one;
+        text_start(&one, scratch, sizeof scratch);
         add_json_string(&one, string + i, 1);
         total += (uint32_t)one.length - 2u;
     }
@@ -129,7 +129,7 @@ static uint32_t json_string_length(const char *string, uint32_t length)
 /* Log lines: log_text's rule. The oldest lines that fit the budget, the first one cut in half
  * until it fits. */
 struct log_writer {
-    struct phrase *text;
+    struct text *text;
     uint32_t taken;
     bool full;
 };
@@ -167,13 +167,13 @@ static void take_line(const struct log_line *line, void *context)
     while (total + entry_length(line, length) > CONTROL_TEXT_MAX && length > 1u) {
         length /= 2u; /* Python keeps text[: len(text) // 2] */
     }
-    phrase_add(writer->text, writer->taken ? ", [" : "[[");
-    phrase_add_decimal(writer->text, line->number);
-    phrase_add(writer->text, ", ");
-    phrase_add_decimal(writer->text, line->time_us);
-    phrase_add(writer->text, ", ");
+    text_add(writer->text, writer->taken ? ", [" : "[[");
+    text_add_unsigned(writer->text, line->number);
+    text_add(writer->text, ", ");
+    text_add_unsigned(writer->text, line->time_us);
+    text_add(writer->text, ", ");
     add_json_string(writer->text, line->text, length);
-    phrase_add_char(writer->text, ']');
+    text_add_char(writer->text, ']');
     writer->taken++;
 }
 
@@ -187,18 +187,18 @@ bool control_log_latest(const char *name, uint32_t *latest)
     return true;
 }
 
-void control_log_lines(struct phrase *text, const char *name, uint32_t since)
+void control_log_lines(struct text *text, const char *name, uint32_t since)
 {
     struct log_writer writer = {text, 0, false};
     (void)kernel_log(name, since, take_line, &writer);
     if (writer.taken) {
-        phrase_add_char(text, ']');
+        text_add_char(text, ']');
     }
 }
 
 /* The description with the first `wires` wires and `constants` constants, the failure cut
  * to `failure` characters. */
-static void add_description(struct phrase *text, const char *name, uint32_t constants,
+static void add_description(struct text *text, const char *name, uint32_t constants,
                             uint32_t wires, uint32_t failure)
 {
     struct kernel_pbo pbo;
@@ -206,56 +206,56 @@ static void add_description(struct phrase *text, const char *name, uint32_t cons
     char source[32], sink[32];
     uint32_t listed = 0;
 
-    phrase_add(text, "{\"name\": ");
-    add_json_string(text, name, (uint32_t)name_length(name, 64));
-    phrase_add(text, ", \"constants\": [");
+    text_add(text, "{\"name\": ");
+    add_json_string(text, name, (uint32_t)text_length(name, 64));
+    text_add(text, ", \"constants\": [");
     for (uint32_t index = 0; kernel_pbo_at(index, &pbo); index++) {
-        for (uint32_t port = 0; name_equal(pbo.name, name) && port < pbo.port_count; port++) {
+        for (uint32_t port = 0; text_equal(pbo.name, name) && port < pbo.port_count; port++) {
             char full[48];
-            struct phrase port_name;
+            struct text port_name;
             int32_t value;
             if (pbo.port_directions[port] < 2 || listed == constants) {
                 continue; /* IN and OUT: not constants */
             }
-            phrase_add(text, listed++ ? ", [" : "[");
+            text_add(text, listed++ ? ", [" : "[");
             add_json_string(text, pbo.port_names[port],
-                            (uint32_t)name_length(pbo.port_names[port], 16));
-            phrase_add(text, ", ");
-            phrase_start(&port_name, full, sizeof full);
-            phrase_add(&port_name, name);
-            phrase_add_char(&port_name, '.');
-            phrase_add(&port_name, pbo.port_names[port]);
+                            (uint32_t)text_length(pbo.port_names[port], 16));
+            text_add(text, ", ");
+            text_start(&port_name, full, sizeof full);
+            text_add(&port_name, name);
+            text_add_char(&port_name, '.');
+            text_add(&port_name, pbo.port_names[port]);
             if (pbo.port_kinds[port] != 0) {
-                phrase_add(text, pbo.port_kinds[port] == 1 ? "\"vector\"" : "\"frame\"");
+                text_add(text, pbo.port_kinds[port] == 1 ? "\"vector\"" : "\"frame\"");
             } else if (kernel_read(full, &value) == KERNEL_OK) {
                 control_add_signed(text, value);
             }
-            phrase_add_char(text, ']');
+            text_add_char(text, ']');
         }
     }
-    phrase_add(text, "], \"wires\": [");
+    text_add(text, "], \"wires\": [");
     for (uint32_t n = 0; n < wires && kernel_wire_at(name, n, source, sink); n++) {
-        phrase_add(text, n ? ", \"" : "\"");
-        phrase_add(text, source);
-        phrase_add_char(text, '=');
-        phrase_add(text, sink);
-        phrase_add_char(text, '"');
+        text_add(text, n ? ", \"" : "\"");
+        text_add(text, source);
+        text_add_char(text, '=');
+        text_add(text, sink);
+        text_add_char(text, '"');
     }
-    phrase_add(text, "], \"last_failure\": ");
+    text_add(text, "], \"last_failure\": ");
     (void)kernel_stats(name, &stats);
     if (stats.last_failure[0] == '\0') {
-        phrase_add(text, "null}");
+        text_add(text, "null}");
         return;
     }
     add_json_string(text, stats.last_failure,
-                    (uint32_t)name_length(stats.last_failure, failure));
-    phrase_add_char(text, '}');
+                    (uint32_t)text_length(stats.last_failure, failure));
+    text_add_char(text, '}');
 }
 
-bool control_description(struct phrase *text, const char *name)
+bool control_description(struct text *text, const char *name)
 {
     struct kernel_stats stats;
-    const size_t start = text->length;
+    const uint32_t start = text->length;
     uint32_t constants = 8, wires = 64, failure = 1024;
 
     if (kernel_stats(name, &stats) != KERNEL_OK) {
@@ -285,26 +285,26 @@ bool control_description(struct phrase *text, const char *name)
     }
 }
 
-void control_state_line(struct phrase *text)
+void control_state_line(struct text *text)
 {
     static const char *const STATES[] = {"ERROR", "KILLED", "NOT_CREATED", "OFF", "ON"};
     struct kernel_pbo pbo;
     uint32_t count = kernel_pbo_count();
     bool first = true;
 
-    phrase_add(text, NODE_NAME ": ");
-    phrase_add_decimal(text, count);
-    phrase_add(text, " PBOs");
+    text_add(text, NODE_NAME ": ");
+    text_add_unsigned(text, count);
+    text_add(text, " PBOs");
     for (uint32_t s = 0; s < sizeof STATES / sizeof STATES[0]; s++) { /* sorted, as Python */
         uint32_t in_state = 0;
         for (uint32_t index = 0; kernel_pbo_at(index, &pbo); index++) {
-            in_state += name_equal(pbo.state, STATES[s]) ? 1u : 0u;
+            in_state += text_equal(pbo.state, STATES[s]) ? 1u : 0u;
         }
         if (in_state) {
-            phrase_add(text, first ? ": " : ", ");
-            phrase_add_decimal(text, in_state);
-            phrase_add_char(text, ' ');
-            phrase_add(text, STATES[s]);
+            text_add(text, first ? ": " : ", ");
+            text_add_unsigned(text, in_state);
+            text_add_char(text, ' ');
+            text_add(text, STATES[s]);
             first = false;
         }
     }

@@ -64,7 +64,7 @@ static bool valid(const uint8_t *d)
 }
 
 bool descriptor_find_name(uint32_t offset, uint32_t size, uint32_t link_base,
-                          char name[DESCRIPTOR_NAME_LEN + 1], struct phrase *why)
+                          char name[DESCRIPTOR_NAME_LEN + 1], struct text *why)
 {
     uint8_t d[DESCRIPTOR_SIZE];
     uint32_t first = (4u - link_base % 4u) % 4u; /* the first 4-byte aligned link address */
@@ -85,7 +85,7 @@ bool descriptor_find_name(uint32_t offset, uint32_t size, uint32_t link_base,
             return true;
         }
     }
-    phrase_add(why, "expected a PBO descriptor (magic PBO1, ABI version 1) in the image, got "
+    text_add(why, "expected a PBO descriptor (magic PBO1, ABI version 1) in the image, got "
                     "none: it is no module the node can register");
     return false;
 }

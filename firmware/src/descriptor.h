@@ -12,7 +12,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "phrase.h"
+#include "../kernel/text.h"
 
 #define DESCRIPTOR_NAME_LEN 16
 #define DESCRIPTOR_SIZE 224
@@ -20,6 +20,6 @@
 /* The name in the first valid descriptor of the image at flash `offset` (`size` bytes, linked
  * at `link_base`); false with the reason when there is none. */
 bool descriptor_find_name(uint32_t offset, uint32_t size, uint32_t link_base,
-                          char name[DESCRIPTOR_NAME_LEN + 1], struct phrase *why);
+                          char name[DESCRIPTOR_NAME_LEN + 1], struct text *why);
 
 #endif

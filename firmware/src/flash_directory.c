@@ -32,16 +32,16 @@ static uint32_t get16(const uint8_t *p) { return (uint32_t)p[0] | (uint32_t)p[1]
 static uint32_t get32(const uint8_t *p) { return get16(p) | get16(p + 2) << 16; }
 
 /* A name as a record holds it: 1 to 16 ASCII characters, NUL-padded. */
-static bool put_name(uint8_t *p, const char *name, struct phrase *why)
+static bool put_name(uint8_t *p, const char *name, struct text *why)
 {
-    size_t length = name_length(name, DIRECTORY_NAME_LEN + 1);
+    size_t length = text_length(name, DIRECTORY_NAME_LEN + 1);
     bool ascii = true;
     for (size_t i = 0; i < length; i++) {
         ascii &= (uint8_t)name[i] < 0x80;
     }
     if (!length || length > DIRECTORY_NAME_LEN || !ascii) {
-        phrase_add(why, "expected a module name of 1 to 16 ASCII characters, got ");
-        phrase_add_repr(why, name, length);
+        text_add(why, "expected a module name of 1 to 16 ASCII characters, got ");
+        text_add_repr(why, name, length);
         return false;
     }
     for (size_t i = 0; i < DIRECTORY_NAME_LEN; i++) {
@@ -82,21 +82,21 @@ static void get_entry(const uint8_t *p, struct directory_entry *e, bool has_vers
     e->version = has_version ? get32(p + 28) : 0;
 }
 
-static void too_many(const struct directory_record *record, struct phrase *why)
+static void too_many(const struct directory_record *record, struct text *why)
 {
-    phrase_add(why, "expected at most 5 modules in the directory (one 256-byte block), fewer "
+    text_add(why, "expected at most 5 modules in the directory (one 256-byte block), fewer "
                     "with the versions it keeps of names no longer installed (20 bytes each), "
                     "got ");
-    phrase_add_decimal(why, record->entry_count);
+    text_add_unsigned(why, record->entry_count);
     if (record->kept_count) {
-        phrase_add(why, " and ");
-        phrase_add_decimal(why, record->kept_count);
-        phrase_add(why, " kept versions");
+        text_add(why, " and ");
+        text_add_unsigned(why, record->kept_count);
+        text_add(why, " kept versions");
     }
 }
 
 bool directory_encode(const struct directory_record *record, uint8_t *block, uint32_t *length,
-                      struct phrase *why)
+                      struct text *why)
 {
     uint32_t size = record->entry_count * ENTRY_SIZE + record->kept_count * KEPT_SIZE;
     if (record->entry_count > DIRECTORY_MAX_ENTRIES || record->kept_count > DIRECTORY_MAX_KEPT ||
@@ -130,21 +130,21 @@ bool directory_encode(const struct directory_record *record, uint8_t *block, uin
     return true;
 }
 
-static bool bad_header(const uint8_t *block, struct phrase *why)
+static bool bad_header(const uint8_t *block, struct text *why)
 {
     uint32_t version = get16(block + 4);
     bool magic = block[0] == 'R' && block[1] == 'F' && block[2] == 'M' && block[3] == 'D';
     if (magic && version >= 1 && version <= VERSION) {
         return false;
     }
-    phrase_add(why, "expected magic b'RFMD' version 1 to 3, got ");
-    phrase_add_bytes_repr(why, block, 4);
-    phrase_add(why, " version ");
-    phrase_add_decimal(why, version);
+    text_add(why, "expected magic b'RFMD' version 1 to 3, got ");
+    text_add_bytes_repr(why, block, 4);
+    text_add(why, " version ");
+    text_add_unsigned(why, version);
     return true;
 }
 
-bool directory_decode(const uint8_t *block, struct directory_record *record, struct phrase *why)
+bool directory_decode(const uint8_t *block, struct directory_record *record, struct text *why)
 {
     if (bad_header(block, why)) {
         return false;
@@ -155,24 +155,24 @@ bool directory_decode(const uint8_t *block, struct directory_record *record, str
     uint32_t entry_size = version == 1 ? ENTRY_SIZE_V1 : ENTRY_SIZE;
     record->sequence = get32(block + 8);
     if (count * entry_size + kept * KEPT_SIZE > ROOM || count > DIRECTORY_MAX_ENTRIES) {
-        phrase_add(why, "expected at most 240 bytes of entries, got ");
-        phrase_add_decimal(why, count);
-        phrase_add(why, " entries and ");
-        phrase_add_decimal(why, kept);
-        phrase_add(why, " kept versions");
+        text_add(why, "expected at most 240 bytes of entries, got ");
+        text_add_unsigned(why, count);
+        text_add(why, " entries and ");
+        text_add_unsigned(why, kept);
+        text_add(why, " kept versions");
         return false;
     }
     uint32_t end = HEADER_SIZE + count * entry_size + kept * KEPT_SIZE;
     uint32_t computed = crc32_update(0, block, end);
     if (get32(block + end) != computed) {
-        phrase_add(why, "expected CRC-32 0x");
-        phrase_add_hex(why, computed, 8);
-        phrase_add(why, " of the ");
-        phrase_add_decimal(why, count);
-        phrase_add(why, "-entry record (sequence ");
-        phrase_add_decimal(why, record->sequence);
-        phrase_add(why, "), got 0x");
-        phrase_add_hex(why, get32(block + end), 8);
+        text_add(why, "expected CRC-32 0x");
+        text_add_hex(why, computed, 8);
+        text_add(why, " of the ");
+        text_add_unsigned(why, count);
+        text_add(why, "-entry record (sequence ");
+        text_add_unsigned(why, record->sequence);
+        text_add(why, "), got 0x");
+        text_add_hex(why, get32(block + end), 8);
         return false;
     }
     record->entry_count = (uint8_t)count;
@@ -194,7 +194,7 @@ static uint32_t slot_offset(int slot)
 }
 
 /* The record slot `slot` holds: 1 valid, 0 erased, -1 neither (`why` says what). */
-static int read_slot(int slot, struct directory_record *record, struct phrase *why)
+static int read_slot(int slot, struct directory_record *record, struct text *why)
 {
     uint8_t block[FLASH_BLOCK];
     board_flash_read(slot_offset(slot), block, FLASH_BLOCK);
@@ -211,14 +211,14 @@ static int read_slot(int slot, struct directory_record *record, struct phrase *w
 static void report_slot(int slot, const char *reason, void (*report)(const char *))
 {
     char line[200];
-    struct phrase text;
-    phrase_start(&text, line, sizeof line);
-    phrase_add(&text, "directory slot ");
-    phrase_add_decimal(&text, (uint64_t)slot);
-    phrase_add(&text, " at 0x");
-    phrase_add_hex(&text, flash_base() + slot_offset(slot), 8);
-    phrase_add(&text, " ignored: ");
-    phrase_add(&text, reason);
+    struct text text;
+    text_start(&text, line, sizeof line);
+    text_add(&text, "directory slot ");
+    text_add_unsigned(&text, (uint64_t)slot);
+    text_add(&text, " at 0x");
+    text_add_hex(&text, flash_base() + slot_offset(slot), 8);
+    text_add(&text, " ignored: ");
+    text_add(&text, reason);
     report(line);
 }
 
@@ -235,8 +235,8 @@ static bool restore_from_scratch(const struct directory_record *record)
     uint8_t block[FLASH_BLOCK];
     uint32_t length;
     char unused[8];
-    struct phrase why;
-    phrase_start(&why, unused, sizeof unused);
+    struct text why;
+    text_start(&why, unused, sizeof unused);
     if (!directory_encode(record, block, &length, &why)) {
         return false;
     }
@@ -251,8 +251,8 @@ bool directory_load(struct directory_record *newest, void (*report)(const char *
     directory.newest_slot = -1;
     for (int slot = 0; slot < SCRATCH_SLOT; slot++) {
         char reason[160];
-        struct phrase why;
-        phrase_start(&why, reason, sizeof reason);
+        struct text why;
+        text_start(&why, reason, sizeof reason);
         int found = read_slot(slot, &candidate, &why);
         if (found < 0) {
             report_slot(slot, reason, report);
@@ -263,8 +263,8 @@ bool directory_load(struct directory_record *newest, void (*report)(const char *
         }
     }
     char ignored[8];
-    struct phrase quiet;
-    phrase_start(&quiet, ignored, sizeof ignored);
+    struct text quiet;
+    text_start(&quiet, ignored, sizeof ignored);
     bool newer = read_slot(SCRATCH_SLOT, &candidate, &quiet) > 0 &&
                  (directory.newest_slot < 0 || candidate.sequence > newest->sequence);
     if (newer && restore_from_scratch(&candidate)) {
@@ -291,7 +291,7 @@ static bool write_through_scratch(int slot, const uint8_t *bytes, uint32_t lengt
            program_slot(slot, bytes, length);
 }
 
-bool directory_write(const struct directory_record *record, struct phrase *why)
+bool directory_write(const struct directory_record *record, struct text *why)
 {
     uint8_t block[FLASH_BLOCK];
     uint32_t length;
@@ -310,8 +310,8 @@ bool directory_write(const struct directory_record *record, struct phrase *why)
                   program_slot(slot, block, length);
     }
     if (!written) {
-        phrase_add(why, "the flash refused the directory write at 0x");
-        phrase_add_hex(why, flash_base() + offset, 8);
+        text_add(why, "the flash refused the directory write at 0x");
+        text_add_hex(why, flash_base() + offset, 8);
         return false;
     }
     directory.newest_slot = slot;

@@ -19,7 +19,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "phrase.h"
+#include "../kernel/text.h"
 
 #define DIRECTORY_NAME_LEN 16
 #define DIRECTORY_MAX_ENTRIES 5 /* (256 - 12 - 4) / 48 */
@@ -45,16 +45,16 @@ struct directory_record {
 /* The record's bytes in `block` (256, the rest 0xFF) and their number; false with the reason
  * when the entries and kept versions do not fit one block or a name is not 1-16 ASCII chars. */
 bool directory_encode(const struct directory_record *record, uint8_t *block, uint32_t *length,
-                      struct phrase *why);
+                      struct text *why);
 /* The record a slot's 256 bytes hold; false with the reason when it is no valid one. */
-bool directory_decode(const uint8_t *block, struct directory_record *record, struct phrase *why);
+bool directory_decode(const uint8_t *block, struct directory_record *record, struct text *why);
 
 /* Read both slots (and the scratch copy) and take the newest valid record: true when there is
  * one. A newer scratch copy is put back into a slot first. `report` hears each slot ignored. */
 bool directory_load(struct directory_record *newest, void (*report)(const char *line));
 
 /* Write `record` (its sequence must be the newest's + 1) as the new directory. */
-bool directory_write(const struct directory_record *record, struct phrase *why);
+bool directory_write(const struct directory_record *record, struct text *why);
 
 /* The sequence the next write takes. */
 uint32_t directory_next_sequence(void);

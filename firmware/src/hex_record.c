@@ -54,34 +54,34 @@ static bool known_type(uint8_t type)
 /* The digits after ':' as bytes; false with the reason when they are not a whole number of
  * hexadecimal pairs of a plausible record. */
 static bool record_bytes(const char *line, size_t length, uint8_t *raw, size_t *count,
-                         struct phrase *why)
+                         struct text *why)
 {
     for (size_t i = 1; i < length; i++) {
         if (hex_digit(line[i]) < 0) {
-            phrase_add(why, "expected a hexadecimal digit at column ");
-            phrase_add_decimal(why, i + 1);
-            phrase_add(why, ", got ");
-            phrase_add_repr(why, &line[i], 1);
+            text_add(why, "expected a hexadecimal digit at column ");
+            text_add_unsigned(why, i + 1);
+            text_add(why, ", got ");
+            text_add_repr(why, &line[i], 1);
             return false;
         }
     }
     size_t digits = length - 1;
     if (digits % 2) {
-        phrase_add(why, "expected an even number of hex digits, got ");
-        phrase_add_decimal(why, digits);
+        text_add(why, "expected an even number of hex digits, got ");
+        text_add_unsigned(why, digits);
         return false;
     }
     *count = digits / 2;
     if (*count < 5) {
-        phrase_add(why, "expected at least 5 bytes (byte count, address, type, checksum), got ");
-        phrase_add_decimal(why, *count);
+        text_add(why, "expected at least 5 bytes (byte count, address, type, checksum), got ");
+        text_add_unsigned(why, *count);
         return false;
     }
     if (*count > MAX_RECORD_BYTES) {
-        phrase_add(why, "expected ");
-        phrase_add_decimal(why, raw[0]);
-        phrase_add(why, " data bytes as the byte count says, got ");
-        phrase_add_decimal(why, *count - 5);
+        text_add(why, "expected ");
+        text_add_unsigned(why, raw[0]);
+        text_add(why, " data bytes as the byte count says, got ");
+        text_add_unsigned(why, *count - 5);
         return false;
     }
     for (size_t i = 0; i < *count; i++) {
@@ -90,13 +90,13 @@ static bool record_bytes(const char *line, size_t length, uint8_t *raw, size_t *
     return true;
 }
 
-static bool check_frame(const uint8_t *raw, size_t count, struct phrase *why)
+static bool check_frame(const uint8_t *raw, size_t count, struct text *why)
 {
     if ((size_t)raw[0] + 5 != count) {
-        phrase_add(why, "expected ");
-        phrase_add_decimal(why, raw[0]);
-        phrase_add(why, " data bytes as the byte count says, got ");
-        phrase_add_decimal(why, count - 5);
+        text_add(why, "expected ");
+        text_add_unsigned(why, raw[0]);
+        text_add(why, " data bytes as the byte count says, got ");
+        text_add_unsigned(why, count - 5);
         return false;
     }
     uint8_t sum = 0;
@@ -105,60 +105,60 @@ static bool check_frame(const uint8_t *raw, size_t count, struct phrase *why)
     }
     uint8_t expected = (uint8_t)(0u - sum);
     if (expected != raw[count - 1]) {
-        phrase_add(why, "expected checksum ");
-        phrase_add_hex(why, expected, 2);
-        phrase_add(why, ", got ");
-        phrase_add_hex(why, raw[count - 1], 2);
+        text_add(why, "expected checksum ");
+        text_add_hex(why, expected, 2);
+        text_add(why, ", got ");
+        text_add_hex(why, raw[count - 1], 2);
         return false;
     }
     return true;
 }
 
-static bool check_kind(const struct hex_record *record, struct phrase *why)
+static bool check_kind(const struct hex_record *record, struct text *why)
 {
     if (!known_type(record->type)) {
-        phrase_add(why, "expected record type 00, 01, 02, 03, 04, 05, 07, 08 or 09, got ");
-        phrase_add_hex(why, record->type, 2);
+        text_add(why, "expected record type 00, 01, 02, 03, 04, 05, 07, 08 or 09, got ");
+        text_add_hex(why, record->type, 2);
         return false;
     }
     if (record->type == RECORD_SIGNATURE && record->length == 0) {
-        phrase_add(why, "expected 1 to 255 bytes for record type 09 (signature), got 0");
+        text_add(why, "expected 1 to 255 bytes for record type 09 (signature), got 0");
         return false;
     }
     if (record->type == RECORD_DATA || record->type == RECORD_SIGNATURE) {
         return true;
     }
     if (record->length != fixed_size(record->type)) {
-        phrase_add(why, "expected a byte count of ");
-        phrase_add_decimal(why, (uint64_t)fixed_size(record->type));
-        phrase_add(why, " for record type ");
-        phrase_add(why, type_label(record->type));
-        phrase_add(why, ", got ");
-        phrase_add_decimal(why, record->length);
+        text_add(why, "expected a byte count of ");
+        text_add_unsigned(why, (uint64_t)fixed_size(record->type));
+        text_add(why, " for record type ");
+        text_add(why, type_label(record->type));
+        text_add(why, ", got ");
+        text_add_unsigned(why, record->length);
         return false;
     }
     if (record->address) {
-        phrase_add(why, "expected address field 0000 for record type ");
-        phrase_add(why, type_label(record->type));
-        phrase_add(why, ", got ");
-        phrase_add_hex(why, record->address, 4);
+        text_add(why, "expected address field 0000 for record type ");
+        text_add(why, type_label(record->type));
+        text_add(why, ", got ");
+        text_add_hex(why, record->address, 4);
         return false;
     }
     return true;
 }
 
 bool hex_record_decode(const char *line, size_t length, struct hex_record *record,
-                       struct phrase *why)
+                       struct text *why)
 {
     uint8_t raw[MAX_RECORD_BYTES];
     size_t count = 0;
     if (length == 0) {
-        phrase_add(why, "expected ':' at the start of a record, got an empty line");
+        text_add(why, "expected ':' at the start of a record, got an empty line");
         return false;
     }
     if (line[0] != ':') {
-        phrase_add(why, "expected ':' at the start of a record, got ");
-        phrase_add_repr(why, line, 1);
+        text_add(why, "expected ':' at the start of a record, got ");
+        text_add_repr(why, line, 1);
         return false;
     }
     raw[0] = 0;

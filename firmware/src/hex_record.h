@@ -13,7 +13,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "phrase.h"
+#include "../kernel/text.h"
 
 enum record_type {
     RECORD_DATA = 0x00,
@@ -36,7 +36,7 @@ struct hex_record {
 
 /* Decode `line` (the whole stripped line, its ':' included); false with the reason in `why`. */
 bool hex_record_decode(const char *line, size_t length, struct hex_record *record,
-                       struct phrase *why);
+                       struct text *why);
 
 /* The data as a big-endian number: the address records' and pointers' value. */
 uint32_t hex_record_value(const struct hex_record *record);

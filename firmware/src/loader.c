@@ -11,14 +11,14 @@ static struct signature_area signature;
 static const struct load_session *signature_owner;
 
 /* The reservation's name as the Python node gives it: 'transfer:0000002A'. */
-static void add_owner(struct phrase *why, const struct load_session *session)
+static void add_owner(struct text *why, const struct load_session *session)
 {
     char name[20];
-    struct phrase owner;
-    phrase_start(&owner, name, sizeof name);
-    phrase_add(&owner, "transfer:");
-    phrase_add_hex(&owner, session->tid, 8);
-    phrase_add_repr(why, name, owner.length);
+    struct text owner;
+    text_start(&owner, name, sizeof name);
+    text_add(&owner, "transfer:");
+    text_add_hex(&owner, session->tid, 8);
+    text_add_repr(why, name, owner.length);
 }
 
 static uint32_t session_offset(const struct load_session *session)
@@ -41,50 +41,50 @@ uint32_t loader_programmed(const struct load_session *session)
     return session->programmed_blocks * FLASH_BLOCK;
 }
 
-static void no_room(const struct load_session *session, uint32_t blocks, struct phrase *why)
+static void no_room(const struct load_session *session, uint32_t blocks, struct text *why)
 {
-    phrase_add(why, "expected ");
-    phrase_add_decimal(why, blocks);
-    phrase_add(why, " free consecutive flash block(s) for ");
+    text_add(why, "expected ");
+    text_add_unsigned(why, blocks);
+    text_add(why, " free consecutive flash block(s) for ");
     add_owner(why, session);
-    phrase_add(why, ", the largest free run is ");
-    phrase_add_decimal(why, (uint64_t)flash_largest_run() * (flash_sector_size() / FLASH_BLOCK));
+    text_add(why, ", the largest free run is ");
+    text_add_unsigned(why, (uint64_t)flash_largest_run() * (flash_sector_size() / FLASH_BLOCK));
     uint32_t retired = flash_retired_sectors();
     if (retired) {
-        phrase_add(why, "; ");
-        phrase_add_decimal(why, (uint64_t)retired * (flash_sector_size() / FLASH_BLOCK));
-        phrase_add(why, " more held modules that ran, which this board programs again only "
+        text_add(why, "; ");
+        text_add_unsigned(why, (uint64_t)retired * (flash_sector_size() / FLASH_BLOCK));
+        text_add(why, " more held modules that ran, which this board programs again only "
                         "after a restart");
     }
 }
 
 /* The sectors at flash address `address`, which must start a free module sector. */
 static bool reserve_at(struct load_session *session, uint32_t address, uint32_t sectors,
-                       struct phrase *why)
+                       struct text *why)
 {
     uint32_t offset = address - flash_base();
     if (address < flash_base() || offset >= flash_size() || offset % flash_sector_size()) {
-        phrase_add(why, "expected a load address at a flash sector boundary (a multiple of ");
-        phrase_add_decimal(why, flash_sector_size());
-        phrase_add(why, " from 0x");
-        phrase_add_hex(why, flash_base(), 8);
-        phrase_add(why, "), got 0x");
-        phrase_add_hex(why, address, 8);
+        text_add(why, "expected a load address at a flash sector boundary (a multiple of ");
+        text_add_unsigned(why, flash_sector_size());
+        text_add(why, " from 0x");
+        text_add_hex(why, flash_base(), 8);
+        text_add(why, "), got 0x");
+        text_add_hex(why, address, 8);
         return false;
     }
     if (!flash_place(flash_sector_of(offset), sectors, &session->extent)) {
-        phrase_add(why, "expected free flash for ");
+        text_add(why, "expected free flash for ");
         add_owner(why, session);
-        phrase_add(why, " at 0x");
-        phrase_add_hex(why, address, 8);
-        phrase_add(why, ", but it is taken or past the module area");
+        text_add(why, " at 0x");
+        text_add_hex(why, address, 8);
+        text_add(why, ", but it is taken or past the module area");
         return false;
     }
     return true;
 }
 
 bool loader_begin(struct load_session *session, uint32_t tid, bool sized, uint32_t size, bool at,
-                  uint32_t address, struct phrase *why)
+                  uint32_t address, struct text *why)
 {
     *session = (struct load_session){0};
     session->tid = tid;
@@ -119,10 +119,10 @@ bool loader_has_relocation(const struct load_session *session, uint32_t location
     return false;
 }
 
-bool loader_reset_pointers(struct load_session *session, struct phrase *why)
+bool loader_reset_pointers(struct load_session *session, struct text *why)
 {
     if (session->programmed_blocks) {
-        phrase_add(why, "the pointer records cannot change once a block is programmed");
+        text_add(why, "the pointer records cannot change once a block is programmed");
         return false;
     }
     session->relocation_count = 0;
@@ -130,26 +130,26 @@ bool loader_reset_pointers(struct load_session *session, struct phrase *why)
     return true;
 }
 
-bool loader_feed_relocation(struct load_session *session, uint32_t location, struct phrase *why)
+bool loader_feed_relocation(struct load_session *session, uint32_t location, struct text *why)
 {
     if (location % 4) {
-        phrase_add(why, "line 0: expected a 4-byte aligned pointer word, got 0x");
-        phrase_add_hex(why, location, 8);
-        phrase_add(why, " (the node fixes whole words; `hexmigrate verify` refuses this file too)");
+        text_add(why, "line 0: expected a 4-byte aligned pointer word, got 0x");
+        text_add_hex(why, location, 8);
+        text_add(why, " (the node fixes whole words; `hexmigrate verify` refuses this file too)");
         return false;
     }
     uint64_t offset = (uint64_t)location - session->link_base;
     if (session->has_link_base && location >= session->link_base &&
         offset < loader_programmed(session)) {
-        phrase_add(why, "line 0: the pointer word at 0x");
-        phrase_add_hex(why, location, 8);
-        phrase_add(why, " arrived after its flash block was programmed; a module file must give "
+        text_add(why, "line 0: the pointer word at 0x");
+        text_add_hex(why, location, 8);
+        text_add(why, " arrived after its flash block was programmed; a module file must give "
                         "its 07 records before the data (canonical form, as `hexmigrate pack` "
                         "writes it)");
         return false;
     }
     if (session->relocation_count >= LOADER_MAX_RELOCATIONS) {
-        phrase_add(why, "expected at most 64 pointer locations, got 65");
+        text_add(why, "expected at most 64 pointer locations, got 65");
         return false;
     }
     session->applied &= ~(1ull << session->relocation_count);
@@ -157,10 +157,10 @@ bool loader_feed_relocation(struct load_session *session, uint32_t location, str
     return true;
 }
 
-bool loader_feed_init(struct load_session *session, uint32_t target, struct phrase *why)
+bool loader_feed_init(struct load_session *session, uint32_t target, struct text *why)
 {
     if (session->has_init) {
-        phrase_add(why, "expected one module initialization pointer (08), got a second one "
+        text_add(why, "expected one module initialization pointer (08), got a second one "
                         "(the first is on line 0)");
         return false;
     }
@@ -174,21 +174,21 @@ static bool owns_signature(const struct load_session *session)
     return signature_owner == session;
 }
 
-bool loader_signature_fits(uint64_t end, struct phrase *why)
+bool loader_signature_fits(uint64_t end, struct text *why)
 {
     if (end > SIGNATURE_AREA_MAX) {
-        phrase_add(why, "expected a signature area of at most 4096 bytes, got ");
-        phrase_add_decimal(why, end);
+        text_add(why, "expected a signature area of at most 4096 bytes, got ");
+        text_add_unsigned(why, end);
         return false;
     }
     return true;
 }
 
 bool loader_feed_signature(struct load_session *session, uint32_t offset, const uint8_t *data,
-                           uint32_t length, struct phrase *why)
+                           uint32_t length, struct text *why)
 {
     if (signature_owner != 0 && !owns_signature(session)) {
-        phrase_add(why, "expected one signed module at a time, got a signature area while "
+        text_add(why, "expected one signed module at a time, got a signature area while "
                         "another transfer holds the node's: send the modules one by one");
         return false;
     }
@@ -199,10 +199,10 @@ bool loader_feed_signature(struct load_session *session, uint32_t offset, const 
         return true; /* the header sent again after a lost acknowledgement */
     }
     if (offset != signature.length) {
-        phrase_add(why, "expected signature bytes for offset ");
-        phrase_add_decimal(why, signature.length);
-        phrase_add(why, ", got offset ");
-        phrase_add_decimal(why, offset);
+        text_add(why, "expected signature bytes for offset ");
+        text_add_unsigned(why, signature.length);
+        text_add(why, ", got offset ");
+        text_add_unsigned(why, offset);
         return false;
     }
     if (!loader_signature_fits((uint64_t)offset + length, why)) {
@@ -214,7 +214,7 @@ bool loader_feed_signature(struct load_session *session, uint32_t offset, const 
 }
 
 /* Add the move to every pointer word inside the block about to be programmed. */
-static bool relocate_block(struct load_session *session, uint32_t length, struct phrase *why)
+static bool relocate_block(struct load_session *session, uint32_t length, struct text *why)
 {
     uint64_t start = (uint64_t)session->link_base + (uint64_t)session->programmed_blocks *
                                                         FLASH_BLOCK;
@@ -227,9 +227,9 @@ static bool relocate_block(struct load_session *session, uint32_t length, struct
         uint32_t offset = (uint32_t)(location - start);
         if (offset + 4 > length) {
             if (length == FLASH_BLOCK) {
-                phrase_add(why, "line 0: the pointer word at 0x");
-                phrase_add_hex(why, (uint32_t)location, 8);
-                phrase_add(why, " straddles a flash block boundary; pointer words must be "
+                text_add(why, "line 0: the pointer word at 0x");
+                text_add_hex(why, (uint32_t)location, 8);
+                text_add(why, " straddles a flash block boundary; pointer words must be "
                                 "4-byte aligned");
                 return false;
             }
@@ -246,17 +246,17 @@ static bool relocate_block(struct load_session *session, uint32_t length, struct
     return true;
 }
 
-static bool program_buffer(struct load_session *session, struct phrase *why)
+static bool program_buffer(struct load_session *session, struct text *why)
 {
     uint32_t index = session->programmed_blocks;
     if (index >= session->block_limit) {
-        phrase_add(why, "module ");
+        text_add(why, "module ");
         add_owner(why, session);
-        phrase_add(why, " does not fit: ");
-        phrase_add_decimal(why, session->block_limit);
-        phrase_add(why, " block(s) of 256 bytes reserved at 0x");
-        phrase_add_hex(why, loader_load_base(session), 8);
-        phrase_add(why, ", more data arrived");
+        text_add(why, " does not fit: ");
+        text_add_unsigned(why, session->block_limit);
+        text_add(why, " block(s) of 256 bytes reserved at 0x");
+        text_add_hex(why, loader_load_base(session), 8);
+        text_add(why, ", more data arrived");
         return false;
     }
     uint32_t length = session->buffered;
@@ -267,8 +267,8 @@ static bool program_buffer(struct load_session *session, struct phrase *why)
     bool sector_start = offset % flash_sector_size() == 0;
     if ((sector_start && !flash_make_blank(flash_sector_of(offset))) ||
         !flash_program_block(offset, session->buffer, length)) {
-        phrase_add(why, "the flash refused to erase or program the block at 0x");
-        phrase_add_hex(why, flash_base() + offset, 8);
+        text_add(why, "the flash refused to erase or program the block at 0x");
+        text_add_hex(why, flash_base() + offset, 8);
         return false;
     }
     session->crc = crc32_update(session->crc, session->buffer, length);
@@ -277,32 +277,32 @@ static bool program_buffer(struct load_session *session, struct phrase *why)
     return true;
 }
 
-bool loader_flush(struct load_session *session, struct phrase *why)
+bool loader_flush(struct load_session *session, struct text *why)
 {
     return session->buffered == 0 || program_buffer(session, why);
 }
 
 static void discontinuity(const struct load_session *session, uint32_t address,
-                          struct phrase *why)
+                          struct text *why)
 {
     uint32_t expected = session->next_address;
     if (address > expected) {
-        phrase_add(why, "expected one contiguous run of data (a module fills consecutive flash "
+        text_add(why, "expected one contiguous run of data (a module fills consecutive flash "
                         "blocks), got a gap at 0x");
-        phrase_add_hex(why, expected, 8);
-        phrase_add(why, "..0x");
-        phrase_add_hex(why, address - 1, 8);
+        text_add_hex(why, expected, 8);
+        text_add(why, "..0x");
+        text_add_hex(why, address - 1, 8);
         return;
     }
-    phrase_add(why, "expected data records in ascending address order (at 0x");
-    phrase_add_hex(why, expected, 8);
-    phrase_add(why, "), got 0x");
-    phrase_add_hex(why, address, 8);
-    phrase_add(why, " after line 0");
+    text_add(why, "expected data records in ascending address order (at 0x");
+    text_add_hex(why, expected, 8);
+    text_add(why, "), got 0x");
+    text_add_hex(why, address, 8);
+    text_add(why, " after line 0");
 }
 
 bool loader_feed_data(struct load_session *session, uint32_t address, const uint8_t *data,
-                      uint32_t length, struct phrase *why)
+                      uint32_t length, struct text *why)
 {
     if (!length) {
         return true;
@@ -331,64 +331,64 @@ bool loader_feed_data(struct load_session *session, uint32_t address, const uint
     return true;
 }
 
-static void add_span(struct phrase *why, uint32_t link_base, uint32_t size)
+static void add_span(struct text *why, uint32_t link_base, uint32_t size)
 {
-    phrase_add(why, "0x");
-    phrase_add_hex(why, link_base, 8);
-    phrase_add(why, "..0x");
-    phrase_add_hex(why, link_base + size - 1, 8);
+    text_add(why, "0x");
+    text_add_hex(why, link_base, 8);
+    text_add(why, "..0x");
+    text_add_hex(why, link_base + size - 1, 8);
 }
 
-static bool check_pointers(const struct load_session *session, uint32_t size, struct phrase *why)
+static bool check_pointers(const struct load_session *session, uint32_t size, struct text *why)
 {
     for (uint16_t i = 0; i < session->relocation_count; i++) {
         if (!(session->applied >> i & 1u)) {
-            phrase_add(why, "line 0: expected the pointer word at ");
+            text_add(why, "line 0: expected the pointer word at ");
             add_span(why, session->relocations[i], 4);
-            phrase_add(why, " inside the image data (");
+            text_add(why, " inside the image data (");
             add_span(why, session->link_base, size);
-            phrase_add(why, "), got it outside");
+            text_add(why, "), got it outside");
             return false;
         }
     }
     if ((uint64_t)session->init < session->link_base ||
         (uint64_t)session->init >= (uint64_t)session->link_base + size) {
-        phrase_add(why, "line 0: expected the init subroutine at 0x");
-        phrase_add_hex(why, session->init, 8);
-        phrase_add(why, " inside the image data (");
+        text_add(why, "line 0: expected the init subroutine at 0x");
+        text_add_hex(why, session->init, 8);
+        text_add(why, " inside the image data (");
         add_span(why, session->link_base, size);
-        phrase_add(why, "), got it outside");
+        text_add(why, "), got it outside");
         return false;
     }
     return true;
 }
 
-static bool check_read_back(const struct load_session *session, uint32_t size, struct phrase *why)
+static bool check_read_back(const struct load_session *session, uint32_t size, struct text *why)
 {
     uint32_t written = flash_crc32(session_offset(session), size);
     if (written == session->crc) {
         return true;
     }
-    phrase_add(why, "flash read-back of module ");
+    text_add(why, "flash read-back of module ");
     add_owner(why, session);
-    phrase_add(why, " at 0x");
-    phrase_add_hex(why, loader_load_base(session), 8);
-    phrase_add(why, " gives CRC-32 0x");
-    phrase_add_hex(why, written, 8);
-    phrase_add(why, ", expected 0x");
-    phrase_add_hex(why, session->crc, 8);
+    text_add(why, " at 0x");
+    text_add_hex(why, loader_load_base(session), 8);
+    text_add(why, " gives CRC-32 0x");
+    text_add_hex(why, written, 8);
+    text_add(why, ", expected 0x");
+    text_add_hex(why, session->crc, 8);
     return false;
 }
 
-bool loader_finish(struct load_session *session, struct loaded_image *image, struct phrase *why)
+bool loader_finish(struct load_session *session, struct loaded_image *image, struct text *why)
 {
     if (!session->has_init) {
-        phrase_add(why, "expected a module initialization pointer (record 08), got none: this is "
+        text_add(why, "expected a module initialization pointer (record 08), got none: this is "
                         "a plain HEX file, not a module");
         return false;
     }
     if (!session->has_link_base) {
-        phrase_add(why, "expected the module's data, got no data records");
+        text_add(why, "expected the module's data, got no data records");
         return false;
     }
     if (!loader_flush(session, why)) {

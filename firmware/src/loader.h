@@ -16,7 +16,7 @@
 #include <stdint.h>
 
 #include "flash_layout.h"
-#include "phrase.h"
+#include "../kernel/text.h"
 #include "signature_area.h"
 
 #define LOADER_MAX_RELOCATIONS 64 /* per module; a descriptor has 9 method pointers */
@@ -46,7 +46,7 @@ struct load_session {
 /* Reserve flash for transfer `tid`: `size` bytes (or, without, SIZELESS_BLOCKS at most), at
  * flash address `address` when `at` (a sector boundary). */
 bool loader_begin(struct load_session *session, uint32_t tid, bool sized, uint32_t size, bool at,
-                  uint32_t address, struct phrase *why);
+                  uint32_t address, struct text *why);
 
 uint32_t loader_load_base(const struct load_session *session);
 uint32_t loader_received(const struct load_session *session);
@@ -56,23 +56,23 @@ bool loader_has_relocation(const struct load_session *session, uint32_t location
 /* Drop the partly received block: the sender sends it again from its start. */
 void loader_rewind(struct load_session *session);
 /* Program the partly filled last block now (the sender waits for its acknowledgement). */
-bool loader_flush(struct load_session *session, struct phrase *why);
+bool loader_flush(struct load_session *session, struct text *why);
 
 /* Forget the pointer words and the init taken so far, for a header sent again (binary mode's
  * HEADER); refused once a block is programmed. */
-bool loader_reset_pointers(struct load_session *session, struct phrase *why);
-bool loader_feed_relocation(struct load_session *session, uint32_t location, struct phrase *why);
-bool loader_feed_init(struct load_session *session, uint32_t target, struct phrase *why);
+bool loader_reset_pointers(struct load_session *session, struct text *why);
+bool loader_feed_relocation(struct load_session *session, uint32_t location, struct text *why);
+bool loader_feed_init(struct load_session *session, uint32_t target, struct text *why);
 /* Whether a signature area of `end` bytes fits the node's; false with the refusal if not. */
-bool loader_signature_fits(uint64_t end, struct phrase *why);
+bool loader_signature_fits(uint64_t end, struct text *why);
 bool loader_feed_signature(struct load_session *session, uint32_t offset, const uint8_t *data,
-                           uint32_t length, struct phrase *why);
+                           uint32_t length, struct text *why);
 bool loader_feed_data(struct load_session *session, uint32_t address, const uint8_t *data,
-                      uint32_t length, struct phrase *why);
+                      uint32_t length, struct text *why);
 
 /* The end of the module: program the last block, check, read back. On success the session is
  * closed and `image` owns the flash; on failure the caller aborts. */
-bool loader_finish(struct load_session *session, struct loaded_image *image, struct phrase *why);
+bool loader_finish(struct load_session *session, struct loaded_image *image, struct text *why);
 
 /* Erase what the session programmed and give its flash back (a closed session: nothing). */
 void loader_abort(struct load_session *session);

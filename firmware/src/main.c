@@ -19,7 +19,7 @@
 #include "flash_layout.h"
 #include "line_reader.h"
 #include "node.h"
-#include "phrase.h"
+#include "../kernel/text.h"
 #include "receiver.h"
 #include "runtime.h"
 #include "watch.h"
@@ -36,18 +36,18 @@ static void send_bytes(const char *bytes, size_t length)
 
 static void say(const char *line)
 {
-    send_bytes(line, name_length(line, 400));
+    send_bytes(line, text_length(line, 400));
     send_bytes("\n", 1);
 }
 
 static void banner(void)
 {
     char text[BANNER_MAX];
-    struct phrase line;
-    phrase_start(&line, text, sizeof text);
-    phrase_add(&line, "refresh-node ");
-    phrase_add(&line, board_name());
-    phrase_add(&line, " ready: ");
+    struct text line;
+    text_start(&line, text, sizeof text);
+    text_add(&line, "refresh-node ");
+    text_add(&line, board_name());
+    text_add(&line, " ready: ");
     node_describe(&line);
     say(text);
 }

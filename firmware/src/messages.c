@@ -114,29 +114,29 @@ static bool next_word(struct span *rest, struct span *word)
     return true;
 }
 
-static void add_line_repr(struct phrase *why, const struct message *message, size_t most)
+static void add_line_repr(struct text *why, const struct message *message, size_t most)
 {
     size_t length = message->line_length < most ? message->line_length : most;
-    phrase_add_repr(why, message->line, length);
+    text_add_repr(why, message->line, length);
 }
 
-static void add_usage(struct phrase *why, const struct verb_spec *spec)
+static void add_usage(struct text *why, const struct verb_spec *spec)
 {
-    phrase_add(why, spec->word);
+    text_add(why, spec->word);
     for (int i = 0; i < spec->count; i++) {
         const struct field_spec *field = &spec->fields[i];
-        phrase_add_char(why, ' ');
+        text_add_char(why, ' ');
         if (field->kind == FIELD_FLAG) {
-            phrase_add(why, "RETRY|FATAL");
+            text_add(why, "RETRY|FATAL");
             continue;
         }
         bool bracket = field->kind == FIELD_ADDRESS || field->kind == FIELD_REST ||
                        field->kind == FIELD_LISTING;
-        phrase_add(why, bracket ? "[" : "");
+        text_add(why, bracket ? "[" : "");
         for (const char *c = field->name; *c; c++) {
-            phrase_add_char(why, *c >= 'a' && *c <= 'z' ? (char)(*c - 32) : *c);
+            text_add_char(why, *c >= 'a' && *c <= 'z' ? (char)(*c - 32) : *c);
         }
-        phrase_add(why, bracket ? "]" : "");
+        text_add(why, bracket ? "]" : "");
     }
 }
 
@@ -152,23 +152,23 @@ static uint64_t field_limit(uint8_t kind)
 }
 
 /* A number field's value, refused as fields.py's Number refuses it. */
-static bool parse_number(struct span word, uint8_t kind, uint64_t *value, struct phrase *why)
+static bool parse_number(struct span word, uint8_t kind, uint64_t *value, struct text *why)
 {
     struct number_word number;
     if (!number_word_parse(word.start, word.length, &number)) {
-        phrase_add(why, "expected a number, got ");
-        phrase_add_repr(why, word.start, word.length);
+        text_add(why, "expected a number, got ");
+        text_add_repr(why, word.start, word.length);
         return false;
     }
     if (number.negative) {
-        phrase_add(why, "expected a whole number >= 0, got ");
+        text_add(why, "expected a whole number >= 0, got ");
         number_word_show(word.start, word.length, &number, why);
         return false;
     }
     if (number.overflow || number.value > field_limit(kind)) {
-        phrase_add(why, "expected 0..");
-        phrase_add_decimal(why, field_limit(kind));
-        phrase_add(why, ", got ");
+        text_add(why, "expected 0..");
+        text_add_unsigned(why, field_limit(kind));
+        text_add(why, ", got ");
         number_word_show(word.start, word.length, &number, why);
         return false;
     }
@@ -177,7 +177,7 @@ static bool parse_number(struct span word, uint8_t kind, uint64_t *value, struct
 }
 
 /* One NAME@0xADDRESS:SIZE word of a listing. */
-static bool parse_module_word(struct span word, struct phrase *why)
+static bool parse_module_word(struct span word, struct text *why)
 {
     size_t at = word.length;
     while (at && word.start[at - 1] != '@') {
@@ -188,8 +188,8 @@ static bool parse_module_word(struct span word, struct phrase *why)
         colon++;
     }
     if (at <= 1 || colon >= word.length) {
-        phrase_add(why, "expected NAME@0xADDRESS:SIZE, got ");
-        phrase_add_repr(why, word.start, word.length);
+        text_add(why, "expected NAME@0xADDRESS:SIZE, got ");
+        text_add_repr(why, word.start, word.length);
         return false;
     }
     uint64_t ignored;
@@ -199,7 +199,7 @@ static bool parse_module_word(struct span word, struct phrase *why)
            parse_number(size, FIELD_U32, &ignored, why);
 }
 
-static bool parse_listing(struct span text, struct phrase *why)
+static bool parse_listing(struct span text, struct text *why)
 {
     struct span word;
     while (next_word(&text, &word)) {
@@ -210,11 +210,11 @@ static bool parse_listing(struct span text, struct phrase *why)
     return true;
 }
 
-static bool parse_flag(struct span word, uint64_t *value, struct phrase *why)
+static bool parse_flag(struct span word, uint64_t *value, struct text *why)
 {
     static const char *const WORDS[2] = {"RETRY", "FATAL"};
     for (int w = 0; w < 2; w++) {
-        size_t n = name_length(WORDS[w], 8);
+        size_t n = text_length(WORDS[w], 8);
         bool same = word.length == n;
         for (size_t i = 0; same && i < n; i++) {
             char c = word.start[i];
@@ -225,13 +225,13 @@ static bool parse_flag(struct span word, uint64_t *value, struct phrase *why)
             return true;
         }
     }
-    phrase_add(why, "expected RETRY or FATAL, got ");
-    phrase_add_repr(why, word.start, word.length);
+    text_add(why, "expected RETRY or FATAL, got ");
+    text_add_repr(why, word.start, word.length);
     return false;
 }
 
 static bool parse_field(const struct field_spec *field, struct span word, struct message *message,
-                        int index, struct phrase *why)
+                        int index, struct text *why)
 {
     message->present[index] = true;
     message->text[index] = word.start;
@@ -245,17 +245,17 @@ static bool parse_field(const struct field_spec *field, struct span word, struct
 }
 
 static void usage_error(const struct verb_spec *spec, const struct message *message,
-                        struct phrase *why)
+                        struct text *why)
 {
-    phrase_add(why, "expected ");
+    text_add(why, "expected ");
     add_usage(why, spec);
-    phrase_add(why, ", got ");
+    text_add(why, ", got ");
     add_line_repr(why, message, 60);
 }
 
 /* The fields after the verb, one word each, the free text taking what is left. */
 static bool decode_fields(const struct verb_spec *spec, struct span rest, struct message *message,
-                          struct phrase *why)
+                          struct text *why)
 {
     for (int i = 0; i < spec->count; i++) {
         const struct field_spec *field = &spec->fields[i];
@@ -271,16 +271,16 @@ static bool decode_fields(const struct verb_spec *spec, struct span rest, struct
             return false;
         }
         char reason[240];
-        struct phrase inner;
-        phrase_start(&inner, reason, sizeof reason);
+        struct text inner;
+        text_start(&inner, reason, sizeof reason);
         if (!parse_field(field, word, message, i, &inner)) {
-            phrase_add(why, field->name);
-            phrase_add(why, " of ");
+            text_add(why, field->name);
+            text_add(why, " of ");
             add_line_repr(why, message, 60);
-            phrase_add(why, " (the form: ");
+            text_add(why, " (the form: ");
             add_usage(why, spec);
-            phrase_add(why, "): ");
-            phrase_add(why, reason);
+            text_add(why, "): ");
+            text_add(why, reason);
             return false;
         }
     }
@@ -304,7 +304,7 @@ static bool hex_pair(const char *s)
 
 /* The line without its ` *XX`, checked; a line with a `*` but no valid checksum at its end is
  * refused (on a noisy line the damage to the checksum may come with damage to the command). */
-static bool strip_checksum(const struct message *message, struct span *body, struct phrase *why)
+static bool strip_checksum(const struct message *message, struct span *body, struct text *why)
 {
     const char *line = message->line;
     size_t n = message->line_length;
@@ -319,8 +319,8 @@ static bool strip_checksum(const struct message *message, struct span *body, str
     if (!found) {
         for (size_t i = 0; i < n; i++) {
             if (line[i] == '*') {
-                phrase_add(why, "expected a checksum ' *XX' at the end, got ");
-                phrase_add_repr(why, line + (n > 8 ? n - 8 : 0), n > 8 ? 8 : n);
+                text_add(why, "expected a checksum ' *XX' at the end, got ");
+                text_add_repr(why, line + (n > 8 ? n - 8 : 0), n > 8 ? 8 : n);
                 return false;
             }
         }
@@ -333,11 +333,11 @@ static bool strip_checksum(const struct message *message, struct span *body, str
                               (line[star + 3] <= '9' ? line[star + 3] - '0'
                                                     : (line[star + 3] | 0x20) - 'a' + 10));
     if (sum != given) {
-        phrase_add(why, "expected checksum ");
-        phrase_add_hex(why, sum, 2);
-        phrase_add(why, ", got ");
-        phrase_add_bytes(why, line + star + 2, 2);
-        phrase_add(why, " in ");
+        text_add(why, "expected checksum ");
+        text_add_hex(why, sum, 2);
+        text_add(why, ", got ");
+        text_add_bytes(why, line + star + 2, 2);
+        text_add(why, " in ");
         add_line_repr(why, message, 40);
         return false;
     }
@@ -364,11 +364,11 @@ static int find_verb(struct span word)
     return -1;
 }
 
-bool message_decode(const char *raw, size_t length, struct message *message, struct phrase *why)
+bool message_decode(const char *raw, size_t length, struct message *message, struct text *why)
 {
     for (size_t i = 0; i < length; i++) {
         if ((uint8_t)raw[i] >= 0x80) {
-            phrase_add(why, "expected an ASCII line");
+            text_add(why, "expected an ASCII line");
             return false;
         }
     }
@@ -384,7 +384,7 @@ bool message_decode(const char *raw, size_t length, struct message *message, str
     }
     int found = next_word(&body, &verb) ? find_verb(verb) : -1;
     if (found < 0) {
-        phrase_add(why, "expected a command or a record line, got ");
+        text_add(why, "expected a command or a record line, got ");
         add_line_repr(why, message, 30);
         return false;
     }
@@ -394,87 +394,87 @@ bool message_decode(const char *raw, size_t length, struct message *message, str
 
 /* Writers. Each ends the line with its CRC-8 and a line end. */
 
-void reply_end(struct phrase *line)
+void reply_end(struct text *line)
 {
     static const char HEX[] = "0123456789ABCDEF";
     uint8_t sum = crc8_line(line->buffer, line->length);
-    phrase_add(line, " *");
-    phrase_add_char(line, HEX[sum >> 4]);
-    phrase_add_char(line, HEX[sum & 0xFu]);
-    phrase_add_char(line, '\n');
+    text_add(line, " *");
+    text_add_char(line, HEX[sum >> 4]);
+    text_add_char(line, HEX[sum & 0xFu]);
+    text_add_char(line, '\n');
 }
 
 /* Free text as hex mode writes it: its ends stripped, left out when empty. */
-static void add_free_text(struct phrase *line, const char *text)
+static void add_free_text(struct text *line, const char *text)
 {
-    struct span s = strip((struct span){text, name_length(text, ANSWER_MAX)});
+    struct span s = strip((struct span){text, text_length(text, ANSWER_MAX)});
     if (s.length) {
-        phrase_add_char(line, ' ');
-        phrase_add_bytes(line, s.start, s.length);
+        text_add_char(line, ' ');
+        text_add_bytes(line, s.start, s.length);
     }
 }
 
-void reply_ack(struct phrase *line, uint32_t tid, uint32_t value, const char *text)
+void reply_ack(struct text *line, uint32_t tid, uint32_t value, const char *text)
 {
-    phrase_add(line, "ACK ");
-    phrase_add_decimal(line, tid);
-    phrase_add_char(line, ' ');
-    phrase_add_decimal(line, value);
+    text_add(line, "ACK ");
+    text_add_unsigned(line, tid);
+    text_add_char(line, ' ');
+    text_add_unsigned(line, value);
     add_free_text(line, text);
     reply_end(line);
 }
 
-void reply_nak(struct phrase *line, uint32_t tid, uint32_t value, bool fatal, const char *reason)
+void reply_nak(struct text *line, uint32_t tid, uint32_t value, bool fatal, const char *reason)
 {
-    phrase_add(line, "NAK ");
-    phrase_add_decimal(line, tid);
-    phrase_add_char(line, ' ');
-    phrase_add_decimal(line, value);
-    phrase_add(line, fatal ? " FATAL" : " RETRY");
+    text_add(line, "NAK ");
+    text_add_unsigned(line, tid);
+    text_add_char(line, ' ');
+    text_add_unsigned(line, value);
+    text_add(line, fatal ? " FATAL" : " RETRY");
     add_free_text(line, reason);
     reply_end(line);
 }
 
-void reply_pong(struct phrase *line, const char *text)
+void reply_pong(struct text *line, const char *text)
 {
-    phrase_add(line, "PONG");
+    text_add(line, "PONG");
     add_free_text(line, text);
     reply_end(line);
 }
 
-void reply_modules_start(struct phrase *line)
+void reply_modules_start(struct text *line)
 {
-    phrase_add(line, "MODULES");
+    text_add(line, "MODULES");
 }
 
-void reply_module(struct phrase *line, const char *name, uint32_t address, uint32_t size)
+void reply_module(struct text *line, const char *name, uint32_t address, uint32_t size)
 {
-    phrase_add_char(line, ' ');
-    phrase_add(line, name);
-    phrase_add(line, "@0x");
-    phrase_add_hex(line, address, 8);
-    phrase_add_char(line, ':');
-    phrase_add_decimal(line, size);
+    text_add_char(line, ' ');
+    text_add(line, name);
+    text_add(line, "@0x");
+    text_add_hex(line, address, 8);
+    text_add_char(line, ':');
+    text_add_unsigned(line, size);
 }
 
-void reply_text_start(struct phrase *line, enum verb verb, const uint32_t *numbers,
-                      struct phrase *text)
+void reply_text_start(struct text *line, enum verb verb, const uint32_t *numbers,
+                      struct text *text)
 {
     const struct verb_spec *spec = &VERBS[verb];
-    phrase_add(line, spec->word);
+    text_add(line, spec->word);
     for (int i = 0; i < spec->count; i++) {
         if (spec->fields[i].kind != FIELD_REST) {
-            phrase_add_char(line, ' ');
-            phrase_add_decimal(line, *numbers++);
+            text_add_char(line, ' ');
+            text_add_unsigned(line, *numbers++);
         }
     }
     size_t at = line->length + 1; /* after the blank before the text */
     size_t end = sizeof " *XX\n" - 1;
     size_t room = line->capacity > at + end ? line->capacity - at - end : 0;
-    phrase_start(text, line->buffer + at, room);
+    text_start(text, line->buffer + at, room);
 }
 
-void reply_text_end(struct phrase *line, const struct phrase *text)
+void reply_text_end(struct text *line, const struct text *text)
 {
     struct span s = strip((struct span){text->buffer, text->length});
     if (s.length) {
@@ -492,7 +492,7 @@ const struct verb_spec *verb_spec(enum verb verb)
     return &VERBS[verb];
 }
 
-bool listing_check(const char *text, size_t length, struct phrase *why)
+bool listing_check(const char *text, size_t length, struct text *why)
 {
     return parse_listing((struct span){text, length}, why);
 }

@@ -17,7 +17,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "phrase.h"
+#include "../kernel/text.h"
 
 #define MESSAGE_MAX_FIELDS 6
 #define ANSWER_MAX 1024 /* a control answer's line: up to 800 characters of text (LOGLINES) */
@@ -64,35 +64,35 @@ struct message {
 };
 
 /* Decode one line (without its line end); false with the reason (after "bad message: "). */
-bool message_decode(const char *raw, size_t length, struct message *message, struct phrase *why);
+bool message_decode(const char *raw, size_t length, struct message *message, struct text *why);
 
 /* True for a request the node answers (not an answer such as ACK or PONG). */
 bool verb_is_request(enum verb verb);
 const char *verb_word(enum verb verb);
 
 /* Answers, ` *XX` and the line end included, in `line` (answer_line). */
-void reply_ack(struct phrase *line, uint32_t tid, uint32_t value, const char *text);
-void reply_nak(struct phrase *line, uint32_t tid, uint32_t value, bool fatal, const char *reason);
-void reply_pong(struct phrase *line, const char *text);
+void reply_ack(struct text *line, uint32_t tid, uint32_t value, const char *text);
+void reply_nak(struct text *line, uint32_t tid, uint32_t value, bool fatal, const char *reason);
+void reply_pong(struct text *line, const char *text);
 /* MODULES: the caller adds `name@0xADDRESS:SIZE` words with reply_module, then reply_end. */
-void reply_modules_start(struct phrase *line);
-void reply_module(struct phrase *line, const char *name, uint32_t address, uint32_t size);
-void reply_end(struct phrase *line);
+void reply_modules_start(struct text *line);
+void reply_module(struct text *line, const char *name, uint32_t address, uint32_t size);
+void reply_end(struct text *line);
 
 /* An answer whose fields are numbers and then free text (PBOS, VALUES, LOGLINES, DESCRIPTION,
  * REPORT, BEAT), in `line` (answer_line): `numbers` in the table's order go in, and `text` is
  * started where the free text goes, so the caller writes it straight into the line (no second
  * buffer of a kilobyte), with the room the line's end needs kept free. */
-void reply_text_start(struct phrase *line, enum verb verb, const uint32_t *numbers,
-                      struct phrase *text);
+void reply_text_start(struct text *line, enum verb verb, const uint32_t *numbers,
+                      struct text *text);
 /* The line's end after the free text written in `text`, its ends stripped, as hex mode writes
  * free text (none when it is empty). */
-void reply_text_end(struct phrase *line, const struct phrase *text);
+void reply_text_end(struct text *line, const struct text *text);
 
 /* The fields of `verb`, in text order (the binary codec reads them too, binary_messages.c). */
 const struct verb_spec *verb_spec(enum verb verb);
 /* Whether `text` is a listing's NAME@0xADDRESS:SIZE words; false with the reason. */
-bool listing_check(const char *text, size_t length, struct phrase *why);
+bool listing_check(const char *text, size_t length, struct text *why);
 
 /* Python's str.isspace() for an ASCII character: what split() and strip() cut at. */
 bool ascii_space(char c);

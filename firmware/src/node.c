@@ -29,7 +29,7 @@ const struct installed_module *node_module(uint32_t index)
 static int find_module(const char *name)
 {
     for (uint32_t i = 0; i < node.count; i++) {
-        if (name_equal(node.modules[i].entry.name, name)) {
+        if (text_equal(node.modules[i].entry.name, name)) {
             return (int)i;
         }
     }
@@ -51,13 +51,13 @@ static void keep_version(const char *name, uint32_t version)
         return;
     }
     for (uint32_t i = 0; i < node.kept_count; i++) {
-        if (name_equal(node.kept[i].name, name)) {
+        if (text_equal(node.kept[i].name, name)) {
             node.kept[i].version = version;
             return;
         }
     }
     if (node.kept_count < DIRECTORY_MAX_KEPT) {
-        name_copy(node.kept[node.kept_count].name, name, sizeof node.kept[0].name);
+        text_copy(node.kept[node.kept_count].name, name, sizeof node.kept[0].name);
         node.kept[node.kept_count++].version = version;
     }
 }
@@ -65,7 +65,7 @@ static void keep_version(const char *name, uint32_t version)
 static void drop_kept(const char *name)
 {
     for (uint32_t i = 0; i < node.kept_count; i++) {
-        if (name_equal(node.kept[i].name, name)) {
+        if (text_equal(node.kept[i].name, name)) {
             for (uint32_t j = i; j + 1 < node.kept_count; j++) {
                 node.kept[j] = node.kept[j + 1];
             }
@@ -82,7 +82,7 @@ static void make_record(struct directory_record *record, const char *skip,
     record->sequence = directory_next_sequence();
     record->entry_count = 0;
     for (uint32_t i = 0; i < node.count; i++) {
-        if (!skip || !name_equal(node.modules[i].entry.name, skip)) {
+        if (!skip || !text_equal(node.modules[i].entry.name, skip)) {
             record->entries[record->entry_count++] = node.modules[i].entry;
         }
     }
@@ -91,7 +91,7 @@ static void make_record(struct directory_record *record, const char *skip,
     }
     record->kept_count = 0;
     for (uint32_t i = 0; i < node.kept_count; i++) {
-        if (!extra || !name_equal(node.kept[i].name, extra->name)) {
+        if (!extra || !text_equal(node.kept[i].name, extra->name)) {
             record->kept[record->kept_count++] = node.kept[i];
         }
     }
@@ -101,29 +101,29 @@ static void say(void (*report)(const char *), const char *what, const char *name
                 const char *reason)
 {
     char line[240];
-    struct phrase text;
-    phrase_start(&text, line, sizeof line);
-    phrase_add(&text, what);
-    phrase_add_repr(&text, name, name_length(name, DIRECTORY_NAME_LEN));
-    phrase_add(&text, ": ");
-    phrase_add(&text, reason);
+    struct text text;
+    text_start(&text, line, sizeof line);
+    text_add(&text, what);
+    text_add_repr(&text, name, text_length(name, DIRECTORY_NAME_LEN));
+    text_add(&text, ": ");
+    text_add(&text, reason);
     report(line);
 }
 
 /* Take back one entry of the directory: its sectors, its intact image, its name. */
-static bool restore(const struct directory_entry *entry, struct phrase *why)
+static bool restore(const struct directory_entry *entry, struct text *why)
 {
     uint32_t offset = entry->load_address - flash_base();
     if (entry->load_address < flash_base() || offset >= flash_size() ||
         offset % flash_sector_size() || entry->size == 0) {
-        phrase_add(why, "expected a load address at a flash sector boundary and a size > 0, "
+        text_add(why, "expected a load address at a flash sector boundary and a size > 0, "
                         "got 0x");
-        phrase_add_hex(why, entry->load_address, 8);
+        text_add_hex(why, entry->load_address, 8);
         return false;
     }
     struct installed_module module = {*entry, {0, 0}};
     if (!flash_place(flash_sector_of(offset), flash_sectors_for(entry->size), &module.extent)) {
-        phrase_add(why, "its flash overlaps another module's or the directory's");
+        text_add(why, "its flash overlaps another module's or the directory's");
         return false;
     }
     uint32_t crc = flash_crc32(offset, entry->size);
@@ -134,8 +134,8 @@ static bool restore(const struct directory_entry *entry, struct phrase *why)
                                                         entry->size, entry->init_address)
                                 : 0;
     if (!named || refusal) {
-        phrase_add(why, crc != entry->crc32 ? "the image's CRC-32 is not the directory's" : "");
-        phrase_add(why, refusal ? refusal : "");
+        text_add(why, crc != entry->crc32 ? "the image's CRC-32 is not the directory's" : "");
+        text_add(why, refusal ? refusal : "");
         if (refusal) { /* its init ran */
             flash_retire(&module.extent);
         } else {
@@ -174,10 +174,10 @@ void node_boot(void (*report)(const char *line))
     uint32_t count = load_directory(report, entries);
     for (uint32_t i = 0; i < count; i++) {
         char reason[160];
-        struct phrase why;
-        phrase_start(&why, reason, sizeof reason);
+        struct text why;
+        text_start(&why, reason, sizeof reason);
         if (find_module(entries[i].name) >= 0) {
-            phrase_add(&why, "a module of that name came earlier in the directory");
+            text_add(&why, "a module of that name came earlier in the directory");
         }
         if (why.length || !restore(&entries[i], &why)) {
             say(report, "boot: skipped module ", entries[i].name, reason);
@@ -192,7 +192,7 @@ static struct directory_entry entry_of(const struct loaded_image *image, const c
                                     image->init + (image->load_base - image->link_base),
                                     image->relocations, image->crc32,
                                     directory_next_sequence(), 0};
-    name_copy(entry.name, name, sizeof entry.name);
+    text_copy(entry.name, name, sizeof entry.name);
     return entry;
 }
 
@@ -211,7 +211,7 @@ static void undo_registration(const char *name, int old)
  * are on the stack only while it is written, never while a module's code runs (noinline). */
 __attribute__((noinline)) static bool write_record(const char *skip,
                                                    const struct directory_entry *extra,
-                                                   struct phrase *why)
+                                                   struct text *why)
 {
     struct directory_record record;
     make_record(&record, skip, extra);
@@ -219,7 +219,7 @@ __attribute__((noinline)) static bool write_record(const char *skip,
 }
 
 bool node_commit(const struct loaded_image *image, char *name, uint32_t *address,
-                 struct phrase *why)
+                 struct text *why)
 {
     uint32_t offset = image->load_base - flash_base();
     if (!descriptor_find_name(offset, image->size, image->link_base, name, why)) {
@@ -230,7 +230,7 @@ bool node_commit(const struct loaded_image *image, char *name, uint32_t *address
     const char *refusal =
         node_module_installed(name, image->load_base, image->size, entry.init_address);
     if (refusal) { /* its init ran */
-        phrase_add(why, refusal);
+        text_add(why, refusal);
         loader_erase_extent(&image->extent);
         return false;
     }
@@ -251,7 +251,7 @@ bool node_commit(const struct loaded_image *image, char *name, uint32_t *address
     return true;
 }
 
-bool node_remove(const char *name, struct phrase *why)
+bool node_remove(const char *name, struct text *why)
 {
     int index = find_module(name);
     if (index < 0) {
@@ -268,18 +268,18 @@ bool node_remove(const char *name, struct phrase *why)
     return true;
 }
 
-void node_describe(struct phrase *line)
+void node_describe(struct text *line)
 {
     uint32_t blocks_per_sector = flash_sector_size() / FLASH_BLOCK;
-    phrase_add(line, "node: ");
-    phrase_add_decimal(line, node.count);
-    phrase_add(line, " module(s), ");
-    phrase_add_decimal(line, (uint64_t)flash_free_sectors() * blocks_per_sector);
-    phrase_add(line, " of ");
-    phrase_add_decimal(line, flash_block_count());
-    phrase_add(line, " flash blocks free, ");
-    phrase_add_decimal(line, node_sram_free());
-    phrase_add(line, " bytes of SRAM free, ");
-    phrase_add(line, board_name());
-    phrase_add(line, " firmware");
+    text_add(line, "node: ");
+    text_add_unsigned(line, node.count);
+    text_add(line, " module(s), ");
+    text_add_unsigned(line, (uint64_t)flash_free_sectors() * blocks_per_sector);
+    text_add(line, " of ");
+    text_add_unsigned(line, flash_block_count());
+    text_add(line, " flash blocks free, ");
+    text_add_unsigned(line, node_sram_free());
+    text_add(line, " bytes of SRAM free, ");
+    text_add(line, board_name());
+    text_add(line, " firmware");
 }

@@ -14,7 +14,7 @@
 
 #include "flash_directory.h"
 #include "loader.h"
-#include "phrase.h"
+#include "../kernel/text.h"
 
 struct installed_module {
     struct directory_entry entry;
@@ -28,15 +28,15 @@ void node_boot(void (*report)(const char *line));
  * descriptor, the kernel's consent, then the directory write. On failure the image is erased and
  * the old module stays; `why` says what failed. */
 bool node_commit(const struct loaded_image *image, char *name, uint32_t *address,
-                 struct phrase *why);
+                 struct text *why);
 
 /* Remove module `name`: the directory first, then its flash. False when there is none. */
-bool node_remove(const char *name, struct phrase *why);
+bool node_remove(const char *name, struct text *why);
 
 uint32_t node_module_count(void);
 const struct installed_module *node_module(uint32_t index);
 
 /* "node: 1 module(s), ... free, qemu-virt firmware": the PONG line. */
-void node_describe(struct phrase *line);
+void node_describe(struct text *line);
 
 #endif

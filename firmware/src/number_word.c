@@ -132,21 +132,21 @@ static size_t decimal_step(uint16_t *limbs, size_t count, unsigned base, unsigne
 }
 
 /* A limb below the first: its four digits, zeros included. */
-static void add_limb(struct phrase *phrase, unsigned limb)
+static void add_limb(struct text *out, unsigned limb)
 {
     for (unsigned power = LIMB / 10; power; power /= 10) {
-        phrase_add_char(phrase, (char)('0' + limb / power % 10));
+        text_add_char(out, (char)('0' + limb / power % 10));
     }
 }
 
 void number_word_show(const char *text, size_t length, const struct number_word *number,
-                      struct phrase *phrase)
+                      struct text *out)
 {
     if (number->negative) {
-        phrase_add_char(phrase, '-');
+        text_add_char(out, '-');
     }
     if (!number->overflow) {
-        phrase_add_decimal(phrase, number->value);
+        text_add_unsigned(out, number->value);
         return;
     }
     static uint16_t limbs[MAX_LIMBS];
@@ -163,8 +163,8 @@ void number_word_show(const char *text, size_t length, const struct number_word 
             count = decimal_step(limbs, count, base, (unsigned)digit_value(text[i]));
         }
     }
-    phrase_add_decimal(phrase, limbs[--count]);
+    text_add_unsigned(out, limbs[--count]);
     while (count) {
-        add_limb(phrase, limbs[--count]);
+        add_limb(out, limbs[--count]);
     }
 }

@@ -13,7 +13,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "phrase.h"
+#include "../kernel/text.h"
 
 struct number_word {
     bool negative;
@@ -26,6 +26,6 @@ bool number_word_parse(const char *text, size_t length, struct number_word *numb
 
 /* The number in decimal, as Python prints the int (even one past 64 bits). */
 void number_word_show(const char *text, size_t length, const struct number_word *number,
-                      struct phrase *phrase);
+                      struct text *out);
 
 #endif

@@ -35,13 +35,13 @@ static bool next_word(const char *text, size_t length, size_t *at, size_t *start
     return true;
 }
 
-static void refuse_name(struct phrase *why, const char *text, size_t start, size_t end)
+static void refuse_name(struct text *why, const char *text, size_t start, size_t end)
 {
-    phrase_add(why, "expected PBO.port names, got ");
-    phrase_add_repr(why, text + start, end - start > 60 ? 60 : end - start);
+    text_add(why, "expected PBO.port names, got ");
+    text_add_repr(why, text + start, end - start > 60 ? 60 : end - start);
 }
 
-bool ports_parse(const char *text, size_t length, struct port_list *ports, struct phrase *why)
+bool ports_parse(const char *text, size_t length, struct port_list *ports, struct text *why)
 {
     size_t at = 0, start, end, count = 0;
     size_t bad_start = 0, bad_end = 0;
@@ -49,7 +49,7 @@ bool ports_parse(const char *text, size_t length, struct port_list *ports, struc
 
     while (next_word(text, length, &at, &start, &end)) {
         if (count++ == PORTS_MAX) {
-            phrase_add(why, "expected at most 32 ports, got more");
+            text_add(why, "expected at most 32 ports, got more");
             return false;
         }
         if (!bad && !ports_is_port(text + start, end - start)) {
@@ -61,7 +61,7 @@ bool ports_parse(const char *text, size_t length, struct port_list *ports, struc
         return false;
     }
     if (count == 0) {
-        phrase_add(why, "expected PBO.port names, got none");
+        text_add(why, "expected PBO.port names, got none");
         return false;
     }
     *ports = (struct port_list){text, length};
@@ -77,42 +77,42 @@ static bool next_name(const struct port_list *ports, size_t *at, char name[PORT_
         return false;
     }
     size_t length = end - start;
-    name_copy(name, ports->text + start, (length < PORT_NAME_MAX ? length : PORT_NAME_MAX) + 1);
+    text_copy(name, ports->text + start, (length < PORT_NAME_MAX ? length : PORT_NAME_MAX) + 1);
     if (length > PORT_NAME_MAX) {
         name[PORT_NAME_MAX - 1] = '?';
     }
     return true;
 }
 
-bool ports_readable(const struct port_list *ports, struct phrase *why)
+bool ports_readable(const struct port_list *ports, struct text *why)
 {
     char name[PORT_NAME_MAX + 1];
     for (size_t at = 0; next_name(ports, &at, name);) {
         int32_t value;
         if (kernel_read(name, &value) != KERNEL_OK) {
-            phrase_add(why, kernel_message());
+            text_add(why, kernel_message());
             return false;
         }
     }
     return true;
 }
 
-void ports_add_values(const struct port_list *ports, struct phrase *text)
+void ports_add_values(const struct port_list *ports, struct text *text)
 {
     char name[PORT_NAME_MAX + 1];
     for (size_t at = 0; next_name(ports, &at, name);) {
         int32_t value;
         if (kernel_read(name, &value) == KERNEL_OK) {
             if (text->length) {
-                phrase_add_char(text, ' ');
+                text_add_char(text, ' ');
             }
-            phrase_add(text, name);
-            phrase_add_char(text, '=');
+            text_add(text, name);
+            text_add_char(text, '=');
             if (value < 0) {
-                phrase_add_char(text, '-');
-                phrase_add_decimal(text, (uint64_t)0 - (uint64_t)(int64_t)value);
+                text_add_char(text, '-');
+                text_add_unsigned(text, (uint64_t)0 - (uint64_t)(int64_t)value);
             } else {
-                phrase_add_decimal(text, (uint64_t)value);
+                text_add_unsigned(text, (uint64_t)value);
             }
         }
     }
@@ -120,14 +120,14 @@ void ports_add_values(const struct port_list *ports, struct phrase *text)
 
 void ports_keep(struct port_list *ports, char *kept)
 {
-    struct phrase names;
+    struct text names;
     char name[PORT_NAME_MAX + 1];
-    phrase_start(&names, kept, PORTS_TEXT_MAX);
+    text_start(&names, kept, PORTS_TEXT_MAX);
     for (size_t at = 0; next_name(ports, &at, name);) {
         if (names.length) {
-            phrase_add_char(&names, ' ');
+            text_add_char(&names, ' ');
         }
-        phrase_add(&names, name);
+        text_add(&names, name);
     }
     *ports = (struct port_list){kept, names.length};
 }

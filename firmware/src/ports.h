@@ -9,7 +9,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "phrase.h"
+#include "../kernel/text.h"
 
 #define PORTS_MAX 32      /* control.py's MAX_PORTS */
 #define PORT_NAME_MAX 29  /* a PBO's 16 characters, the dot, a port's 12 */
@@ -27,13 +27,13 @@ bool ports_is_port(const char *text, size_t length);
 
 /* The names of `text`, refused as control.py refuses them (none, more than 32, one that is
  * not PBO.port); a name longer than any port's is refused as unknown (ports_readable). */
-bool ports_parse(const char *text, size_t length, struct port_list *ports, struct phrase *why);
+bool ports_parse(const char *text, size_t length, struct port_list *ports, struct text *why);
 
 /* Whether every port reads; else false with the kernel's reason. */
-bool ports_readable(const struct port_list *ports, struct phrase *why);
+bool ports_readable(const struct port_list *ports, struct text *why);
 
 /* ` NAME=VALUE` of each port that reads (a port gone with its module is left out). */
-void ports_add_values(const struct port_list *ports, struct phrase *text);
+void ports_add_values(const struct port_list *ports, struct text *text);
 
 /* Copy readable names (each PORT_NAME_MAX at most) a blank apart into `kept`, PORTS_TEXT_MAX
  * bytes, and point `ports` there: a WATCH's outlive its request's line. */

@@ -46,7 +46,7 @@ static struct {
 /* A fatal refusal: the reason, and the transfer it ends (NULL: none). */
 struct refusal {
     char reason[REASON_MAX];
-    struct phrase why;
+    struct text why;
 };
 
 void receiver_init(void (*send)(const char *bytes, size_t length))
@@ -68,7 +68,7 @@ bool receiver_answering_binary(void)
 
 /* Every answer is written once, as hex mode's line; a binary request's answer is that line
  * re-encoded as the binary message of its verb. */
-static void send_line(struct phrase *line)
+static void send_line(struct text *line)
 {
     if (receiver.binary) {
         binary_send_line(receiver.send, line->buffer, line->length);
@@ -79,30 +79,30 @@ static void send_line(struct phrase *line)
 
 /* An answer's line, in the node's one (messages.h): no line buffer on the stack, where a
  * request's deepest path (a COMMIT whose module's init traps) needs the room. */
-static struct phrase answer_start(void)
+static struct text answer_start(void)
 {
-    struct phrase line;
-    phrase_start(&line, answer_line, sizeof answer_line);
+    struct text line;
+    text_start(&line, answer_line, sizeof answer_line);
     return line;
 }
 
 static void ack(uint32_t tid, uint32_t value, const char *text)
 {
-    struct phrase line = answer_start();
+    struct text line = answer_start();
     reply_ack(&line, tid, value, text);
     send_line(&line);
 }
 
 static void nak(uint32_t tid, uint32_t value, bool fatal, const char *reason)
 {
-    struct phrase line = answer_start();
+    struct text line = answer_start();
     reply_nak(&line, tid, value, fatal, reason);
     send_line(&line);
 }
 
 static void start_refusal(struct refusal *refusal)
 {
-    phrase_start(&refusal->why, refusal->reason, sizeof refusal->reason);
+    text_start(&refusal->why, refusal->reason, sizeof refusal->reason);
 }
 
 /* Transfers. */
@@ -174,9 +174,9 @@ static struct transfer *known_transfer(uint32_t tid, struct refusal *refusal)
 {
     struct transfer *transfer = find_transfer(tid);
     if (!transfer) {
-        phrase_add(&refusal->why, "unknown transfer ");
-        phrase_add_decimal(&refusal->why, tid);
-        phrase_add(&refusal->why, ": send BEGIN first");
+        text_add(&refusal->why, "unknown transfer ");
+        text_add_unsigned(&refusal->why, tid);
+        text_add(&refusal->why, ": send BEGIN first");
         return 0;
     }
     transfer->touched = board_time_us();
@@ -196,17 +196,17 @@ static struct transfer *open_transfer(uint32_t tid)
 static void handle_ping(void)
 {
     char text[200];
-    struct phrase describe;
-    phrase_start(&describe, text, sizeof text);
+    struct text describe;
+    text_start(&describe, text, sizeof text);
     node_describe(&describe);
-    struct phrase line = answer_start();
+    struct text line = answer_start();
     reply_pong(&line, text);
     send_line(&line);
 }
 
 static void handle_list(void)
 {
-    struct phrase line = answer_start();
+    struct text line = answer_start();
     reply_modules_start(&line);
     for (uint32_t i = 0; i < node_module_count(); i++) {
         const struct directory_entry *entry = &node_module(i)->entry;
@@ -230,24 +230,24 @@ static void handle_remove(const struct message *m)
     name[fits ? length : 0] = '\0';
     if (!fits || !node_remove(name, &refusal.why)) {
         if (!refusal.why.length) {
-            phrase_add(&refusal.why, "no module named ");
-            phrase_add_repr(&refusal.why, m->text[0], length);
+            text_add(&refusal.why, "no module named ");
+            text_add_repr(&refusal.why, m->text[0], length);
         }
         nak(0, 0, true, refusal.reason);
         return;
     }
     char said[sizeof "removed " + DIRECTORY_NAME_LEN];
-    struct phrase text;
-    phrase_start(&text, said, sizeof said);
-    phrase_add(&text, "removed ");
-    phrase_add(&text, name);
+    struct text text;
+    text_start(&text, said, sizeof said);
+    text_add(&text, "removed ");
+    text_add(&text, name);
     ack(0, 0, said);
 }
 
 /* CHALLENGE, AUTH and BYE: session.c answers them. */
-static void handle_session(void (*answer)(uint32_t, struct phrase *), uint32_t tid)
+static void handle_session(void (*answer)(uint32_t, struct text *), uint32_t tid)
 {
-    struct phrase reply = answer_start();
+    struct text reply = answer_start();
     answer(tid, &reply);
     send_line(&reply);
 }
@@ -258,14 +258,14 @@ __attribute__((noinline)) static void refuse_control(const struct message *m)
 {
     struct refusal refusal;
     start_refusal(&refusal);
-    phrase_add(&refusal.why, verb_word(m->verb));
-    phrase_add(&refusal.why, " refused: this node takes no control requests");
+    text_add(&refusal.why, verb_word(m->verb));
+    text_add(&refusal.why, " refused: this node takes no control requests");
     nak((uint32_t)m->number[0], 0, true, refusal.reason);
 }
 
 static void handle_control(const struct message *m)
 {
-    struct phrase reply = answer_start();
+    struct text reply = answer_start();
     if (node_control(m, &reply)) {
         send_line(&reply);
         return;
@@ -286,18 +286,18 @@ static void handle_begin(const struct message *m)
         ack(tid, loader_load_base(&existing->session), "begun");
         return;
     }
-    phrase_add(&refusal.why, "cannot begin: ");
+    text_add(&refusal.why, "cannot begin: ");
     if ((uint64_t)link_base + size > 0x100000000ull) {
-        phrase_add(&refusal.why, "an image of ");
-        phrase_add_decimal(&refusal.why, size);
-        phrase_add(&refusal.why, " bytes linked at 0x");
-        phrase_add_hex(&refusal.why, link_base, 8);
-        phrase_add(&refusal.why, " ends past the 32-bit address space");
+        text_add(&refusal.why, "an image of ");
+        text_add_unsigned(&refusal.why, size);
+        text_add(&refusal.why, " bytes linked at 0x");
+        text_add_hex(&refusal.why, link_base, 8);
+        text_add(&refusal.why, " ends past the 32-bit address space");
         nak(tid, 0, true, refusal.reason);
         return;
     }
     if (open_count() >= MAX_TRANSFERS) {
-        phrase_add(&refusal.why, "4 transfers are open (an idle one ends after 60 s)");
+        text_add(&refusal.why, "4 transfers are open (an idle one ends after 60 s)");
         nak(tid, 0, true, refusal.reason);
         return;
     }
@@ -353,17 +353,17 @@ static bool feed(struct transfer *t, uint32_t address, const uint8_t *data, uint
     if (address > expected) {
         struct refusal gap;
         start_refusal(&gap);
-        phrase_add(&gap.why, "expected data at 0x");
-        phrase_add_hex(&gap.why, (uint32_t)expected, 8);
-        phrase_add(&gap.why, ", got 0x");
-        phrase_add_hex(&gap.why, address, 8);
+        text_add(&gap.why, "expected data at 0x");
+        text_add_hex(&gap.why, (uint32_t)expected, 8);
+        text_add(&gap.why, ", got 0x");
+        text_add_hex(&gap.why, address, 8);
         nak(t->tid, loader_received(session), false, gap.reason);
         return true;
     }
     if (t->verified) { /* binary DATA may name it: its flash past the image was given back */
-        phrase_add(&refusal->why, "expected no data after END: transfer ");
-        phrase_add_decimal(&refusal->why, t->tid);
-        phrase_add(&refusal->why, " is verified, send COMMIT or ABORT");
+        text_add(&refusal->why, "expected no data after END: transfer ");
+        text_add_unsigned(&refusal->why, t->tid);
+        text_add(&refusal->why, " is verified, send COMMIT or ABORT");
         return false;
     }
     uint32_t skip = (uint32_t)(expected - address);
@@ -395,10 +395,10 @@ static bool relocation_room(const struct transfer *t, uint32_t count, struct ref
     if (count <= limit) {
         return true;
     }
-    phrase_add(&refusal->why, "expected at most ");
-    phrase_add_decimal(&refusal->why, limit);
-    phrase_add(&refusal->why, " pointer locations, got ");
-    phrase_add_decimal(&refusal->why, count);
+    text_add(&refusal->why, "expected at most ");
+    text_add_unsigned(&refusal->why, limit);
+    text_add(&refusal->why, " pointer locations, got ");
+    text_add_unsigned(&refusal->why, count);
     return false;
 }
 
@@ -420,18 +420,18 @@ static bool pointer_line(struct transfer *t, const struct hex_record *record,
         }
         uint32_t got = session->relocation_count;
         if (t->announced && got > t->relocations) {
-            phrase_add(&refusal->why, "expected ");
-            phrase_add_decimal(&refusal->why, t->relocations);
-            phrase_add(&refusal->why, " pointer records (BEGIN), got ");
-            phrase_add_decimal(&refusal->why, got);
+            text_add(&refusal->why, "expected ");
+            text_add_unsigned(&refusal->why, t->relocations);
+            text_add(&refusal->why, " pointer records (BEGIN), got ");
+            text_add_unsigned(&refusal->why, got);
             return false;
         }
         if (t->announced && got < t->relocations) {
             struct refusal missing; /* the records that came stay; the lost ones fill in */
             start_refusal(&missing);
-            phrase_add(&missing.why, "header incomplete: ");
-            phrase_add_decimal(&missing.why, t->relocations - got);
-            phrase_add(&missing.why, " missing");
+            text_add(&missing.why, "header incomplete: ");
+            text_add_unsigned(&missing.why, t->relocations - got);
+            text_add(&missing.why, " missing");
             nak(t->tid, 0, false, missing.reason);
             return true;
         }
@@ -447,26 +447,26 @@ static bool end_transfer(struct transfer *t, bool check, uint32_t crc, struct re
     if (!t->verified) {
         t->session.ended = true;
         char reason[REASON_MAX - 32];
-        struct phrase why;
-        phrase_start(&why, reason, sizeof reason);
+        struct text why;
+        text_start(&why, reason, sizeof reason);
         if (!loader_finish(&t->session, &t->image, &why)) {
-            phrase_add(&refusal->why, "not a valid module: ");
-            phrase_add(&refusal->why, reason);
+            text_add(&refusal->why, "not a valid module: ");
+            text_add(&refusal->why, reason);
             return false;
         }
         t->verified = true;
     }
     if (check && t->image.crc32 != crc) {
-        phrase_add(&refusal->why, "CRC-32 of the programmed image is 0x");
-        phrase_add_hex(&refusal->why, t->image.crc32, 8);
-        phrase_add(&refusal->why, ", expected 0x");
-        phrase_add_hex(&refusal->why, crc, 8);
+        text_add(&refusal->why, "CRC-32 of the programmed image is 0x");
+        text_add_hex(&refusal->why, t->image.crc32, 8);
+        text_add(&refusal->why, ", expected 0x");
+        text_add_hex(&refusal->why, crc, 8);
         return false;
     }
     struct refusal said;
     start_refusal(&said);
-    phrase_add(&said.why, "verified crc=0x");
-    phrase_add_hex(&said.why, t->image.crc32, 8);
+    text_add(&said.why, "verified crc=0x");
+    text_add_hex(&said.why, t->image.crc32, 8);
     ack(t->tid, t->image.size, said.reason);
     return true;
 }
@@ -496,23 +496,23 @@ static struct transfer *text_transfer(struct refusal *refusal)
         return transfer;
     }
     if (find_transfer(IMPLICIT)) {
-        phrase_add(&refusal->why,
+        text_add(&refusal->why,
                    "a module sent without BEGIN is loading on another connection: send BEGIN");
         return 0;
     }
     if (open_count() >= MAX_TRANSFERS) {
-        phrase_add(&refusal->why, "cannot begin: 4 transfers are open (an idle one ends after "
+        text_add(&refusal->why, "cannot begin: 4 transfers are open (an idle one ends after "
                                   "60 s)");
         return 0;
     }
     transfer = open_transfer(IMPLICIT);
     char reason[REASON_MAX - 32];
-    struct phrase why;
-    phrase_start(&why, reason, sizeof reason);
+    struct text why;
+    text_start(&why, reason, sizeof reason);
     if (!loader_begin(&transfer->session, IMPLICIT, false, 0, false, 0, &why)) {
         transfer->used = false;
-        phrase_add(&refusal->why, "cannot begin: ");
-        phrase_add(&refusal->why, reason);
+        text_add(&refusal->why, "cannot begin: ");
+        text_add(&refusal->why, reason);
         return 0;
     }
     return transfer;
@@ -552,8 +552,8 @@ static void handle_record(const struct message *m)
         struct transfer *open = newest_open(); /* refused before it opens a transfer */
         struct refusal bad;
         start_refusal(&bad);
-        phrase_add(&bad.why, "bad record: ");
-        phrase_add(&bad.why, refusal.reason);
+        text_add(&bad.why, "bad record: ");
+        text_add(&bad.why, refusal.reason);
         nak(open ? open->tid : IMPLICIT, open ? loader_received(&open->session) : 0, false,
             bad.reason);
         return;
@@ -589,8 +589,8 @@ static void send_installed(const struct commit_answer *answer)
 {
     struct refusal said;
     start_refusal(&said);
-    phrase_add(&said.why, "installed ");
-    phrase_add(&said.why, answer->name);
+    text_add(&said.why, "installed ");
+    text_add(&said.why, answer->name);
     ack(answer->tid, answer->address, said.reason);
 }
 
@@ -623,7 +623,7 @@ static void handle_commit(uint32_t tid)
     }
     t->used = false;
     struct commit_answer answer = {tid, 0, {0}};
-    phrase_add(&refusal.why, "commit refused: ");
+    text_add(&refusal.why, "commit refused: ");
     if (!node_commit(&t->image, answer.name, &answer.address, &refusal.why)) {
         nak(tid, 0, true, refusal.reason);
         return;
@@ -665,9 +665,9 @@ static bool take_header(struct transfer *t, const struct message *m, struct refu
         uint32_t location = (uint32_t)words[0] | (uint32_t)words[1] << 8 |
                             (uint32_t)words[2] << 16 | (uint32_t)words[3] << 24;
         if (loader_has_relocation(&t->session, location)) {
-            phrase_add(&refusal->why, "line 0: expected each pointer word once, got 0x");
-            phrase_add_hex(&refusal->why, location, 8);
-            phrase_add(&refusal->why, " again (first on line 0)");
+            text_add(&refusal->why, "line 0: expected each pointer word once, got 0x");
+            text_add_hex(&refusal->why, location, 8);
+            text_add(&refusal->why, " again (first on line 0)");
             return false;
         }
         if (!loader_feed_relocation(&t->session, location, &refusal->why)) {
@@ -759,7 +759,7 @@ __attribute__((noinline)) static bool decode_line(const char *line, size_t lengt
 {
     struct refusal refusal;
     start_refusal(&refusal);
-    phrase_add(&refusal.why, "bad message: ");
+    text_add(&refusal.why, "bad message: ");
     if (!message_decode(line, length, message, &refusal.why)) {
         nak(0, 0, false, refusal.reason);
         return false;
@@ -773,7 +773,7 @@ __attribute__((noinline)) static bool decode_binary(const uint8_t *raw, size_t l
 {
     struct refusal refusal;
     start_refusal(&refusal);
-    phrase_add(&refusal.why, "bad message: ");
+    text_add(&refusal.why, "bad message: ");
     if (!binary_decode(raw, length, decoded, &refusal.why)) {
         nak(0, 0, false, refusal.reason);
         return false;

@@ -35,8 +35,8 @@ void runtime_init(void)
 static bool take_hold(const char *name)
 {
     for (uint32_t i = 0; i < held.count; i++) {
-        if (name_equal(held.names[i], name)) {
-            name_copy(held.names[i], held.names[--held.count], NODE_MODULE_NAME_MAX + 1);
+        if (text_equal(held.names[i], name)) {
+            text_copy(held.names[i], held.names[--held.count], NODE_MODULE_NAME_MAX + 1);
             return true;
         }
     }
@@ -47,8 +47,8 @@ static bool in_error(const char *name)
 {
     struct kernel_pbo pbo;
     for (uint32_t index = 0; kernel_pbo_at(index, &pbo); index++) {
-        if (name_equal(pbo.name, name)) {
-            return name_equal(pbo.state, "ERROR");
+        if (text_equal(pbo.name, name)) {
+            return text_equal(pbo.state, "ERROR");
         }
     }
     return false;
@@ -85,10 +85,10 @@ static int compare(const char *a, const char *b)
 }
 
 /* The held names as Python shows sorted(held): ['a', 'b']. */
-static void add_held_sorted(struct phrase *said)
+static void add_held_sorted(struct text *said)
 {
     const char *last = 0;
-    phrase_add_char(said, '[');
+    text_add_char(said, '[');
     for (uint32_t shown = 0; shown < held.count; shown++) {
         const char *next = 0;
         for (uint32_t i = 0; i < held.count; i++) { /* the least name after the last shown */
@@ -98,32 +98,32 @@ static void add_held_sorted(struct phrase *said)
                 next = candidate;
             }
         }
-        phrase_add(said, shown ? ", " : "");
-        phrase_add_repr(said, next, name_length(next, NODE_MODULE_NAME_MAX));
+        text_add(said, shown ? ", " : "");
+        text_add_repr(said, next, text_length(next, NODE_MODULE_NAME_MAX));
         last = next;
     }
-    phrase_add_char(said, ']');
+    text_add_char(said, ']');
 }
 
-bool runtime_hold(const char *name, struct phrase *said)
+bool runtime_hold(const char *name, struct text *said)
 {
     bool known = false;
     for (uint32_t i = 0; i < held.count; i++) {
-        known = known || name_equal(held.names[i], name);
+        known = known || text_equal(held.names[i], name);
     }
     if (!known && held.count >= RUNTIME_MAX_HELD) {
-        phrase_add(said, "expected at most 16 modules held at once, got ");
+        text_add(said, "expected at most 16 modules held at once, got ");
         add_held_sorted(said);
-        phrase_add(said, " and ");
-        phrase_add_repr(said, name, name_length(name, 64));
+        text_add(said, " and ");
+        text_add_repr(said, name, text_length(name, 64));
         return false;
     }
-    if (!known && name_length(name, NODE_MODULE_NAME_MAX + 1) <= NODE_MODULE_NAME_MAX) {
-        name_copy(held.names[held.count++], name, NODE_MODULE_NAME_MAX + 1);
+    if (!known && text_length(name, NODE_MODULE_NAME_MAX + 1) <= NODE_MODULE_NAME_MAX) {
+        text_copy(held.names[held.count++], name, NODE_MODULE_NAME_MAX + 1);
     } /* a longer name is no module's: nothing to hold, and the answer is the same */
-    phrase_add(said, "holding ");
-    phrase_add(said, name);
-    phrase_add(said, ": it stays off when it is installed, for its constants");
+    text_add(said, "holding ");
+    text_add(said, name);
+    text_add(said, ": it stays off when it is installed, for its constants");
     return true;
 }
 

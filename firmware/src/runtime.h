@@ -8,7 +8,7 @@
 
 #include <stdbool.h>
 
-#include "phrase.h"
+#include "../kernel/text.h"
 
 /* Modules a host may hold off at once (kernel_control.py's MAX_HELD). */
 #define RUNTIME_MAX_HELD 16
@@ -23,7 +23,7 @@ void runtime_step(void);
 
 /* HOLD: leave module `name` off when it is installed next. The ACK's text, or false with the
  * refusal's reason, in `said`. */
-bool runtime_hold(const char *name, struct phrase *said);
+bool runtime_hold(const char *name, struct text *said);
 
 /* RESET: no module held any more. */
 void runtime_forget_holds(void);

@@ -28,24 +28,24 @@ static uint64_t next_random(void)
     return x ^ (x >> 31);
 }
 
-void session_challenge(uint32_t tid, struct phrase *reply)
+void session_challenge(uint32_t tid, struct text *reply)
 {
     static const char HEX[] = "0123456789abcdef";
     char text[10 + 16 * NONCE_WORDS + 1];
-    struct phrase nonce;
-    phrase_start(&nonce, text, sizeof text);
-    phrase_add(&nonce, "challenge ");
+    struct text nonce;
+    text_start(&nonce, text, sizeof text);
+    text_add(&nonce, "challenge ");
     for (int word = 0; word < NONCE_WORDS; word++) {
         uint64_t bits = next_random();
         for (int i = 0; i < 16; i++, bits >>= 4) {
-            phrase_add_char(&nonce, HEX[bits & 0xFu]);
+            text_add_char(&nonce, HEX[bits & 0xFu]);
         }
     }
     session.challenged = 1;
     reply_ack(reply, tid, 0, text);
 }
 
-void session_authenticate(uint32_t tid, struct phrase *reply)
+void session_authenticate(uint32_t tid, struct text *reply)
 {
     if (!session.challenged) {
         reply_nak(reply, tid, 0, true,
@@ -57,7 +57,7 @@ void session_authenticate(uint32_t tid, struct phrase *reply)
     reply_ack(reply, tid, 0, "authenticated: this node trusts no key, guards nothing");
 }
 
-void session_end(uint32_t tid, struct phrase *reply)
+void session_end(uint32_t tid, struct text *reply)
 {
     session.challenged = 0;
     reply_ack(reply, tid, 0, "bye");

@@ -11,14 +11,14 @@
 
 #include <stdint.h>
 
-#include "phrase.h"
+#include "../kernel/text.h"
 
 /* Forget any challenge (a restart). */
 void session_reset(void);
 
 /* The answer line (messages.h's writers) to each request, in `reply` (answer_line). */
-void session_challenge(uint32_t tid, struct phrase *reply);
-void session_authenticate(uint32_t tid, struct phrase *reply);
-void session_end(uint32_t tid, struct phrase *reply);
+void session_challenge(uint32_t tid, struct text *reply);
+void session_authenticate(uint32_t tid, struct text *reply);
+void session_end(uint32_t tid, struct text *reply);
 
 #endif

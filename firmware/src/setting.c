@@ -109,7 +109,7 @@ static bool not_finite(const char *text, size_t length)
     static const char *const WORDS[] = {"inf", "infinity", "nan"};
     size_t at = length && (text[0] == '-' || text[0] == '+') ? 1u : 0u;
     for (size_t w = 0; w < 3; w++) {
-        size_t n = name_length(WORDS[w], 9), i = 0;
+        size_t n = text_length(WORDS[w], 9), i = 0;
         while (i < n && at + i < length && (text[at + i] | 0x20) == WORDS[w][i]) {
             i++;
         }
@@ -121,7 +121,7 @@ static bool not_finite(const char *text, size_t length)
 }
 
 static bool parse_value(const char *text, size_t length, struct setting *setting,
-                        struct phrase *why)
+                        struct text *why)
 {
     struct number_word number;
     struct decimal decimal;
@@ -133,13 +133,13 @@ static bool parse_value(const char *text, size_t length, struct setting *setting
         return true;
     }
     if (not_finite(text, length)) {
-        phrase_add(why, "expected a finite number, got ");
-        phrase_add_repr(why, text, length);
+        text_add(why, "expected a finite number, got ");
+        text_add_repr(why, text, length);
         return false;
     }
     if (!parse_decimal(text, length, &decimal)) {
-        phrase_add(why, "expected a number like 3, 0x20000 or 1.5, got ");
-        phrase_add_repr(why, text, length);
+        text_add(why, "expected a number like 3, 0x20000 or 1.5, got ");
+        text_add_repr(why, text, length);
         return false;
     }
     setting->whole = decimal.whole;
@@ -148,7 +148,7 @@ static bool parse_value(const char *text, size_t length, struct setting *setting
     return true;
 }
 
-bool setting_parse(const char *text, size_t length, struct setting *setting, struct phrase *why)
+bool setting_parse(const char *text, size_t length, struct setting *setting, struct text *why)
 {
     size_t equals = 0, dot = 0, dots = 0;
     while (equals < length && text[equals] != '=') {
@@ -161,17 +161,17 @@ bool setting_parse(const char *text, size_t length, struct setting *setting, str
     /* PBO.port=VALUE: one dot, a PBO and a port on either side of it */
     if (equals == length || dots != 1 || dot == 0 || dot + 1 == equals ||
         equals > SETTING_PORT_MAX) {
-        phrase_add(why, "expected PBO.port=VALUE, got ");
-        phrase_add_repr(why, text, length);
+        text_add(why, "expected PBO.port=VALUE, got ");
+        text_add_repr(why, text, length);
         return false;
     }
-    name_copy(setting->port, text, equals + 1);
+    text_copy(setting->port, text, equals + 1);
     setting->text = text + equals + 1;
     setting->text_length = length - equals - 1;
     return parse_value(setting->text, setting->text_length, setting, why);
 }
 
-void setting_show(const struct setting *setting, struct phrase *text)
+void setting_show(const struct setting *setting, struct text *text)
 {
     const char *value = setting->text;
     size_t length = setting->text_length, point = 0;
@@ -180,7 +180,7 @@ void setting_show(const struct setting *setting, struct phrase *text)
     }
     for (size_t i = 0; i < length; i++) {
         if (value[i] == 'e' || value[i] == 'E' || value[i] == '_') {
-            phrase_add_bytes(text, value, length); /* shown as given: Python would normalize */
+            text_add_bytes(text, value, length); /* shown as given: Python would normalize */
             return;
         }
     }
@@ -189,5 +189,5 @@ void setting_show(const struct setting *setting, struct phrase *text)
             length--; /* 1.50 -> 1.5, as repr */
         }
     }
-    phrase_add_bytes(text, value, length);
+    text_add_bytes(text, value, length);
 }

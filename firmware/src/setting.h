@@ -12,7 +12,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "phrase.h"
+#include "../kernel/text.h"
 
 #define SETTING_PORT_MAX 40 /* "PBO.port": 16 + 1 + 12 characters, and room to refuse more */
 
@@ -26,9 +26,9 @@ struct setting {
 };
 
 /* Read `text`; false with port_values.py's reason in `why`. */
-bool setting_parse(const char *text, size_t length, struct setting *setting, struct phrase *why);
+bool setting_parse(const char *text, size_t length, struct setting *setting, struct text *why);
 
 /* VALUE as Python's repr of the float would show it (trailing zeros dropped). */
-void setting_show(const struct setting *setting, struct phrase *text);
+void setting_show(const struct setting *setting, struct text *text);
 
 #endif

@@ -19,7 +19,7 @@
 #include "../kernel/guest_memory.h"
 #include "../kernel/kernel.h"
 #include "../kernel/module_call.h"
-#include "phrase.h"
+#include "../kernel/text.h"
 
 /* Where a returning module jumps: no PMP region covers it, so the fetch traps. */
 #define GUEST_RETURN 0xFFFFFFFCu
@@ -87,24 +87,24 @@ void trap_init(void)
 }
 
 /* "SRAM, guest r--" or "unmapped memory": where an address lies, as the Python node says it. */
-static void add_where(struct phrase *text, uint32_t address)
+static void add_where(struct text *text, uint32_t address)
 {
     const struct guest_region *region = guest_region_at(address, 1);
     if (region == 0) {
-        phrase_add(text, "unmapped memory");
+        text_add(text, "unmapped memory");
         return;
     }
-    phrase_add(text, region->name);
-    phrase_add(text, ", guest ");
-    phrase_add_char(text, region->guest & GUEST_READ ? 'r' : '-');
-    phrase_add_char(text, region->guest & GUEST_WRITE ? 'w' : '-');
-    phrase_add_char(text, region->guest & GUEST_EXECUTE ? 'x' : '-');
+    text_add(text, region->name);
+    text_add(text, ", guest ");
+    text_add_char(text, region->guest & GUEST_READ ? 'r' : '-');
+    text_add_char(text, region->guest & GUEST_WRITE ? 'w' : '-');
+    text_add_char(text, region->guest & GUEST_EXECUTE ? 'x' : '-');
 }
 
-static void add_address(struct phrase *text, uint32_t address)
+static void add_address(struct text *text, uint32_t address)
 {
-    phrase_add(text, "0x");
-    phrase_add_hex(text, address, 8);
+    text_add(text, "0x");
+    text_add_hex(text, address, 8);
 }
 
 /* The bytes a load or store at `pc` moves (funct3's low two bits), 4 when it cannot be read. */
@@ -116,45 +116,45 @@ static uint32_t access_size(uint32_t pc)
     return 1u << ((guest_read32(pc) >> 12) & 3u);
 }
 
-static void memory_fault(struct phrase *text, bool write, uint32_t address, uint32_t pc)
+static void memory_fault(struct text *text, bool write, uint32_t address, uint32_t pc)
 {
-    phrase_add(text, "memory fault: ");
-    phrase_add_decimal(text, access_size(pc));
-    phrase_add(text, write ? "-byte write at " : "-byte read at ");
+    text_add(text, "memory fault: ");
+    text_add_unsigned(text, access_size(pc));
+    text_add(text, write ? "-byte write at " : "-byte read at ");
     add_address(text, address);
-    phrase_add(text, " (");
+    text_add(text, " (");
     add_where(text, address);
-    phrase_add(text, ") by the instruction at ");
+    text_add(text, ") by the instruction at ");
     add_address(text, pc);
 }
 
 /* What ended the call, in the Python node's words where it has the same fault. */
-static void describe_fault(struct phrase *text, uint32_t cause, uint32_t pc, uint32_t value)
+static void describe_fault(struct text *text, uint32_t cause, uint32_t pc, uint32_t value)
 {
     switch (cause) {
     case CAUSE_TIMER:
-        phrase_add(text, "watchdog: time budget of ");
-        phrase_add_decimal(text, WATCHDOG_US);
-        phrase_add(text, " us exhausted at ");
+        text_add(text, "watchdog: time budget of ");
+        text_add_unsigned(text, WATCHDOG_US);
+        text_add(text, " us exhausted at ");
         add_address(text, pc);
         return;
     case CAUSE_FETCH_FAULT:
-        phrase_add(text, "memory fault: instruction fetch at ");
+        text_add(text, "memory fault: instruction fetch at ");
         add_address(text, value);
-        phrase_add(text, " (");
+        text_add(text, " (");
         add_where(text, value);
-        phrase_add(text, ")");
+        text_add(text, ")");
         return;
     case CAUSE_FETCH_MISALIGNED:
-        phrase_add(text, "instruction fetch at ");
+        text_add(text, "instruction fetch at ");
         add_address(text, value);
-        phrase_add(text, ": expected 4-byte aligned RV32IM instructions, got a misaligned "
+        text_add(text, ": expected 4-byte aligned RV32IM instructions, got a misaligned "
                          "address or a compressed instruction");
         return;
     case CAUSE_ILLEGAL:
-        phrase_add(text, "illegal instruction ");
+        text_add(text, "illegal instruction ");
         add_address(text, value);
-        phrase_add(text, " at ");
+        text_add(text, " at ");
         add_address(text, pc);
         return;
     case CAUSE_LOAD_FAULT:
@@ -162,9 +162,9 @@ static void describe_fault(struct phrase *text, uint32_t cause, uint32_t pc, uin
         memory_fault(text, cause == CAUSE_STORE_FAULT, value, pc);
         return;
     default: /* misaligned loads and stores: QEMU does them; kept for another hart */
-        phrase_add(text, "exception (cause ");
-        phrase_add_decimal(text, cause);
-        phrase_add(text, "), pc ");
+        text_add(text, "exception (cause ");
+        text_add_unsigned(text, cause);
+        text_add(text, "), pc ");
         add_address(text, pc);
     }
 }
@@ -186,7 +186,7 @@ void trap_from_module(uint32_t *frame)
     const uint32_t pc = CSR_READ(mepc);
     const uint32_t value = CSR_READ(mtval);
     char buffer[FAULT_TEXT];
-    struct phrase text;
+    struct text text;
 
     if (cause == CAUSE_USER_ECALL) {
         frame[REG_A0] = (uint32_t)kernel_service(frame[REG_A7], frame[REG_A0], frame[REG_A1],
@@ -204,7 +204,7 @@ void trap_from_module(uint32_t *frame)
         board_alarm_in(WATCHDOG_TICK_US);
         return; /* a tick of the budget: the module goes on where it was interrupted */
     }
-    phrase_start(&text, buffer, sizeof buffer);
+    text_start(&text, buffer, sizeof buffer);
     describe_fault(&text, cause, pc, value);
     kernel_fault(buffer);
     end_call(true, 0);

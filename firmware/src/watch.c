@@ -20,7 +20,7 @@ static struct {
     char kept[PORTS_TEXT_MAX];
 } watch;
 
-bool watch_request(const struct message *request, struct phrase *reply, struct phrase *why)
+bool watch_request(const struct message *request, struct text *reply, struct text *why)
 {
     const uint32_t tid = (uint32_t)request->number[0];
     const uint32_t period_ms = (uint32_t)request->number[1];
@@ -32,8 +32,8 @@ bool watch_request(const struct message *request, struct phrase *reply, struct p
         return true;
     }
     if (period_ms < MIN_PERIOD_MS) {
-        phrase_add(why, "expected a report period of at least 10 ms, got ");
-        phrase_add_decimal(why, period_ms);
+        text_add(why, "expected a report period of at least 10 ms, got ");
+        text_add_unsigned(why, period_ms);
         return false;
     }
     if (request->text_length[2] > 0 &&
@@ -61,35 +61,35 @@ void watch_restart(void)
 }
 
 /* leftover=.. slip=.. missed=.., then PBO:L, PBO:F0 .. of each PBO, then the watched ports. */
-static void report_values(struct phrase *text)
+static void report_values(struct text *text)
 {
     struct kernel_status status;
     struct kernel_pbo pbo;
     struct kernel_stats stats;
 
     kernel_status(watch.reported, &status);
-    phrase_add(text, "leftover=");
+    text_add(text, "leftover=");
     control_add_milli(text, status.leftover_milli);
-    phrase_add(text, " slip=");
+    text_add(text, " slip=");
     control_add_milli(text, (int64_t)((status.slip_us + 50u) / 100u) * 100); /* 0.1 ms */
-    phrase_add(text, " missed=");
-    phrase_add_decimal(text, status.missed);
+    text_add(text, " missed=");
+    text_add_unsigned(text, status.missed);
     for (uint32_t index = 0; kernel_pbo_at(index, &pbo); index++) {
         uint8_t kind;
         uint32_t value_index;
         int32_t value;
         if (kernel_stats(pbo.name, &stats) == KERNEL_OK && stats.logged) {
-            phrase_add_char(text, ' ');
-            phrase_add(text, pbo.name);
-            phrase_add(text, ":L=");
-            phrase_add_decimal(text, stats.logged);
+            text_add_char(text, ' ');
+            text_add(text, pbo.name);
+            text_add(text, ":L=");
+            text_add_unsigned(text, stats.logged);
         }
         for (uint32_t n = 0; kernel_performance_at(index, n, &kind, &value_index, &value); n++) {
-            phrase_add_char(text, ' ');
-            phrase_add(text, pbo.name);
-            phrase_add(text, kind == 0 ? ":F" : ":N");
-            phrase_add_decimal(text, value_index);
-            phrase_add_char(text, '=');
+            text_add_char(text, ' ');
+            text_add(text, pbo.name);
+            text_add(text, kind == 0 ? ":F" : ":N");
+            text_add_unsigned(text, value_index);
+            text_add_char(text, '=');
             control_add_milli(text, value);
         }
     }
@@ -98,11 +98,11 @@ static void report_values(struct phrase *text)
 
 /* A REPORT or a BEAT, its text written by `write`. */
 static void push(void (*send)(const char *, size_t), enum verb verb, uint64_t now,
-                 void (*write)(struct phrase *text))
+                 void (*write)(struct text *text))
 {
-    struct phrase line, text;
+    struct text line, text;
     const uint32_t numbers[2] = {watch.seq++, (uint32_t)(now / 1000u)};
-    phrase_start(&line, answer_line, sizeof answer_line);
+    text_start(&line, answer_line, sizeof answer_line);
     reply_text_start(&line, verb, numbers, &text);
     write(&text);
     reply_text_end(&line, &text);

@@ -17,7 +17,7 @@
 
 /* Start, change or end (period 0) the watch; the ACK or the refusal's reason in `reply`. False
  * with the reason in `why` when refused. */
-bool watch_request(const struct message *request, struct phrase *reply, struct phrase *why);
+bool watch_request(const struct message *request, struct text *reply, struct text *why);
 
 /* The node's clock started again (RESET): the next report and beat count from now. */
 void watch_restart(void);

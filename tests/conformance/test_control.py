@@ -283,6 +283,9 @@ def test_requests_a_node_cannot_do_are_refused_in_the_same_words(boot, example_h
     assert refused(url, "start", "nosuch") == (
         prefix + "START refused: unknown PBO 'nosuch'; registered: 'gain'"
     )
+    assert refused(url, "start", "it's") == (  # named as Python's repr names it
+        prefix + "START refused: unknown PBO \"it's\"; registered: 'gain'"
+    )
     assert refused(url, "rate", "gain=0.001") == (
         prefix + "RATE refused: PBO 'gain': expected a rate of 0.01 to 100000 Hz, got 0.001"
     )
