@@ -198,6 +198,11 @@ static void add_conversion(struct text *text, char conversion, va_list *argument
     case 'q':
         text_add_quoted(text, va_arg(*arguments, const char *));
         break;
+    case 'r': {
+        const char *string = va_arg(*arguments, const char *);
+        text_add_repr(text, string, va_arg(*arguments, uint32_t));
+        break;
+    }
     case 'u':
         text_add_unsigned(text, va_arg(*arguments, uint32_t));
         break;

@@ -44,7 +44,8 @@ void text_add_address(struct text *text, uint32_t value);
 /*
  * Append a sentence built from `format`, which is plain text with these conversions (one call
  * per message keeps the firmware small: a call per fragment costs 16 bytes of RV32IM each):
- *   %s  a string            %q  a string quoted as Python's repr quotes a name: 'gain'
+ *   %s  a string            %q  a string as Python's repr shows it: 'gain'
+ *   %r  a const char * and a uint32_t length: those characters as Python's repr shows them
  *   %u  a uint32_t          %d  an int32_t
  *   %U  a uint64_t          %D  an int64_t
  *   %a  a uint32_t address as 0x0800013C

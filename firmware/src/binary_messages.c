@@ -125,12 +125,10 @@ static void add_code(struct text *why, uint16_t code)
 
 static void add_title(struct text *why, const struct binary_type *type)
 {
-    text_add(why, type->name);
-    text_add(why, " (type ");
+    text_format(why, "%s (type ", type->name);
     add_code(why, type->code);
     if (type->kind == BINARY_VERB) {
-        text_add(why, ", ");
-        text_add(why, verb_word((enum verb)type->verb));
+        text_format(why, ", %s", verb_word((enum verb)type->verb));
     }
     text_add_char(why, ')');
 }
@@ -138,8 +136,7 @@ static void add_title(struct text *why, const struct binary_type *type)
 static void add_field(struct text *why, const struct field_spec *field,
                       const struct binary_type *type)
 {
-    text_add(why, field->name);
-    text_add(why, " of ");
+    text_format(why, "%s of ", field->name);
     add_title(why, type);
     text_add(why, ": ");
 }
@@ -221,8 +218,7 @@ static bool refuse_check(const struct binary_type *type, size_t length, struct t
     text_add(why, type->kind == BINARY_BLOCK_ACK
                         ? " ending in a valid CRC-16/CCITT (initial value 0xFFFF), got "
                         : " ending in a valid CRC-32, got ");
-    text_add_unsigned(why, length);
-    text_add(why, " bytes that do not");
+    text_format(why, "%U bytes that do not", (uint64_t)length);
     return false;
 }
 
@@ -243,12 +239,10 @@ static bool decode_fixed(const struct binary_type *type, struct body *body, stru
         tails |= fixed_size(spec->fields[i].kind) == 0;
     }
     if (body->length < size || (!tails && body->length > size)) {
-        text_add(why, tails ? "expected at least " : "expected ");
-        text_add_unsigned(why, size);
-        text_add(why, tails ? " bytes in the body of " : " bytes in the body of ");
+        text_format(why, "expected %s%U bytes in the body of ", tails ? "at least " : "",
+                    (uint64_t)size);
         add_title(why, type);
-        text_add(why, ", got ");
-        text_add_unsigned(why, body->length);
+        text_format(why, ", got %U", (uint64_t)body->length);
         return false;
     }
     for (int i = 0; i < spec->count; i++) {
@@ -261,8 +255,7 @@ static bool decode_fixed(const struct binary_type *type, struct body *body, stru
         body->bytes += bytes, body->length -= bytes;
         if (field->kind == FIELD_FLAG && value > 1) {
             add_field(why, field, type);
-            text_add(why, "expected 0 or 1, got ");
-            text_add_unsigned(why, value);
+            text_format(why, "expected 0 or 1, got %U", (uint64_t)value);
             return false;
         }
         m->number[i] = field->kind == FIELD_BLOCKS ? value * BLOCK : value;
@@ -288,10 +281,8 @@ static bool split_tail(const struct binary_type *type, struct body tail, struct 
         if (i != last) {
             if (!tail.length || tail.bytes[0] >= tail.length) {
                 add_field(why, &spec->fields[i], type);
-                text_add(why, "expected a length byte and that many bytes before the next "
-                                "field, got ");
-                text_add_unsigned(why, tail.length);
-                text_add(why, " bytes");
+                text_format(why, "expected a length byte and that many bytes before the next "
+                            "field, got %U bytes", (uint64_t)tail.length);
                 return false;
             }
             length = tail.bytes[0];
@@ -312,9 +303,7 @@ static bool parse_tail(const struct field_spec *field, const struct message *m, 
     size_t length = m->text_length[i];
     if (field->kind == FIELD_U32_ARRAY && length % 4) {
         add_field(why, field, type);
-        text_add(why, "expected 4 bytes per number, got ");
-        text_add_unsigned(why, length);
-        text_add(why, " bytes");
+        text_format(why, "expected 4 bytes per number, got %U bytes", (uint64_t)length);
         return false;
     }
     if (field->kind == FIELD_U32_ARRAY || field->kind == FIELD_PAYLOAD) {
@@ -487,8 +476,7 @@ static void send_cannot_answer(void (*send)(const char *, size_t), uint32_t tid,
     char text[CANNOT_ANSWER_MAX];
     struct text reason;
     text_start(&reason, text, sizeof text);
-    text_add(&reason, "cannot answer: ");
-    text_add(&reason, why);
+    text_format(&reason, "cannot answer: %s", why);
     out_start(send);
     out_number(0x14, 1);
     out_number(tid, 4);
@@ -525,9 +513,8 @@ void binary_send_block_ack(void (*send)(const char *bytes, size_t length), uint3
         char reason[120];
         struct text why;
         text_start(&why, reason, sizeof reason);
-        text_add(&why, "BlockAck.value: expected a whole number of 256-byte blocks, "
-                         "0..16776960, got ");
-        text_add_unsigned(&why, programmed);
+        text_format(&why, "BlockAck.value: expected a whole number of 256-byte blocks, "
+                    "0..16776960, got %U", (uint64_t)programmed);
         send_cannot_answer(send, 0, reason); /* a BlockAck has no tid: 0, as in Python */
         return;
     }

@@ -52,9 +52,7 @@ __attribute__((noinline)) static bool refuse(const struct request *r, const char
     char text[MAX_REFUSAL + 56];
     struct text why;
     text_start(&why, text, sizeof text);
-    text_add(&why, verb_word(r->message->verb));
-    text_add(&why, " refused: ");
-    text_add(&why, reason);
+    text_format(&why, "%s refused: %s", verb_word(r->message->verb), reason);
     if (why.length > MAX_REFUSAL) { /* the reason's start, and "..." to say it goes on */
         text_copy(text + MAX_REFUSAL - 3, "...", 4);
     }
@@ -85,17 +83,13 @@ static bool lifecycle(const struct request *r)
     text_start(&text, said, sizeof said);
     if (r->message->verb == VERB_START) {
         result = kernel_start(name);
-        text_add(&text, "started ");
-        text_add(&text, name);
+        text_format(&text, "started %s", name);
     } else if (r->message->verb == VERB_STOP) {
         result = kernel_stop(name);
-        text_add(&text, "stopped ");
-        text_add(&text, name);
+        text_format(&text, "stopped %s", name);
     } else {
         result = kernel_clear(name);
-        text_add(&text, "cleared ");
-        text_add(&text, name);
-        text_add(&text, ": now OFF");
+        text_format(&text, "cleared %s: now OFF", name);
     }
     return kernel_answer(r, result, said);
 }
@@ -120,9 +114,7 @@ static bool port_row(const char *port, uint8_t *direction, uint16_t *size, uint8
     for (uint32_t index = 0; kernel_pbo_at(index, &pbo); index++) {
         for (uint32_t p = 0; p < pbo.port_count; p++) {
             text_start(&name, full, sizeof full);
-            text_add(&name, pbo.name);
-            text_add_char(&name, '.');
-            text_add(&name, pbo.port_names[p]);
+            text_format(&name, "%s.%s", pbo.name, pbo.port_names[p]);
             if (text_equal(full, port)) {
                 *direction = pbo.port_directions[p];
                 *size = pbo.element_sizes[p];
@@ -163,9 +155,7 @@ static bool refuse_value(const struct request *r, const struct setting *setting)
     text_start(&why, text, sizeof text);
     text_add(&why, setting->port);
     if (direction != 2) {
-        text_add(&why, " is an ");
-        text_add(&why, DIRECTIONS[direction & 3u]);
-        text_add(&why, " port, not a constant");
+        text_format(&why, " is an %s port, not a constant", DIRECTIONS[direction & 3u]);
         return refuse(r, text);
     }
     if (kind != 0) {
@@ -201,9 +191,7 @@ static bool set_constant(const struct request *r)
         return refuse(r, kernel_message());
     }
     text_start(&text, said, sizeof said);
-    text_add(&text, "set ");
-    text_add(&text, setting.port);
-    text_add_char(&text, '=');
+    text_format(&text, "set %s=", setting.port);
     control_add_signed(&text, setting.value);
     return acknowledge(r, said);
 }
@@ -217,15 +205,12 @@ static bool set_rate(const struct request *r)
     field_name(r, 2, name);
     text_start(&text, said, sizeof said);
     if (millihertz < RATE_MIN_MHZ || millihertz > RATE_MAX_MHZ) {
-        text_add(&text, "PBO ");
-        text_add_repr(&text, name, text_length(name, NAME_MAX));
-        text_add(&text, ": expected a rate of 0.01 to 100000 Hz, got ");
+        text_format(&text, "PBO %r: expected a rate of 0.01 to 100000 Hz, got ", name,
+                    (uint32_t)(text_length(name, NAME_MAX)));
         control_add_hertz(&text, millihertz);
         return refuse(r, said);
     }
-    text_add(&text, "rate ");
-    text_add(&text, name);
-    text_add_char(&text, '=');
+    text_format(&text, "rate %s=", name);
     control_add_hertz(&text, millihertz);
     text_add(&text, " Hz");
     return kernel_answer(r, kernel_set_rate(name, millihertz), said);
@@ -248,8 +233,8 @@ static bool wire(const struct request *r)
     if (equals == length || !ports_is_port(text, equals) ||
         !ports_is_port(text + equals + 1, length - equals - 1) || equals > NAME_MAX ||
         length - equals - 1 > NAME_MAX) {
-        text_add(&why, "expected OUT_PBO.port=IN_PBO.port, got ");
-        text_add_repr(&why, text, length > 60 ? 60 : length);
+        text_format(&why, "expected OUT_PBO.port=IN_PBO.port, got %r", text,
+                    (uint32_t)(length > 60 ? 60 : length));
         return refuse(r, said);
     }
     text_copy(source, text, equals + 1);
@@ -327,11 +312,8 @@ static bool reset(const struct request *r)
     runtime_forget_holds();
     watch_restart(); /* the watch follows the clock's restart */
     text_start(&text, said, sizeof said);
-    text_add(&text, "reset: ");
-    text_add_unsigned(&text, switched_off);
-    text_add(&text, " PBO(s) switched off, ");
-    text_add_unsigned(&text, wires);
-    text_add(&text, " wire(s) and 0 bridge(s) undone, clock at 0 s");
+    text_format(&text, "reset: %U PBO(s) switched off, %U wire(s) and 0 bridge(s) undone, clock "
+                "at 0 s", (uint64_t)switched_off, (uint64_t)wires);
     return acknowledge(r, said);
 }
 

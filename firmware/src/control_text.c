@@ -8,8 +8,7 @@
 void control_add_signed(struct text *text, int64_t value)
 {
     if (value < 0) {
-        text_add_char(text, '-');
-        text_add_unsigned(text, (uint64_t)0 - (uint64_t)value);
+        text_format(text, "-%U", (uint64_t)0 - (uint64_t)value);
         return;
     }
     text_add_unsigned(text, (uint64_t)value);
@@ -65,8 +64,7 @@ static void add_ports(struct text *text, const struct kernel_pbo *pbo, uint8_t d
     bool first = true;
     for (uint32_t port = 0; port < pbo->port_count; port++) {
         if (pbo->port_directions[port] == direction) {
-            text_add(text, first ? "" : ",");
-            text_add(text, pbo->port_names[port]);
+            text_format(text, "%s%s", first ? "" : ",", pbo->port_names[port]);
             first = false;
         }
     }
@@ -76,11 +74,7 @@ void control_pbo_rows(struct text *text)
 {
     struct kernel_pbo pbo;
     for (uint32_t index = 0; kernel_pbo_at(index, &pbo); index++) {
-        text_add(text, index == 0 ? "" : " ");
-        text_add(text, pbo.name);
-        text_add_char(text, ':');
-        text_add(text, pbo.state);
-        text_add_char(text, ':');
+        text_format(text, "%s%s:%s:", index == 0 ? "" : " ", pbo.name, pbo.state);
         control_add_hertz(text, pbo.millihertz);
         for (uint8_t direction = 0; direction < 3; direction++) { /* IN, OUT, CONST */
             text_add_char(text, ':');
@@ -167,11 +161,8 @@ static void take_line(const struct log_line *line, void *context)
     while (total + entry_length(line, length) > CONTROL_TEXT_MAX && length > 1u) {
         length /= 2u; /* Python keeps text[: len(text) // 2] */
     }
-    text_add(writer->text, writer->taken ? ", [" : "[[");
-    text_add_unsigned(writer->text, line->number);
-    text_add(writer->text, ", ");
-    text_add_unsigned(writer->text, line->time_us);
-    text_add(writer->text, ", ");
+    text_format(writer->text, "%s%U, %U, ", writer->taken ? ", [" : "[[", (uint64_t)line->number,
+                (uint64_t)line->time_us);
     add_json_string(writer->text, line->text, length);
     text_add_char(writer->text, ']');
     writer->taken++;
@@ -222,9 +213,7 @@ static void add_description(struct text *text, const char *name, uint32_t consta
                             (uint32_t)text_length(pbo.port_names[port], 16));
             text_add(text, ", ");
             text_start(&port_name, full, sizeof full);
-            text_add(&port_name, name);
-            text_add_char(&port_name, '.');
-            text_add(&port_name, pbo.port_names[port]);
+            text_format(&port_name, "%s.%s", name, pbo.port_names[port]);
             if (pbo.port_kinds[port] != 0) {
                 text_add(text, pbo.port_kinds[port] == 1 ? "\"vector\"" : "\"frame\"");
             } else if (kernel_read(full, &value) == KERNEL_OK) {
@@ -235,10 +224,7 @@ static void add_description(struct text *text, const char *name, uint32_t consta
     }
     text_add(text, "], \"wires\": [");
     for (uint32_t n = 0; n < wires && kernel_wire_at(name, n, source, sink); n++) {
-        text_add(text, n ? ", \"" : "\"");
-        text_add(text, source);
-        text_add_char(text, '=');
-        text_add(text, sink);
+        text_format(text, "%s%s=%s", n ? ", \"" : "\"", source, sink);
         text_add_char(text, '"');
     }
     text_add(text, "], \"last_failure\": ");
@@ -292,19 +278,14 @@ void control_state_line(struct text *text)
     uint32_t count = kernel_pbo_count();
     bool first = true;
 
-    text_add(text, NODE_NAME ": ");
-    text_add_unsigned(text, count);
-    text_add(text, " PBOs");
+    text_format(text, NODE_NAME ": %U PBOs", (uint64_t)count);
     for (uint32_t s = 0; s < sizeof STATES / sizeof STATES[0]; s++) { /* sorted, as Python */
         uint32_t in_state = 0;
         for (uint32_t index = 0; kernel_pbo_at(index, &pbo); index++) {
             in_state += text_equal(pbo.state, STATES[s]) ? 1u : 0u;
         }
         if (in_state) {
-            text_add(text, first ? ": " : ", ");
-            text_add_unsigned(text, in_state);
-            text_add_char(text, ' ');
-            text_add(text, STATES[s]);
+            text_format(text, "%s%U %s", first ? ": " : ", ", (uint64_t)in_state, STATES[s]);
             first = false;
         }
     }

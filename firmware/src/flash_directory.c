@@ -40,8 +40,8 @@ static bool put_name(uint8_t *p, const char *name, struct text *why)
         ascii &= (uint8_t)name[i] < 0x80;
     }
     if (!length || length > DIRECTORY_NAME_LEN || !ascii) {
-        text_add(why, "expected a module name of 1 to 16 ASCII characters, got ");
-        text_add_repr(why, name, length);
+        text_format(why, "expected a module name of 1 to 16 ASCII characters, got %r", name,
+                    (uint32_t)length);
         return false;
     }
     for (size_t i = 0; i < DIRECTORY_NAME_LEN; i++) {
@@ -84,14 +84,11 @@ static void get_entry(const uint8_t *p, struct directory_entry *e, bool has_vers
 
 static void too_many(const struct directory_record *record, struct text *why)
 {
-    text_add(why, "expected at most 5 modules in the directory (one 256-byte block), fewer "
-                    "with the versions it keeps of names no longer installed (20 bytes each), "
-                    "got ");
-    text_add_unsigned(why, record->entry_count);
+    text_format(why, "expected at most 5 modules in the directory (one 256-byte block), fewer "
+                "with the versions it keeps of names no longer installed (20 bytes each), got %U",
+                (uint64_t)record->entry_count);
     if (record->kept_count) {
-        text_add(why, " and ");
-        text_add_unsigned(why, record->kept_count);
-        text_add(why, " kept versions");
+        text_format(why, " and %U kept versions", (uint64_t)record->kept_count);
     }
 }
 
@@ -139,8 +136,7 @@ static bool bad_header(const uint8_t *block, struct text *why)
     }
     text_add(why, "expected magic b'RFMD' version 1 to 3, got ");
     text_add_bytes_repr(why, block, 4);
-    text_add(why, " version ");
-    text_add_unsigned(why, version);
+    text_format(why, " version %U", (uint64_t)version);
     return true;
 }
 
@@ -155,24 +151,16 @@ bool directory_decode(const uint8_t *block, struct directory_record *record, str
     uint32_t entry_size = version == 1 ? ENTRY_SIZE_V1 : ENTRY_SIZE;
     record->sequence = get32(block + 8);
     if (count * entry_size + kept * KEPT_SIZE > ROOM || count > DIRECTORY_MAX_ENTRIES) {
-        text_add(why, "expected at most 240 bytes of entries, got ");
-        text_add_unsigned(why, count);
-        text_add(why, " entries and ");
-        text_add_unsigned(why, kept);
-        text_add(why, " kept versions");
+        text_format(why, "expected at most 240 bytes of entries, got %U entries and %U kept "
+                    "versions", (uint64_t)count, (uint64_t)kept);
         return false;
     }
     uint32_t end = HEADER_SIZE + count * entry_size + kept * KEPT_SIZE;
     uint32_t computed = crc32_update(0, block, end);
     if (get32(block + end) != computed) {
-        text_add(why, "expected CRC-32 0x");
-        text_add_hex(why, computed, 8);
-        text_add(why, " of the ");
-        text_add_unsigned(why, count);
-        text_add(why, "-entry record (sequence ");
-        text_add_unsigned(why, record->sequence);
-        text_add(why, "), got 0x");
-        text_add_hex(why, get32(block + end), 8);
+        text_format(why, "expected CRC-32 %a of the %U-entry record (sequence %U), got %a",
+                    (uint32_t)computed, (uint64_t)count, (uint64_t)record->sequence,
+                    (uint32_t)(get32(block + end)));
         return false;
     }
     record->entry_count = (uint8_t)count;
@@ -213,12 +201,8 @@ static void report_slot(int slot, const char *reason, void (*report)(const char 
     char line[200];
     struct text text;
     text_start(&text, line, sizeof line);
-    text_add(&text, "directory slot ");
-    text_add_unsigned(&text, (uint64_t)slot);
-    text_add(&text, " at 0x");
-    text_add_hex(&text, flash_base() + slot_offset(slot), 8);
-    text_add(&text, " ignored: ");
-    text_add(&text, reason);
+    text_format(&text, "directory slot %U at %a ignored: %s", (uint64_t)slot,
+                (uint32_t)(flash_base() + slot_offset(slot)), reason);
     report(line);
 }
 
@@ -310,8 +294,8 @@ bool directory_write(const struct directory_record *record, struct text *why)
                   program_slot(slot, block, length);
     }
     if (!written) {
-        text_add(why, "the flash refused the directory write at 0x");
-        text_add_hex(why, flash_base() + offset, 8);
+        text_format(why, "the flash refused the directory write at %a",
+                    (uint32_t)(flash_base() + offset));
         return false;
     }
     directory.newest_slot = slot;

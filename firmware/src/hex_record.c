@@ -58,30 +58,25 @@ static bool record_bytes(const char *line, size_t length, uint8_t *raw, size_t *
 {
     for (size_t i = 1; i < length; i++) {
         if (hex_digit(line[i]) < 0) {
-            text_add(why, "expected a hexadecimal digit at column ");
-            text_add_unsigned(why, i + 1);
-            text_add(why, ", got ");
-            text_add_repr(why, &line[i], 1);
+            text_format(why, "expected a hexadecimal digit at column %U, got %r",
+                        (uint64_t)(i + 1), &line[i], (uint32_t)1);
             return false;
         }
     }
     size_t digits = length - 1;
     if (digits % 2) {
-        text_add(why, "expected an even number of hex digits, got ");
-        text_add_unsigned(why, digits);
+        text_format(why, "expected an even number of hex digits, got %U", (uint64_t)digits);
         return false;
     }
     *count = digits / 2;
     if (*count < 5) {
-        text_add(why, "expected at least 5 bytes (byte count, address, type, checksum), got ");
-        text_add_unsigned(why, *count);
+        text_format(why, "expected at least 5 bytes (byte count, address, type, checksum), got %U",
+                    (uint64_t)(*count));
         return false;
     }
     if (*count > MAX_RECORD_BYTES) {
-        text_add(why, "expected ");
-        text_add_unsigned(why, raw[0]);
-        text_add(why, " data bytes as the byte count says, got ");
-        text_add_unsigned(why, *count - 5);
+        text_format(why, "expected %U data bytes as the byte count says, got %U", (uint64_t)raw[0],
+                    (uint64_t)(*count - 5));
         return false;
     }
     for (size_t i = 0; i < *count; i++) {
@@ -93,10 +88,8 @@ static bool record_bytes(const char *line, size_t length, uint8_t *raw, size_t *
 static bool check_frame(const uint8_t *raw, size_t count, struct text *why)
 {
     if ((size_t)raw[0] + 5 != count) {
-        text_add(why, "expected ");
-        text_add_unsigned(why, raw[0]);
-        text_add(why, " data bytes as the byte count says, got ");
-        text_add_unsigned(why, count - 5);
+        text_format(why, "expected %U data bytes as the byte count says, got %U", (uint64_t)raw[0],
+                    (uint64_t)(count - 5));
         return false;
     }
     uint8_t sum = 0;
@@ -129,18 +122,14 @@ static bool check_kind(const struct hex_record *record, struct text *why)
         return true;
     }
     if (record->length != fixed_size(record->type)) {
-        text_add(why, "expected a byte count of ");
-        text_add_unsigned(why, (uint64_t)fixed_size(record->type));
-        text_add(why, " for record type ");
-        text_add(why, type_label(record->type));
-        text_add(why, ", got ");
-        text_add_unsigned(why, record->length);
+        text_format(why, "expected a byte count of %U for record type %s, got %U",
+                    (uint64_t)fixed_size(record->type), type_label(record->type),
+                    (uint64_t)record->length);
         return false;
     }
     if (record->address) {
-        text_add(why, "expected address field 0000 for record type ");
-        text_add(why, type_label(record->type));
-        text_add(why, ", got ");
+        text_format(why, "expected address field 0000 for record type %s, got ",
+                    type_label(record->type));
         text_add_hex(why, record->address, 4);
         return false;
     }
@@ -157,8 +146,7 @@ bool hex_record_decode(const char *line, size_t length, struct hex_record *recor
         return false;
     }
     if (line[0] != ':') {
-        text_add(why, "expected ':' at the start of a record, got ");
-        text_add_repr(why, line, 1);
+        text_format(why, "expected ':' at the start of a record, got %r", line, (uint32_t)1);
         return false;
     }
     raw[0] = 0;

@@ -43,18 +43,14 @@ uint32_t loader_programmed(const struct load_session *session)
 
 static void no_room(const struct load_session *session, uint32_t blocks, struct text *why)
 {
-    text_add(why, "expected ");
-    text_add_unsigned(why, blocks);
-    text_add(why, " free consecutive flash block(s) for ");
+    text_format(why, "expected %U free consecutive flash block(s) for ", (uint64_t)blocks);
     add_owner(why, session);
-    text_add(why, ", the largest free run is ");
-    text_add_unsigned(why, (uint64_t)flash_largest_run() * (flash_sector_size() / FLASH_BLOCK));
+    text_format(why, ", the largest free run is %U",
+                (uint64_t)flash_largest_run() * (flash_sector_size() / FLASH_BLOCK));
     uint32_t retired = flash_retired_sectors();
     if (retired) {
-        text_add(why, "; ");
-        text_add_unsigned(why, (uint64_t)retired * (flash_sector_size() / FLASH_BLOCK));
-        text_add(why, " more held modules that ran, which this board programs again only "
-                        "after a restart");
+        text_format(why, "; %U more held modules that ran, which this board programs again only "
+                    "after a restart", (uint64_t)retired * (flash_sector_size() / FLASH_BLOCK));
     }
 }
 
@@ -64,20 +60,15 @@ static bool reserve_at(struct load_session *session, uint32_t address, uint32_t 
 {
     uint32_t offset = address - flash_base();
     if (address < flash_base() || offset >= flash_size() || offset % flash_sector_size()) {
-        text_add(why, "expected a load address at a flash sector boundary (a multiple of ");
-        text_add_unsigned(why, flash_sector_size());
-        text_add(why, " from 0x");
-        text_add_hex(why, flash_base(), 8);
-        text_add(why, "), got 0x");
-        text_add_hex(why, address, 8);
+        text_format(why, "expected a load address at a flash sector boundary (a multiple of %U "
+                    "from %a), got %a", (uint64_t)flash_sector_size(), (uint32_t)flash_base(),
+                    (uint32_t)address);
         return false;
     }
     if (!flash_place(flash_sector_of(offset), sectors, &session->extent)) {
         text_add(why, "expected free flash for ");
         add_owner(why, session);
-        text_add(why, " at 0x");
-        text_add_hex(why, address, 8);
-        text_add(why, ", but it is taken or past the module area");
+        text_format(why, " at %a, but it is taken or past the module area", (uint32_t)address);
         return false;
     }
     return true;
@@ -133,19 +124,16 @@ bool loader_reset_pointers(struct load_session *session, struct text *why)
 bool loader_feed_relocation(struct load_session *session, uint32_t location, struct text *why)
 {
     if (location % 4) {
-        text_add(why, "line 0: expected a 4-byte aligned pointer word, got 0x");
-        text_add_hex(why, location, 8);
-        text_add(why, " (the node fixes whole words; `hexmigrate verify` refuses this file too)");
+        text_format(why, "line 0: expected a 4-byte aligned pointer word, got %a (the node fixes "
+                    "whole words; `hexmigrate verify` refuses this file too)", (uint32_t)location);
         return false;
     }
     uint64_t offset = (uint64_t)location - session->link_base;
     if (session->has_link_base && location >= session->link_base &&
         offset < loader_programmed(session)) {
-        text_add(why, "line 0: the pointer word at 0x");
-        text_add_hex(why, location, 8);
-        text_add(why, " arrived after its flash block was programmed; a module file must give "
-                        "its 07 records before the data (canonical form, as `hexmigrate pack` "
-                        "writes it)");
+        text_format(why, "line 0: the pointer word at %a arrived after its flash block was "
+                    "programmed; a module file must give its 07 records before the data "
+                    "(canonical form, as `hexmigrate pack` writes it)", (uint32_t)location);
         return false;
     }
     if (session->relocation_count >= LOADER_MAX_RELOCATIONS) {
@@ -177,8 +165,7 @@ static bool owns_signature(const struct load_session *session)
 bool loader_signature_fits(uint64_t end, struct text *why)
 {
     if (end > SIGNATURE_AREA_MAX) {
-        text_add(why, "expected a signature area of at most 4096 bytes, got ");
-        text_add_unsigned(why, end);
+        text_format(why, "expected a signature area of at most 4096 bytes, got %U", (uint64_t)end);
         return false;
     }
     return true;
@@ -199,10 +186,8 @@ bool loader_feed_signature(struct load_session *session, uint32_t offset, const 
         return true; /* the header sent again after a lost acknowledgement */
     }
     if (offset != signature.length) {
-        text_add(why, "expected signature bytes for offset ");
-        text_add_unsigned(why, signature.length);
-        text_add(why, ", got offset ");
-        text_add_unsigned(why, offset);
+        text_format(why, "expected signature bytes for offset %U, got offset %U",
+                    (uint64_t)signature.length, (uint64_t)offset);
         return false;
     }
     if (!loader_signature_fits((uint64_t)offset + length, why)) {
@@ -227,10 +212,8 @@ static bool relocate_block(struct load_session *session, uint32_t length, struct
         uint32_t offset = (uint32_t)(location - start);
         if (offset + 4 > length) {
             if (length == FLASH_BLOCK) {
-                text_add(why, "line 0: the pointer word at 0x");
-                text_add_hex(why, (uint32_t)location, 8);
-                text_add(why, " straddles a flash block boundary; pointer words must be "
-                                "4-byte aligned");
+                text_format(why, "line 0: the pointer word at %a straddles a flash block "
+                            "boundary; pointer words must be 4-byte aligned", (uint32_t)location);
                 return false;
             }
             continue; /* past the end of the image: loader_finish says so */
@@ -252,11 +235,9 @@ static bool program_buffer(struct load_session *session, struct text *why)
     if (index >= session->block_limit) {
         text_add(why, "module ");
         add_owner(why, session);
-        text_add(why, " does not fit: ");
-        text_add_unsigned(why, session->block_limit);
-        text_add(why, " block(s) of 256 bytes reserved at 0x");
-        text_add_hex(why, loader_load_base(session), 8);
-        text_add(why, ", more data arrived");
+        text_format(why, " does not fit: %U block(s) of 256 bytes reserved at %a, more data "
+                    "arrived", (uint64_t)session->block_limit,
+                    (uint32_t)(loader_load_base(session)));
         return false;
     }
     uint32_t length = session->buffered;
@@ -267,8 +248,8 @@ static bool program_buffer(struct load_session *session, struct text *why)
     bool sector_start = offset % flash_sector_size() == 0;
     if ((sector_start && !flash_make_blank(flash_sector_of(offset))) ||
         !flash_program_block(offset, session->buffer, length)) {
-        text_add(why, "the flash refused to erase or program the block at 0x");
-        text_add_hex(why, flash_base() + offset, 8);
+        text_format(why, "the flash refused to erase or program the block at %a",
+                    (uint32_t)(flash_base() + offset));
         return false;
     }
     session->crc = crc32_update(session->crc, session->buffer, length);
@@ -287,18 +268,12 @@ static void discontinuity(const struct load_session *session, uint32_t address,
 {
     uint32_t expected = session->next_address;
     if (address > expected) {
-        text_add(why, "expected one contiguous run of data (a module fills consecutive flash "
-                        "blocks), got a gap at 0x");
-        text_add_hex(why, expected, 8);
-        text_add(why, "..0x");
-        text_add_hex(why, address - 1, 8);
+        text_format(why, "expected one contiguous run of data (a module fills consecutive flash "
+                    "blocks), got a gap at %a..%a", (uint32_t)expected, (uint32_t)(address - 1));
         return;
     }
-    text_add(why, "expected data records in ascending address order (at 0x");
-    text_add_hex(why, expected, 8);
-    text_add(why, "), got 0x");
-    text_add_hex(why, address, 8);
-    text_add(why, " after line 0");
+    text_format(why, "expected data records in ascending address order (at %a), got %a after "
+                "line 0", (uint32_t)expected, (uint32_t)address);
 }
 
 bool loader_feed_data(struct load_session *session, uint32_t address, const uint8_t *data,
@@ -333,10 +308,7 @@ bool loader_feed_data(struct load_session *session, uint32_t address, const uint
 
 static void add_span(struct text *why, uint32_t link_base, uint32_t size)
 {
-    text_add(why, "0x");
-    text_add_hex(why, link_base, 8);
-    text_add(why, "..0x");
-    text_add_hex(why, link_base + size - 1, 8);
+    text_format(why, "%a..%a", (uint32_t)link_base, (uint32_t)(link_base + size - 1));
 }
 
 static bool check_pointers(const struct load_session *session, uint32_t size, struct text *why)
@@ -353,9 +325,8 @@ static bool check_pointers(const struct load_session *session, uint32_t size, st
     }
     if ((uint64_t)session->init < session->link_base ||
         (uint64_t)session->init >= (uint64_t)session->link_base + size) {
-        text_add(why, "line 0: expected the init subroutine at 0x");
-        text_add_hex(why, session->init, 8);
-        text_add(why, " inside the image data (");
+        text_format(why, "line 0: expected the init subroutine at %a inside the image data (",
+                    (uint32_t)session->init);
         add_span(why, session->link_base, size);
         text_add(why, "), got it outside");
         return false;
@@ -371,12 +342,8 @@ static bool check_read_back(const struct load_session *session, uint32_t size, s
     }
     text_add(why, "flash read-back of module ");
     add_owner(why, session);
-    text_add(why, " at 0x");
-    text_add_hex(why, loader_load_base(session), 8);
-    text_add(why, " gives CRC-32 0x");
-    text_add_hex(why, written, 8);
-    text_add(why, ", expected 0x");
-    text_add_hex(why, session->crc, 8);
+    text_format(why, " at %a gives CRC-32 %a, expected %a", (uint32_t)(loader_load_base(session)),
+                (uint32_t)written, (uint32_t)session->crc);
     return false;
 }
 

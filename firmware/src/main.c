@@ -45,9 +45,7 @@ static void banner(void)
     char text[BANNER_MAX];
     struct text line;
     text_start(&line, text, sizeof text);
-    text_add(&line, "refresh-node ");
-    text_add(&line, board_name());
-    text_add(&line, " ready: ");
+    text_format(&line, "refresh-node %s ready: ", board_name());
     node_describe(&line);
     say(text);
 }

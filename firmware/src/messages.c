@@ -156,8 +156,7 @@ static bool parse_number(struct span word, uint8_t kind, uint64_t *value, struct
 {
     struct number_word number;
     if (!number_word_parse(word.start, word.length, &number)) {
-        text_add(why, "expected a number, got ");
-        text_add_repr(why, word.start, word.length);
+        text_format(why, "expected a number, got %r", word.start, (uint32_t)word.length);
         return false;
     }
     if (number.negative) {
@@ -166,9 +165,7 @@ static bool parse_number(struct span word, uint8_t kind, uint64_t *value, struct
         return false;
     }
     if (number.overflow || number.value > field_limit(kind)) {
-        text_add(why, "expected 0..");
-        text_add_unsigned(why, field_limit(kind));
-        text_add(why, ", got ");
+        text_format(why, "expected 0..%U, got ", (uint64_t)(field_limit(kind)));
         number_word_show(word.start, word.length, &number, why);
         return false;
     }
@@ -188,8 +185,7 @@ static bool parse_module_word(struct span word, struct text *why)
         colon++;
     }
     if (at <= 1 || colon >= word.length) {
-        text_add(why, "expected NAME@0xADDRESS:SIZE, got ");
-        text_add_repr(why, word.start, word.length);
+        text_format(why, "expected NAME@0xADDRESS:SIZE, got %r", word.start, (uint32_t)word.length);
         return false;
     }
     uint64_t ignored;
@@ -225,8 +221,7 @@ static bool parse_flag(struct span word, uint64_t *value, struct text *why)
             return true;
         }
     }
-    text_add(why, "expected RETRY or FATAL, got ");
-    text_add_repr(why, word.start, word.length);
+    text_format(why, "expected RETRY or FATAL, got %r", word.start, (uint32_t)word.length);
     return false;
 }
 
@@ -274,13 +269,11 @@ static bool decode_fields(const struct verb_spec *spec, struct span rest, struct
         struct text inner;
         text_start(&inner, reason, sizeof reason);
         if (!parse_field(field, word, message, i, &inner)) {
-            text_add(why, field->name);
-            text_add(why, " of ");
+            text_format(why, "%s of ", field->name);
             add_line_repr(why, message, 60);
             text_add(why, " (the form: ");
             add_usage(why, spec);
-            text_add(why, "): ");
-            text_add(why, reason);
+            text_format(why, "): %s", reason);
             return false;
         }
     }
@@ -319,8 +312,8 @@ static bool strip_checksum(const struct message *message, struct span *body, str
     if (!found) {
         for (size_t i = 0; i < n; i++) {
             if (line[i] == '*') {
-                text_add(why, "expected a checksum ' *XX' at the end, got ");
-                text_add_repr(why, line + (n > 8 ? n - 8 : 0), n > 8 ? 8 : n);
+                text_format(why, "expected a checksum ' *XX' at the end, got %r",
+                            line + (n > 8 ? n - 8 : 0), (uint32_t)(n > 8 ? 8 : n));
                 return false;
             }
         }
@@ -416,21 +409,14 @@ static void add_free_text(struct text *line, const char *text)
 
 void reply_ack(struct text *line, uint32_t tid, uint32_t value, const char *text)
 {
-    text_add(line, "ACK ");
-    text_add_unsigned(line, tid);
-    text_add_char(line, ' ');
-    text_add_unsigned(line, value);
+    text_format(line, "ACK %U %U", (uint64_t)tid, (uint64_t)value);
     add_free_text(line, text);
     reply_end(line);
 }
 
 void reply_nak(struct text *line, uint32_t tid, uint32_t value, bool fatal, const char *reason)
 {
-    text_add(line, "NAK ");
-    text_add_unsigned(line, tid);
-    text_add_char(line, ' ');
-    text_add_unsigned(line, value);
-    text_add(line, fatal ? " FATAL" : " RETRY");
+    text_format(line, "NAK %U %U%s", (uint64_t)tid, (uint64_t)value, fatal ? " FATAL" : " RETRY");
     add_free_text(line, reason);
     reply_end(line);
 }
@@ -449,12 +435,7 @@ void reply_modules_start(struct text *line)
 
 void reply_module(struct text *line, const char *name, uint32_t address, uint32_t size)
 {
-    text_add_char(line, ' ');
-    text_add(line, name);
-    text_add(line, "@0x");
-    text_add_hex(line, address, 8);
-    text_add_char(line, ':');
-    text_add_unsigned(line, size);
+    text_format(line, " %s@%a:%U", name, (uint32_t)address, (uint64_t)size);
 }
 
 void reply_text_start(struct text *line, enum verb verb, const uint32_t *numbers,
@@ -464,8 +445,7 @@ void reply_text_start(struct text *line, enum verb verb, const uint32_t *numbers
     text_add(line, spec->word);
     for (int i = 0; i < spec->count; i++) {
         if (spec->fields[i].kind != FIELD_REST) {
-            text_add_char(line, ' ');
-            text_add_unsigned(line, *numbers++);
+            text_format(line, " %U", (uint64_t)(*numbers++));
         }
     }
     size_t at = line->length + 1; /* after the blank before the text */

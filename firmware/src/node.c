@@ -103,10 +103,8 @@ static void say(void (*report)(const char *), const char *what, const char *name
     char line[240];
     struct text text;
     text_start(&text, line, sizeof line);
-    text_add(&text, what);
-    text_add_repr(&text, name, text_length(name, DIRECTORY_NAME_LEN));
-    text_add(&text, ": ");
-    text_add(&text, reason);
+    text_format(&text, "%s%r: %s", what, name, (uint32_t)(text_length(name, DIRECTORY_NAME_LEN)),
+                reason);
     report(line);
 }
 
@@ -116,9 +114,8 @@ static bool restore(const struct directory_entry *entry, struct text *why)
     uint32_t offset = entry->load_address - flash_base();
     if (entry->load_address < flash_base() || offset >= flash_size() ||
         offset % flash_sector_size() || entry->size == 0) {
-        text_add(why, "expected a load address at a flash sector boundary and a size > 0, "
-                        "got 0x");
-        text_add_hex(why, entry->load_address, 8);
+        text_format(why, "expected a load address at a flash sector boundary and a size > 0, got "
+                    "%a", (uint32_t)entry->load_address);
         return false;
     }
     struct installed_module module = {*entry, {0, 0}};
@@ -271,15 +268,8 @@ bool node_remove(const char *name, struct text *why)
 void node_describe(struct text *line)
 {
     uint32_t blocks_per_sector = flash_sector_size() / FLASH_BLOCK;
-    text_add(line, "node: ");
-    text_add_unsigned(line, node.count);
-    text_add(line, " module(s), ");
-    text_add_unsigned(line, (uint64_t)flash_free_sectors() * blocks_per_sector);
-    text_add(line, " of ");
-    text_add_unsigned(line, flash_block_count());
-    text_add(line, " flash blocks free, ");
-    text_add_unsigned(line, node_sram_free());
-    text_add(line, " bytes of SRAM free, ");
-    text_add(line, board_name());
-    text_add(line, " firmware");
+    text_format(line, "node: %U module(s), %U of %U flash blocks free, %U bytes of SRAM free, %s "
+                "firmware", (uint64_t)node.count,
+                (uint64_t)flash_free_sectors() * blocks_per_sector, (uint64_t)flash_block_count(),
+                (uint64_t)node_sram_free(), board_name());
 }

@@ -37,8 +37,8 @@ static bool next_word(const char *text, size_t length, size_t *at, size_t *start
 
 static void refuse_name(struct text *why, const char *text, size_t start, size_t end)
 {
-    text_add(why, "expected PBO.port names, got ");
-    text_add_repr(why, text + start, end - start > 60 ? 60 : end - start);
+    text_format(why, "expected PBO.port names, got %r", text + start,
+                (uint32_t)(end - start > 60 ? 60 : end - start));
 }
 
 bool ports_parse(const char *text, size_t length, struct port_list *ports, struct text *why)
@@ -106,11 +106,9 @@ void ports_add_values(const struct port_list *ports, struct text *text)
             if (text->length) {
                 text_add_char(text, ' ');
             }
-            text_add(text, name);
-            text_add_char(text, '=');
+            text_format(text, "%s=", name);
             if (value < 0) {
-                text_add_char(text, '-');
-                text_add_unsigned(text, (uint64_t)0 - (uint64_t)(int64_t)value);
+                text_format(text, "-%U", (uint64_t)0 - (uint64_t)(int64_t)value);
             } else {
                 text_add_unsigned(text, (uint64_t)value);
             }

@@ -174,9 +174,7 @@ static struct transfer *known_transfer(uint32_t tid, struct refusal *refusal)
 {
     struct transfer *transfer = find_transfer(tid);
     if (!transfer) {
-        text_add(&refusal->why, "unknown transfer ");
-        text_add_unsigned(&refusal->why, tid);
-        text_add(&refusal->why, ": send BEGIN first");
+        text_format(&refusal->why, "unknown transfer %U: send BEGIN first", (uint64_t)tid);
         return 0;
     }
     transfer->touched = board_time_us();
@@ -230,8 +228,7 @@ static void handle_remove(const struct message *m)
     name[fits ? length : 0] = '\0';
     if (!fits || !node_remove(name, &refusal.why)) {
         if (!refusal.why.length) {
-            text_add(&refusal.why, "no module named ");
-            text_add_repr(&refusal.why, m->text[0], length);
+            text_format(&refusal.why, "no module named %r", m->text[0], (uint32_t)length);
         }
         nak(0, 0, true, refusal.reason);
         return;
@@ -239,8 +236,7 @@ static void handle_remove(const struct message *m)
     char said[sizeof "removed " + DIRECTORY_NAME_LEN];
     struct text text;
     text_start(&text, said, sizeof said);
-    text_add(&text, "removed ");
-    text_add(&text, name);
+    text_format(&text, "removed %s", name);
     ack(0, 0, said);
 }
 
@@ -258,8 +254,8 @@ __attribute__((noinline)) static void refuse_control(const struct message *m)
 {
     struct refusal refusal;
     start_refusal(&refusal);
-    text_add(&refusal.why, verb_word(m->verb));
-    text_add(&refusal.why, " refused: this node takes no control requests");
+    text_format(&refusal.why, "%s refused: this node takes no control requests",
+                verb_word(m->verb));
     nak((uint32_t)m->number[0], 0, true, refusal.reason);
 }
 
@@ -288,11 +284,8 @@ static void handle_begin(const struct message *m)
     }
     text_add(&refusal.why, "cannot begin: ");
     if ((uint64_t)link_base + size > 0x100000000ull) {
-        text_add(&refusal.why, "an image of ");
-        text_add_unsigned(&refusal.why, size);
-        text_add(&refusal.why, " bytes linked at 0x");
-        text_add_hex(&refusal.why, link_base, 8);
-        text_add(&refusal.why, " ends past the 32-bit address space");
+        text_format(&refusal.why, "an image of %U bytes linked at %a ends past the 32-bit address "
+                    "space", (uint64_t)size, (uint32_t)link_base);
         nak(tid, 0, true, refusal.reason);
         return;
     }
@@ -353,17 +346,13 @@ static bool feed(struct transfer *t, uint32_t address, const uint8_t *data, uint
     if (address > expected) {
         struct refusal gap;
         start_refusal(&gap);
-        text_add(&gap.why, "expected data at 0x");
-        text_add_hex(&gap.why, (uint32_t)expected, 8);
-        text_add(&gap.why, ", got 0x");
-        text_add_hex(&gap.why, address, 8);
+        text_format(&gap.why, "expected data at %a, got %a", (uint32_t)expected, (uint32_t)address);
         nak(t->tid, loader_received(session), false, gap.reason);
         return true;
     }
     if (t->verified) { /* binary DATA may name it: its flash past the image was given back */
-        text_add(&refusal->why, "expected no data after END: transfer ");
-        text_add_unsigned(&refusal->why, t->tid);
-        text_add(&refusal->why, " is verified, send COMMIT or ABORT");
+        text_format(&refusal->why, "expected no data after END: transfer %U is verified, send "
+                    "COMMIT or ABORT", (uint64_t)t->tid);
         return false;
     }
     uint32_t skip = (uint32_t)(expected - address);
@@ -395,10 +384,8 @@ static bool relocation_room(const struct transfer *t, uint32_t count, struct ref
     if (count <= limit) {
         return true;
     }
-    text_add(&refusal->why, "expected at most ");
-    text_add_unsigned(&refusal->why, limit);
-    text_add(&refusal->why, " pointer locations, got ");
-    text_add_unsigned(&refusal->why, count);
+    text_format(&refusal->why, "expected at most %U pointer locations, got %U", (uint64_t)limit,
+                (uint64_t)count);
     return false;
 }
 
@@ -420,18 +407,15 @@ static bool pointer_line(struct transfer *t, const struct hex_record *record,
         }
         uint32_t got = session->relocation_count;
         if (t->announced && got > t->relocations) {
-            text_add(&refusal->why, "expected ");
-            text_add_unsigned(&refusal->why, t->relocations);
-            text_add(&refusal->why, " pointer records (BEGIN), got ");
-            text_add_unsigned(&refusal->why, got);
+            text_format(&refusal->why, "expected %U pointer records (BEGIN), got %U",
+                        (uint64_t)t->relocations, (uint64_t)got);
             return false;
         }
         if (t->announced && got < t->relocations) {
             struct refusal missing; /* the records that came stay; the lost ones fill in */
             start_refusal(&missing);
-            text_add(&missing.why, "header incomplete: ");
-            text_add_unsigned(&missing.why, t->relocations - got);
-            text_add(&missing.why, " missing");
+            text_format(&missing.why, "header incomplete: %U missing",
+                        (uint64_t)(t->relocations - got));
             nak(t->tid, 0, false, missing.reason);
             return true;
         }
@@ -450,23 +434,19 @@ static bool end_transfer(struct transfer *t, bool check, uint32_t crc, struct re
         struct text why;
         text_start(&why, reason, sizeof reason);
         if (!loader_finish(&t->session, &t->image, &why)) {
-            text_add(&refusal->why, "not a valid module: ");
-            text_add(&refusal->why, reason);
+            text_format(&refusal->why, "not a valid module: %s", reason);
             return false;
         }
         t->verified = true;
     }
     if (check && t->image.crc32 != crc) {
-        text_add(&refusal->why, "CRC-32 of the programmed image is 0x");
-        text_add_hex(&refusal->why, t->image.crc32, 8);
-        text_add(&refusal->why, ", expected 0x");
-        text_add_hex(&refusal->why, crc, 8);
+        text_format(&refusal->why, "CRC-32 of the programmed image is %a, expected %a",
+                    (uint32_t)t->image.crc32, (uint32_t)crc);
         return false;
     }
     struct refusal said;
     start_refusal(&said);
-    text_add(&said.why, "verified crc=0x");
-    text_add_hex(&said.why, t->image.crc32, 8);
+    text_format(&said.why, "verified crc=%a", (uint32_t)t->image.crc32);
     ack(t->tid, t->image.size, said.reason);
     return true;
 }
@@ -511,8 +491,7 @@ static struct transfer *text_transfer(struct refusal *refusal)
     text_start(&why, reason, sizeof reason);
     if (!loader_begin(&transfer->session, IMPLICIT, false, 0, false, 0, &why)) {
         transfer->used = false;
-        text_add(&refusal->why, "cannot begin: ");
-        text_add(&refusal->why, reason);
+        text_format(&refusal->why, "cannot begin: %s", reason);
         return 0;
     }
     return transfer;
@@ -552,8 +531,7 @@ static void handle_record(const struct message *m)
         struct transfer *open = newest_open(); /* refused before it opens a transfer */
         struct refusal bad;
         start_refusal(&bad);
-        text_add(&bad.why, "bad record: ");
-        text_add(&bad.why, refusal.reason);
+        text_format(&bad.why, "bad record: %s", refusal.reason);
         nak(open ? open->tid : IMPLICIT, open ? loader_received(&open->session) : 0, false,
             bad.reason);
         return;
@@ -589,8 +567,7 @@ static void send_installed(const struct commit_answer *answer)
 {
     struct refusal said;
     start_refusal(&said);
-    text_add(&said.why, "installed ");
-    text_add(&said.why, answer->name);
+    text_format(&said.why, "installed %s", answer->name);
     ack(answer->tid, answer->address, said.reason);
 }
 
@@ -665,9 +642,8 @@ static bool take_header(struct transfer *t, const struct message *m, struct refu
         uint32_t location = (uint32_t)words[0] | (uint32_t)words[1] << 8 |
                             (uint32_t)words[2] << 16 | (uint32_t)words[3] << 24;
         if (loader_has_relocation(&t->session, location)) {
-            text_add(&refusal->why, "line 0: expected each pointer word once, got 0x");
-            text_add_hex(&refusal->why, location, 8);
-            text_add(&refusal->why, " again (first on line 0)");
+            text_format(&refusal->why, "line 0: expected each pointer word once, got %a again "
+                        "(first on line 0)", (uint32_t)location);
             return false;
         }
         if (!loader_feed_relocation(&t->session, location, &refusal->why)) {

@@ -98,8 +98,8 @@ static void add_held_sorted(struct text *said)
                 next = candidate;
             }
         }
-        text_add(said, shown ? ", " : "");
-        text_add_repr(said, next, text_length(next, NODE_MODULE_NAME_MAX));
+        text_format(said, "%s%r", shown ? ", " : "", next,
+                    (uint32_t)(text_length(next, NODE_MODULE_NAME_MAX)));
         last = next;
     }
     text_add_char(said, ']');
@@ -114,16 +114,13 @@ bool runtime_hold(const char *name, struct text *said)
     if (!known && held.count >= RUNTIME_MAX_HELD) {
         text_add(said, "expected at most 16 modules held at once, got ");
         add_held_sorted(said);
-        text_add(said, " and ");
-        text_add_repr(said, name, text_length(name, 64));
+        text_format(said, " and %r", name, (uint32_t)(text_length(name, 64)));
         return false;
     }
     if (!known && text_length(name, NODE_MODULE_NAME_MAX + 1) <= NODE_MODULE_NAME_MAX) {
         text_copy(held.names[held.count++], name, NODE_MODULE_NAME_MAX + 1);
     } /* a longer name is no module's: nothing to hold, and the answer is the same */
-    text_add(said, "holding ");
-    text_add(said, name);
-    text_add(said, ": it stays off when it is installed, for its constants");
+    text_format(said, "holding %s: it stays off when it is installed, for its constants", name);
     return true;
 }
 

@@ -133,13 +133,12 @@ static bool parse_value(const char *text, size_t length, struct setting *setting
         return true;
     }
     if (not_finite(text, length)) {
-        text_add(why, "expected a finite number, got ");
-        text_add_repr(why, text, length);
+        text_format(why, "expected a finite number, got %r", text, (uint32_t)length);
         return false;
     }
     if (!parse_decimal(text, length, &decimal)) {
-        text_add(why, "expected a number like 3, 0x20000 or 1.5, got ");
-        text_add_repr(why, text, length);
+        text_format(why, "expected a number like 3, 0x20000 or 1.5, got %r", text,
+                    (uint32_t)length);
         return false;
     }
     setting->whole = decimal.whole;
@@ -161,8 +160,7 @@ bool setting_parse(const char *text, size_t length, struct setting *setting, str
     /* PBO.port=VALUE: one dot, a PBO and a port on either side of it */
     if (equals == length || dots != 1 || dot == 0 || dot + 1 == equals ||
         equals > SETTING_PORT_MAX) {
-        text_add(why, "expected PBO.port=VALUE, got ");
-        text_add_repr(why, text, length);
+        text_format(why, "expected PBO.port=VALUE, got %r", text, (uint32_t)length);
         return false;
     }
     text_copy(setting->port, text, equals + 1);

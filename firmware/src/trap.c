@@ -94,17 +94,10 @@ static void add_where(struct text *text, uint32_t address)
         text_add(text, "unmapped memory");
         return;
     }
-    text_add(text, region->name);
-    text_add(text, ", guest ");
+    text_format(text, "%s, guest ", region->name);
     text_add_char(text, region->guest & GUEST_READ ? 'r' : '-');
     text_add_char(text, region->guest & GUEST_WRITE ? 'w' : '-');
     text_add_char(text, region->guest & GUEST_EXECUTE ? 'x' : '-');
-}
-
-static void add_address(struct text *text, uint32_t address)
-{
-    text_add(text, "0x");
-    text_add_hex(text, address, 8);
 }
 
 /* The bytes a load or store at `pc` moves (funct3's low two bits), 4 when it cannot be read. */
@@ -118,14 +111,13 @@ static uint32_t access_size(uint32_t pc)
 
 static void memory_fault(struct text *text, bool write, uint32_t address, uint32_t pc)
 {
-    text_add(text, "memory fault: ");
-    text_add_unsigned(text, access_size(pc));
-    text_add(text, write ? "-byte write at " : "-byte read at ");
-    add_address(text, address);
+    text_format(text, "memory fault: %U%s", (uint64_t)(access_size(pc)),
+                write ? "-byte write at " : "-byte read at ");
+    text_add_address(text, address);
     text_add(text, " (");
     add_where(text, address);
     text_add(text, ") by the instruction at ");
-    add_address(text, pc);
+    text_add_address(text, pc);
 }
 
 /* What ended the call, in the Python node's words where it has the same fault. */
@@ -133,39 +125,35 @@ static void describe_fault(struct text *text, uint32_t cause, uint32_t pc, uint3
 {
     switch (cause) {
     case CAUSE_TIMER:
-        text_add(text, "watchdog: time budget of ");
-        text_add_unsigned(text, WATCHDOG_US);
-        text_add(text, " us exhausted at ");
-        add_address(text, pc);
+        text_format(text, "watchdog: time budget of %U us exhausted at ", (uint64_t)WATCHDOG_US);
+        text_add_address(text, pc);
         return;
     case CAUSE_FETCH_FAULT:
         text_add(text, "memory fault: instruction fetch at ");
-        add_address(text, value);
+        text_add_address(text, value);
         text_add(text, " (");
         add_where(text, value);
         text_add(text, ")");
         return;
     case CAUSE_FETCH_MISALIGNED:
         text_add(text, "instruction fetch at ");
-        add_address(text, value);
+        text_add_address(text, value);
         text_add(text, ": expected 4-byte aligned RV32IM instructions, got a misaligned "
                          "address or a compressed instruction");
         return;
     case CAUSE_ILLEGAL:
         text_add(text, "illegal instruction ");
-        add_address(text, value);
+        text_add_address(text, value);
         text_add(text, " at ");
-        add_address(text, pc);
+        text_add_address(text, pc);
         return;
     case CAUSE_LOAD_FAULT:
     case CAUSE_STORE_FAULT:
         memory_fault(text, cause == CAUSE_STORE_FAULT, value, pc);
         return;
     default: /* misaligned loads and stores: QEMU does them; kept for another hart */
-        text_add(text, "exception (cause ");
-        text_add_unsigned(text, cause);
-        text_add(text, "), pc ");
-        add_address(text, pc);
+        text_format(text, "exception (cause %U), pc ", (uint64_t)cause);
+        text_add_address(text, pc);
     }
 }
 

@@ -32,8 +32,7 @@ bool watch_request(const struct message *request, struct text *reply, struct tex
         return true;
     }
     if (period_ms < MIN_PERIOD_MS) {
-        text_add(why, "expected a report period of at least 10 ms, got ");
-        text_add_unsigned(why, period_ms);
+        text_format(why, "expected a report period of at least 10 ms, got %U", (uint64_t)period_ms);
         return false;
     }
     if (request->text_length[2] > 0 &&
@@ -72,24 +71,16 @@ static void report_values(struct text *text)
     control_add_milli(text, status.leftover_milli);
     text_add(text, " slip=");
     control_add_milli(text, (int64_t)((status.slip_us + 50u) / 100u) * 100); /* 0.1 ms */
-    text_add(text, " missed=");
-    text_add_unsigned(text, status.missed);
+    text_format(text, " missed=%U", (uint64_t)status.missed);
     for (uint32_t index = 0; kernel_pbo_at(index, &pbo); index++) {
         uint8_t kind;
         uint32_t value_index;
         int32_t value;
         if (kernel_stats(pbo.name, &stats) == KERNEL_OK && stats.logged) {
-            text_add_char(text, ' ');
-            text_add(text, pbo.name);
-            text_add(text, ":L=");
-            text_add_unsigned(text, stats.logged);
+            text_format(text, " %s:L=%U", pbo.name, (uint64_t)stats.logged);
         }
         for (uint32_t n = 0; kernel_performance_at(index, n, &kind, &value_index, &value); n++) {
-            text_add_char(text, ' ');
-            text_add(text, pbo.name);
-            text_add(text, kind == 0 ? ":F" : ":N");
-            text_add_unsigned(text, value_index);
-            text_add_char(text, '=');
+            text_format(text, " %s%s%U=", pbo.name, kind == 0 ? ":F" : ":N", (uint64_t)value_index);
             control_add_milli(text, value);
         }
     }
