@@ -2,7 +2,9 @@
 #
 #   make firmware        build/firmware/node.elf for QEMU virt (RV32IM, no libc)
 #   make firmware-host   build/firmware/host/receiver_harness: the same loader and receiver for
-#                        the host, with a RAM flash, under ASan and UBSan (tests/firmware)
+#                        the host, with a RAM flash, under ASan and UBSan (tests/firmware);
+#                        and build/firmware/host/node_harness: the same with the kernel and the
+#                        control requests in, a fake module registered (test_control_fuzz.py)
 #
 # A board is one file: FIRMWARE_BOARD selects it. The kernel's sources (firmware/kernel) join
 # the link through FIRMWARE_KERNEL_SOURCES: they implement the seam of firmware/src/modules.h
@@ -30,14 +32,20 @@ FIRMWARE_ON_KERNEL := firmware/src/main.c firmware/src/control.c firmware/src/co
 	firmware/src/ports.c firmware/src/runtime.c firmware/src/setting.c firmware/src/trap.c \
 	firmware/src/watch.c
 FIRMWARE_HOST_SOURCES := $(filter-out $(FIRMWARE_ON_KERNEL),$(wildcard firmware/src/*.c)) firmware/kernel/text.c \
-	$(wildcard firmware/host/*.c)
+	firmware/host/host_board.c firmware/host/receiver_harness.c
+FIRMWARE_NODE_HOST := $(FIRMWARE_OUT)/host/node_harness
+# The node harness: everything but the QEMU board's main loop and trap handler (module code is C
+# fakes on the host), with the kernel.
+FIRMWARE_NODE_HOST_SOURCES := $(filter-out firmware/src/main.c firmware/src/trap.c,\
+	$(wildcard firmware/src/*.c)) $(FIRMWARE_KERNEL_SOURCES) firmware/kernel/tests/fake_module.c \
+	firmware/host/host_board.c firmware/host/receiver_harness.c firmware/host/node_harness.c
 FIRMWARE_HOST_CFLAGS := -DFIRMWARE_HOST -std=c11 -g -O1 -Wall -Wextra -Werror \
 	-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 
 .PHONY: firmware firmware-host
 
 firmware: $(FIRMWARE_ELF)
-firmware-host: $(FIRMWARE_HOST)
+firmware-host: $(FIRMWARE_HOST) $(FIRMWARE_NODE_HOST)
 
 # libgcc of the rv32im/ilp32 multilib: the 64-bit divisions of the clock and of decimal output.
 $(FIRMWARE_ELF): $(FIRMWARE_SOURCES) $(FIRMWARE_HEADERS) firmware/src/link.ld firmware/firmware.mk
@@ -50,3 +58,8 @@ $(FIRMWARE_HOST): $(FIRMWARE_HOST_SOURCES) $(FIRMWARE_HEADERS) $(wildcard firmwa
 		firmware/firmware.mk
 	@mkdir -p $(dir $@)
 	$(HOST_CC) $(FIRMWARE_HOST_CFLAGS) -o $@ $(FIRMWARE_HOST_SOURCES)
+
+$(FIRMWARE_NODE_HOST): $(FIRMWARE_NODE_HOST_SOURCES) $(FIRMWARE_HEADERS) $(wildcard firmware/host/*.h) \
+		firmware/kernel/tests/fake_module.h firmware/firmware.mk
+	@mkdir -p $(dir $@)
+	$(HOST_CC) $(FIRMWARE_HOST_CFLAGS) -o $@ $(FIRMWARE_NODE_HOST_SOURCES)

@@ -41,6 +41,10 @@ uint64_t board_time_us(void);
 
 /* Where the flash is mapped (the address modules run from), its size and its erase sector. */
 uint32_t board_flash_base(void);
+/* Where the firmware reads the flash as memory (it writes it only through the functions
+ * below): board_flash_base() itself on a board that maps it, as every RV32 board does; the
+ * host's test board keeps it in an array. */
+void *board_flash_memory(void);
 uint32_t board_flash_size(void);
 uint32_t board_flash_sector_size(void);
 
@@ -70,6 +74,7 @@ bool board_code_reusable(void);
  * PMP region. */
 struct board_region {
     uint32_t base, size;
+    void *memory; /* where the firmware reaches it: `base` itself on an RV32 board */
 };
 void board_module_memory(struct board_region *sram, struct board_region *window,
                          struct board_region *stack);

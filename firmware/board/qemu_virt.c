@@ -126,6 +126,11 @@ uint32_t board_flash_base(void)
     return FLASH_BASE;
 }
 
+void *board_flash_memory(void)
+{
+    return (void *)(uintptr_t)FLASH_BASE;
+}
+
 uint32_t board_flash_size(void)
 {
     return FLASH_SIZE;
@@ -225,9 +230,12 @@ bool board_code_reusable(void)
 void board_module_memory(struct board_region *sram, struct board_region *window,
                          struct board_region *stack)
 {
-    *sram = (struct board_region){(uint32_t)__module_sram, (uint32_t)__module_sram_size};
-    *window = (struct board_region){(uint32_t)__task_window, (uint32_t)__task_window_size};
-    *stack = (struct board_region){(uint32_t)__module_stack, (uint32_t)__module_stack_size};
+    *sram = (struct board_region){(uint32_t)__module_sram, (uint32_t)__module_sram_size,
+                                  __module_sram};
+    *window = (struct board_region){(uint32_t)__task_window, (uint32_t)__task_window_size,
+                                    __task_window};
+    *stack = (struct board_region){(uint32_t)__module_stack, (uint32_t)__module_stack_size,
+                                   __module_stack};
 }
 
 static void set_compare(uint64_t when)

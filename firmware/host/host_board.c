@@ -1,7 +1,8 @@
 /*
  * host_board.c - a board for the host: the firmware's loader and receiver, unchanged, on a flash
  * in a RAM array, so they can run under AddressSanitizer and UndefinedBehaviorSanitizer and be
- * fed hostile input by the hypothesis tests (tests/firmware/test_host_fuzz.py).
+ * fed hostile input by the hypothesis tests (tests/firmware/test_host_fuzz.py), and with the
+ * kernel and the control requests in the node harness (tests/firmware/test_control_fuzz.py).
  *
  * The flash behaves as the QEMU board's does where it matters to the code above it: 256 KiB
  * erase sectors would make each erase of the fuzz slow, so its sectors are 4 KiB, and it keeps
@@ -53,19 +54,25 @@ uint64_t board_time_us(void) { return clock_us; }
 void host_board_advance(uint64_t microseconds) { clock_us += microseconds; }
 
 uint32_t board_flash_base(void) { return HOST_FLASH_BASE; }
+void *board_flash_memory(void) { return flash; }
 uint32_t board_flash_size(void) { return HOST_FLASH_SIZE; }
 uint32_t board_flash_sector_size(void) { return HOST_SECTOR; }
 
 /* No code runs here: every sector may be programmed again. */
 bool board_code_reusable(void) { return true; }
 
-/* The QEMU board's module regions (firmware/src/link.ld), never touched: no module runs here. */
+/* Modules that arrive start, as on a board started without --no-start. */
+bool board_start_modules(void) { return true; }
+
+/* The QEMU board's module regions (firmware/src/link.ld) at its addresses, in arrays: the
+ * kernel of the node harness keeps its PBOs' areas there (module code is C on the host). */
 void board_module_memory(struct board_region *sram, struct board_region *window,
                          struct board_region *stack)
 {
-    *sram = (struct board_region){0x80040000u, 128u << 10};
-    *window = (struct board_region){0x80060000u, 64u << 10};
-    *stack = (struct board_region){0x80070000u, 8u << 10};
+    static uint8_t sram_memory[128u << 10], window_memory[64u << 10], stack_memory[8u << 10];
+    *sram = (struct board_region){0x80040000u, sizeof sram_memory, sram_memory};
+    *window = (struct board_region){0x80060000u, sizeof window_memory, window_memory};
+    *stack = (struct board_region){0x80070000u, sizeof stack_memory, stack_memory};
 }
 
 void board_flash_read(uint32_t offset, void *destination, size_t length)

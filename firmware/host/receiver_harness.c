@@ -11,12 +11,16 @@
  *   STX L PATH   the flash read from the file PATH, then a restart (a state to start from)
  *   STX P        `#pending` when a planned power cut is still to come, before the `#ok`
  * Each directive is answered `#ok`. Without --directives the stream is passed on untouched.
+ *
+ * The node harness (node_harness.c) is this loop with the kernel and the control requests
+ * linked in: it defines harness_start and harness_step, which do nothing here.
  */
 #include "../board/board.h"
 #include "../src/flash_layout.h"
 #include "../src/line_reader.h"
 #include "../src/node.h"
 #include "../src/receiver.h"
+#include "harness.h"
 #include "host_board.h"
 
 #include <stdio.h>
@@ -24,6 +28,13 @@
 #include <string.h>
 
 static struct line_reader reader;
+
+/* harness.h: nothing here; the node harness's kernel where it is linked in. */
+__attribute__((weak)) void harness_start(void) {}
+__attribute__((weak)) void harness_step(void (*send)(const char *bytes, size_t length))
+{
+    (void)send;
+}
 
 static void send_bytes(const char *bytes, size_t length)
 {
@@ -43,6 +54,7 @@ static void boot(void)
         fprintf(stderr, "host board: flash geometry refused\n");
         exit(2);
     }
+    harness_start();
     node_boot(say);
     receiver_init(send_bytes);
     line_reader_init(&reader);
@@ -70,6 +82,7 @@ static void directive(const char *line)
         host_board_restore_power();
         boot();
     }
+    harness_step(send_bytes);
     say("#ok");
 }
 
@@ -107,6 +120,9 @@ int main(int argc, char **argv)
             receiver_handle_line(reader.line, reader.length);
         } else if (event == LINE_BINARY) {
             receiver_handle_binary(reader.frame, reader.length);
+        }
+        if (event != LINE_NONE) {
+            harness_step(send_bytes);
         }
     }
     return 0;

@@ -21,12 +21,12 @@ void runtime_init(void)
     const struct kernel_config config = {board_time_us, 0, 0, BATTERY_MJ, BASE_DRAW_UW};
 
     board_module_memory(&sram, &window, &stack);
-    /* On RV32 a guest address is the address itself: the kernel's pointer is the base. */
+    /* On RV32 a guest address is the address itself: the memory is at the base. */
     guest_memory_map(REGION_FLASH, board_flash_base(), board_flash_size(),
-                     (void *)(uintptr_t)board_flash_base());
-    guest_memory_map(REGION_SRAM, sram.base, sram.size, (void *)(uintptr_t)sram.base);
-    guest_memory_map(REGION_WINDOW, window.base, window.size, (void *)(uintptr_t)window.base);
-    guest_memory_map(REGION_STACK, stack.base, stack.size, (void *)(uintptr_t)stack.base);
+                     board_flash_memory());
+    guest_memory_map(REGION_SRAM, sram.base, sram.size, sram.memory);
+    guest_memory_map(REGION_WINDOW, window.base, window.size, window.memory);
+    guest_memory_map(REGION_STACK, stack.base, stack.size, stack.memory);
     kernel_init(&config);
     trap_init();
 }

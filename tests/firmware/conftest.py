@@ -1,5 +1,6 @@
 """What the firmware tests share: the firmware built once, QEMU nodes that every test stops,
-the example modules' images, and the host build of the loader and receiver."""
+the example modules' images, and the host builds of the loader and receiver (with the kernel and
+the control requests in the node harness)."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
 
 HARNESS = Path("build") / "firmware" / "host" / "receiver_harness"
+NODE_HARNESS = Path("build") / "firmware" / "host" / "node_harness"
 
 
 @pytest.fixture(scope="session")
@@ -28,6 +30,14 @@ def harness() -> Path:
     """The loader and receiver built for the host under ASan and UBSan (make firmware-host)."""
     make_target(HARNESS)
     return ROOT / HARNESS
+
+
+@pytest.fixture(scope="session")
+def node_harness() -> Path:
+    """The harness with the kernel and the control requests, a fake gain registered at each
+    boot, under ASan and UBSan (make firmware-host)."""
+    make_target(NODE_HARNESS)
+    return ROOT / NODE_HARNESS
 
 
 @pytest.fixture(scope="session")

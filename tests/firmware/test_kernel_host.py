@@ -1,7 +1,8 @@
 """The firmware's PBO/RT kernel (firmware/kernel/, C) on the host: compiled with the address and
 undefined-behaviour sanitizers behind a fake board (firmware/kernel/tests/host_driver.c: guest
-memory in arrays, a virtual clock, modules as C functions), it refuses, switches, wires,
-schedules and accounts as the Python kernel does; and it builds freestanding for RV32IM.
+memory in arrays, a virtual clock, modules as C functions with descriptors from fake_module.c),
+it refuses, switches, wires, schedules and accounts as the Python kernel does; and it builds
+freestanding for RV32IM.
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ def driver(tmp_path_factory: pytest.TempPathFactory) -> Path:
             f"-I{KERNEL}",
             *kernel_sources(),
             str(KERNEL / "tests" / "host_driver.c"),
+            str(KERNEL / "tests" / "fake_module.c"),
             "-o",
             str(binary),
         ],

@@ -16,6 +16,7 @@
 #include "../kernel.h"
 #include "../module_call.h"
 #include "../../src/modules.h"
+#include "fake_module.h"
 
 #define FLASH 0x08000000u
 #define SRAM 0x20000000u
@@ -59,43 +60,12 @@ static void boot(void)
 
 /* --- A descriptor in the fake flash ------------------------------------------------------ */
 
-struct port { const char *name; uint8_t direction, kind; uint16_t size, rows, columns; };
-
-static void put16(uint32_t at, uint16_t v)
-{
-    flash[at] = (uint8_t)v;
-    flash[at + 1] = (uint8_t)(v >> 8);
-}
-
-static void put32(uint32_t at, uint32_t v)
-{
-    put16(at, (uint16_t)v);
-    put16(at + 2, (uint16_t)(v >> 16));
-}
-
 /* An image at FLASH + offset: its descriptor at +0x100, its methods at +4*i (fake code). */
 static uint32_t descriptor_at(uint32_t offset, const char *name, uint32_t state_size,
-                              const struct port *ports, uint32_t count, uint32_t methods)
+                              const struct fake_port *ports, uint32_t count, uint32_t methods)
 {
-    const uint32_t d = offset + 0x100u;
-    put32(d, ABI_MAGIC);
-    put16(d + 4, ABI_VERSION);
-    put16(d + 6, (uint16_t)count);
-    memcpy(&flash[d + 8], name, strlen(name));
-    put32(d + 24, state_size);
-    for (uint32_t i = 0; i < count; i++) {
-        const uint32_t p = d + 28 + 20 * i;
-        memcpy(&flash[p], ports[i].name, strlen(ports[i].name));
-        flash[p + 12] = ports[i].direction;
-        flash[p + 13] = ports[i].kind;
-        put16(p + 14, ports[i].size);
-        put16(p + 16, ports[i].rows);
-        put16(p + 18, ports[i].columns);
-    }
-    for (uint32_t i = 0; i < METHOD_COUNT; i++) {
-        put32(d + 188 + 4 * i, methods & (1u << i) ? FLASH + offset + 4u * (i + 1u) : 0u);
-    }
-    return FLASH + d;
+    fake_module_image(&flash[offset], FLASH + offset, name, state_size, ports, count, methods);
+    return FLASH + offset + FAKE_DESCRIPTOR;
 }
 
 static uint32_t registering; /* the descriptor the fake init subroutine registers */
@@ -123,7 +93,7 @@ static int32_t install(uint32_t offset, uint32_t descriptor, uint32_t hertz, uin
 /* --- A gain-like module: y = k * x (plain integers), with an evaluator ---------------------- */
 
 enum { X, Y, K };
-static const struct port gain_ports[] = {
+static const struct fake_port gain_ports[] = {
     {"x", DIRECTION_IN, KIND_SCALAR, 4, 1, 1},
     {"y", DIRECTION_OUT, KIND_SCALAR, 4, 1, 1},
     {"k", DIRECTION_CONST, KIND_SCALAR, 4, 1, 1},
@@ -209,7 +179,7 @@ static void install_gain(uint32_t offset, const char *name, uint32_t hertz)
 
 static void install_ramp(uint32_t offset, uint32_t hertz)
 {
-    static const struct port ports[] = {{"y", DIRECTION_OUT, KIND_SCALAR, 4, 1, 1}};
+    static const struct fake_port ports[] = {{"y", DIRECTION_OUT, KIND_SCALAR, 4, 1, 1}};
     uint32_t slot;
     const uint32_t d = descriptor_at(offset, "ramp", 4, ports, 1, BIT(METHOD_CYCLE));
     module_call_fake(FLASH + offset + 4 * (METHOD_CYCLE + 1), ramp_cycle);
@@ -332,7 +302,7 @@ static int32_t hog_cycle(uint32_t ctx)
 
 static void hog_module(uint32_t offset, const char *name, uint32_t hertz)
 {
-    static const struct port ports[] = {{"y", DIRECTION_OUT, KIND_SCALAR, 4, 1, 1}};
+    static const struct fake_port ports[] = {{"y", DIRECTION_OUT, KIND_SCALAR, 4, 1, 1}};
     uint32_t slot;
     const uint32_t d = descriptor_at(offset, name, 0, ports, 1, BIT(METHOD_CYCLE));
     module_call_fake(FLASH + offset + 4 * (METHOD_CYCLE + 1), hog_cycle);
@@ -421,8 +391,8 @@ static int32_t seventy_seven(uint32_t ctx)
 
 static void scenario_isolation(void)
 {
-    static const struct port in[] = {{"x", DIRECTION_IN, KIND_SCALAR, 4, 1, 1}};
-    static const struct port out[] = {{"y0", DIRECTION_OUT, KIND_SCALAR, 4, 1, 1},
+    static const struct fake_port in[] = {{"x", DIRECTION_IN, KIND_SCALAR, 4, 1, 1}};
+    static const struct fake_port out[] = {{"y0", DIRECTION_OUT, KIND_SCALAR, 4, 1, 1},
                                       {"y1", DIRECTION_OUT, KIND_SCALAR, 4, 1, 1}};
     uint32_t slot;
 
@@ -565,7 +535,7 @@ static void print_line(const struct log_line *line, void *context)
 
 static void scenario_log(void)
 {
-    static const struct port out[] = {{"y", DIRECTION_OUT, KIND_SCALAR, 4, 1, 1}};
+    static const struct fake_port out[] = {{"y", DIRECTION_OUT, KIND_SCALAR, 4, 1, 1}};
     struct kernel_stats stats;
     uint32_t slot;
 
@@ -614,11 +584,11 @@ static void refusal(const char *what, uint32_t offset, uint32_t descriptor)
 
 static void scenario_register(void)
 {
-    static const struct port dup[] = {
+    static const struct fake_port dup[] = {
         {"x", DIRECTION_IN, KIND_SCALAR, 4, 1, 1}, {"x", DIRECTION_OUT, KIND_SCALAR, 4, 1, 1}};
-    static const struct port shape[] = {{"v", DIRECTION_IN, KIND_VECTOR, 4, 2, 3}};
-    static const struct port size3[] = {{"v", DIRECTION_IN, KIND_SCALAR, 3, 1, 1}};
-    static const struct port huge[] = {{"f", DIRECTION_IN, KIND_FRAME, 4, 512, 512}};
+    static const struct fake_port shape[] = {{"v", DIRECTION_IN, KIND_VECTOR, 4, 2, 3}};
+    static const struct fake_port size3[] = {{"v", DIRECTION_IN, KIND_SCALAR, 3, 1, 1}};
+    static const struct fake_port huge[] = {{"f", DIRECTION_IN, KIND_FRAME, 4, 512, 512}};
     uint32_t d;
 
     replacing = false;
@@ -628,7 +598,7 @@ static void scenario_register(void)
     flash[d - FLASH] ^= 1;
     refusal("magic", 0x2000, d);
     d = descriptor_at(0x3000, "abi", 0, gain_ports, 3, 0);
-    put16(d - FLASH + 4, 2);
+    fake_put16(&flash[d - FLASH + 4], 2);
     refusal("abi", 0x3000, d);
     refusal("dup", 0x4000, descriptor_at(0x4000, "dup", 0, dup, 2, 0));
     refusal("shape", 0x5000, descriptor_at(0x5000, "shape", 0, shape, 1, 0));
@@ -636,11 +606,11 @@ static void scenario_register(void)
     refusal("name", 0x7000, descriptor_at(0x7000, "9lives", 0, gain_ports, 3, 0));
     refusal("huge", 0x8000, descriptor_at(0x8000, "huge", 0, huge, 1, 0));
     d = descriptor_at(0x9000, "method", 0, gain_ports, 3, BIT(METHOD_ON));
-    put32(d - FLASH + 192, FLASH + 0x9002); /* not 4-byte aligned */
+    fake_put32(&flash[d - FLASH + 192], FLASH + 0x9002); /* not 4-byte aligned */
     refusal("method", 0x9000, d);
     refusal("outside", 0xA000, FLASH + 0xA000 + 0x180); /* 224 bytes past the image's end */
     d = descriptor_at(0xB000, "ports", 0, gain_ports, 3, 0);
-    put16(d - FLASH + 6, 9);
+    fake_put16(&flash[d - FLASH + 6], 9);
     refusal("ports", 0xB000, d);
 }
 
