@@ -29,7 +29,6 @@ second run must not end.
 from __future__ import annotations
 
 import contextlib
-import socket
 import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -199,14 +198,6 @@ def _listening_again(arguments: list[str], url: str) -> list[str]:
         return arguments
     port = url.rsplit(":", 1)[1]
     return [*arguments[:at], f"tcp-listen://{HOST}:{port}", *arguments[at + 1 :]]
-
-
-def free_port() -> int:
-    """A TCP port on HOST that nothing listens on now."""
-    with socket.socket() as probe:
-        probe.bind((HOST, 0))
-        port: int = probe.getsockname()[1]
-        return port
 
 
 class _Restart:

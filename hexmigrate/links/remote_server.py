@@ -69,6 +69,7 @@ from can_remote.websocket import WebSocket, WebsocketClosed, get_accept_key
 
 from commandline.children import TAIL, Child, ChildError
 from hexmigrate.errors import LinkError
+from hexmigrate.links.free_port import free_port
 from hexmigrate.links.url import network_host
 
 HOST = "127.0.0.1"
@@ -168,7 +169,7 @@ class RemoteCanServer(_Server):
         """Start the server and wait until it listens; LinkError, quoting the last lines of its
         log, if it does not within START_TIMEOUT. However the wait ends short (Ctrl-C too), the
         server is stopped and its folder removed."""
-        self.port = _free_port(self.host)
+        self.port = free_port(self.host, "a python-can-remote server")
         self._folder = tempfile.TemporaryDirectory(prefix="can-remote-")
         command = [sys.executable, "-m", "can_remote", "-i", "virtual", "-c", self.channel]
         command += ["-H", self.host, "-p", str(self.port)]
@@ -511,17 +512,3 @@ def _failure(child: Child) -> str:
         what = f"exited with status {status}"
     tail = " | ".join(child.lines()[-TAIL:]) or "(no output)"
     return f"python-can-remote's server {what}: {tail}"
-
-
-def _free_port(host: str) -> int:
-    """A TCP port that nothing listens on right now at `host`; LinkError naming the host when
-    it does not resolve or is not this machine's."""
-    try:
-        address = socket.getaddrinfo(host, 0, socket.AF_INET, socket.SOCK_STREAM)[0][4]
-        with socket.socket() as probe:
-            probe.bind(address)
-            return int(probe.getsockname()[1])
-    except OSError as error:
-        raise LinkError(
-            f"cannot start a python-can-remote server on {host!r}: {error.strerror}"
-        ) from None

@@ -112,7 +112,9 @@ def test_the_remote_server_reports_a_start_failure_from_its_log(
 ) -> None:
     with socket.socket() as taken:
         taken.bind((remote_server.HOST, 0))
-        monkeypatch.setattr(remote_server, "_free_port", lambda host: taken.getsockname()[1])
+        monkeypatch.setattr(
+            remote_server, "free_port", lambda host, purpose: taken.getsockname()[1]
+        )
         server = RemoteCanServer()
         try:
             refused = r"server exited with status 1: .*Address already in use"

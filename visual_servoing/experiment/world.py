@@ -41,10 +41,11 @@ from collections.abc import Mapping
 import can
 import numpy as np
 
-from application.launch import HOST, Launch, free_port
+from application.launch import HOST, Launch
 from application.plant import Launched, Setting, WorldPlant
 from hexmanipulator.can_bus import CanServoBus, open_can_bus
 from hexmanipulator.geometry import load as load_geometry
+from hexmigrate.links.free_port import free_port
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
 from refresh.appliers.base import Inventory
@@ -283,10 +284,13 @@ class ServoingWorld(WorldPlant):
     @classmethod
     def launch(cls, launch: Launch, lock_step: bool) -> Launched:
         """The servo emulator, serving both buses to the other processes itself (a
-        python-can-remote server each, on ports picked now, so that the nodes start at once:
-        they wait for it), in lock-step time on the frames' clock; `ready()` waits until it
-        serves."""
-        buses = {link: f"can://remote/{HOST}:{free_port()}/{link}" for _name, link in MANIPULATORS}
+        python-can-remote server each, on ports picked now by hexmigrate.links.free_port, so
+        that the nodes start at once: they wait for it), in lock-step time on the frames' clock;
+        `ready()` waits until it serves."""
+        buses = {
+            link: f"can://remote/{HOST}:{free_port(HOST, 'a servo bus')}/{link}"
+            for _name, link in MANIPULATORS
+        }
         arguments = ["-m", "servo_emulators", "can"]
         for url in buses.values():
             arguments += ["--serve", url]

@@ -5,12 +5,12 @@ passed without a word, and a node restarted on its port rejoins with what its fl
 from __future__ import annotations
 
 import signal
-import socket
 import time
 
 import pytest
 
 from firmware_sim.serving.node_process import NodeProcess
+from hexmigrate.links.free_port import free_port
 from refresh.appliers.over_links import LinkApplier
 from refresh.configuration import initial_configuration
 from refresh.errors import NodeLinkError
@@ -18,13 +18,6 @@ from refresh.events import EventLog
 from refresh.maintainer import Maintainer
 
 from .test_link_applier import NODE, QUICK, loaded  # noqa: F401 (a fixture)
-
-
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        port: int = probe.getsockname()[1]
-        return port
 
 
 def started(port: int) -> NodeProcess:
