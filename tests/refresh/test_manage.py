@@ -27,6 +27,7 @@ import pytest
 from commandline.children import Child
 from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
+from hexmigrate.links.free_port import free_port
 from refresh.events import EVENT_FIELDS
 from tests.foxglove_client import live_client
 from tests.hostile_node import hostile_node
@@ -206,12 +207,6 @@ def test_a_node_in_the_other_time_mode_is_refused_before_anything_is_deployed(da
             assert not any(line.startswith("registered ") for line in node.lines())
 
 
-def unused_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
 @pytest.mark.parametrize(
     ("options", "status", "said"),
     [
@@ -233,7 +228,7 @@ def test_bad_input_is_one_error_line(database, options, status, said):
 
 
 def test_a_node_that_does_not_answer_and_an_unknown_task_are_one_error_line(database):
-    url = f"socket://127.0.0.1:{unused_port()}"
+    url = f"socket://127.0.0.1:{free_port()}"
     done = manage(database, "--node", f"a={url}", "--node", f"b={url}")
     assert done.returncode == 1
     assert done.stderr.startswith(f"error: robot 'a': cannot open the link to its node at {url}")

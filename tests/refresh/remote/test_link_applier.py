@@ -10,7 +10,6 @@ from __future__ import annotations
 import dataclasses
 import re
 import signal
-import socket
 import time
 from collections.abc import Callable, Iterator
 
@@ -18,6 +17,7 @@ import pytest
 
 from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
+from hexmigrate.links.free_port import free_port
 from hexmigrate.signing import keys
 from hexmigrate.signing.sign import sign_image
 from hexmigrate.signing.tlv import Version
@@ -176,12 +176,6 @@ def test_a_plan_deploys_over_the_link_and_the_decider_reads_the_reports(loaded, 
     assert [line.split()[1] for line in registered] == ["gain", "moving_average"]
 
 
-def unused_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
 def test_several_ports_are_read_in_one_request_at_one_moment(loaded, node_a):
     database = loaded.database
     current = initial_configuration(loaded.task, database)
@@ -204,7 +198,7 @@ def test_several_ports_are_read_in_one_request_at_one_moment(loaded, node_a):
 
 
 def test_a_node_that_cannot_be_reached_fails_before_any_step(node_a):
-    url = f"socket://127.0.0.1:{unused_port()}"
+    url = f"socket://127.0.0.1:{free_port()}"
     unreachable = f"robot 'b': cannot open the link to its node at {url}: "
     with pytest.raises(NodeLinkError, match=unreachable):
         LinkApplier.open({"a": node_a.url, "b": url}, **QUICK)
