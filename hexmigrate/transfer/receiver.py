@@ -28,6 +28,7 @@ from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
+from commandline import one_line
 from hexmigrate.errors import HexError, MessageError, SignatureError
 from hexmigrate.links.base import is_text
 from hexmigrate.records import MAX_SIGNATURE_AREA, RecordType, decode_record
@@ -280,12 +281,18 @@ class Receiver:
 
     def _noted(self, message: Message) -> str:
         """The line a changing request leaves in the node's log: ``request from CONNECTION
-        (key HASH16): START 6 gain``, the request as hex mode writes it, without its check."""
+        (key HASH16): START 6 gain``, the request as hex mode writes it, without its check. A
+        binary message may carry what hex mode cannot (a name with a blank, none, or beyond
+        ASCII): it is noted by its fields, ``HoldStart(tid=5, name='a b')``. Either is shown
+        escaped: a control character a host sent cannot act on the terminal of the log."""
         key = self._session.key
         proved = f" (key {shown_hash(key)})" if key is not None else ""
-        request = encode(message, True).decode("ascii", "replace").split(" *")[0].strip()
+        try:
+            request = encode(message, True).decode("ascii").rsplit(" *", 1)[0]
+        except MessageError:
+            request = repr(message)
         peer = "the link" if self._peer is None else str(self._peer)
-        return f"request from {peer}{proved}: {request}"
+        return f"request from {peer}{proved}: {one_line(request)}"
 
     def expire(self) -> list[int]:
         """Drop the transfers idle for more than `idle` seconds, giving back their flash and

@@ -23,15 +23,22 @@ from hexmigrate.transfer.control import parse_values
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import (
     Ack,
+    ClearPbo,
     ConnectPorts,
+    DescribePbo,
     DisconnectPorts,
     Heartbeat,
+    HoldStart,
     ListPbos,
+    LogLines,
     Nak,
+    PboDescription,
     PboTable,
     PerformanceReport,
     PortValues,
+    ReadLog,
     ReadPorts,
+    ResetNode,
     SetConstant,
     SetRate,
     StartPbo,
@@ -235,6 +242,11 @@ REQUESTS = st.one_of(
     st.builds(DisconnectPorts, TIDS, NAMES),
     st.builds(ReadPorts, TIDS, st.text(max_size=60)),
     st.builds(Watch, TIDS, TIDS, st.text(max_size=60)),
+    st.builds(HoldStart, TIDS, NAMES),
+    st.builds(ClearPbo, TIDS, NAMES),
+    st.builds(DescribePbo, TIDS, NAMES),
+    st.builds(ReadLog, TIDS, TIDS, NAMES),
+    st.builds(ResetNode, TIDS),
 )
 
 
@@ -244,13 +256,15 @@ def test_any_control_request_gets_one_answer_and_the_node_goes_on(requests) -> N
     with Node("fuzzed") as node:
         start_pbo(node, NativeModule(Signal), 100.0, name="signal")
         start_pbo(node, NativeModule(Scale), 100.0, name="scale")
-        receiver = Receiver(NodeTarget(node), KernelControl(node))
+        noted: list[str] = []  # the node's log of changing requests, as firmware-sim keeps it
+        receiver = Receiver(NodeTarget(node), KernelControl(node), on_change=noted.append)
         for request in requests:
             replies = receiver.handle(encode(request, False))
             assert len(replies) == 1
             answer = decode(replies[0], checked=True)
-            assert isinstance(answer, (Ack, Nak, PboTable, PortValues))
+            assert isinstance(answer, (Ack, Nak, PboTable, PortValues, PboDescription, LogLines))
             assert answer.tid == request.tid
+        assert all(line.isprintable() for line in noted)
         node.run(until=node.kernel.now + 0.02)
 
 

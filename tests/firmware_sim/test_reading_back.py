@@ -15,7 +15,9 @@ from hypothesis import strategies as st
 from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.cli import main as hexmigrate
 from hexmigrate.errors import MessageError
+from hexmigrate.links import open_link
 from hexmigrate.transfer.control import PboDetail, description_text, parse_description
+from hexmigrate.transfer.messages import Ack, HoldStart, decode, encode
 
 NODE = (
     "--fpga", "4", "--native", "signal", "--set", "signal.amplitude=3", "--native", "fabric",
@@ -60,6 +62,25 @@ def test_the_node_says_who_changed_what(node, capsys):
     node.wait_for(r"request from .*: STOP \d+ signal$")
     noted = [line for line in node.lines() if line.startswith("request from")]
     assert len(noted) == 1  # the STOP; the PS read nothing
+
+
+def test_a_request_hex_mode_cannot_write_is_noted_escaped_and_answered(node):
+    """Binary mode carries names hex mode cannot (blanks, none, beyond ASCII, control
+    characters): the node notes such a request by its fields, escaped, and answers it."""
+    names = ["a b", "", "g\u00e4\x1b[2J"]
+    with open_link(node.url) as link:
+        for tid, name in enumerate(names):
+            link.send(encode(HoldStart(tid, name), False))
+            assert decode(link.receive(5.0) or b"") == Ack(
+                tid, 0, f"holding {name}: it stays off when it is installed, for its constants"
+            )
+    node.wait_for(r"request from .*: HoldStart\(tid=2, ")
+    noted = [line for line in node.lines() if line.startswith("request from")]
+    assert [line.split(": ", 1)[1] for line in noted] == [
+        "HoldStart(tid=0, name='a b')",
+        "HoldStart(tid=1, name='')",
+        "HoldStart(tid=2, name='g\u00e4\\x1b[2J')",
+    ]
 
 
 PRINTABLE = st.text(st.characters(min_codepoint=32, max_codepoint=126), max_size=30)
