@@ -493,8 +493,12 @@ void binary_send_line(void (*send)(const char *bytes, size_t length), const char
     char reason[200];
     struct text why;
     text_start(&why, reason, sizeof reason);
-    if (!message_decode(line, length, &answer, &why) || answer.record) {
-        send_cannot_answer(send, 0, answer.record ? "a record line is no answer" : reason);
+    if (!message_decode_answer(line, length, &answer, &why)) {
+        send_cannot_answer(send, 0, reason);
+        return;
+    }
+    if (answer.record) {
+        send_cannot_answer(send, 0, "a record line is no answer");
         return;
     }
     const struct binary_type *type = type_by_verb(answer.verb);

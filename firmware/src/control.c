@@ -41,8 +41,12 @@ struct request {
 /* Field `field`'s word as a NUL-terminated name (a longer word is cut: it names no PBO). */
 static void field_name(const struct request *r, int field, char *name)
 {
-    size_t length = r->message->text_length[field];
-    text_copy(name, r->message->text[field], (length < NAME_MAX ? length : NAME_MAX) + 1);
+    const char *text = r->message->text[field];
+    size_t length = r->message->text_length[field], kept = length < NAME_MAX ? length : NAME_MAX;
+    while (kept < length && kept > 0 && ((uint8_t)text[kept] & 0xC0u) == 0x80u) {
+        kept--; /* a cut goes between characters: binary mode carries UTF-8 back as it came */
+    }
+    text_copy(name, text, kept + 1);
 }
 
 /* Apart from the handlers (never inlined), so that its text is on the stack only while it

@@ -365,6 +365,12 @@ bool message_decode(const char *raw, size_t length, struct message *message, str
             return false;
         }
     }
+    return message_decode_answer(raw, length, message, why);
+}
+
+bool message_decode_answer(const char *raw, size_t length, struct message *message,
+                           struct text *why)
+{
     struct span line = strip((struct span){raw, length});
     *message = (struct message){.line = line.start, .line_length = line.length};
     if (line.length && line.start[0] == ':') {

@@ -65,6 +65,11 @@ struct message {
 
 /* Decode one line (without its line end); false with the reason (after "bad message: "). */
 bool message_decode(const char *raw, size_t length, struct message *message, struct text *why);
+/* The same for an answer line the node wrote, which it sends as a binary message: its text may
+ * hold what a binary request carried beyond ASCII (HOLD's name), which binary mode carries back
+ * and hex mode never brings. */
+bool message_decode_answer(const char *raw, size_t length, struct message *message,
+                           struct text *why);
 
 /* True for a request the node answers (not an answer such as ACK or PONG). */
 bool verb_is_request(enum verb verb);

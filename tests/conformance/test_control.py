@@ -307,6 +307,17 @@ def test_requests_a_node_cannot_do_are_refused_in_the_same_words(boot, example_h
     )
 
 
+def test_a_hold_of_a_name_beyond_ascii_in_binary_mode_is_acked_with_the_name(boot):
+    """Binary mode carries any text: a HOLD of such a name is answered in its words, as a
+    name that came in a binary message goes back in one (hex mode refuses the line itself)."""
+    name = "g\u00e4in\U0001f600"
+    with open_link(boot().url) as link:
+        link.send(encode(HoldStart(5, name), False))
+        answer = decode(link.receive(5.0) or b"")
+    said = f"holding {name}: it stays off when it is installed, for its constants"
+    assert answer == Ack(5, 0, said)
+
+
 @pytest.mark.timeout(120)
 def test_a_module_that_faults_goes_to_error_and_the_node_still_answers(boot, test_modules):
     url = boot().url

@@ -13,11 +13,29 @@ node answers the next PING, and the sanitizers report nothing.
 from __future__ import annotations
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, given, reject, settings
 from hypothesis import strategies as st
 
+from hexmigrate.errors import MessageError
 from hexmigrate.transfer.layout import line_sum
-from hexmigrate.transfer.messages import decode
+from hexmigrate.transfer.messages import (
+    ClearPbo,
+    ConnectPorts,
+    DescribePbo,
+    DisconnectPorts,
+    HoldStart,
+    ListPbos,
+    ReadLog,
+    ReadPorts,
+    ResetNode,
+    SetConstant,
+    SetRate,
+    StartPbo,
+    StopPbo,
+    Watch,
+    decode,
+    encode,
+)
 from tests.firmware.host_node import HostNode
 
 SETTINGS = settings(
@@ -206,3 +224,40 @@ def test_hostile_control_requests_leave_the_node_answering_and_its_memory_whole(
     if later:
         node.directive("T")  # the clock on: jobs run, a watch pushes its REPORTs and BEAT
         asked(node)
+
+
+ANY_TEXT = st.text(max_size=80)
+"""Binary mode carries any bytes in a text field: NUL, UTF-8, blanks, line ends."""
+U32 = st.integers(0, 2**32 - 1)
+BINARY_REQUESTS = st.one_of(
+    st.builds(SetConstant, U32, st.builds(lambda p, v: f"{p}={v}", WELL_NAMED | PORTS, VALUES))
+    | st.builds(SetConstant, U32, ANY_TEXT),
+    st.builds(ConnectPorts, U32, st.builds(lambda a, b: f"{a}={b}", PORTS, PORTS) | ANY_TEXT),
+    st.builds(DisconnectPorts, U32, ANY_TEXT),
+    st.builds(ReadPorts, U32, st.lists(WELL_NAMED | PORTS).map(" ".join) | ANY_TEXT),
+    st.builds(Watch, U32, U32, st.lists(WELL_NAMED | PORTS).map(" ".join) | ANY_TEXT),
+    st.builds(SetRate, U32, U32, NAMES | ANY_TEXT),
+    st.builds(ReadLog, U32, U32, NAMES | ANY_TEXT),
+    *(st.builds(kind, U32, NAMES | ANY_TEXT) for kind in (StartPbo, StopPbo, ClearPbo, HoldStart)),
+    st.builds(DescribePbo, U32, NAMES | ANY_TEXT),
+    st.builds(ListPbos, U32),
+    st.builds(ResetNode, U32),
+)
+
+
+def framed(request) -> bytes:
+    """`request` as a binary message; hypothesis draws again for one the encoder refuses."""
+    try:
+        return encode(request, False)
+    except MessageError:
+        reject()
+
+
+@pytest.mark.timeout(300)
+@SETTINGS
+@given(requests=st.lists(BINARY_REQUESTS, min_size=1, max_size=6))
+def test_hostile_binary_control_requests_leave_the_node_answering(node, requests):
+    answers = node.binary([framed(request) for request in requests])
+    assert len(answers) >= len(requests)
+    for answer in answers:
+        decode(answer)  # a well-formed binary message
