@@ -315,6 +315,14 @@ static bool parse_tail(const struct field_spec *field, const struct message *m, 
         text_add_bytes_repr(why, data, length < 40 ? length : 40);
         return false;
     }
+    for (size_t at = 0; at < length; at++) {
+        if (data[at] == 0) { /* this node's names are C strings: "gain\0x" would name gain */
+            add_field(why, field, type);
+            text_add(why, "expected text without NUL, got ");
+            text_add_bytes_repr(why, data, length < 40 ? length : 40);
+            return false;
+        }
+    }
     if (field->kind != FIELD_LISTING) {
         return true;
     }

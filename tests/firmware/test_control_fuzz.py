@@ -216,6 +216,27 @@ def test_any_wire_is_answered(node, verb, source, sink):
     assert answer.startswith((b"ACK 9 ", b"NAK 9 "))
 
 
+def test_a_name_with_a_nul_in_a_binary_request_names_no_pbo(node):
+    """The firmware keeps names as C strings, in which ``gain\\0x`` would be ``gain``: such a
+    text is refused as a bad message (docs/firmware.md: where the C node differs on purpose),
+    and nothing is started, set, read or held."""
+    sent = [
+        StartPbo(1, "gain\x00x"),
+        SetConstant(2, "gain.k\x00=3"),
+        ReadPorts(3, "gain.k\x00zz"),
+        HoldStart(4, "gain\x00"),
+    ]
+    answers = [decode(answer) for answer in node.binary([encode(m, False) for m in sent])]
+    assert [answer.reason.split(": ", 2)[-1] for answer in answers] == [  # type: ignore[attr-defined]
+        "expected text without NUL, got b'gain\\x00x'",
+        "expected text without NUL, got b'gain.k\\x00=3'",
+        "expected text without NUL, got b'gain.k\\x00zz'",
+        "expected text without NUL, got b'gain\\x00'",
+    ]
+    assert asked(node, "PS 5")[0].startswith(b"PBOS 5 gain:NOT_CREATED:")
+    assert asked(node, "READ 6 gain.k")[0].startswith(b"VALUES 6 gain.k=0 ")
+
+
 @pytest.mark.timeout(600)
 @SETTINGS
 @given(texts=st.lists(requests(), min_size=1, max_size=6), later=st.booleans())
