@@ -192,7 +192,7 @@ def _where(application: Application, robot: str, out: Path) -> list[str]:
 
 def _listening_again(arguments: list[str], url: str) -> list[str]:
     """`arguments` of a node that listened on TCP, to listen again on the port it said (`url`,
-    ``tcp://HOST:PORT``) when it is started again; a node on a pty keeps its arguments."""
+    ``socket://HOST:PORT``) when it is started again; a node on a pty keeps its arguments."""
     at = arguments.index("--listen") + 1
     if not arguments[at].startswith("tcp-listen://"):
         return arguments

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import random
 import socket
+from collections.abc import Collection
 from pathlib import Path
 
 from hexmigrate.errors import LinkError
@@ -20,6 +21,7 @@ from hexmigrate.errors import LinkError
 EPHEMERAL_RANGE = Path("/proc/sys/net/ipv4/ip_local_port_range")
 LOWEST = 10000
 """The lowest port drawn: below it sit the well-known and registered services' defaults."""
+HIGHEST = 65535
 DEFAULT_EPHEMERAL_START = 32768
 """Linux's default start of the ephemeral range, when the machine does not say its own."""
 TRIES = 50
@@ -34,16 +36,19 @@ def ephemeral_start(path: Path) -> int:
         return DEFAULT_EPHEMERAL_START
 
 
-def free_port(host: str = "127.0.0.1", purpose: str = "a listener") -> int:
+def free_port(
+    host: str = "127.0.0.1", purpose: str = "a listener", taken: Collection[int] = ()
+) -> int:
     """A TCP port that nothing listens on now at `host`, below the ephemeral range when the
-    range leaves room there; LinkError naming `purpose` and the host when the host does not
-    resolve or is not this machine's."""
+    range leaves room there, and none of `taken` (ports picked ahead for other listeners, not
+    bound yet); LinkError naming `purpose` and the host when the host does not resolve or is not
+    this machine's."""
     try:
         address = socket.getaddrinfo(host, 0, socket.AF_INET, socket.SOCK_STREAM)[0][4][0]
-        below = ephemeral_start(EPHEMERAL_RANGE)
+        below = min(ephemeral_start(EPHEMERAL_RANGE), HIGHEST + 1)
         for _ in range(TRIES if below > LOWEST else 0):
             port = random.randrange(LOWEST, below)
-            if _binds(address, port):
+            if port not in taken and _binds(address, port):
                 return port
         with socket.socket() as probe:  # the last resort: the system's choice
             probe.bind((address, 0))

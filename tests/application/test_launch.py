@@ -27,7 +27,7 @@ def test_a_killed_node_may_end_but_not_once_it_is_started_again(tmp_path):
 
 def test_a_node_started_again_listens_on_the_port_the_system_picked_for_its_first_run():
     first = ["-m", "patrol", "node", "--listen", "tcp-listen://127.0.0.1:0", "--flash", "f"]
-    again = _listening_again(first, "tcp://127.0.0.1:40123")
+    again = _listening_again(first, "socket://127.0.0.1:40123")
     assert again == [
         "-m",
         "patrol",

@@ -57,3 +57,25 @@ def test_the_range_is_read_from_the_machine_or_is_linuxs_default(tmp_path: Path,
 def test_a_host_that_is_not_this_machines_is_refused_naming_the_purpose():
     with pytest.raises(LinkError, match=r"cannot start a servo bus on '192\.0\.2\.1': "):
         free_port("192.0.2.1", "a servo bus")
+
+
+def test_a_port_picked_ahead_for_another_listener_is_not_picked_again(monkeypatch):
+    draw = module.random.randrange
+    first = free_port()
+    drawn = iter([first, first])
+    monkeypatch.setattr(
+        module.random, "randrange", lambda low, high: next(drawn, None) or draw(low, high)
+    )
+    assert free_port(taken=[first]) != first
+
+
+def test_a_range_said_to_start_past_the_last_port_draws_below_the_last(monkeypatch, tmp_path):
+    past = tmp_path / "ip_local_port_range"
+    past.write_text("70000\t80000\n")
+    monkeypatch.setattr(module, "EPHEMERAL_RANGE", past)
+    draw, highs = module.random.randrange, []
+    monkeypatch.setattr(
+        module.random, "randrange", lambda low, high: highs.append(high) or draw(low, high)
+    )
+    assert LOWEST <= free_port() <= 65535
+    assert highs == [65536]  # drawn from 10000..65535, never past the last port

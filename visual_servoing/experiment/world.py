@@ -287,9 +287,12 @@ class ServoingWorld(WorldPlant):
         python-can-remote server each, on ports picked now by hexmigrate.links.free_port, so
         that the nodes start at once: they wait for it), in lock-step time on the frames' clock;
         `ready()` waits until it serves."""
+        ports: list[int] = []
+        for _ in MANIPULATORS:
+            ports.append(free_port(HOST, "a servo bus", taken=ports))
         buses = {
-            link: f"can://remote/{HOST}:{free_port(HOST, 'a servo bus')}/{link}"
-            for _name, link in MANIPULATORS
+            link: f"can://remote/{HOST}:{port}/{link}"
+            for (_name, link), port in zip(MANIPULATORS, ports, strict=True)
         }
         arguments = ["-m", "servo_emulators", "can"]
         for url in buses.values():
