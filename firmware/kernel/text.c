@@ -78,9 +78,7 @@ static void add_escaped(struct text *text, char c, char quote)
     }
 }
 
-/* The code point of the UTF-8 sequence at `string` (its `length` bytes left), and its size in
- * `used`; 0 bytes used when no well-formed sequence of two to four bytes starts there. */
-static uint32_t utf8_point(const unsigned char *string, uint32_t length, uint32_t *used)
+uint32_t text_utf8_point(const unsigned char *string, uint32_t length, uint32_t *used)
 {
     static const uint32_t SMALLEST[5] = {0, 0, 0x80, 0x800, 0x10000};
     uint32_t size = string[0] >= 0xF0 ? 4 : string[0] >= 0xE0 ? 3 : string[0] >= 0xC0 ? 2 : 0;
@@ -134,7 +132,7 @@ void text_add_repr(struct text *text, const char *string, uint32_t length)
         uint32_t used = 0;
         uint32_t point = 0;
         if ((unsigned char)string[i] >= 0x80) {
-            point = utf8_point((const unsigned char *)string + i, length - i, &used);
+            point = text_utf8_point((const unsigned char *)string + i, length - i, &used);
         }
         if (used) {
             add_escaped_point(text, point);

@@ -32,6 +32,10 @@ void text_add_quoted(struct text *text, const char *name);
 /* The text as Python's repr() shows a str: 'gain', "it's", 'a\tb'; a character beyond ASCII
  * (UTF-8) escaped by its code point, as repr escapes one it does not print. */
 void text_add_repr(struct text *text, const char *string, uint32_t length);
+/* The code point of the UTF-8 sequence at `string` (its `length` bytes left), and its size in
+ * `used`; 0 bytes used when no well-formed sequence of two to four bytes starts there. Strict,
+ * as Python's decoder: no overlong forms, no surrogates, nothing past U+10FFFF. */
+uint32_t text_utf8_point(const unsigned char *string, uint32_t length, uint32_t *used);
 /* The bytes as Python's repr() shows bytes: b'RFMD', b'\xc2\x80'. */
 void text_add_bytes_repr(struct text *text, const uint8_t *data, uint32_t length);
 void text_add_unsigned(struct text *text, uint64_t value);

@@ -141,37 +141,18 @@ static void add_field(struct text *why, const struct field_spec *field,
     text_add(why, ": ");
 }
 
-/* Strict UTF-8, as Python's decoder takes it: no overlong forms, no surrogates, at most
- * U+10FFFF. */
-static size_t utf8_sequence(const uint8_t *s, size_t left)
-{
-    uint8_t lead = s[0];
-    size_t size = lead < 0x80 ? 1 : lead >= 0xC2 && lead <= 0xDF ? 2
-                : lead >= 0xE0 && lead <= 0xEF ? 3 : lead >= 0xF0 && lead <= 0xF4 ? 4 : 0;
-    if (size == 0 || size > left) {
-        return 0;
-    }
-    uint8_t low = 0x80, high = 0xBF; /* the second byte's range */
-    if (lead == 0xE0) low = 0xA0;
-    if (lead == 0xED) high = 0x9F;
-    if (lead == 0xF0) low = 0x90;
-    if (lead == 0xF4) high = 0x8F;
-    for (size_t i = 1; i < size; i++) {
-        if (s[i] < (i == 1 ? low : 0x80) || s[i] > (i == 1 ? high : 0xBF)) {
-            return 0;
-        }
-    }
-    return size;
-}
-
+/* Strict UTF-8, as Python's decoder takes it (text_utf8_point). */
 static bool utf8_valid(const uint8_t *data, size_t length)
 {
     for (size_t i = 0; i < length;) {
-        size_t size = utf8_sequence(data + i, length - i);
-        if (!size) {
+        uint32_t used = 1;
+        if (data[i] >= 0x80) {
+            (void)text_utf8_point(data + i, (uint32_t)(length - i), &used);
+        }
+        if (!used) {
             return false;
         }
-        i += size;
+        i += used;
     }
     return true;
 }
