@@ -82,7 +82,7 @@ CODE_GOAL = 24 * KIB
 RAM_GOAL = 16 * KIB
 CODE_SECTIONS = (".text", ".rodata", ".srodata")
 MODULE_AREAS = ("__module_sram_size", "__task_window_size", "__module_stack_size")
-"""The link script's symbols that size what the kernel gives modules (firmware/src/link.ld),
+"""The link script's symbols that size what the kernel gives modules (firmware/rv32/link.ld),
 regions beside the firmware's own RAM, not sections of it."""
 NODES = ("qemu", "python")
 MODES = ("hex", "binary")

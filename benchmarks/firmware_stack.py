@@ -1,7 +1,7 @@
 """The node firmware's worst-case stack depth, measured statically, to size its stack.
 
 The firmware (docs/firmware.md) has one stack, the last STACK_SIZE bytes of its RAM
-(firmware/src/link.ld). Two things run on it:
+(firmware/rv32/link.ld). Two things run on it:
 
 - **main**: start.S's ``_start`` sets sp to ``__stack_top`` and calls ``main`` (no frame of its
   own), which boots and then polls forever;
@@ -58,7 +58,7 @@ from firmware_sim.qemu.firmware_build import firmware_elf, linked_stack
 
 ROOT = Path(__file__).resolve().parent.parent
 INDIRECT = "__indirect_call"
-SEND_BYTES = "firmware/src/main.c:send_bytes"
+SEND_BYTES = "firmware/main/main.c:send_bytes"
 """main.c's UART writer: receiver_init(send_bytes) and watch_push(send_bytes) are the only
 writers ever given, and every frame writer's, binary_send_line's and binary_send_block_ack's
 `send` is passed down from those two."""
@@ -66,28 +66,28 @@ INDIRECT_TARGETS: dict[str, tuple[str, ...]] = {
     # kernel/module_call.c's run: the board's runner, set once by trap_init (runtime_init, before
     # node_boot runs any init subroutine); the direct call of module code when no runner is set
     # never happens on this firmware.
-    "module_call": ("firmware/src/trap.c:run_in_user_mode",),
+    "module_call": ("firmware/rv32/trap.c:run_in_user_mode",),
     # check_names (inlined): registrar.c's accept passes its static `taken`, the only caller.
     "descriptor_accept": ("firmware/kernel/registrar.c:taken",),
     # `report` and say's report: main.c's say, through node_boot(say) -> directory_load.
-    "directory_load": ("firmware/src/main.c:say",),
-    "node_boot": ("firmware/src/main.c:say",),
+    "directory_load": ("firmware/main/main.c:say",),
+    "node_boot": ("firmware/main/main.c:say",),
     # struct frame_writer's send, set by frame_writer_start from binary_messages.c.
-    "firmware/src/binary_frame.c:send_run": (SEND_BYTES,),
+    "firmware/protocol/binary_frame.c:send_run": (SEND_BYTES,),
     "frame_writer_start": (SEND_BYTES,),
     "frame_writer_end": (SEND_BYTES,),
     # receiver.send, set by receiver_init(send_bytes).
-    "firmware/src/receiver.c:send_line": (SEND_BYTES,),
+    "firmware/protocol/receiver.c:send_line": (SEND_BYTES,),
     # the session verbs' answers (receiver.c's dispatch).
-    "firmware/src/receiver.c:handle_session": (
+    "firmware/protocol/receiver.c:handle_session": (
         "session_challenge",
         "session_authenticate",
         "session_end",
     ),
     # watch_push(send_bytes)'s send, and the two writers watch_push gives push.
-    "firmware/src/watch.c:push": (
+    "firmware/control/watch.c:push": (
         SEND_BYTES,
-        "firmware/src/watch.c:report_values",
+        "firmware/control/watch.c:report_values",
         "control_state_line",
     ),
     # kernel.config.now_us: runtime.c's kernel_config gives board_time_us.
@@ -99,7 +99,10 @@ INDIRECT_TARGETS: dict[str, tuple[str, ...]] = {
     "kernel_note": (),
     "kernel_run": (),
     # the log visitors: kernel_log's from control_text.c, and pbo.c's own.
-    "module_log_since": ("firmware/src/control_text.c:take_line", "firmware/kernel/pbo.c:add_said"),
+    "module_log_since": (
+        "firmware/control/control_text.c:take_line",
+        "firmware/kernel/pbo.c:add_said",
+    ),
 }
 """For each function that calls through a pointer, every function the pointer can hold."""
 HARDWARE_EDGES = {"guest_enter": ("trap",)}
@@ -446,7 +449,7 @@ def main() -> None:
     if deepest_bytes > stack:
         sys.exit(
             f"firmware_stack: expected the deepest path to fit the linked stack of {stack:,} "
-            f"bytes (STACK_SIZE in firmware/src/link.ld), got {deepest_bytes:,}"
+            f"bytes (STACK_SIZE in firmware/rv32/link.ld), got {deepest_bytes:,}"
         )
     print(f"linked stack {stack:,} bytes: {stack - deepest_bytes:,} to spare")
 

@@ -6,38 +6,44 @@
 #                        and build/firmware/host/node_harness: the same with the kernel and the
 #                        control requests in, a fake module registered (test_control_fuzz.py)
 #
-# A board is one file: FIRMWARE_BOARD selects it. The kernel's sources (firmware/kernel) join
-# the link through FIRMWARE_KERNEL_SOURCES: they implement the seam of firmware/src/modules.h
-# (node_modules.c); firmware/src/control.c answers the control requests on it.
+# A board is one file: FIRMWARE_BOARD selects it. The folders are the firmware's parts
+# (docs/firmware.md): rv32/ the hart (reset, the trap vector, module code in user mode), main/
+# the node put together (boot, the polling loop, the kernel on this firmware), loader/ modules
+# into flash and the directory, protocol/ the transfer protocol's two modes, control/ the
+# control requests on the kernel, kernel/ the PBO/RT kernel, lib/ CRCs and memcpy. The kernel
+# implements the seam of firmware/loader/modules.h (node_modules.c); firmware/control/control.c
+# answers the control requests on it.
 
 FIRMWARE_CC ?= riscv64-unknown-elf-gcc
 FIRMWARE_BOARD ?= firmware/board/qemu_virt.c
+FIRMWARE_PARTS := rv32 main loader protocol control kernel lib
 FIRMWARE_KERNEL_SOURCES ?= $(wildcard firmware/kernel/*.c)
 FIRMWARE_OUT := $(BUILD)/firmware
 FIRMWARE_ELF := $(FIRMWARE_OUT)/node.elf
-FIRMWARE_SOURCES := $(wildcard firmware/src/*.c) firmware/src/start.S $(FIRMWARE_BOARD) \
+FIRMWARE_PART_SOURCES := $(foreach part,$(filter-out kernel,$(FIRMWARE_PARTS)),\
+	$(wildcard firmware/$(part)/*.c))
+FIRMWARE_SOURCES := $(FIRMWARE_PART_SOURCES) firmware/rv32/start.S $(FIRMWARE_BOARD) \
 	$(FIRMWARE_KERNEL_SOURCES)
-FIRMWARE_HEADERS := $(wildcard firmware/src/*.h firmware/board/*.h firmware/kernel/*.h)
+FIRMWARE_HEADERS := $(foreach part,board $(FIRMWARE_PARTS),$(wildcard firmware/$(part)/*.h))
 FIRMWARE_ARCH := -march=rv32imc_zicsr_zifencei -mabi=ilp32 # C for the firmware only: modules stay RV32IM
 FIRMWARE_CFLAGS := $(FIRMWARE_ARCH) -nostdlib -ffreestanding -Os -msave-restore -g -std=c11 -Wall -Wextra \
 	-Werror -ffunction-sections -fdata-sections -fno-common
-FIRMWARE_LDFLAGS := -T firmware/src/link.ld -Wl,--gc-sections -Wl,--no-warn-rwx-segments \
+FIRMWARE_LDFLAGS := -T firmware/rv32/link.ld -Wl,--gc-sections -Wl,--no-warn-rwx-segments \
 	-Wl,-Map=$(FIRMWARE_OUT)/node.map
 
 HOST_CC ?= gcc
 FIRMWARE_HOST := $(FIRMWARE_OUT)/host/receiver_harness
 # The files that join the kernel (control requests, module code in user mode) stay out of the
 # host harness, which tests the loader and the receiver with the weak defaults of the seams.
-FIRMWARE_ON_KERNEL := firmware/src/main.c firmware/src/control.c firmware/src/control_text.c \
-	firmware/src/ports.c firmware/src/runtime.c firmware/src/setting.c firmware/src/trap.c \
-	firmware/src/watch.c
-FIRMWARE_HOST_SOURCES := $(filter-out $(FIRMWARE_ON_KERNEL),$(wildcard firmware/src/*.c)) firmware/kernel/text.c \
+FIRMWARE_ON_KERNEL := $(wildcard firmware/main/*.c firmware/rv32/*.c firmware/control/*.c)
+FIRMWARE_HOST_SOURCES := $(wildcard firmware/loader/*.c firmware/protocol/*.c firmware/lib/*.c) \
+	firmware/control/control_default.c firmware/kernel/text.c \
 	firmware/host/host_board.c firmware/host/receiver_harness.c
 FIRMWARE_NODE_HOST := $(FIRMWARE_OUT)/host/node_harness
 # The node harness: everything but the QEMU board's main loop and trap handler (module code is C
 # fakes on the host), with the kernel.
-FIRMWARE_NODE_HOST_SOURCES := $(filter-out firmware/src/main.c firmware/src/trap.c,\
-	$(wildcard firmware/src/*.c)) $(FIRMWARE_KERNEL_SOURCES) firmware/kernel/tests/fake_module.c \
+FIRMWARE_NODE_HOST_SOURCES := $(filter-out firmware/main/main.c firmware/rv32/trap.c,\
+	$(FIRMWARE_PART_SOURCES)) $(FIRMWARE_KERNEL_SOURCES) firmware/kernel/tests/fake_module.c \
 	firmware/host/host_board.c firmware/host/receiver_harness.c firmware/host/node_harness.c
 FIRMWARE_HOST_CFLAGS := -DFIRMWARE_HOST -std=c11 -g -O1 -Wall -Wextra -Werror \
 	-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
@@ -48,7 +54,7 @@ firmware: $(FIRMWARE_ELF)
 firmware-host: $(FIRMWARE_HOST) $(FIRMWARE_NODE_HOST)
 
 # libgcc of the rv32im/ilp32 multilib: the 64-bit divisions of the clock and of decimal output.
-$(FIRMWARE_ELF): $(FIRMWARE_SOURCES) $(FIRMWARE_HEADERS) firmware/src/link.ld firmware/firmware.mk
+$(FIRMWARE_ELF): $(FIRMWARE_SOURCES) $(FIRMWARE_HEADERS) firmware/rv32/link.ld firmware/firmware.mk
 	@mkdir -p $(FIRMWARE_OUT)
 	$(FIRMWARE_CC) $(FIRMWARE_CFLAGS) $(FIRMWARE_LDFLAGS) -o $@ $(FIRMWARE_SOURCES) \
 		$$($(FIRMWARE_CC) -march=rv32im -mabi=ilp32 -print-libgcc-file-name)

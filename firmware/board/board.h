@@ -12,7 +12,7 @@
  * Flash geometry. The node lays its flash out in 256-byte blocks, as the Python node does (the
  * same directory bytes, docs/node.md), and programs one block at a time. Real NOR flash erases
  * in larger sectors (QEMU virt's CFI flash: 256 KiB), so the board says how large its erase
- * sector is and the layer above (src/flash_layout.c) never erases a sector that holds anything
+ * sector is and the layer above (loader/flash_layout.c) never erases a sector that holds anything
  * it must keep. A board whose flash erases single blocks reports a sector of 256 bytes.
  */
 #ifndef BOARD_H

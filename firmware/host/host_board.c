@@ -64,7 +64,7 @@ bool board_code_reusable(void) { return true; }
 /* Modules that arrive start, as on a board started without --no-start. */
 bool board_start_modules(void) { return true; }
 
-/* The QEMU board's module regions (firmware/src/link.ld) at its addresses, in arrays: the
+/* The QEMU board's module regions (firmware/rv32/link.ld) at its addresses, in arrays: the
  * kernel of the node harness keeps its PBOs' areas there (module code is C on the host). */
 void board_module_memory(struct board_region *sram, struct board_region *window,
                          struct board_region *stack)

@@ -12,15 +12,15 @@
  * its REPORTs (the clock moves only by the STX T directive).
  */
 #include "../board/board.h"
+#include "../control/watch.h"
 #include "../kernel/abi.h"
 #include "../kernel/guest_memory.h"
 #include "../kernel/kernel.h"
 #include "../kernel/module_call.h"
 #include "../kernel/tests/fake_module.h"
-#include "../src/flash_layout.h"
-#include "../src/runtime.h"
-#include "../src/trap.h"
-#include "../src/watch.h"
+#include "../loader/flash_layout.h"
+#include "../main/runtime.h"
+#include "../rv32/trap.h"
 #include "harness.h"
 
 #include <stdio.h>

@@ -16,10 +16,10 @@
  * linked in: it defines harness_start and harness_step, which do nothing here.
  */
 #include "../board/board.h"
-#include "../src/flash_layout.h"
-#include "../src/line_reader.h"
-#include "../src/node.h"
-#include "../src/receiver.h"
+#include "../loader/flash_layout.h"
+#include "../loader/node.h"
+#include "../protocol/line_reader.h"
+#include "../protocol/receiver.h"
 #include "harness.h"
 #include "host_board.h"
 

@@ -3,7 +3,7 @@
  * subroutine, at a guest address with one argument.
  *
  * On RV32 the board runs the code (module_call_use): the firmware in user mode on the module
- * stack, with its memory guarded and a watchdog (firmware/src/trap.c); without a runner it is
+ * stack, with its memory guarded and a watchdog (firmware/rv32/trap.c); without a runner it is
  * a direct call through the (relocated) method pointer. On the host, where
  * the kernel is tested, guest code cannot run: the tests register C functions as fakes at
  * guest addresses, and a fake reaches the kernel's services by calling kernel_service as the

@@ -5,7 +5,7 @@
  * says what was expected and what came, as the Python node's exceptions do, with the same words,
  * so that the host prints the same error for both nodes. A `struct text` writes into a fixed
  * buffer and silently cuts what does not fit, so no name or line a host sends can make an answer
- * overrun RAM. The kernel and the node's protocol (firmware/src) write with this one writer.
+ * overrun RAM. The kernel and the node's other parts write with this one writer.
  */
 #ifndef KERNEL_TEXT_H
 #define KERNEL_TEXT_H

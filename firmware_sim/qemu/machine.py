@@ -38,7 +38,7 @@ _BARRIER = b"ABORT %d *%02X\n" % (_BARRIER_TID, line_sum(f"ABORT {_BARRIER_TID}"
 """The handshake's last request: aborting a transfer no one began is answered, changes nothing."""
 _BARRIER_ANSWER = f"ACK {_BARRIER_TID} 0 aborted"
 BOOT_OPTIONS = 0x8007_2000
-"""Where the firmware reads its boot options (firmware/src/link.ld's __boot_options): QEMU's
+"""Where the firmware reads its boot options (firmware/rv32/link.ld's __boot_options): QEMU's
 generic loader writes the word there before the hart starts."""
 NO_START = 0x4E4F_5354
 """The word that asks the firmware to leave installed modules off ("NOST",

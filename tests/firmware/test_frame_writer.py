@@ -1,5 +1,5 @@
-"""The C node's frame writer (firmware/src/binary_frame.c) writes a binary answer on the link as
-it is made, one COBS run at a time, so its frames must be byte for byte what hexmigrate's
+"""The C node's frame writer (firmware/protocol/binary_frame.c) writes a binary answer on the link
+as it is made, one COBS run at a time, so its frames must be byte for byte what hexmigrate's
 `cobs_encode` makes of the whole message: the host's deframer takes nothing else, and the
 canonical form matters where a run of 254 bytes meets a 0x00 or the message's end. The file is
 compiled for the host and driven through ctypes, the message fed in pieces of any size, as the
@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from hexmigrate.links.framing import cobs_encode
 
-SOURCE = Path(__file__).resolve().parents[2] / "firmware" / "src" / "binary_frame.c"
+SOURCE = Path(__file__).resolve().parents[2] / "firmware" / "protocol" / "binary_frame.c"
 Send = ctypes.CFUNCTYPE(None, ctypes.c_char_p, ctypes.c_size_t)
 
 

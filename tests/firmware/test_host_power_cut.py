@@ -4,7 +4,7 @@ node restarts on what the flash holds, for N = 1, 2, ... until the operation com
 each cut the node lists the old modules or the new ones, never a half state, and its
 directory, read by the Python node's decoder, says the same with every image whole. With two
 modules installed before, both directory slots are in use and the commit goes through the
-scratch sector (firmware/src/flash_directory.c): its every step is cut too.
+scratch sector (firmware/loader/flash_directory.c): its every step is cut too.
 """
 
 from __future__ import annotations

@@ -11,11 +11,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../../loader/modules.h"
 #include "../abi.h"
 #include "../guest_memory.h"
 #include "../kernel.h"
 #include "../module_call.h"
-#include "../../src/modules.h"
 #include "fake_module.h"
 
 #define FLASH 0x08000000u

@@ -4,7 +4,7 @@
 #include "flash_directory.h"
 
 #include "../board/board.h"
-#include "crc.h"
+#include "../lib/crc.h"
 #include "flash_layout.h"
 
 #define HEADER_SIZE 12

@@ -16,13 +16,13 @@
  * board's host may plug in late) is said again, and a launcher needs no luck to hear it.
  */
 #include "../board/board.h"
-#include "flash_layout.h"
-#include "line_reader.h"
-#include "node.h"
+#include "../control/watch.h"
 #include "../kernel/text.h"
-#include "receiver.h"
+#include "../loader/flash_layout.h"
+#include "../loader/node.h"
+#include "../protocol/line_reader.h"
+#include "../protocol/receiver.h"
 #include "runtime.h"
-#include "watch.h"
 
 #define BANNER_MAX 200
 #define BANNER_EVERY_US 50000u

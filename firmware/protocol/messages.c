@@ -3,7 +3,7 @@
  */
 #include "messages.h"
 
-#include "crc.h"
+#include "../lib/crc.h"
 #include "number_word.h"
 
 #define U8 FIELD_U8

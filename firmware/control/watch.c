@@ -2,10 +2,10 @@
 #include "watch.h"
 
 #include "../kernel/kernel.h"
-#include "binary_messages.h"
+#include "../protocol/binary_messages.h"
+#include "../protocol/receiver.h"
 #include "control_text.h"
 #include "ports.h"
-#include "receiver.h"
 
 #define HEARTBEAT_US 1000000u
 #define MIN_PERIOD_MS 10u

@@ -17,12 +17,12 @@
 #include "control.h"
 
 #include "../kernel/kernel.h"
-#include "answer_memory.h"
+#include "../lib/crc.h"
+#include "../main/runtime.h"
+#include "../protocol/answer_memory.h"
+#include "../protocol/number_word.h"
 #include "control_text.h"
-#include "crc.h"
-#include "number_word.h"
 #include "ports.h"
-#include "runtime.h"
 #include "setting.h"
 #include "watch.h"
 

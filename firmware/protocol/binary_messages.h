@@ -19,8 +19,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "messages.h"
 #include "../kernel/text.h"
+#include "messages.h"
 
 enum binary_kind { BINARY_VERB, BINARY_HEADER, BINARY_DATA, BINARY_SIGNATURE, BINARY_BLOCK_ACK };
 

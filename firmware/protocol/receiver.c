@@ -6,12 +6,12 @@
 #include "receiver.h"
 
 #include "../board/board.h"
+#include "../control/control.h"
+#include "../loader/hex_record.h"
+#include "../loader/loader.h"
+#include "../loader/node.h"
 #include "binary_messages.h"
-#include "control.h"
-#include "hex_record.h"
-#include "loader.h"
 #include "messages.h"
-#include "node.h"
 #include "session.h"
 
 #define IMPLICIT 0u

@@ -4,7 +4,7 @@
 #include "flash_layout.h"
 
 #include "../board/board.h"
-#include "crc.h"
+#include "../lib/crc.h"
 
 /* What a sector is to the allocator. RETIRED: it held a module whose code ran, and this board
  * does not program code over code it ran before the node restarts (board_code_reusable). */

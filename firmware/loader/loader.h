@@ -15,8 +15,8 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "flash_layout.h"
 #include "../kernel/text.h"
+#include "flash_layout.h"
 #include "signature_area.h"
 
 #define LOADER_MAX_RELOCATIONS 64 /* per module; a descriptor has 9 method pointers */

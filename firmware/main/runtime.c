@@ -4,8 +4,8 @@
 #include "../board/board.h"
 #include "../kernel/guest_memory.h"
 #include "../kernel/kernel.h"
-#include "modules.h"
-#include "trap.h"
+#include "../loader/modules.h"
+#include "../rv32/trap.h"
 
 #define BATTERY_MJ 3600000u   /* the Python node's 3600 J */
 #define BASE_DRAW_UW 50000u   /* and its own 50 mW */

@@ -12,8 +12,8 @@
 
 #include <stdbool.h>
 
-#include "messages.h"
 #include "../kernel/text.h"
+#include "../protocol/messages.h"
 
 bool node_control(const struct message *request, struct text *reply);
 

@@ -4,7 +4,7 @@
  * QEMU's loader starts the hart at the ELF's entry with nothing set up. Only hart 0 runs (virt
  * starts one hart unless -smp says otherwise; any other parks).
  *
- * Module code runs in user mode (src/trap.c, guest_enter below). Every trap it takes (an
+ * Module code runs in user mode (rv32/trap.c, guest_enter below). Every trap it takes (an
  * ecall, a fault, the watchdog's timer) comes here: mscratch then holds the kernel's stack
  * pointer, so the vector swaps it with the module's sp, saves the module's registers in a frame
  * on the kernel's stack and calls trap_from_module(frame). When that returns (an ecall

@@ -1,7 +1,7 @@
 /* setting.c - a SET request's PBO.port=VALUE (setting.h). */
 #include "setting.h"
 
-#include "number_word.h"
+#include "../protocol/number_word.h"
 
 /* A decimal float as Python's float() reads it: [sign] digits [. digits] [e [sign] digits],
  * one digit at least before the exponent; whether it is whole, and its value when it is. */

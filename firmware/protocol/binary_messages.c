@@ -3,8 +3,8 @@
  */
 #include "binary_messages.h"
 
+#include "../lib/crc.h"
 #include "binary_frame.h"
-#include "crc.h"
 
 #define EXTENDED 0x100u /* a declared code 0x1NN travels as 00 NN (layout.extended) */
 #define CRC32_SIZE 4

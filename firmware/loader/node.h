@@ -12,9 +12,9 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "../kernel/text.h"
 #include "flash_directory.h"
 #include "loader.h"
-#include "../kernel/text.h"
 
 struct installed_module {
     struct directory_entry entry;

@@ -3,7 +3,7 @@
  */
 #include "signature_area.h"
 
-#include "crc.h"
+#include "../lib/crc.h"
 
 void signature_area_clear(struct signature_area *area)
 {

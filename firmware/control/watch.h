@@ -13,7 +13,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 
-#include "messages.h"
+#include "../protocol/messages.h"
 
 /* Start, change or end (period 0) the watch; the ACK or the refusal's reason in `reply`. False
  * with the reason in `why` when refused. */

@@ -2,7 +2,7 @@
 #include "ports.h"
 
 #include "../kernel/kernel.h"
-#include "messages.h"
+#include "../protocol/messages.h"
 
 bool ports_is_port(const char *text, size_t length)
 {

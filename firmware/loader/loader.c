@@ -3,7 +3,7 @@
  */
 #include "loader.h"
 
-#include "crc.h"
+#include "../lib/crc.h"
 
 /* The signature area of the one transfer that may hold one at a time: signed modules are sent
  * one after another. */
