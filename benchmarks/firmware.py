@@ -4,7 +4,9 @@
   (data, bss and the firmware's stack; the SRAM the kernel hands to modules, the task window
   and the modules' stack are regions of the link script, reported apart), from the ELF's
   sections and symbols, against the goals of issue 28 (code at most 24 KiB, RAM at most 16 KiB;
-  MCUboot is about 32 KiB, optiboot 0.5 KiB);
+  MCUboot is about 32 KiB, optiboot 0.5 KiB), and what each part of the firmware (its folders:
+  kernel, loader, protocol, control, ...; libgcc) takes of both, from the link map (`--size`
+  prints only these);
 - **install** of a 4 KiB and a 64 KiB module over the pty, in each mode both nodes speak: the
   seconds from BEGIN to the acknowledged COMMIT and the image's bytes per second, the QEMU node
   against the Python node (``firmware-sim listen --listen pty``), best of `--repeats`;
@@ -43,12 +45,13 @@
 The modules installed are the compiled ``gain`` example padded with random data and pointer words
 (`firmware_sim.wires.workload`), so each commit registers real code.
 
-    python benchmarks/firmware.py [--repeats N] [--pings N] [--window S]
+    python benchmarks/firmware.py [--size] [--repeats N] [--pings N] [--window S]
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 import statistics
 import subprocess
 import tempfile
@@ -120,6 +123,40 @@ def print_size(elf: Path) -> None:
         f"({ram / RAM_GOAL:.2f} of the goal)"
     )
     print(f"  module areas {modules:,} B; sections {found}")
+    parts = by_part(elf.with_suffix(".map"))
+    print(f"  {'part':<10} {'code B':>8} {'RAM B':>7}  (the link map's input sections)")
+    for part, (part_code, part_ram) in sorted(parts.items(), key=lambda item: -item[1][0]):
+        print(f"  {part:<10} {part_code:>8,} {part_ram:>7,}")
+
+
+MAP_INPUT = re.compile(r"^ (\.\S+)?\s+0x([0-9a-f]+)\s+0x([0-9a-f]+)\s+(\S+)$")
+"""An input section of a link map's memory map: its name (or none, when the name was too long
+and stands on the line before), address, size and the object or archive member it came from."""
+PART = re.compile(r"/obj/firmware/([^/]+)/")
+
+
+def by_part(link_map: Path) -> dict[str, tuple[int, int]]:
+    """The bytes of code (text, read-only data) and of static RAM each part takes: a part is
+    the folder below firmware/ of an object's source (firmware.mk names each object after its
+    source), or libgcc. Strings merged across objects count for each that holds them."""
+    parts: dict[str, list[int]] = {}
+    name = ""
+    lines = link_map.read_text().split("Linker script and memory map", 1)[-1].splitlines()
+    for line in lines:
+        if line.startswith(" .") and len(line.split()) == 1:
+            name = line.strip()  # the name of the input section on the next line
+            continue
+        found = MAP_INPUT.match(line)
+        if not found or int(found[2], 16) == 0:
+            continue
+        section, size, source = found[1] or name, int(found[3], 16), found[4]
+        in_code = section.startswith((".text", ".rodata", ".srodata"))
+        if not in_code and not section.startswith((".data", ".sdata", ".bss", ".sbss")):
+            continue
+        part = PART.search(source)
+        sizes = parts.setdefault(part[1] if part else Path(source).name.split(".a(")[0], [0, 0])
+        sizes[0 if in_code else 1] += size
+    return {part: (code, ram) for part, (code, ram) in parts.items()}
 
 
 # Nodes.
@@ -559,8 +596,11 @@ def main() -> None:
     parser.add_argument(
         "--window", type=float, default=2.0, help="seconds of each cycle-time window"
     )
+    parser.add_argument("--size", action="store_true", help="print the size figures only")
     args = parser.parse_args()
     print_size(firmware_elf())
+    if args.size:
+        return
     with tempfile.TemporaryDirectory(prefix="firmware-bench-") as folder:
         code = image_from_elf(build_module(EXAMPLES_DIR / "gain.c", Path(folder)).elf)
         jobs = targets(Path(folder))

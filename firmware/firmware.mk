@@ -53,10 +53,17 @@ FIRMWARE_HOST_CFLAGS := -DFIRMWARE_HOST -std=c11 -g -O1 -Wall -Wextra -Werror \
 firmware: $(FIRMWARE_ELF)
 firmware-host: $(FIRMWARE_HOST) $(FIRMWARE_NODE_HOST)
 
+# One object a source, named after it (build/firmware/obj/firmware/PART/FILE.o), so that the
+# link map says which part each byte of the firmware comes from (benchmarks/firmware.py).
+FIRMWARE_OBJECTS := $(patsubst %,$(FIRMWARE_OUT)/obj/%.o,$(FIRMWARE_SOURCES))
+
+$(FIRMWARE_OUT)/obj/%.o: % $(FIRMWARE_HEADERS) firmware/firmware.mk
+	@mkdir -p $(dir $@)
+	$(FIRMWARE_CC) $(FIRMWARE_CFLAGS) -c -o $@ $<
+
 # libgcc of the rv32im/ilp32 multilib: the 64-bit divisions of the clock and of decimal output.
-$(FIRMWARE_ELF): $(FIRMWARE_SOURCES) $(FIRMWARE_HEADERS) firmware/rv32/link.ld firmware/firmware.mk
-	@mkdir -p $(FIRMWARE_OUT)
-	$(FIRMWARE_CC) $(FIRMWARE_CFLAGS) $(FIRMWARE_LDFLAGS) -o $@ $(FIRMWARE_SOURCES) \
+$(FIRMWARE_ELF): $(FIRMWARE_OBJECTS) firmware/rv32/link.ld
+	$(FIRMWARE_CC) $(FIRMWARE_CFLAGS) $(FIRMWARE_LDFLAGS) -o $@ $(FIRMWARE_OBJECTS) \
 		$$($(FIRMWARE_CC) -march=rv32im -mabi=ilp32 -print-libgcc-file-name)
 	riscv64-unknown-elf-size $@
 
