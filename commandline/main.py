@@ -22,6 +22,7 @@ import sys
 import traceback
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
+from typing import NoReturn
 
 from commandline.extras import missing_extra
 
@@ -43,12 +44,23 @@ class UsageError(CommandLineError):
     """Arguments that do not go together: reported as argparse reports its own, exit status 2."""
 
 
+class CommandParser(argparse.ArgumentParser):
+    """argparse's parser, but a usage error shows what is not printable in it escaped: the
+    message quotes what the user gave (an unknown argument, a file name), which may hold an
+    escape sequence, from a file name a shell glob found or a pasted line, that a terminal would
+    act on. Its sub-commands' parsers are of this class too (argparse makes them of the type of
+    the parser that adds them)."""
+
+    def error(self, message: str) -> NoReturn:
+        super().error(visible(message))
+
+
 def command_parser(
     prog: str, description: str, epilog: str | None = None
 ) -> argparse.ArgumentParser:
     """A parser with ``--debug`` whose description and epilog keep their own line breaks, so
     that examples stay one per line."""
-    parser = argparse.ArgumentParser(
+    parser = CommandParser(
         prog=prog,
         description=description,
         epilog=epilog,

@@ -88,6 +88,15 @@ def test_usage_errors_exit_2(capsys):
     assert exited.value.code == EXIT_USAGE
 
 
+def test_a_usage_error_shows_the_escapes_it_quotes_escaped(capsys):
+    with pytest.raises(SystemExit) as exited:
+        run(parser_raising(None), PackageError, ["go", "\x1b[2J\x1b]0;title\x07"])
+    assert exited.value.code == EXIT_USAGE
+    err = capsys.readouterr().err
+    assert "\x1b" not in err and "\x07" not in err
+    assert err.endswith("tool: error: unrecognized arguments: \\x1b[2J\\x1b]0;title\\x07\n")
+
+
 def test_interrupted_exits_130(capsys):
     assert run(parser_raising(KeyboardInterrupt()), PackageError, ["go"]) == EXIT_INTERRUPTED
     assert capsys.readouterr().err == "interrupted\n"
