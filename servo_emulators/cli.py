@@ -89,7 +89,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="can://virtual/CH or can://remote/127.0.0.1:PORT/CH; repeat it for a bus more "
         "(the nodes answer on each)",
     )
-    where.add_argument("--slcan", metavar="CHANNEL", help="an SLCAN adapter on a new pty")
+    where.add_argument(
+        "--slcan",
+        type=channel_name,
+        metavar="CHANNEL",
+        help="an SLCAN adapter on a new pty, on the virtual bus CHANNEL",
+    )
     where.add_argument(
         "--serve",
         action="append",
@@ -162,7 +167,7 @@ def _run_can(args: argparse.Namespace) -> None:
         feedback_period=args.period_ms / 1000,
     )
     with contextlib.ExitStack() as stack:
-        if args.slcan:
+        if args.slcan is not None:
             device = stack.enter_context(SlcanDevice(args.slcan))
             bus = can.Bus(interface="virtual", channel=args.slcan, ignore_config=True)
             stack.enter_context(CanServoServer(nodes, bus))
@@ -174,6 +179,16 @@ def _run_can(args: argparse.Namespace) -> None:
                 stack.enter_context(CanServoServer(nodes, _open_bus(url)))
             where = args.url
         _announce(f"{args.nodes} CAN servo nodes on {' and '.join(where)}", args.seconds)
+
+
+def channel_name(text: str) -> str:
+    """``--slcan``'s virtual bus: a name as ``can://virtual/CHANNEL`` takes it, printable, for
+    the emulator says it in the adapter's URL."""
+    if not text or "/" in text or not text.isprintable():
+        raise argparse.ArgumentTypeError(
+            f"expected a channel name of printable characters without '/', got {text!r}"
+        )
+    return text
 
 
 def served_url(text: str) -> tuple[str, int, str]:

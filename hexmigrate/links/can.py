@@ -204,7 +204,7 @@ def _channel(url: str, interface: str, path: str) -> str:
         remote_address(url, channel)
         return channel
     if interface in ("virtual", "socketcan"):
-        if channel and "/" not in channel:
+        if channel and "/" not in channel and channel.isprintable():
             return channel
         raise url_error(url, f"expected a name after can://{interface}/, got {channel!r}", FORM)
     if interface == "slcan":

@@ -59,6 +59,7 @@ BAD_URLS = [
     ("socket://127.0.0.1:7/x", "expected HOST:PORT after socket://, got '127.0.0.1:7/x'", SOCKET),
     ("can://virtual", "expected a name after can://virtual/, got ''", CAN),
     ("can://virtual/a/b", "expected a name after can://virtual/, got 'a/b'", CAN),
+    ("can://virtual/a\x1b[2J", r"expected a name after can://virtual/, got 'a\x1b[2J'", CAN),
     ("can://ether/x", "expected virtual, remote, slcan or socketcan, got 'ether'", CAN),
     ("can://socketcan/", "expected a name after can://socketcan/, got ''", CAN),
     (

@@ -170,3 +170,13 @@ def _runs_long(text: str) -> bool:
 
 def test_docs_cli_md_names_every_command_and_option() -> None:
     assert undocumented(build_parser(), "## `python -m servo_emulators`") == []
+
+
+@pytest.mark.parametrize("channel", ["", "a/b", "bus\x1b[2J"])
+def test_an_slcan_channel_that_no_virtual_bus_can_have_is_a_usage_error(channel, capsys) -> None:
+    with pytest.raises(SystemExit) as usage:
+        main(["can", "--slcan", channel, "--seconds", "0.01"])
+    err = capsys.readouterr().err
+    assert usage.value.code == 2
+    expected = "expected a channel name of printable characters without '/'"
+    assert f"argument --slcan: {expected}, got {channel!r}" in err
