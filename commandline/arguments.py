@@ -15,6 +15,8 @@ import stat
 from collections.abc import Callable
 from pathlib import Path
 
+from commandline.main import UsageError
+
 ADDRESS_LIMIT = 1 << 32
 DEFAULT_MAX_FILE_BYTES = 64 << 20  # far above any module, database or ELF this toolchain reads
 
@@ -150,6 +152,27 @@ def output_file(text: str) -> Path:
     if not path.parent.is_dir():
         raise _expected("a file in an existing folder", text)
     return path
+
+
+def apart(written: tuple[str, Path], *others: tuple[str, Path | None]) -> None:
+    """Refuse an output file that is also another file of the command (`others`: each an
+    option's name and its file, None when not given), as UsageError naming both options: the
+    command would replace the input it reads, or one output with another (a private key with
+    its public half), and what was there is lost."""
+    option, path = written
+    for other, given in others:
+        if given is not None and _same_file(path, given):
+            raise UsageError(
+                f"{option} {path}: expected a file apart from {other}'s, got the same file"
+            )
+
+
+def _same_file(one: Path, other: Path) -> bool:
+    """Whether two names are one file: the same inode when both exist, else the same path."""
+    try:
+        return one.samefile(other)
+    except OSError:
+        return one.resolve() == other.resolve()
 
 
 def output_file_ending(suffix: str) -> Callable[[str], Path]:

@@ -26,7 +26,7 @@ from commandline import (
     one_line,
     run,
 )
-from commandline.arguments import address, input_file, integer, output_file, real
+from commandline.arguments import address, apart, input_file, integer, output_file, real
 from commandline.progress import progress_bar
 from hexmigrate.checks import verify_file
 from hexmigrate.control_cli import add_control_commands, setting_text
@@ -88,6 +88,7 @@ def cmd_pack(args: argparse.Namespace) -> int:
         raise UsageError("--map and --bin go together: the map route needs both files")
     if args.elf is None and args.map is None:
         raise UsageError("expected MODULE.elf, or --map MODULE.map --bin MODULE.bin")
+    apart(("-o", args.output), ("MODULE.elf", args.elf), ("--map", args.map), ("--bin", args.bin))
     images = []
     if args.elf is not None:
         images.append(image_from_elf(args.elf, args.init))
@@ -156,6 +157,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
 def cmd_relocate(args: argparse.Namespace) -> int:
     """Write the flat flash bytes of the module placed at --base."""
+    apart(("-o", args.output), ("FILE.hex", args.file))
     image = ModuleImage.read(args.file)
     try:
         flat = image.relocate(args.base)

@@ -8,7 +8,7 @@ import os
 from pathlib import Path
 
 from commandline import CommandLineError, add_command
-from commandline.arguments import input_file, output_file
+from commandline.arguments import apart, input_file, output_file
 from hexmigrate.checks import MAX_NAME_CHARACTERS, check_one_descriptor
 from hexmigrate.image import ModuleImage
 from hexmigrate.signing import keys
@@ -21,6 +21,7 @@ KEY_FILE = input_file(keys.MAX_KEY_FILE)
 
 def cmd_keygen(args: argparse.Namespace) -> int:
     """Write a new private key (and its public half with --public), as imgtool does."""
+    apart(("-o", args.output), ("--public", args.public))
     key = keys.generate(args.type)
     _write_secret(args.output, keys.private_pem(key))
     if args.public is not None:
@@ -34,7 +35,9 @@ def cmd_keygen(args: argparse.Namespace) -> int:
 
 
 def cmd_sign(args: argparse.Namespace) -> int:
-    """Write the module with its version and signature (09 records)."""
+    """Write the module with its version and signature (09 records); -o may be the module
+    itself (signed in place), never the key."""
+    apart(("-o", args.output), ("--key", args.key))
     image = ModuleImage.read(args.file)
     check_one_descriptor(image)  # the name signed is the one the node registers
     if len(image.name) > MAX_NAME_CHARACTERS:

@@ -11,7 +11,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from commandline.arguments import address, input_file, integer, output_file, real
+from commandline import UsageError
+from commandline.arguments import address, apart, input_file, integer, output_file, real
 
 
 @pytest.mark.parametrize("text", ["nan", "NaN", "inf", "-inf", "1e400", "", "one", "0x10"])
@@ -109,3 +110,15 @@ def test_a_name_the_system_refuses_is_an_argument_error_not_a_traceback(tmp_path
         output_file(too_long)
     with pytest.raises(argparse.ArgumentTypeError, match="File name too long"):
         input_file()(too_long)
+
+
+def test_apart_sees_one_file_under_two_names_and_lets_other_files_be(tmp_path):
+    real_file = tmp_path / "key.pem"
+    real_file.write_text("secret")
+    link = tmp_path / "link.pem"
+    link.symlink_to(real_file)
+    with pytest.raises(UsageError, match=r"-o .*link\.pem: expected a file apart from --key's"):
+        apart(("-o", link), ("--key", real_file))
+    with pytest.raises(UsageError, match="apart from --public's"):
+        apart(("-o", tmp_path / "new.pem"), ("--public", tmp_path / "sub" / ".." / "new.pem"))
+    apart(("-o", tmp_path / "other.pem"), ("--key", real_file), ("--public", None))

@@ -146,3 +146,56 @@ def test_the_docs_show_the_commands_there_are():
     for text in (section, (root / "README.md").read_text()):
         assert "hexmigrate node" not in text
         assert "firmware-sim listen --listen " in text
+
+
+def _keygen(folder: Path) -> Path:
+    key = folder / "key.pem"
+    assert cli.main(["keygen", "-o", str(key)]) == 0
+    return key
+
+
+@pytest.mark.parametrize(
+    ("command", "option"),
+    [
+        (lambda elf, hex_file, key: ["pack", str(elf), "-o", str(elf)], "MODULE.elf"),
+        (
+            lambda elf, hex_file, key: [
+                "relocate",
+                str(hex_file),
+                "--base",
+                "0",
+                "-o",
+                str(hex_file),
+            ],
+            "FILE.hex",
+        ),
+        (lambda elf, hex_file, key: ["keygen", "-o", str(key), "--public", str(key)], "--public"),
+        (
+            lambda elf, hex_file, key: [
+                *("sign", str(hex_file), "--key", str(key), "--version", "1.0.0"),
+                *("-o", str(key)),
+            ],
+            "--key",
+        ),
+    ],
+    ids=["pack", "relocate", "keygen", "sign"],
+)
+def test_an_output_that_is_the_commands_other_file_is_refused_and_nothing_written(
+    example_builds, packed, tmp_path, capsys, command, option
+):
+    elf = tmp_path / "gain.elf"
+    elf.write_bytes(example_builds["gain"].elf.read_bytes())
+    key = _keygen(tmp_path)
+    before = {path: path.read_bytes() for path in (elf, packed, key)}
+    with pytest.raises(SystemExit) as usage:
+        cli.main(command(elf, packed, key))
+    assert usage.value.code == 2
+    assert f"expected a file apart from {option}'s, got the same file" in capsys.readouterr().err
+    assert {path: path.read_bytes() for path in before} == before
+
+
+def test_a_module_is_signed_in_place(packed, tmp_path):
+    key = _keygen(tmp_path)
+    argv = ["sign", str(packed), "--key", str(key), "--version", "1.0.0", "-o", str(packed)]
+    assert cli.main(argv) == 0
+    assert cli.main(["verify", str(packed), "--key", str(key)]) == 0
