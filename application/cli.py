@@ -50,7 +50,7 @@ from application.scenario import Scenario
 from campaign.cli import add_campaign_arguments, run_campaign
 from campaign.errors import CampaignError
 from commandline import UsageError, add_command, command_parser, run
-from commandline.arguments import named_url, path_name, real
+from commandline.arguments import named_url, output_file, output_folder, real
 from commandline.children import ChildError
 from commandline.progress import progress_bar
 from firmware_sim.errors import FirmwareSimError
@@ -112,7 +112,7 @@ def _add_run(commands: argparse._SubParsersAction, application: Application) -> 
     _scenario_option(command, application)
     command.add_argument(
         "--out",
-        type=path_name,
+        type=output_folder,
         metavar="DIR",
         help=f"where to write (default {application.out}/NAME)",
     )
@@ -183,7 +183,7 @@ def _add_node(commands: argparse._SubParsersAction, application: Application) ->
     )
     command.add_argument(
         "--flash",
-        type=path_name,
+        type=output_file,
         metavar="FILE",
         help="the node's flash file: the modules it holds survive a restart",
     )
@@ -224,7 +224,7 @@ def _add_manager(commands: argparse._SubParsersAction, application: Application)
     add_location_option(command)
     command.add_argument(
         "--out",
-        type=path_name,
+        type=output_folder,
         metavar="DIR",
         help=f"where to write (default {application.out}/NAME)",
     )

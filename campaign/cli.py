@@ -28,7 +28,7 @@ from campaign.html import write_page
 from campaign.plan import plan
 from campaign.summary import lines, rounded, summarize
 from commandline import UsageError
-from commandline.arguments import integer
+from commandline.arguments import integer, output_folder
 from commandline.interrupts import stop_requests
 from commandline.progress import progress_bar
 from refresh.cli import add_location_option
@@ -86,7 +86,7 @@ def add_campaign_arguments(command: argparse.ArgumentParser, application: Campai
     )
     command.add_argument(
         "--out",
-        type=Path,
+        type=output_folder,
         metavar="DIR",
         help=f"the campaign's folder (default {application.default_out})",
     )

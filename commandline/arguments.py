@@ -107,10 +107,30 @@ def named_url(name: str) -> Callable[[str], tuple[str, str]]:
 def path_name(text: str) -> Path:
     """A file's or folder's name, `text` as a path, for a command that checks the rest itself
     (a folder it makes): the system takes no NUL byte in one (making it would fail with a
-    ValueError, not an OSError)."""
+    ValueError, not an OSError); nor is an empty name one (Path would take it for the current
+    folder)."""
     if "\0" in text:
         raise _expected("a path", f"{text!r} (a NUL byte)", quote=False)
+    if not text:
+        raise _expected("a path", text)
     return Path(text)
+
+
+def output_folder(text: str) -> Path:
+    """A folder to write files in: one that exists, or a new one the command makes. A file, a
+    device or a pipe of that name is refused here, where the option can be named, rather than
+    when the command fails to make the folder."""
+    path = path_name(text)
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        return path
+    except OSError as error:  # a name too long, a loop of links, a folder that is a file
+        raise argparse.ArgumentTypeError(f"{text}: {error.strerror}") from None
+    if not stat.S_ISDIR(mode):
+        kind = "a file" if stat.S_ISREG(mode) else _kind(mode)
+        raise _expected("a folder to write in", f"{text} ({kind})", quote=False)
+    return path
 
 
 def input_file(max_bytes: int = DEFAULT_MAX_FILE_BYTES) -> Callable[[str], Path]:

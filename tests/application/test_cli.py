@@ -69,6 +69,21 @@ def test_a_path_with_a_nul_byte_is_a_usage_error(command):
 
 
 @pytest.mark.parametrize(
+    ("command", "value", "said"),
+    [
+        (["run", "--out"], "", "argument --out: expected a path, got ''"),
+        (["run", "--out"], "/dev/null", "expected a folder to write in, got /dev/null (a device)"),
+        (["campaign", "--runs", "1", "--out"], "/dev/null", "expected a folder to write in"),
+        (["node", "--robot", "a", "--listen", "pty", "--flash"], "/dev/zero", "(a device)"),
+    ],
+)
+def test_an_output_that_is_no_place_to_write_is_a_usage_error(command, value, said, tmp_path):
+    status, err = tank(*command, value)
+    assert status == 2
+    assert said in err
+
+
+@pytest.mark.parametrize(
     ("outage", "url", "said"),
     [
         (

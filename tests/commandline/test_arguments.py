@@ -12,7 +12,15 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from commandline import UsageError
-from commandline.arguments import address, apart, input_file, integer, output_file, real
+from commandline.arguments import (
+    address,
+    apart,
+    input_file,
+    integer,
+    output_file,
+    output_folder,
+    real,
+)
 
 
 @pytest.mark.parametrize("text", ["nan", "NaN", "inf", "-inf", "1e400", "", "one", "0x10"])
@@ -122,3 +130,23 @@ def test_apart_sees_one_file_under_two_names_and_lets_other_files_be(tmp_path):
     with pytest.raises(UsageError, match="apart from --public's"):
         apart(("-o", tmp_path / "new.pem"), ("--public", tmp_path / "sub" / ".." / "new.pem"))
     apart(("-o", tmp_path / "other.pem"), ("--key", real_file), ("--public", None))
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("", "expected a path, got ''"),
+        ("a\0b", "expected a path, got 'a\\x00b' (a NUL byte)"),
+        ("/dev/null", "expected a folder to write in, got /dev/null (a device)"),
+        (__file__, f"expected a folder to write in, got {__file__} (a file)"),
+    ],
+)
+def test_an_output_folder_is_a_folder_or_a_new_name(text, expected):
+    with pytest.raises(argparse.ArgumentTypeError) as refused:
+        output_folder(text)
+    assert str(refused.value) == expected
+
+
+def test_an_output_folder_may_exist_or_be_new(tmp_path):
+    assert output_folder(str(tmp_path)) == tmp_path
+    assert output_folder(str(tmp_path / "new")) == tmp_path / "new"
