@@ -28,6 +28,7 @@ half-started cluster is closed before Dask's exit hook could complain).
 
 from __future__ import annotations
 
+import asyncio
 import atexit
 import collections
 import contextlib
@@ -84,6 +85,39 @@ def _folder(prefix: str) -> tempfile.TemporaryDirectory[str]:
     return tempfile.TemporaryDirectory(prefix=prefix)  # kept by the cache, removed at exit
 
 
+def _check_scheduler(address: str) -> None:
+    """Ask what listens at `address` who it is, in SCHEDULER_TIMEOUT s in all, and refuse
+    anything but a Dask scheduler: Client's own timeout covers connecting, not the handshake, so
+    a server that accepts and never answers held the campaign forever, and the bytes of a server
+    that is not Dask's went to Dask's deserializers, which raised on them (an array of exabytes
+    asked for, a dimension too large)."""
+    try:
+        said = asyncio.run(asyncio.wait_for(_identity(address), SCHEDULER_TIMEOUT))
+    except TimeoutError:
+        said = f"no answer in {SCHEDULER_TIMEOUT:g} s"
+    except OSError as error:
+        said = str(error)
+    except Exception as error:  # whatever a foreign server's bytes make the decoders raise
+        said = f"an answer Dask cannot read ({error})"
+    if isinstance(said, dict) and said.get("type") == "Scheduler":
+        return
+    raise CampaignError(
+        f"--scheduler: expected a Dask scheduler at {address}, got {str(said)[:200]}"
+    )
+
+
+async def _identity(address: str) -> object:
+    """What the server at `address` says to Dask's ``identity`` request."""
+    from distributed.comm import connect
+
+    comm = await connect(address, timeout=SCHEDULER_TIMEOUT)
+    try:
+        await comm.write({"op": "identity", "reply": True})
+        return await comm.read()
+    finally:
+        comm.abort()
+
+
 def default_workers() -> int:
     """One worker per core."""
     return os.cpu_count() or 1
@@ -97,6 +131,7 @@ def client(workers: int, scheduler: str | None, log: Path | None = None) -> Iter
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
+        _check_scheduler(scheduler)
         try:
             connected = Client(scheduler, timeout=f"{SCHEDULER_TIMEOUT}s")
         except (OSError, TimeoutError, ValueError) as error:
