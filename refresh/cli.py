@@ -10,10 +10,11 @@ Examples:
 check validates a database file and the module images it names (each must exist and its
 descriptor must declare the module's name and ports), then prints the tree and the task. cases
 prints the Base Choice test cases of the task's initial configuration, against the brute-force
-count, and the Generator's candidates for each slot (--k: modules per combo). Errors print one
-line "error: FILE: KEY: expected ..., got ..." and exit 1; usage errors exit 2; --debug shows
-the traceback. manage runs ReFrESH on a task whose robots' nodes are firmware-sim listen
-processes (docs/tutorial.md): each event is printed as it comes; Ctrl-C ends it (exit 130).
+count, and the Generator's candidates for each slot (--k: modules per combo), from the database
+alone (it reads no image: check does). Errors print one line "error: FILE: KEY: expected ...,
+got ..." and exit 1; usage errors exit 2; --debug shows the traceback. manage runs ReFrESH on a
+task whose robots' nodes are firmware-sim listen processes (docs/tutorial.md): each event is
+printed as it comes; Ctrl-C ends it (exit 130).
 """
 
 from __future__ import annotations
@@ -21,11 +22,13 @@ from __future__ import annotations
 import argparse
 from collections.abc import Sequence
 
-from commandline import CommandLineError, UsageError, add_command, command_parser, run
+from commandline import CommandLineError, UsageError, add_command, command_parser, one_line, run
 from commandline.arguments import host_port, input_file, integer, named_url, output_file, real
-from hexmigrate.errors import KeyFileError
+from firmware_sim.errors import FirmwareSimError
+from hexmigrate.errors import HexmigrateError, KeyFileError
 from hexmigrate.signing.keys import MAX_KEY_FILE, load_private
 from hexmigrate.transfer.control import MICROSECONDS
+from pbort.errors import KernelError
 from refresh.configuration import initial_configuration
 from refresh.errors import DatabaseError, RefreshError
 from refresh.generator import DEFAULT_MAX_MODULES, candidates
@@ -54,6 +57,10 @@ QUANTUM = 0.01
 MAX_COUNT = 1000
 """The largest --debounce and --estimate-steps."""
 DEFAULTS = RuntimeSettings()
+ERRORS = (RefreshError, FirmwareSimError, HexmigrateError, KernelError)
+"""What a command reports as one error line: refresh's root and the roots of the packages below
+it that manage runs (firmware_sim's nodes, hexmigrate's links, pbort's kernel and live view), as
+firmware-sim does; each package keeps its own tree."""
 
 
 def check(options: argparse.Namespace) -> None:
@@ -75,7 +82,8 @@ def check(options: argparse.Namespace) -> None:
             ports = ", ".join(f"{p}:{t}" for p, t in module.inputs.items()) or "-"
             outs = ", ".join(f"{p}:{t}" for p, t in module.outputs.items()) or "-"
             needs = ", ".join(f"{k} {v:g}" for k, v in module.needs.items()) or "nothing"
-            print(f"  {module.name} ({ports} -> {outs}; needs {needs}; {module.source})")
+            source = one_line(str(module.source))  # a path: any character but NUL
+            print(f"  {module.name} ({ports} -> {outs}; needs {needs}; {source})")
             print(f"    on {', '.join(module.robots)}")
             if module.hardware is not None:
                 print(f"    in hardware: {module.hardware}")
@@ -377,4 +385,4 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; the exit status."""
-    return run(build_parser(), RefreshError, argv)
+    return run(build_parser(), ERRORS, argv)

@@ -12,6 +12,7 @@ deeper than `MAX_DEPTH` is refused before validation walks it.
 from __future__ import annotations
 
 import stat
+import sys
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -65,6 +66,11 @@ def loads(text: str, file: str = "<text>", base: Path | None = None) -> Loaded:
         raise DatabaseError(file, "", "valid TOML", str(error)) from None
     except RecursionError:
         raise DatabaseError(file, "", "valid TOML", "nesting too deep to read") from None
+    except ValueError:  # tomllib's int() of a whole number longer than Python converts
+        digits = sys.get_int_max_str_digits()
+        raise DatabaseError(
+            file, "", f"numbers of at most {digits} digits", "a longer one"
+        ) from None
     _check_depth(document, file)
     validate(document, file)
     robots = {name: _robot(name, body, file) for name, body in document["robots"].items()}

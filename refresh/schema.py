@@ -3,16 +3,19 @@
 A database file is TOML (read with `tomllib`); its document is checked against `DOCUMENT` with
 `jsonschema` before anything is built from it, so a typo in a key or a string where a number belongs
 is reported with the file, the dotted key path, what was expected and what came, instead of
-surfacing later as a KeyError deep in the Locator. Checks a JSON Schema cannot express (a module
-naming a robot that does not exist, say) are made by `refresh.load` with the same error type.
+surfacing later as a KeyError deep in the Locator. A "number" here is a finite one (TOML has
+``nan`` and ``inf``), within the range its use allows. Checks a JSON Schema cannot express (a
+module naming a robot that does not exist, say) are made by `refresh.load` with the same error
+type.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping, Sequence
-from typing import Any
+from typing import Any, TypeGuard
 
-from jsonschema import Draft202012Validator
+from jsonschema import Draft202012Validator, validators
 from jsonschema.exceptions import ValidationError
 
 from refresh.errors import DatabaseError
@@ -23,12 +26,25 @@ NAME = r"^[A-Za-z_][A-Za-z0-9_]*$"
 FUNCTIONALITY = r"^[A-Za-z0-9]+(:[A-Za-z0-9]+)*$"
 """A fabric slot's functionality with its parameters, ``median3x3:160`` (the crossbar checks
 the rest)."""
+PLACEMENT = rf"^{NAME[1:-1]}(@{NAME[1:-1]})?$"
+"""A module of the task's initial configuration, ``Module`` or ``Module@robot``."""
 
-_NUMBER = {"type": "number", "minimum": 0}
+MAX_AMOUNT = 1e15
+"""The largest capacity, reserve or need of a resource: far above any robot's in any unit (mW,
+bytes), and below 2**53, past which a whole number changes when it is read as a float."""
+MIN_FREQUENCY, MAX_FREQUENCY = 0.01, 100_000
+"""A module's frequency in Hz: what a node's RATE takes (`firmware_sim.core.node.RATE_MIN` and
+`RATE_MAX`, not imported: loading a database does not need the node's modules)."""
+MAX_INDEX = 2**31 - 1
+"""The largest report index: a module reports under an int32 (the module ABI's
+PBO_SYS_PERF_REPORT)."""
+
+_NUMBER = {"type": "number", "minimum": 0, "maximum": MAX_AMOUNT}
+_INDEX = {"type": "integer", "minimum": 0, "maximum": MAX_INDEX}
 _PORTS = {
     "type": "object",
     "propertyNames": {"pattern": NAME},
-    "additionalProperties": {"type": "string", "minLength": 1},
+    "additionalProperties": {"type": "string", "pattern": NAME},  # a type name
 }
 _SOURCE = {
     "oneOf": [
@@ -107,8 +123,12 @@ _MODULE = {
             "additionalProperties": _NUMBER,
         },
         "source": _SOURCE,
-        "frequency": {"type": "number", "exclusiveMinimum": 0},
-        "constants": {"type": "object", "additionalProperties": {"type": ["number", "boolean"]}},
+        "frequency": {"type": "number", "minimum": MIN_FREQUENCY, "maximum": MAX_FREQUENCY},
+        "constants": {
+            "type": "object",
+            "propertyNames": {"pattern": NAME},
+            "additionalProperties": {"type": ["number", "boolean"]},
+        },
         "hardware": _HARDWARE,
     },
     "required": ["robots", "source"],
@@ -133,7 +153,7 @@ _RESOURCE = {
     "properties": {
         "capacity": _NUMBER,
         "reserve": _NUMBER,
-        "report": {"type": "integer", "minimum": 0},
+        "report": _INDEX,
     },
     "required": ["capacity"],
     "additionalProperties": False,
@@ -154,10 +174,10 @@ _METRIC = {
     "type": "object",
     "properties": {
         "schema": {"type": "string", "pattern": NAME},
-        "index": {"type": "integer", "minimum": 0},
+        "index": _INDEX,
         "threshold": {"type": "number"},
         "direction": {"enum": ["at_most", "at_least"]},
-        "weight": {"type": "number"},
+        "weight": {"type": "number", "minimum": 0},
     },
     "required": ["schema", "threshold"],
     "additionalProperties": False,
@@ -165,11 +185,11 @@ _METRIC = {
 _TASK = {
     "type": "object",
     "properties": {
-        "name": {"type": "string", "minLength": 1},
+        "name": {"type": "string", "pattern": NAME},
         "robot": {"type": "string", "pattern": NAME},
         "states": {
             "type": "array",
-            "items": {"type": "string", "minLength": 1},
+            "items": {"type": "string", "pattern": NAME},
             "minItems": 1,
             "uniqueItems": True,
         },
@@ -185,12 +205,16 @@ _TASK = {
             "propertyNames": {"pattern": NAME},
             "additionalProperties": _METRIC,
         },
-        "initial": {"type": "array", "items": {"type": "string", "minLength": 1}},
+        "initial": {"type": "array", "items": {"type": "string", "pattern": PLACEMENT}},
         "location": {"enum": list(STRATEGIES)},
     },
     "required": ["name", "robot", "states", "schemas"],
     "additionalProperties": False,
 }
+
+MAX_DIGITS = 30
+"""The characters of a number an error message shows at most (TOML reads whole numbers of
+thousands of digits)."""
 
 DOCUMENT: dict[str, Any] = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
@@ -215,7 +239,24 @@ DOCUMENT: dict[str, Any] = {
 }
 """The whole file: robots, schemas (with their modules) and optionally the task."""
 
-_VALIDATOR = Draft202012Validator(DOCUMENT)
+
+def _finite_number(checker: object, instance: object) -> bool:
+    """JSON Schema's "number", but finite: TOML reads ``nan``, ``inf`` and ``-inf``, which pass
+    every bound (a NaN compares false) and would reach the Decider's comparisons and the nodes;
+    a whole number too large for a float is no number this toolchain can use either."""
+    if not _is_number(instance):
+        return False
+    try:
+        return math.isfinite(instance)
+    except OverflowError:  # an int past the float range
+        return False
+
+
+_CHECKER = validators.extend(
+    Draft202012Validator,
+    type_checker=Draft202012Validator.TYPE_CHECKER.redefine("number", _finite_number),
+)
+_VALIDATOR = _CHECKER(DOCUMENT)
 
 
 def validate(document: Mapping[str, Any], file: str) -> None:
@@ -269,14 +310,14 @@ def _explain(error: ValidationError, file: str) -> DatabaseError:
     if error.validator == "pattern":
         return DatabaseError(file, key_path(path), f"a name matching {value}", got)
     expectations = {
-        "type": lambda: f"a {_plural(value)}",
+        "type": lambda: _article(_plural(value, finite=_is_number(error.instance))),
         "enum": lambda: "one of " + ", ".join(repr(v) for v in value),
         "const": lambda: repr(value),
-        "minimum": lambda: f"a number >= {value}",
-        "maximum": lambda: f"a number <= {value}",
+        "minimum": lambda: f"a number >= {_bound(value)}",
+        "maximum": lambda: f"a number <= {_bound(value)}",
         "maxItems": lambda: f"at most {value} item(s)",
         "maxLength": lambda: f"a string of at most {value} characters",
-        "exclusiveMinimum": lambda: f"a number > {value}",
+        "exclusiveMinimum": lambda: f"a number > {_bound(value)}",
         "minItems": lambda: f"at least {value} item(s)",
         "minProperties": lambda: f"at least {value} entr{'y' if value == 1 else 'ies'}",
         "uniqueItems": lambda: "items without repeats",
@@ -286,10 +327,29 @@ def _explain(error: ValidationError, file: str) -> DatabaseError:
     return DatabaseError(file, key_path(path), expected, got)
 
 
-def _plural(value: str | Sequence[str]) -> str:
-    names = {"object": "table", "array": "list", "number": "number", "integer": "integer"}
+def _plural(value: str | Sequence[str], finite: bool = False) -> str:
+    """The TOML names of JSON Schema types; `finite` says "finite number", for a number that is
+    refused for being NaN or infinite (else "expected a number, got the number nan")."""
+    number = "finite number" if finite else "number"
+    names = {"object": "table", "array": "list", "number": number, "integer": "integer"}
     types = [value] if isinstance(value, str) else list(value)
     return " or ".join(names.get(t, t) for t in types)
+
+
+def _article(noun: str) -> str:
+    """`noun` after "a" or "an", as it sounds: "a table", "an integer"."""
+    return f"{'an' if noun[0] in 'aeiou' else 'a'} {noun}"
+
+
+def _bound(value: float) -> str:
+    """A bound as a reader writes it: ``1e+15`` rather than ``1000000000000000.0``, and a whole
+    number with all its digits."""
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def _is_number(value: object) -> TypeGuard[int | float]:
+    """A TOML integer or float (a boolean is neither)."""
+    return isinstance(value, int | float) and not isinstance(value, bool)
 
 
 def describe(value: object) -> str:
@@ -302,4 +362,9 @@ def describe(value: object) -> str:
         return f"the string {value!r}"
     if isinstance(value, bool):
         return f"the boolean {str(value).lower()}"
-    return f"the number {value!r}"
+    if not _is_number(value):  # a TOML date or time
+        return f"the date or time {value}"
+    text = repr(value)
+    if len(text) > MAX_DIGITS:
+        return f"the number {text[:MAX_DIGITS]}... ({len(text.lstrip('-'))} digits)"
+    return f"the number {text}"

@@ -209,3 +209,75 @@ def test_hostile_values_end_in_a_status_not_a_traceback(value):
 
 def test_docs_cli_md_names_every_command_and_option() -> None:
     assert undocumented(build_parser(), "## `python -m refresh`") == []
+
+
+ROOT = Path(__file__).parents[2]
+
+
+def test_a_live_view_that_cannot_listen_is_one_error_line(capsys):
+    """pbort's LiveViewError is no RefreshError: refresh reports the roots of the packages
+    below it too, as firmware-sim does. 192.0.2.1 (TEST-NET-1) is no address of this host."""
+    argv = ["manage", "--db", str(ROOT / "tank" / "tank.toml"), "--task", "tank"]
+    argv += ["--natives", "tank.tank_natives", "--foxglove", "192.0.2.1:0", "--seconds", "1"]
+    argv += ["--node", "a=socket://127.0.0.1:9", "--node", "b=socket://127.0.0.1:10"]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(
+        "error: --foxglove 192.0.2.1:0: expected an address this host can listen on, got "
+    )
+    assert err.count("\n") == 1
+
+
+TANK = (ROOT / "tank" / "tank.toml").read_text()
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        (
+            'name = "tank"',
+            'name = "\\u001b[31mred"',
+            "task.name: expected a name matching ^[A-Za-z_][A-Za-z0-9_]*$, "
+            "got the string '\\x1b[31mred'",
+        ),
+        (
+            "frequency = 50",
+            "frequency = nan",
+            "schemas.gauge.modules.Gauge.frequency: expected a finite number, got the number nan",
+        ),
+        (
+            "threshold = 5",
+            "threshold = -inf",
+            "task.metrics.outside.threshold: expected a finite number, got the number -inf",
+        ),
+        (
+            "capacity = 100",
+            "capacity = 99999999999999999999",
+            "robots.a.resources.power.capacity: expected a number <= 1e+15, "
+            "got the number 99999999999999999999",
+        ),
+    ],
+    ids=["escape-in-task-name", "nan-frequency", "infinite-threshold", "huge-capacity"],
+)
+@pytest.mark.parametrize("command", ["check", "cases"])
+def test_a_database_check_or_cases_would_print_as_nonsense_is_refused(
+    tmp_path, capsys, command, old, new, message
+):
+    """Such a database was printed back (an ESC byte to the terminal, ``at_most -inf``,
+    ``power 1e+20``) with exit status 0."""
+    assert old in TANK
+    path = tmp_path / "tank.toml"
+    path.write_text(TANK.replace(old, new, 1))
+    assert main([command, str(path)]) == 1
+    assert capsys.readouterr().err == f"error: {path}: {message}\n"
+
+
+def test_check_prints_an_image_path_as_data(filter_database, capsys):
+    """A path may hold any character but NUL: an escape sequence in one is shown escaped."""
+    name = "\x1b[31mgain.hex"
+    (filter_database.parent / "gain.hex").rename(filter_database.parent / name)
+    filter_database.write_text(FILTER.replace('"gain.hex"', '"\\u001b[31mgain.hex"'))
+    assert main(["check", str(filter_database)]) == 0
+    out = capsys.readouterr().out
+    assert "\x1b" not in out
+    assert f"image {filter_database.parent}/\\x1b[31mgain.hex)" in out

@@ -218,3 +218,161 @@ def test_the_task_names_its_location_strategy_base_choice_by_default():
     assert loads(MINIMAL, "db.toml").task.location == "base-choice"
     chosen = MINIMAL.replace('initial = ["Cam"]', 'initial = ["Cam"]\nlocation = "adaptive"')
     assert loads(chosen, "db.toml").task.location == "adaptive"
+
+
+NAME_RULE = "a name matching ^[A-Za-z_][A-Za-z0-9_]*$"
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "key", "got"),
+    [
+        ('name = "t"', 'name = "\\u001b[31mred"', "task.name", "'\\x1b[31mred'"),
+        ('name = "t"', 'name = "two words"', "task.name", "'two words'"),
+        ('states = ["look"]', 'states = ["look\\r"]', "task.states[0]", "'look\\r'"),
+        (
+            'outputs = { image = "rgb" }',
+            'outputs = { image = "rgb\\u009b2J" }',
+            "schemas.camera.modules.Cam.outputs.image",
+            "'rgb\\x9b2J'",
+        ),
+    ],
+    ids=["task-escape", "task-space", "state", "port-type"],
+)
+def test_names_the_tree_prints_are_names_as_the_robots_are(old, new, key, got):
+    """The task's name, its states and the ports' types are printed by ``refresh check`` as
+    they are: a control character in one would reach the terminal, so each is a name."""
+    assert old in MINIMAL
+    error = error_of(MINIMAL.replace(old, new, 1))
+    assert str(error) == f"db.toml: {key}: expected {NAME_RULE}, got the string {got}"
+
+
+def test_the_initial_modules_and_the_constants_are_names_too():
+    error = error_of(MINIMAL.replace('initial = ["Cam"]', 'initial = ["Cam@r1@r2"]'))
+    assert error.key == "task.initial[0]"
+    assert error.expected.startswith("a name matching ^[A-Za-z_]")
+    error = error_of(
+        MINIMAL.replace('source = "native"', 'source = "native"\nconstants = {"a b" = 1}')
+    )
+    assert (error.key, error.got) == ("schemas.camera.modules.Cam.constants", "the string 'a b'")
+
+
+CAM = "schemas.camera.modules.Cam"
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "key", "expected", "got"),
+    [
+        ('source = "native"', "frequency = nan", f"{CAM}.frequency", "a finite number", "nan"),
+        ('source = "native"', "frequency = inf", f"{CAM}.frequency", "a finite number", "inf"),
+        ('source = "native"', "frequency = 0", f"{CAM}.frequency", "a number >= 0.01", "0"),
+        (
+            'source = "native"',
+            "frequency = 1e6",
+            f"{CAM}.frequency",
+            "a number <= 100000",
+            "1000000.0",
+        ),
+        (
+            "threshold = 3",
+            "threshold = -inf",
+            "task.metrics.noise.threshold",
+            "a finite number",
+            "-inf",
+        ),
+        (
+            "threshold = 3",
+            "threshold = 3\nweight = -1",
+            "task.metrics.noise.weight",
+            "a number >= 0",
+            "-1",
+        ),
+        (
+            "threshold = 3",
+            "threshold = 3\nindex = 2147483648",
+            "task.metrics.noise.index",
+            "a number <= 2147483647",
+            "2147483648",
+        ),
+        (
+            "capacity = 50",
+            "capacity = 99999999999999999999",
+            "robots.r2.resources.power.capacity",
+            "a number <= 1e+15",
+            "99999999999999999999",
+        ),
+        (
+            "capacity = 50",
+            "capacity = 50, reserve = nan",
+            "robots.r2.resources.power.reserve",
+            "a finite number",
+            "nan",
+        ),
+        (
+            "capacity = 50",
+            "capacity = 50, report = 1e400",
+            "robots.r2.resources.power.report",
+            "an integer",
+            "inf",
+        ),
+        ("power = 5", "power = inf", f"{CAM}.needs.power", "a finite number", "inf"),
+        (
+            "power = 5",
+            "power = 1" + "0" * 400,
+            f"{CAM}.needs.power",
+            "a finite number",
+            "1" + "0" * 29 + "... (401 digits)",
+        ),
+        (
+            'source = "native"',
+            "constants = { k = nan }",
+            f"{CAM}.constants.k",
+            "a finite number or boolean",
+            "nan",
+        ),
+        (
+            'initial = ["Cam"]',
+            'initial = ["Cam"]\nalpha = nan',
+            "task.alpha",
+            "a finite number",
+            "nan",
+        ),
+    ],
+    ids=[
+        "nan-frequency",
+        "infinite-frequency",
+        "zero-frequency",
+        "frequency-above-the-nodes",
+        "infinite-threshold",
+        "negative-weight",
+        "index-beyond-int32",
+        "capacity-beyond-exact",
+        "nan-reserve",
+        "infinite-report",
+        "infinite-need",
+        "need-beyond-floats",
+        "nan-constant",
+        "nan-alpha",
+    ],
+)
+def test_every_number_is_finite_and_in_its_range(old, new, key, expected, got):
+    """TOML reads nan and inf, which pass any bound (a NaN compares false): the schema's
+    "number" is a finite one, and each field has the range its use allows."""
+    assert old in MINIMAL
+    text = MINIMAL.replace(old, new if "source" not in old else f"{old}\n{new}", 1)
+    error = error_of(text)
+    assert str(error) == f"db.toml: {key}: expected {expected}, got the number {got}"
+
+
+def test_a_whole_number_longer_than_python_reads_is_one_database_error():
+    """tomllib raises a plain ValueError (not a TOMLDecodeError) past 4300 digits."""
+    error = error_of(MINIMAL.replace("capacity = 50", "capacity = " + "9" * 5000, 1))
+    assert str(error) == "db.toml: expected numbers of at most 4300 digits, got a longer one"
+
+
+def test_the_frequency_range_is_the_nodes():
+    """The schema states the nodes' RATE range rather than import the node (a quarter of a
+    second more to load a database): this keeps the two the same."""
+    from firmware_sim.core.node import RATE_MAX, RATE_MIN
+    from refresh.schema import MAX_FREQUENCY, MIN_FREQUENCY
+
+    assert (MIN_FREQUENCY, MAX_FREQUENCY) == (RATE_MIN, RATE_MAX)
