@@ -22,6 +22,8 @@ from commandline.arguments import (
 from firmware_sim.core.memory_map import DEFAULT_FLASH_SIZE
 from firmware_sim.core.node import RATE_MAX, RATE_MIN
 from firmware_sim.core.port_values import Setting, setting
+from hexmigrate.elf import image_from_elf
+from hexmigrate.errors import HexmigrateError
 from hexmigrate.links.url import network_host
 from pbort.trace import TraceFormatError, check_trace_name
 
@@ -48,6 +50,18 @@ window = integer(1, WINDOW_MAX)
 fabric_width = integer(1, WIDTH_MAX)
 module_file = input_file(MODULE_FILE_LIMIT)
 flash_file = output_file
+
+
+def module_elf(text: str) -> Path:
+    """A module's ELF, as `hexmigrate pack` takes it: a file that is none (a HEX file, text, an
+    ELF of another machine) is refused here, where the node would only log that it found no
+    source lines in it."""
+    path = module_file(text)
+    try:
+        image_from_elf(path)
+    except HexmigrateError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return path
 plot_file = output_file_ending(".png")
 
 

@@ -82,6 +82,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         for native in args.native:
             codes[native] = NativeModule(NATIVES[native])
         _start(node, codes, args)
+        _check_plotted(node, args.plot_port)
         seconds = DEFAULT_SECONDS if args.cycles is None and args.seconds is None else args.seconds
         with (
             debugging(DebugPort(node), args.gdb, _say, wait=True),
@@ -107,10 +108,11 @@ def _say(line: str) -> None:
 def _start(node: Node, codes: dict[str, ModuleCode], args: argparse.Namespace) -> None:
     """Start every PBO at its rate with its constants, in data-flow order, then wire them."""
     rates = dict(args.rate)
-    unknown = sorted(set(rates) - set(codes))
-    if unknown:
-        raise UsageError(f"--rate names {unknown}, expected PBOs among {sorted(codes)}")
     constants = by_pbo(args.set)
+    for option, named in (("--rate", rates), ("--set", constants)):
+        unknown = sorted(set(named) - set(codes))
+        if unknown:
+            raise UsageError(f"{option} names {unknown}, expected PBOs among {sorted(codes)}")
     for name in data_flow_order(list(codes), args.wire):
         start_pbo(
             node,
@@ -121,6 +123,15 @@ def _start(node: Node, codes: dict[str, ModuleCode], args: argparse.Namespace) -
         )
     for source, sink in args.wire:
         node.kernel.connect(source, sink)
+
+
+def _check_plotted(node: Node, ports: list[str]) -> None:
+    """Refuse a --plot-port no PBO has, which the plot would leave out without a word."""
+    for port in ports:
+        try:
+            node.kernel.spec(port)
+        except KernelError as error:
+            raise UsageError(f"--plot-port {port}: {error}") from None
 
 
 def data_flow_order(names: list[str], wires: list[tuple[str, str]]) -> list[str]:
@@ -331,7 +342,7 @@ def _add_pbo_options(
     command.add_argument(
         "--elf",
         action="append",
-        type=input_file(),
+        type=arguments.module_elf,
         default=[],
         metavar="FILE.elf",
         help="a module's ELF (the SDK builds with -g): a fault, a watchdog stop or a refused "
