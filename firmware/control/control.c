@@ -211,7 +211,7 @@ static bool set_rate(const struct request *r)
     if (millihertz < RATE_MIN_MHZ || millihertz > RATE_MAX_MHZ) {
         text_format(&text, "PBO %r: expected a rate of 0.01 to 100000 Hz, got ", name,
                     (uint32_t)(text_length(name, NAME_MAX)));
-        control_add_hertz(&text, millihertz);
+        control_add_milli(&text, millihertz); /* every digit, as Python's repr of the rate */
         return refuse(r, said);
     }
     text_format(&text, "rate %s=", name);

@@ -231,10 +231,11 @@ class KernelControl:
 
     def set_rate(self, name: str, hertz: float) -> str:
         """Run PBO `name` at `hertz` from its next start (set while it is off), within the rates
-        ``--rate`` takes: a request carries up to 4.3 MHz, which would keep the node busy."""
+        ``--rate`` takes: a request carries up to 4.3 MHz, which would keep the node busy. A
+        refusal shows the rate as it came, every digit (``{:g}`` showed 100000.001 as 100000)."""
         if not RATE_MIN <= hertz <= RATE_MAX:
             raise PortValueError(
-                f"PBO {name!r}: expected a rate of {RATE_MIN:g} to {RATE_MAX:g} Hz, got {hertz:g}"
+                f"PBO {name!r}: expected a rate of {RATE_MIN:g} to {RATE_MAX:g} Hz, got {hertz!r}"
             )
         self.node.kernel.set_frequency(name, hertz)
         return f"rate {name}={hertz:g} Hz"

@@ -289,6 +289,12 @@ def test_requests_a_node_cannot_do_are_refused_in_the_same_words(boot, example_h
     assert refused(url, "rate", "gain=0.001") == (
         prefix + "RATE refused: PBO 'gain': expected a rate of 0.01 to 100000 Hz, got 0.001"
     )
+    assert refused(url, "rate", "gain=100000.001") == (  # every digit: not "got 100000"
+        prefix + "RATE refused: PBO 'gain': expected a rate of 0.01 to 100000 Hz, got 100000.001"
+    )
+    assert refused(url, "rate", "gain=4294967") == (
+        prefix + "RATE refused: PBO 'gain': expected a rate of 0.01 to 100000 Hz, got 4294967.0"
+    )
     assert refused(url, "connect", "gain.y=gain.k") == (
         prefix + "CONNECT refused: unknown port 'gain.k'"
     )
