@@ -50,6 +50,7 @@ window = integer(1, WINDOW_MAX)
 fabric_width = integer(1, WIDTH_MAX)
 module_file = input_file(MODULE_FILE_LIMIT)
 flash_file = output_file
+plot_file = output_file_ending(".png")
 
 
 def module_elf(text: str) -> Path:
@@ -62,7 +63,6 @@ def module_elf(text: str) -> Path:
     except HexmigrateError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
     return path
-plot_file = output_file_ending(".png")
 
 
 def fabric(text: str) -> str:
