@@ -47,6 +47,7 @@ from hexmigrate.signing_cli import (
     require_holds,
 )
 from hexmigrate.transfer.control_client import NodeControl
+from hexmigrate.transfer.fields import NO_ADDRESS
 from hexmigrate.transfer.sender import MODES, Progress, Sender, TransferResult
 
 if TYPE_CHECKING:
@@ -80,6 +81,18 @@ MAX_RETRIES = 1000
 MAX_WINDOW = 256  # blocks in flight: 64 KiB, more than any node buffers
 MAX_RECONNECTS = 100
 MODULE_FILE = input_file()
+
+
+def load_base(text: str) -> int:
+    """``send --base``: an address BEGIN can ask for; NO_ADDRESS stands for none in binary mode,
+    so it is refused here, naming the option, rather than by the message's field."""
+    base = address(text)
+    if base == NO_ADDRESS:
+        raise argparse.ArgumentTypeError(
+            f"expected an address from 0 to 0x{NO_ADDRESS - 1:X} (0x{NO_ADDRESS:X} stands for "
+            f"none in binary mode), got {text!r}"
+        )
+    return base
 
 
 def cmd_pack(args: argparse.Namespace) -> int:
@@ -504,7 +517,7 @@ def _link_options(command: argparse.ArgumentParser) -> None:
         type=integer(1, MAX_RETRIES),
         default=10,
         metavar="N",
-        help="tries per step (default 10)",
+        help="times a step is sent again when no answer comes (default 10: 11 tries)",
     )
     command.add_argument(
         "--key",
@@ -534,7 +547,7 @@ def _add_node_commands(commands: argparse._SubParsersAction) -> None:
         "  hexmigrate send gain.hex --set gain.k=0x20000 --to socket://127.0.0.1:7777",
     )
     send.add_argument("file", type=MODULE_FILE, metavar="FILE.hex")
-    send.add_argument("--base", type=address, metavar="ADDR", help="ask for a load address")
+    send.add_argument("--base", type=load_base, metavar="ADDR", help="ask for a load address")
     send.add_argument("--quiet", action="store_true", help="no progress bar")
     send.add_argument(
         "--set",

@@ -138,6 +138,10 @@ def test_relocate_refuses_a_base_past_4_gib(packed, tmp_path):
             ["relocate", "{good}", "--base", "twelve", "-o", "x.bin"],
             "expected an address like 0x20000, got 'twelve'",
         ),
+        (
+            ["send", "{good}", "--base", "0xFFFFFFFF", "--to", "loop://"],
+            "argument --base: expected an address from 0 to 0xFFFFFFFE (0xFFFFFFFF stands for",
+        ),
         (["pack", "--map", "{good}", "-o", "x.hex"], "--map and --bin go together"),
         (["pack", "-o", "x.hex"], "expected MODULE.elf, or --map MODULE.map --bin MODULE.bin"),
         (["pack", "{good}"], "the following arguments are required: -o/--output"),
