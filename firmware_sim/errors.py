@@ -34,8 +34,9 @@ Tree::
     │                                   installed cannot build the fabric asked for
     ├── BridgeError (RuntimeError)      a port between nodes that cannot be set up, or a lock-step
     │                                   step that cannot run (a bridge's value did not come)
-    └── QemuError (RuntimeError)        QEMU or the C firmware could not be built, started or
-                                        reached (``firmware-sim qemu``)
+    ├── QemuError (RuntimeError)        QEMU or the C firmware could not be built, started or
+    │                                   reached (``firmware-sim qemu``)
+    └── GdbServerError (OSError)        the GDB server cannot listen where it is asked to
 
 Two exceptions of firmware_sim stand outside the tree on purpose, because they are control flow
 and not failures a caller should report:
@@ -141,3 +142,8 @@ class BridgeError(FirmwareSimError, RuntimeError):
 class QemuError(FirmwareSimError, RuntimeError):
     """QEMU or the firmware could not be started, built or reached: the message says which and
     what to do."""
+
+
+class GdbServerError(FirmwareSimError, OSError):
+    """The GDB server cannot listen where it is asked to (``--gdb HOST:PORT``): the message
+    names the address, as the system's own error does not."""

@@ -10,6 +10,7 @@ from collections.abc import Callable, Iterator
 from contextlib import closing, contextmanager
 
 from firmware_sim.core.debug_port import DebugPort
+from firmware_sim.errors import GdbServerError
 from firmware_sim.gdb.packets import PacketConnection
 from firmware_sim.gdb.stub import GdbStub
 
@@ -25,7 +26,13 @@ class GdbServer:
     def __init__(self, target: DebugPort, host: str, port: int, say: Callable[[str], None]) -> None:
         self.target = target
         self.say = say
-        self._listener = socket.create_server((host, port))
+        try:
+            self._listener = socket.create_server((host, port))
+        except OSError as error:  # a host that is none of this machine's, a port in use
+            raise GdbServerError(
+                f"gdb server at {host}:{port}: expected an address this host can listen on, "
+                f"got {error.strerror or error}"
+            ) from None
         self.host, self.port = self._listener.getsockname()[:2]
         self._stub: GdbStub | None = None
         self._pending: tuple[socket.socket, tuple, float] | None = None

@@ -90,6 +90,11 @@ def test_run_text_output(example_hex):
         ),
         (["run", "--native", "signal", "--elf", "README.md"], 2, "expected an ELF file, but"),
         (["run", "--native", "signal", "--elf", sys.executable], 2, "expected a 32-bit little"),
+        (
+            ["run", "--native", "signal", "--gdb", "192.0.2.1:0"],  # TEST-NET: no host's own
+            1,
+            "error: gdb server at 192.0.2.1:0: expected an address this host can listen on",
+        ),
         (["run", "--native", "signal", "--default-rate", "nan"], 2, "got 'nan'"),
         (["run", "--native", "signal", "--seconds", "inf"], 2, "got 'inf'"),
         (["run", "--native", "signal", "--cycles", "0"], 2, "expected a whole number from 1"),
