@@ -24,7 +24,7 @@ from commandline.arguments import input_file, output_file
 from commandline.interrupts import stop_requests
 from firmware_sim.cli import arguments
 from firmware_sim.errors import QemuError
-from firmware_sim.qemu.firmware_build import firmware_elf
+from firmware_sim.qemu.firmware_build import elf_symbols, firmware_elf
 from firmware_sim.qemu.flash_file import FLASH_SIZE, ensure_flash
 from firmware_sim.qemu.machine import QemuNode
 
@@ -75,6 +75,18 @@ def startup_lines(pong: str, heard: list[str], flash: Path) -> list[str]:
     return lines
 
 
+def firmware_file(text: str) -> Path:
+    """``--firmware``: the node firmware's ELF, known by the stack its link script places
+    (firmware/rv32/link.ld); any other file is refused here, where QEMU would start it and the
+    command wait for a PING nothing answers."""
+    path = input_file()(text)
+    try:
+        elf_symbols(path, ("__stack_top", "__stack_low"))
+    except QemuError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return path
+
+
 def add_qemu(commands: argparse._SubParsersAction, say: Callable[[str], None]) -> None:
     """The ``qemu`` subcommand of `firmware-sim`."""
     command = add_command(
@@ -97,7 +109,7 @@ def add_qemu(commands: argparse._SubParsersAction, say: Callable[[str], None]) -
     )
     command.add_argument(
         "--firmware",
-        type=input_file(),
+        type=firmware_file,
         metavar="FILE.elf",
         help="the firmware to run (default: build/firmware/node.elf, built with make)",
     )

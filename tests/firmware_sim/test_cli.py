@@ -95,6 +95,8 @@ def test_run_text_output(example_hex):
             1,
             "error: gdb server at 192.0.2.1:0: expected an address this host can listen on",
         ),
+        (["qemu", "--firmware", "README.md"], 2, "README.md: expected the firmware's ELF, got"),
+        (["qemu", "--firmware", sys.executable], 2, "expected the symbols __stack_top, __stack"),
         (["run", "--native", "signal", "--default-rate", "nan"], 2, "got 'nan'"),
         (["run", "--native", "signal", "--seconds", "inf"], 2, "got 'inf'"),
         (["run", "--native", "signal", "--cycles", "0"], 2, "expected a whole number from 1"),
