@@ -32,6 +32,7 @@ from pbort.code import Method, ModuleCode
 from pbort.errors import (
     ClosedError,
     DuplicateNameError,
+    PortDirectionError,
     SetupError,
     UnknownPBOError,
     UnknownPortError,
@@ -40,7 +41,7 @@ from pbort.lifecycle import CONFIGURABLE, REMOVABLE, State, require
 from pbort.module_log import LogLine
 from pbort.pbo import RegisteredPBO
 from pbort.performance_buffer import PerformanceBuffer
-from pbort.ports import PortSpec, PortValue
+from pbort.ports import Direction, PortSpec, PortValue
 from pbort.scheduler import Scheduler
 from pbort.shadow import ShadowRun
 from pbort.stats import Stats
@@ -121,12 +122,15 @@ class Kernel:
         self._check_open()
         self._port(source)
         self._port(sink)
+        self._check_wired(source, "output")
+        self._check_wired(sink, "input")
         self._svt.connect(source, sink)
 
     def disconnect(self, sink: str) -> None:
         """Unbind input port `sink`; it reads its zero value from the next cycle on."""
         self._check_open()
         self._port(sink)
+        self._check_wired(sink, "input")
         self._svt.disconnect(sink)
 
     def set_frequency(self, name: str, frequency: float) -> None:
@@ -396,6 +400,15 @@ class Kernel:
         if pbo is None:
             raise UnknownPBOError(name, self._pbos)
         return pbo
+
+    def _check_wired(self, port: str, wanted: str) -> None:
+        """Refuse a constant or resource port at a wire's end by what it is: the state-variable
+        table, which holds only inputs and outputs, would call it unknown."""
+        pbo, name = self._port(port)
+        direction = pbo.spec(name).direction
+        if direction in (Direction.CONST, Direction.RESOURCE):
+            kind = "constant" if direction is Direction.CONST else "resource"
+            raise PortDirectionError(f"port {port!r} is a {kind} port; expected an {wanted}")
 
     def _port(self, port: str) -> tuple[RegisteredPBO, str]:
         """The PBO and port name of ``"pbo.port"``, with a message naming what exists."""

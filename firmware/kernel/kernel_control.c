@@ -134,15 +134,12 @@ static struct pbo *find_wired(const char *name, uint8_t direction, uint32_t *por
     if (found == direction) {
         return pbo;
     }
-    if (found == DIRECTION_CONST || found == DIRECTION_RESOURCE) {
-        /* constants are not in the state-variable table */
-        kernel_refuse(0, "unknown port %q", name);
-        return 0;
-    }
-    kernel_refuse(0,
-                  found == DIRECTION_IN ? "port %q is an input port; expected an output"
-                                        : "port %q is an output port; expected an input",
-                  name);
+    kernel_refuse(0, "port %q is %s port; expected an %s", name,
+                  found == DIRECTION_IN      ? "an input"
+                  : found == DIRECTION_OUT   ? "an output"
+                  : found == DIRECTION_CONST ? "a constant"
+                                             : "a resource",
+                  direction == DIRECTION_IN ? "input" : "output");
     return 0;
 }
 

@@ -296,7 +296,7 @@ def test_requests_a_node_cannot_do_are_refused_in_the_same_words(boot, example_h
         prefix + "RATE refused: PBO 'gain': expected a rate of 0.01 to 100000 Hz, got 4294967.0"
     )
     assert refused(url, "connect", "gain.y=gain.k") == (
-        prefix + "CONNECT refused: unknown port 'gain.k'"
+        prefix + "CONNECT refused: port 'gain.k' is a constant port; expected an input"
     )
     assert refused(url, "disconnect", "gain.y=gain.x") == (
         prefix + "DISCONNECT refused: input 'gain.x' is not connected to 'gain.y'"

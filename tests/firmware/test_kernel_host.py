@@ -120,7 +120,7 @@ def test_lifecycle_transitions_are_refused_as_python_refuses_them(driver: Path) 
 def test_gain_output_goes_through_the_table_and_a_connection(driver: Path) -> None:
     seen = run(driver, "wiring")
     assert seen["connect_wrong_way"] == "-11 port 'gain.x' is an input port; expected an output"
-    assert seen["connect_const"] == "-11 unknown port 'gain.k'"
+    assert seen["connect_const"] == "-11 port 'gain.k' is a constant port; expected an input"
     assert seen["connect_to_nothing"] == "-10 unknown port 'ramp.z'; expected one of 'y'"
     assert seen["connect_again"].startswith("-11 input 'gain.x' is already connected to 'ramp.y'")
     # ramp registered first runs first at each instant: gain sees its value with latency 0
