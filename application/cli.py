@@ -211,8 +211,21 @@ def _node(application: Application, args: argparse.Namespace) -> int:
         lock_step=args.lock_step,
         flash=args.flash,
         kill_at=args.kill_at,
-        devices=dict(args.device),
+        devices=_devices(application, args.device),
     )
+
+
+def _devices(application: Application, given: list[tuple[str, str]]) -> dict[str, str]:
+    """``--device NAME=URL`` by name, each a device the application's plant takes, once."""
+    known = application.plant.DEVICES
+    names = [name for name, _url in given]
+    unknown = sorted(set(names) - set(known))
+    if unknown:
+        expected = f"a device among {', '.join(known)}" if known else "none (this world has none)"
+        raise UsageError(f"--device: expected {expected}, got {', '.join(unknown)}")
+    if len(set(names)) != len(names):
+        raise UsageError(f"--device: expected each device once, got {', '.join(names)}")
+    return dict(given)
 
 
 def _add_manager(commands: argparse._SubParsersAction, application: Application) -> None:
@@ -253,7 +266,7 @@ def _manager(application: Application, args: argparse.Namespace) -> None:
         scenario,
         out,
         nodes,
-        devices=dict(args.device),
+        devices=_devices(application, args.device),
         real_time=args.real_time,
         quantum=args.quantum,
         say=lambda line: print(line, flush=True),

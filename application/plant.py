@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, ClassVar
 
 from firmware_sim.core.node import Node
 from pbort.code import ModuleCode
@@ -72,6 +72,10 @@ class Launched:
 
 class WorldPlant(Plant):
     """The plant of `setting`: the world of a task whose body is all in its modules."""
+
+    DEVICES: ClassVar[tuple[str, ...]] = ()
+    """The names of the devices in other processes its nodes and manager take (``--device
+    NAME=URL``): none for a world all in its modules."""
 
     def __init__(self, setting: Setting) -> None:
         self.setting = setting

@@ -112,3 +112,17 @@ def test_a_url_an_outage_cannot_use_is_refused_before_building(tmp_path, outage,
         run_managed(APPLICATION, scenario, tmp_path, nodes)
     assert said in str(caught.value)
     assert not (tmp_path / BUILT).exists()
+
+
+@pytest.mark.parametrize(
+    ("devices", "said"),
+    [
+        (["nosuch=socket://127.0.0.1:9"], "--device: expected none (this world has none), got"),
+        (["servos=\x1b[31mred"], "got servos"),
+    ],
+)
+def test_a_device_the_world_does_not_take_is_a_usage_error(devices, said):
+    given = [word for device in devices for word in ("--device", device)]
+    status, err = tank("node", "--robot", "a", "--listen", "tcp-listen://127.0.0.1:0", *given)
+    assert status == 2
+    assert said in err

@@ -77,6 +77,8 @@ _CHANNELS = itertools.count()
 class ServoingWorld(WorldPlant):
     """The paper's world for `setting` (see the module's docstring)."""
 
+    DEVICES = tuple(link for _name, link in MANIPULATORS)
+
     def __init__(self, setting: Setting) -> None:
         super().__init__(setting)
         scenario = setting.scenario
