@@ -68,6 +68,13 @@ from hexmigrate.links.url import (
 )
 
 logger = logging.getLogger(__name__)
+ISOTP_LOGGER = f"{__name__}.isotp"
+"""Where can-isotp logs (its `logger_name`). It logs each transport error as a warning after
+handing it to `CanLink._on_transport_error`, which counts it: a send nobody takes would print
+"Reception of FlowControl timed out" on the user's terminal beside the link's own line for the
+same loss, which says which link and how many bytes. Its warnings are kept below the level a
+terminal shows; its errors are not."""
+logging.getLogger(ISOTP_LOGGER).setLevel(logging.ERROR)
 
 FORM = (
     "can://virtual/CHANNEL, can://remote/HOST:PORT/CHANNEL, can://slcan//dev/DEVICE or "
@@ -152,7 +159,7 @@ class CanSettings:
             "rx_flowcontrol_timeout": int(FRAME_TIMEOUT * 1000),
             "rx_consecutive_frame_timeout": int(FRAME_TIMEOUT * 1000),
             "blocking_send": True,
-            "logger_name": f"{__name__}.isotp",
+            "logger_name": ISOTP_LOGGER,
         }
 
     def bus_config(self) -> dict[str, Any]:

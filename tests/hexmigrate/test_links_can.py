@@ -83,6 +83,16 @@ def test_a_transfer_nobody_acknowledges_is_lost_not_raised() -> None:
         assert host.lost == 1
 
 
+def test_a_lost_transfer_is_one_warning_the_link_s_own(caplog) -> None:
+    with caplog.at_level("DEBUG", logger="hexmigrate"), open_link("can://virtual/nobody2") as host:
+        host.send(b"\x01" * 100)
+    warnings = [record.getMessage() for record in caplog.records if record.levelname == "WARNING"]
+    assert len(warnings) == 1, warnings
+    assert warnings[0].startswith("can://virtual/nobody2: message of 100 bytes lost: ")
+    said = [record.getMessage() for record in caplog.records]
+    assert any("ISO-TP: Reception of FlowControl timed out" in line for line in said), said
+
+
 def test_a_closed_link_refuses_calls_and_closes_twice() -> None:
     link = open_link("can://virtual/closing")
     link.close()
