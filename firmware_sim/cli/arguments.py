@@ -120,10 +120,10 @@ def module(text: str) -> ModuleArgument:
 
 
 def pbo_rate(text: str) -> tuple[str, float]:
-    """``PBO=HZ``."""
+    """``PBO=HZ``; PBO a name a kernel can register (printable, without blanks or '.')."""
     name, found, value = text.partition("=")
     try:
-        if found and name:
+        if found and name and name.isprintable() and not any(c in name for c in " ."):
             return name, hertz(value)
     except argparse.ArgumentTypeError:
         pass

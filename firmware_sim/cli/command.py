@@ -73,6 +73,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise UsageError("run: expected at least one --module or --native")
     if args.plot_port and args.plot is None:
         raise UsageError("--plot-port goes with --plot FILE.png (the ports to draw there)")
+    if len(set(args.native)) != len(args.native):
+        raise UsageError(f"--native: expected each native once, got {', '.join(args.native)}")
     config = NodeConfig(budget=args.budget, elves=tuple(args.elf))
     with Node(config=config) as node, into_node_log(node, echo=args.debug):
         codes: dict[str, ModuleCode] = {}

@@ -83,6 +83,8 @@ def test_run_text_output(example_hex):
         (["run", "--native", "signal", "--rate", "signal=fast"], 2, "expected PBO=HZ with HZ"),
         (["run", "--native", "signal", "--rate", "other=5"], 2, "--rate names ['other']"),
         (["run", "--native", "signal", "--set", "other.k=1"], 2, "--set names ['other']"),
+        (["run", "--native", "signal", "--native", "signal"], 2, "expected each native once"),
+        (["run", "--native", "signal", "--rate", "\x1b[2J=5"], 2, "got '\\x1b[2J=5'"),
         (
             ["run", "--native", "signal", "--plot", "build/p.png", "--plot-port", "signal.no"],
             2,
