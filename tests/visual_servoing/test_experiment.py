@@ -150,12 +150,15 @@ def test_a_blank_figure_of_the_same_size_fails_the_check():
         check_deviation_plot(np.ones((450, 900, 4)))
 
 
-def test_an_output_folder_that_cannot_be_made_is_one_error_line(tmp_path: Path, capsys):
+def test_an_output_folder_that_cannot_be_made_is_a_usage_error(tmp_path: Path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
-    assert main(["run", "--out", str(blocker / "out")]) == 1
+    with pytest.raises(SystemExit) as exit_:
+        main(["run", "--out", str(blocker / "out")])
+    assert exit_.value.code == 2
     error = capsys.readouterr().err
-    assert error.startswith("error: ") and "file" in error and "Traceback" not in error
+    assert f"argument --out: {blocker / 'out'}: Not a directory" in error
+    assert "Traceback" not in error
 
 
 def test_an_output_folder_name_the_system_cannot_take_is_a_usage_error(capsys):
