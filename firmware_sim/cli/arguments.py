@@ -22,8 +22,7 @@ from commandline.arguments import (
 from firmware_sim.core.memory_map import DEFAULT_FLASH_SIZE
 from firmware_sim.core.node import RATE_MAX, RATE_MIN
 from firmware_sim.core.port_values import Setting, setting
-from hexmigrate.elf import image_from_elf
-from hexmigrate.errors import HexmigrateError
+from firmware_sim.core.source_lines import source_lines
 from hexmigrate.links.url import network_host
 from pbort.trace import TraceFormatError, check_trace_name
 
@@ -54,13 +53,14 @@ plot_file = output_file_ending(".png")
 
 
 def module_elf(text: str) -> Path:
-    """A module's ELF, as `hexmigrate pack` takes it: a file that is none (a HEX file, text, an
-    ELF of another machine) is refused here, where the node would only log that it found no
-    source lines in it."""
+    """A module's ELF, decoded as the node decodes it for source lines (`source_lines`, cached,
+    so the node does not decode it again): a file that is none (a HEX file, text, an ELF of
+    another machine) is refused here, where the node would only log that it found no source
+    lines in it."""
     path = module_file(text)
     try:
-        image_from_elf(path)
-    except HexmigrateError as error:
+        source_lines(path.resolve(), path.stat().st_mtime)
+    except ValueError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
     return path
 

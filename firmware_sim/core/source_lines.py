@@ -55,7 +55,9 @@ class SourceLines:
                 elf = ELFFile(stream)
                 self._functions = _functions(elf)
                 self._lines = _line_rows(elf) if elf.has_dwarf_info() else []
-        except (HexmigrateError, ELFError, DWARFError, OSError) as error:
+        except HexmigrateError as error:  # it names the file already
+            raise ValueError(str(error)) from None
+        except (ELFError, DWARFError, OSError) as error:
             raise ValueError(f"{path}: expected the ELF of a module, got {error}") from None
         self._function_starts = [start for start, _, _ in self._functions]
         self._line_starts = [row[0] for row in self._lines]
