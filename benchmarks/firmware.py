@@ -84,6 +84,7 @@ SIZES = (4 * KIB, 64 * KIB)
 CODE_GOAL = 24 * KIB
 RAM_GOAL = 16 * KIB
 CODE_SECTIONS = (".text", ".rodata", ".srodata")
+RAM_SECTIONS = (".data", ".sdata", ".bss", ".sbss")
 MODULE_AREAS = ("__module_sram_size", "__task_window_size", "__module_stack_size")
 """The link script's symbols that size what the kernel gives modules (firmware/rv32/link.ld),
 regions beside the firmware's own RAM, not sections of it."""
@@ -150,8 +151,8 @@ def by_part(link_map: Path) -> dict[str, tuple[int, int]]:
         if not found or int(found[2], 16) == 0:
             continue
         section, size, source = found[1] or name, int(found[3], 16), found[4]
-        in_code = section.startswith((".text", ".rodata", ".srodata"))
-        if not in_code and not section.startswith((".data", ".sdata", ".bss", ".sbss")):
+        in_code = section.startswith(CODE_SECTIONS)
+        if not in_code and not section.startswith(RAM_SECTIONS):
             continue
         part = PART.search(source)
         sizes = parts.setdefault(part[1] if part else Path(source).name.split(".a(")[0], [0, 0])

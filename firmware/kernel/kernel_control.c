@@ -66,6 +66,8 @@ int kernel_start(const char *name)
 }
 
 static const char *const direction_names[DIRECTION_COUNT] = {"in", "out", "const", "resource"};
+static const char *const direction_kinds[DIRECTION_COUNT] = {"an input", "an output", "a constant",
+                                                             "a resource"};
 
 int kernel_set_constant(const char *port_name, int64_t value)
 {
@@ -121,7 +123,7 @@ int kernel_set_rate(const char *name, uint32_t millihertz)
     return KERNEL_OK;
 }
 
-/* The port `name` when it has `direction`; else NULL and the Python table's refusal. */
+/* The port `name` when it has `direction`; else NULL and the Python kernel's refusal. */
 static struct pbo *find_wired(const char *name, uint8_t direction, uint32_t *port)
 {
     struct pbo *pbo = kernel_find_port(name, port);
@@ -134,12 +136,8 @@ static struct pbo *find_wired(const char *name, uint8_t direction, uint32_t *por
     if (found == direction) {
         return pbo;
     }
-    kernel_refuse(0, "port %q is %s port; expected an %s", name,
-                  found == DIRECTION_IN      ? "an input"
-                  : found == DIRECTION_OUT   ? "an output"
-                  : found == DIRECTION_CONST ? "a constant"
-                                             : "a resource",
-                  direction == DIRECTION_IN ? "input" : "output");
+    kernel_refuse(0, "port %q is %s port; expected %s", name, direction_kinds[found],
+                  direction_kinds[direction]);
     return 0;
 }
 
