@@ -296,6 +296,16 @@ static bool parse_tail(const struct field_spec *field, const struct message *m, 
         text_add_bytes_repr(why, data, length < 40 ? length : 40);
         return false;
     }
+    if (field->kind == FIELD_LISTING) { /* a listing that is none: refused as Python refuses it */
+        char reason[240];
+        struct text inner;
+        text_start(&inner, reason, sizeof reason);
+        if (!listing_check(m->text[i], length, &inner)) {
+            add_field(why, field, type);
+            text_add(why, reason);
+            return false;
+        }
+    }
     for (size_t at = 0; at < length; at++) {
         if (data[at] == 0) { /* this node's names are C strings: "gain\0x" would name gain */
             add_field(why, field, type);
@@ -304,18 +314,7 @@ static bool parse_tail(const struct field_spec *field, const struct message *m, 
             return false;
         }
     }
-    if (field->kind != FIELD_LISTING) {
-        return true;
-    }
-    char reason[240];
-    struct text inner;
-    text_start(&inner, reason, sizeof reason);
-    if (listing_check(m->text[i], length, &inner)) {
-        return true;
-    }
-    add_field(why, field, type);
-    text_add(why, reason);
-    return false;
+    return true;
 }
 
 static bool decode_tails(const struct binary_type *type, struct body tail, struct message *m,

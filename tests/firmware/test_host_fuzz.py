@@ -309,6 +309,7 @@ def test_any_binary_frames_leave_the_node_answering(node, frames, tail):
 @example(message=checked(bytes(3), 0x07))  # END's body too short
 @example(message=checked(b"\xc2\x80\xd8\x97", 0x12))  # U+0080 escaped as repr does; U+0617
 @example(message=checked(b"\xc2\x80\xe0", 0x12))  # no UTF-8: its bytes' repr
+@example(message=checked(b"\x00", 0x12))  # a listing that is none holding a NUL: Python's words
 def test_a_refused_binary_message_gets_the_python_nodes_very_refusal(node, message):
     if message[0] >= 0x20:
         return  # no binary message: the deframer drops it (both nodes alike)
