@@ -455,7 +455,8 @@ def _add_listen(commands: argparse._SubParsersAction) -> None:
         "--flash",
         type=arguments.flash_file,
         metavar="FILE",
-        help="keep the flash in FILE and boot the modules it holds",
+        help="keep the flash in FILE and boot the modules it holds (a file another running "
+        "node holds is refused)",
     )
     command.add_argument("--name", default="node", help="the node's name (default: node)")
     command.add_argument(

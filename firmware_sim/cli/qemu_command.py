@@ -105,7 +105,8 @@ def add_qemu(commands: argparse._SubParsersAction, say: Callable[[str], None]) -
         type=output_file,
         metavar="FILE",
         help=f"the flash's file ({FLASH_SIZE // (1 << 20)} MiB, created erased when missing): "
-        "the modules survive a restart (default: a temporary flash)",
+        "the modules survive a restart; a file another running node holds is refused "
+        "(default: a temporary flash)",
     )
     command.add_argument(
         "--firmware",

@@ -11,7 +11,8 @@ Two things make it a model of non-volatile memory rather than a byte array:
 * a backing file (`path`): the cells live in a raw image of exactly `size` bytes, and each
   block's erase count and erased flag in a sidecar (`path` + ".blocks", see `FlashFile`);
   every erase and program is written through at once, so the files always hold what the chip
-  holds and a new `Flash` on the same path continues where the last one stopped;
+  holds and a new `Flash` on the same path continues where the last one stopped (not while
+  it is open: a flash file is one node's, see flash_lock);
 * power cuts (`power_cut_after`): the N-th next erase or program is interrupted half way, leaves
   what real flash could leave, and raises `PowerCut`; the chip then refuses every further erase
   and program, as a node without power would.
@@ -27,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 
+from firmware_sim.core import flash_lock
 from firmware_sim.errors import FlashError
 
 BLOCK_SIZE = 256
@@ -79,8 +81,9 @@ class FlashFile:
         self._had_state = self.state_path.exists() and self.state_path.stat().st_size > 0
         self._image = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
+            flash_lock.hold(self._image, path)
             self._state = os.open(self.state_path, os.O_RDWR | os.O_CREAT, 0o644)
-        except OSError:
+        except BaseException:
             os.close(self._image)
             raise
 

@@ -7,7 +7,9 @@ before the firmware set its UART up is lost, so the node is reached by a handsha
 PONG comes.
 
 `stop` asks QEMU to quit (SIGINT, as Ctrl-C) and kills it if it does not; `kill` is the power
-cut: SIGKILL, the flash file keeps what the chip held at that instant.
+cut: SIGKILL, the flash file keeps what the chip held at that instant. From start to stop the
+node holds its flash file (flash_lock), as the Python node does: QEMU would share it with a
+second node.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import time
 from pathlib import Path
 
 from commandline.children import Child
+from firmware_sim.core import flash_lock
 from firmware_sim.errors import QemuError
 from firmware_sim.qemu.relay import PtyRelay
 from hexmigrate.transfer.layout import line_sum
@@ -66,6 +69,8 @@ class QemuNode:
         self.child: Child | None = None
         self.relay: PtyRelay | None = None
         self._sockets: tempfile.TemporaryDirectory[str] | None = None
+        self._flash_held = -1
+        """The flash file open and locked while QEMU may write it (-1: not held)."""
         self.url = ""
         """The pty's path, once started: the URL a host gives hexmigrate."""
         self.pong = ""
@@ -91,12 +96,14 @@ class QemuNode:
 
     def start(self) -> str:
         """Start QEMU, reach the firmware, and return the pty's path; QemuError when QEMU or
-        the firmware does not come up within START_TIMEOUT."""
-        # A folder of its own, short: a Unix socket's path may not exceed 107 bytes.
-        self._sockets = tempfile.TemporaryDirectory(prefix="qemu-uart-")
-        uart = Path(self._sockets.name) / "uart"
-        self.relay = PtyRelay(uart)
+        the firmware does not come up within START_TIMEOUT, FlashError when another node
+        holds the flash file."""
+        self._flash_held = flash_lock.held_open(self.flash)
         try:
+            # A folder of its own, short: a Unix socket's path may not exceed 107 bytes.
+            self._sockets = tempfile.TemporaryDirectory(prefix="qemu-uart-")
+            uart = Path(self._sockets.name) / "uart"
+            self.relay = PtyRelay(uart)
             self.child = Child.start(f"{QEMU} (node firmware)", self.command(uart), self.log)
             self.relay.start(START_TIMEOUT)
             self.url = self.relay.path
@@ -130,7 +137,12 @@ class QemuNode:
         if self._sockets is not None:
             self._sockets.cleanup()
             self._sockets = None
-        if self._folder is not None and not self.running():
+        if self.running():
+            return
+        if self._flash_held >= 0:
+            os.close(self._flash_held)
+            self._flash_held = -1
+        if self._folder is not None:
             self._folder.cleanup()
             self._folder = None
 

@@ -17,9 +17,9 @@ import pytest
 from commandline import SHOWN
 from commandline.children import Child
 from firmware_sim.cli.qemu_command import startup_lines
-from firmware_sim.errors import QemuError
+from firmware_sim.errors import FlashError, QemuError
 from firmware_sim.qemu.flash_file import ensure_flash
-from firmware_sim.qemu.machine import handshake
+from firmware_sim.qemu.machine import QemuNode, handshake
 from hexmigrate.elf import image_from_elf
 from hexmigrate.links import open_link
 from hexmigrate.links.listening import CONNECT_URL
@@ -121,6 +121,18 @@ def test_control_requests_are_answered_and_a_missing_feature_refused_by_name(boo
         assert link.receive(5.0).startswith(b"NAK 79 0 FATAL EXPORT refused: this node has no ")
         link.send(b"LS *00")
         assert link.receive(5.0).startswith(b"NAK 0 0 RETRY bad message: expected checksum")
+
+
+@pytest.mark.timeout(60)
+def test_a_second_node_on_a_running_nodes_flash_file_is_refused(boot, flash_file, firmware):
+    first = boot(flash_file)
+    second = QemuNode(firmware, flash_file)
+    with pytest.raises(FlashError, match="expected a file no other node runs on"):
+        second.start()
+    assert not second.running()  # QEMU never started on it
+    assert hexmigrate("ping", "--to", first.url).startswith("node: 0 module(s)")
+    first.kill()  # a power cut frees the file as a stop does
+    assert boot(flash_file).pong.startswith("node: 0 module(s)")
 
 
 @pytest.mark.timeout(60)

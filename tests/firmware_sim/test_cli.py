@@ -8,6 +8,7 @@ import sys
 
 import pytest
 
+from commandline.children import Child
 from firmware_sim.cli.command import data_flow_order
 from hexmigrate.elf import image_from_elf
 
@@ -144,6 +145,23 @@ def test_a_listening_node_says_where_first_then_why_a_pbo_did_not_start():
         said,  # the module's line, as it logs it (it names itself: no second "signal: ")
         f"signal did not start: PBO 'signal': on returned -1; now ERROR; it logged: {said}",
     ]
+
+
+def test_a_second_node_on_a_running_nodes_flash_file_is_refused(tmp_path):
+    flash = tmp_path / "node.img"
+    command = [sys.executable, "-m", "firmware_sim", "listen", "--listen", "loop://",
+               "--flash", str(flash), "--seconds", "60"]  # fmt: skip
+    with Child.start("firmware-sim listen", command, tmp_path / "first.log") as first:
+        first.wait_for("^listening on ")
+        second = run("listen", "--listen", "loop://", "--flash", flash, "--seconds", "0.1")
+        assert (second.returncode, second.stdout) == (1, "")
+        assert second.stderr == (
+            f"error: flash file {flash}: expected a file no other node runs on, got one that a "
+            "running node holds (stop that node, or give this one another flash file)\n"
+        )
+        assert first.process.poll() is None
+    again = run("listen", "--listen", "loop://", "--flash", flash, "--seconds", "0.1")
+    assert (again.returncode, again.stderr) == (0, "")  # the first one's stop freed the file
 
 
 @pytest.mark.parametrize(

@@ -169,6 +169,18 @@ def test_a_flash_file_that_does_not_fit_is_refused(tmp_path, size, damage, messa
         Flash(BASE, 2 * BLOCK_SIZE, path=path)
 
 
+def test_a_flash_file_is_one_nodes_until_that_node_closes_it(tmp_path):
+    path = tmp_path / "flash.bin"
+    with Flash(BASE, 2 * BLOCK_SIZE, path=path) as first:
+        first.program(BASE, b"\x01")
+        with pytest.raises(FlashError, match=rf"flash file {path}: expected a file no other node"):
+            Flash(BASE, 2 * BLOCK_SIZE, path=path)
+        assert first.read(BASE, 1) == b"\x01"  # the refused one wrote nothing
+        first.program(BASE + BLOCK_SIZE, b"\x02")  # and the first one still writes its file
+    with Flash(BASE, 2 * BLOCK_SIZE, path=path) as again:
+        assert again.read(BASE, 1) + again.read(BASE + BLOCK_SIZE, 1) == b"\x01\x02"
+
+
 def test_a_node_refuses_a_flash_file_of_the_wrong_size(tmp_path):
     path = tmp_path / "node.bin"
     path.write_bytes(bytes(4096))
