@@ -58,7 +58,7 @@ def cmd_qemu(args: argparse.Namespace, say: Callable[[str], None]) -> int:
                 break
             time.sleep(WATCH)
         if not node.running() and not requested():
-            raise QemuError(f"QEMU ended by itself (its log: {node.log})")
+            raise node.ended()
     say("stopped")
     return 0
 

@@ -22,7 +22,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from commandline.children import Child
+from commandline.children import TAIL, Child
 from firmware_sim.core import flash_lock
 from firmware_sim.errors import QemuError
 from firmware_sim.qemu.relay import PtyRelay
@@ -116,6 +116,17 @@ class QemuNode:
     def running(self) -> bool:
         """Whether QEMU still runs."""
         return self.child is not None and self.child.process.poll() is None
+
+    def ended(self) -> QemuError:
+        """Why QEMU no longer runs, when it ended by itself: how it ended and its last lines,
+        quoted here because the log is a temporary file (unless the caller named one) that
+        goes when the node is stopped."""
+        assert self.child is not None and self.child.process.returncode is not None
+        code = self.child.process.returncode
+        how = f"killed by {signal.Signals(-code).name}" if code < 0 else f"exit status {code}"
+        said = " | ".join(self.child.lines()[-TAIL:]) or "nothing"
+        kept = "" if self._folder is not None else f"; its log: {self.log}"
+        return QemuError(f"QEMU ended by itself ({how}); it said: {said}{kept}")
 
     def stop(self) -> None:
         """QEMU asked to quit (SIGINT), killed if it does not; idempotent."""

@@ -10,7 +10,10 @@ from __future__ import annotations
 
 import os
 import pty
+import re
+import signal
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -149,6 +152,23 @@ def test_firmware_sim_qemu_prints_the_listening_line_and_stops_on_sigint(tmp_pat
         assert child.process.returncode == 0
         assert child.lines()[-1] == "stopped"
     assert flash.stat().st_size == 32 * 1024 * 1024
+
+
+@pytest.mark.timeout(60)
+def test_a_qemu_that_ends_by_itself_is_an_error_quoting_what_it_said(tmp_path, firmware):
+    command = [sys.executable, "-m", "firmware_sim", "qemu"]  # its log is a temporary file
+    with Child.start("firmware-sim qemu", command, tmp_path / "qemu.log") as child:
+        child.wait_for(CONNECT_URL, CLI_TIMEOUT)
+        (qemu,) = (
+            Path(f"/proc/{child.process.pid}/task/{child.process.pid}/children").read_text().split()
+        )
+        os.kill(int(qemu), signal.SIGTERM)
+        assert child.wait() == 1
+    assert re.fullmatch(
+        r"error: QEMU ended by itself \(exit status 0\); it said: qemu-system-riscv32: "
+        r"terminating on signal 15 from pid \d+ .*",
+        child.lines()[-1],
+    )
 
 
 def test_the_handshake_names_what_it_heard_when_no_pong_comes():
