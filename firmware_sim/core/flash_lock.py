@@ -29,6 +29,8 @@ def hold(descriptor: int, path: Path) -> None:
             f"flash file {path}: expected a file no other node runs on, got one that a running "
             "node holds (stop that node, or give this one another flash file)"
         ) from None
+    except OSError as error:  # a file system without locks: no node may trust the file alone
+        raise FlashError(f"flash file {path}: cannot lock it ({error.strerror})") from None
 
 
 def held_open(path: Path) -> int:

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import errno
+import fcntl
+import os
 import shutil
 import struct
 import zlib
@@ -179,6 +182,16 @@ def test_a_flash_file_is_one_nodes_until_that_node_closes_it(tmp_path):
         first.program(BASE + BLOCK_SIZE, b"\x02")  # and the first one still writes its file
     with Flash(BASE, 2 * BLOCK_SIZE, path=path) as again:
         assert again.read(BASE, 1) + again.read(BASE + BLOCK_SIZE, 1) == b"\x01\x02"
+
+
+def test_a_flash_file_that_cannot_be_locked_is_refused_by_name(tmp_path, monkeypatch):
+    def no_locks(descriptor: int, operation: int) -> None:
+        raise OSError(errno.ENOLCK, os.strerror(errno.ENOLCK))
+
+    monkeypatch.setattr(fcntl, "flock", no_locks)  # as a file system without locks answers
+    path = tmp_path / "flash.bin"
+    with pytest.raises(FlashError, match=rf"flash file {path}: cannot lock it \(No locks"):
+        Flash(BASE, 2 * BLOCK_SIZE, path=path)
 
 
 def test_a_node_refuses_a_flash_file_of_the_wrong_size(tmp_path):
