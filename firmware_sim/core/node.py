@@ -197,6 +197,9 @@ class Node:
         """What the node noted (installs, boots, refused reports), the newest LOG_LINES."""
         self._refused_draws: set[str] = set()  # PBOs whose latest draw report was refused
         self._closed = False
+        self.boot_problems: list[str] = []
+        """What the boot found damaged and left out (a directory slot, a module), each as its
+        note says it: a command shows them, as the C node says them on its UART."""
         try:
             self.boot()
         except BaseException:
@@ -245,7 +248,7 @@ class Node:
         """
         scan = self.directory.scan()
         for problem in scan.problems:
-            self._note(problem)
+            self._boot_problem(problem)
         if scan.newest is None:
             return []
         self.kept_versions = {kept.name: kept.version for kept in scan.newest.kept}
@@ -254,7 +257,7 @@ class Node:
             try:
                 booted.append(self._restore(entry))
             except (BootError, FlashError, FlashFullError, RegistrationError) as error:
-                self._note(f"boot: skipped module {entry.name!r}: {error}")
+                self._boot_problem(f"boot: skipped module {entry.name!r}: {error}")
                 if entry.version:  # the next directory write keeps it, as for a removed module
                     self.kept_versions[entry.name] = entry.version
         return booted
@@ -615,6 +618,10 @@ class Node:
 
     def _note(self, text: str) -> None:
         self.log.append((self.kernel.now, text))
+
+    def _boot_problem(self, text: str) -> None:
+        self.boot_problems.append(text)
+        self._note(text)
 
 
 def _kept(versions: dict[str, int]) -> list[KeptVersion]:

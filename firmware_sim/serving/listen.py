@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from urllib.parse import urlsplit
 
-from commandline import one_line
+from commandline import SHOWN, one_line
 from commandline.interrupts import stop_requests
 from firmware_sim.bridge.bridge_policy import BridgePolicy
 from firmware_sim.core.debug_port import DebugPort
@@ -190,6 +190,8 @@ def listen(
                 view.channel(STATUS_TOPIC, f"node {config.name}", STATUS_FIELDS)
                 live.append(view)
                 say(f"foxglove live view on {view.url} (Foxglove: open a connection to it)")
+            for problem in node.boot_problems:
+                say(one_line(problem, SHOWN))
             for name, code in natives:
                 pbos.start(code, name)
             for module in list(node.modules.values()):

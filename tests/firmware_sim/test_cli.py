@@ -147,6 +147,20 @@ def test_a_listening_node_says_where_first_then_why_a_pbo_did_not_start():
     ]
 
 
+def test_a_listening_node_says_what_its_boot_found_damaged(tmp_path):
+    flash = tmp_path / "node.img"
+    cells = bytearray(b"\xff" * 256 * 1024)
+    cells[-512:-508] = b"\x1b[2J"  # directory slot 0: an escape sequence, no record
+    flash.write_bytes(cells)
+    result = run("listen", "--listen", "loop://", "--flash", flash, "--seconds", "0.1")
+    assert (result.returncode, result.stderr) == (0, "")
+    assert result.stdout.splitlines()[:2] == [
+        "listening on loop://",
+        "directory slot 0 at 0x0803FE00 ignored: expected magic b'RFMD' version 1 to 3, got "
+        "b'\\x1b[2J' version 65535",
+    ]
+
+
 def test_a_second_node_on_a_running_nodes_flash_file_is_refused(tmp_path):
     flash = tmp_path / "node.img"
     command = [sys.executable, "-m", "firmware_sim", "listen", "--listen", "loop://",
