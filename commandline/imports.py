@@ -25,7 +25,14 @@ class ModuleImportError(CommandLineError):
 
 def import_named(option: str, module: str) -> ModuleType:
     """Import `module` by name for `option` (``--natives``), the current directory first on the
-    path while it is imported."""
+    path while it is imported. A file's name (``my_natives.py``, ``lib/my_natives``) is refused
+    with the name to give instead: Python would look for a module ``py`` in a package."""
+    if module.endswith(".py") or "/" in module:
+        name = module.removesuffix(".py").replace("/", ".").strip(".")
+        raise ModuleImportError(
+            f"{option} {module}: expected a Python module's name, got a file's: give "
+            f"{option} {name} (from the folder that holds {name.replace('.', '/')}.py)"
+        )
     here = os.getcwd()
     added = here not in sys.path
     if added:
