@@ -32,7 +32,13 @@ from hexmigrate.checks import verify_file
 from hexmigrate.control_cli import add_control_commands, setting_text
 from hexmigrate.descriptor import NAME_LEN
 from hexmigrate.elf import DEFAULT_INIT_SYMBOL, image_from_elf
-from hexmigrate.errors import HexmigrateError, LinkError, TransferError, TransferInterrupted
+from hexmigrate.errors import (
+    HexmigrateError,
+    LinkError,
+    TransferError,
+    TransferForgotten,
+    TransferInterrupted,
+)
 from hexmigrate.image import ModuleImage, descriptor_name
 from hexmigrate.inspection import build_report, render_text
 from hexmigrate.links import open_link
@@ -310,7 +316,9 @@ def _send_resuming(
     args: argparse.Namespace, image: ModuleImage, progress: SendProgress
 ) -> TransferResult:
     """Send `image`; when the link fails midway, open it again and resume the transfer where
-    the node got to (`--reconnects` times, a second apart), as after a cable was re-plugged."""
+    the node got to (`--reconnects` times, a second apart), as after a cable was re-plugged; a
+    node that no longer holds the transfer (it restarted: a power cut) gets it again from the
+    start."""
     try:
         with _session(_sender(args, progress.callback)) as sender:
             return sender.send(image, args.base)
@@ -325,7 +333,11 @@ def _send_resuming(
             continue
         try:
             with _session(sender):
-                return sender.resume(image, interrupted.tid)
+                try:
+                    return sender.resume(image, interrupted.tid)
+                except TransferForgotten as forgotten:
+                    progress.note(f"{forgotten}; sending it again from the start")
+                    return sender.send(image, args.base)
         except TransferInterrupted as error:
             interrupted = error
     raise TransferError(f"{interrupted}; gave up after {args.reconnects} reconnections")
@@ -567,7 +579,8 @@ def _add_node_commands(commands: argparse._SubParsersAction) -> None:
         type=integer(0, MAX_RECONNECTS),
         default=3,
         metavar="N",
-        help="times to reopen a failed link and resume (default 3)",
+        help="times to reopen a failed link and resume, or send again from the start to a "
+        "node that restarted (default 3)",
     )
     _link_options(send)
     ping = add_command(commands, "ping", cmd_ping, "ask a node who it is")

@@ -65,6 +65,7 @@ Tree::
     ├── LockStepError (ValueError)     a lock-step time master set up wrong (its quantum, a route)
     └── TransferError (RuntimeError)   the node refused, or a transfer could not go on
         ├── NoAnswer (TimeoutError)        a request went unanswered through every try
+        ├── TransferForgotten (LookupError)   the transfer to resume is gone: send anew
         └── TransferInterrupted (ConnectionError)   the link failed mid-transfer: resume it
 """
 
@@ -327,6 +328,11 @@ class TransferError(HexmigrateError, RuntimeError):
 class NoAnswer(TransferError, TimeoutError):
     """A request went unanswered through every try; the message says how many tries, how long
     each waited and what was heard."""
+
+
+class TransferForgotten(TransferError, LookupError):
+    """A transfer to resume that the node no longer holds (it restarted, or dropped the transfer
+    when idle): only a new transfer from the start installs the module."""
 
 
 class TransferInterrupted(TransferError, ConnectionError):

@@ -187,9 +187,15 @@ class Abort(Message, code=0x09, verb="ABORT"):
 
 
 class Resume(Message, code=0x0A, verb="RESUME"):
-    """After a cut link: how far did transfer `tid` get? Answered by `Ack` (bytes programmed)."""
+    """After a cut link: how far did transfer `tid` get? Answered by `Ack` (bytes programmed),
+    or refused as UNKNOWN_TRANSFER when the node no longer holds it."""
 
     tid: int = u32()
+
+
+UNKNOWN_TRANSFER = "unknown transfer {}: send BEGIN first"
+"""How a node refuses a request for a transfer it does not hold (never begun, dropped when idle,
+or lost when the node restarted), formatted with the tid: both nodes say it in these words."""
 
 
 # Node control (control.py): each request carries a tid, and the node answers a repeat of it

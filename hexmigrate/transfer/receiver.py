@@ -50,6 +50,7 @@ from hexmigrate.transfer.control import (
     wire,
 )
 from hexmigrate.transfer.messages import (
+    UNKNOWN_TRANSFER,
     Abort,
     Ack,
     Advance,
@@ -306,7 +307,7 @@ class Receiver:
     def _transfer(self, tid: int) -> Transfer:
         transfer = self.transfers.get(tid)
         if transfer is None:
-            raise _FatalRefusal(f"unknown transfer {tid}: send BEGIN first")
+            raise _FatalRefusal(UNKNOWN_TRANSFER.format(tid))
         transfer.touched = self.clock()
         return transfer
 

@@ -17,13 +17,21 @@ import zlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
-from hexmigrate.errors import LinkError, MessageError, NoAnswer, TransferError, TransferInterrupted
+from hexmigrate.errors import (
+    LinkError,
+    MessageError,
+    NoAnswer,
+    TransferError,
+    TransferForgotten,
+    TransferInterrupted,
+)
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
 from hexmigrate.links.base import Link
 from hexmigrate.records import SIGNATURE_RECORD_SIZE, Record, RecordType
 from hexmigrate.signing import challenge
 from hexmigrate.signing.keys import PrivateKey
 from hexmigrate.transfer.messages import (
+    UNKNOWN_TRANSFER,
     Abort,
     Ack,
     Authenticate,
@@ -221,8 +229,17 @@ class Sender:
                 self.request(Abort(tid), Ack, tid, what="aborted")
 
     def resume(self, image: ModuleImage, tid: int) -> TransferResult:
-        """Continue transfer `tid` of `image` after a cut link."""
-        state = self.request(Resume(tid), Ack, tid, what=("begun", "header", "verified"))
+        """Continue transfer `tid` of `image` after a cut link; TransferForgotten when the node
+        no longer holds it."""
+        try:
+            state = self.request(Resume(tid), Ack, tid, what=("begun", "header", "verified"))
+        except TransferError as error:
+            if str(error) != f"the node refused: {UNKNOWN_TRANSFER.format(tid)}":
+                raise
+            raise TransferForgotten(
+                f"the node no longer holds transfer {tid} (it restarted, or dropped the "
+                "transfer when it was idle)"
+            ) from None
         load_base = self.request(
             Begin(tid, image.name, image.size, len(image.relocations), image.link_base),
             Ack,

@@ -34,6 +34,7 @@ from typing import Any
 
 import pytest
 
+from commandline.children import Child
 from firmware_sim.core.natives import Signal
 from firmware_sim.core.node import Node
 from firmware_sim.core.transfer_target import NodeTarget
@@ -499,6 +500,29 @@ def test_send_reconnects_and_resumes_by_itself(example_hex, images):
         check_node_output(node, ["moving_average"])
         listing = hexmigrate("ls", "--to", to)
         assert f"{images['moving_average'].size} bytes" in listing
+
+
+@pytest.mark.timeout(120)
+def test_send_starts_again_when_the_node_restarted_and_lost_the_transfer(example_hex, tmp_path):
+    """The node is killed mid-transfer and started again on its port (a power cut): `hexmigrate
+    send` finds the transfer gone when it reconnects, says so, and sends the module anew."""
+    module = example_hex["moving_average"]
+    with NodeProcess("tcp-listen://127.0.0.1:0") as first:
+        to = first.url
+        command = [sys.executable, "-m", "hexmigrate", "send", str(module), "--quiet",
+                   "--to", f"faulty+{to}#cut_after=700", "--reconnects", "20"]  # fmt: skip
+        with Child.start("hexmigrate send", command, tmp_path / "send.log") as send:
+            send.wait_for(r"reconnecting \(1/20\)", CLI_TIMEOUT)
+            first.child.process.kill()  # before the first reconnection, a second from now
+            first.child.process.wait()
+            port = to.rpartition(":")[2]
+            with NodeProcess(f"tcp-listen://127.0.0.1:{port}") as second:
+                assert send.wait(CLI_TIMEOUT) == 0, send.lines()
+                said = "\n".join(send.lines())
+                assert "no longer holds transfer" in said
+                assert "sending it again from the start" in said
+                assert "module moving_average installed" in said
+                assert hexmigrate("ls", "--to", second.url).startswith("moving_average ")
 
 
 def test_a_listening_node_wires_a_module_each_time_it_arrives(example_hex):

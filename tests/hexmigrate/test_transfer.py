@@ -10,7 +10,7 @@ from firmware_sim.core.natives import Signal
 from firmware_sim.core.node import Node
 from firmware_sim.core.transfer_target import NodeTarget
 from hexmigrate.elf import image_from_elf
-from hexmigrate.errors import TransferError, TransferInterrupted
+from hexmigrate.errors import TransferError, TransferForgotten, TransferInterrupted
 from hexmigrate.image import ModuleImage
 from hexmigrate.transfer import messages as m
 from hexmigrate.transfer.receiver import Receiver
@@ -109,6 +109,18 @@ def test_a_cut_link_resumes_and_completes(node, images, mode):
     assert 0 < programmed < image.size  # the node kept the blocks it had programmed
     resumed = Sender(DirectLink(receiver), mode).resume(image, cut.value.tid)
     assert resumed.name == "gain"
+    assert_installed(node, image)
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_a_transfer_the_node_no_longer_holds_is_not_resumed_but_said(node, images, mode):
+    image = images["gain"]
+    with pytest.raises(TransferInterrupted) as cut:
+        Sender(link_to(node, cut_after={"binary": 4, "hex": 40}[mode]), mode).send(image)
+    restarted = link_to(node)  # a new Receiver: the node restarted, its transfers are gone
+    with pytest.raises(TransferForgotten, match=f"no longer holds transfer {cut.value.tid} "):
+        Sender(restarted, mode).resume(image, cut.value.tid)
+    assert Sender(restarted, mode).send(image).name == "gain"  # from the start, it installs
     assert_installed(node, image)
 
 
