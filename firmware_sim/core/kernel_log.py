@@ -15,13 +15,15 @@ from contextlib import contextmanager
 from firmware_sim.core.node import Node
 
 LOGGER = "pbort"
+KERNEL_LOGGER = "pbort.kernel"
+"""pbort's own warnings (a fault, a missed start), apart from the modules' lines."""
 
 
 class _Forward(logging.Handler):
-    """Hands each record's message to a function."""
+    """Hands each record's message (of `level` and above) to a function."""
 
-    def __init__(self, take: Callable[[str], None]) -> None:
-        super().__init__(logging.INFO)
+    def __init__(self, take: Callable[[str], None], level: int = logging.INFO) -> None:
+        super().__init__(level)
         self._take = take
 
     def emit(self, record: logging.LogRecord) -> None:
@@ -52,3 +54,18 @@ def into_node_log(node: Node, echo: bool) -> Iterator[None]:
     of on standard error (where they still go when `echo`)."""
     with _attached(lambda text: node.log.append((node.kernel.now, text)), echo):
         yield
+
+
+@contextmanager
+def kernel_warnings_said(say: Callable[[str], None]) -> Iterator[None]:
+    """Say each of the kernel's own warnings while inside: a PBO that faults into ERROR, with
+    why (``PBO 'Gauge': cycle faulted: ...``), as it happens. An operator at a listening node's
+    terminal sees the fault there, not only in ``hexmigrate ps --verbose``; a PBO faults once
+    until it is cleared, so these lines cannot flood."""
+    logger = logging.getLogger(KERNEL_LOGGER)
+    handler = _Forward(say, logging.WARNING)
+    logger.addHandler(handler)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)

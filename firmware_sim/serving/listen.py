@@ -39,7 +39,7 @@ from firmware_sim.core.fpga_port import (
     open_port,
 )
 from firmware_sim.core.guest import DEFAULT_BUDGET
-from firmware_sim.core.kernel_log import into_node_log
+from firmware_sim.core.kernel_log import into_node_log, kernel_warnings_said
 from firmware_sim.core.natives import NATIVES
 from firmware_sim.core.node import Node, NodeConfig
 from firmware_sim.core.port_values import Setting, by_pbo
@@ -146,9 +146,10 @@ def listen(
             fpga=port,
         ) as node,
         into_node_log(node, echo=True),
+        kernel_warnings_said(lambda text: say(one_line(text, SHOWN))),
     ):
-        # the kernel's warnings (a fault) go to the node's log; module lines are said too,
-        # a flood of them held back (they stay in each PBO's log)
+        # the kernel's warnings (a fault) go to the node's log and are said; module lines are
+        # said too, a flood of them held back (they stay in each PBO's log)
         node.kernel.observe_log(_echoing(say))
         if started is not None:
             started(node)

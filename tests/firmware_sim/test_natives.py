@@ -11,7 +11,7 @@ import pytest
 from firmware_sim.core.natives import NATIVES, Signal, load_natives
 from firmware_sim.errors import StartError
 from firmware_sim.serving.node_process import NodeProcess
-from tests.firmware_sim.host_side import hexmigrate
+from tests.firmware_sim.host_side import CLI_TIMEOUT, hexmigrate
 
 MODULE = "tests.refresh.data.manage_natives"
 
@@ -51,6 +51,32 @@ def test_listen_runs_a_native_of_the_users_module():
         header, *rows = watched.splitlines()
         column = header.split(",").index("Sensor.y")
         assert rows and all(row.split(",")[column] == "42" for row in rows)
+
+
+FAULTY = """
+from pbort import PortSpec
+from pbort.native import NativePBO
+
+
+class Faulty(NativePBO):
+    name = "Faulty"
+    ports = (PortSpec.output("y"),)
+
+    def cycle(self, io):
+        io["levl"] = 1  # the typo a user makes: no such port
+"""
+
+
+def test_listen_says_when_a_native_faults_into_error_and_why(tmp_path):
+    (tmp_path / "faulty_natives.py").write_text(FAULTY)
+    options = ("--natives", "faulty_natives", "--native", "Faulty")
+    with NodeProcess("tcp-listen://127.0.0.1:0", *options, cwd=tmp_path) as node:
+        said = node.wait_for("^PBO 'Faulty': ", CLI_TIMEOUT).string
+        assert said == (
+            "PBO 'Faulty': cycle faulted: UnknownPortError: unknown port 'Faulty.levl'; "
+            "expected one of 'y'"
+        )
+        assert "ERROR" in hexmigrate("ps", "--to", node.url)
 
 
 def test_listen_refuses_a_native_no_module_gives_in_one_line():
