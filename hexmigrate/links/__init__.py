@@ -50,7 +50,10 @@ _SCHEMES: dict[str, tuple[str, str]] = {
 """Scheme -> (module in this package, what it needs installed). The empty scheme is a bare
 device path."""
 
-_FORMS = "serial:///dev/DEVICE, /dev/DEVICE, loop://, socket://HOST:PORT, can://... or faulty+URL"
+_FORMS = (
+    "serial:///dev/DEVICE, /dev/DEVICE, loop://, socket://HOST:PORT, tcp-listen://HOST:PORT, "
+    "can://... or faulty+URL"
+)
 _KNOWN = "serial, loop, socket, tcp-listen, can or faulty+"
 
 
@@ -64,7 +67,7 @@ def open_link(url: str, **options: object) -> LinkBase:
     if scheme not in _SCHEMES:
         raise LinkUrlError(
             f"bad link URL {url!r}: expected a scheme among {_KNOWN}, got {scheme!r}; "
-            f"the form is {_FORMS}"
+            f"the form is {_FORMS}{_tcp_hint(url)}"
         )
     module_name, needs = _SCHEMES[scheme]
     try:
@@ -76,6 +79,19 @@ def open_link(url: str, **options: object) -> LinkBase:
         raise LinkError(f"cannot open {url}: {reason}") from error
     link: LinkBase = module.open_url(url, **options)
     return link
+
+
+def _tcp_hint(url: str) -> str:
+    """For a URL that means TCP without saying which end (``HOST:PORT``, ``tcp://HOST:PORT``):
+    the two URLs it may have meant."""
+    address = url.removeprefix("tcp://")
+    host, colon, port = address.rpartition(":")
+    if not (colon and host and port.isdigit() and "/" not in address):
+        return ""
+    return (
+        f" (for TCP: socket://{address} reaches a node that listens there, "
+        f"tcp-listen://{address} listens there for hosts)"
+    )
 
 
 def _scheme(url: str) -> str:

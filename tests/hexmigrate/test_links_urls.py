@@ -10,7 +10,10 @@ import pytest
 from hexmigrate.errors import LinkError, LinkUrlError
 from hexmigrate.links import open_link
 
-ANY = "serial:///dev/DEVICE, /dev/DEVICE, loop://, socket://HOST:PORT, can://... or faulty+URL"
+ANY = (
+    "serial:///dev/DEVICE, /dev/DEVICE, loop://, socket://HOST:PORT, tcp-listen://HOST:PORT, "
+    "can://... or faulty+URL"
+)
 DEVICE = "serial:///dev/ttyUSB0?baudrate=115200 or a bare device path such as /dev/pts/5"
 SOCKET = "socket://HOST:PORT such as socket://127.0.0.1:7000 or socket://[::1]:7000"
 CAN = (
@@ -124,6 +127,17 @@ def test_a_bad_url_says_what_was_expected_and_the_form(url: str, problem: str, f
     with pytest.raises(LinkUrlError) as caught:
         open_link(url)
     assert str(caught.value) == f"bad link URL {url!r}: {problem}; the form is {form}"
+
+
+@pytest.mark.parametrize("url", ["127.0.0.1:7001", "tcp://127.0.0.1:7001", "localhost:7001"])
+def test_a_tcp_address_without_its_end_is_told_both_urls_it_may_mean(url: str) -> None:
+    address = url.removeprefix("tcp://")
+    with pytest.raises(LinkUrlError) as caught:
+        open_link(url)
+    assert str(caught.value).endswith(
+        f"; the form is {ANY} (for TCP: socket://{address} reaches a node that listens there, "
+        f"tcp-listen://{address} listens there for hosts)"
+    )
 
 
 def test_the_inner_url_of_the_fault_wrapper_is_checked_too() -> None:
