@@ -563,6 +563,11 @@ class _Tries:
         elif heard:
             messages = _plural(heard, "message", "messages")
             outcome = f"heard {messages}, none an answer to it (late or damaged)"
+        elif sender.link.url.removeprefix("faulty+").startswith("tcp-listen://"):
+            outcome = (
+                "nobody answered (tcp-listen:// waits for a node to connect to this host; a node "
+                "that listens itself is reached with socket://HOST:PORT)"
+            )
         else:
             outcome = "nobody answered"
         return NoAnswer(
