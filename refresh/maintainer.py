@@ -176,33 +176,40 @@ class Maintainer:
         return result
 
     def apply(self, plan: Plan) -> list[Timing]:
-        """Run every step in order; stop at the first that fails (the error propagates)."""
+        """Run every step in order; stop at the first that fails (the error propagates). A step
+        the applier carried out otherwise than its words say (an image already on the robot,
+        not sent; a PBO stopped out of ERROR) has the applier's note on its line and as `note`,
+        so that the log never claims a migration that did not happen."""
         timings = []
         for step in plan.steps:
             start = self.clock()
-            self._run(step)
+            note = self._run(step)
             timing = Timing(step, self.clock() - start)
             timings.append(timing)
+            said = str(step) if note is None else f"{step}: {note}"
             self.log.record(
                 "step",
-                f"{step} ({timing.seconds * 1e3:.3f} ms)",
+                f"{said} ({timing.seconds * 1e3:.3f} ms)",
                 step=str(step),
                 action=step.action,
                 seconds=timing.seconds,
+                **({} if note is None else {"note": note}),
             )
         total = sum(t.seconds for t in timings)
         self.log.record("applied", f"{len(timings)} step(s) in {total * 1e3:.3f} ms", seconds=total)
         return timings
 
-    def _run(self, step: Step) -> None:
+    def _run(self, step: Step) -> str | None:
+        """Carry `step` out; the applier's note on how, if it has one (migrate, stop)."""
         applier = self.applier
         if step.action == "disconnect":
             applier.disconnect(step.robot, step.instance)
         elif step.action == "stop":
-            applier.stop(step.robot, step.instance)
+            return applier.stop(step.robot, step.instance)
         elif step.action == "migrate":
-            applier.migrate(step.robot, self.database.module(step.module))
+            return applier.migrate(step.robot, self.database.module(step.module))
         elif step.action == "start":
             applier.start(step.robot, step.instance, self.database.module(step.module))
         else:
             applier.connect(step.robot, step.source, step.instance, step.source_robot)
+        return None

@@ -17,7 +17,10 @@ does the bookkeeping and calls one protected hook that the back end implements.
   bridge's half there, only forgets it, and adding anything there is refused. `rejoin` reaches a
   lost robot's node again and says what it has (`Inventory`).
 - **Images and migrations.** The image to migrate is the one given for the module, else the file
-  the database names. Each migration is recorded (`Migration`); with a modelled wire
+  the database names. It is not sent when the robot lists a module of that name and the image's
+  size (what a node's listing says: a module edited and rebuilt to another size is sent again,
+  in place of the old one), and the step's line says which it was (`migrate` and `stop` return
+  a note for it). Each migration is recorded (`Migration`); with a modelled wire
   (`migration_wire`), the transfer takes that wire's time in the run: the back end says how long
   (`_send`), and `wait(seconds)` lets the world run on meanwhile (the old configuration keeps
   working while the image travels, as on a real robot).
@@ -57,11 +60,15 @@ class Applier(Protocol):
     def disconnect(self, robot: str, sink: str) -> None:
         """Unbind input port `sink` (``instance.port``) on `robot`."""
 
-    def stop(self, robot: str, instance: str) -> None:
-        """Switch PBO `instance` off, kill it and remove it from `robot`'s kernel."""
+    def stop(self, robot: str, instance: str) -> str | None:
+        """Switch PBO `instance` off, kill it and remove it from `robot`'s kernel, from
+        whatever state it is in (a PBO that faulted is in ERROR); a note for the step's line
+        when it was not running (None when it was)."""
 
-    def migrate(self, robot: str, module: Module) -> None:
-        """Make `module`'s image installed on `robot` (nothing to do if it already is)."""
+    def migrate(self, robot: str, module: Module) -> str | None:
+        """Make `module`'s image installed on `robot` (nothing to send if it already is); a
+        note for the step's line when it did otherwise than send the image to a robot without
+        the module (None when it did just that): not sent, or sent in place of another."""
 
     def start(self, robot: str, instance: str, module: Module) -> None:
         """Register `module` as PBO `instance` on `robot`, set its constants, init it, switch on."""
@@ -306,20 +313,23 @@ class ApplierBase(ABC):
             return
         self._disconnect(robot, sink)
 
-    def stop(self, robot: str, instance: str) -> None:
-        """Take down the bridges to and from PBO `instance`, then stop it; its image stays
-        installed for a later start, but a hardware module's slots are emptied (its wrappers
-        let go of their streams, so that another module's bitstreams may route those slots).
-        On a lost robot it is only forgotten."""
+    def stop(self, robot: str, instance: str) -> str | None:
+        """Take down the bridges to and from PBO `instance`, then stop it, from whatever state
+        it is in (a PBO that faulted into ERROR, the one a repair most often switches away from,
+        is taken out too); its image stays installed for a later start, but a hardware module's
+        slots are emptied (its wrappers let go of their streams, so that another module's
+        bitstreams may route those slots). On a lost robot it is only forgotten. A note for the
+        step's line when the PBO was not running (the back end's), else None."""
         for key, bridge in list(self.bridges.items()):
             if bridge.touches(robot, instance):
                 del self.bridges[key]
                 self._take_down(bridge)
         self.frequencies.pop((robot, instance), None)
-        self._stop(robot, instance)
+        note = self._stop(robot, instance)
         module = self.hardware.pop((robot, instance), None)
         if module is not None and module.hardware is not None:
             self._release(robot, module.name, module.hardware.slots)
+        return note
 
     def _release(self, robot: str, module: str, slots: Sequence[int]) -> None:
         """Empty the `slots` of `robot`'s fabric still configured for `module` (a lost robot's
@@ -331,20 +341,30 @@ class ApplierBase(ABC):
                 if not self.is_lost(robot):
                     self._unload(robot, slot)
 
-    def migrate(self, robot: str, module: Module) -> None:
+    def migrate(self, robot: str, module: Module) -> str | None:
         """Send the module's image to the robot unless it is installed there already (a
         hardware module's bitstreams unless its slots are configured for it); with a modelled
-        wire, let the world run on for as long as the transfer takes."""
+        wire, let the world run on for as long as the transfer takes. A note for the step's
+        line when nothing was sent (the robot has it) or the image replaced another of the
+        module's name, else None.
+
+        A module is installed already when the robot lists one of its name and of the image's
+        size: a listing says no more (name, address, size). Comparing the size matters because
+        nodes outlive managers: a module edited and rebuilt to another size is sent again (it
+        replaces the old one), where a name alone would leave the old code running while the
+        step said it migrated. A rebuild of the same size is not told apart; the note says what
+        was compared, so that the line does not claim a migration."""
         self.require(robot)
         if module.source.native:
             raise ApplyError(
                 f"migrate {module.name} to {robot}: expected an image, got native code"
             )
-        if self._holds(robot, module):
-            return
-        start = self.clock()
-        hardware = module.hardware is not None
         images = self._images(module)
+        kept, note = self._holds(robot, module, images)
+        if kept is not None:
+            return kept
+        hardware = module.hardware is not None
+        start = self.clock()
         if module.hardware is not None:  # its slots' state is not known until all are in
             for slot in module.hardware.slots:
                 self.configured.get(robot, {}).pop(slot, None)
@@ -366,14 +386,30 @@ class ApplierBase(ABC):
         self.migrations.append(migration)
         if migration.seconds > 0:
             self.wait(migration.seconds)
+        return note
 
-    def _holds(self, robot: str, module: Module) -> bool:
-        """Whether `robot` has the module's image installed, or its fabric's slots configured
-        for the hardware module."""
-        if module.hardware is None:
-            return self._installed(robot, module.name)
-        configured = self.configured.get(robot, {})
-        return all(configured.get(slot) == module.name for slot in module.hardware.slots)
+    def _holds(
+        self, robot: str, module: Module, images: Sequence[ModuleImage | None]
+    ) -> tuple[str | None, str | None]:
+        """Whether `robot` has what a migration of `module` would send (`images`): its image
+        installed (a module of its name listed with the image's size; of its name alone where
+        the back end models no images), or its fabric's slots configured for the hardware
+        module. (a note that it was not sent, None) when it has, else (None, a note saying
+        which module of that name the image replaces, None if none)."""
+        if module.hardware is not None:
+            configured = self.configured.get(robot, {})
+            if all(configured.get(slot) == module.name for slot in module.hardware.slots):
+                return f"slots already configured for it on {robot}, not sent", None
+            return None, None
+        listed = self._installed(robot, module.name)
+        size = None if images[0] is None else images[0].size
+        if listed is None:
+            return None, None
+        if size is None or listed == size:
+            said = "" if size is None else f" ({size} bytes, as the image)"
+            return f"already on {robot}{said}, not sent", None
+        replaced = f"in place of the {listed}-byte {module.name} on {robot} (the image has {size})"
+        return None, replaced
 
     def _images(self, module: Module) -> Sequence[ModuleImage | None]:
         """What a migration of `module` sends: its image, or a hardware module's bitstreams (a
@@ -427,12 +463,14 @@ class ApplierBase(ABC):
         """Undo the wire into `sink` on one robot (a lost one's only forgotten)."""
 
     @abstractmethod
-    def _stop(self, robot: str, instance: str) -> None:
-        """Stop PBO `instance` (its bridges are down already; a lost robot's only forgotten)."""
+    def _stop(self, robot: str, instance: str) -> str | None:
+        """Stop PBO `instance` from whatever state it is in, ERROR included (its bridges are
+        down already; a lost robot's only forgotten); a note when it was not running."""
 
     @abstractmethod
-    def _installed(self, robot: str, module: str) -> bool:
-        """Whether `robot`'s node holds `module`'s image."""
+    def _installed(self, robot: str, module: str) -> int | None:
+        """The size in bytes of the image of `module` that `robot`'s node lists (a back end
+        that models no images: 0), or None when it holds none."""
 
     @abstractmethod
     def _send(

@@ -87,8 +87,9 @@ class MemoryApplier(ApplierBase):
         }
         self.applied.append(f"stop {instance}@{robot}")
 
-    def _installed(self, robot: str, module: str) -> bool:
-        return module in self.robot(robot).installed
+    def _installed(self, robot: str, module: str) -> int | None:
+        """0 for an installed module (a model has no images, so no sizes), else None."""
+        return 0 if module in self.robot(robot).installed else None
 
     def _images(self, module: Module) -> list[None]:
         """A model reads no image: one None per transfer the module makes."""

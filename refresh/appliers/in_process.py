@@ -34,6 +34,7 @@ from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
+from pbort.lifecycle import State
 from refresh.appliers.base import ApplierBase, Bridge, Inventory, ModuleLine, owner
 from refresh.database import Module
 from refresh.decider import PerformanceSource
@@ -154,19 +155,24 @@ class NodeApplier(ApplierBase):
         except KernelError as error:
             raise ApplyError(f"disconnect {sink} on {robot}: {error}") from error
 
-    def _stop(self, robot: str, instance: str) -> None:
-        """Switch off, kill and remove the PBO (a switched-off node's stopped with it)."""
+    def _stop(self, robot: str, instance: str) -> str | None:
+        """Switch off, kill and remove the PBO (a switched-off node's stopped with it): the
+        node's stop kills it from OFF or ERROR too, so a PBO that faulted is taken out as well
+        (noted for the step's line)."""
         if robot in self.off:
-            return
+            return None
         node = self.nodes[robot]
         try:
+            state = node.kernel.state(instance)
             node.stop(instance)
             node.kernel.remove(instance)
         except KernelError as error:
             raise ApplyError(f"stop {instance} on {robot}: {error}") from error
+        return None if state is State.ON else f"it was in {state.name}: killed and removed"
 
-    def _installed(self, robot: str, module: str) -> bool:
-        return module in self.nodes[robot].modules
+    def _installed(self, robot: str, module: str) -> int | None:
+        installed = self.nodes[robot].modules.get(module)
+        return None if installed is None else installed.image.size
 
     def _send(
         self, robot: str, module: Module, image: ModuleImage | None

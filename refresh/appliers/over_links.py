@@ -4,14 +4,18 @@ each.
 
 Each step becomes requests of the transfer protocol on the node's own link:
 
-- migrate: SEND the module's image, unless the node's module listing (LS) has it already;
+- migrate: SEND the module's image, unless the node's module listing (LS) has a module of that
+  name and the image's size (LS says name, address and size; nothing cheaper tells two images
+  of one size apart);
 - start: the PBO's rate from the database (RATE, while the PBO is off), each of the database's
   constants (SET), then START. A node names the PBO of an installed module after the module, and
   its natives after themselves (``firmware-sim listen --native NAME``), so an instance must carry
   its module's name; a node that lacks the PBO is refused by name before anything changes;
 - stop: STOP, after taking down the bridges to and from the PBO and the wires this applier made
   into and out of it (the node keeps an OFF PBO registered, but what fed or read it must not
-  outlive it: an input it fed reads zero, as on a kernel that removes the PBO);
+  outlive it: an input it fed reads zero, as on a kernel that removes the PBO); a PBO in ERROR
+  (one that faulted: the node takes STOP from ON only) is taken out with CLEAR instead, which
+  leaves it OFF as a STOP does;
 - connect on one robot: CONNECT ``OUT=IN``; disconnect: DISCONNECT of the wire made;
 - connect across robots: a bridge, numbered uniquely by this applier: IMPORT on the sink's node
   (listening on the sink node's host, port 0), then EXPORT on the source's node to the URL the
@@ -262,8 +266,11 @@ class LinkApplier(ApplierBase):
 
     # The hooks.
 
-    def _installed(self, robot: str, module: str) -> bool:
-        return module in self.nodes[robot].modules()
+    def _installed(self, robot: str, module: str) -> int | None:
+        """The size of `module` as the node's listing (LS) says, None when it lists none."""
+        node = self.nodes[robot]
+        listed = node.ask("LS", node.sender.modules)
+        return next((size for name, _address, size in listed if name == module), None)
 
     def _send(
         self, robot: str, module: Module, image: ModuleImage | None
@@ -342,16 +349,18 @@ class LinkApplier(ApplierBase):
         listed = ", ".join(row.name for row in rows) or "none"
         raise node.error(f"start {module.name}", f"expected {expected}, got PBOs {listed}")
 
-    def _stop(self, robot: str, instance: str) -> None:
-        """Undo the wires into and out of the PBO, then switch it off (a lost node's are only
-        forgotten)."""
+    def _stop(self, robot: str, instance: str) -> str | None:
+        """Undo the wires into and out of the PBO, then switch it off from whatever state it
+        is in: STOP from ON, CLEAR from ERROR (a PBO that faulted, the usual one a repair
+        switches away from: the node refuses to STOP it), nothing from OFF (`_stop`). A lost
+        node's are only forgotten."""
         node = self.nodes[robot]
         for (wired_robot, sink), source in list(self.wires.items()):
             if wired_robot == robot and instance in (owner(source), owner(sink)):
                 self._unwire(node, source, sink)
-        if node.lost is None:
-            node.ask(f"STOP {instance}", lambda: node.control.stop(instance))
+        note = None if node.lost is not None else _stop(node, instance)
         node.source.forget(instance)
+        return note
 
     def _connect(self, robot: str, source: str, sink: str) -> None:
         node = self.nodes[robot]
@@ -500,8 +509,29 @@ def _port(applier: LinkApplier, module: Module, name: str) -> PortSpec | None:
     return next((port_spec(port) for port in ports if port.name == name), None)
 
 
-def _stop(node: RemoteNode, pbo: str) -> None:
-    node.ask(f"STOP {pbo}", lambda: node.control.stop(pbo))
+def _stop(node: RemoteNode, pbo: str) -> str | None:
+    """Switch PBO `pbo` off on `node` whatever state it is in, since a node takes STOP only
+    from ON: a PBO that faulted (a cycle that raised, a module that failed) is in ERROR, out of
+    which only CLEAR takes it (to OFF, as a stop leaves it), and one already OFF is off. STOP
+    is asked first, the state only when it is refused: a stop costs one request as a rule, and
+    a PBO that faults between a PS and the STOP is taken out all the same. A refusal the state
+    does not explain (an unknown PBO, a node that wants authentication) is raised as it came.
+    Returns a note for the step's line when the PBO was not ON, else None."""
+    try:
+        node.ask(f"STOP {pbo}", lambda: node.control.stop(pbo))
+        return None
+    except NodeLinkError as error:
+        if link_failed(error.__cause__ or error):
+            raise
+        refused = error
+    rows = node.ask("PS", node.control.pbos)
+    state = next((row.state for row in rows if row.name == pbo), None)
+    if state == "ERROR":
+        node.ask(f"CLEAR {pbo}", lambda: node.control.clear(pbo))
+        return "it was in ERROR: cleared to OFF"
+    if state == "OFF":
+        return "it was OFF already"
+    raise refused
 
 
 def _number(value: float) -> str:

@@ -1,7 +1,8 @@
 """`manage`: ReFrESH managing a task over the links to its robots' nodes, to the end of the run.
 
 The order is the one a user can follow in its output: the native code is loaded, the nodes
-opened (each one checked reachable and in the time mode asked for) and the manager's host given
+opened (each one checked reachable, in the time mode asked for and offering every native the
+database places on its robot: `check_natives`) and the manager's host given
 every module's code to estimate with; then a `Session` deploys the task's initial configuration
 and, every decision period, lets the world run, judges, and repairs a fault, consulting the
 caller's plant model (`refresh.manager.plant`) as it goes. Each event is printed as it comes and
@@ -33,6 +34,7 @@ from pbort.code import ModuleCode
 from pbort.native import NativeModule
 from pbort.trace.live import LiveView
 from refresh.appliers.over_links import LinkApplier
+from refresh.database import ModuleDatabase
 from refresh.errors import ConfigurationError, DatabaseError
 from refresh.estimators.host import HostEstimators, host_codes
 from refresh.load import Loaded, load
@@ -123,6 +125,7 @@ def manage(
         for robot, node in applier.nodes.items():
             say(f"robot {robot}: {one_line(node.description, SHOWN)} at {node.url}")
         config.time.attach(applier)
+        check_natives(loaded.database, applier)
         applier.use_clock(config.time.clock)
         runtime = Runtime(
             loaded.database, task, applier, estimators, config.time.clock, config.settings
@@ -178,6 +181,30 @@ def check_nodes(robots: Sequence[str], nodes: Mapping[str, str], where: str) -> 
             f"expected a --node ROBOT=URL for every robot of {where} ({', '.join(robots)}), "
             f"got none for {', '.join(missing)}"
         )
+
+
+def check_natives(database: ModuleDatabase, applier: LinkApplier) -> None:
+    """Refuse nodes that lack a native module the database places on their robot, before
+    anything is deployed: a node lists every native it was started with among its PBOs (PS;
+    ``firmware-sim listen --native NAME``, off until started), and a repair that chose a
+    native its node lacks would fail halfway through, leaving the task half-switched. A
+    hardware module's E-PBO, native too, is the application's to give its nodes, and not
+    checked here."""
+    for robot, node in applier.nodes.items():
+        placed = [m.name for m in database.modules() if m.source.native and robot in m.robots]
+        if not placed:
+            continue
+        offered = [row.name for row in node.ask("PS", node.control.pbos)]
+        missing = [name for name in placed if name not in offered]
+        if missing:
+            options = " ".join(f"--native {name}" for name in missing)
+            raise ConfigurationError(
+                f"robot {robot!r}, node at {node.url}: expected the native modules the "
+                f"database places on {robot} ({', '.join(placed)}), got a node without "
+                f"{', '.join(missing)} (its PBOs: {', '.join(offered) or 'none'}): start it "
+                f"with firmware-sim listen {options} (and --natives MODULE for natives of "
+                "your own)"
+            )
 
 
 def load_plant(module: str) -> Plant:

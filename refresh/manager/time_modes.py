@@ -52,6 +52,19 @@ class TimeMode(Protocol):
         """The mode, as a user would say it."""
 
 
+TO_LOCK_STEP_NODE = "start it with firmware-sim listen --lock-step"
+"""What makes a real-time node fit a lock-step run."""
+TO_REAL_TIME_MANAGER = "run the manager with --real-time"
+"""What makes a manager fit real-time nodes (``python -m refresh manage`` and an application's
+manager alike take --real-time)."""
+TO_LOCK_STEP_MANAGER = (
+    "run the manager in lock-step time (python -m refresh manage --lock-step, its quantum "
+    "--quantum S; an application's manager without --real-time)"
+)
+"""What makes a manager fit lock-step nodes: --lock-step, a flag (its quantum is an option of
+its own), on ``python -m refresh manage``; an application's manager runs in lock-step unless
+told --real-time. Every option named here is a real one (tests/refresh/test_time_modes.py)."""
+
 LOCK_STEP, REAL_TIME, LOCK_STEP_MOVED = "lock-step", "real-time", "lock-step, moved on"
 """What `mode_of` finds a node in."""
 
@@ -97,8 +110,8 @@ class LockStep:
             mode, said = mode_of(node)
             if mode == REAL_TIME:
                 raise NodeLinkError(
-                    f"{said} (expected a node in lock-step: start it with firmware-sim listen "
-                    "--lock-step, or run the manager with --real-time)"
+                    f"{said} (expected a node in lock-step: {TO_LOCK_STEP_NODE}, or "
+                    f"{TO_REAL_TIME_MANAGER})"
                 )
             if mode == LOCK_STEP_MOVED:
                 raise NodeLinkError(
@@ -155,8 +168,8 @@ class RealTime:
                 raise NodeLinkError(
                     f"robot {node.robot!r}, node at {node.url}: expected a node on the "
                     "real-time clock, got one in lock-step (its clock moves only when a manager "
-                    "advances it): run the manager with --lock-step QUANTUM, or start the node "
-                    "without --lock-step"
+                    f"advances it): {TO_LOCK_STEP_MANAGER}, or start the node without "
+                    "--lock-step"
                 )
         self.start = time.monotonic()
 

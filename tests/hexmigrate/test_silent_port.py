@@ -52,7 +52,11 @@ def test_a_send_to_a_port_nobody_answers_fails_within_its_bound_and_says_why(cap
 def test_a_host_listening_where_it_meant_to_connect_is_told_the_url_to_give(capsys):
     listening = "tcp-listen://127.0.0.1:0"
     assert main(["ping", "--to", listening, "--timeout", "0.1", "--retries", "1"]) == 1
-    assert capsys.readouterr().err.rstrip("\n").endswith(
-        "nobody answered (tcp-listen:// waits for a node to connect to this host; a node that "
-        "listens itself is reached with socket://HOST:PORT)"
+    assert (
+        capsys.readouterr()
+        .err.rstrip("\n")
+        .endswith(
+            "nobody answered (tcp-listen:// waits for a node to connect to this host; a node that "
+            "listens itself is reached with socket://HOST:PORT)"
+        )
     )

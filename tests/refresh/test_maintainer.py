@@ -11,6 +11,7 @@ from firmware_sim.core.natives import Signal
 from firmware_sim.core.node import Node
 from hexmigrate.elf import image_from_elf
 from pbort import NativeModule, State
+from pbort.errors import MethodFailedError
 from refresh.appliers.in_memory import MemoryApplier
 from refresh.appliers.in_process import NodeApplier
 from refresh.configuration import Configuration, initial_configuration, parse_placement
@@ -163,6 +164,35 @@ def test_plans_migrate_real_images_to_emulated_nodes(loaded: Loaded):
     assert log.of_kind("applied")[-1].data["seconds"] == pytest.approx(
         sum(t.seconds for t in timings)
     )
+
+
+def test_a_plan_switches_away_from_a_pbo_that_faulted_into_error(loaded: Loaded):
+    """A module that failed is in ERROR; the stop step takes it out all the same (the node
+    kills it from ERROR as from OFF) and says so on its line."""
+    current = initial_configuration(loaded.task, loaded.database)
+    moved = Configuration(
+        loaded.task.schemas,
+        (
+            (parse_placement("signal@b", "a", loaded.database),),
+            (parse_placement("gain", "a", loaded.database),),
+        ),
+    )
+    log = EventLog()
+    with Node("a") as node_a, Node("b") as node_b:
+        applier = NodeApplier({"a": node_a, "b": node_b}, natives={"signal": NativeModule(Signal)})
+        maintainer = Maintainer(loaded.database, applier, log)
+        maintainer.apply(maintainer.plan(None, current))
+        node_a.kernel.off("signal")
+        node_a.kernel.configure("signal.shape", 7)  # which its on() refuses: it fails
+        with pytest.raises(MethodFailedError):
+            node_a.kernel.on("signal")
+        assert node_a.kernel.state("signal") is State.ERROR
+
+        maintainer.apply(maintainer.plan(current, moved))
+        assert node_a.kernel.names == ("gain", "bridge0_rx")
+        assert node_b.kernel.state("signal") is State.ON
+    stop = next(e for e in log.of_kind("step") if e.data["action"] == "stop")
+    assert stop.data["note"] == "it was in ERROR: killed and removed"
 
 
 def run_in_step(nodes: list[Node], seconds: float, step: float = 0.005) -> None:

@@ -18,7 +18,7 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
@@ -61,16 +61,18 @@ def manage(database: Path, *options: str) -> subprocess.CompletedProcess[str]:
 
 
 @contextmanager
-def nodes(*modes: str) -> Iterator[tuple[dict[str, NodeProcess], list[str]]]:
-    """Robot a's and b's nodes (each started with the option in `modes`, "" for none), on
-    HOSTS; the --node options that name them."""
+def nodes(
+    *modes: str, natives: Mapping[str, tuple[str, ...]] = NATIVES_OF
+) -> Iterator[tuple[dict[str, NodeProcess], list[str]]]:
+    """Robot a's and b's nodes (each started with the option in `modes`, "" for none, and its
+    `natives`), on HOSTS; the --node options that name them."""
     with ExitStack() as stack:
         started = {
             robot: stack.enter_context(
                 NodeProcess(
                     f"tcp-listen://{HOSTS[robot]}:0",
                     *NODE,
-                    *NATIVES_OF[robot],
+                    *natives[robot],
                     "--name",
                     robot,
                     *([mode] if mode else []),
@@ -203,6 +205,25 @@ def test_a_node_in_the_other_time_mode_is_refused_before_anything_is_deployed(da
         assert "expected a node on the real-time clock, got one in lock-step" in said
         assert "Traceback" not in said and said.count("\n") == 1
         # Nothing was deployed on either node.
+        for node in started.values():
+            assert not any(line.startswith("registered ") for line in node.lines())
+
+
+def test_a_node_without_a_native_the_database_places_on_its_robot_is_refused_at_start(database):
+    """Sensor_alt is placed on b: a node b started without it (no --native Sensor_alt) would
+    fail the repair that chooses it, halfway through; the manager refuses it before anything
+    is deployed, naming the robot, the native and the option."""
+    without = {**NATIVES_OF, "b": ()}
+    with nodes("--lock-step", "--lock-step", natives=without) as (started, options):
+        done = manage(database, *options, *RUN)
+        url = options[-1].partition("=")[2]
+        assert done.returncode == 1, done.stderr
+        assert done.stderr == (
+            f"error: robot 'b', node at {url}: expected the native modules the database places "
+            "on b (Sensor_alt), got a node without Sensor_alt (its PBOs: none): start it with "
+            "firmware-sim listen --native Sensor_alt (and --natives MODULE for natives of your "
+            "own)\n"
+        )
         for node in started.values():
             assert not any(line.startswith("registered ") for line in node.lines())
 

@@ -17,6 +17,7 @@ import pytest
 
 from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
+from hexmigrate.errors import TransferError
 from hexmigrate.links.free_port import free_port
 from hexmigrate.signing import keys
 from hexmigrate.signing.sign import sign_image
@@ -33,6 +34,7 @@ from refresh.configuration import Configuration, initial_configuration, parse_pl
 from refresh.decider import Decider
 from refresh.errors import NodeLinkError
 from refresh.events import EventLog
+from refresh.images import migration_image
 from refresh.load import Loaded, loads
 from refresh.maintainer import Maintainer
 
@@ -473,3 +475,99 @@ def test_a_trusting_node_takes_a_hardware_module_s_signed_bitstream_only_from_it
             applier.stop("a", "fabric")  # a hardware module that stops lets its slots go
             assert "mx_slot0" not in applier.node("a").modules()
             assert applier.configured == {"a": {}}
+
+
+def test_a_plan_switches_away_from_a_pbo_that_faulted_into_error(example_builds, tmp_path):
+    """The usual repair: the module that failed is in ERROR (its cycle raised, or here its on()
+    refused), and a node takes
+    STOP only from ON. The stop step takes it out with CLEAR instead (it is OFF after, as a
+    stopped PBO), says so on its line, and the plan goes on to the replacement on robot b."""
+    image_from_elf(example_builds["gain"].elf).write(tmp_path / "gain.hex")
+    image_from_elf(example_builds["moving_average"].elf).write(tmp_path / "moving_average.hex")
+    both = DATABASE.replace('robots = ["a"]\noutputs = { y = "q16" }', 'robots = ["a", "b"]\n'
+                            'outputs = { y = "q16" }', 1)  # fmt: skip
+    loaded = loads(both, "filtering.toml", tmp_path)
+    database = loaded.database
+    current = initial_configuration(loaded.task, database)
+    moved = Configuration(
+        loaded.task.schemas,
+        (
+            (parse_placement("signal@b", "a", database),),
+            (parse_placement("gain", "a", database),),
+        ),
+    )
+    with (
+        NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--name", "a") as node_a,
+        NodeProcess("tcp-listen://127.0.0.1:0", *NODE, "--name", "b") as node_b,
+        LinkApplier.open({"a": node_a.url, "b": node_b.url}) as applier,
+    ):
+        log = EventLog()
+        maintainer = Maintainer(database, applier, log)
+        maintainer.apply(maintainer.plan(None, current))
+        a = applier.node("a").control
+        # Signal fails: started again as a square wave of period 0 ms, which its on() refuses.
+        a.stop("signal")
+        a.set("signal.shape=2")
+        a.set("signal.period_ms=0")
+        with pytest.raises(TransferError, match="START refused"):
+            a.start("signal")
+        assert listed(a)["signal"][0] == "ERROR"
+
+        timings = maintainer.apply(maintainer.plan(current, moved))
+        assert [str(t.step) for t in timings] == [
+            "stop signal on a",
+            "start signal on b",
+            "connect signal.y@b -> gain.x@a",
+        ]
+        assert listed(a)["signal"][0] == "OFF"  # cleared, as a stop leaves it
+        assert listed(applier.node("b").control)["signal"] == ("ON", 100.0)
+        stop = next(e for e in log.of_kind("step") if e.data["action"] == "stop")
+        assert stop.message.startswith("stop signal on a: it was in ERROR: cleared to OFF (")
+        assert stop.data["note"] == "it was in ERROR: cleared to OFF"
+        wait_until(lambda: applier.read("a", "gain.y") > 0, "gain fed across the bridge")
+        # Back again: signal on a starts from OFF (the database's ramp), b's is stopped as usual.
+        maintainer.apply(maintainer.plan(moved, current))
+        assert listed(a)["signal"] == ("ON", 100.0)
+        assert "note" not in log.of_kind("step")[-3].data
+
+
+def test_a_module_the_node_lists_at_another_size_is_sent_again_and_a_skip_says_so(loaded, node_a):
+    """Nodes outlive managers: a module edited and rebuilt since a node got it is sent again in
+    place of the old one when its size differs from what the node lists (LS: name, address,
+    size); one of the same size is not sent, and the step's line says so instead of claiming a
+    migration."""
+    database = loaded.database
+    gain = database.module("gain")
+    rebuilt = migration_image(gain, {})  # the database's file, as a manager sends it
+    earlier = dataclasses.replace(rebuilt, data=rebuilt.data + bytes(64))  # an older build
+    sizes = {"before": earlier.size, "now": rebuilt.size}
+    with LinkApplier.open({"a": node_a.url}, images={"gain": earlier}) as first:
+        assert first.migrate("a", gain) is None  # the node had none: sent, nothing to note
+
+    def listed_size(applier: LinkApplier) -> int:
+        return next(size for name, _, size in applier.node("a").sender.modules() if name == "gain")
+
+    current = initial_configuration(loaded.task, database)
+    with LinkApplier.open({"a": node_a.url}) as second:
+        log = EventLog()
+        maintainer = Maintainer(database, second, log)
+        maintainer.apply(maintainer.plan(None, current))
+        assert listed_size(second) == sizes["now"]
+        assert listed(second.node("a").control)["gain"] == ("ON", 50.0)  # the rebuild, started
+        (migrate,) = [e for e in log.of_kind("step") if e.data["action"] == "migrate"]
+        replaced = f"in place of the {sizes['before']}-byte gain on a (the image has "
+        assert migrate.message.startswith(f"migrate gain to a: {replaced}{sizes['now']})")
+        assert [m.module for m in second.migrations] == ["gain"]
+
+    with LinkApplier.open({"a": node_a.url}) as third:
+        third.node("a").control.reset()  # as a manager does before it deploys
+        log = EventLog()
+        maintainer = Maintainer(database, third, log)
+        maintainer.apply(maintainer.plan(None, current))
+        (migrate,) = [e for e in log.of_kind("step") if e.data["action"] == "migrate"]
+        kept = f"already on a ({sizes['now']} bytes, as the image), not sent"
+        assert migrate.message.startswith(f"migrate gain to a: {kept} (")
+        assert migrate.data["note"] == kept
+        assert third.migrations == []
+    registered = [line for line in node_a.lines() if line.startswith("registered gain")]
+    assert len(registered) == 2  # the older build, then the rebuild; not a third time
