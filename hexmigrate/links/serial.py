@@ -18,6 +18,7 @@ another process opens as its URL, its near end a link in this process.
 
 from __future__ import annotations
 
+import errno
 import os
 import select
 import time
@@ -114,7 +115,19 @@ def _open_pyserial(url: str, target: str, settings: dict[str, int]) -> SerialBas
         bound = None if target.startswith("loop://") else PTY_WRITE_TIMEOUT
         return serial.serial_for_url(target, timeout=POLL_INTERVAL, write_timeout=bound, **settings)
     except (OSError, ValueError) as error:
-        raise LinkError(f"cannot open {url}: {error}") from error
+        raise LinkError(f"cannot open {url}: {_cause(error, target)}") from error
+
+
+def _cause(error: OSError | ValueError, target: str) -> str:
+    """Why a port did not open, said once: pyserial's own text repeats the errno and the path
+    (``[Errno 2] could not open port X: [Errno 2] No such file or directory: 'X'``). A pty that
+    is not there any more is the usual case: its node stopped, and a new one has a new path."""
+    if not isinstance(error, OSError) or not error.errno:
+        return str(error)
+    cause = os.strerror(error.errno)
+    if error.errno == errno.ENOENT and target.startswith("/dev/pts/"):
+        cause += " (a node's pty goes when its node stops: a new node prints a new path)"
+    return cause
 
 
 class PtyLink(StreamLink):

@@ -167,6 +167,15 @@ def test_a_transport_that_cannot_be_opened_names_the_url(url: str, cause: str) -
         open_link(url)
 
 
+def test_a_pty_that_is_gone_is_said_once_with_why_it_may_be():
+    with pytest.raises(LinkError) as caught:
+        open_link("/dev/pts/99999")
+    assert str(caught.value) == (
+        "cannot open /dev/pts/99999: No such file or directory (a node's pty goes when its node "
+        "stops: a new node prints a new path)"
+    )
+
+
 def test_a_missing_back_end_is_a_link_error_that_names_the_extra_to_install(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
