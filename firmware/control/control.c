@@ -16,6 +16,9 @@
  */
 #include "control.h"
 
+#include <stdarg.h>
+
+#include "../kernel/abi.h"
 #include "../kernel/kernel.h"
 #include "../lib/crc.h"
 #include "../main/runtime.h"
@@ -27,9 +30,12 @@
 #include "watch.h"
 
 #define MAX_REFUSAL 200   /* receiver.py's MAX_REFUSAL */
-#define NAME_MAX 40       /* a name copied from a request; any PBO's is 16 at most */
 #define RATE_MIN_MHZ 10u  /* 0.01 Hz: node.py's RATE_MIN */
 #define RATE_MAX_MHZ 100000000u
+
+/* refuse's format for a reason written already. An array, not a literal: the linker merges a
+ * literal "%s" with the kernel's, which benchmarks/firmware.py's parts would count twice. */
+static const char REASON[] = "%s";
 
 /* One request being answered: its line, its tid, where the answer goes. */
 struct request {
@@ -38,25 +44,27 @@ struct request {
     struct text *reply;
 };
 
-/* Field `field`'s word as a NUL-terminated name (a longer word is cut: it names no PBO). */
-static void field_name(const struct request *r, int field, char *name)
+/* Field `field`'s word as a name (ports_name: cut where no refusal shows it any more). */
+static const char *field_name(const struct request *r, int field)
 {
-    const char *text = r->message->text[field];
-    size_t length = r->message->text_length[field], kept = length < NAME_MAX ? length : NAME_MAX;
-    while (kept < length && kept > 0 && ((uint8_t)text[kept] & 0xC0u) == 0x80u) {
-        kept--; /* a cut goes between characters: binary mode carries UTF-8 back as it came */
-    }
-    text_copy(name, text, kept + 1);
+    return ports_name(0, r->message->text[field], r->message->text_length[field]);
 }
 
-/* Apart from the handlers (never inlined), so that its text is on the stack only while it
- * writes, not while the kernel runs a module's method for the request. */
-__attribute__((noinline)) static bool refuse(const struct request *r, const char *reason)
+/* The refusal, its reason written by `format` (text_format's conversions): written here, so
+ * that no handler needs a buffer of a refusal's length for it. Apart from the handlers (never
+ * inlined), so that its text is on the stack only while it writes, not while the kernel runs a
+ * module's method for the request. */
+__attribute__((noinline)) static bool refuse(const struct request *r, const char *format, ...)
 {
     char text[MAX_REFUSAL + 56];
     struct text why;
+    va_list arguments;
+
     text_start(&why, text, sizeof text);
-    text_format(&why, "%s refused: %s", verb_word(r->message->verb), reason);
+    text_format(&why, "%s refused: ", verb_word(r->message->verb));
+    va_start(arguments, format);
+    text_vformat(&why, format, arguments);
+    va_end(arguments);
     if (why.length > MAX_REFUSAL) { /* the reason's start, and "..." to say it goes on */
         text_copy(text + MAX_REFUSAL - 3, "...", 4);
     }
@@ -73,17 +81,17 @@ static bool acknowledge(const struct request *r, const char *text)
 /* The kernel's answer: `said` ("started gain") when it did it, else its reason. */
 static bool kernel_answer(const struct request *r, int result, const char *said)
 {
-    return result == KERNEL_OK ? acknowledge(r, said) : refuse(r, kernel_message());
+    return result == KERNEL_OK ? acknowledge(r, said) : refuse(r, REASON, kernel_message());
 }
 
 /* START, STOP, CLEAR: the PBO named in field 1, and what the ACK says. */
 static bool lifecycle(const struct request *r)
 {
-    char name[NAME_MAX + 1], said[NAME_MAX + 32];
+    const char *name = field_name(r, 1);
+    char said[ABI_NAME_LEN + 24]; /* the ACK: said of a PBO there is, whose name is 16 at most */
     struct text text;
     int result;
 
-    field_name(r, 1, name);
     text_start(&text, said, sizeof said);
     if (r->message->verb == VERB_START) {
         result = kernel_start(name);
@@ -112,7 +120,7 @@ static bool list_pbos(const struct request *r)
 static bool port_row(const char *port, uint8_t *direction, uint16_t *size, uint8_t *kind)
 {
     struct kernel_pbo pbo;
-    char full[2 * NAME_MAX];
+    char full[PORT_NAME_MAX + 1];
     struct text name;
 
     for (uint32_t index = 0; kernel_pbo_at(index, &pbo); index++) {
@@ -154,17 +162,17 @@ static bool refuse_value(const struct request *r, const struct setting *setting)
 
     if (!port_row(setting->port, &direction, &size, &kind)) {
         (void)kernel_read(setting->port, &ignored); /* says "unknown PBO" or "unknown port" */
-        return refuse(r, kernel_message());
+        return refuse(r, REASON, kernel_message());
     }
     text_start(&why, text, sizeof text);
     text_add(&why, setting->port);
     if (direction != 2) {
         text_format(&why, " is an %s port, not a constant", DIRECTIONS[direction & 3u]);
-        return refuse(r, text);
+        return refuse(r, REASON, text);
     }
     if (kind != 0) {
         (void)kernel_set_constant(setting->port, 0); /* refuses a vector by its kind */
-        return refuse(r, kernel_message());
+        return refuse(r, REASON, kernel_message());
     }
     text_add(&why, size == 1   ? " is uint8 (a whole number from 0 to 255), got "
                      : size == 2 ? " is int16 (a whole number from -32768 to 32767), got "
@@ -175,7 +183,7 @@ static bool refuse_value(const struct request *r, const struct setting *setting)
         text_add(&why, ": give a fixed-point constant as its raw integer (0x8000 is 0.5 in "
                          "Q16.16)");
     }
-    return refuse(r, text);
+    return refuse(r, REASON, text);
 }
 
 static bool set_constant(const struct request *r)
@@ -186,13 +194,13 @@ static bool set_constant(const struct request *r)
 
     text_start(&why, reason, sizeof reason);
     if (!setting_parse(r->message->text[1], r->message->text_length[1], &setting, &why)) {
-        return refuse(r, reason);
+        return refuse(r, REASON, reason);
     }
     if (!setting.whole || setting.too_large) {
         return refuse_value(r, &setting);
     }
     if (kernel_set_constant(setting.port, setting.value) != KERNEL_OK) {
-        return refuse(r, kernel_message());
+        return refuse(r, REASON, kernel_message());
     }
     text_start(&text, said, sizeof said);
     text_format(&text, "set %s=", setting.port);
@@ -203,16 +211,14 @@ static bool set_constant(const struct request *r)
 static bool set_rate(const struct request *r)
 {
     const uint32_t millihertz = (uint32_t)r->message->number[1];
-    char name[NAME_MAX + 1], said[NAME_MAX + 80];
+    const char *name = field_name(r, 2);
+    char said[ABI_NAME_LEN + 32]; /* the ACK of a PBO there is, or the refused rate's digits */
     struct text text;
 
-    field_name(r, 2, name);
     text_start(&text, said, sizeof said);
     if (millihertz < RATE_MIN_MHZ || millihertz > RATE_MAX_MHZ) {
-        text_format(&text, "PBO %r: expected a rate of 0.01 to 100000 Hz, got ", name,
-                    (uint32_t)(text_length(name, NAME_MAX)));
         control_add_milli(&text, millihertz); /* every digit, as Python's repr of the rate */
-        return refuse(r, said);
+        return refuse(r, "PBO %q: expected a rate of 0.01 to 100000 Hz, got %s", name, said);
     }
     text_format(&text, "rate %s=", name);
     control_add_hertz(&text, millihertz);
@@ -225,7 +231,8 @@ static bool wire(const struct request *r)
 {
     const char *text = r->message->text[1];
     const size_t length = r->message->text_length[1];
-    char source[NAME_MAX + 1], sink[NAME_MAX + 1], said[2 * NAME_MAX + 20];
+    const char *source, *sink;
+    char said[2 * PORT_NAME_MAX + 16]; /* the ACK: "disconnected OUT=IN" of two ports there are */
     struct text why;
     size_t equals = 0;
     bool connect = r->message->verb == VERB_CONNECT;
@@ -233,16 +240,14 @@ static bool wire(const struct request *r)
     while (equals < length && text[equals] != '=') {
         equals++;
     }
-    text_start(&why, said, sizeof said);
     if (equals == length || !ports_is_port(text, equals) ||
-        !ports_is_port(text + equals + 1, length - equals - 1) || equals > NAME_MAX ||
-        length - equals - 1 > NAME_MAX) {
-        text_format(&why, "expected OUT_PBO.port=IN_PBO.port, got %r", text,
-                    (uint32_t)(length > 60 ? 60 : length));
-        return refuse(r, said);
+        !ports_is_port(text + equals + 1, length - equals - 1)) {
+        return refuse(r, "expected OUT_PBO.port=IN_PBO.port, got %r", text,
+                      (uint32_t)(length > 60 ? 60 : length));
     }
-    text_copy(source, text, equals + 1);
-    text_copy(sink, text + equals + 1, length - equals);
+    source = ports_name(0, text, equals);
+    sink = ports_name(1, text + equals + 1, length - equals - 1);
+    text_start(&why, said, sizeof said);
     text_add(&why, connect ? "connected " : "disconnected ");
     text_add_bytes(&why, text, length);
     return kernel_answer(r, connect ? kernel_connect(source, sink)
@@ -258,7 +263,7 @@ static bool read_ports(const struct request *r)
     text_start(&why, reason, sizeof reason);
     if (!ports_parse(r->message->text[1], r->message->text_length[1], &ports, &why) ||
         !ports_readable(&ports, &why)) {
-        return refuse(r, reason);
+        return refuse(r, REASON, reason);
     }
     reply_text_start(r->reply, VERB_VALUES, &r->tid, &values);
     ports_add_values(&ports, &values);
@@ -268,13 +273,12 @@ static bool read_ports(const struct request *r)
 
 static bool log_lines(const struct request *r)
 {
-    char name[NAME_MAX + 1];
+    const char *name = field_name(r, 2);
     struct text lines;
     uint32_t numbers[2] = {r->tid, 0};
 
-    field_name(r, 2, name);
     if (!control_log_latest(name, &numbers[1])) {
-        return refuse(r, kernel_message());
+        return refuse(r, REASON, kernel_message());
     }
     reply_text_start(r->reply, VERB_LOGLINES, numbers, &lines);
     control_log_lines(&lines, name, (uint32_t)r->message->number[1]);
@@ -284,14 +288,13 @@ static bool log_lines(const struct request *r)
 
 static bool describe(const struct request *r)
 {
-    char name[NAME_MAX + 1];
+    const char *name = field_name(r, 1);
     struct text description;
 
-    field_name(r, 1, name);
     reply_text_start(r->reply, VERB_DESCRIPTION, &r->tid, &description);
     if (!control_description(&description, name)) {
         text_start(r->reply, r->reply->buffer, r->reply->capacity); /* the refusal instead */
-        return refuse(r, kernel_message());
+        return refuse(r, REASON, kernel_message());
     }
     reply_text_end(r->reply, &description);
     return true;
@@ -299,11 +302,11 @@ static bool describe(const struct request *r)
 
 static bool hold(const struct request *r)
 {
-    char name[NAME_MAX + 1], said[MAX_REFUSAL];
+    const char *name = field_name(r, 1);
+    char said[MAX_REFUSAL];
     struct text text;
-    field_name(r, 1, name);
     text_start(&text, said, sizeof said);
-    return runtime_hold(name, &text) ? acknowledge(r, said) : refuse(r, said);
+    return runtime_hold(name, &text) ? acknowledge(r, said) : refuse(r, REASON, said);
 }
 
 static bool reset(const struct request *r)
@@ -326,7 +329,7 @@ static bool watch(const struct request *r)
     char reason[MAX_REFUSAL + 56];
     struct text why;
     text_start(&why, reason, sizeof reason);
-    return watch_request(r->message, r->reply, &why) || refuse(r, reason);
+    return watch_request(r->message, r->reply, &why) || refuse(r, REASON, reason);
 }
 
 static bool changes_the_node(enum verb verb)

@@ -1,8 +1,57 @@
-/* ports.c - the port names of READ and WATCH (ports.h). */
+/* ports.c - the port names of READ and WATCH, and every request's names (ports.h). */
 #include "ports.h"
 
 #include "../kernel/kernel.h"
 #include "../protocol/messages.h"
+
+/* Static rather than on the stack of the handlers: START holds its name while the kernel runs
+ * a module's method and its traps, on a path that has no 400 bytes to spare. */
+static char names[2][PORTS_NAME_KEPT + 1];
+
+static bool holds(const char *text, size_t length, char c)
+{
+    for (size_t i = 0; i < length; i++) {
+        if (text[i] == c) {
+            return true;
+        }
+    }
+    return false;
+}
+
+const char *ports_name(int slot, const char *text, size_t length)
+{
+    static const char QUOTES[2] = {'\'', '"'};
+    char *name = names[slot];
+    size_t kept = length, dot = 0, used;
+
+    while (dot < length && text[dot] != '.') {
+        dot++;
+    }
+    if (length > PORTS_NAME_KEPT) {
+        kept = PORTS_NAME_KEPT - 3; /* room for the form the cut drops (below) */
+        while (kept > 0 && ((uint8_t)text[kept] & 0xC0u) == 0x80u) {
+            kept--; /* a cut goes between characters */
+        }
+    }
+    bytes_copy(name, text, (uint32_t)kept);
+    used = kept;
+    /* What the cut drops of the name's form, kept past what a refusal shows: the quotes of the
+     * PBO part, then its dot, then those of the whole name (Python's repr picks its quotes by
+     * the quotes a string holds, and the kernel quotes either), so at most 3 bytes. */
+    for (int part = 0; part < 2 && kept < length; part++) {
+        for (int q = 0; q < 2; q++) {
+            if (!holds(name, used, QUOTES[q]) &&
+                holds(text, part == 0 ? dot : length, QUOTES[q])) {
+                name[used++] = QUOTES[q];
+            }
+        }
+        if (part == 0 && dot >= kept && dot < length) {
+            name[used++] = '.';
+        }
+    }
+    name[used] = '\0';
+    return name;
+}
 
 bool ports_is_port(const char *text, size_t length)
 {
@@ -68,26 +117,21 @@ bool ports_parse(const char *text, size_t length, struct port_list *ports, struc
     return true;
 }
 
-/* The next name as a NUL-terminated string; one longer than any port's is cut and marked so
- * that it names no port. */
-static bool next_name(const struct port_list *ports, size_t *at, char name[PORT_NAME_MAX + 1])
+/* The next name, in the request's name buffer 0. */
+static bool next_name(const struct port_list *ports, size_t *at, const char **name)
 {
     size_t start, end;
     if (!next_word(ports->text, ports->length, at, &start, &end)) {
         return false;
     }
-    size_t length = end - start;
-    text_copy(name, ports->text + start, (length < PORT_NAME_MAX ? length : PORT_NAME_MAX) + 1);
-    if (length > PORT_NAME_MAX) {
-        name[PORT_NAME_MAX - 1] = '?';
-    }
+    *name = ports_name(0, ports->text + start, end - start);
     return true;
 }
 
 bool ports_readable(const struct port_list *ports, struct text *why)
 {
-    char name[PORT_NAME_MAX + 1];
-    for (size_t at = 0; next_name(ports, &at, name);) {
+    const char *name;
+    for (size_t at = 0; next_name(ports, &at, &name);) {
         int32_t value;
         if (kernel_read(name, &value) != KERNEL_OK) {
             text_add(why, kernel_message());
@@ -99,8 +143,8 @@ bool ports_readable(const struct port_list *ports, struct text *why)
 
 void ports_add_values(const struct port_list *ports, struct text *text)
 {
-    char name[PORT_NAME_MAX + 1];
-    for (size_t at = 0; next_name(ports, &at, name);) {
+    const char *name;
+    for (size_t at = 0; next_name(ports, &at, &name);) {
         int32_t value;
         if (kernel_read(name, &value) == KERNEL_OK) {
             if (text->length) {
@@ -119,9 +163,9 @@ void ports_add_values(const struct port_list *ports, struct text *text)
 void ports_keep(struct port_list *ports, char *kept)
 {
     struct text names;
-    char name[PORT_NAME_MAX + 1];
+    const char *name;
     text_start(&names, kept, PORTS_TEXT_MAX);
-    for (size_t at = 0; next_name(ports, &at, name);) {
+    for (size_t at = 0; next_name(ports, &at, &name);) {
         if (names.length) {
             text_add_char(&names, ' ');
         }

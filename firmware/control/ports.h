@@ -1,6 +1,7 @@
 /*
  * ports.h - the PBO.port names of a READ or a WATCH (hexmigrate/transfer/control.py's
- * `ports`), and their values as `NAME=VALUE` words.
+ * `ports`), and their values as `NAME=VALUE` words; the names of every request, kept as far as
+ * a refusal shows them.
  */
 #ifndef NODE_PORTS_H
 #define NODE_PORTS_H
@@ -12,8 +13,11 @@
 #include "../kernel/text.h"
 
 #define PORTS_MAX 32      /* control.py's MAX_PORTS */
-#define PORT_NAME_MAX 29  /* a PBO's 16 characters, the dot, a port's 12 */
+#define PORT_NAME_MAX 29  /* a port's full name: a PBO's 16 characters, the dot, a port's 12 */
 #define PORTS_TEXT_MAX (PORTS_MAX * (PORT_NAME_MAX + 1)) /* ports_keep's names, a blank apart */
+/* The bytes of a request's name kept: a refusal is cut at 200 characters (receiver.py's
+ * MAX_REFUSAL), and before a name it quotes come its verb and words, so no more of it shows. */
+#define PORTS_NAME_KEPT 200
 
 /* The names as the request gave them, blank-separated words that ports_parse checked: read
  * where they are, so a READ copies none (a copy of 32 names would take 1 KiB of RAM). */
@@ -21,6 +25,15 @@ struct port_list {
     const char *text;
     size_t length;
 };
+
+/* The request's name `text`, `length` bytes, as a string in the request's name buffer `slot`
+ * (0 or 1: CONNECT's source and sink are the most names alive at once; a later call with the
+ * same slot replaces it). A longer name is cut at PORTS_NAME_KEPT bytes, between characters
+ * (binary mode carries UTF-8 back as it came): it names no PBO or port then, and a refusal
+ * shows no more of it. What the cut would drop of its form stays: its first dot, so that the
+ * kernel still reads PBO.port and refuses the PBO as the Python node does, and its quotes,
+ * by which a refusal quotes it. */
+const char *ports_name(int slot, const char *text, size_t length);
 
 /* True when `text` is `PBO.port` (one dot, a name on each side, no `=`). */
 bool ports_is_port(const char *text, size_t length);

@@ -2,6 +2,7 @@
 #include "setting.h"
 
 #include "../protocol/number_word.h"
+#include "ports.h"
 
 /* A decimal float as Python's float() reads it: [sign] digits [. digits] [e [sign] digits],
  * one digit at least before the exponent; whether it is whole, and its value when it is. */
@@ -158,12 +159,11 @@ bool setting_parse(const char *text, size_t length, struct setting *setting, str
         dot = dots == 1 && text[i] == '.' ? i : dot;
     }
     /* PBO.port=VALUE: one dot, a PBO and a port on either side of it */
-    if (equals == length || dots != 1 || dot == 0 || dot + 1 == equals ||
-        equals > SETTING_PORT_MAX) {
+    if (equals == length || dots != 1 || dot == 0 || dot + 1 == equals) {
         text_format(why, "expected PBO.port=VALUE, got %r", text, (uint32_t)length);
         return false;
     }
-    text_copy(setting->port, text, equals + 1);
+    setting->port = ports_name(0, text, equals);
     setting->text = text + equals + 1;
     setting->text_length = length - equals - 1;
     return parse_value(setting->text, setting->text_length, setting, why);

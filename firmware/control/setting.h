@@ -14,10 +14,8 @@
 
 #include "../kernel/text.h"
 
-#define SETTING_PORT_MAX 40 /* "PBO.port": 16 + 1 + 12 characters, and room to refuse more */
-
 struct setting {
-    char port[SETTING_PORT_MAX + 1];
+    const char *port;   /* PBO.port, in the request's name buffer 0 (ports.h's ports_name) */
     bool whole;         /* an integer value (int, or a float with no fraction) */
     bool too_large;     /* whole, but beyond 64 bits: no port holds it */
     int64_t value;      /* when whole and not too large */

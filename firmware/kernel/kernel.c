@@ -140,24 +140,28 @@ static const struct pbo *next_by_name(const char *after)
     return best;
 }
 
-/* "unknown PBO 'x'; registered: 'a', 'b'" (names sorted, "none" when there are none). */
-struct pbo *kernel_find(const char *name)
+/* "unknown PBO 'x'; registered: 'a', 'b'" (names sorted, "none" when there are none), of the
+ * name's first `length` bytes. */
+static void refuse_unknown(const char *name, uint32_t length)
 {
-    struct pbo *pbo = kernel_named(name);
-    struct text why;
+    struct text why = kernel_message_text();
     const char *after = "";
 
-    if (pbo != 0) {
-        return pbo;
-    }
-    why = kernel_message_text();
-    text_format(&why, "unknown PBO %q; registered: ", name);
+    text_format(&why, "unknown PBO %r; registered: ", name, length);
     for (const struct pbo *next = next_by_name(after); next != 0; next = next_by_name(after)) {
         text_format(&why, after[0] != '\0' ? ", %q" : "%q", next->module.name);
         after = next->module.name;
     }
     text_add(&why, after[0] == '\0' ? "none" : "");
-    return 0;
+}
+
+struct pbo *kernel_find(const char *name)
+{
+    struct pbo *pbo = kernel_named(name);
+    if (pbo == 0) {
+        refuse_unknown(name, text_length(name, MESSAGE_TEXT));
+    }
+    return pbo;
 }
 
 /* The PBO and port index of "pbo.port", or NULL with the Python kernel's UnknownPortError. */
@@ -168,8 +172,12 @@ struct pbo *kernel_find_port(const char *name, uint32_t *port)
     struct pbo *pbo;
     struct text why;
 
-    if (name[dot] != '.' || dot >= sizeof owner) {
+    if (name[dot] != '.') {
         kernel_refuse(0, "unknown port %q; expected one of '<pbo>.<port>'", name);
+        return 0;
+    }
+    if (dot >= sizeof owner) { /* longer than any PBO's name: unknown, as the Python kernel says */
+        refuse_unknown(name, dot);
         return 0;
     }
     text_copy(owner, name, dot + 1u);

@@ -66,7 +66,8 @@ bool kernel_name_taken(const char *name, bool replacing);
 int kernel_refuse(int result, const char *format, ...);
 /* The admitted PBO `name`, or NULL with "unknown PBO ..." said. */
 struct pbo *kernel_find(const char *name);
-/* The PBO and port index of "pbo.port", or NULL with "unknown port ..." said. */
+/* The PBO and port index of "pbo.port", or NULL with "unknown port ..." said ("unknown PBO ..."
+ * when the part before the dot names none, however long). */
 struct pbo *kernel_find_port(const char *name, uint32_t *port);
 
 /* The PBO in slot `slot` (admitted or pending). */

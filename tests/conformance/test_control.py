@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import re
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -22,17 +23,26 @@ from hexmigrate.links.base import is_text
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import (
     Ack,
+    ClearPbo,
+    ConnectPorts,
+    DescribePbo,
+    DisconnectPorts,
     HoldStart,
     Message,
     Nak,
     PerformanceReport,
     PortValues,
+    ReadLog,
     ReadPorts,
+    SetConstant,
+    SetRate,
     StartPbo,
+    StopPbo,
     Watch,
     decode,
     encode,
 )
+from hexmigrate.transfer.receiver import MAX_REFUSAL
 from hexmigrate.transfer.sender import Sender
 from module_sdk.build import build_module
 from tests.conformance.nodes import MODE, MODES
@@ -311,6 +321,105 @@ def test_requests_a_node_cannot_do_are_refused_in_the_same_words(boot, example_h
     assert refused(url, "get", "gain.z") == (
         prefix + "READ refused: unknown port 'gain.z'; expected one of 'x', 'y', 'k'"
     )
+
+
+def spelled(length: int, start: int = 0) -> str:
+    """A name of `length` letters, each told from its neighbours (a cut in the wrong place
+    shows)."""
+    return "".join(chr(ord("a") + (start + i) % 26) for i in range(length))
+
+
+def cut(refusal: str) -> str:
+    """A refusal as a node sends it: cut at MAX_REFUSAL characters, "..." saying it goes on."""
+    return refusal if len(refusal) <= MAX_REFUSAL else refusal[: MAX_REFUSAL - 3] + "..."
+
+
+@pytest.mark.timeout(120)
+def test_names_longer_than_any_are_refused_in_the_same_words(boot, example_hex):
+    """A name longer than any PBO's or port's, in the PBO part, the port part, either side of a
+    wire, is refused as the unknown name it is, quoted as far as the refusal shows it: the words
+    of the Python node, cut at MAX_REFUSAL characters with "..." as there."""
+    url = boot().url
+    send(url, example_hex["gain"])
+    prefix = "error: the node refused: "
+    n = spelled(60)  # the names the user found refused in other words
+    assert refused(url, "get", f"{n}.y") == (
+        prefix + f"READ refused: unknown PBO {n!r}; registered: 'gain'"
+    )
+    assert refused(url, "set", f"gain.{n}=1") == (
+        prefix + f"SET refused: unknown port 'gain.{n}'; expected one of 'x', 'y', 'k'"
+    )
+    assert refused(url, "connect", f"gain.y=gain.{n}") == (
+        prefix + f"CONNECT refused: unknown port 'gain.{n}'; expected one of 'x', 'y', 'k'"
+    )
+    longest = spelled(120)  # the longest name hexmigrate's command line takes
+    assert refused(url, "start", longest) == (
+        prefix + f"START refused: unknown PBO {longest!r}; registered: 'gain'"
+    )
+    registered = "; registered: 'gain'"
+    ports = "; expected one of 'x', 'y', 'k'"
+    cases: list[tuple[Message, str]] = []
+    for length in (17, 18, 29, 30, 41, 60, 170, 185, 186, 199, 200, 201, 300):
+        name, other = spelled(length), spelled(length, 7)
+        late = f"{name[:-3]}'{name[-3:]}"  # repr quotes it in "": the cut must not drop that
+        both, apart = f"{name}'\"", f"'{name}\""  # repr quotes them in '', escaping \'
+        cases += [
+            (StartPbo(1, late), f"START refused: unknown PBO {late!r}{registered}"),
+            (StartPbo(1, apart), f"START refused: unknown PBO {apart!r}{registered}"),
+            (ReadPorts(1, f"{late}.y"), f"READ refused: unknown PBO {late!r}{registered}"),
+            (ReadPorts(1, f"{name}.{late}"), f"READ refused: unknown PBO {name!r}{registered}"),
+            (ReadPorts(1, f"gain.{late}"), f"READ refused: unknown port {f'gain.{late}'!r}{ports}"),
+            (ReadPorts(1, f"{both}.{late}"), f"READ refused: unknown PBO {both!r}{registered}"),
+            (ReadPorts(1, f"gain.{both}"), f"READ refused: unknown port {f'gain.{both}'!r}{ports}"),
+        ]
+        cases += [
+            (ReadPorts(1, f"{name}.y"), f"READ refused: unknown PBO {name!r}{registered}"),
+            (ReadPorts(1, f"gain.{name}"), f"READ refused: unknown port 'gain.{name}'{ports}"),
+            (ReadPorts(1, f"gain.y {name}.{other}"),
+             f"READ refused: unknown PBO {name!r}{registered}"),
+            (Watch(1, 50, f"gain.y {name}.y"), f"WATCH refused: unknown PBO {name!r}{registered}"),
+            (Watch(1, 50, f"gain.{name} gain.y"),
+             f"WATCH refused: unknown port 'gain.{name}'{ports}"),
+            (SetConstant(1, f"gain.{name}=1"), f"SET refused: unknown port 'gain.{name}'{ports}"),
+            (SetConstant(1, f"gain.{name}=1.5"),
+             f"SET refused: unknown port 'gain.{name}'{ports}"),
+            (SetConstant(1, f"{name}.{other}=1"), f"SET refused: unknown PBO {name!r}{registered}"),
+            (SetConstant(1, f"{name}.{other}.k=1"),
+             f"SET refused: expected PBO.port=VALUE, got '{name}.{other}.k=1'"),
+            (ConnectPorts(1, f"gain.y=gain.{name}"),
+             f"CONNECT refused: unknown port 'gain.{name}'{ports}"),
+            (ConnectPorts(1, f"gain.{name}=gain.x"),
+             f"CONNECT refused: unknown port 'gain.{name}'{ports}"),
+            (ConnectPorts(1, f"{name}.y=gain.x"),
+             f"CONNECT refused: unknown PBO {name!r}{registered}"),
+            (ConnectPorts(1, f"gain.y={other}.{name}"),
+             f"CONNECT refused: unknown PBO {other!r}{registered}"),
+            (ConnectPorts(1, f"{name}.{other}={other}.x"),
+             f"CONNECT refused: unknown PBO {name!r}{registered}"),
+            (ConnectPorts(1, f"{name}.{other}"),
+             f"CONNECT refused: expected OUT_PBO.port=IN_PBO.port, got "
+             f"{f'{name}.{other}'[:60]!r}"),
+            (DisconnectPorts(1, f"{name}.y=gain.{other}"),
+             f"DISCONNECT refused: input 'gain.{other}' is not connected to '{name}.y'"),
+            (DisconnectPorts(1, f"gain.y={name}.x"),
+             f"DISCONNECT refused: input '{name}.x' is not connected to 'gain.y'"),
+            (StartPbo(1, name), f"START refused: unknown PBO {name!r}{registered}"),
+            (StopPbo(1, name), f"STOP refused: unknown PBO {name!r}{registered}"),
+            (ClearPbo(1, name), f"CLEAR refused: unknown PBO {name!r}{registered}"),
+            (SetRate(1, 10_000, name), f"RATE refused: unknown PBO {name!r}{registered}"),
+            (SetRate(1, 1, name),
+             f"RATE refused: PBO {name!r}: expected a rate of 0.01 to 100000 Hz, got 0.001"),
+            (ReadLog(1, 0, name), f"LOGS refused: unknown PBO {name!r}{registered}"),
+            (DescribePbo(1, name), f"DESCRIBE refused: unknown PBO {name!r}{registered}"),
+        ]  # fmt: skip
+    with open_link(url) as link:
+        for number, (request, reason) in enumerate(cases):
+            for text in (True, False):  # hex mode, binary mode
+                tid = 2 * number + text + 1  # a request sent once: answered now, not again
+                link.send(encode(replace(request, tid=tid), text))
+                answer = link.receive(5.0)
+                assert answer, (text, request)
+                assert decode(answer) == Nak(tid, 0, cut(reason), fatal=True), (text, request)
 
 
 def test_a_hold_of_a_name_beyond_ascii_in_binary_mode_is_acked_with_the_name(boot):

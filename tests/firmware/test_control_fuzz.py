@@ -282,3 +282,44 @@ def test_hostile_binary_control_requests_leave_the_node_answering(node, requests
     assert len(answers) >= len(requests)
     for answer in answers:
         decode(answer)  # a well-formed binary message
+
+
+LONG_PART = st.integers(150, 260).flatmap(
+    lambda size: st.text(NAME_CHARACTERS, min_size=size, max_size=size)
+)
+"""A part of a name around the 200 bytes a node keeps of one, quotes and backslashes in it."""
+
+
+def refusal(verb: str, reason: str) -> bytes:
+    """The Python node's refusal: cut at 200 characters, "..." saying it goes on."""
+    text = f"{verb} refused: {reason}"
+    return (text if len(text) <= 200 else text[:197] + "...").encode()
+
+
+@pytest.mark.timeout(300)
+@SETTINGS
+@given(pbo=LONG_PART | st.just("gain"), port=LONG_PART | st.just("y"))
+def test_names_longer_than_a_node_keeps_are_refused_in_the_python_nodes_words(node, pbo, port):
+    """A name is kept to 200 bytes, with the dot and quotes that decide how the kernel reads it
+    and how repr quotes it: the refusals are the Python node's, ASCII names compared (beyond
+    ASCII the C node escapes by code point, docs/firmware.md), and nothing overruns."""
+    if (pbo, port) == ("gain", "y"):
+        reject()
+    name = f"{pbo}.{port}"
+    unknown = (
+        f"unknown PBO {pbo!r}; registered: 'gain'"
+        if pbo != "gain"
+        else f"unknown port {name!r}; expected one of 'x', 'y', 'k'"
+    )
+    sent = [f"READ 1 {name}", f"SET 2 {name}=1", f"CONNECT 3 gain.y={name}"]
+    said = [refusal(verb, unknown) for verb in ("READ", "SET", "CONNECT")]
+    if pbo != "gain":  # the fake gain is started by no example: each finds the node as it was
+        sent += [f"START 4 {pbo}", f"RATE 5 1 {pbo}"]
+        said += [
+            refusal("START", f"unknown PBO {pbo!r}; registered: 'gain'"),
+            refusal("RATE", f"PBO {pbo!r}: expected a rate of 0.01 to 100000 Hz, got 0.001"),
+        ]
+    answers = asked(node, *sent)
+    assert [answer.split(b" *")[0] for answer in answers] == [
+        b"NAK %d 0 FATAL %s" % (tid, reason) for tid, reason in enumerate(said, 1)
+    ]
