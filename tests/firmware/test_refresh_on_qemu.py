@@ -16,6 +16,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from commandline.children import Child
 from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
@@ -29,6 +31,7 @@ RUN_SECONDS = 3.0
 MANAGE_TIMEOUT = 60.0
 
 
+@pytest.mark.serial  # the repair must hold within RUN_SECONDS of real time: no other load beside
 def test_the_manager_repairs_the_tank_by_migrating_a_guest_onto_the_qemu_node(tmp_path):
     for name in ("tank_qemu.toml", "tank_natives.py"):
         shutil.copy(TANK / name, tmp_path / name)
