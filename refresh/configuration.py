@@ -124,7 +124,11 @@ class Configuration:
 
     def label(self) -> str:
         """The paper's notation, ``{CamReader, Dehazer, SSD, TrajGen, HexMan}``; a module that
-        runs away from `home` (a coalition) shows its robot: ``CamReader@rotation``."""
+        runs away from `home` (a coalition) shows its robot: ``CamReader@rotation``.
+
+        The one rendering of a configuration in the event log, messages and data alike
+        (`locate`, `test_case`, `candidate`, `choice`, `plan`, `deployed`, `switch`), so that an
+        event's data names a configuration as its line does and as the next event does."""
         return "{" + ", ".join(self._short(p) for p in self.placements) + "}"
 
     def _short(self, placement: Placement) -> str:

@@ -7,6 +7,14 @@ each resource that declares a report index from every module's non-functional re
 has not reported yet counts with its declared need). It then applies equations (1)-(3). A violation
 is declared only after `debounce` consecutive periods with P_T = 0, so one noisy sample does not
 trigger a reconfiguration; the count starts again after each declaration.
+
+A metric with no value fails equation (2), and a fault of the metric's module may well silence
+it. But when the module filling the metric's schema goes on reporting other values for the whole
+debounce and never this one, no module is at fault: the database's metric names an index (or a
+schema) nothing reports under, and locating a fault would only end in "more than one fault
+suspected" (every test case lacks the value too). The Decider then refuses to declare a fault:
+it records `unreported_metric` and raises `UnreportedMetric`, naming the metric, its schema and
+index, and what the module reported instead.
 """
 
 from __future__ import annotations
@@ -19,7 +27,7 @@ from pbort.code import PerformanceKind
 from pbort.performance_buffer import PerformanceBuffer
 from refresh.configuration import Configuration
 from refresh.database import ModuleDatabase
-from refresh.errors import ConfigurationError
+from refresh.errors import ConfigurationError, UnreportedMetric
 from refresh.events import EventLog
 from refresh.performance import Assessment, Usage, assess
 from refresh.task import TaskSpec
@@ -59,9 +67,53 @@ class Decider:
     def step(
         self, configuration: Configuration, sources: Mapping[str, PerformanceSource]
     ) -> Detection | None:
-        """Read the buffers of `configuration` (`sources` by robot) and judge one period."""
+        """Read the buffers of `configuration` (`sources` by robot) and judge one period; a
+        period that would complete the debounce with a metric its module never reports raises
+        `UnreportedMetric` instead of declaring a fault."""
         values, used = self.observe(configuration, sources)
-        return self.judge(assess(used, values, self.task, self.database, configuration.robots))
+        assessment = assess(used, values, self.task, self.database, configuration.robots)
+        if not assessment.p_t and self.violations + 1 >= self.debounce:
+            self.refuse_unreported(configuration, sources, values)
+        return self.judge(assessment)
+
+    def refuse_unreported(
+        self,
+        configuration: Configuration,
+        sources: Mapping[str, PerformanceSource],
+        values: Mapping[str, float | None],
+    ) -> None:
+        """Raise `UnreportedMetric` for the first metric without a value whose module has
+        reported other values (its evaluator runs, but not under the metric's index); a module
+        that reported nothing at all may be the fault, and is left to the Locator."""
+        for metric in self.task.metrics.values():
+            if values.get(metric.name) is not None:
+                continue
+            instance = configuration.instance_of(metric.schema)
+            robot = configuration.robot_of(instance)
+            reported = sorted(
+                {(r.kind, r.index) for r in _source(sources, robot).performance(instance)}
+            )
+            if not reported:
+                continue
+            said = ", ".join(f"{_kind(kind)} {index}" for kind, index in reported)
+            message = (
+                f"no module reports {metric.name} (functional index {metric.index} of the module "
+                f"filling schema {metric.schema}): {instance} on {robot} reports {said}, but "
+                f"not functional {metric.index} in {self.debounce} look(s): check the "
+                f"database's task.metrics.{metric.name} (its schema and index) against what "
+                "the module's evaluator reports"
+            )
+            self.log.record(
+                "unreported_metric",
+                message,
+                metric=metric.name,
+                schema=metric.schema,
+                index=metric.index,
+                instance=instance,
+                robot=robot,
+                reported=[[_kind(kind), index] for kind, index in reported],
+            )
+            raise UnreportedMetric(message)
 
     def observe(
         self, configuration: Configuration, sources: Mapping[str, PerformanceSource]
@@ -114,6 +166,11 @@ class Decider:
             usage={f"{res}@{robot}": v for (robot, res), v in assessment.usage.items()},
         )
         return detection
+
+
+def _kind(kind: PerformanceKind) -> str:
+    """A kind of report as a user reads it: ``functional``, ``non-functional``."""
+    return kind.name.lower().replace("_", "-")
 
 
 def _source(sources: Mapping[str, PerformanceSource], robot: str) -> PerformanceSource:

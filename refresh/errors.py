@@ -11,7 +11,9 @@ Tree::
     │   └── DatabaseImageError           a module image it names is missing, unreadable or
     │                                    declares another name or other ports
     ├── ConfigurationError (ValueError)  a configuration that does not fit the task or database
-    │   └── RateError                    a metric's module reports slower than the Decider looks
+    │   ├── RateError                    a metric's module reports slower than the Decider looks
+    │   └── UnreportedMetric             a metric the module filling its schema never reports
+    │                                    (its evaluator reports other values)
     ├── EstimationError (RuntimeError)   an estimator that could not estimate a configuration
     ├── ApplyError (RuntimeError)        a plan step the applier could not carry out
     ├── NodeLinkError (RuntimeError)     a node over a link that cannot be reached, stopped
@@ -62,6 +64,13 @@ class ConfigurationError(RefreshError, ValueError):
 class RateError(ConfigurationError):
     """A module that may report a task metric runs slower than the runtime's Decider looks: it
     would judge stale reports (the message names the module, its rate and the decision period)."""
+
+
+class UnreportedMetric(ConfigurationError):
+    """A task metric that the module filling its schema does not report, while its evaluator
+    reports other values: the database's metric names a schema or index no module reports
+    under, a configuration error rather than a fault of the task's modules (the message names
+    the metric, its schema and index, and what the module reported instead)."""
 
 
 class EstimationError(RefreshError, RuntimeError):

@@ -189,7 +189,7 @@ def synthesize(
             f"P_T = {assessment.p_t}, Util = {assessment.util:g}",
             number=candidate.number,
             kind=candidate.kind,
-            configuration=str(candidate.configuration),
+            configuration=candidate.configuration.label(),
             values=dict(assessment.values),
             p_t=assessment.p_t,
             util=assessment.util,
@@ -208,7 +208,7 @@ def _chosen(assessed: list[tuple[Candidate, Assessment]], log: EventLog) -> Choi
     log.record(
         "choice",
         f"chosen: {candidate.configuration.label()}, Util = {assessment.util:g}",
-        configuration=str(candidate.configuration),
+        configuration=candidate.configuration.label(),
         util=assessment.util,
         number=candidate.number,
     )

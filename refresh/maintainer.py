@@ -171,7 +171,7 @@ class Maintainer:
             "plan",
             f"{len(result.steps)} step(s) to {target.label()}",
             steps=[str(s) for s in result.steps],
-            target=str(target),
+            target=target.label(),
         )
         return result
 

@@ -52,7 +52,7 @@ def locate(
         f"Base Choice: {total} test case(s) for {configuration.label()}",
         strategy=NAME,
         cases=total,
-        configuration=str(configuration),
+        configuration=configuration.label(),
     )
     trials = Trials(configuration, database, task, estimator, log)
     for slot, option in cases(configuration, database):

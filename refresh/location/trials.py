@@ -96,7 +96,7 @@ class Trials:
             "test_case",
             f"{number}. {candidate.label()}: P_T = {assessment.p_t}",
             number=number,
-            configuration=str(candidate),
+            configuration=candidate.label(),
             slots=[self.base.schemas[s] for s in changed],
             replaced=[str(p) for s in changed for p in self.base.chains[s]],
             replacement=", ".join(str(p) for s in changed for p in chains[s]),

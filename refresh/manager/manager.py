@@ -124,6 +124,7 @@ def manage(
         )
         for robot, node in applier.nodes.items():
             say(f"robot {robot}: {one_line(node.description, SHOWN)} at {node.url}")
+        check_names(applier)  # before the nodes are reset: a swapped pair is left as it was
         config.time.attach(applier)
         check_natives(loaded.database, applier)
         applier.use_clock(config.time.clock)
@@ -180,6 +181,39 @@ def check_nodes(robots: Sequence[str], nodes: Mapping[str, str], where: str) -> 
         raise ConfigurationError(
             f"expected a --node ROBOT=URL for every robot of {where} ({', '.join(robots)}), "
             f"got none for {', '.join(missing)}"
+        )
+
+
+def node_name(description: str) -> str | None:
+    """The name a node gives itself first in its answer to PING (``b: 0 module(s), ...``:
+    ``firmware-sim listen --name b``; the C firmware's is always ``node``), or None for an
+    answer without one."""
+    name, colon, _rest = description.partition(":")
+    return name.strip() if colon and name.strip() else None
+
+
+def check_names(applier: LinkApplier) -> None:
+    """Refuse nodes given to the wrong robots, before anything is reset or deployed: a node
+    whose name is another robot's of this run (``--node a=<b's URL> --node b=<a's URL>``)
+    would be configured as that robot, and the run would fail at its first start, on a node
+    that lacks the PBO the database places there. A name that is no robot's of the run (the
+    default ``node``, a board's own) says nothing of which robot it serves, and is taken."""
+    names = {robot: node_name(node.description) for robot, node in applier.nodes.items()}
+    for robot, name in names.items():
+        if name is None or name == robot or name not in names:
+            continue
+        node, other = applier.nodes[robot], applier.nodes[name]
+        swapped = names[name] == robot
+        also = (
+            f", and robot {name!r}'s node at {other.url} calls itself {robot!r}"
+            if swapped
+            else f" (robot {name!r}'s node is at {other.url})"
+        )
+        raise ConfigurationError(
+            f"robot {robot!r}: expected its node, got the node at {node.url}, which calls "
+            f"itself {name!r}, another robot of this run{also}: nodes "
+            f"{'swapped' if swapped else 'mixed up'}? (give each robot its own node: --node "
+            f"{robot}=URL of the node started with --name {robot})"
         )
 
 

@@ -71,8 +71,10 @@ LOCK_STEP, REAL_TIME, LOCK_STEP_MOVED = "lock-step", "real-time", "lock-step, mo
 
 def reset(node: RemoteNode) -> None:
     """Get `node` ready for a new run (RESET): what a run before left running is switched off
-    and its clock starts from 0 s."""
+    and its clock starts from 0 s. Its reports are told (`ReportSource.reset`): a clock that
+    goes back later is another host's RESET, which the node's refusals then name."""
     node.ask("RESET", node.control.reset)
+    node.source.reset()
 
 
 def mode_of(node: RemoteNode) -> tuple[str, str]:

@@ -133,9 +133,23 @@ class RemoteNode:
             except (HexmigrateError, OSError) as error:
                 if link_failed(error):
                     self.failed = self.failed or f"{what}: {error}"
-                raise self.error(what, error) from error
+                    raise self.error(what, error) from error
+                raise self.error(what, f"{error}{self.reset_elsewhere()}") from error
             self.heard = self.clock()
             return answer
+
+    def reset_elsewhere(self) -> str:
+        """Why the node may refuse what this manager set up on it (a bridge it no longer
+        imports, a PBO it no longer runs): its clock went back, at a RESET this manager did not
+        send (another manager on the same nodes resets them as it starts); "" when it did not."""
+        went = self.source.went_back
+        if went is None:
+            return ""
+        return (
+            f" (its clock went back from {went[0]:.3f} s to {went[1]:.3f} s: another host "
+            "reset the node, a second manager on the same nodes?, and what this run set up "
+            "on it is gone)"
+        )
 
     def lose(self, why: str) -> None:
         """Declare the node lost for `why` (the first reason stays)."""

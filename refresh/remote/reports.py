@@ -96,6 +96,10 @@ class ReportSource:
         """The watched ports' values in the last report that had them."""
         self.clock: float | None = None
         """The node's clock (s) of the last push taken."""
+        self.went_back: tuple[float, float] | None = None
+        """The node's clock from and to (s) when a push first came with a clock earlier than
+        the one before: the node was reset (RESET) by another host than this one, which says
+        when it resets the node itself (`reset`). None while the clock only moves on."""
         self.beat: Beat | None = None
         """The last heartbeat (None before the first)."""
         self.reports = 0
@@ -130,11 +134,21 @@ class ReportSource:
         first that arrives counts as missed too."""
         self._seq = WRAP - 1
 
+    def reset(self) -> None:
+        """This host reset the node (RESET, answered): its clock starts from 0 s again, and the
+        pushes from now on are of the new time line, not a clock that went back."""
+        self.clock = None
+        self.went_back = None
+        self._last_ms = None
+        self._wraps = 0
+
     def take(self, message: Message) -> None:
         """File a push; any other message (a late answer to a request) is not one and ignored."""
         if not isinstance(message, (PerformanceReport, Heartbeat)) or not self._in_order(message):
             return
         clock = self._unwrap(message.clock_ms)
+        if self.clock is not None and clock < self.clock and self.went_back is None:
+            self.went_back = (self.clock, clock)
         self.clock = clock
         if isinstance(message, Heartbeat):
             self.beat = Beat(message.seq, clock, time.monotonic(), message.state)

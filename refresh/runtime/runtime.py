@@ -29,7 +29,9 @@ running configuration uses it the runtime repairs at once, without the debounce 
 the robots that remain. A lost robot is tried again every `lost_after` seconds; once its node
 answers, the runtime reads what it has (its modules in flash, its PBOs and their states), stops
 any module of the task it still runs outside the running configuration, and counts its
-resources again.
+resources again. A loss that no configuration on the remaining robots repairs stops the task
+safely with a reason that names the lost node first (Base Choice's verdict, "more than one fault
+suspected", alone reads as two faulty modules).
 
 Module logs: each `step()` also records, as `module_log` events, the lines the robots' modules
 logged since the last (`applier.module_logs()`), so that a module saying why it misbehaves is
@@ -117,6 +119,7 @@ class Runtime:
         self._good_periods = 0  # judged periods with P_T = 1 after `_good_since`
         self._deciding = False  # a decision is being carried out: no second one meanwhile
         self._tried: dict[str, float] = {}  # a lost robot -> when it was last tried again
+        self._why: dict[str, str] = {}  # a lost robot -> why its node was declared lost
         self._slipping_since: float | None = None  # real time lost since then
         self._held_at: float | None = None  # real time held again then, after it was lost
         self._unjudged_since: float | None = None  # no period judged since then, lacking time
@@ -184,7 +187,7 @@ class Runtime:
         if lost & set(self.current.robots):
             self._deciding = True
             try:
-                self._repair(self.current)
+                self._repair(self.current, sorted(lost & set(self.current.robots)))
             finally:
                 self._deciding = False
             return None
@@ -219,6 +222,7 @@ class Runtime:
             if robot not in self.database.lost:
                 self.database.lose(robot)
                 self._tried[robot] = now
+                self._why[robot] = why
                 self.log.record("node_lost", f"robot {robot}: {why}", robot=robot, why=why)
         for robot in sorted(self.database.lost):
             if now - self._tried[robot] >= self.settings.lost_after - _EPSILON:
@@ -304,6 +308,7 @@ class Runtime:
                 self.applier.stop(robot, name)
         self.database.rejoin(robot)
         del self._tried[robot]
+        self._why.pop(robot, None)
         self.log.record(
             "node_rejoined",
             f"robot {robot}: node back with modules {', '.join(inventory.modules) or 'none'}; "
@@ -368,9 +373,12 @@ class Runtime:
             )
             self._good_since = None
 
-    def _repair(self, current: Configuration) -> None:
+    def _repair(self, current: Configuration, lost: list[str] | None = None) -> None:
         """Locate, synthesize, choose; migrate and switch, or stop the task safely (also when
-        the last repairs, as many as the settings allow, all failed to bring P_T back)."""
+        the last repairs, as many as the settings allow, all failed to bring P_T back). `lost`
+        names the robots whose node loss this repair answers: a stop then says so, since the
+        Locator's verdict alone ("more than one fault suspected") reads as a double fault of
+        modules when the first fault is a node that stopped answering."""
         failed = self.history.failed_repairs()
         if failed >= self.settings.repair_attempts:
             self._stop_safely(current, f"{failed} repairs in a row did not bring P_T back")
@@ -399,16 +407,22 @@ class Runtime:
         self.history.reconfigurations.append(record)
         if decision.target is None:
             reason = decision.location.module if decision.choice is None else "no candidate"
-            self._stop_safely(current, reason)
+            if lost:
+                reason = _lost_reason(lost, reason)
+            self._stop_safely(
+                current, reason, {robot: self._why.get(robot, "") for robot in lost or ()}
+            )
             return
         self._switch(decision.target)
         record.applied_at = self.clock()
         record.target = decision.target
 
-    def _stop_safely(self, current: Configuration, reason: str) -> None:
-        """No configuration repairs the task (`reason`): stop every module of the task. A module
-        the applier cannot stop (it failed on its own) is logged, and the others are stopped all
-        the same."""
+    def _stop_safely(
+        self, current: Configuration, reason: str, lost: dict[str, str] | None = None
+    ) -> None:
+        """No configuration repairs the task (`reason`; `lost`: the robots whose node loss
+        led to it, and why): stop every module of the task. A module the applier cannot stop
+        (it failed on its own) is logged, and the others are stopped all the same."""
         for placement, instance in zip(current.placements, current.instances, strict=True):
             try:
                 self.applier.stop(placement.robot, instance)
@@ -420,8 +434,20 @@ class Runtime:
                     robot=placement.robot,
                 )
         self.history.stopped_at = self.clock()
-        self.log.record("stopped", f"no repair ({reason}): the task is stopped", reason=reason)
+        data: dict[str, object] = {"reason": reason}
+        if lost:
+            data["lost"] = lost
+        self.log.record("stopped", f"no repair ({reason}): the task is stopped", **data)
         self.current = None
+
+
+def _lost_reason(robots: list[str], verdict: str) -> str:
+    """Why a repair of a node loss found nothing, in words that put the loss first."""
+    nodes = " and ".join(f"robot {robot}'s node" for robot in robots)
+    return (
+        f"{nodes} lost, and no configuration on the robots that remain satisfies P_T (the "
+        f"Locator's verdict: {verdict})"
+    )
 
 
 def _how(slip: float, missed: int) -> str:

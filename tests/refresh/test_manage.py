@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import shutil
 import signal
 import socket
@@ -21,6 +22,8 @@ import time
 from collections.abc import Iterator, Mapping
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
+from types import SimpleNamespace
+from typing import cast
 
 import pytest
 
@@ -28,7 +31,10 @@ from commandline.children import Child
 from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
 from hexmigrate.links.free_port import free_port
+from refresh.appliers.over_links import LinkApplier
+from refresh.errors import ConfigurationError
 from refresh.events import EVENT_FIELDS
+from refresh.manager.manager import check_names
 from tests.foxglove_client import live_client
 from tests.hostile_node import hostile_node
 
@@ -228,6 +234,27 @@ def test_a_node_without_a_native_the_database_places_on_its_robot_is_refused_at_
             assert not any(line.startswith("registered ") for line in node.lines())
 
 
+def test_swapped_nodes_are_refused_before_either_is_reset(database):
+    """--node a=<b's URL> --node b=<a's URL>: the manager printed `robot a: b: ...`, reset both
+    nodes and ran on until the first start failed on a node without the PBO it expected. It
+    now refuses at once, naming both robots and both nodes."""
+    with nodes("--lock-step", "--lock-step") as (started, options):
+        urls = {
+            robot: options[index + 1].partition("=")[2] for index, robot in ((0, "a"), (2, "b"))
+        }
+        swapped = ["--node", f"a={urls['b']}", "--node", f"b={urls['a']}"]
+        done = manage(database, *swapped, *RUN)
+        assert done.returncode == 1, done.stderr
+        assert done.stderr == (
+            f"error: robot 'a': expected its node, got the node at {urls['b']}, which calls "
+            f"itself 'b', another robot of this run, and robot 'b''s node at {urls['a']} calls "
+            "itself 'a': nodes swapped? (give each robot its own node: --node a=URL of the "
+            "node started with --name a)\n"
+        )
+        for node in started.values():
+            assert not any("RESET" in line or "registered " in line for line in node.lines())
+
+
 @pytest.mark.parametrize(
     ("options", "status", "said"),
     [
@@ -286,6 +313,28 @@ def test_lock_step_nodes_serve_a_second_run_as_the_first(database, tmp_path):
             assert done.returncode == 0, (done.stderr, started["a"].lines())
             found.append(reproducible(events(out)))
     assert found[1] == found[0]
+
+
+def test_a_manager_whose_nodes_another_manager_reset_says_so(database, tmp_path):
+    """A second manager on the same nodes resets them and runs; the first died with "ADVANCE
+    refused: bridge 0 is not imported here", as if a node had gone wrong. The node's clock went
+    back at a RESET the first manager did not send, and its error says so."""
+    command = [sys.executable, "-m", "refresh", "manage", "--db", str(database), "--task"]
+    command += ["levels", "--natives", NATIVES, "--lock-step", "--seconds", "100000", *SETTINGS]
+    with nodes("--lock-step", "--lock-step") as (_started, options):
+        with Child.start("manager", [*command, *options], tmp_path / "first.log") as first:
+            first.wait_for(r" recovered ", MANAGER_TIMEOUT)  # the coalition's bridge is up
+            done = manage(database, *options, *RUN)
+            assert done.returncode == 0, done.stderr
+            assert first.wait(MANAGER_TIMEOUT) == 1
+        said = first.lines()[-1]
+    assert said.startswith("error: robot ")
+    assert "the node refused" in said
+    assert re.search(
+        r"\(its clock went back from \d+\.\d{3} s to 0\.\d{3} s: another host reset the node, a "
+        r"second manager on the same nodes\?, and what this run set up on it is gone\)$",
+        said,
+    ), said
 
 
 def test_in_real_time_a_fault_counts_from_the_task_s_deployment(database, tmp_path):
@@ -347,3 +396,37 @@ def test_nodes_that_flood_reports_cannot_hold_the_manager_past_its_deadlines(dat
     assert done.returncode != 0 and "robot 'a'" in done.stderr, done.stderr
     assert "no answer to Ping after 6 tries" in done.stderr
     assert took < 6 + 4, (took, done.stderr)  # the tries, and the interpreter's start
+
+
+def applier_of(described: Mapping[str, str]) -> LinkApplier:
+    """An applier whose nodes answered PING with `described` (robot -> answer), at node-ROBOT."""
+    nodes = {
+        robot: SimpleNamespace(description=said, url=f"socket://node-{robot}")
+        for robot, said in described.items()
+    }
+    return cast(LinkApplier, SimpleNamespace(nodes=nodes))
+
+
+@pytest.mark.parametrize(
+    "described",
+    [
+        {"a": "a: 0 module(s)", "b": "b: 0 module(s)"},
+        {"a": "node: 1 module(s), qemu-virt firmware", "b": "node: 0 module(s)"},
+        {"a": "rover: 0 module(s)", "b": "b: 0 module(s)"},
+        {"a": "no name here", "b": "b: 0 module(s)"},
+    ],
+)
+def test_a_node_named_otherwise_than_its_robot_is_taken_unless_another_robot_has_its_name(
+    described,
+):
+    check_names(applier_of(described))
+
+
+def test_a_node_named_after_another_robot_of_the_run_is_refused():
+    with pytest.raises(ConfigurationError) as refused:
+        check_names(applier_of({"a": "b: 0 module(s)", "b": "node: 0 module(s)"}))
+    assert str(refused.value) == (
+        "robot 'a': expected its node, got the node at socket://node-a, which calls itself "
+        "'b', another robot of this run (robot 'b''s node is at socket://node-b): nodes mixed "
+        "up? (give each robot its own node: --node a=URL of the node started with --name a)"
+    )

@@ -8,15 +8,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from types import SimpleNamespace
 
 import pytest
 
 from firmware_sim.core.node import Node
 from pbort import Kernel
+from pbort.performance_buffer import PerformanceBuffer
 from refresh.appliers.in_process import NodeApplier
-from refresh.errors import ApplyError, ConfigurationError, RateError
+from refresh.configuration import initial_configuration
+from refresh.decider import Decider
+from refresh.errors import ApplyError, ConfigurationError, RateError, UnreportedMetric
 from refresh.estimators.host import HostEstimators
-from refresh.events import Event
+from refresh.events import Event, EventLog
 from refresh.location import STRATEGIES
 from refresh.manager.event_stream import MAX_EVENT, line
 from refresh.runtime import Runtime, RuntimeSettings
@@ -172,6 +176,59 @@ def test_when_nothing_helps_the_task_is_stopped_safely():
         (stopped,) = runtime.log.of_kind("stopped")
         assert stopped.data["reason"] == "more than one fault suspected"
         assert runtime.step() is None  # nothing runs: nothing to judge
+
+
+def test_a_metric_no_module_reports_is_a_configuration_error_not_a_double_fault():
+    """A metric at an index no module reports (the tutorial's database with ``index = 3``) made
+    a violation of every look, then "more than one fault suspected" and a safe stop, as if two
+    modules had failed. Its module reports other values all along: the runtime now says the
+    metric is unreported and stops with an error, locating nothing."""
+    loaded = load(database().replace("index = 0", "index = 3"))
+    assert loaded.task is not None
+    codes = natives(FAULT_AT)
+    with Node(ROBOT) as node, Kernel() as host:
+        runtime = Runtime(
+            loaded.database,
+            loaded.task,
+            NodeApplier({ROBOT: node}, natives=codes),
+            HostEstimators(host, codes, loaded.database, loaded.task),
+            lambda: node.kernel.now,
+            SETTINGS,
+        )
+        runtime.deploy()
+        said = (
+            r"no module reports error \(functional index 3 of the module filling schema "
+            r"steering\): Steer on rover reports functional 0, non-functional 0, but not "
+            r"functional 3 in 2 look\(s\): check the database's task.metrics.error"
+        )
+        with pytest.raises(UnreportedMetric, match=said):
+            runtime.run(3.0, advance(node))
+    assert node.kernel.now < FAULT_AT  # at the first debounce, long before any fault
+    assert not runtime.history.reconfigurations
+    kinds = {event.kind for event in runtime.log}
+    assert not kinds & {"detection", "location", "stopped"}
+    (event,) = runtime.log.of_kind("unreported_metric")
+    assert event.data == {
+        "metric": "error",
+        "schema": "steering",
+        "index": 3,
+        "instance": "Steer",
+        "robot": ROBOT,
+        "reported": [["functional", 0], ["non-functional", 0]],
+    }
+
+
+def test_a_metric_module_that_reported_nothing_at_all_may_be_the_fault():
+    """Silence from the metric's module (its evaluator dead) is no evidence against the
+    database: the Decider declares the fault, for the Locator to judge."""
+    loaded = load()
+    assert loaded.task is not None
+    current = initial_configuration(loaded.task, loaded.database)
+    decider = Decider(loaded.task, loaded.database, EventLog(), debounce=2)
+    silent = {ROBOT: SimpleNamespace(performance=lambda name: PerformanceBuffer())}
+    assert decider.step(current, silent) is None
+    detection = decider.step(current, silent)
+    assert detection is not None and detection.assessment.values == {"error": None}
 
 
 def test_repairs_that_keep_failing_stop_the_task_after_the_attempts_allowed():

@@ -14,6 +14,7 @@ import pytest
 
 from refresh import generator
 from refresh.adaptation import decide
+from refresh.appliers.in_memory import MemoryApplier
 from refresh.configuration import Configuration, initial_configuration
 from refresh.estimators.base import Values
 from refresh.estimators.function import FunctionEstimator
@@ -22,10 +23,12 @@ from refresh.generator import candidates, combos, seeded
 from refresh.load import Loaded, load, loads
 from refresh.location import STRATEGIES, adaptive, base_choice, brute_force, pairwise
 from refresh.location.trials import all_options
+from refresh.maintainer import Maintainer
 from refresh.performance import assess, usage
 from refresh.synthetic import current_module, faultable_slots, planted_fault, random_scenario
 
 DATABASE = Path(__file__).parents[2] / "refresh" / "data" / "visual_servoing.toml"
+TANK = Path(__file__).parents[2] / "tank" / "tank.toml"
 
 
 def noisy_camera(configuration: Configuration) -> Values:
@@ -101,6 +104,40 @@ def test_every_strategy_names_camreader_and_the_decision_is_the_papers(scenario,
     assert decision.location.strategy == name
     assert decision.location.modules == ("CamReader",)
     assert decision.target.label() == "{CamReader, Dehazer, SSD, TrajGen, HexMan}"
+
+
+@pytest.mark.parametrize("name", list(STRATEGIES))
+def test_events_render_a_configuration_one_way_in_their_data_and_lines(name):
+    """The tutorial's choice said {BackupGauge@b, level_alarm@a} in its data, where its line and
+    the switch said {BackupGauge@b, level_alarm}: every event that names a configuration names
+    it as `label()` does, in its data as in its line."""
+    loaded = load(TANK)
+    assert loaded.task is not None
+    task = replace(loaded.task, location=name)
+    current = initial_configuration(task, loaded.database)
+    log = EventLog()
+
+    def broken_gauge(configuration: Configuration) -> Values:
+        modules = [p.module for p in configuration.placements]
+        return {"outside": 400.0 if "Gauge" in modules else 0.0}
+
+    decision = decide(current, loaded.database, task, FunctionEstimator(broken_gauge), log)
+    assert decision.target is not None
+    Maintainer(loaded.database, MemoryApplier(loaded.database.robots), log).plan(
+        current, decision.target
+    )
+    named = [
+        (event, event.data[key])
+        for event in log
+        for key in ("configuration", "target")
+        if event.data.get(key) is not None
+    ]
+    assert {event.kind for event, _ in named} >= {"test_case", "candidate", "choice", "plan"}
+    for event, configuration in named:
+        assert configuration.startswith("{") and configuration in event.message, event
+        assert "@a" not in configuration, event  # robot a is the task's: its modules say no robot
+    (choice,) = log.of_kind("choice")
+    assert choice.data["configuration"] == "{BackupGauge@b, level_alarm}"
 
 
 def test_adaptive_needs_fewer_estimates_than_brute_force(scenario, current):

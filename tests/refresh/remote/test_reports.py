@@ -112,3 +112,20 @@ def test_hostile_real_time_words_neither_fail_nor_go_negative():
     assert source.slipped().seconds == 0.0 and source.slipped_reports == 0
     source.take(PerformanceReport(1, 1050, f"slip={10**400} missed=-3"))
     assert source.slipped().seconds == 1e9 and source.slipped_reports == 1
+
+
+def test_a_clock_that_goes_back_is_a_reset_this_host_did_not_send():
+    """Another manager's RESET restarts the node's clock under this one's watch: the first push
+    after it comes with an earlier clock, which the source keeps (the node's refusals name
+    it). A RESET this host sends is told (`reset`), and its new time line is no going back."""
+    source = ReportSource("a")
+    source.take(PerformanceReport(0, 7600, "x:F0=1"))
+    source.take(PerformanceReport(1, 7650, "x:F0=1"))
+    assert source.went_back is None
+    source.reset()
+    source.take(Heartbeat(2, 0, "a: 1 PBOs: 1 OFF"))
+    source.take(PerformanceReport(3, 50, "x:F0=1"))
+    assert source.went_back is None and source.clock == 0.05
+    source.take(PerformanceReport(4, 20, "x:F0=1"))
+    source.take(PerformanceReport(5, 10, "x:F0=1"))
+    assert source.went_back == (0.05, 0.02)  # the first going back stays
