@@ -263,7 +263,9 @@ class RegisteredPBO:
     def _note_failure(self, method: Method, result: CallResult) -> None:
         self.counters.faults += 1
         self.counters.last_failure = describe_failure(method.value, result)
-        _kernel_log.warning("PBO %r: %s", self.name, self.counters.last_failure)
+        _kernel_log.warning(
+            "PBO %r: %s", self.name, self.counters.last_failure, extra={"method": method}
+        )
 
     def _release(self) -> None:
         if self.instance is not None:

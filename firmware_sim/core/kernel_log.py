@@ -13,6 +13,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 from firmware_sim.core.node import Node
+from pbort.code import Method
 
 LOGGER = "pbort"
 KERNEL_LOGGER = "pbort.kernel"
@@ -20,14 +21,22 @@ KERNEL_LOGGER = "pbort.kernel"
 
 
 class _Forward(logging.Handler):
-    """Hands each record's message (of `level` and above) to a function."""
+    """Hands each record's message (of `level` and above, and that `wanted` takes) to a
+    function."""
 
-    def __init__(self, take: Callable[[str], None], level: int = logging.INFO) -> None:
+    def __init__(
+        self,
+        take: Callable[[str], None],
+        level: int = logging.INFO,
+        wanted: Callable[[logging.LogRecord], bool] = lambda record: True,
+    ) -> None:
         super().__init__(level)
         self._take = take
+        self._wanted = wanted
 
     def emit(self, record: logging.LogRecord) -> None:
-        self._take(record.getMessage())
+        if self._wanted(record):
+            self._take(record.getMessage())
 
 
 @contextmanager
@@ -61,11 +70,24 @@ def kernel_warnings_said(say: Callable[[str], None]) -> Iterator[None]:
     """Say each of the kernel's own warnings while inside: a PBO that faults into ERROR, with
     why (``PBO 'Gauge': cycle faulted: ...``), as it happens. An operator at a listening node's
     terminal sees the fault there, not only in ``hexmigrate ps --verbose``; a PBO faults once
-    until it is cleared, so these lines cannot flood."""
+    until it is cleared, so these lines cannot flood. A failed method a caller asked for
+    (init, on, off, kill, clear: a START, a STOP) is left out: its caller reports it, with
+    what the module logged."""
     logger = logging.getLogger(KERNEL_LOGGER)
-    handler = _Forward(say, logging.WARNING)
+    handler = _Forward(say, logging.WARNING, _unasked)
     logger.addHandler(handler)
     try:
         yield
     finally:
         logger.removeHandler(handler)
+
+
+def _unasked(record: logging.LogRecord) -> bool:
+    """Whether a kernel warning is of a failure nobody asked for: a job's method (cycle,
+    evaluate, estimate), the error handler, or no method at all."""
+    return getattr(record, "method", None) not in _ASKED
+
+
+_ASKED = {Method.INIT, Method.ON, Method.OFF, Method.KILL, Method.CLEAR}
+"""The methods a caller runs (registering, a START, a STOP, a CLEAR), which report a failure to
+that caller."""
