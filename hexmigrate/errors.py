@@ -65,6 +65,7 @@ Tree::
     ├── LockStepError (ValueError)     a lock-step time master set up wrong (its quantum, a route)
     └── TransferError (RuntimeError)   the node refused, or a transfer could not go on
         ├── NoAnswer (TimeoutError)        a request went unanswered through every try
+        ├── NodeRefused                    the node said no, fatally (`reason`: its words)
         ├── TransferForgotten (LookupError)   the transfer to resume is gone: send anew
         └── TransferInterrupted (ConnectionError)   the link failed mid-transfer: resume it
 """
@@ -328,6 +329,15 @@ class TransferError(HexmigrateError, RuntimeError):
 class NoAnswer(TransferError, TimeoutError):
     """A request went unanswered through every try; the message says how many tries, how long
     each waited and what was heard."""
+
+
+class NodeRefused(TransferError):
+    """The node refused a request fatally; `reason` is its refusal, word for word, for a caller
+    that acts on one refusal in particular (a RESUME of a transfer the node no longer holds)."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(f"the node refused: {reason}")
+        self.reason = reason
 
 
 class TransferForgotten(TransferError, LookupError):

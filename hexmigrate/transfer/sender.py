@@ -21,6 +21,7 @@ from hexmigrate.errors import (
     LinkError,
     MessageError,
     NoAnswer,
+    NodeRefused,
     TransferError,
     TransferForgotten,
     TransferInterrupted,
@@ -233,8 +234,8 @@ class Sender:
         no longer holds it."""
         try:
             state = self.request(Resume(tid), Ack, tid, what=("begun", "header", "verified"))
-        except TransferError as error:
-            if str(error) != f"the node refused: {UNKNOWN_TRANSFER.format(tid)}":
+        except NodeRefused as error:
+            if error.reason != UNKNOWN_TRANSFER.format(tid):
                 raise
             raise TransferForgotten(
                 f"the node no longer holds transfer {tid} (it restarted, or dropped the "
@@ -630,7 +631,7 @@ def _plural(count: int, one: str, many: str) -> str:
 def _check_fatal(reply: Message) -> None:
     """A fatal refusal ends the transfer: the node said why."""
     if isinstance(reply, Nak) and reply.fatal:
-        raise TransferError(f"the node refused: {reply.reason}")
+        raise NodeRefused(reply.reason)
 
 
 def _wants_authentication(reply: Message | None) -> bool:
