@@ -17,6 +17,12 @@ A node given `trusted` keys takes requests that change it (`CHANGING`: a transfe
 control requests that start, stop, set or wire) only from a connection that proved it holds
 one of them (``CHALLENGE`` then ``AUTH``, hexmigrate/signing/challenge.py); reading stays open
 to anyone (docs/security.md).
+
+A connection that reset the node (``RESET``) or ran its lock-step clock (``ADVANCE``), a
+manager's, loses the node when another connection resets it (a second manager on the same
+nodes): its changing requests are refused from then on (`SUPERSEDED`), so that the first manager
+stops at its next quantum or reconfiguration with that reason rather than racing the second's
+clock and wires.
 """
 
 from __future__ import annotations
@@ -96,7 +102,12 @@ from hexmigrate.transfer.messages import (
     decode,
     encode,
 )
-from hexmigrate.transfer.sessions import AUTHENTICATION_REQUIRED, PeerSession, Sessions
+from hexmigrate.transfer.sessions import (
+    AUTHENTICATION_REQUIRED,
+    SUPERSEDED,
+    PeerSession,
+    Sessions,
+)
 from hexmigrate.transfer.subscription import HEARTBEAT_PERIOD, MIN_PERIOD_MS, Subscription
 
 IMPLICIT = 0  # the transfer id of a module typed or pasted on a terminal without BEGIN
@@ -272,6 +283,8 @@ class Receiver:
         tid = getattr(message, "tid", IMPLICIT)
         if self.trusted and type(message) in CHANGING and not self._session.authenticated:
             return [Nak(tid, 0, AUTHENTICATION_REQUIRED, fatal=True)]
+        if self._session.superseded and type(message) in CHANGING - {ResetNode}:
+            return [Nak(tid, 0, SUPERSEDED, fatal=True)]
         if self.on_change is not None and type(message) in NOTED:
             self.on_change(self._noted(message))
         try:
@@ -382,6 +395,7 @@ class Receiver:
             return Ack(tid, 0, control.hold(message.name))
         if isinstance(message, ResetNode):
             said = control.reset()
+            self.sessions.reset_by(self._session)
             for session in self.sessions.all():  # the watches follow the clock's restart
                 if session.subscription is not None:
                     session.subscription.restart(control.clock())
@@ -406,7 +420,9 @@ class Receiver:
             return Ack(tid, 0, control.import_port(*_bridge(message, message.sink)))
         if isinstance(message, Advance):
             until = message.until_us / MICROSECONDS
-            return Ack(tid, 0, advanced_text(*control.advance(until, parse_counts(message.expect))))
+            advanced = control.advance(until, parse_counts(message.expect))
+            self._session.runs_the_node = True
+            return Ack(tid, 0, advanced_text(*advanced))
         raise MessageError(f"{type(message).__name__} is not a control request")
 
     def _watch(self, control: ControlTarget, message: Watch) -> Message:

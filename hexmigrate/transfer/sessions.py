@@ -1,4 +1,5 @@
-"""What a node keeps per link connection: its authentication and its watch.
+"""What a node keeps per link connection: its authentication, its watch and whether the node's
+run is still its own.
 
 A connection is one client of a ``tcp-listen://`` link (each gets a new number, never reused),
 or the whole line of a link without clients (a pty, a serial port, CAN: `None`). Whether a
@@ -32,6 +33,14 @@ AUTHENTICATION_REQUIRED = (
     "a key the node trusts (hexmigrate ... --key KEY.pem)"
 )
 """The refusal of a request that changes a node, from a connection not authenticated."""
+SUPERSEDED = (
+    "another connection reset this node after this one reset it or ran its clock: the run, "
+    "PBOs and bridges this connection set up are gone, and it may change the node again only "
+    "after a RESET of its own"
+)
+"""The refusal of a request that changes a node, from a connection that reset the node or ran
+its clock before another connection reset it (`Sessions.reset_by`): the first of two managers
+on the same nodes."""
 
 
 @dataclass
@@ -45,6 +54,12 @@ class PeerSession:
     subscription: Subscription | None = None
     heard: float = 0.0
     """When the connection last sent a message (the receiver's clock)."""
+    runs_the_node: bool = False
+    """Whether the connection reset the node or ran its lock-step clock since another
+    connection last reset it: a manager's, whose run is the node's."""
+    superseded: bool = False
+    """Whether another connection reset the node after this one ran it: its changing requests
+    are refused (`Receiver`), as they would go on with a run that is gone."""
 
     @property
     def authenticated(self) -> bool:
@@ -76,6 +91,16 @@ class Sessions:
         session.heard = now
         self._sessions.move_to_end(peer)
         return session
+
+    def reset_by(self, session: PeerSession) -> None:
+        """The node was reset from `session`: each other connection that ran it is superseded,
+        and the new run is `session`'s."""
+        for other in self._sessions.values():
+            if other is not session and other.runs_the_node:
+                other.superseded = True
+                other.runs_the_node = False
+        session.runs_the_node = True
+        session.superseded = False
 
     def all(self) -> tuple[PeerSession, ...]:
         """Every connection's session."""

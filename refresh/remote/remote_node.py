@@ -29,13 +29,14 @@ import time
 from collections.abc import Callable
 from typing import TypeVar
 
-from hexmigrate.errors import HexmigrateError, MessageError, NoAnswer, TransferError
+from hexmigrate.errors import HexmigrateError, MessageError, NoAnswer, NodeRefused, TransferError
 from hexmigrate.links import open_link
 from hexmigrate.links.base import Link
 from hexmigrate.signing.keys import PrivateKey
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import Message, decode
 from hexmigrate.transfer.sender import Sender
+from hexmigrate.transfer.sessions import SUPERSEDED
 from refresh.errors import NodeLinkError
 from refresh.remote.reports import ReportObserver, ReportSource
 
@@ -134,16 +135,17 @@ class RemoteNode:
                 if link_failed(error):
                     self.failed = self.failed or f"{what}: {error}"
                     raise self.error(what, error) from error
-                raise self.error(what, f"{error}{self.reset_elsewhere()}") from error
+                raise self.error(what, f"{error}{self.reset_elsewhere(error)}") from error
             self.heard = self.clock()
             return answer
 
-    def reset_elsewhere(self) -> str:
-        """Why the node may refuse what this manager set up on it (a bridge it no longer
-        imports, a PBO it no longer runs): its clock went back, at a RESET this manager did not
-        send (another manager on the same nodes resets them as it starts); "" when it did not."""
+    def reset_elsewhere(self, refusal: Exception) -> str:
+        """Why the node may have given `refusal` to what this manager set up on it (a bridge it
+        no longer imports, a PBO it no longer runs): its clock went back, at a RESET this
+        manager did not send (another manager on the same nodes resets them as it starts); ""
+        when it did not, or when the node said so itself (`SUPERSEDED`)."""
         went = self.source.went_back
-        if went is None:
+        if went is None or (isinstance(refusal, NodeRefused) and refusal.reason == SUPERSEDED):
             return ""
         return (
             f" (its clock went back from {went[0]:.3f} s to {went[1]:.3f} s: another host "
