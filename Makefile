@@ -9,6 +9,11 @@ SYSTEM_TOOLS := gcc=gcc riscv64-unknown-elf-gcc=gcc-riscv64-unknown-elf iverilog
 	qemu-system-riscv32=qemu-system-misc
 BUILD := build
 
+# Python writes its compiled modules (__pycache__, git-ignored) even where the environment says
+# not to: the suite starts about a thousand Python processes (nodes, hexmigrate, managers), and
+# each would compile the project's sources again (a third of a CLI's start-up).
+export PYTHONDONTWRITEBYTECODE :=
+
 include firmware/firmware.mk
 
 .PHONY: demo test lint tools modules bench clean
@@ -61,3 +66,4 @@ bench: tools $(INSTALLED)
 
 clean:
 	rm -rf $(BUILD) .pytest_cache .ruff_cache .hypothesis
+	find . -path ./.venv -prune -o -name __pycache__ -type d -exec rm -rf {} +
