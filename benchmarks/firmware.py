@@ -13,6 +13,10 @@
 - **round trips**: PING, LS (a request whose answer the node builds from its directory) and a
   control request, READ of one port of a PBO the node runs, median of `--pings`, on both nodes;
 - **boot**: from starting the node to its answer to the first PING;
+- **idle CPU**: the host CPU seconds a node's process (all its threads) takes per second of
+  wall time while it runs no module and hears nothing, over `IDLE_WINDOW` s once booted: a
+  node that polled its UART without sleeping would take a whole core (the QEMU node did, 1.0,
+  until its loop slept in WFI: firmware/board/board.h, board_idle);
 - **cycle time**: the CPU time one job of a guest module takes on each node, for gain and the
   Dehazer (visual_servoing/guest/dehazer.c), beside this process's Unicorn figures. Neither
   node reports a PBO's busy time or cycle count in any reply (PS, DESCRIBE, WATCH and LOGS
@@ -92,6 +96,8 @@ NODES = ("qemu", "python")
 MODES = ("hex", "binary")
 SETTLE = 0.3
 """Seconds a PBO just started runs before the counter's window opens."""
+IDLE_WINDOW = 2.0
+"""Seconds of wall time over which an idle node's CPU is measured."""
 
 
 # Size.
@@ -349,6 +355,18 @@ def busiest_thread(pid: int) -> Path:
     return max(files, key=cpu_seconds)
 
 
+def process_cpu_seconds(pid: int) -> float:
+    """The CPU time every thread of process `pid` ran so far."""
+    return sum(cpu_seconds(task / "schedstat") for task in Path(f"/proc/{pid}/task").iterdir())
+
+
+def idle_cpu(pid: int) -> float:
+    """The CPU seconds per second process `pid` takes over `IDLE_WINDOW` s of wall time."""
+    before, begun = process_cpu_seconds(pid), time.perf_counter()
+    time.sleep(IDLE_WINDOW)
+    return (process_cpu_seconds(pid) - before) / (time.perf_counter() - begun)
+
+
 def cpu_seconds(schedstat: Path) -> float:
     """The CPU time a thread ran so far (its schedstat's first field, in ns)."""
     return int(schedstat.read_text().split()[0]) / 1e9
@@ -484,9 +502,10 @@ def measure(kind: str, images: list[ModuleImage], repeats: int, pings: int) -> d
     figures: dict[str, float] = {}
     with (
         tempfile.TemporaryDirectory(prefix=f"firmware-bench-{kind}-") as folder,
-        started(kind, Path(folder)) as (url, boot, _),
+        started(kind, Path(folder)) as (url, boot, pid),
     ):
         figures["boot"] = boot
+        figures["idle CPU (s/s)"] = idle_cpu(pid)
         figures["ping"] = round_trip(url, Sender.ping, pings)
         figures["ls"] = round_trip(url, Sender.modules, pings)
         install_seconds(url, images[0], "binary")  # a PBO to read a port of
@@ -611,7 +630,7 @@ def main() -> None:
     qemu, python = figures["qemu"], figures["python"]
     print(f"{'figure (s)':<16} {'QEMU node':>11} {'Python node':>12} {'QEMU/Python':>12}")
     for name in (name for name in python if name in qemu):
-        ratio = qemu[name] / python[name]
+        ratio = qemu[name] / python[name] if python[name] else float("inf")
         print(f"{name:<16} {qemu[name]:>11.4f} {python[name]:>12.4f} {ratio:>12.2f}")
     for image in images:
         for mode in MODES:

@@ -6,8 +6,9 @@
  * the flash directory and the protocol, is the same on every board.
  *
  * Three things: a byte stream to the host (the link), the flash the modules live in, and a
- * clock. None of them may block the node for long: the UART is polled, and a flash operation
- * returns when the chip says it is done.
+ * clock, and a way to sleep until one of the first and last has something. None of them may
+ * block the node for long: the UART is polled, and a flash operation returns when the chip says
+ * it is done.
  *
  * Flash geometry. The node lays its flash out in 256-byte blocks, as the Python node does (the
  * same directory bytes, docs/node.md), and programs one block at a time. Real NOR flash erases
@@ -38,6 +39,12 @@ void board_uart_write(const uint8_t *bytes, size_t length);
 
 /* Microseconds since the board started; never goes back. */
 uint64_t board_time_us(void);
+
+/* Wait without running the CPU until board_time_us() reaches `until_us` or a byte from the
+ * host arrives, whichever comes first (at once when either already has); it may return
+ * earlier. An idle node then draws no host CPU on an emulator and little power on a board.
+ * Whatever the board enables to wake up must not reach module code as a trap (trap.h). */
+void board_idle(uint64_t until_us);
 
 /* Where the flash is mapped (the address modules run from), its size and its erase sector. */
 uint32_t board_flash_base(void);

@@ -125,3 +125,12 @@ void watch_push(void (*send)(const char *bytes, size_t length))
         push(send, VERB_BEAT, now, control_state_line);
     }
 }
+
+bool watch_next(uint64_t *when_us)
+{
+    if (!watch.on) {
+        return false;
+    }
+    *when_us = watch.next_report < watch.next_beat ? watch.next_report : watch.next_beat;
+    return true;
+}

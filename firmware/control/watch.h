@@ -12,6 +12,7 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
 
 #include "../protocol/messages.h"
 
@@ -24,5 +25,8 @@ void watch_restart(void);
 
 /* Send what is due now (none, a report, a beat or both). The main loop calls it. */
 void watch_push(void (*send)(const char *bytes, size_t length));
+
+/* When the next push is due (the kernel's clock): false when nothing is watched. */
+bool watch_next(uint64_t *when_us);
 
 #endif

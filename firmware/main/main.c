@@ -1,11 +1,12 @@
 /*
  * main.c - the node firmware: boot the flash directory, say so on the link, then serve.
  *
- * One loop, no interrupts: poll the UART, hand each whole line to the receiver, drop idle
- * transfers; between lines, start the modules that arrived, run the kernel's due job and push
- * what a watch is due. A job runs in one piece (the watchdog bounds it, trap.h): bytes that
- * arrive meanwhile wait in the UART, which QEMU does not overrun (it flow-controls the socket
- * behind it; a real board needs an interrupt-fed ring buffer).
+ * One loop, no interrupt handler: poll the UART, hand each whole line to the receiver, drop
+ * idle transfers; between lines, start the modules that arrived, run the kernel's due job and
+ * push what a watch is due; once the host has been quiet for a while, sleep (board_idle) until
+ * the next of those is due or a byte arrives. A job runs in one piece (the watchdog bounds it, trap.h): bytes that arrive
+ * meanwhile wait in the UART, which QEMU does not overrun (it flow-controls the socket behind
+ * it; a real board needs an interrupt-fed ring buffer).
  *
  * The banner is the first line a host sees after a reset; lines about modules skipped at boot
  * come before it. It is no protocol message, so a host that reads it as an answer drops it as
@@ -17,6 +18,7 @@
  */
 #include "../board/board.h"
 #include "../control/watch.h"
+#include "../kernel/kernel.h"
 #include "../kernel/text.h"
 #include "../loader/flash_layout.h"
 #include "../loader/node.h"
@@ -26,6 +28,12 @@
 
 #define BANNER_MAX 200
 #define BANNER_EVERY_US 50000u
+/* The longest sleep: idle transfers are dropped and an unheard banner said again on time. */
+#define IDLE_MAX_US 10000u
+/* How long the loop polls on after the last byte before it sleeps: a host's next message
+ * comes soon within a transfer or a command, and a wake-up per byte would halve the install
+ * rate on QEMU (benchmarks/firmware.py). */
+#define AWAKE_AFTER_BYTE_US 10000u
 
 static struct line_reader reader;
 
@@ -50,10 +58,24 @@ static void banner(void)
     say(text);
 }
 
+/* Sleep until the next job or push is due, IDLE_MAX_US at most, or until a byte arrives. */
+static void idle(void)
+{
+    const uint64_t now = kernel_time_us();
+    uint64_t wake = now + IDLE_MAX_US, due;
+    if (kernel_next_release(&due) && due < wake) {
+        wake = due;
+    }
+    if (watch_next(&due) && due < wake) {
+        wake = due;
+    }
+    board_idle(board_time_us() + (wake > now ? wake - now : 0));
+}
+
 static void serve(void)
 {
     bool heard = false;
-    uint64_t announced = board_time_us();
+    uint64_t announced = board_time_us(), last_byte = 0;
     for (;;) {
         uint8_t byte;
         if (!board_uart_read(&byte)) {
@@ -64,9 +86,13 @@ static void serve(void)
                 banner();
                 announced = board_time_us();
             }
+            if (board_time_us() - last_byte >= AWAKE_AFTER_BYTE_US) {
+                idle();
+            }
             continue;
         }
         heard = true;
+        last_byte = board_time_us();
         enum line_event event = line_reader_feed(&reader, byte);
         if (event == LINE_TEXT) {
             receiver_handle_line(reader.line, reader.length);
