@@ -4,9 +4,9 @@
  * One loop, no interrupt handler: poll the UART, hand each whole line to the receiver, drop
  * idle transfers; between lines, start the modules that arrived, run the kernel's due job and
  * push what a watch is due; once the host has been quiet for a while, sleep (board_idle) until
- * the next of those is due or a byte arrives. A job runs in one piece (the watchdog bounds it, trap.h): bytes that arrive
- * meanwhile wait in the UART, which QEMU does not overrun (it flow-controls the socket behind
- * it; a real board needs an interrupt-fed ring buffer).
+ * the next of those is due or a byte arrives. A job runs in one piece (the watchdog bounds it,
+ * trap.h): bytes that arrive meanwhile wait in the UART, which QEMU does not overrun (it
+ * flow-controls the socket behind it; a real board needs an interrupt-fed ring buffer).
  *
  * The banner is the first line a host sees after a reset; lines about modules skipped at boot
  * come before it. It is no protocol message, so a host that reads it as an answer drops it as
