@@ -13,10 +13,12 @@
 - **round trips**: PING, LS (a request whose answer the node builds from its directory) and a
   control request, READ of one port of a PBO the node runs, median of `--pings`, on both nodes;
 - **boot**: from starting the node to its answer to the first PING;
-- **idle CPU**: the host CPU seconds a node's process (all its threads) takes per second of
-  wall time while it runs no module and hears nothing, over `IDLE_WINDOW` s once booted: a
-  node that polled its UART without sleeping would take a whole core (the QEMU node did, 1.0,
-  until its loop slept in WFI: firmware/board/board.h, board_idle);
+- **idle CPU**: the host CPU seconds a node's process (all its threads: QEMU's, or the Python
+  node's) takes per second of wall time while it runs no module and hears nothing, over
+  `IDLE_WINDOW` s once booted: a node that polled its UART without sleeping would take a whole
+  core (the QEMU node did, 1.0, until its loop slept in WFI: firmware/board/board.h,
+  board_idle). The QEMU node's pty relay, a thread of whoever started QEMU (here this
+  process), is not counted: it waits in select (``firmware-sim qemu`` took 0.004 s/s idle);
 - **cycle time**: the CPU time one job of a guest module takes on each node, for gain and the
   Dehazer (visual_servoing/guest/dehazer.c), beside this process's Unicorn figures. Neither
   node reports a PBO's busy time or cycle count in any reply (PS, DESCRIBE, WATCH and LOGS
