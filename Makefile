@@ -45,7 +45,7 @@ lint: $(INSTALLED)
 # they start, and a core would idle (on 2 cores: 6 min 19 s instead of 7 min 25 s). The tests
 # that judge processes on their real-time clocks (`serial`) run alone afterwards.
 TEST_WORKERS := $(shell echo $$(( $$(nproc) + 1 )))
-test: tools $(INSTALLED) lint firmware firmware-host
+test: tools $(INSTALLED) lint firmware firmware-32k firmware-host
 	$(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile -m "not serial"
 	$(PY) -m pytest -m serial
 
@@ -63,6 +63,7 @@ bench: tools $(INSTALLED)
 	$(PY) benchmarks/fleet.py
 	$(PY) benchmarks/firmware.py
 	$(PY) benchmarks/firmware_stack.py
+	$(PY) benchmarks/firmware_stack.py --capacities-32k
 
 clean:
 	rm -rf $(BUILD) .pytest_cache .ruff_cache .hypothesis

@@ -35,9 +35,11 @@ that is safe. Weak defaults (``*_default.c``) give way to the strong definitions
 The deepest path is then set against the stack the firmware links (``__stack_top -
 __stack_low`` of build/firmware/node.elf, which make brings up to date): a path deeper than the
 stack ends the run with an error (tests/firmware/test_stack_depth.py runs it), since a stack
-overflow writes over RAM without a word.
+overflow writes over RAM without a word. ``--capacities-32k`` measures the build with the
+capacities of a 32 KiB-SRAM MCU (firmware/capacities/capacities_32k.h, build/firmware/32k/
+node.elf): its tables are smaller, but what GCC inlines may change with them.
 
-    python benchmarks/firmware_stack.py [--keep DIR]
+    python benchmarks/firmware_stack.py [--keep DIR] [--capacities-32k]
 """
 
 from __future__ import annotations
@@ -175,11 +177,12 @@ def save_bytes(registers: int) -> int:
 # The build.
 
 
-def make_variable(name: str) -> str:
-    """A variable of the firmware's build as make expands it (firmware/firmware.mk)."""
+def make_variable(name: str, *settings: str) -> str:
+    """A variable of the firmware's build as make expands it (firmware/firmware.mk), with the
+    `settings` (``NAME=VALUE``) given to make."""
     printer = "stack-print-%: ; @echo $($*)"
     return subprocess.run(
-        ["make", "-s", "--no-print-directory", "--eval", printer, f"stack-print-{name}"],
+        ["make", "-s", "--no-print-directory", "--eval", printer, *settings, f"stack-print-{name}"],
         cwd=ROOT,
         capture_output=True,
         text=True,
@@ -187,12 +190,12 @@ def make_variable(name: str) -> str:
     ).stdout.strip()
 
 
-def compile_sources(folder: Path) -> tuple[list[Path], Path]:
-    """Every firmware source compiled into `folder` as the build compiles it, with GCC's call
-    graph beside each object; the objects and the libgcc the link adds (the recipe's
-    ``-march=rv32im -mabi=ilp32 -print-libgcc-file-name``)."""
+def compile_sources(folder: Path, *settings: str) -> tuple[list[Path], Path]:
+    """Every firmware source compiled into `folder` as the build compiles it (with the make
+    `settings`: the capacities), with GCC's call graph beside each object; the objects and the
+    libgcc the link adds (the recipe's ``-march=rv32im -mabi=ilp32 -print-libgcc-file-name``)."""
     compiler = make_variable("FIRMWARE_CC")
-    flags = make_variable("FIRMWARE_CFLAGS").split()
+    flags = make_variable("FIRMWARE_CFLAGS", *settings).split()
     sources = make_variable("FIRMWARE_SOURCES").split()
 
     def build(source: str) -> Path:
@@ -415,11 +418,21 @@ def main() -> None:
     parser.add_argument(
         "--keep", type=Path, help="a folder to keep the objects and GCC's .ci files in"
     )
+    parser.add_argument(
+        "--capacities-32k",
+        action="store_true",
+        help="measure the build with the capacities of a 32 KiB-SRAM MCU (make firmware-32k)",
+    )
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="firmware-stack-") as folder:
         try:
-            stack = linked_stack(firmware_elf())
-            objects, libgcc = compile_sources(Path(folder))
+            stack = linked_stack(firmware_elf(capacities_32k=args.capacities_32k))
+            settings = (
+                [f"FIRMWARE_CAPACITIES={make_variable('FIRMWARE_CAPACITIES_32K')}"]
+                if args.capacities_32k
+                else []
+            )
+            objects, libgcc = compile_sources(Path(folder), *settings)
             functions, defined_in = read_graph(objects)
             resolve_indirect(functions)
             checked = add_code(functions, defined_in, objects, libgcc)

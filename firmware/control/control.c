@@ -261,7 +261,7 @@ static bool read_ports(const struct request *r)
     struct text why, values;
 
     text_start(&why, reason, sizeof reason);
-    if (!ports_parse(r->message->text[1], r->message->text_length[1], &ports, &why) ||
+    if (!ports_parse(r->message->text[1], r->message->text_length[1], PORTS_MAX, &ports, &why) ||
         !ports_readable(&ports, &why)) {
         return refuse(r, REASON, reason);
     }

@@ -90,15 +90,16 @@ static void refuse_name(struct text *why, const char *text, size_t start, size_t
                 (uint32_t)(end - start > 60 ? 60 : end - start));
 }
 
-bool ports_parse(const char *text, size_t length, struct port_list *ports, struct text *why)
+bool ports_parse(const char *text, size_t length, uint32_t most, struct port_list *ports,
+                 struct text *why)
 {
     size_t at = 0, start, end, count = 0;
     size_t bad_start = 0, bad_end = 0;
     bool bad = false;
 
     while (next_word(text, length, &at, &start, &end)) {
-        if (count++ == PORTS_MAX) {
-            text_add(why, "expected at most 32 ports, got more");
+        if (count++ == most) {
+            text_format(why, "expected at most %u ports, got more", most);
             return false;
         }
         if (!bad && !ports_is_port(text + start, end - start)) {

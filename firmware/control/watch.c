@@ -36,7 +36,7 @@ bool watch_request(const struct message *request, struct text *reply, struct tex
         return false;
     }
     if (request->text_length[2] > 0 &&
-        (!ports_parse(request->text[2], request->text_length[2], &ports, why) ||
+        (!ports_parse(request->text[2], request->text_length[2], WATCH_PORTS_MAX, &ports, why) ||
          !ports_readable(&ports, why))) {
         return false; /* refused by name now rather than missing from every report */
     }

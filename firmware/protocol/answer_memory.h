@@ -4,9 +4,10 @@
  * twice (a START sent again would be refused, a CONNECT done twice).
  *
  * The answers lie back to back in one buffer of ANSWER_MEMORY_BYTES, the oldest dropped to make
- * room: an ACK takes 34 to 90 bytes with its 6-byte header ("started gain" to HOLD's), so 11 to
- * 30 are kept, and at least 4 refusals of 200 characters (the Python node keeps its last 64
- * requests of every kind; a request sent again comes right after its lost answer).
+ * room: an ACK takes 34 to 90 bytes with its 6-byte header ("started gain" to HOLD's), so in the
+ * default 1 KiB 11 to 30 are kept, and at least 4 refusals of 200 characters (the Python node
+ * keeps its last 64 requests of every kind; a request sent again comes right after its lost
+ * answer).
  */
 #ifndef NODE_ANSWER_MEMORY_H
 #define NODE_ANSWER_MEMORY_H
@@ -15,9 +16,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "../capacities/capacities.h" /* ANSWER_MEMORY_BYTES */
 #include "../kernel/text.h"
-
-#define ANSWER_MEMORY_BYTES 1024
 
 /* The answer kept for the request `key` (a CRC of the whole request) added to `reply`; false
  * when none is kept. */

@@ -4,7 +4,9 @@
 #include "number_word.h"
 
 /* A number past 64 bits is shown in decimal from limbs of four digits (half the RAM of one
- * byte a digit): 326 of them hold the 1,234 digits of a 1,024-character line of hex digits. */
+ * byte a digit): 326 of them hold the 1,234 digits of a 1,024-character line of hex digits.
+ * They lie on the stack, where the deepest path through them still fits (firmware_stack.py):
+ * static, they would take their 652 bytes of RAM for good. */
 #define LIMB 10000u
 #define MAX_LIMBS 326
 
@@ -149,7 +151,7 @@ void number_word_show(const char *text, size_t length, const struct number_word 
         text_add_unsigned(out, number->value);
         return;
     }
-    static uint16_t limbs[MAX_LIMBS];
+    uint16_t limbs[MAX_LIMBS];
     size_t count = 1;
     limbs[0] = 0;
     if (length && (text[0] == '+' || text[0] == '-')) {

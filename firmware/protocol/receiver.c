@@ -51,7 +51,7 @@ struct refusal {
 
 void receiver_init(void (*send)(const char *bytes, size_t length))
 {
-    for (int i = 0; i < MAX_TRANSFERS; i++) {
+    for (uint32_t i = 0; i < MAX_TRANSFERS; i++) {
         receiver.transfers[i].used = false; /* a restart forgets transfers: boot frees flash */
     }
     receiver.commit_count = receiver.commit_next = 0;
@@ -109,7 +109,7 @@ static void start_refusal(struct refusal *refusal)
 
 static struct transfer *find_transfer(uint32_t tid)
 {
-    for (int i = 0; i < MAX_TRANSFERS; i++) {
+    for (uint32_t i = 0; i < MAX_TRANSFERS; i++) {
         if (receiver.transfers[i].used && receiver.transfers[i].tid == tid) {
             return &receiver.transfers[i];
         }
@@ -120,15 +120,21 @@ static struct transfer *find_transfer(uint32_t tid)
 static uint32_t open_count(void)
 {
     uint32_t count = 0;
-    for (int i = 0; i < MAX_TRANSFERS; i++) {
+    for (uint32_t i = 0; i < MAX_TRANSFERS; i++) {
         count += receiver.transfers[i].used;
     }
     return count;
 }
 
+/* Why BEGIN is refused when MAX_TRANSFERS are open. */
+static void refuse_crowded(struct text *why)
+{
+    text_format(why, "%u transfers are open (an idle one ends after 60 s)", MAX_TRANSFERS);
+}
+
 static struct transfer *free_slot(void)
 {
-    for (int i = 0; i < MAX_TRANSFERS; i++) {
+    for (uint32_t i = 0; i < MAX_TRANSFERS; i++) {
         if (!receiver.transfers[i].used) {
             return &receiver.transfers[i];
         }
@@ -161,7 +167,7 @@ static void refuse_transfer(struct transfer *t, uint32_t tid, const struct refus
 void receiver_expire(void)
 {
     uint64_t now = board_time_us();
-    for (int i = 0; i < MAX_TRANSFERS; i++) {
+    for (uint32_t i = 0; i < MAX_TRANSFERS; i++) {
         struct transfer *t = &receiver.transfers[i];
         if (t->used && now - t->touched > TRANSFER_IDLE_US) {
             drop(t);
@@ -290,7 +296,7 @@ static void handle_begin(const struct message *m)
         return;
     }
     if (open_count() >= MAX_TRANSFERS) {
-        text_add(&refusal.why, "4 transfers are open (an idle one ends after 60 s)");
+        refuse_crowded(&refusal.why);
         nak(tid, 0, true, refusal.reason);
         return;
     }
@@ -455,7 +461,7 @@ static bool end_transfer(struct transfer *t, bool check, uint32_t crc, struct re
 static struct transfer *newest_open(void)
 {
     struct transfer *newest = 0;
-    for (int i = 0; i < MAX_TRANSFERS; i++) {
+    for (uint32_t i = 0; i < MAX_TRANSFERS; i++) {
         struct transfer *t = &receiver.transfers[i];
         if (t->used && !t->verified && (!newest || t->order > newest->order)) {
             newest = t;
@@ -481,8 +487,8 @@ static struct transfer *text_transfer(struct refusal *refusal)
         return 0;
     }
     if (open_count() >= MAX_TRANSFERS) {
-        text_add(&refusal->why, "cannot begin: 4 transfers are open (an idle one ends after "
-                                  "60 s)");
+        text_add(&refusal->why, "cannot begin: ");
+        refuse_crowded(&refusal->why);
         return 0;
     }
     transfer = open_transfer(IMPLICIT);

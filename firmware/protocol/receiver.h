@@ -9,8 +9,9 @@
  * (`NAK tid received RETRY ...`), data it holds already is acknowledged as a `repeat`, each
  * programmed block as `ACK tid programmed` (binary mode: a BlockAck). END checks the CRC-32 of
  * the image as it sits in flash, COMMIT makes it the node's module (a repeated COMMIT gets the
- * same answer: the last 16 are remembered), ABORT or any fatal refusal erases what the transfer
- * wrote. A transfer silent for 60 s is dropped. PING, LS and RM answer at once.
+ * same answer: the last REMEMBERED_COMMITS are remembered), ABORT or any fatal refusal erases
+ * what the transfer wrote. A transfer silent for 60 s is dropped. PING, LS and RM answer at
+ * once. At most MAX_TRANSFERS are open at once (firmware/capacities/capacities.h).
  */
 #ifndef NODE_RECEIVER_H
 #define NODE_RECEIVER_H
@@ -19,10 +20,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define MAX_TRANSFERS 4
-/* A COMMIT sent again comes right after its lost ACK, before its sender's next transfer: 16
- * leave room for several hosts sending at once (the Python node keeps 64; 28 bytes each). */
-#define REMEMBERED_COMMITS 16
+#include "../capacities/capacities.h" /* MAX_TRANSFERS, REMEMBERED_COMMITS */
+
 #define TRANSFER_IDLE_US 60000000ull
 
 /* Where answers go: whole lines, each ending in '\n'. */

@@ -12,6 +12,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from elftools.common.exceptions import ELFError
+from elftools.elf.constants import SH_FLAGS
 from elftools.elf.elffile import ELFFile
 
 from firmware_sim.errors import QemuError
@@ -19,14 +20,18 @@ from firmware_sim.errors import QemuError
 ROOT = Path(__file__).resolve().parents[2]
 """The project's folder: where the Makefile and firmware/ are."""
 ELF = Path("build") / "firmware" / "node.elf"
-"""Where `make firmware` writes the ELF, below ROOT."""
+"""Where `make firmware` writes the ELF, below ROOT: the Python node's capacities."""
+ELF_32K = Path("build") / "firmware" / "32k" / "node.elf"
+"""Where `make firmware-32k` writes the ELF with the capacities of an MCU with 32 KiB of SRAM
+(firmware/capacities/capacities_32k.h), below ROOT."""
 BUILD_TIMEOUT = 300.0
 
 
-def firmware_elf(root: Path = ROOT) -> Path:
-    """The firmware's ELF, brought up to date by make; QemuError when it cannot be built."""
-    make_target(ELF, root)
-    return root / ELF
+def firmware_elf(root: Path = ROOT, *, capacities_32k: bool = False) -> Path:
+    """The firmware's ELF (with the capacities of a 32 KiB-SRAM MCU when `capacities_32k`),
+    brought up to date by make; QemuError when it cannot be built."""
+    make_target(Path("firmware-32k") if capacities_32k else ELF, root)
+    return root / (ELF_32K if capacities_32k else ELF)
 
 
 def make_target(target: Path, root: Path = ROOT) -> None:
@@ -76,3 +81,20 @@ def linked_stack(elf: Path) -> int:
     """The bytes of the stack the firmware links: ``__stack_top - __stack_low`` (link.ld)."""
     symbols = elf_symbols(elf, ("__stack_top", "__stack_low"))
     return symbols["__stack_top"] - symbols["__stack_low"]
+
+
+def firmware_ram(elf: Path) -> int:
+    """The RAM the firmware takes besides the module areas, which the issue's 16 KiB goal
+    counts: its writable sections (data, bss) and its linked stack. The module SRAM, task window
+    and module stack are regions of the link script, not sections, so none of them counts."""
+    try:
+        with elf.open("rb") as stream:
+            writable = SH_FLAGS.SHF_ALLOC | SH_FLAGS.SHF_WRITE
+            static = sum(
+                section["sh_size"]
+                for section in ELFFile(stream).iter_sections()
+                if section["sh_flags"] & writable == writable
+            )
+    except (OSError, ELFError) as error:
+        raise QemuError(f"{elf}: expected the firmware's ELF, got {error}") from None
+    return static + linked_stack(elf)

@@ -18,9 +18,10 @@ SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "firmware_stack.py
 
 
 @pytest.mark.timeout(120)
-def test_the_deepest_path_fits_the_linked_stack():
+@pytest.mark.parametrize("capacities", [[], ["--capacities-32k"]], ids=["default", "32k"])
+def test_the_deepest_path_fits_the_linked_stack(capacities):
     done = subprocess.run(
-        [sys.executable, str(SCRIPT)], capture_output=True, text=True, timeout=110
+        [sys.executable, str(SCRIPT), *capacities], capture_output=True, text=True, timeout=110
     )
     assert done.returncode == 0, done.stdout + done.stderr
     assert "dynamic frames: none" in done.stdout
