@@ -376,8 +376,11 @@ def cmd_ls(args: argparse.Namespace) -> int:
         modules = sender.modules()
     if not modules:
         print(f"no modules on {args.to}")
-    for name, location, size in modules:
-        print(f"{one_line(name, SHOWN):<16} 0x{location:08X}  {size} bytes")
+    for module in modules:
+        crc = "" if module.crc32 is None else f"  CRC-32 0x{module.crc32:08X}"
+        print(
+            f"{one_line(module.name, SHOWN):<16} 0x{module.address:08X}  {module.size} bytes{crc}"
+        )
     return 0
 
 

@@ -173,26 +173,41 @@ static bool parse_number(struct span word, uint8_t kind, uint64_t *value, struct
     return true;
 }
 
-/* One NAME@0xADDRESS:SIZE word of a listing. */
+/* Where `c` first occurs in `word` from `from` on, or the word's length. */
+static size_t find_from(struct span word, size_t from, char c)
+{
+    while (from < word.length && word.start[from] != c) {
+        from++;
+    }
+    return from;
+}
+
+/* One NAME@0xADDRESS:SIZE word of a listing, or NAME@0xADDRESS:SIZE:0xCRC32. */
 static bool parse_module_word(struct span word, struct text *why)
 {
     size_t at = word.length;
     while (at && word.start[at - 1] != '@') {
         at--;
     }
-    size_t colon = at;
-    while (colon < word.length && word.start[colon] != ':') {
-        colon++;
-    }
+    size_t colon = find_from(word, at, ':');
     if (at <= 1 || colon >= word.length) {
-        text_format(why, "expected NAME@0xADDRESS:SIZE, got %r", word.start, (uint32_t)word.length);
+        text_format(why, "expected NAME@0xADDRESS:SIZE[:0xCRC32], got %r", word.start,
+                    (uint32_t)word.length);
         return false;
     }
+    size_t second = find_from(word, colon + 1, ':');
     uint64_t ignored;
     struct span address = {word.start + at, colon - at};
-    struct span size = {word.start + colon + 1, word.length - colon - 1};
-    return parse_number(address, FIELD_U32, &ignored, why) &&
-           parse_number(size, FIELD_U32, &ignored, why);
+    struct span size = {word.start + colon + 1, second - colon - 1};
+    if (!parse_number(address, FIELD_U32, &ignored, why) ||
+        !parse_number(size, FIELD_U32, &ignored, why)) {
+        return false;
+    }
+    if (second == word.length) {
+        return true; /* no CRC: a listing from before they carried one */
+    }
+    struct span crc = {word.start + second + 1, word.length - second - 1};
+    return parse_number(crc, FIELD_U32, &ignored, why);
 }
 
 static bool parse_listing(struct span text, struct text *why)
@@ -439,9 +454,10 @@ void reply_modules_start(struct text *line)
     text_add(line, "MODULES");
 }
 
-void reply_module(struct text *line, const char *name, uint32_t address, uint32_t size)
+void reply_module(struct text *line, const char *name, uint32_t address, uint32_t size,
+                  uint32_t crc32)
 {
-    text_format(line, " %s@%a:%U", name, (uint32_t)address, (uint64_t)size);
+    text_format(line, " %s@%a:%U:%a", name, address, (uint64_t)size, crc32);
 }
 
 void reply_text_start(struct text *line, enum verb verb, const uint32_t *numbers,

@@ -79,9 +79,11 @@ const char *verb_word(enum verb verb);
 void reply_ack(struct text *line, uint32_t tid, uint32_t value, const char *text);
 void reply_nak(struct text *line, uint32_t tid, uint32_t value, bool fatal, const char *reason);
 void reply_pong(struct text *line, const char *text);
-/* MODULES: the caller adds `name@0xADDRESS:SIZE` words with reply_module, then reply_end. */
+/* MODULES: the caller adds `name@0xADDRESS:SIZE:0xCRC32` words with reply_module (the CRC-32
+ * of the module's bytes in flash, as its directory entry holds it), then reply_end. */
 void reply_modules_start(struct text *line);
-void reply_module(struct text *line, const char *name, uint32_t address, uint32_t size);
+void reply_module(struct text *line, const char *name, uint32_t address, uint32_t size,
+                  uint32_t crc32);
 void reply_end(struct text *line);
 
 /* An answer whose fields are numbers and then free text (PBOS, VALUES, LOGLINES, DESCRIPTION,

@@ -214,7 +214,7 @@ static void handle_list(void)
     reply_modules_start(&line);
     for (uint32_t i = 0; i < node_module_count(); i++) {
         const struct directory_entry *entry = &node_module(i)->entry;
-        reply_module(&line, entry->name, entry->load_address, entry->size);
+        reply_module(&line, entry->name, entry->load_address, entry->size, entry->crc32);
     }
     reply_end(&line);
     send_line(&line);

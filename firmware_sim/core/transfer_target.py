@@ -14,6 +14,7 @@ from collections.abc import Callable
 from firmware_sim.core.loader import InstalledImage, LoadSession
 from firmware_sim.core.node import Node
 from firmware_sim.core.trust import linked_image
+from hexmigrate.transfer.fields import ListedModule
 
 
 class NodeTarget:
@@ -91,10 +92,17 @@ class NodeTarget:
         """Erase a verified image that will not be committed."""
         self.node.discard(owner, image)
 
-    def modules(self) -> tuple[tuple[str, int, int], ...]:
-        """(name, load address, size) of each installed module."""
-        software = [(m.name, m.load_address, m.image.size) for m in self.node.modules.values()]
-        hardware = [(name, address, size) for name, (_, address, size) in self.components.items()]
+    def modules(self) -> tuple[ListedModule, ...]:
+        """Each installed module: name, load address, size and the CRC-32 its directory entry
+        holds (of its relocated bytes); a hardware component's without a CRC."""
+        software = [
+            ListedModule(m.name, m.load_address, m.image.size, m.image.crc32)
+            for m in self.node.modules.values()
+        ]
+        hardware = [
+            ListedModule(name, address, size)
+            for name, (_, address, size) in self.components.items()
+        ]
         return tuple(software + hardware)
 
     def remove(self, name: str) -> None:

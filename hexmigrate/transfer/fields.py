@@ -22,7 +22,7 @@ from __future__ import annotations
 import dataclasses
 import struct
 from enum import Enum
-from typing import Any
+from typing import Any, NamedTuple
 
 from hexmigrate.errors import MessageError
 
@@ -207,9 +207,22 @@ class Text(Field):
         return text
 
 
+class ListedModule(NamedTuple):
+    """A module a node lists: its name, load address and size, and the CRC-32 of its bytes as
+    they sit in flash (relocated to the address), by which a host tells a rebuild of the same
+    size from the node's copy. None where the node says none: a hardware component, or a node
+    from before listings carried it."""
+
+    name: str
+    address: int
+    size: int
+    crc32: int | None = None
+
+
 class Modules(Field):
-    """A node's modules, (name, load address, size) each, as words ``NAME@0xADDRESS:SIZE``:
-    the UTF-8 tail in binary mode, the rest of the line in text."""
+    """A node's modules (`ListedModule` each) as words ``NAME@0xADDRESS:SIZE:0xCRC32`` (without
+    ``:0xCRC32`` when the CRC is None): the UTF-8 tail in binary mode, the rest of the line in
+    text."""
 
     def __init__(self) -> None:
         super().__init__(words=Words.REST)
@@ -217,26 +230,34 @@ class Modules(Field):
         self._size = Number("I")
 
     def to_text(self, value: Any) -> str:
-        return " ".join(
-            f"{_one_word(name)}@{self._address.to_text(address)}:{self._size.to_text(size)}"
-            for name, address, size in value
-        )
+        return " ".join(self._word(ListedModule(*module)) for module in value)
 
-    def from_text(self, text: str) -> tuple[tuple[str, int, int], ...]:
+    def from_text(self, text: str) -> tuple[ListedModule, ...]:
         return tuple(self._module(word) for word in text.split())
 
     def to_tail(self, value: Any) -> bytes:
         return self.to_text(value).encode("utf-8")
 
-    def from_tail(self, data: bytes) -> tuple[tuple[str, int, int], ...]:
+    def from_tail(self, data: bytes) -> tuple[ListedModule, ...]:
         return self.from_text(_utf8(data))
 
-    def _module(self, word: str) -> tuple[str, int, int]:
+    def _word(self, module: ListedModule) -> str:
+        word = f"{_one_word(module.name)}@{self._address.to_text(module.address)}"
+        word += f":{self._size.to_text(module.size)}"
+        return word if module.crc32 is None else f"{word}:{self._address.to_text(module.crc32)}"
+
+    def _module(self, word: str) -> ListedModule:
         name, at, rest = word.rpartition("@")
-        address, colon, size = rest.partition(":")
+        address, colon, tail = rest.partition(":")
+        size, with_crc, crc = tail.partition(":")
         if not (name and at and colon):
-            raise MessageError(f"expected NAME@0xADDRESS:SIZE, got {word!r}")
-        return name, self._address.from_text(address), self._size.from_text(size)
+            raise MessageError(f"expected NAME@0xADDRESS:SIZE[:0xCRC32], got {word!r}")
+        return ListedModule(
+            name,
+            self._address.from_text(address),
+            self._size.from_text(size),
+            self._address.from_text(crc) if with_crc else None,
+        )
 
 
 class U32Array(Field):
@@ -336,8 +357,7 @@ def free_text(**options: Any) -> Any:
 
 
 def listing() -> Any:
-    """A node's modules, (name, load address, size) each: the rest of the line, the binary
-    tail."""
+    """A node's modules, `ListedModule` each: the rest of the line, the binary tail."""
     return declared(Modules())
 
 

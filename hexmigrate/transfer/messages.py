@@ -24,6 +24,7 @@ from typing import Any, ClassVar, dataclass_transform
 from hexmigrate.errors import MessageError
 from hexmigrate.links.base import is_text
 from hexmigrate.transfer.fields import (
+    ListedModule,
     address,
     flag,
     free_text,
@@ -397,9 +398,9 @@ class Pong(Message, code=0x11, verb="PONG"):
 
 
 class Listing(Message, code=0x12, verb="MODULES"):
-    """The modules of a node: (name, load address, size) each."""
+    """The modules of a node: name, load address, size and CRC-32 in flash each."""
 
-    modules: tuple[tuple[str, int, int], ...] = listing()
+    modules: tuple[ListedModule, ...] = listing()
 
 
 class Ack(Message, code=0x13, verb="ACK"):

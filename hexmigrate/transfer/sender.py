@@ -31,6 +31,7 @@ from hexmigrate.links.base import Link
 from hexmigrate.records import SIGNATURE_RECORD_SIZE, Record, RecordType
 from hexmigrate.signing import challenge
 from hexmigrate.signing.keys import PrivateKey
+from hexmigrate.transfer.fields import ListedModule
 from hexmigrate.transfer.messages import (
     UNKNOWN_TRANSFER,
     Abort,
@@ -152,8 +153,8 @@ class Sender:
         """The node's description."""
         return self.request(Ping(), Pong, tid=None).text
 
-    def modules(self) -> tuple[tuple[str, int, int], ...]:
-        """The node's modules: (name, load address, size) each."""
+    def modules(self) -> tuple[ListedModule, ...]:
+        """The node's modules: name, load address, size and CRC-32 in flash each."""
         return self.request(ListModules(), Listing, tid=None).modules
 
     def remove(self, name: str) -> None:

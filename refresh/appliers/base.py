@@ -17,13 +17,14 @@ does the bookkeeping and calls one protected hook that the back end implements.
   bridge's half there, only forgets it, and adding anything there is refused. `rejoin` reaches a
   lost robot's node again and says what it has (`Inventory`).
 - **Images and migrations.** The image to migrate is the one given for the module, else the file
-  the database names. It is not sent when the robot lists a module of that name and the image's
-  size (what a node's listing says: a module edited and rebuilt to another size is sent again,
-  in place of the old one), and the step's line says which it was (`migrate` and `stop` return
-  a note for it). Each migration is recorded (`Migration`); with a modelled wire
-  (`migration_wire`), the transfer takes that wire's time in the run: the back end says how long
-  (`_send`), and `wait(seconds)` lets the world run on meanwhile (the old configuration keeps
-  working while the image travels, as on a real robot).
+  the database names. It is not sent when the robot lists a module of that name with the
+  image's size and the CRC-32 of the image relocated to the listed address (what a node's
+  listing says: a module edited and rebuilt since is sent again, in place of the old one), and
+  the step's line says which it was (`migrate` and `stop` return a note for it). Each migration
+  is recorded (`Migration`); with a modelled wire (`migration_wire`), the transfer takes that
+  wire's time in the run: the back end says how long (`_send`), and `wait(seconds)` lets the
+  world run on meanwhile (the old configuration keeps working while the image travels, as on a
+  real robot).
 - **Reads.** `read` gives a live scalar port's value as a float, or an ApplyError naming the port;
   `reads` several ports of one robot at once (one request over a link).
 
@@ -34,6 +35,7 @@ by URL).
 
 from __future__ import annotations
 
+import zlib
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -42,6 +44,7 @@ from typing import Protocol
 from firmware_sim.wires.transfer import WireRun
 from hexmigrate.image import ModuleImage
 from hexmigrate.transfer.control import LoggedLine
+from hexmigrate.transfer.fields import ListedModule
 from morphing_crossbar.hex_image import configuration_cycles
 from refresh.database import Module
 from refresh.decider import PerformanceSource
@@ -348,12 +351,12 @@ class ApplierBase(ABC):
         line when nothing was sent (the robot has it) or the image replaced another of the
         module's name, else None.
 
-        A module is installed already when the robot lists one of its name and of the image's
-        size: a listing says no more (name, address, size). Comparing the size matters because
-        nodes outlive managers: a module edited and rebuilt to another size is sent again (it
-        replaces the old one), where a name alone would leave the old code running while the
-        step said it migrated. A rebuild of the same size is not told apart; the note says what
-        was compared, so that the line does not claim a migration."""
+        A module is installed already when the robot lists one of its name, of the image's size
+        and of the CRC-32 the image has relocated to the listed address (`same_image`).
+        Comparing matters because nodes outlive managers: a module edited and rebuilt since the
+        node got it is sent again (it replaces the old one), where a name alone would leave the
+        old code running while the step said it migrated. The note says what was compared, so
+        that the line does not claim a migration."""
         self.require(robot)
         if module.source.native:
             raise ApplyError(
@@ -402,14 +405,15 @@ class ApplierBase(ABC):
                 return f"slots already configured for it on {robot}, not sent", None
             return None, None
         listed = self._installed(robot, module.name)
-        size = None if images[0] is None else images[0].size
         if listed is None:
             return None, None
-        if size is None or listed == size:
-            said = "" if size is None else f" ({size} bytes, as the image)"
-            return f"already on {robot}{said}, not sent", None
-        replaced = f"in place of the {listed}-byte {module.name} on {robot} (the image has {size})"
-        return None, replaced
+        image = images[0]
+        if image is None:
+            return f"already on {robot}, not sent", None
+        same, compared = same_image(listed, image)
+        if same:
+            return f"already on {robot} ({compared}), not sent", None
+        return None, f"in place of the {module.name} on {robot} ({compared})"
 
     def _images(self, module: Module) -> Sequence[ModuleImage | None]:
         """What a migration of `module` sends: its image, or a hardware module's bitstreams (a
@@ -468,9 +472,9 @@ class ApplierBase(ABC):
         down already; a lost robot's only forgotten); a note when it was not running."""
 
     @abstractmethod
-    def _installed(self, robot: str, module: str) -> int | None:
-        """The size in bytes of the image of `module` that `robot`'s node lists (a back end
-        that models no images: 0), or None when it holds none."""
+    def _installed(self, robot: str, module: str) -> ListedModule | None:
+        """The module `module` as `robot`'s node lists it (a back end that models no images:
+        address and size 0, no CRC), or None when it holds none."""
 
     @abstractmethod
     def _send(
@@ -518,3 +522,28 @@ def _scalar(robot: str, port: str, value: object) -> float:
         raise ApplyError(
             f"read {port} on {robot}: expected a scalar value, got {type(value).__name__}"
         ) from None
+
+
+def same_image(listed: ListedModule, image: ModuleImage) -> tuple[bool, str]:
+    """Whether the module a node lists is `image`, and what was compared, in words for a step's
+    line. The node's CRC-32 is of the bytes in its flash, relocated to the listed address, so
+    the image is relocated there to compare (an address no image of its size fits at is
+    another image). A node that lists no CRC is judged by the size alone, and the words say so."""
+    if listed.size != image.size:
+        return False, f"{listed.size} bytes on the node, {image.size} in the image"
+    if listed.crc32 is None:
+        return True, f"{image.size} bytes, as the image; the node lists no CRC-32"
+    try:
+        crc = zlib.crc32(image.relocate(listed.address))
+    except ValueError:
+        crc = None
+    if crc != listed.crc32:
+        return False, (
+            f"{image.size} bytes as the image, but CRC-32 0x{listed.crc32:08X} in its flash "
+            f"at 0x{listed.address:08X}, where the image would have "
+            + ("none" if crc is None else f"0x{crc:08X}")
+        )
+    return (
+        True,
+        f"{image.size} bytes and CRC-32 0x{crc:08X} at 0x{listed.address:08X}, as the image",
+    )

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 from firmware_sim.wires.transfer import WireRun
 from hexmigrate.image import ModuleImage
+from hexmigrate.transfer.fields import ListedModule
 from refresh.appliers.base import ApplierBase, Bridge, Inventory, owner
 from refresh.database import Module
 from refresh.decider import PerformanceSource
@@ -87,9 +88,9 @@ class MemoryApplier(ApplierBase):
         }
         self.applied.append(f"stop {instance}@{robot}")
 
-    def _installed(self, robot: str, module: str) -> int | None:
-        """0 for an installed module (a model has no images, so no sizes), else None."""
-        return 0 if module in self.robot(robot).installed else None
+    def _installed(self, robot: str, module: str) -> ListedModule | None:
+        """An installed module at address 0, of size 0 (a model has no images), else None."""
+        return ListedModule(module, 0, 0) if module in self.robot(robot).installed else None
 
     def _images(self, module: Module) -> list[None]:
         """A model reads no image: one None per transfer the module makes."""

@@ -30,6 +30,7 @@ from firmware_sim.wires.transfer import WireRun, run_transfer
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.direct import DirectLink
 from hexmigrate.transfer.control import LoggedLine
+from hexmigrate.transfer.fields import ListedModule
 from hexmigrate.transfer.receiver import Receiver
 from hexmigrate.transfer.sender import Sender
 from pbort.code import ModuleCode
@@ -170,9 +171,12 @@ class NodeApplier(ApplierBase):
             raise ApplyError(f"stop {instance} on {robot}: {error}") from error
         return None if state is State.ON else f"it was in {state.name}: killed and removed"
 
-    def _installed(self, robot: str, module: str) -> int | None:
+    def _installed(self, robot: str, module: str) -> ListedModule | None:
         installed = self.nodes[robot].modules.get(module)
-        return None if installed is None else installed.image.size
+        if installed is None:
+            return None
+        image = installed.image
+        return ListedModule(module, image.load_base, image.size, image.crc32)
 
     def _send(
         self, robot: str, module: Module, image: ModuleImage | None

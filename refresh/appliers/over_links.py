@@ -51,6 +51,7 @@ from firmware_sim.wires.transfer import WireRun, run_transfer
 from hexmigrate.image import ModuleImage, find_descriptor
 from hexmigrate.transfer.control import PboRow
 from hexmigrate.transfer.control_client import NodeControl
+from hexmigrate.transfer.fields import ListedModule
 from morphing_crossbar.hex_image import slot_base
 from pbort.ports import PortSpec
 from refresh.appliers.base import ApplierBase, Bridge, Inventory, ModuleLine, owner
@@ -266,11 +267,11 @@ class LinkApplier(ApplierBase):
 
     # The hooks.
 
-    def _installed(self, robot: str, module: str) -> int | None:
-        """The size of `module` as the node's listing (LS) says, None when it lists none."""
+    def _installed(self, robot: str, module: str) -> ListedModule | None:
+        """`module` as the node's listing (LS) says, None when it lists none."""
         node = self.nodes[robot]
         listed = node.ask("LS", node.sender.modules)
-        return next((size for name, _address, size in listed if name == module), None)
+        return next((entry for entry in listed if entry.name == module), None)
 
     def _send(
         self, robot: str, module: Module, image: ModuleImage | None
@@ -292,9 +293,9 @@ class LinkApplier(ApplierBase):
         signed, or ``mx_slotN``): the node empties the slot, as ``hexmigrate rm`` does."""
         node = self.nodes[robot]
         listed = node.ask("LS", node.sender.modules)
-        for name, address, _size in listed:
-            if address == slot_base(slot):
-                node.ask(f"RM {name}", lambda name=name: node.sender.remove(name))
+        for entry in listed:
+            if entry.address == slot_base(slot):
+                node.ask(f"RM {entry.name}", lambda name=entry.name: node.sender.remove(name))
 
     def _start(self, robot: str, instance: str, module: Module) -> None:
         """Set the PBO's rate and constants from the database while it is off, then start it;

@@ -179,7 +179,7 @@ class RemoteNode:
     def modules(self) -> tuple[str, ...]:
         """The names of the modules installed on the node (``ls``)."""
         listed = self.ask("LS", self.sender.modules)
-        return tuple(name for name, _address, _size in listed)
+        return tuple(entry.name for entry in listed)
 
     def poll(self) -> None:
         """File the pushes that have arrived (damaged ones are skipped: the sequence numbers

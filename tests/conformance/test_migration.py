@@ -10,6 +10,7 @@ from __future__ import annotations
 import random
 import re
 import threading
+import zlib
 from pathlib import Path
 
 import pytest
@@ -23,8 +24,8 @@ from module_sdk.build import build_module, example_sources
 from tests.conformance.nodes import BoardUnderTest
 from tests.firmware_sim.host_side import hexmigrate
 
-LISTED = re.compile(r"^(\w+) +0x([0-9A-F]{8}) +(\d+) bytes", re.MULTILINE)
-"""A module in ``hexmigrate ls``'s output: name, load address, size."""
+LISTED = re.compile(r"^(\w+) +0x([0-9A-F]{8}) +(\d+) bytes +CRC-32 0x([0-9A-F]{8})$", re.MULTILINE)
+"""A module in ``hexmigrate ls``'s output: name, load address, size, CRC-32 in flash."""
 CUTS = 4
 """Power cuts per test, each at a random moment of a transfer or a commit."""
 DEFAULT_MODE = "binary"
@@ -33,10 +34,12 @@ COMMIT_WINDOW = 0.1
 """Seconds after a transfer's last block in which a power cut may fall (END, COMMIT)."""
 
 
-def listed(url: str, mode: str) -> dict[str, tuple[int, int]]:
-    """The node's modules by name: (load address, size)."""
+def listed(url: str, mode: str) -> dict[str, tuple[int, int, int]]:
+    """The node's modules by name: (load address, size, CRC-32 in flash)."""
     out = hexmigrate("ls", "--to", url, "--mode", mode)
-    return {name: (int(address, 16), int(size)) for name, address, size in LISTED.findall(out)}
+    found = LISTED.findall(out)
+    assert len(found) == len(out.splitlines()), out
+    return {name: (int(at, 16), int(size), int(crc, 16)) for name, at, size, crc in found}
 
 
 def send(path: object, url: str, mode: str, *options: str) -> str:
@@ -62,14 +65,19 @@ def test_ping_answers_with_a_line_about_the_node_and_its_module_sram(boot, examp
 
 
 @pytest.mark.timeout(120)
-def test_a_module_sent_is_listed_with_its_size_and_removed(boot, mode, example_hex):
+def test_a_module_sent_is_listed_with_its_size_and_crc_and_removed(boot, mode, example_hex):
+    """A listing gives each module's size in bytes and the CRC-32 of its bytes in flash: the
+    image's relocated to the listed address, by which a host tells a rebuild of the same size
+    from the node's copy."""
     board = boot()
     send(example_hex["gain"], board.url, mode)
     send(example_hex["moving_average"], board.url, mode)
     modules = listed(board.url, mode)
     assert set(modules) == {"gain", "moving_average"}
-    sizes = {name: example_hex[name].stat().st_size for name in modules}
-    assert all(0 < size < sizes[name] for name, (_, size) in modules.items())  # bytes, not lines
+    for name, (address, size, crc) in modules.items():
+        image = ModuleImage.read(example_hex[name])
+        assert size == image.size < example_hex[name].stat().st_size  # bytes, not lines
+        assert crc == zlib.crc32(image.relocate(address))
     hexmigrate("rm", "gain", "--to", board.url, "--mode", mode)
     assert set(listed(board.url, mode)) == {"moving_average"}
 
@@ -154,7 +162,7 @@ def test_a_power_cut_at_any_moment_leaves_the_old_module_or_the_new_never_a_half
         new = sizes[cut % 2]
         send_until_cut(board, versions[cut % 2], draw.uniform(0.0, 1.5), DEFAULT_MODE)
         board = boot()
-        modules = {name: size for name, (_, size) in listed(board.url, DEFAULT_MODE).items()}
+        modules = {name: size for name, (_, size, _) in listed(board.url, DEFAULT_MODE).items()}
         assert modules in ({"gain": old}, {"gain": new}), f"cut {cut}"
         if modules["gain"] == old:  # the next cut starts from the version it expects
             send(versions[cut % 2], board.url, DEFAULT_MODE)

@@ -98,5 +98,5 @@ def test_the_32k_node_runs_a_module_and_refuses_what_passes_its_tables(
             assert answer(link, Begin(20, "m", 256, 0, 0)) == Nak(20, 0, crowded, True)
             for tid in range(10, 10 + TRANSFERS):
                 assert isinstance(answer(link, Abort(tid)), Ack)
-        listing = hexmigrate("ls", "--to", url, "--mode", "hex").split()
-        assert listing[0::4] == ["gain"]
+        listing = hexmigrate("ls", "--to", url, "--mode", "hex").splitlines()
+        assert [line.split()[0] for line in listing] == ["gain"]

@@ -61,7 +61,8 @@ def test_a_flash_the_python_node_wrote_boots_and_keeps_its_versions(harness, tmp
     start.write_bytes(python_flash(images["gain"]))
     with HostNode(harness) as node:
         node.directive(f"L {start}")
-        listing = Listing((("gain", FLASH_BASE, 1120),))
+        crc = zlib.crc32(images["gain"].relocate(FLASH_BASE))  # the directory's
+        listing = Listing((("gain", FLASH_BASE, 1120, crc),))
         assert node.answers(b"LS\n") == [encode(listing, True)]
 
         assert node.answers(b"RM gain\n")[0].startswith(b"ACK 0 0 removed gain")

@@ -98,13 +98,13 @@ def check_after_restart(boot, flash_file, images, allowed, reuse: bool = True) -
     node = boot(flash_file)
     with open_link(node.url) as link:
         sender = Sender(link, "hex", timeout=2.0)
-        listed = {(name, address) for name, address, _ in sender.modules()}
+        listed = {(m.name, m.address) for m in sender.modules()}
         directory = committed(flash_file)
         assert listed == {(name, entry.load_address) for name, entry in directory.items()}
         assert listed in allowed, listed
         if reuse:
             sender.send(images["moving_average"])
-            assert "moving_average" in {name for name, _, _ in sender.modules()}
+            assert "moving_average" in {m.name for m in sender.modules()}
     node.stop()
     assert not reuse or "moving_average" in committed(flash_file)
 

@@ -110,7 +110,7 @@ def test_a_tcp_clients_authentication_is_its_own(files, listen):
             trusted.send(ModuleImage.read(files["gain"]))
             with pytest.raises(TransferError, match=REQUIRED):
                 stranger.remove("gain")
-            assert [name for name, _, _ in stranger.modules()] == ["gain"]
+            assert [m.name for m in stranger.modules()] == ["gain"]
             trusted.remove("gain")
         # a new connection of the same host starts as a stranger
         with open_link(url) as again, pytest.raises(TransferError, match=REQUIRED):
@@ -229,7 +229,7 @@ def test_strangers_opening_connections_do_not_push_out_an_authenticated_host(fil
                 stranger = stack.enter_context(socket.create_connection((host, int(port)), 5.0))
                 stranger.sendall(b"PING\n")
             host_sender.send(ModuleImage.read(files["gain"]))
-            assert [name for name, _, _ in host_sender.modules()] == ["gain"]
+            assert [m.name for m in host_sender.modules()] == ["gain"]
 
 
 def test_hosts_that_said_bye_and_stay_connected_do_not_lock_a_newcomer_out(files):

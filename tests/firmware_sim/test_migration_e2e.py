@@ -341,7 +341,7 @@ def test_can_through_a_remote_server_between_two_processes(example_hex, images):
         with open_link(server.url()) as link:
             sender = Sender(link, "hex")
             assert sender.send(images["moving_average"]).name == "moving_average"
-            assert [name for name, _, _ in sender.modules()] == ["gain", "moving_average"]
+            assert [m.name for m in sender.modules()] == ["gain", "moving_average"]
             assert sender.ping().startswith("node: 2 module(s), ")
         check_node_output(node, ["gain", "moving_average"])
 
@@ -379,9 +379,9 @@ def test_can_virtual_in_one_process(images, mode):
             for name in ("gain", "moving_average"):
                 result = sender.send(images[name])
                 assert (result.name, result.retransmissions) == (name, 0)
-            assert [name for name, _, _ in sender.modules()] == ["gain", "moving_average"]
+            assert [m.name for m in sender.modules()] == ["gain", "moving_average"]
             sender.remove("moving_average")
-            assert [name for name, _, _ in sender.modules()] == ["gain"]
+            assert [m.name for m in sender.modules()] == ["gain"]
         node.wait_running()
         node.stop()
     assert_installed_and_ran(node, ["gain"])
@@ -397,7 +397,7 @@ def test_loop_one_port_shared_by_the_host_and_the_node(images, mode):
         for name in ("gain", "moving_average"):
             result = sender.send(images[name])
             assert (result.name, result.retransmissions) == (name, 0)
-        assert [name for name, _, _ in sender.modules()] == ["gain", "moving_average"]
+        assert [m.name for m in sender.modules()] == ["gain", "moving_average"]
         node.wait_running()
         node.stop()
     assert_installed_and_ran(node, ["gain", "moving_average"])

@@ -90,7 +90,7 @@ class Hostile:
         assert self.node.child.process.poll() is None, self.node.lines()
         with open_link(self.url) as link:
             listing = Sender(link, "binary", timeout=ANSWER_TIMEOUT, retries=0).modules()
-        assert [name for name, _, _ in listing] == ["gain"], listing
+        assert [m.name for m in listing] == ["gain"], listing
         assert self.module_bytes() == self.bytes
 
 

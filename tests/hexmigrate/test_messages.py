@@ -53,7 +53,9 @@ def values(field: Field, text: bool) -> st.SearchStrategy[Any]:
         fields.Flag: st.booleans(),
         fields.Name: one_word if text else st.text(max_size=16),
         fields.Text: ascii_text if text else st.text(max_size=40),
-        fields.Modules: st.lists(st.tuples(one_word, u32s, u32s), max_size=5).map(tuple),
+        fields.Modules: st.lists(
+            st.builds(fields.ListedModule, one_word, u32s, u32s, st.none() | u32s), max_size=5
+        ).map(tuple),
         fields.U32Array: st.lists(u32s, max_size=20).map(tuple),
         fields.Payload: st.binary(max_size=600),
     }

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import pytest
 
+from hexmigrate.transfer.fields import ListedModule
 from hexmigrate.transfer.messages import (
     Abort,
     Ack,
@@ -138,16 +139,42 @@ GOLDEN: list[tuple[Message, bool, str]] = [
     (Listing(()), TEXT, "4d4f44554c4553202a4345"),
     (Listing(()), BINARY, "12c59ebb21"),
     (
-        Listing((("gain", 0x20000, 1120), ("moving_average", 0x20500, 900))),
+        Listing(
+            (ListedModule("gain", 0x20000, 1120), ListedModule("moving_average", 0x20500, 900))
+        ),
         TEXT,
         "4d4f44554c4553206761696e40307830303032303030303a31313230206d6f76696e675f61766572"
         "61676540307830303032303530303a393030202a3634",
     ),
     (
-        Listing((("gain", 0x20000, 1120), ("moving_average", 0x20500, 900))),
+        Listing(
+            (ListedModule("gain", 0x20000, 1120), ListedModule("moving_average", 0x20500, 900))
+        ),
         BINARY,
         "126761696e40307830303032303030303a31313230206d6f76696e675f6176657261676540307830"
         "303032303530303a393030a4824941",
+    ),
+    (  # a module's CRC-32 in flash; a hardware component lists none
+        Listing(
+            (
+                ListedModule("gain", 0x22000000, 1120, 0x1BADB002),
+                ListedModule("mx_slot2", 0x40020000, 4096),
+            )
+        ),
+        TEXT,
+        "4d4f44554c4553206761696e40307832323030303030303a313132303a30783142414442303032206d"
+        "785f736c6f743240307834303032303030303a34303936202a3332",
+    ),
+    (
+        Listing(
+            (
+                ListedModule("gain", 0x22000000, 1120, 0x1BADB002),
+                ListedModule("mx_slot2", 0x40020000, 4096),
+            )
+        ),
+        BINARY,
+        "126761696e40307832323030303030303a313132303a30783142414442303032206d785f736c6f7432"
+        "40307834303032303030303a34303936d131ed4b",
     ),
     (Ack(7, 0x20000, "begun"), TEXT, "41434b20372031333130373220626567756e202a3631"),
     (Ack(7, 0x20000, "begun"), BINARY, "130700000000000200626567756e5448547b"),

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import zlib
 from collections.abc import Iterator
 
 import pytest
@@ -61,7 +62,9 @@ def test_ping_list_and_remove(node, images, mode):
     sender = Sender(link_to(node), mode)
     assert "0 module(s)" in sender.ping()
     sender.send(images["gain"], base=0x0801_0000)
-    assert sender.modules() == (("gain", 0x0801_0000, images["gain"].size),)
+    gain = images["gain"]
+    crc = zlib.crc32(gain.relocate(0x0801_0000))  # of its bytes in flash, relocated there
+    assert sender.modules() == (("gain", 0x0801_0000, gain.size, crc),)
     sender.remove("gain")
     assert sender.modules() == ()
     with pytest.raises(TransferError, match="no module named 'gain'"):

@@ -142,7 +142,7 @@ def test_a_bitstream_sent_to_a_node_configures_its_fabric_like_a_module(mode: st
         result = sender.send(to_image(FABRIC, pack(FABRIC, 2, bypass_route())))
         assert (result.name, result.load_address) == ("mx_slot2", CONFIG_BASE + 0x200)
         assert model.push(2, Beat(10)) == (2, Beat(10))  # now it passes the beat through
-        assert sender.modules() == (("mx_slot2", CONFIG_BASE + 0x200, 11),)
+        assert sender.modules() == (("mx_slot2", CONFIG_BASE + 0x200, 11, None),)  # no CRC
         assert node.modules == {} and node.space.owners.keys() <= {"directory"}  # flash freed
         sender.remove("mx_slot2")
         assert sender.modules() == ()

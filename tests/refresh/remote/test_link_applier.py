@@ -11,6 +11,7 @@ import dataclasses
 import re
 import signal
 import time
+import zlib
 from collections.abc import Callable, Iterator
 
 import pytest
@@ -18,6 +19,7 @@ import pytest
 from firmware_sim.serving.node_process import NodeProcess
 from hexmigrate.elf import image_from_elf
 from hexmigrate.errors import TransferError
+from hexmigrate.image import ModuleImage
 from hexmigrate.links.free_port import free_port
 from hexmigrate.signing import keys
 from hexmigrate.signing.sign import sign_image
@@ -29,6 +31,7 @@ from morphing_crossbar.fabric_spec import fabric_of
 from morphing_crossbar.hex_image import to_image
 from morphing_crossbar.routing import through_route
 from pbort.code import PerformanceKind
+from refresh.appliers.base import Migration
 from refresh.appliers.over_links import LinkApplier
 from refresh.configuration import Configuration, initial_configuration, parse_placement
 from refresh.decider import Decider
@@ -531,43 +534,62 @@ def test_a_plan_switches_away_from_a_pbo_that_faulted_into_error(example_builds,
         assert "note" not in log.of_kind("step")[-3].data
 
 
-def test_a_module_the_node_lists_at_another_size_is_sent_again_and_a_skip_says_so(loaded, node_a):
+def test_a_module_the_node_lists_otherwise_is_sent_again_and_a_skip_says_so(loaded, node_a):
     """Nodes outlive managers: a module edited and rebuilt since a node got it is sent again in
-    place of the old one when its size differs from what the node lists (LS: name, address,
-    size); one of the same size is not sent, and the step's line says so instead of claiming a
+    place of the old one when its size or its CRC-32 in flash differs from what the node lists
+    (LS: name, address, size, CRC-32 of the bytes relocated there), a rebuild of the same size
+    too; the same image is not sent, and the step's line says so instead of claiming a
     migration."""
     database = loaded.database
     gain = database.module("gain")
     rebuilt = migration_image(gain, {})  # the database's file, as a manager sends it
-    earlier = dataclasses.replace(rebuilt, data=rebuilt.data + bytes(64))  # an older build
-    sizes = {"before": earlier.size, "now": rebuilt.size}
-    with LinkApplier.open({"a": node_a.url}, images={"gain": earlier}) as first:
+    older = dataclasses.replace(rebuilt, data=rebuilt.data + bytes(64))  # an older build
+    same_size = dataclasses.replace(rebuilt, data=rebuilt.data + b"\x01" * 64)  # and another
+    size, padded = rebuilt.size, older.size
+    with LinkApplier.open({"a": node_a.url}, images={"gain": older}) as first:
         assert first.migrate("a", gain) is None  # the node had none: sent, nothing to note
 
-    def listed_size(applier: LinkApplier) -> int:
-        return next(size for name, _, size in applier.node("a").sender.modules() if name == "gain")
+    def migrated(images: dict[str, ModuleImage]) -> tuple[str, list[Migration]]:
+        """What a manager's first deployment said of gain's migration, and what it sent."""
+        with LinkApplier.open({"a": node_a.url}, images=images) as applier:
+            applier.node("a").control.reset()  # as a manager does before it deploys
+            log = EventLog()
+            maintainer = Maintainer(database, applier, log)
+            maintainer.apply(maintainer.plan(None, initial_configuration(loaded.task, database)))
+            assert listed(applier.node("a").control)["gain"] == ("ON", 50.0)
+            (step,) = [e for e in log.of_kind("step") if e.data["action"] == "migrate"]
+            return step.message, applier.migrations
 
-    current = initial_configuration(loaded.task, database)
-    with LinkApplier.open({"a": node_a.url}) as second:
-        log = EventLog()
-        maintainer = Maintainer(database, second, log)
-        maintainer.apply(maintainer.plan(None, current))
-        assert listed_size(second) == sizes["now"]
-        assert listed(second.node("a").control)["gain"] == ("ON", 50.0)  # the rebuild, started
-        (migrate,) = [e for e in log.of_kind("step") if e.data["action"] == "migrate"]
-        replaced = f"in place of the {sizes['before']}-byte gain on a (the image has "
-        assert migrate.message.startswith(f"migrate gain to a: {replaced}{sizes['now']})")
-        assert [m.module for m in second.migrations] == ["gain"]
+    def where() -> int:
+        """Where the node lists gain."""
+        with LinkApplier.open({"a": node_a.url}) as applier:
+            return next(m.address for m in applier.node("a").sender.modules() if m.name == "gain")
 
-    with LinkApplier.open({"a": node_a.url}) as third:
-        third.node("a").control.reset()  # as a manager does before it deploys
-        log = EventLog()
-        maintainer = Maintainer(database, third, log)
-        maintainer.apply(maintainer.plan(None, current))
-        (migrate,) = [e for e in log.of_kind("step") if e.data["action"] == "migrate"]
-        kept = f"already on a ({sizes['now']} bytes, as the image), not sent"
-        assert migrate.message.startswith(f"migrate gain to a: {kept} (")
-        assert migrate.data["note"] == kept
-        assert third.migrations == []
+    def crc(image: ModuleImage, address: int) -> str:
+        return f"0x{zlib.crc32(image.relocate(address)):08X}"
+
+    address = where()
+    message, sent = migrated({"gain": same_size})
+    replaced = (
+        f"in place of the gain on a ({padded} bytes as the image, but CRC-32 "
+        f"{crc(older, address)} in its flash at 0x{address:08X}, where the image would have "
+        f"{crc(same_size, address)})"
+    )
+    assert message.startswith(f"migrate gain to a: {replaced} (")
+    assert [m.module for m in sent] == ["gain"]
+
+    message, sent = migrated({})
+    replaced = f"in place of the gain on a ({padded} bytes on the node, {size} in the image)"
+    assert message.startswith(f"migrate gain to a: {replaced} (")
+    assert [m.module for m in sent] == ["gain"]
+
+    address = where()
+    message, sent = migrated({})
+    kept = (
+        f"already on a ({size} bytes and CRC-32 {crc(rebuilt, address)} at 0x{address:08X}, "
+        "as the image)"
+    )
+    assert message.startswith(f"migrate gain to a: {kept}, not sent (")
+    assert sent == []
     registered = [line for line in node_a.lines() if line.startswith("registered gain")]
-    assert len(registered) == 2  # the older build, then the rebuild; not a third time
+    assert len(registered) == 3  # the older build, the other one, the rebuild; not a fourth time
