@@ -23,7 +23,7 @@
 #define MODULE_LOG_BYTES 1536u
 #endif
 
-/* Transfers open at once; BEGIN refuses one more, saying "N transfers are open". 684 bytes
+/* Transfers open at once; BEGIN refuses one more, saying "N transfers are open". 664 bytes
  * each: a 256-byte block buffer and its relocation words. */
 #ifndef MAX_TRANSFERS
 #define MAX_TRANSFERS 4u
@@ -44,7 +44,7 @@
 #endif
 
 /* Ports one WATCH reports (READ takes up to 32, control.py's MAX_PORTS, whatever this is);
- * a WATCH of more is refused, saying "expected at most N ports to watch". 30 bytes each. */
+ * a WATCH of more is refused, saying "expected at most N ports, got more". 30 bytes each. */
 #ifndef WATCH_PORTS_MAX
 #define WATCH_PORTS_MAX 32u
 #endif

@@ -9,5 +9,5 @@
 #define MODULE_LOG_BYTES 768u    /* about 12 lines of 60 characters */
 #define MAX_TRANSFERS 2u         /* a host sends one module at a time */
 #define REMEMBERED_COMMITS 8u
-#define ANSWER_MEMORY_BYTES 512u /* 5 ACKs at least; refusals of up to 122 characters */
+#define ANSWER_MEMORY_BYTES 512u /* 5 ACKs at least; no answer line of more than 122 bytes */
 #define WATCH_PORTS_MAX 16u
