@@ -68,6 +68,10 @@ DESCRIPTION = (
     '"last_failure": null}'
 )
 """A PBO's description as a node answers DESCRIBE."""
+WITH_CRC = Listing(
+    (ListedModule("gain", 0x22000000, 1120, 0x1BADB002), ListedModule("mx_slot2", 0x40020000, 4096))
+)
+"""A listing with a module's CRC-32 in flash, and a hardware component's word, which has none."""
 
 GOLDEN: list[tuple[Message, bool, str]] = [
     (Ping(), TEXT, "50494e47202a3146"),
@@ -154,24 +158,14 @@ GOLDEN: list[tuple[Message, bool, str]] = [
         "126761696e40307830303032303030303a31313230206d6f76696e675f6176657261676540307830"
         "303032303530303a393030a4824941",
     ),
-    (  # a module's CRC-32 in flash; a hardware component lists none
-        Listing(
-            (
-                ListedModule("gain", 0x22000000, 1120, 0x1BADB002),
-                ListedModule("mx_slot2", 0x40020000, 4096),
-            )
-        ),
+    (
+        WITH_CRC,
         TEXT,
         "4d4f44554c4553206761696e40307832323030303030303a313132303a30783142414442303032206d"
         "785f736c6f743240307834303032303030303a34303936202a3332",
     ),
     (
-        Listing(
-            (
-                ListedModule("gain", 0x22000000, 1120, 0x1BADB002),
-                ListedModule("mx_slot2", 0x40020000, 4096),
-            )
-        ),
+        WITH_CRC,
         BINARY,
         "126761696e40307832323030303030303a313132303a30783142414442303032206d785f736c6f7432"
         "40307834303032303030303a34303936d131ed4b",
