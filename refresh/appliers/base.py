@@ -395,8 +395,8 @@ class ApplierBase(ABC):
         self, robot: str, module: Module, images: Sequence[ModuleImage | None]
     ) -> tuple[str | None, str | None]:
         """Whether `robot` has what a migration of `module` would send (`images`): its image
-        installed (a module of its name listed with the image's size; of its name alone where
-        the back end models no images), or its fabric's slots configured for the hardware
+        installed (a module of its name listed as the image, `same_image`; of its name alone
+        where the back end models no images), or its fabric's slots configured for the hardware
         module. (a note that it was not sent, None) when it has, else (None, a note saying
         which module of that name the image replaces, None if none)."""
         if module.hardware is not None:
@@ -533,16 +533,14 @@ def same_image(listed: ListedModule, image: ModuleImage) -> tuple[bool, str]:
         return False, f"{listed.size} bytes on the node, {image.size} in the image"
     if listed.crc32 is None:
         return True, f"{image.size} bytes, as the image; the node lists no CRC-32"
+    flash = f"CRC-32 0x{listed.crc32:08X} in its flash at 0x{listed.address:08X}"
     try:
         crc = zlib.crc32(image.relocate(listed.address))
-    except ValueError:
-        crc = None
+    except ValueError:  # an address no image of this size fits at
+        return False, f"{image.size} bytes as the image, but {flash}, where the image cannot lie"
     if crc != listed.crc32:
-        return False, (
-            f"{image.size} bytes as the image, but CRC-32 0x{listed.crc32:08X} in its flash "
-            f"at 0x{listed.address:08X}, where the image would have "
-            + ("none" if crc is None else f"0x{crc:08X}")
-        )
+        moved = f"where the image would have 0x{crc:08X}"
+        return False, f"{image.size} bytes as the image, but {flash}, {moved}"
     return (
         True,
         f"{image.size} bytes and CRC-32 0x{crc:08X} at 0x{listed.address:08X}, as the image",
