@@ -175,6 +175,10 @@ def python_refusal(line: bytes) -> bytes | None:
 @pytest.mark.timeout(300)
 @SETTINGS
 @given(line=st.one_of(commands(), records()))
+@example(line=b"MODULES gain@0x1:2:0xAB m@0x2:3")  # with and without a CRC: no refusal
+@example(line=b"MODULES gain@0x1:2:")  # a CRC left empty
+@example(line=b"MODULES gain@0x1:2:3:4")  # a CRC that is no number
+@example(line=b"MODULES gain@0x1:2:0x100000000")  # a CRC past 32 bits
 def test_a_refused_line_gets_the_python_nodes_very_refusal(node, line):
     (framed,) = Deframer().feed(line + b"\n") or [None]
     if framed is None:
@@ -304,6 +308,7 @@ def test_any_binary_frames_leave_the_node_answering(node, frames, tail):
 @example(message=checked(bytes(4) + b"\x09ab", 0x102))  # AUTH's key: 9 bytes, 2 follow
 @example(message=checked(bytes(8) + b"\x01\x02\x03", 0x05))  # HEADER: 3 bytes of words
 @example(message=checked(b"gain@0x1", 0x12))  # a listing that is none
+@example(message=checked(b"gain@0x1:2:0x1:", 0x12))  # a CRC that is no number
 @example(message=checked(b"\xc0\x80", 0x11))  # an overlong 0x00: no UTF-8
 @example(message=checked(b"\xed\xa0\x80", 0x03))  # a surrogate: no UTF-8
 @example(message=checked(bytes(3), 0x07))  # END's body too short
