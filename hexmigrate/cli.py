@@ -14,6 +14,7 @@ import contextlib
 import json
 import sys
 import time
+import zlib
 from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING
 
@@ -175,7 +176,8 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
 
 def cmd_relocate(args: argparse.Namespace) -> int:
-    """Write the flat flash bytes of the module placed at --base."""
+    """Write the flat flash bytes of the module placed at --base, and say their CRC-32: the one
+    `ls` shows for the module on a node that holds it at that address."""
     apart(("-o", args.output), ("FILE.hex", args.file))
     image = ModuleImage.read(args.file)
     try:
@@ -187,7 +189,8 @@ def cmd_relocate(args: argparse.Namespace) -> int:
     partial.replace(args.output)
     print(
         f"{args.output}: {len(flat)} bytes for 0x{args.base:08X}, "
-        f"{len(image.relocations)} pointers moved by {args.base - image.link_base:+#x}"
+        f"{len(image.relocations)} pointers moved by {args.base - image.link_base:+#x}, "
+        f"CRC-32 0x{zlib.crc32(flat):08X} (as a node holding it there lists it)"
     )
     return 0
 
@@ -486,7 +489,9 @@ def _add_file_commands(commands: argparse._SubParsersAction) -> None:
         "relocate",
         cmd_relocate,
         "write the flash bytes for a load address",
-        "Write the bytes as they sit in flash when the module is placed at --base.\n\n"
+        "Write the bytes as they sit in flash when the module is placed at --base, and print\n"
+        "their CRC-32: the one `hexmigrate ls` shows for the module on a node that holds it\n"
+        "there.\n\n"
         "example:\n"
         "  hexmigrate relocate gain.hex --base 0x20000 -o gain.bin",
     )
