@@ -11,7 +11,8 @@ from hypothesis import settings
 from hexmigrate.elf import image_from_elf
 from module_sdk.build import ModuleBuild, build_examples
 
-# No deadline: hypothesis fails an example that takes more than 200 ms, a timed assertion, and
+# No deadline, for every test (none sets its own): hypothesis fails an example that takes more
+# than 200 ms, a timed assertion, and
 # on this 2-core machine running the whole suite (or beside two CPU-bound processes) an example
 # that happens to collect garbage or import a module takes longer: test_counters.py failed so on
 # a clean clone, on no bug. Speed is measured by the scripts under benchmarks/.

@@ -38,9 +38,7 @@ from hexmigrate.transfer.messages import (
 )
 from tests.firmware.host_node import HostNode
 
-SETTINGS = settings(
-    max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
-)
+SETTINGS = settings(max_examples=200, suppress_health_check=[HealthCheck.function_scoped_fixture])
 PRINTABLE = st.characters(min_codepoint=0x21, max_codepoint=0x7E)
 """A word's characters: a line is ASCII (the receiver refuses others before any request)."""
 NAMES = st.sampled_from(["gain", "nosuch", "GAIN", "g" * 17, "it's", "g\\ain", ""]) | st.text(

@@ -62,7 +62,7 @@ def test_a_frame_at_a_run_s_edges_is_the_canonical_one(library, message):
     assert written(library, message, []) == b"\x00" + cobs_encode(message) + b"\x00"
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=300)
 @given(
     message=st.binary(max_size=1100)
     | st.lists(st.sampled_from([0, 1, 255]), max_size=600).map(bytes),

@@ -158,9 +158,7 @@ def test_a_pointer_word_outside_the_image_is_refused_in_the_same_words(harness, 
 
 
 @pytest.mark.timeout(600)
-@settings(
-    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
-)
+@settings(max_examples=60, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_a_perturbed_transfer_gets_the_same_answers(harness, gain, data):
     script = data.draw(scripts(gain))
@@ -301,9 +299,7 @@ def test_the_clean_binary_transfer_gets_the_same_answers(harness, gain):
 
 
 @pytest.mark.timeout(600)
-@settings(
-    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
-)
+@settings(max_examples=60, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_a_perturbed_binary_transfer_gets_the_same_answers(harness, gain, data):
     script = data.draw(binary_scripts(gain))

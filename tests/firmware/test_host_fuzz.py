@@ -90,9 +90,7 @@ NUMBERS = st.one_of(
     st.sampled_from(["0", "00", "007", "1_000", "0x_1F", "_1", "1__0", "0x", "+5", "-0", "1e3"]),
 )
 WORDS = st.one_of(NUMBERS, st.text(st.characters(min_codepoint=33, max_codepoint=126), max_size=20))
-SETTINGS = settings(
-    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
-)
+SETTINGS = settings(max_examples=150, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 
 @st.composite

@@ -367,9 +367,7 @@ def python_verdict(data: bytes) -> str:
     return "0 "
 
 
-@settings(
-    max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
-)
+@settings(max_examples=300, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.lists(descriptors(), min_size=1, max_size=40))
 def test_fuzzed_descriptors_get_the_python_nodes_answer_without_sanitizer_findings(
     driver: Path, batch: list[bytes]

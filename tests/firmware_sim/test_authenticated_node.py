@@ -198,7 +198,6 @@ CHANGED = ("installed", "removed", "stopped", "started", "set", "authenticated")
 def test_nothing_a_stranger_sends_changes_a_trusting_node(trusting, transfers):
     @settings(
         max_examples=25,
-        deadline=None,
         derandomize=True,
         suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
     )

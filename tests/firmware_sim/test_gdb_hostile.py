@@ -74,7 +74,6 @@ def test_malformed_packets_are_answered_and_the_node_runs_on(halted) -> None:
 
     @settings(
         max_examples=150,
-        deadline=None,
         derandomize=True,
         suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
     )

@@ -28,7 +28,7 @@ def pair() -> tuple[PacketConnection, PacketConnection]:
     return PacketConnection(left), PacketConnection(right)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(st.binary(max_size=300))
 def test_any_packet_data_survives_the_framing(data):
     sender, receiver = pair()
@@ -40,7 +40,7 @@ def test_any_packet_data_survives_the_framing(data):
         receiver.close()
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=300)
 @given(
     st.one_of(
         st.text(alphabet="?gGpPmMzZHTqvcsDk0123456789abcdefxX,:;=-+", max_size=40),

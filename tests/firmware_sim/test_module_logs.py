@@ -105,7 +105,7 @@ def test_follow_prints_each_line_once_as_it_comes(refusing_node, capsys):
     assert len(printed) == 2  # the kept line, then the new one; neither again at each ask
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(
     st.lists(
         st.tuples(st.integers(0, 2**31), st.floats(0, 1e6), st.text(max_size=700)), max_size=20

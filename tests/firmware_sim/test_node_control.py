@@ -250,7 +250,7 @@ REQUESTS = st.one_of(
 )
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=300)
 @given(requests=st.lists(REQUESTS, min_size=1, max_size=8))
 def test_any_control_request_gets_one_answer_and_the_node_goes_on(requests) -> None:
     with Node("fuzzed") as node:

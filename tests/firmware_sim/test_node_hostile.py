@@ -214,7 +214,6 @@ def test_fuzz_the_node_over_a_real_link(hostile, mode):
 
     @settings(
         max_examples=12,
-        deadline=None,
         derandomize=True,
         suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
     )

@@ -16,7 +16,7 @@ from hexmigrate.links.slcan_device import BELL, SlcanDevice
 from servo_emulators.can_servo import CanServoNodes
 from servo_emulators.ssc32 import MAX_LINE, Ssc32
 
-FUZZ = settings(max_examples=200, deadline=None, derandomize=True)
+FUZZ = settings(max_examples=200, derandomize=True)
 ssc32_text = st.text(alphabet="#PSTLHVQAB0123456789-+ \r\x1b,.:", max_size=300)
 
 

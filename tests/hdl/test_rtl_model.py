@@ -101,7 +101,7 @@ def batch(fabric: Fabric, tlm: CrossbarModel, rng: random.Random) -> dict[int, l
     return frames
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=40)
 @given(seed=st.integers(0, 2**32 - 1), steps=st.integers(1, 12))
 def test_the_rtl_and_the_tlm_agree_bit_for_bit_across_reconfigurations(
     any_library, seed: int, steps: int

@@ -31,7 +31,7 @@ def poses() -> st.SearchStrategy[Pose]:
     return st.builds(Pose, *(st.floats(-b, b) for b in span))
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=300)
 @given(poses())
 def test_inverse_then_forward_returns_the_pose_across_the_workspace(pose: Pose) -> None:
     try:
@@ -42,7 +42,7 @@ def test_inverse_then_forward_returns_the_pose_across_the_workspace(pose: Pose) 
     assert np.allclose(forward(GEOMETRY, angles), pose, atol=TOLERANCE, rtol=0)
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=100)
 @given(poses())
 def test_every_rod_has_its_length_at_the_inverse_solution(pose: Pose) -> None:
     try:

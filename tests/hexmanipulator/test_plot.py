@@ -71,7 +71,7 @@ def test_bad_arguments_are_usage_errors_and_a_bad_geometry_one_error_line(tmp_pa
     assert capsys.readouterr().err.startswith(f"error: {deep}: expected TOML")
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(value=hostile_numbers())
 def test_hostile_geometry_values_end_in_a_status_not_a_traceback(tmp_path_factory, value) -> None:
     out = tmp_path_factory.mktemp("fuzz") / "sweep.png"

@@ -12,7 +12,7 @@ from hexmigrate.image import ModuleImage
 from hexmigrate.records import HexContent, _decode_lines, _record_lines, decode, encode
 
 HEX_ALPHABET = "0123456789ABCDEFabcdef:\r\n \tG"
-FUZZ = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+FUZZ = settings(max_examples=300, suppress_health_check=[HealthCheck.too_slow])
 
 
 @st.composite

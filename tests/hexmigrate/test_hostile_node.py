@@ -99,7 +99,7 @@ def answers(text: str, kind: str) -> Callable[[Message], list[bytes]]:
 
 
 @pytest.mark.slow
-@settings(max_examples=30, deadline=None, derandomize=True)
+@settings(max_examples=30, derandomize=True)
 @given(texts, st.sampled_from(["own", "refuse", "push"]), st.sampled_from(COMMANDS))
 def test_whatever_a_node_answers_a_command_prints_no_control_character(text, kind, command):
     with hostile_node(answers(text, kind)) as url, redirect() as (out, err):

@@ -156,14 +156,14 @@ def test_every_truncation_of_the_area_is_refused(signed, key):
             )
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=300)
 @given(st.binary(max_size=400))
 def test_random_areas_are_refused_cleanly(blob):
     with contextlib.suppress(TlvError):
         tlv.parse(blob)
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=300)
 @given(
     st.lists(
         st.tuples(st.integers(0, 0xFFFF), st.integers(0, 0xFFFF), st.binary(max_size=80)),
@@ -183,7 +183,7 @@ def test_hostile_tlv_lengths_never_read_outside_the_area(entries, total, magic):
     assert len(area.protected) <= len(blob)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(st.data())
 def test_any_changed_area_byte_is_refused_or_does_not_hold(data):
     key = keys.generate("ed25519")

@@ -257,9 +257,7 @@ def test_pack_and_verify_refuse_a_sixteen_character_name(tmp_path, capsys):
     assert "expected a module name of at most 15 characters" in message
 
 
-@settings(
-    max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
-)
+@settings(max_examples=200, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(changes=st.lists(st.tuples(st.integers(0, 0x37F), st.integers(0, 255)), max_size=40))
 def test_the_code_walk_ends_on_any_code_with_a_pass_or_a_check_error(example_builds, changes):
     """Random bytes in gain's code and constants (its descriptor kept): every walk ends, and

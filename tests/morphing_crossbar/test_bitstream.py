@@ -161,7 +161,7 @@ def test_the_help_shows_no_markup_and_names_the_node_command(capsys) -> None:
     assert "firmware-sim listen --fpga N" in out
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=100)
 @given(value=hostile_numbers(), position=st.integers(0, 2))
 def test_hostile_numbers_end_in_a_status_not_a_traceback(tmp_path_factory, value, position):
     out = str(tmp_path_factory.mktemp("pack") / "slot.hex")

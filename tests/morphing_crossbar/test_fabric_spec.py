@@ -40,7 +40,7 @@ def test_what_no_fabric_is_is_refused_saying_what_was_expected(spec, width, mess
         fabric_from_spec(spec, width)
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=300)
 @given(st.text(max_size=80), st.integers(-3, 40))
 def test_any_text_is_a_fabric_or_a_fabric_parameter_error(spec: str, width: int) -> None:
     with contextlib.suppress(FabricParameterError):

@@ -42,7 +42,7 @@ def median_of_rows(values: list[int], width: int) -> list[int]:
 levels = st.integers(0, 255)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(width=st.integers(1, 9), data=st.data())
 def test_the_3x3_median_is_the_dehazer_s_on_rows_and_completes_a_partial_row(width, data):
     values = data.draw(st.lists(levels, min_size=1, max_size=6 * width + 3))
@@ -53,7 +53,7 @@ def test_the_3x3_median_is_the_dehazer_s_on_rows_and_completes_a_partial_row(wid
         assert flat(steps) == dehaze.median3x3(image).ravel().tolist()
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=100)
 @given(width=st.integers(1, 6), data=st.data())
 def test_the_3x3_median_emits_output_i_with_input_i_plus_a_row_and_one(width, data):
     values = data.draw(st.lists(levels, min_size=1, max_size=5 * width))
@@ -78,7 +78,7 @@ def test_the_3x3_median_works_on_wide_samples() -> None:
     assert flat(steps) == [top, top, top, top, top, top]
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=150)
 @given(
     clip=st.integers(0, 500),
     spread=st.integers(0, 255),
@@ -120,7 +120,7 @@ def test_a_spread_of_zero_with_no_minimum_splits_at_the_level() -> None:
     assert stretch_table(7, 7, 0) == (0,) * 8 + (255,) * 248
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=100)
 @given(st.lists(st.integers(-(2**31), 2**31 - 1), min_size=1, max_size=30))
 def test_the_running_median_is_the_patrol_s_median_of_five(samples) -> None:
     mask = (1 << 32) - 1
@@ -283,7 +283,7 @@ def functions_of_every_kind() -> st.SearchStrategy[Function]:
     return st.one_of([of(kind) for kind in Kind])
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=300)
 @given(functions_of_every_kind())
 def test_every_functionality_reads_back_from_its_text(function: Function) -> None:
     assert Function.parse(str(function)) == function
@@ -299,7 +299,7 @@ NEAR = st.one_of(
 )
 
 
-@settings(max_examples=500, deadline=None)
+@settings(max_examples=500)
 @given(NEAR)
 def test_parse_raises_nothing_but_its_refusal(text: str) -> None:
     try:
@@ -324,7 +324,7 @@ FRAME_KINDS = [
 ]
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(
     st.sampled_from(FRAME_KINDS),
     st.lists(st.lists(st.integers(0, 255), max_size=100), min_size=1, max_size=4),

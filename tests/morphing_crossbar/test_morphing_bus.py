@@ -245,7 +245,7 @@ def draw_step(data: st.DataObject, bus: MorphingBus, boards: list[Board], kind: 
     return kind, (a, b), {**placement, a: placement.get(b), b: placement.get(a)}, allowed
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=150)
 @given(catalogue=catalogues(), data=st.data())
 def test_after_any_plugs_unplugs_and_swaps_the_model_routes_each_board_as_before(
     catalogue: tuple[Fabric, list[Board]], data: st.DataObject

@@ -18,7 +18,7 @@ def outcome(action):
         return type(error)
 
 
-@settings(max_examples=400, deadline=None)
+@settings(max_examples=400)
 @given(st.sampled_from(DTYPES), st.one_of(st.integers(-(2**40), 2**40), st.floats(width=32)))
 def test_scalar_encode_matches_numpy(dtype, value):
     port = PortSpec.input("x", dtype=dtype)

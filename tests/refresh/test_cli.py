@@ -198,7 +198,7 @@ def test_the_help_shows_no_markup_and_keeps_the_examples_on_their_own_lines(caps
     assert "\n  python -m refresh check refresh/data/visual_servoing.toml\n" in out
 
 
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=80)
 @given(value=hostile_numbers())
 def test_hostile_values_end_in_a_status_not_a_traceback(value):
     for argv in (["cases", DATABASE, "--k", value], ["check", value], ["cases", value]):

@@ -39,7 +39,7 @@ small = sized(10, 3, 2)
 large = sized(40, 3, 3)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(scenarios)
 def test_base_choice_makes_sum_of_alternatives_minus_n_cases(scenario):
     database, current = scenario.database, scenario.configuration
@@ -60,7 +60,7 @@ def test_base_choice_makes_sum_of_alternatives_minus_n_cases(scenario):
     assert len(set(configurations)) == len(cases)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(scenarios, st.data())
 def test_the_planted_faulty_module_is_found(scenario, data):
     slots = faultable_slots(scenario)
@@ -83,7 +83,7 @@ def test_the_planted_faulty_module_is_found(scenario, data):
     assert choice.assessment.util == min(feasible)
 
 
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=25)
 @given(sized(8, 3, 2), st.data())
 def test_every_strategy_names_a_single_fault_and_brute_force_costs_most(scenario, data):
     slots = faultable_slots(scenario)
@@ -111,7 +111,7 @@ def two_faults(scenario, data) -> tuple[list[int], tuple[str, ...]]:
     return chosen, tuple(current_module(scenario, slot).module for slot in chosen)
 
 
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=30)
 @given(st.one_of(small, large), st.data(), st.sampled_from(["brute-force", "adaptive"]))
 def test_two_planted_faults_are_both_named_and_both_replaced(scenario, data, name):
     args = (scenario.configuration, scenario.database, scenario.task)
@@ -127,7 +127,7 @@ def test_two_planted_faults_are_both_named_and_both_replaced(scenario, data, nam
     assert not set(faulty) & {p.module for p in choice.chosen.configuration.placements}
 
 
-@settings(max_examples=20, deadline=None)
+@settings(max_examples=20)
 @given(small, st.data())
 def test_pairwise_names_both_of_two_faults_among_what_it_names(scenario, data):
     """Every passing case of the covering array replaces both faults, so both are named; a

@@ -145,7 +145,7 @@ BASE = {
 }
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=150)
 @given(
     command=st.sampled_from(sorted(FUZZED)),
     pick=st.integers(0, 3),

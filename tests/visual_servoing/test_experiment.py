@@ -202,7 +202,7 @@ def test_the_help_shows_no_markup_and_keeps_the_examples_on_their_own_lines(caps
     assert "\n  python -m visual_servoing scenarios " in out
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(value=hostile_numbers())
 def test_hostile_values_end_in_a_status_not_a_traceback(value):
     for argv in (["run", "--scenario", value], ["scenarios", value], [value]):

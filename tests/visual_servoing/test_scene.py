@@ -228,7 +228,7 @@ def test_the_figure_command_refuses_what_it_cannot_write(tmp_path, capsys):
     assert err.startswith("error: /sys/frames.png: ") and err.count("\n") == 1
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(value=hostile_numbers())
 def test_hostile_names_end_in_a_status_not_a_traceback(tmp_path_factory, value):
     missing = tmp_path_factory.mktemp("fuzz") / "missing"
