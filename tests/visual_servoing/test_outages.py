@@ -8,14 +8,14 @@ really cut (a relay), and it really restarts on its port; both end alike."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 import pytest
 
 from application.launch import run_processes
+from application.records import Outcome
 from application.report import summary
-from application.runs import run_in_process
 from visual_servoing.declaration import APPLICATION
 from visual_servoing.experiment.scenarios import KILL_AT
 
@@ -32,9 +32,8 @@ LOOK = 0.1
 """The runtime's decision period: a loss is declared at the first look after it."""
 
 
-def outcome(name: str, out: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
-    """The summary and the events of `name` run in process."""
-    result = run_in_process(APPLICATION, APPLICATION.scenario(name), out)
+def in_process(result: Outcome) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """The summary and the events of a scenario's run in process."""
     return summary(APPLICATION, result), [event.as_dict() for event in result.log]
 
 
@@ -69,17 +68,19 @@ def check(name: str, got: dict[str, Any], events: list[dict[str, Any]]) -> None:
 
 
 @pytest.mark.parametrize("name", sorted(FINAL))
-def test_in_process_the_lost_node_s_camera_is_replaced_at_once(name, tmp_path) -> None:
-    got, events = outcome(name, tmp_path)
+def test_in_process_the_lost_node_s_camera_is_replaced_at_once(
+    name, scenario_outcome: Callable[[str], Outcome]
+) -> None:
+    got, events = in_process(scenario_outcome(name))
     check(name, got, events)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(FINAL))
 def test_across_processes_the_node_is_really_lost_and_the_run_ends_as_in_process(
-    name, tmp_path
+    name, tmp_path, scenario_outcome: Callable[[str], Outcome]
 ) -> None:
-    expected, _ = outcome(name, tmp_path / "in-process")
+    expected, _ = in_process(scenario_outcome(name))
     got = run_processes(APPLICATION, APPLICATION.scenario(name), tmp_path / "processes")
     events = json.loads((tmp_path / "processes" / "report.json").read_text())["events"]
     check(name, got, events)
