@@ -31,8 +31,7 @@ from commandline.arguments import address, apart, input_file, integer, output_fi
 from commandline.progress import progress_bar
 from hexmigrate.checks import verify_file
 from hexmigrate.control_cli import add_control_commands, setting_text
-from hexmigrate.descriptor import NAME_LEN
-from hexmigrate.elf import DEFAULT_INIT_SYMBOL, image_from_elf
+from hexmigrate.descriptor import DEFAULT_INIT_SYMBOL, NAME_LEN
 from hexmigrate.errors import (
     HexmigrateError,
     LinkError,
@@ -111,6 +110,8 @@ def cmd_pack(args: argparse.Namespace) -> int:
     apart(("-o", args.output), ("MODULE.elf", args.elf), ("--map", args.map), ("--bin", args.bin))
     images = []
     if args.elf is not None:
+        from hexmigrate.elf import image_from_elf  # pyelftools: 40 ms that only pack needs
+
         images.append(image_from_elf(args.elf, args.init))
     if args.map is not None:
         images.append(image_from_map(args.bin, args.map, args.init))

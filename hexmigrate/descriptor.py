@@ -22,6 +22,8 @@ NAME_LEN = 16
 PORT_NAME_LEN = 12
 MAX_PORTS = 8
 METHODS = ("init", "on", "cycle", "off", "kill", "error", "clear", "evaluate", "estimate")
+DEFAULT_INIT_SYMBOL = "module_init"
+"""The symbol of a module's init subroutine in the SDK (record 08 points at it)."""
 
 _HEADER = struct.Struct(f"<IHH{NAME_LEN}sI")
 _PORT = struct.Struct(f"<{PORT_NAME_LEN}sBBHHH")

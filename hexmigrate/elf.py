@@ -29,6 +29,7 @@ from elftools.elf.relocation import Relocation, RelocationSection
 from elftools.elf.sections import Section, Symbol, SymbolTableSection
 
 from hexmigrate.checks import RV32IM_FIX, check_module
+from hexmigrate.descriptor import DEFAULT_INIT_SYMBOL
 from hexmigrate.errors import (
     CompressedCodeError,
     HexError,
@@ -43,7 +44,6 @@ from hexmigrate.relocations import R_RISCV_32, SUBTRACTIONS, Refusal, pc_relativ
 
 EF_RISCV_RVC = 0x0001
 """The e_flags bit that says the code uses compressed (16-bit) instructions."""
-DEFAULT_INIT_SYMBOL = "module_init"
 EMIT_RELOCS_FIX = "link with -Wl,--emit-relocs, as module_sdk/build.py does"
 
 

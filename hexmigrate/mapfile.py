@@ -21,8 +21,7 @@ from pathlib import Path
 
 from hexmigrate import descriptor as abi
 from hexmigrate.checks import check_module
-from hexmigrate.descriptor import DESCRIPTOR_SECTION
-from hexmigrate.elf import DEFAULT_INIT_SYMBOL
+from hexmigrate.descriptor import DEFAULT_INIT_SYMBOL, DESCRIPTOR_SECTION
 from hexmigrate.errors import DescriptorError, HexError, MapMismatchError, ModuleSourceError
 from hexmigrate.image import ModuleImage
 

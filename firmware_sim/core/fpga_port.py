@@ -24,7 +24,6 @@ crossbar, one layer with firmware_sim) registers a factory under the entry-point
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from importlib.metadata import entry_points
 from typing import Protocol
 
 from firmware_sim.errors import ReconfigurationPortError
@@ -113,6 +112,8 @@ def open_port(
     Raises ReconfigurationPortError when none or several are installed, or when the one installed
     cannot build that fabric or that model.
     """
+    from importlib.metadata import entry_points  # 30 ms to import: only a node with an FPGA
+
     found = sorted(entry_points(group=group), key=lambda point: point.name)
     if not found:
         raise ReconfigurationPortError(

@@ -16,14 +16,14 @@ import bisect
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from elftools.common.exceptions import DWARFError, ELFError
-from elftools.elf.elffile import ELFFile
-from elftools.elf.sections import SymbolTableSection
-
-from hexmigrate.elf import image_from_elf
 from hexmigrate.errors import HexmigrateError
-from hexmigrate.image import ModuleImage
+
+if TYPE_CHECKING:
+    from elftools.elf.elffile import ELFFile
+
+    from hexmigrate.image import ModuleImage
 
 
 @dataclass(frozen=True)
@@ -48,6 +48,13 @@ class SourceLines:
 
     def __init__(self, path: Path) -> None:
         """Decode `path`; raises ValueError naming the file when it is no readable module ELF."""
+        # pyelftools takes 40 ms to import: the first ELF decoded loads it, not every node's
+        # start (most nodes are given none).
+        from elftools.common.exceptions import DWARFError, ELFError
+        from elftools.elf.elffile import ELFFile
+
+        from hexmigrate.elf import image_from_elf
+
         self.path = path
         try:
             self.image: ModuleImage = image_from_elf(path)
@@ -89,6 +96,8 @@ def source_lines(path: Path, modified: float) -> SourceLines:
 
 def _functions(elf: ELFFile) -> list[tuple[int, int, str]]:
     """(start, end, name) of every sized function symbol, by start."""
+    from elftools.elf.sections import SymbolTableSection  # loaded with ELFFile already
+
     table = elf.get_section_by_name(".symtab")
     if not isinstance(table, SymbolTableSection):
         return []

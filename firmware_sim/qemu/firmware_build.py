@@ -11,10 +11,6 @@ import subprocess
 from collections.abc import Iterable
 from pathlib import Path
 
-from elftools.common.exceptions import ELFError
-from elftools.elf.constants import SH_FLAGS
-from elftools.elf.elffile import ELFFile
-
 from firmware_sim.errors import QemuError
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -65,6 +61,10 @@ def make_target(target: Path, root: Path = ROOT) -> None:
 def elf_symbols(elf: Path, names: Iterable[str]) -> dict[str, int]:
     """The values of the symbols `names` in `elf` (link.ld's layout: the stack, the module
     regions); QemuError naming the file when one is missing or the file is no ELF."""
+    # pyelftools takes 40 ms to import: `firmware-sim qemu` loads it, not every node's start.
+    from elftools.common.exceptions import ELFError
+    from elftools.elf.elffile import ELFFile
+
     try:
         with elf.open("rb") as stream:
             table = ELFFile(stream).get_section_by_name(".symtab")
@@ -87,6 +87,10 @@ def firmware_ram(elf: Path) -> int:
     """The RAM the firmware takes besides the module areas, which the issue's 16 KiB goal
     counts: its writable sections (data, bss) and its linked stack. The module SRAM, task window
     and module stack are regions of the link script, not sections, so none of them counts."""
+    from elftools.common.exceptions import ELFError
+    from elftools.elf.constants import SH_FLAGS
+    from elftools.elf.elffile import ELFFile
+
     try:
         with elf.open("rb") as stream:
             writable = SH_FLAGS.SHF_ALLOC | SH_FLAGS.SHF_WRITE
