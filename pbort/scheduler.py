@@ -7,12 +7,16 @@ depends on hashing or on how the heap happened to be built. A job runs to comple
 `duration` (the virtual CPU time its calls reported) then passes on the clock, so a slow PBO delays
 the others, and under the virtual clock it does so deterministically.
 
-A periodic PBO is released on a fixed grid from the moment it was switched on. A job's deadline is
-its next release. A release that comes while the previous job has not started or not finished is
-skipped and counted as an overrun: the scheduler never queues a backlog, it resumes at the first
-grid point after the late job finished. An aperiodic PBO is released by `release(job)` (an event,
-or a write of a variable it watches); a release while one is pending is merged and counted as an
-overrun.
+A periodic PBO is released at once when it is switched on, then on its period's grid counted from
+the clock's zero (``k / frequency``), not from the moment it was switched on: PBOs of one rate
+then release together, in the order above, whenever each was switched on. A pipeline's latency
+(a camera's frame to the command it leads to) is thus the same from run to run and in real time
+as in lock-step; on grids counted from each switch-on it depended on the milliseconds between a
+host's START requests. A job's deadline is its next release. A release that comes while the
+previous job has not started or not finished is skipped and counted as an overrun: the scheduler
+never queues a backlog, it resumes at the first grid point after the late job finished. An
+aperiodic PBO is released by `release(job)` (an event, or a write of a variable it watches); a
+release while one is pending is merged and counted as an overrun.
 
 The clock is the only difference between simulation and real time (see `pbort.clock`).
 """
@@ -97,12 +101,14 @@ class Scheduler:
         """How far the jobs slipped behind their modelled schedule (pbort.timekeeping)."""
 
     def start(self, job: Job) -> None:
-        """Make a job runnable; a periodic job is released now and then on its grid."""
+        """Make a job runnable; a periodic job is released now, then on its period's grid
+        from the clock's zero (`phase` is the last grid point at or before now)."""
         job.active = True
         if job.period is not None:
-            job.phase = self.clock.now()
+            now = self.clock.now()
+            job.phase = math.floor((now + _SLACK) / job.period) * job.period
             job.index = 0
-            self._push(job, job.phase)
+            self._push(job, now)
 
     def restart(self) -> None:
         """Forget every release and start the clock again from 0 s (no job may be active: the

@@ -41,11 +41,16 @@ static void release_at(struct job *job, uint64_t index)
     job->pending = true;
 }
 
+/* Released now, then on the grid from the clock's zero (scheduler.h): the index is the last
+ * grid point at or before now, so that the next release is the first after it. */
 void scheduler_start(struct job *job, uint64_t now)
 {
     job->active = true;
-    job->phase_us = now;
-    release_at(job, 0);
+    job->phase_us = now / REBASE_US * REBASE_US;
+    job->index = first_at_or_after(job, now + 1u) - 1u;
+    rebase(job);
+    job->release_us = now;
+    job->pending = true;
 }
 
 void scheduler_stop(struct job *job)

@@ -2,12 +2,14 @@
  * scheduler.h - one CPU, cooperative and non-preemptive, on the board's microsecond clock
  * (pbort/scheduler.py).
  *
- * A periodic PBO is released on a fixed grid from the moment it was switched on: phase + k x
- * period. When the CPU is free, the due job with the lowest priority number runs, ties going to
- * the PBO registered first; a job runs to completion. A job's deadline is its next release. A
- * release that comes while the previous job has not started or not finished is skipped and
- * counted as an overrun: the scheduler never queues a backlog, it resumes at the first grid
- * point after the late job finished.
+ * A periodic PBO is released at once when it is switched on, then on its period's grid counted
+ * from the clock's zero, k x period, as in pbort/scheduler.py: PBOs of one rate release together
+ * whenever each was switched on, so a pipeline's latency does not depend on the moments of the
+ * host's START requests. When the CPU is free, the due job with the lowest priority number
+ * runs, ties going to the PBO registered first; a job runs to completion. A job's deadline is
+ * its next release. A release that comes while the previous job has not started or not
+ * finished is skipped and counted as an overrun: the scheduler never queues a backlog, it
+ * resumes at the first grid point after the late job finished.
  *
  * Rates are in millihertz (0.01 Hz to 100 kHz as a host may ask, RATE): integers keep the grid
  * exact without floating point, which RV32IM would do in soft float. A release time is

@@ -138,6 +138,15 @@ def test_a_pbo_runs_at_its_rate(driver: Path) -> None:
     assert seen["stats.slow"].startswith("cycles:25 missed:0 overruns:0 long:0")
 
 
+def test_on_releases_at_once_then_on_the_period_s_grid_from_the_clock_s_zero(driver: Path) -> None:
+    # as tests/pbort/test_scheduler.py's: switched on at 50 and 420 ms, off at 300 ms, 10 Hz
+    done = subprocess.run([str(driver), "grid"], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and "runtime error" not in done.stderr, done.stderr
+    lines = done.stdout.splitlines()
+    cycles = [int(line.removeprefix("cycle_at=")) for line in lines if "cycle_at=" in line]
+    assert cycles == [50_000, 100_000, 200_000, 420_000, 500_000]
+
+
 def test_a_job_longer_than_its_period_is_counted_not_queued(driver: Path) -> None:
     # docs/pbort.md: 100 Hz, 12 ms cycles: 50 cycles, 50 missed deadlines, 50 overruns
     seen = run(driver, "overrun")

@@ -290,7 +290,7 @@ def test_run_stops_at_until_or_after_a_number_of_jobs() -> None:
             kernel.run()
 
 
-def test_off_and_on_restart_the_release_grid_at_the_time_of_on() -> None:
+def test_on_releases_at_once_then_on_the_period_s_grid_from_the_clock_s_zero() -> None:
     with Kernel() as kernel:
         kernel.add(NativeModule(Relay), "p", frequency=10)
         kernel.spawn("p")
@@ -301,7 +301,24 @@ def test_off_and_on_restart_the_release_grid_at_the_time_of_on() -> None:
         kernel.run(until=0.42)
         kernel.on("p")
         kernel.run(until=0.6)
-        assert [t for t, _ in seen(kernel, "p")] == [0.05, 0.15, 0.25, 0.42, 0.52]
+        assert [t for t, _ in seen(kernel, "p")] == [0.05, 0.1, 0.2, 0.42, 0.5]
+
+
+def test_a_chain_switched_on_link_by_link_crosses_in_one_period_whenever_each_came_on() -> None:
+    """The pipeline's latency does not depend on the moments its PBOs were switched on (a
+    host's START requests a few milliseconds apart): once all are on, they release together."""
+    with Kernel() as kernel:
+        kernel.add(NativeModule(Count), "a", frequency=10)
+        for name in ("b", "c"):
+            kernel.add(NativeModule(Relay), name, frequency=10)
+        kernel.connect("a.y", "b.x")
+        kernel.connect("b.y", "c.x")
+        for name, at in (("c", 0.013), ("b", 0.042), ("a", 0.071)):
+            kernel.run(until=at)
+            kernel.spawn(name)
+            kernel.on(name)
+        kernel.run(until=0.45)
+        assert seen(kernel, "c")[-4:] == [(0.1, 2.0), (0.2, 3.0), (0.3, 4.0), (0.4, 5.0)]
 
 
 def test_a_new_rate_takes_effect_at_the_next_switch_on_and_only_while_off() -> None:

@@ -317,6 +317,32 @@ static void scenario_overrun(void)
     show_stats("hog");
 }
 
+/* A 10 Hz PBO that says when each of its cycles starts. */
+static int32_t stamp_cycle(uint32_t ctx)
+{
+    (void)ctx;
+    printf("cycle_at=%llu\n", (unsigned long long)kernel_time_us()); /* from its zero */
+    return 0;
+}
+
+/* Switched on at 50 ms and at 420 ms: released then, and on the 10 Hz grid from the clock's
+ * zero in between (pbort/scheduler.py). */
+static void scenario_grid(void)
+{
+    static const struct fake_port ports[] = {{"y", DIRECTION_OUT, KIND_SCALAR, 4, 1, 1}};
+    uint32_t slot;
+    const uint32_t d = descriptor_at(0, "stamp", 0, ports, 1, BIT(METHOD_CYCLE));
+    module_call_fake(FLASH + 4 * (METHOD_CYCLE + 1), stamp_cycle);
+    printf("install.stamp=%d\n", install(0, d, 10, &slot));
+    kernel_run(50000, UINT32_MAX);
+    said("start", kernel_start("stamp"));
+    kernel_run(300000, UINT32_MAX);
+    said("stop", kernel_stop("stamp"));
+    kernel_run(420000, UINT32_MAX);
+    said("start_again", kernel_start("stamp"));
+    kernel_run(600000, UINT32_MAX);
+}
+
 static void scenario_evaluator(void)
 {
     struct kernel_status status;
@@ -692,7 +718,7 @@ int main(int argc, char **argv)
         {"register", scenario_register},   {"isolation", scenario_isolation},
         {"estimator", scenario_estimator}, {"loader", scenario_loader},
         {"slip", scenario_slip},           {"log", scenario_log},
-        {"busy", scenario_busy},
+        {"busy", scenario_busy},           {"grid", scenario_grid},
         {"fuzz", fuzz},
     };
     if (argc == 3 && strcmp(argv[1], "image") == 0) {

@@ -37,6 +37,7 @@ MUTATIONS = [
         "at_its_rate",
     ),
     ("scheduler.c", "counters->overruns += (uint32_t)(first_free - next);", "", "not_queued"),
+    ("scheduler.c", "job->phase_us = now / REBASE_US * REBASE_US;", "job->phase_us = now;", "grid"),
     (
         "performance.c",
         "    value->value_milli = value_milli;",
