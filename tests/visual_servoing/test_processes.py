@@ -22,6 +22,7 @@ from commandline.children import ChildError
 from hexmigrate.links.listening import CONNECT_URL
 from refresh.errors import RealTimeLost
 from visual_servoing.declaration import APPLICATION
+from visual_servoing.scene import Scene
 
 QUANTUM = APPLICATION.quantum
 
@@ -164,6 +165,12 @@ def judged_while_slipping(events: Path) -> list[str]:
     return judged
 
 
+def true_deviation_at(report: Path, time: float) -> float:
+    """The target's true deviation from the image centre (pixels) in the sample nearest `time`."""
+    samples = json.loads(report.read_text())["samples"]
+    return min(samples, key=lambda sample: abs(sample["time"] - time))["true"]
+
+
 def lost_after(events: Path, time: float) -> bool:
     """Whether real time was lost after `time` (s of the run)."""
     return any(
@@ -191,8 +198,18 @@ def test_in_real_time_beside_two_cpu_hogs_the_paper_repairs_as_in_lock_step_or_s
         assert lost_after(out / "events.jsonl", got["faults"][0])
         assert got["real_time_lost"]["seconds"] > 0  # and the summary says so
         return
-    (record,) = got["reconfigurations"]
-    assert (record["located"], record["chosen"]) == (expected["located"], expected["chosen"])
+    first, *later = got["reconfigurations"]
+    assert (first["located"], first["chosen"]) == (expected["located"], expected["chosen"])
     assert got["final"] is not None and got["stopped_at"] is None
-    if record["recovered_at"] is None:  # only when real time was lost before it could be seen
-        assert lost_after(out / "events.jsonl", record["applied_at"])
+    if first["recovered_at"] is not None:
+        assert later == []  # a repair that held is followed by no other decision
+        return
+    if not later:  # only when real time was lost before the recovery could be seen
+        assert lost_after(out / "events.jsonl", first["applied_at"])
+        return
+    # The decision, slow on the busy host while the world ran on, came when the noise had driven
+    # the platform to its stop and the target out of the camera's view, where the dehazed
+    # camera cannot find it either: ReFrESH then decides again, as when any repair does not
+    # bring P_T back (RuntimeSettings.repair_attempts), and that repair holds.
+    assert abs(true_deviation_at(out / "report.json", first["applied_at"])) > Scene().width / 2
+    assert later[-1]["recovered_at"] is not None
