@@ -14,7 +14,8 @@ if TYPE_CHECKING:
 
 
 def _mcap_trace(path: Path) -> McapTrace:
-    # mcap takes 50 ms to import: the first .mcap trace loads it, not every node's start.
+    """A new MCAP trace; mcap takes 50 ms to import, so the first .mcap trace loads it, not
+    every node's start."""
     from pbort.trace.mcap_trace import McapTrace
 
     return McapTrace(path)
