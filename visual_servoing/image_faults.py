@@ -4,8 +4,10 @@ Each fault is a pure function of a frame, a strength and a random generator, ret
 frame; `FaultSchedule` applies the faults active at a given time in the order they were listed
 (fog before sensor noise is the physical order: the scene is hazy, the sensor adds noise to what
 reaches it). Random faults draw from a generator seeded by the schedule's seed and the frame's
-time in microseconds, so the same schedule gives the same frame at the same time on every run, in
-any order of calls.
+number, its time in frame periods rounded (`frame_rate`), so the same schedule gives the same
+frame at the same time on every run, in any order of calls, and a run in real time, whose frames
+come a few milliseconds off the grid of a run in lock-step, meets the same noise as that run
+(by the frame's time in microseconds it met another realization every run).
 
 ==============  ================================================  ================
 kind            effect                                            strength
@@ -123,6 +125,12 @@ class FaultSchedule:
 
     faults: list[Fault] = field(default_factory=list)
     seed: int = 0
+    frame_rate: float = 30.0
+    """Frames per second of the camera: a frame's noise is drawn by its number at this rate."""
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.frame_rate) and self.frame_rate > 0):
+            raise FaultError(f"expected a frame rate > 0 frames/s, got {self.frame_rate!r}")
 
     def add(
         self, kind: FaultKind | str, strength: float, start: float = 0.0, end: float = math.inf
@@ -144,7 +152,7 @@ class FaultSchedule:
         faults = self.active(time)
         if not faults:
             return frame.copy()
-        rng = np.random.default_rng((self.seed, round(time * 1e6)))
+        rng = np.random.default_rng((self.seed, round(time * self.frame_rate)))
         for fault in faults:
             frame = fault.apply(frame, rng)
         return frame

@@ -144,12 +144,12 @@ def check_repair(got: dict, expected: dict, out: Path) -> None:
     """A real-time run of the paper's fault decides first as in lock-step (`expected`, its first
     reconfiguration) and ends with the task running.
 
-    Later decisions are allowed: the noise is drawn per frame time, and a real-time run's frames
-    come at other times than lock-step's, so it meets another realization of the same fault.
-    In virtual time, 2 of 64 seeds make the Dehazer's repair not hold, and ReFrESH decides again
-    until CamReader_alt; beside CPU hogs the decision also takes long enough in wall time for
-    the noise to drive the platform to its stop first. A single repair that did not hold needs
-    real time lost after it."""
+    Later decisions are allowed. The noise is drawn by frame number, so a real-time run meets
+    lock-step's, but the paper's outcome is likely, not certain (in virtual time 3 of 64 seeds
+    decide twice: the Dehazer's repair does not hold, and ReFrESH moves on to CamReader_alt),
+    and a run in real time is no exact replay: beside CPU hogs the decision takes long enough
+    in wall time for the noise to drive the platform to its stop first, the target then out of
+    the Dehazer's view too. A single repair that did not hold needs real time lost after it."""
     first, *later = got["reconfigurations"]
     assert (first["located"], first["chosen"]) == (expected["located"], expected["chosen"])
     assert got["final"] is not None and got["stopped_at"] is None

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -138,6 +139,23 @@ def test_faults_are_seeded_and_differ_from_frame_to_frame(scene):
     other = FaultSchedule(seed=5)
     other.add("gaussian", 10.0)
     assert not np.array_equal(one.apply(clean, 0.5), other.apply(clean, 0.5))
+
+
+def test_a_frame_off_the_grid_by_less_than_half_a_period_gets_the_same_noise(scene):
+    """A run in real time takes its frames a few ms off lock-step's grid: the same noise."""
+    clean = scene.render(0.0)
+    schedule = FaultSchedule(seed=4, frame_rate=30.0)
+    schedule.add("salt_pepper", 0.3)
+    on_grid = schedule.apply(clean, 5 / 30)
+    assert np.array_equal(schedule.apply(clean, 5 / 30 + 0.012), on_grid)
+    assert np.array_equal(schedule.apply(clean, 5 / 30 - 0.012), on_grid)
+    assert not np.array_equal(schedule.apply(clean, 6 / 30), on_grid)
+
+
+@pytest.mark.parametrize("rate", [0.0, -30.0, math.nan, math.inf])
+def test_a_frame_rate_that_is_no_rate_is_refused(rate):
+    with pytest.raises(FaultError, match="expected a frame rate > 0 frames/s"):
+        FaultSchedule(frame_rate=rate)
 
 
 def test_each_fault_does_what_it_says(scene):

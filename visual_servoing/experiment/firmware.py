@@ -60,7 +60,14 @@ def camera_devices(
     `yaw()` at `clock()` through `faults`; `intent` for estimators."""
     return {
         f"{module}@{where}": CameraDevice(
-            scene, yaw, clock, FaultSchedule(list(camera_faults(faults, module, where))), intent
+            scene,
+            yaw,
+            clock,
+            FaultSchedule(
+                list(camera_faults(faults, module, where)),
+                frame_rate=database.module(module).frequency,
+            ),
+            intent,
         )
         for module, where in cameras(database)
         if robot is None or where == robot
