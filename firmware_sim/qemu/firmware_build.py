@@ -8,10 +8,17 @@ from __future__ import annotations
 import fcntl
 import shutil
 import subprocess
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING, TypeVar
 
 from firmware_sim.errors import QemuError
+
+if TYPE_CHECKING:
+    from elftools.elf.elffile import ELFFile
+    from elftools.elf.sections import Symbol
+
+T = TypeVar("T")
 
 ROOT = Path(__file__).resolve().parents[2]
 """The project's folder: where the Makefile and firmware/ are."""
@@ -61,16 +68,12 @@ def make_target(target: Path, root: Path = ROOT) -> None:
 def elf_symbols(elf: Path, names: Iterable[str]) -> dict[str, int]:
     """The values of the symbols `names` in `elf` (link.ld's layout: the stack, the module
     regions); QemuError naming the file when one is missing or the file is no ELF."""
-    # pyelftools takes 40 ms to import: `firmware-sim qemu` loads it, not every node's start.
-    from elftools.common.exceptions import ELFError
-    from elftools.elf.elffile import ELFFile
 
-    try:
-        with elf.open("rb") as stream:
-            table = ELFFile(stream).get_section_by_name(".symtab")
-            found = {name: table.get_symbol_by_name(name) if table else None for name in names}
-    except (OSError, ELFError) as error:
-        raise QemuError(f"{elf}: expected the firmware's ELF, got {error}") from None
+    def find(image: ELFFile) -> dict[str, list[Symbol] | None]:
+        table = image.get_section_by_name(".symtab")
+        return {name: table.get_symbol_by_name(name) if table else None for name in names}
+
+    found = _read_elf(elf, find)
     missing = [name for name, symbol in found.items() if not symbol]
     if missing:
         raise QemuError(f"{elf}: expected the symbols {', '.join(missing)}, got none of them")
@@ -87,18 +90,30 @@ def firmware_ram(elf: Path) -> int:
     """The RAM the firmware takes besides the module areas, which the issue's 16 KiB goal
     counts: its writable sections (data, bss) and its linked stack. The module SRAM, task window
     and module stack are regions of the link script, not sections, so none of them counts."""
+    return _read_elf(elf, _writable_bytes) + linked_stack(elf)
+
+
+def _writable_bytes(image: ELFFile) -> int:
+    """The bytes of the sections the firmware allocates and writes."""
+    from elftools.elf.constants import SH_FLAGS  # loaded with ELFFile already
+
+    writable = SH_FLAGS.SHF_ALLOC | SH_FLAGS.SHF_WRITE
+    return sum(
+        section["sh_size"]
+        for section in image.iter_sections()
+        if section["sh_flags"] & writable == writable
+    )
+
+
+def _read_elf(elf: Path, read: Callable[[ELFFile], T]) -> T:
+    """What `read` finds in the firmware's ELF `elf`; QemuError naming the file when it cannot
+    be read or is no ELF."""
+    # pyelftools takes 40 ms to import: `firmware-sim qemu` loads it, not every node's start.
     from elftools.common.exceptions import ELFError
-    from elftools.elf.constants import SH_FLAGS
     from elftools.elf.elffile import ELFFile
 
     try:
         with elf.open("rb") as stream:
-            writable = SH_FLAGS.SHF_ALLOC | SH_FLAGS.SHF_WRITE
-            static = sum(
-                section["sh_size"]
-                for section in ELFFile(stream).iter_sections()
-                if section["sh_flags"] & writable == writable
-            )
+            return read(ELFFile(stream))
     except (OSError, ELFError) as error:
         raise QemuError(f"{elf}: expected the firmware's ELF, got {error}") from None
-    return static + linked_stack(elf)
