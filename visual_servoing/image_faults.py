@@ -147,7 +147,7 @@ class FaultSchedule:
     def apply(self, frame: np.ndarray, time: float) -> np.ndarray:
         """The frame taken at `time` seconds as the faulty camera delivers it (a new array)."""
         frame = check_frame(frame)
-        if time < 0:
+        if not 0 <= time < math.inf:  # NaN too: it numbers no frame
             raise FaultError(f"expected a frame time >= 0 seconds, got {time}")
         faults = self.active(time)
         if not faults:

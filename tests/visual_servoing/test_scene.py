@@ -152,6 +152,14 @@ def test_a_frame_off_the_grid_by_less_than_half_a_period_gets_the_same_noise(sce
     assert not np.array_equal(schedule.apply(clean, 6 / 30), on_grid)
 
 
+@pytest.mark.parametrize("time", [-0.1, math.nan, math.inf])
+def test_a_frame_time_that_numbers_no_frame_is_refused(scene, time):
+    schedule = FaultSchedule()
+    schedule.add("salt_pepper", 0.3)
+    with pytest.raises(FaultError, match="expected a frame time >= 0 seconds"):
+        schedule.apply(scene.render(0.0), time)
+
+
 @pytest.mark.parametrize("rate", [0.0, -30.0, math.nan, math.inf])
 def test_a_frame_rate_that_is_no_rate_is_refused(rate):
     with pytest.raises(FaultError, match="expected a frame rate > 0 frames/s"):
