@@ -22,7 +22,7 @@ from commandline.main import (
     UsageError,
     add_command,
     command_parser,
-    importing_command,
+    entry_point,
     one_line,
     run,
 )
@@ -38,7 +38,7 @@ __all__ = [
     "UsageError",
     "add_command",
     "command_parser",
-    "importing_command",
+    "entry_point",
     "one_line",
     "run",
 ]

@@ -99,10 +99,11 @@ def run(
     """Parse `argv`, run the command the parser chose (its ``func`` default) and return the exit
     status. `errors` is the package's error root (or roots): those, `CommandLineError` and
     `OSError` become one ``error:`` line."""
-    args = parser.parse_args(argv)
-    debug = getattr(args, "debug", False)
     caught = (errors if isinstance(errors, tuple) else (errors,)) + (CommandLineError, OSError)
+    debug = False
     try:
+        args = parser.parse_args(argv)  # Ctrl-C here too: on a loaded machine it takes a while
+        debug = getattr(args, "debug", False)
         status = args.func(args)
         sys.stdout.flush()  # a closed pipe shows here, not at interpreter exit
     except BrokenPipeError:
@@ -123,10 +124,13 @@ def run(
 
 
 @contextmanager
-def importing_command() -> Iterator[None]:
-    """Around the imports of a ``__main__``: a module of a missing extra ends the program with
-    one ``error:`` line and exit status 1 before any command runs, and Ctrl-C while the imports
-    run (they take a while) with ``interrupted`` and 130, as during the command."""
+def entry_point() -> Iterator[None]:
+    """Around the whole of a command's entry point, its imports and its call of `run`: a module
+    of a missing extra ends the program with one ``error:`` line and exit status 1 before any
+    command runs, and Ctrl-C while the imports run or the parser is built (they take a while on
+    a loaded machine) with ``interrupted`` and 130, as during the command; it printed a
+    traceback and the program died of the signal. The exit status is the program's own
+    (`_forget_caught_interrupts`)."""
     try:
         yield
     except KeyboardInterrupt:
@@ -137,6 +141,18 @@ def importing_command() -> Iterator[None]:
         if problem is None:
             raise
         raise SystemExit(_error_line(problem, debug=False)) from None
+    finally:
+        _forget_caught_interrupts()
+
+
+def _forget_caught_interrupts() -> None:
+    """Let the program's exit status through. CPython marks a KeyboardInterrupt that leaves an
+    ``exec`` or ``eval`` of source text as unhandled, even when the program catches it further
+    up, and ``python -m`` then ends the program by SIGINT (status -2) instead of its own exit
+    status: dataclasses and namedtuple make their methods so, at import, and a Ctrl-C in the
+    first second of a command lands there often. The next such ``exec`` that ends normally
+    clears the mark: one of nothing, as the program ends."""
+    exec("")
 
 
 def _error_line(text: str, debug: bool) -> int:

@@ -1,10 +1,17 @@
-"""`python -m hexmigrate`: the same as the `hexmigrate` command."""
+"""``python -m hexmigrate`` and the ``hexmigrate`` command (see `hexmigrate.cli`)."""
 
 import sys
 
-from commandline import importing_command
+from commandline import entry_point
 
-with importing_command():
-    from hexmigrate.cli import main
 
-sys.exit(main())
+def main() -> int:
+    """The command, under `entry_point` from its first import to its exit status."""
+    with entry_point():
+        from hexmigrate.cli import main as command
+
+        return command()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

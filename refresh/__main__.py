@@ -2,9 +2,16 @@
 
 import sys
 
-from commandline import importing_command
+from commandline import entry_point
 
-with importing_command():
-    from refresh.cli import main
 
-sys.exit(main())
+def main() -> int:
+    """The command, under `entry_point` from its first import to its exit status."""
+    with entry_point():
+        from refresh.cli import main as command
+
+        return command()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

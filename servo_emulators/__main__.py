@@ -1,10 +1,17 @@
-"""``python -m servo_emulators``: see servo_emulators.cli."""
+"""``python -m servo_emulators``: see `servo_emulators.cli`."""
 
 import sys
 
-from commandline import importing_command
+from commandline import entry_point
 
-with importing_command():
-    from servo_emulators.cli import main
 
-sys.exit(main())
+def main() -> int:
+    """The command, under `entry_point` from its first import to its exit status."""
+    with entry_point():
+        from servo_emulators.cli import main as command
+
+        return command()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -2,10 +2,17 @@
 
 import sys
 
-from commandline import importing_command
+from commandline import entry_point
 
-with importing_command():
-    from application.cli import main
-    from tank.declaration import APPLICATION
 
-sys.exit(main(APPLICATION))
+def main() -> int:
+    """The command, under `entry_point` from its first import to its exit status."""
+    with entry_point():
+        from application.cli import main as command
+        from tank.declaration import APPLICATION
+
+        return command(APPLICATION)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -3,10 +3,17 @@ paper's experiment."""
 
 import sys
 
-from commandline import importing_command
+from commandline import entry_point
 
-with importing_command():
-    from application.cli import main
-    from visual_servoing.declaration import APPLICATION
 
-sys.exit(main(APPLICATION))
+def main() -> int:
+    """The command, under `entry_point` from its first import to its exit status."""
+    with entry_point():
+        from application.cli import main as command
+        from visual_servoing.declaration import APPLICATION
+
+        return command(APPLICATION)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,10 +1,14 @@
-"""`commandline.run`: the exit codes, the error line, --debug and a closed pipe."""
+"""`commandline.run` and `commandline.entry_point`: the exit codes, the error line, --debug, Ctrl-C
+and a closed pipe."""
 
 from __future__ import annotations
 
+import importlib
+import os
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import pytest
 
@@ -17,8 +21,11 @@ from commandline import (
     UsageError,
     add_command,
     command_parser,
+    entry_point,
     run,
 )
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 class PackageError(Exception):
@@ -100,6 +107,82 @@ def test_a_usage_error_shows_the_escapes_it_quotes_escaped(capsys):
 def test_interrupted_exits_130(capsys):
     assert run(parser_raising(KeyboardInterrupt()), PackageError, ["go"]) == EXIT_INTERRUPTED
     assert capsys.readouterr().err == "interrupted\n"
+
+
+def test_ctrl_c_while_the_arguments_are_parsed_is_interrupted_too(capsys):
+    def pressed(_text: str) -> int:
+        raise KeyboardInterrupt  # as a Ctrl-C lands in argparse on a loaded machine
+
+    parser = command_parser("tool", "A tool.")
+    parser.add_argument("--count", type=pressed)
+    parser.set_defaults(func=lambda args: 0)
+    assert run(parser, PackageError, ["--count", "3"]) == EXIT_INTERRUPTED
+    assert capsys.readouterr().err == "interrupted\n"
+
+
+ENTRY_POINTS = {
+    "hexmigrate": "hexmigrate.cli",
+    "firmware_sim": "firmware_sim.cli.command",
+    "refresh": "refresh.cli",
+    "morphing_crossbar": "morphing_crossbar.cli",
+    "servo_emulators": "servo_emulators.cli",
+    "patrol": "application.cli",
+    "tank": "application.cli",
+    "visual_servoing": "application.cli",
+}
+
+
+@pytest.mark.parametrize("package", sorted(ENTRY_POINTS))
+def test_ctrl_c_anywhere_in_an_entry_point_is_interrupted_not_a_traceback(
+    package, monkeypatch, capsys
+):
+    """Ctrl-C before `run` catches it (the command building its parser) says "interrupted"
+    and exits 130, as in the command; `python -m` and the installed commands run this `main`."""
+
+    def building(*_args: object) -> int:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(importlib.import_module(ENTRY_POINTS[package]), "main", building)
+    program = importlib.import_module(f"{package}.__main__")
+    with pytest.raises(SystemExit) as exited:
+        program.main()
+    assert exited.value.code == EXIT_INTERRUPTED
+    assert capsys.readouterr().err == "interrupted\n"
+
+
+def test_ctrl_c_caught_in_a_dataclass_s_making_still_exits_130_under_python_m(tmp_path):
+    """A Ctrl-C that lands where dataclasses and namedtuple make their methods (an ``exec`` of
+    source text, which CPython marks) made ``python -m`` die of SIGINT (-2) after the program
+    had said "interrupted" and chosen 130."""
+    (tmp_path / "interrupted_program.py").write_text(
+        textwrap.dedent(
+            """
+            import sys
+            from commandline import entry_point
+
+            def main():
+                with entry_point():
+                    exec("raise KeyboardInterrupt")  # as a Ctrl-C lands in a dataclass's making
+
+            sys.exit(main())
+            """
+        )
+    )
+    done = subprocess.run(
+        [sys.executable, "-m", "interrupted_program"],
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert (done.returncode, done.stderr) == (EXIT_INTERRUPTED, "interrupted\n")
+
+
+def test_entry_point_lets_the_exit_status_through():
+    with pytest.raises(SystemExit) as exited, entry_point():
+        raise SystemExit(EXIT_USAGE)
+    assert exited.value.code == EXIT_USAGE
 
 
 def test_help_keeps_the_examples_on_their_own_lines(capsys):
