@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -23,7 +24,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from commandline import command_parser, run
+from commandline import command_parser, entry_point, run
 from commandline.arguments import input_file, output_file_ending
 from hexmanipulator.can_bus import CanServoBus
 from hexmanipulator.errors import HexmanipulatorError
@@ -129,4 +130,5 @@ def _draw(args: argparse.Namespace) -> None:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    with entry_point():
+        sys.exit(main())

@@ -604,7 +604,3 @@ def _add_node_commands(commands: argparse._SubParsersAction) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status."""
     return run(build_parser(), HexmigrateError, argv)
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from commandline import command_parser, run
+from commandline import command_parser, entry_point, run
 from commandline.arguments import input_file
 from module_sdk.errors import BuildError, SdkError
 
@@ -196,4 +196,5 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    with entry_point():
+        sys.exit(main())

@@ -22,7 +22,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from commandline import command_parser, run
+from commandline import command_parser, entry_point, run
 from commandline.arguments import output_file_ending
 from visual_servoing.dehaze import dehaze
 from visual_servoing.errors import ServoingError
@@ -79,4 +79,5 @@ def _draw(args: argparse.Namespace) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    with entry_point():
+        sys.exit(main())

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -597,7 +596,3 @@ def _add_transfer(commands: argparse._SubParsersAction) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status."""
     return run(build_parser(), ERRORS, argv)
-
-
-if __name__ == "__main__":
-    sys.exit(main())

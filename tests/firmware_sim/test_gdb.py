@@ -259,7 +259,7 @@ def test_a_listening_node_takes_gdb_between_jobs_for_a_module_that_arrived(gain,
     link = node.wait_for(r"--to (socket://127\.0\.0\.1:\d+)", LINE_TIMEOUT)[1]
     where = node.wait_for(r"gdb: listening on (127\.0\.0\.1:\d+)", LINE_TIMEOUT)[1]
     sent = subprocess.run(
-        [sys.executable, "-m", "hexmigrate.cli", "send", str(gain), "--to", link],
+        [sys.executable, "-m", "hexmigrate", "send", str(gain), "--to", link],
         capture_output=True,
         text=True,
         timeout=60,
@@ -280,7 +280,7 @@ def test_a_client_that_connects_to_gdb_and_says_nothing_does_not_halt_the_node(n
     link = node.wait_for(r"--to (socket://127\.0\.0\.1:\d+)", LINE_TIMEOUT)[1]
     host, port = node.wait_for(r"gdb: listening on (127\.0\.0\.1):(\d+)", LINE_TIMEOUT).groups()
     with socket.create_connection((host, int(port))) as silent:
-        read = [sys.executable, "-m", "hexmigrate.cli", "get", "signal.y", "--to", link]
+        read = [sys.executable, "-m", "hexmigrate", "get", "signal.y", "--to", link]
         answered = subprocess.run(read, capture_output=True, text=True, timeout=60, check=False)
         assert answered.returncode == 0, answered.stderr  # the node was not halted for it
         node.wait_for(r"gdb: 127\.0\.0\.1:\d+ said nothing in 5 s; let go", LINE_TIMEOUT)
