@@ -37,6 +37,7 @@ from pbort.errors import (
     UnknownPBOError,
     UnknownPortError,
 )
+from pbort.flow_order import flow_order
 from pbort.lifecycle import CONFIGURABLE, REMOVABLE, State, require
 from pbort.module_log import LogLine
 from pbort.pbo import RegisteredPBO
@@ -61,7 +62,6 @@ class Kernel:
         self._svt = StateVariableTable()
         self._scheduler = Scheduler(self.clock)
         self._pbos: dict[str, RegisteredPBO] = {}
-        self._registrations = 0
         self._shadows: list[ShadowRun] = []
         self._log_observers: list[Callable[[str, LogLine], None]] = []
         self._closed = False
@@ -80,8 +80,9 @@ class Kernel:
 
         `name` defaults to the module's. A PBO with a `frequency` (Hz) is periodic; one without is
         aperiodic and runs when `trigger`ed or when a variable in `triggers` is written. Among PBOs
-        released at the same time, the lower `priority` number runs first, then the PBO added
-        first.
+        released at the same time, the lower `priority` number runs first, then the data flow's
+        order: a PBO after those that feed its inputs, else the PBO added first
+        (`pbort.flow_order`).
         """
         self._check_open()
         name = code.name if name is None else name
@@ -94,17 +95,17 @@ class Kernel:
             code,
             frequency=frequency,
             priority=priority,
-            order=self._registrations,
+            order=len(self._pbos),  # its rank until `_reorder` ranks it by the flow
             svt=self._svt,
             scheduler=self._scheduler,
             buffer_size=self._buffer_size,
             triggers=triggers,
             on_log=self._logged,
         )
-        self._registrations += 1
         self._pbos[name] = pbo
         for variable in triggers:
             self._svt.watch(variable, pbo.wake)
+        self._reorder()
         return name
 
     def remove(self, name: str) -> None:
@@ -116,6 +117,7 @@ class Kernel:
             self._svt.unwatch(variable, pbo.wake)
         self._svt.remove(pbo.port_names())
         del self._pbos[name]
+        self._reorder()
 
     def connect(self, source: str, sink: str) -> None:
         """Bind input port `sink` (``"pbo.port"``) to the variable of output port `source`."""
@@ -125,6 +127,7 @@ class Kernel:
         self._check_wired(source, "output")
         self._check_wired(sink, "input")
         self._svt.connect(source, sink)
+        self._reorder()
 
     def disconnect(self, sink: str) -> None:
         """Unbind input port `sink`; it reads its zero value from the next cycle on."""
@@ -132,6 +135,7 @@ class Kernel:
         self._port(sink)
         self._check_wired(sink, "input")
         self._svt.disconnect(sink)
+        self._reorder()
 
     def set_frequency(self, name: str, frequency: float) -> None:
         """Run periodic PBO `name` at `frequency` Hz from its next switch on; like a constant,
@@ -409,6 +413,14 @@ class Kernel:
         if direction in (Direction.CONST, Direction.RESOURCE):
             kind = "constant" if direction is Direction.CONST else "resource"
             raise PortDirectionError(f"port {port!r} is a {kind} port; expected an {wanted}")
+
+    def _reorder(self) -> None:
+        """Rank the PBOs for the ties of a release by the wiring as it is now."""
+        feeds = [(_owner(source), _owner(sink)) for source, sink in self._svt.connections()]
+        ranks = flow_order(list(self._pbos), feeds)
+        for name, pbo in self._pbos.items():
+            pbo.job.order = ranks[name]
+        self._scheduler.reorder()
 
     def _port(self, port: str) -> tuple[RegisteredPBO, str]:
         """The PBO and port name of ``"pbo.port"``, with a message naming what exists."""

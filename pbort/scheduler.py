@@ -2,10 +2,11 @@
 
 Releases wait on a timeline heap of ``(time, priority, order, seq, job)``. When the CPU is free,
 every release that is due moves to a ready heap ordered by ``(priority, order, seq)``, and the ready
-job with the lowest priority number runs, ties going to the PBO registered first: the order never
-depends on hashing or on how the heap happened to be built. A job runs to completion; its
-`duration` (the virtual CPU time its calls reported) then passes on the clock, so a slow PBO delays
-the others, and under the virtual clock it does so deterministically.
+job with the lowest priority number runs, ties going by `order`, the kernel's rank of the PBO in
+the data flow (`pbort.flow_order`): the order never depends on hashing or on how the heap happened
+to be built. A job runs to completion; its `duration` (the virtual CPU time its calls reported)
+then passes on the clock, so a slow PBO delays the others, and under the virtual clock it does so
+deterministically.
 
 A periodic PBO is released at once when it is switched on, then on its period's grid counted from
 the clock's zero (``k / frequency``), not from the moment it was switched on: PBOs of one rate
@@ -25,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from heapq import heappop, heappush
+from heapq import heapify, heappop, heappush
 from itertools import count
 
 from pbort.clock import Clock
@@ -109,6 +110,15 @@ class Scheduler:
             job.phase = math.floor((now + _SLACK) / job.period) * job.period
             job.index = 0
             self._push(job, now)
+
+    def reorder(self) -> None:
+        """Take the jobs' `order` anew for the releases already waiting (the kernel ranks its
+        PBOs again when their wiring changes)."""
+        timeline, ready = self._timeline, self._ready  # changed in place: `run` holds them
+        timeline[:] = [(time, j.priority, j.order, seq, j) for time, _, _, seq, j in timeline]
+        ready[:] = [(j.priority, j.order, seq, time, j) for _, _, seq, time, j in ready]
+        heapify(timeline)
+        heapify(ready)
 
     def restart(self) -> None:
         """Forget every release and start the clock again from 0 s (no job may be active: the

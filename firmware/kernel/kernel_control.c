@@ -212,6 +212,7 @@ void kernel_reset(uint32_t *switched_off, uint32_t *wires)
             pbo->sources[port] = UNBOUND;
         }
     }
+    kernel_reorder();
     kernel_account_power(); /* what was drawn until now stays drawn */
     kernel.epoch_us = kernel.config.now_us();
     power_restart(&kernel.power);

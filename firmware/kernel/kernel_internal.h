@@ -70,6 +70,10 @@ struct pbo *kernel_find(const char *name);
  * when the part before the dot names none, however long). */
 struct pbo *kernel_find_port(const char *name, uint32_t *port);
 
+/* Rank the admitted PBOs for the ties of a release by their wiring as it is now (`flow`,
+ * flow_order.c): after every change of a binding, an admission or a removal. */
+void kernel_reorder(void);
+
 /* The PBO in slot `slot` (admitted or pending). */
 struct pbo *kernel_slot(uint32_t slot);
 uint32_t kernel_slot_of(const struct pbo *pbo);

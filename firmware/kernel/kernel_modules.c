@@ -87,6 +87,7 @@ static void retire(struct pbo *pbo)
     sram_free(pbo->store);
     pbo->used = false;
     kernel.draws_uw[kernel_slot_of(pbo)] = 0;
+    kernel_reorder();
 }
 
 bool kernel_valid_rate(const char *name, uint32_t millihertz)
@@ -117,6 +118,7 @@ static void admit(struct pbo *pbo, uint32_t millihertz)
     }
     kernel.draws_uw[slot] = 0;
     kernel.draw_refused[slot] = false;
+    kernel_reorder();
 }
 
 int kernel_admit(uint32_t slot, uint32_t millihertz)

@@ -10,7 +10,7 @@ uint64_t kernel_time_us(void)
 }
 
 /* The due job released before `limit` that goes first: the lowest priority number, then the
- * PBO registered first. */
+ * data flow's order (flow_order.c). */
 static struct pbo *first_due(uint64_t now, uint64_t limit)
 {
     struct pbo *best = 0;
@@ -22,7 +22,7 @@ static struct pbo *first_due(uint64_t now, uint64_t limit)
             continue;
         }
         if (best == 0 || job->priority < best->job.priority ||
-            (job->priority == best->job.priority && pbo->serial < best->serial)) {
+            (job->priority == best->job.priority && pbo->flow < best->flow)) {
             best = pbo;
         }
     }

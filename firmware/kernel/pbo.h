@@ -33,7 +33,8 @@ struct pbo {
     bool used;
     bool pending;  /* registered by its module, not yet admitted to the kernel (kernel.h) */
     uint8_t state; /* enum pbo_state */
-    uint32_t serial; /* registration order: listings, ties between jobs, its log lines */
+    uint8_t flow;  /* its rank in the ties of a release (kernel_reorder) */
+    uint32_t serial; /* registration order: listings, ties of the flow order, its log lines */
     uint32_t logged; /* lines its module logged: the number of the latest */
     struct module module;
     struct instance executor;

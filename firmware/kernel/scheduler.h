@@ -6,7 +6,7 @@
  * from the clock's zero, k x period, as in pbort/scheduler.py: PBOs of one rate release together
  * whenever each was switched on, so a pipeline's latency does not depend on the moments of the
  * host's START requests. When the CPU is free, the due job with the lowest priority number
- * runs, ties going to the PBO registered first; a job runs to completion. A job's deadline is
+ * runs, ties going by the data flow (flow_order.c); a job runs to completion. A job's deadline is
  * its next release. A release that comes while the previous job has not started or not
  * finished is skipped and counted as an overrun: the scheduler never queues a backlog, it
  * resumes at the first grid point after the late job finished.

@@ -59,6 +59,7 @@ int32_t svt_connect(struct pbo *source, uint32_t source_port, struct pbo *sink,
         return -1;
     }
     pbo_bind(sink, sink_port, source, source_port);
+    kernel_reorder();
     return 0;
 }
 
@@ -70,6 +71,7 @@ int32_t svt_disconnect(struct pbo *sink, uint32_t sink_port, struct text *why)
         return -1;
     }
     sink->sources[sink_port] = UNBOUND;
+    kernel_reorder();
     return 0;
 }
 

@@ -69,6 +69,8 @@ CYCLES = {
     "nullread": "return *(volatile const int32_t *)(uintptr_t)*(const uint32_t *)ctx->ports[0];",
     # never returns: the node's watchdog (its instruction or time budget) must end it
     "spin": "volatile int forever = 1; (void)ctx; while (forever) {} return PBO_OK;",
+    # y = its cycles so far: its output's buffer keeps the last value from cycle to cycle
+    "count": "*(int32_t *)ctx->ports[1] += 1; return PBO_OK;",
 }
 SETTLE = 0.5
 """Seconds for a chain at 100 Hz to carry a constant through (a few periods are enough)."""
@@ -229,6 +231,33 @@ def test_a_chain_fed_a_constant_gives_the_same_values(boot, example_hex, test_mo
         said = NodeControl(Sender(link, "binary")).reset()
     assert said == "reset: 2 PBO(s) switched off, 1 wire(s) and 0 bridge(s) undone, clock at 0 s"
     assert [row.split()[1] for row in control(url, "ps").splitlines()] == ["OFF"] * 3
+
+
+@pytest.mark.timeout(120)
+def test_a_chain_registered_against_its_flow_carries_a_value_in_the_same_release(
+    boot, example_hex, test_modules
+):
+    """Ties of a release go by the wiring on every node: gain, registered before the count it
+    reads, runs after it and shows the count of the same release. Read between two releases
+    (nearly always: the jobs of a release run back to back), the two values are equal; when ties
+    went by registration, gain showed the count before, always one less."""
+    url = boot().url
+    for path in (example_hex["gain"], test_modules["count"]):
+        send(url, path)
+    control(url, "set", "gain.k=0x10000")  # 1.0 in Q16.16
+    control(url, "connect", "count.y=gain.x")
+    for name in ("gain", "count"):
+        control(url, "rate", f"{name}=20")
+        control(url, "start", name)
+    time.sleep(SETTLE)
+    reads = []
+    for tid in range(1, 6):
+        answer = ask(url, ReadPorts(tid, "count.y gain.y"))
+        assert isinstance(answer, PortValues), answer
+        reads.append(dict(word.split("=") for word in answer.values.split()))
+        time.sleep(0.013)
+    assert all(int(r["count.y"]) > 0 for r in reads), reads
+    assert sum(r["count.y"] == r["gain.y"] for r in reads) >= 4, reads
 
 
 def ask(url: str, request: Message) -> Message:

@@ -147,6 +147,13 @@ def test_on_releases_at_once_then_on_the_period_s_grid_from_the_clock_s_zero(dri
     assert cycles == [50_000, 100_000, 200_000, 420_000, 500_000]
 
 
+def test_a_chain_registered_against_its_flow_crosses_in_one_period(driver: Path) -> None:
+    # as tests/pbort/test_scheduler.py's: ties go by the wiring, not by registration
+    seen = run(driver, "flow")
+    assert seen["connect_first"].strip() == seen["connect_second"].strip() == "0"
+    assert seen["read.ramp.y"] == seen["read.second.y"] == "100"
+
+
 def test_a_job_longer_than_its_period_is_counted_not_queued(driver: Path) -> None:
     # docs/pbort.md: 100 Hz, 12 ms cycles: 50 cycles, 50 missed deadlines, 50 overruns
     seen = run(driver, "overrun")

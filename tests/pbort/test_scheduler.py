@@ -56,6 +56,13 @@ def seen(kernel: Kernel, name: str) -> list[tuple[float, float]]:
     return [(round(r.time, 6), r.value) for r in kernel.performance(name)]
 
 
+def switch_on(kernel: Kernel, *names: str) -> None:
+    """Create and switch on PBOs `names`, in that order."""
+    for name in names:
+        kernel.spawn(name)
+        kernel.on(name)
+
+
 def chain(order: tuple[str, ...], priorities: dict[str, int] | None = None, **rates) -> Kernel:
     """a -> b -> c: `a` is a Count (or a Stamp with rates), b and c are Relays."""
     kernel = Kernel()
@@ -66,9 +73,7 @@ def chain(order: tuple[str, ...], priorities: dict[str, int] | None = None, **ra
         kernel.add(code, name, frequency=rates[name], priority=(priorities or {}).get(name, 0))
     kernel.connect("a.y", "b.x")
     kernel.connect("b.y", "c.x")
-    for name in order:
-        kernel.spawn(name)
-        kernel.on(name)
+    switch_on(kernel, *order)
     return kernel
 
 
@@ -78,11 +83,53 @@ def test_same_instant_in_registration_order_crosses_the_chain_in_one_period() ->
         assert seen(kernel, "c") == [(0.0, 1.0), (0.1, 2.0), (0.2, 3.0), (0.3, 4.0)]
 
 
-def test_in_reverse_registration_order_each_hop_costs_one_period() -> None:
+def test_in_reverse_registration_order_the_data_flow_still_crosses_in_one_period() -> None:
+    """Ties go by the wiring, not by registration: each hop against the registration cost a
+    period."""
     with chain(("c", "b", "a")) as kernel:
         kernel.run(until=0.35)
-        assert seen(kernel, "b") == [(0.0, 0.0), (0.1, 1.0), (0.2, 2.0), (0.3, 3.0)]
-        assert seen(kernel, "c") == [(0.0, 0.0), (0.1, 0.0), (0.2, 1.0), (0.3, 2.0)]
+        assert seen(kernel, "b") == [(0.0, 1.0), (0.1, 2.0), (0.2, 3.0), (0.3, 4.0)]
+        assert seen(kernel, "c") == [(0.0, 1.0), (0.1, 2.0), (0.2, 3.0), (0.3, 4.0)]
+
+
+def test_a_module_inserted_into_a_running_chain_adds_no_period_of_latency() -> None:
+    """What a ReFrESH repair does: `b`, registered last, goes between `a` and `c` while they
+    run; from the next release on, a's value crosses to c within the period again."""
+    with Kernel() as kernel:
+        kernel.add(NativeModule(Count), "a", frequency=10)
+        kernel.add(NativeModule(Relay), "c", frequency=10)
+        kernel.connect("a.y", "c.x")
+        switch_on(kernel, "a", "c")
+        kernel.run(until=0.15)
+        kernel.add(NativeModule(Relay), "b", frequency=10)
+        kernel.disconnect("c.x")
+        kernel.connect("a.y", "b.x")
+        kernel.connect("b.y", "c.x")
+        switch_on(kernel, "b")
+        kernel.run(until=0.45)
+        assert seen(kernel, "c") == [(0.0, 1.0), (0.1, 2.0), (0.2, 3.0), (0.3, 4.0), (0.4, 5.0)]
+
+
+class Step(Relay):
+    """y = x + 1, and reports the x it saw."""
+
+    name = "step"
+
+    def cycle(self, io):
+        io["y"] = io["x"] + 1.0
+        io.report(F, 0, io["x"])
+
+
+def test_in_a_feedback_loop_the_pbo_registered_first_goes_first() -> None:
+    with Kernel() as kernel:
+        for name in ("b", "a"):
+            kernel.add(NativeModule(Step), name, frequency=10)
+        kernel.connect("a.y", "b.x")
+        kernel.connect("b.y", "a.x")
+        switch_on(kernel, "a", "b")
+        kernel.run(until=0.15)
+        assert seen(kernel, "b") == [(0.0, 0.0), (0.1, 2.0)]
+        assert seen(kernel, "a") == [(0.0, 1.0), (0.1, 3.0)]
 
 
 def test_priority_goes_before_registration_order() -> None:
@@ -112,9 +159,7 @@ def test_a_slow_pbo_delays_the_next_one_by_its_duration() -> None:
         kernel.add(NativeModule(Slow), "a", frequency=10)
         kernel.add(NativeModule(Relay), "b", frequency=10)
         kernel.connect("a.y", "b.x")
-        for name in ("a", "b"):
-            kernel.spawn(name)
-            kernel.on(name)
+        switch_on(kernel, "a", "b")
         kernel.run(until=0.3)
         assert seen(kernel, "b") == [(0.03, 0.0), (0.13, 100.0), (0.23, 200.0)]
         assert kernel.stats("a").busy_time == pytest.approx(0.09)
@@ -145,9 +190,7 @@ def test_when_the_cpu_frees_the_waiting_job_of_higher_priority_runs_first() -> N
         kernel.add(NativeModule(Hog), frequency=10)
         kernel.add(NativeModule(Low), frequency=10, priority=5)
         kernel.add(NativeModule(High), frequency=25)
-        for name in kernel.names:
-            kernel.spawn(name)
-            kernel.on(name)
+        switch_on(kernel, *kernel.names)
         kernel.run(until=0.16)
     # at 0.15 "low" has waited since 0.1 and "high" only since 0.12, yet "high" goes first
     assert log == [
@@ -168,9 +211,7 @@ def test_a_pbo_longer_than_its_period_misses_deadlines_while_others_keep_their_r
     with Kernel() as kernel:
         kernel.add(NativeModule(Late), "late", frequency=100)
         kernel.add(NativeModule(Relay), "steady", frequency=10, priority=-1)
-        for name in kernel.names:
-            kernel.spawn(name)
-            kernel.on(name)
+        switch_on(kernel, *kernel.names)
         kernel.run(until=1.0)
         late, steady = kernel.stats("late"), kernel.stats("steady")
         assert (late.cycles, late.missed_deadlines, late.overruns) == (50, 50, 50)

@@ -343,6 +343,25 @@ static void scenario_grid(void)
     kernel_run(600000, UINT32_MAX);
 }
 
+/* A chain ramp -> first -> second registered against its flow: the ties of a release go by
+ * the wiring (flow_order.c), so the ramp's value crosses both in the same period. */
+static void scenario_flow(void)
+{
+    install_gain(0x0000, "second", 100);
+    install_gain(0x1000, "first", 100);
+    install_ramp(0x2000, 100);
+    said("connect_first", kernel_connect("ramp.y", "first.x"));
+    said("connect_second", kernel_connect("first.y", "second.x"));
+    said("set_first", kernel_set_constant("first.k", 1));
+    said("set_second", kernel_set_constant("second.k", 1));
+    said("start_second", kernel_start("second"));
+    said("start_first", kernel_start("first"));
+    said("start_ramp", kernel_start("ramp"));
+    kernel_run(1000000, UINT32_MAX);
+    show("ramp.y");
+    show("second.y");
+}
+
 static void scenario_evaluator(void)
 {
     struct kernel_status status;
@@ -719,7 +738,7 @@ int main(int argc, char **argv)
         {"estimator", scenario_estimator}, {"loader", scenario_loader},
         {"slip", scenario_slip},           {"log", scenario_log},
         {"busy", scenario_busy},           {"grid", scenario_grid},
-        {"fuzz", fuzz},
+        {"flow", scenario_flow},           {"fuzz", fuzz},
     };
     if (argc == 3 && strcmp(argv[1], "image") == 0) {
         boot();

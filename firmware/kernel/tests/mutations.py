@@ -39,6 +39,13 @@ MUTATIONS = [
     ("scheduler.c", "counters->overruns += (uint32_t)(first_free - next);", "", "not_queued"),
     ("scheduler.c", "job->phase_us = now / REBASE_US * REBASE_US;", "job->phase_us = now;", "grid"),
     (
+        "kernel_run.c",
+        "(job->priority == best->job.priority && pbo->flow < best->flow)",
+        "(job->priority == best->job.priority && pbo->serial < best->serial)",
+        "flow",
+    ),
+    ("flow_order.c", "next->flow = rank;", "next->flow = 0;", "flow"),
+    (
         "performance.c",
         "    value->value_milli = value_milli;",
         "    value->value_milli = 0 * value_milli;",
