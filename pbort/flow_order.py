@@ -1,8 +1,8 @@
 """The order in which PBOs released at the same instant run: the data flow's, then registration.
 
 A chain wired ``a -> b -> c`` at one rate carries a value from ``a`` to ``c`` within one
-period only when ``a`` runs before ``b`` and ``b`` before ``c`` in each release (a cycle's
-inputs are its readers' snapshot at its start). Ordering the ties by registration made every
+period only when ``a`` runs before ``b`` and ``b`` before ``c`` in each release (a cycle reads
+its inputs as they are when it starts). Ordering the ties by registration made every
 link registered against the flow cost a period of latency: the filter ReFrESH inserts into a
 running pipeline, registered last, delayed everything after it by one period. PBOs are ranked
 instead by the wiring: a PBO goes after every PBO that feeds one of its inputs, and among those
