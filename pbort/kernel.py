@@ -95,7 +95,6 @@ class Kernel:
             code,
             frequency=frequency,
             priority=priority,
-            order=len(self._pbos),  # its rank until `_reorder` ranks it by the flow
             svt=self._svt,
             scheduler=self._scheduler,
             buffer_size=self._buffer_size,

@@ -51,7 +51,6 @@ class RegisteredPBO:
         *,
         frequency: float | None,
         priority: int,
-        order: int,
         svt: StateVariableTable,
         scheduler: Scheduler,
         buffer_size: int,
@@ -85,7 +84,6 @@ class RegisteredPBO:
             self.counters,
             period=None if frequency is None else 1.0 / frequency,
             priority=priority,
-            order=order,
         )
         self.wake = partial(scheduler.release, self.job)
         self._scheduler = scheduler

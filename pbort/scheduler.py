@@ -72,7 +72,6 @@ class Job:
         *,
         period: float | None,
         priority: int,
-        order: int,
     ) -> None:
         self.name = name
         self.execute = execute
@@ -80,7 +79,9 @@ class Job:
         self.counters = counters
         self.period = period
         self.priority = priority
-        self.order = order
+        self.order = 0
+        """Its rank among the jobs of the same priority released at once: the kernel's, by the
+        data flow (`pbort.flow_order`), set again as the wiring changes."""
         self.active = False
         self.pending = _IDLE
         self.phase = 0.0
