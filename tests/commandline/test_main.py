@@ -3,6 +3,7 @@ and a closed pipe."""
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import os
 import subprocess
@@ -109,6 +110,15 @@ def test_interrupted_exits_130(capsys):
     assert capsys.readouterr().err == "interrupted\n"
 
 
+@contextlib.contextmanager
+def interrupt_kept_in():
+    """A Ctrl-C the code under test lets out fails the test that let it, not the whole run."""
+    try:
+        yield
+    except KeyboardInterrupt:
+        pytest.fail("the Ctrl-C escaped: a traceback, and the program dies of SIGINT")
+
+
 def test_ctrl_c_while_the_arguments_are_parsed_is_interrupted_too(capsys):
     def pressed(_text: str) -> int:
         raise KeyboardInterrupt  # as a Ctrl-C lands in argparse on a loaded machine
@@ -116,7 +126,8 @@ def test_ctrl_c_while_the_arguments_are_parsed_is_interrupted_too(capsys):
     parser = command_parser("tool", "A tool.")
     parser.add_argument("--count", type=pressed)
     parser.set_defaults(func=lambda args: 0)
-    assert run(parser, PackageError, ["--count", "3"]) == EXIT_INTERRUPTED
+    with interrupt_kept_in():
+        assert run(parser, PackageError, ["--count", "3"]) == EXIT_INTERRUPTED
     assert capsys.readouterr().err == "interrupted\n"
 
 
@@ -144,7 +155,7 @@ def test_ctrl_c_anywhere_in_an_entry_point_is_interrupted_not_a_traceback(
 
     monkeypatch.setattr(importlib.import_module(ENTRY_POINTS[package]), "main", building)
     program = importlib.import_module(f"{package}.__main__")
-    with pytest.raises(SystemExit) as exited:
+    with interrupt_kept_in(), pytest.raises(SystemExit) as exited:
         program.main()
     assert exited.value.code == EXIT_INTERRUPTED
     assert capsys.readouterr().err == "interrupted\n"
