@@ -145,7 +145,7 @@ def check_repair(got: dict, expected: dict, out: Path) -> None:
     reconfiguration) and ends with the task running.
 
     Later decisions are allowed. The noise is drawn by frame number, so a real-time run meets
-    lock-step's, but the paper's outcome is likely, not certain (in virtual time 3 of 64 seeds
+    lock-step's, but the paper's outcome is likely, not certain (in virtual time 2 of 64 seeds
     decide twice: the Dehazer's repair does not hold, and ReFrESH moves on to CamReader_alt),
     and a run in real time is no exact replay: beside CPU hogs the decision takes long enough
     in wall time for the noise to drive the platform to its stop first, the target then out of
