@@ -297,12 +297,10 @@ static bool parse_tail(const struct field_spec *field, const struct message *m, 
         return false;
     }
     if (field->kind == FIELD_LISTING) { /* a listing that is none: refused as Python refuses it */
-        char reason[240];
-        struct text inner;
-        text_start(&inner, reason, sizeof reason);
-        if (!listing_check(m->text[i], length, &inner)) {
+        struct word_refusal refused;
+        if (!listing_check(m->text[i], length, &refused)) {
             add_field(why, field, type);
-            text_add(why, reason);
+            word_refusal_show(why, &refused);
             return false;
         }
     }

@@ -151,23 +151,52 @@ static uint64_t field_limit(uint8_t kind)
     }
 }
 
+/* A word refused as `fault`; false, for the parsers to return. */
+static bool refuse_word(struct word_refusal *refused, enum word_fault fault, struct span word,
+                        uint8_t kind)
+{
+    *refused = (struct word_refusal){fault, kind, word.start, word.length};
+    return false;
+}
+
+void word_refusal_show(struct text *why, const struct word_refusal *refused)
+{
+    struct number_word number;
+    switch (refused->fault) {
+    case WORD_NEGATIVE:
+        text_add(why, "expected a whole number >= 0, got ");
+        break;
+    case WORD_TOO_BIG:
+        text_format(why, "expected 0..%U, got ", field_limit(refused->kind));
+        break;
+    default: {
+        static const char *const EXPECTED[] = {
+            [WORD_NOT_A_NUMBER] = "a number",
+            [WORD_NOT_A_MODULE] = "NAME@0xADDRESS:SIZE[:0xCRC32]",
+            [WORD_NOT_A_FLAG] = "RETRY or FATAL",
+        };
+        text_format(why, "expected %s, got %r", EXPECTED[refused->fault], refused->start,
+                    (uint32_t)refused->length);
+        return;
+    }
+    }
+    number_word_parse(refused->start, refused->length, &number);
+    number_word_show(refused->start, refused->length, &number, why);
+}
+
 /* A number field's value, refused as fields.py's Number refuses it. */
-static bool parse_number(struct span word, uint8_t kind, uint64_t *value, struct text *why)
+static bool parse_number(struct span word, uint8_t kind, uint64_t *value,
+                         struct word_refusal *refused)
 {
     struct number_word number;
     if (!number_word_parse(word.start, word.length, &number)) {
-        text_format(why, "expected a number, got %r", word.start, (uint32_t)word.length);
-        return false;
+        return refuse_word(refused, WORD_NOT_A_NUMBER, word, kind);
     }
     if (number.negative) {
-        text_add(why, "expected a whole number >= 0, got ");
-        number_word_show(word.start, word.length, &number, why);
-        return false;
+        return refuse_word(refused, WORD_NEGATIVE, word, kind);
     }
     if (number.overflow || number.value > field_limit(kind)) {
-        text_format(why, "expected 0..%U, got ", (uint64_t)(field_limit(kind)));
-        number_word_show(word.start, word.length, &number, why);
-        return false;
+        return refuse_word(refused, WORD_TOO_BIG, word, kind);
     }
     *value = number.value;
     return true;
@@ -183,7 +212,7 @@ static size_t find_from(struct span word, size_t from, char c)
 }
 
 /* One NAME@0xADDRESS:SIZE word of a listing, or NAME@0xADDRESS:SIZE:0xCRC32. */
-static bool parse_module_word(struct span word, struct text *why)
+static bool parse_module_word(struct span word, struct word_refusal *refused)
 {
     size_t at = word.length;
     while (at && word.start[at - 1] != '@') {
@@ -191,37 +220,35 @@ static bool parse_module_word(struct span word, struct text *why)
     }
     size_t colon = find_from(word, at, ':');
     if (at <= 1 || colon >= word.length) {
-        text_format(why, "expected NAME@0xADDRESS:SIZE[:0xCRC32], got %r", word.start,
-                    (uint32_t)word.length);
-        return false;
+        return refuse_word(refused, WORD_NOT_A_MODULE, word, FIELD_LISTING);
     }
     size_t second = find_from(word, colon + 1, ':');
     uint64_t ignored;
     struct span address = {word.start + at, colon - at};
     struct span size = {word.start + colon + 1, second - colon - 1};
-    if (!parse_number(address, FIELD_U32, &ignored, why) ||
-        !parse_number(size, FIELD_U32, &ignored, why)) {
+    if (!parse_number(address, FIELD_U32, &ignored, refused) ||
+        !parse_number(size, FIELD_U32, &ignored, refused)) {
         return false;
     }
     if (second == word.length) {
         return true; /* no CRC: a listing from before they carried one */
     }
     struct span crc = {word.start + second + 1, word.length - second - 1};
-    return parse_number(crc, FIELD_U32, &ignored, why);
+    return parse_number(crc, FIELD_U32, &ignored, refused);
 }
 
-static bool parse_listing(struct span text, struct text *why)
+static bool parse_listing(struct span text, struct word_refusal *refused)
 {
     struct span word;
     while (next_word(&text, &word)) {
-        if (!parse_module_word(word, why)) {
+        if (!parse_module_word(word, refused)) {
             return false;
         }
     }
     return true;
 }
 
-static bool parse_flag(struct span word, uint64_t *value, struct text *why)
+static bool parse_flag(struct span word, uint64_t *value, struct word_refusal *refused)
 {
     static const char *const WORDS[2] = {"RETRY", "FATAL"};
     for (int w = 0; w < 2; w++) {
@@ -236,21 +263,20 @@ static bool parse_flag(struct span word, uint64_t *value, struct text *why)
             return true;
         }
     }
-    text_format(why, "expected RETRY or FATAL, got %r", word.start, (uint32_t)word.length);
-    return false;
+    return refuse_word(refused, WORD_NOT_A_FLAG, word, FIELD_FLAG);
 }
 
 static bool parse_field(const struct field_spec *field, struct span word, struct message *message,
-                        int index, struct text *why)
+                        int index, struct word_refusal *refused)
 {
     message->present[index] = true;
     message->text[index] = word.start;
     message->text_length[index] = word.length;
     switch (field->kind) {
     case FIELD_WORD: case FIELD_REST: return true;
-    case FIELD_LISTING: return parse_listing(word, why);
-    case FIELD_FLAG: return parse_flag(word, &message->number[index], why);
-    default: return parse_number(word, field->kind, &message->number[index], why);
+    case FIELD_LISTING: return parse_listing(word, refused);
+    case FIELD_FLAG: return parse_flag(word, &message->number[index], refused);
+    default: return parse_number(word, field->kind, &message->number[index], refused);
     }
 }
 
@@ -280,15 +306,14 @@ static bool decode_fields(const struct verb_spec *spec, struct span rest, struct
             usage_error(spec, message, why);
             return false;
         }
-        char reason[240];
-        struct text inner;
-        text_start(&inner, reason, sizeof reason);
-        if (!parse_field(field, word, message, i, &inner)) {
+        struct word_refusal refused;
+        if (!parse_field(field, word, message, i, &refused)) {
             text_format(why, "%s of ", field->name);
             add_line_repr(why, message, 60);
             text_add(why, " (the form: ");
             add_usage(why, spec);
-            text_format(why, "): %s", reason);
+            text_add(why, "): ");
+            word_refusal_show(why, &refused);
             return false;
         }
     }
@@ -494,7 +519,7 @@ const struct verb_spec *verb_spec(enum verb verb)
     return &VERBS[verb];
 }
 
-bool listing_check(const char *text, size_t length, struct text *why)
+bool listing_check(const char *text, size_t length, struct word_refusal *refused)
 {
-    return parse_listing((struct span){text, length}, why);
+    return parse_listing((struct span){text, length}, refused);
 }

@@ -98,8 +98,22 @@ void reply_text_end(struct text *line, const struct text *text);
 
 /* The fields of `verb`, in text order (the binary codec reads them too, binary_messages.c). */
 const struct verb_spec *verb_spec(enum verb verb);
-/* Whether `text` is a listing's NAME@0xADDRESS:SIZE words; false with the reason. */
-bool listing_check(const char *text, size_t length, struct text *why);
+/* A field's word refused: found while the line is read, worded once the refusal has named the
+ * field (decode's "size of 'BEGIN ...' (the form: ...): " comes first), so that no buffer holds
+ * the reason meanwhile. */
+enum word_fault { WORD_NOT_A_NUMBER, WORD_NEGATIVE, WORD_TOO_BIG, WORD_NOT_A_MODULE,
+                  WORD_NOT_A_FLAG };
+struct word_refusal {
+    uint8_t fault; /* enum word_fault */
+    uint8_t kind;  /* the number field's kind, whose limit WORD_TOO_BIG shows */
+    const char *start;
+    size_t length;
+};
+/* The refusal in the Python node's words: "expected 0..65535, got 70000". */
+void word_refusal_show(struct text *why, const struct word_refusal *refused);
+
+/* Whether `text` is a listing's NAME@0xADDRESS:SIZE words; false with the word refused. */
+bool listing_check(const char *text, size_t length, struct word_refusal *refused);
 
 /* Python's str.isspace() for an ASCII character: what split() and strip() cut at. */
 bool ascii_space(char c);
