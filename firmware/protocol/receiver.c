@@ -197,7 +197,8 @@ static struct transfer *open_transfer(uint32_t tid)
 
 /* Requests that are not transfers. */
 
-static void handle_ping(void)
+/* noinline: its text is not in dispatch's frame, under every request's handling. */
+__attribute__((noinline)) static void handle_ping(void)
 {
     char text[200];
     struct text describe;
@@ -258,11 +259,11 @@ static void handle_session(void (*answer)(uint32_t, struct text *), uint32_t tid
  * handle_control, so that its refusal is not on the stack while a request runs. */
 __attribute__((noinline)) static void refuse_control(const struct message *m)
 {
-    struct refusal refusal;
-    start_refusal(&refusal);
-    text_format(&refusal.why, "%s refused: this node takes no control requests",
-                verb_word(m->verb));
-    nak((uint32_t)m->number[0], 0, true, refusal.reason);
+    char reason[sizeof "DISCONNECT refused: this node takes no control requests"];
+    struct text why;
+    text_start(&why, reason, sizeof reason);
+    text_format(&why, "%s refused: this node takes no control requests", verb_word(m->verb));
+    nak((uint32_t)m->number[0], 0, true, reason);
 }
 
 static void handle_control(const struct message *m)
@@ -350,10 +351,11 @@ static bool feed(struct transfer *t, uint32_t address, const uint8_t *data, uint
         return true;
     }
     if (address > expected) {
-        struct refusal gap;
-        start_refusal(&gap);
-        text_format(&gap.why, "expected data at %a, got %a", (uint32_t)expected, (uint32_t)address);
-        nak(t->tid, loader_received(session), false, gap.reason);
+        char reason[sizeof "expected data at 0x00000000, got 0x00000000"];
+        struct text gap;
+        text_start(&gap, reason, sizeof reason);
+        text_format(&gap, "expected data at %a, got %a", (uint32_t)expected, (uint32_t)address);
+        nak(t->tid, loader_received(session), false, reason);
         return true;
     }
     if (t->verified) { /* binary DATA may name it: its flash past the image was given back */
@@ -418,11 +420,12 @@ static bool pointer_line(struct transfer *t, const struct hex_record *record,
             return false;
         }
         if (t->announced && got < t->relocations) {
-            struct refusal missing; /* the records that came stay; the lost ones fill in */
-            start_refusal(&missing);
-            text_format(&missing.why, "header incomplete: %U missing",
+            char reason[sizeof "header incomplete: 4294967295 missing"];
+            struct text missing; /* the records that came stay; the lost ones fill in */
+            text_start(&missing, reason, sizeof reason);
+            text_format(&missing, "header incomplete: %U missing",
                         (uint64_t)(t->relocations - got));
-            nak(t->tid, 0, false, missing.reason);
+            nak(t->tid, 0, false, reason);
             return true;
         }
         t->header_done = true;
@@ -436,13 +439,12 @@ static bool end_transfer(struct transfer *t, bool check, uint32_t crc, struct re
 {
     if (!t->verified) {
         t->session.ended = true;
-        char reason[REASON_MAX - 32];
-        struct text why;
-        text_start(&why, reason, sizeof reason);
-        if (!loader_finish(&t->session, &t->image, &why)) {
-            text_format(&refusal->why, "not a valid module: %s", reason);
+        uint32_t before = refusal->why.length;
+        text_add(&refusal->why, "not a valid module: ");
+        if (!loader_finish(&t->session, &t->image, &refusal->why)) {
             return false;
         }
+        text_cut(&refusal->why, before);
         t->verified = true;
     }
     if (check && t->image.crc32 != crc) {
@@ -450,10 +452,11 @@ static bool end_transfer(struct transfer *t, bool check, uint32_t crc, struct re
                     (uint32_t)t->image.crc32, (uint32_t)crc);
         return false;
     }
-    struct refusal said;
-    start_refusal(&said);
-    text_format(&said.why, "verified crc=%a", (uint32_t)t->image.crc32);
-    ack(t->tid, t->image.size, said.reason);
+    char said[sizeof "verified crc=0x00000000"];
+    struct text verified;
+    text_start(&verified, said, sizeof said);
+    text_format(&verified, "verified crc=%a", (uint32_t)t->image.crc32);
+    ack(t->tid, t->image.size, said);
     return true;
 }
 
@@ -492,14 +495,13 @@ static struct transfer *text_transfer(struct refusal *refusal)
         return 0;
     }
     transfer = open_transfer(IMPLICIT);
-    char reason[REASON_MAX - 32];
-    struct text why;
-    text_start(&why, reason, sizeof reason);
-    if (!loader_begin(&transfer->session, IMPLICIT, false, 0, false, 0, &why)) {
+    uint32_t before = refusal->why.length;
+    text_add(&refusal->why, "cannot begin: ");
+    if (!loader_begin(&transfer->session, IMPLICIT, false, 0, false, 0, &refusal->why)) {
         transfer->used = false;
-        text_format(&refusal->why, "cannot begin: %s", reason);
         return 0;
     }
+    text_cut(&refusal->why, before);
     return transfer;
 }
 
@@ -533,15 +535,16 @@ static void handle_record(const struct message *m)
     struct hex_record record;
     struct refusal refusal;
     start_refusal(&refusal);
+    /* A refusal's words before its reason are written first and taken back when nothing is
+     * refused (here, in text_transfer and end_transfer): no second reason on the stack. */
+    text_add(&refusal.why, "bad record: ");
     if (!hex_record_decode(m->line, m->line_length, &record, &refusal.why)) {
         struct transfer *open = newest_open(); /* refused before it opens a transfer */
-        struct refusal bad;
-        start_refusal(&bad);
-        text_format(&bad.why, "bad record: %s", refusal.reason);
         nak(open ? open->tid : IMPLICIT, open ? loader_received(&open->session) : 0, false,
-            bad.reason);
+            refusal.reason);
         return;
     }
+    text_cut(&refusal.why, 0);
     struct transfer *transfer = text_transfer(&refusal);
     if (!transfer || !record_line(transfer, &record, &refusal)) {
         drop(transfer);
@@ -571,10 +574,11 @@ static const struct commit_answer *remembered_commit(uint32_t tid)
 
 static void send_installed(const struct commit_answer *answer)
 {
-    struct refusal said;
-    start_refusal(&said);
-    text_format(&said.why, "installed %s", answer->name);
-    ack(answer->tid, answer->address, said.reason);
+    char said[sizeof "installed " + DIRECTORY_NAME_LEN];
+    struct text installed;
+    text_start(&installed, said, sizeof said);
+    text_format(&installed, "installed %s", answer->name);
+    ack(answer->tid, answer->address, said);
 }
 
 static void remember_commit(const struct commit_answer *answer)

@@ -157,6 +157,29 @@ def test_a_pointer_word_outside_the_image_is_refused_in_the_same_words(harness, 
     assert b"FATAL" in c[-1] and b"inside the image data" in c[-1]
 
 
+@pytest.mark.timeout(300)
+def test_an_end_naming_another_crc_is_refused_in_the_same_words(harness, gain):
+    """END before the EOF record: the image is checked and read back in that one request, and
+    the refusal says which CRC it found, nothing of a module that was valid."""
+    lines = [line.encode() for line in gain.to_hex().splitlines()]
+    script = [
+        signed(f"BEGIN {TID} gain {gain.size} {len(gain.relocations)} {gain.link_base}"),
+        *lines[:-1],
+        signed(f"END {TID} 0x1234"),
+    ]
+    with HostNode(harness) as node:
+        c = c_answers(node, script)
+    python = python_answers(script)
+    found = re.compile(rb"image is 0x[0-9A-F]{8}")  # relocated to each node's load address
+    assert [found.sub(b"image is CRC", normal(a)) for a in c] == [
+        found.sub(b"image is CRC", normal(a)) for a in python
+    ]
+    assert re.fullmatch(
+        rb"NAK 9 0 FATAL CRC-32 of the programmed image is 0x[0-9A-F]{8}, expected 0x00001234",
+        normal(c[-1]),
+    )
+
+
 @pytest.mark.timeout(600)
 @settings(max_examples=60, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
