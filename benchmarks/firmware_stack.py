@@ -71,9 +71,11 @@ INDIRECT_TARGETS: dict[str, tuple[str, ...]] = {
     "module_call": ("firmware/rv32/trap.c:run_in_user_mode",),
     # check_names (inlined): registrar.c's accept passes its static `taken`, the only caller.
     "descriptor_accept": ("firmware/kernel/registrar.c:taken",),
-    # `report` and say's report: main.c's say, through node_boot(say) -> directory_load.
+    # `report`: main.c's say, passed by node_boot(say) to directory_load, report_slot and
+    # node.c's say (a constant argument of its one caller made GCC's constprop copy).
     "directory_load": ("firmware/main/main.c:say",),
-    "node_boot": ("firmware/main/main.c:say",),
+    "firmware/loader/flash_directory.c:report_slot": ("firmware/main/main.c:say",),
+    "firmware/loader/node.c:say.constprop.0": ("firmware/main/main.c:say",),
     # struct frame_writer's send, set by frame_writer_start from binary_messages.c.
     "firmware/protocol/binary_frame.c:send_run": (SEND_BYTES,),
     "frame_writer_start": (SEND_BYTES,),

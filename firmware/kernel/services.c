@@ -42,15 +42,16 @@ bool services_faulted(void)
 
 static int32_t fault(const char *format, ...)
 {
-    char buffer[SERVICE_FAULT_TEXT];
-    struct text why;
+    if (current.faulted) {
+        return 0; /* the first cause wins, as in services_record_fault */
+    }
+    struct text why; /* written where it is kept: no second buffer on a module's deepest path */
     va_list arguments;
-
-    text_start(&why, buffer, sizeof buffer);
+    text_start(&why, current.fault, sizeof current.fault);
     va_start(arguments, format);
     text_vformat(&why, format, arguments);
     va_end(arguments);
-    services_record_fault(buffer);
+    current.faulted = true;
     return 0;
 }
 

@@ -196,7 +196,9 @@ static int read_slot(int slot, struct directory_record *record, struct text *why
     return directory_decode(block, record, why) ? 1 : -1;
 }
 
-static void report_slot(int slot, const char *reason, void (*report)(const char *))
+/* noinline: its line is not on the stack while the next slot is read and decoded. */
+__attribute__((noinline)) static void report_slot(int slot, const char *reason,
+                                                  void (*report)(const char *))
 {
     char line[200];
     struct text text;
@@ -213,8 +215,9 @@ static bool program_slot(int slot, const uint8_t *bytes, uint32_t length)
 }
 
 /* Put the record found in the scratch sector back into slot 0: erase the directory's sector
- * (the scratch copy stays meanwhile), program the slot. */
-static bool restore_from_scratch(const struct directory_record *record)
+ * (the scratch copy stays meanwhile), program the slot. noinline: its block is not on the
+ * stack while the slots are read. */
+__attribute__((noinline)) static bool restore_from_scratch(const struct directory_record *record)
 {
     uint8_t block[FLASH_BLOCK];
     uint32_t length;

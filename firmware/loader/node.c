@@ -97,8 +97,10 @@ static void make_record(struct directory_record *record, const char *skip,
     }
 }
 
-static void say(void (*report)(const char *), const char *what, const char *name,
-                const char *reason)
+/* A line for the console (noinline: its buffer is not on the stack while boot reads the
+ * directory). */
+__attribute__((noinline)) static void say(void (*report)(const char *), const char *what,
+                                          const char *name, const char *reason)
 {
     char line[240];
     struct text text;

@@ -29,7 +29,7 @@ def test_the_deepest_path_fits_the_linked_stack(capacities):
 
 
 def test_the_linked_stack_is_read_from_the_elf_and_a_file_that_is_none_refused(tmp_path):
-    assert linked_stack(firmware_elf()) == 3584  # STACK_SIZE in firmware/rv32/link.ld
+    assert linked_stack(firmware_elf()) == 3072  # STACK_SIZE in firmware/rv32/link.ld
     garbage = tmp_path / "node.elf"
     garbage.write_bytes(b"\x7fELF" + b"\xff" * 60)
     with pytest.raises(QemuError, match=r"node\.elf: expected the firmware's ELF, got "):
