@@ -41,7 +41,9 @@ class StreamLink(LinkBase):
     def __init__(self, url: str) -> None:
         super().__init__(url)
         self.deframer = Deframer()
-        self._messages: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
+        # not SimpleQueue: in CPython 3.11 its get(timeout) waits forever when a signal's
+        # handler ends past the timeout (a node under load then missed its Ctrl-C or SIGTERM)
+        self._messages: queue.Queue[bytes | None] = queue.Queue()
         self._queued = 0  # bytes of the messages in _messages
         self._queued_lock = threading.Lock()
         self.overruns = 0

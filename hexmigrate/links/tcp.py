@@ -154,7 +154,9 @@ class TcpListenLink(LinkBase):
         self._clients: dict[int, _Client] = {}
         self._lock = threading.Lock()  # guards _clients and each client's counters and output
         self._dropped_before = 0
-        self._messages: queue.SimpleQueue[tuple[_Client, bytes] | None] = queue.SimpleQueue()
+        # not SimpleQueue: in CPython 3.11 its get(timeout) waits forever when a signal's
+        # handler ends past the timeout (a node under load then missed its Ctrl-C or SIGTERM)
+        self._messages: queue.Queue[tuple[_Client, bytes] | None] = queue.Queue()
         self._failure: LinkError | None = None
         self._stopping = threading.Event()
         self._waker, self._wake_up = socket.socketpair()
