@@ -43,9 +43,12 @@ lint: $(INSTALLED)
 # folder (the HDL simulations' per-parameter builds) or a fixture never run at once. One worker
 # more than the cores: many files spend their time waiting on the processes, ptys and QEMUs
 # they start, and a core would idle (on 2 cores: 6 min 19 s instead of 7 min 25 s). The tests
-# that judge processes on their real-time clocks (`serial`) run alone afterwards.
-TEST_WORKERS := $(shell echo $$(( $$(nproc) + 1 )))
-test: tools $(INSTALLED) lint firmware firmware-32k firmware-host
+# that judge processes on their real-time clocks (`serial`) run alone afterwards. The firmware's
+# three builds go first, side by side (docs/firmware.md).
+CORES := $(shell nproc)
+TEST_WORKERS := $(shell echo $$(( $(CORES) + 1 )))
+test: tools $(INSTALLED) lint
+	$(MAKE) --no-print-directory -j$(CORES) firmware firmware-32k firmware-host
 	$(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile -m "not serial"
 	$(PY) -m pytest -m serial
 
