@@ -68,6 +68,7 @@ class FlashFile:
     BLOCK = struct.Struct("<II")
 
     def __init__(self, path: Path, size: int) -> None:
+        self.path = path
         self.state_path = path.with_name(path.name + STATE_SUFFIX)
         self.size = size
         self.block_count = size // BLOCK_SIZE
@@ -79,13 +80,30 @@ class FlashFile:
                 f"got {path.stat().st_size}"
             )
         self._had_state = self.state_path.exists() and self.state_path.stat().st_size > 0
-        self._image = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        files = (path, self.state_path)
+        self._new = [file for file in files if not file.exists()]
+        self._empty = [file for file in files if file.exists() and file.stat().st_size == 0]
+        self._image = self._open(path)
         try:
             flash_lock.hold(self._image, path)
-            self._state = os.open(self.state_path, os.O_RDWR | os.O_CREAT, 0o644)
         except BaseException:
             os.close(self._image)
             raise
+        self._state = -1
+        try:
+            self._state = self._open(self.state_path)
+        except BaseException:
+            self.discard()
+            raise
+
+    def _open(self, file: Path) -> int:
+        """A descriptor of `file` for reading and writing, created when missing."""
+        try:
+            return os.open(file, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as error:
+            raise FlashError(
+                f"flash file {self.path}: cannot open {file}: {error.strerror}"
+            ) from None
 
     def read(self) -> tuple[bytearray, list[bool], list[int]]:
         """The cells, the erased flags and the erase counts the files hold."""
@@ -114,18 +132,44 @@ class FlashFile:
 
     def write_all(self, data: bytes | bytearray, erased: list[bool], counts: list[int]) -> None:
         """Write the whole image and every block's state (a new file)."""
-        os.pwrite(self._image, data, 0)
+        self._write(self._image, data, 0)
         header = self.HEADER.pack(self.MAGIC, self.VERSION, BLOCK_SIZE, self.block_count)
         blocks = b"".join(self.BLOCK.pack(n, f) for n, f in zip(counts, erased, strict=True))
-        os.pwrite(self._state, header + blocks, 0)
+        self._write(self._state, header + blocks, 0)
         os.ftruncate(self._state, len(header) + len(blocks))
 
     def write_block(self, index: int, block: bytes, erased: bool, count: int) -> None:
         """Write one block's cells and its state. The descriptors are unbuffered: each pwrite
         reaches the operating system at once, so a process that dies leaves the files current."""
-        os.pwrite(self._image, block, index * BLOCK_SIZE)
+        self._write(self._image, block, index * BLOCK_SIZE)
         state = self.BLOCK.pack(count, erased)
-        os.pwrite(self._state, state, self.HEADER.size + index * self.BLOCK.size)
+        self._write(self._state, state, self.HEADER.size + index * self.BLOCK.size)
+
+    def _write(self, descriptor: int, data: bytes | bytearray, offset: int) -> None:
+        """Write `data` whole at `offset`, or FlashError: a full disk (or a file size limit)
+        writes short, then fails, and the node would run on cells its file does not hold; the
+        error reaches the host as the refusal of its transfer, as a power cut at that write
+        would leave the files."""
+        view = memoryview(data)
+        while view:
+            try:
+                written = os.pwrite(descriptor, view, offset)
+            except OSError as error:
+                raise FlashError(
+                    f"flash file {self.path}: cannot write it: {error.strerror}"
+                ) from None
+            if written == 0:
+                raise FlashError(f"flash file {self.path}: cannot write it: no room left")
+            view, offset = view[written:], offset + written
+
+    def discard(self) -> None:
+        """Close the files and remove those this flash created, taking back a new flash that
+        could not be written whole: a file of another size is refused at the next start."""
+        self.close()
+        for file in self._new:
+            file.unlink(missing_ok=True)
+        for file in self._empty:
+            os.truncate(file, 0)  # empty again: taken as new
 
     def close(self) -> None:
         """Close both files; a second call does nothing."""
@@ -176,7 +220,11 @@ class Flash:
     def _open(self, path: Path) -> FlashFile:
         backing = FlashFile(path, self.size)
         if not backing.existed:
-            backing.write_all(self._data, self._erased, self.erase_counts)
+            try:
+                backing.write_all(self._data, self._erased, self.erase_counts)
+            except BaseException:
+                backing.discard()
+                raise
             return backing
         try:
             self._data, self._erased, self.erase_counts = backing.read()

@@ -24,10 +24,23 @@ def ensure_flash(path: Path) -> Path:
             f"{path.stat().st_size}"
         )
     if not path.exists() or path.stat().st_size == 0:
+        _write_erased(path)
+    return path
+
+
+def _write_erased(path: Path) -> None:
+    """Write an erased flash bank to `path` through a file beside it, moved in place once
+    whole: never a file of the wrong size, even if this process dies or the disk is full (the
+    part written is removed then)."""
+    partial = path.with_name(path.name + ".new")
+    try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        partial = path.with_name(path.name + ".new")
         with partial.open("wb") as file:
             for _ in range(FLASH_SIZE // _CHUNK):
                 file.write(bytes([ERASED]) * _CHUNK)
-        partial.replace(path)  # never a file of the wrong size, even if this process dies
-    return path
+        partial.replace(path)
+    except OSError as error:
+        partial.unlink(missing_ok=True)
+        raise QemuError(
+            f"flash file {path}: cannot write an erased one ({FLASH_SIZE} bytes): {error.strerror}"
+        ) from None

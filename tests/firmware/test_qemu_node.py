@@ -11,7 +11,9 @@ from __future__ import annotations
 import os
 import pty
 import re
+import resource
 import signal
+import subprocess
 import sys
 import zlib
 from pathlib import Path
@@ -181,6 +183,25 @@ def test_a_qemu_that_ends_by_itself_is_an_error_quoting_what_it_said(tmp_path, f
         r"terminating on signal 15 from pid \d+ .*",
         child.lines()[-1],
     )
+
+
+def _small_disk() -> None:
+    """In the child: files end at 1 MiB (a full disk, for the flash bank's 32 MiB)."""
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # the write fails with EFBIG instead
+    resource.setrlimit(resource.RLIMIT_FSIZE, (1 << 20, 1 << 20))
+
+
+def test_a_flash_file_the_disk_cannot_hold_is_an_error_and_leaves_no_part(tmp_path, firmware):
+    flash = tmp_path / "node.img"
+    command = [sys.executable, "-m", "firmware_sim", "qemu", "--flash", str(flash)]
+    done = subprocess.run(
+        command, preexec_fn=_small_disk, capture_output=True, text=True, timeout=CLI_TIMEOUT
+    )
+    assert done.returncode == 1
+    assert done.stderr == (
+        f"error: flash file {flash}: cannot write an erased one (33554432 bytes): File too large\n"
+    )
+    assert list(tmp_path.iterdir()) == []  # neither the file nor the part written
 
 
 def test_the_handshake_names_what_it_heard_when_no_pong_comes():

@@ -7,12 +7,14 @@ import fcntl
 import os
 import shutil
 import struct
+import sys
 import zlib
 from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
+from commandline.children import Child
 from firmware_sim.core.flash import BLOCK_SIZE, STATE_SUFFIX, Flash, PowerCut
 from firmware_sim.core.flash_directory import (
     MAX_ENTRIES,
@@ -28,11 +30,13 @@ from firmware_sim.core.trust import TrustPolicy, version_of
 from firmware_sim.errors import FlashError, TrustError
 from hexmigrate.elf import image_from_elf
 from hexmigrate.image import ModuleImage
+from hexmigrate.links.listening import CONNECT_URL
 from hexmigrate.signing import keys
 from hexmigrate.signing.sign import sign_image
 from hexmigrate.signing.tlv import Version
 from module_sdk.build import build_module
 from pbort.native import NativeModule
+from tests.firmware_sim.host_side import CLI_TIMEOUT, hexmigrate, hexmigrate_refused
 
 BASE = 0x0800_0000
 GUESTS = Path(__file__).parent / "guests"
@@ -192,6 +196,99 @@ def test_a_flash_file_that_cannot_be_locked_is_refused_by_name(tmp_path, monkeyp
     path = tmp_path / "flash.bin"
     with pytest.raises(FlashError, match=rf"flash file {path}: cannot lock it \(No locks"):
         Flash(BASE, 2 * BLOCK_SIZE, path=path)
+
+
+class Disk:
+    """`os.pwrite` on a disk with `room` bytes left (None: any) that writes at most `chunk`
+    bytes a call: a write past the room is cut short, the next one fails with ENOSPC."""
+
+    def __init__(self, monkeypatch: pytest.MonkeyPatch, room: int | None, chunk: int) -> None:
+        self.room, self.chunk, self._pwrite = room, chunk, os.pwrite
+        monkeypatch.setattr(os, "pwrite", self.pwrite)
+
+    def pwrite(self, descriptor: int, data: bytes, offset: int) -> int:
+        limit = self.chunk if self.room is None else min(self.chunk, self.room)
+        if limit == 0:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        written = self._pwrite(descriptor, bytes(data[:limit]), offset)
+        if self.room is not None:
+            self.room -= written
+        return written
+
+
+@pytest.mark.parametrize("before", [None, b""], ids=["missing", "empty"])
+def test_a_new_flash_file_the_disk_cannot_hold_is_refused_and_taken_back(
+    tmp_path, monkeypatch, before
+):
+    path = tmp_path / "flash.bin"
+    sidecar = Path(f"{path}{STATE_SUFFIX}")
+    if before is not None:
+        path.write_bytes(before)
+    disk = Disk(monkeypatch, room=300, chunk=BLOCK_SIZE)
+    with pytest.raises(FlashError, match=rf"flash file {path}: cannot write it: No space left"):
+        Flash(BASE, 2 * BLOCK_SIZE, path=path)
+    assert not sidecar.exists()
+    assert path.exists() == (before is not None) and (before is None or path.stat().st_size == 0)
+    disk.room = None  # room made: the same path is a new flash, not a file of the wrong size
+    with Flash(BASE, 2 * BLOCK_SIZE, path=path) as flash:
+        assert flash.read(BASE, 2 * BLOCK_SIZE) == b"\xff" * 2 * BLOCK_SIZE
+
+
+def test_a_write_cut_short_is_finished_and_one_the_disk_refuses_is_an_error(tmp_path, monkeypatch):
+    path = tmp_path / "flash.bin"
+    disk = Disk(monkeypatch, room=None, chunk=100)  # a system that writes 100 bytes a call
+    with Flash(BASE, 2 * BLOCK_SIZE, path=path) as flash:
+        flash.program(BASE, bytes(range(256)))
+        assert path.read_bytes()[:BLOCK_SIZE] == bytes(range(256))
+        disk.room = 50
+        with pytest.raises(FlashError, match=rf"flash file {path}: cannot write it: No space"):
+            flash.program(BASE + BLOCK_SIZE, b"\x01" * BLOCK_SIZE)
+    disk.room = None
+    with Flash(BASE, 2 * BLOCK_SIZE, path=path) as again:  # what a power cut there would leave
+        assert again.read(BASE, BLOCK_SIZE) == bytes(range(256))
+
+
+FULL_DISK_NODE = """
+import errno, os, sys
+from pathlib import Path
+
+full, write = Path(sys.argv.pop(1)), os.pwrite
+
+
+def pwrite(descriptor, data, offset):
+    if full.exists():  # the disk is full while the file is there
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    return write(descriptor, data, offset)
+
+
+os.pwrite = pwrite
+from firmware_sim.__main__ import main
+
+sys.exit(main())
+"""
+"""``firmware-sim`` whose disk is full while the file named first exists."""
+
+
+@pytest.mark.timeout(60)
+def test_a_listening_node_whose_disk_fills_refuses_the_transfer_and_serves_on(
+    tmp_path, example_hex
+):
+    full, flash = tmp_path / "full", tmp_path / "flash.img"
+    script = tmp_path / "full_disk_node.py"
+    script.write_text(FULL_DISK_NODE)
+    listen = ["listen", "--listen", "tcp-listen://127.0.0.1:0", "--flash", str(flash)]
+    command = [sys.executable, str(script), str(full), *listen, "--no-start"]
+    with Child.start("node on a full disk", command, tmp_path / "node.log") as node:
+        url = node.wait_for(CONNECT_URL, CLI_TIMEOUT)[1]
+        full.touch()
+        refusal = hexmigrate_refused("send", example_hex["gain"], "--to", url, "--quiet")
+        assert f"refused: flash file {flash}: cannot write it: No space left on device" in refusal
+        assert hexmigrate("ls", "--to", url).startswith("no modules")
+        full.unlink()
+        hexmigrate("send", example_hex["gain"], "--to", url, "--quiet")
+        node.stop()
+    with Node(config=NodeConfig(flash_file=flash)) as again:
+        assert list(again.modules) == ["gain"]
 
 
 def test_a_node_refuses_a_flash_file_of_the_wrong_size(tmp_path):
