@@ -27,7 +27,8 @@ Tree::
     ├── StateError (RuntimeError)          an operation not allowed in the PBO's state
     │   └── IllegalTransitionError         a lifecycle method not allowed in the PBO's state
     ├── MethodFailedError (RuntimeError)   a method asked for by the caller returned < 0 or faulted
-    └── ClosedError (RuntimeError)         a kernel, clock or shadow run used after close()
+    ├── ClosedError (RuntimeError)         a kernel, clock or shadow run used after close()
+    └── TraceWriteError (RuntimeError)     a trace file the disk refuses (full, a size limit)
 """
 
 from __future__ import annotations
@@ -36,6 +37,8 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from pbort.code import CallResult
     from pbort.lifecycle import State
 
@@ -149,6 +152,15 @@ class MethodFailedError(KernelError, RuntimeError):
 
 class ClosedError(KernelError, RuntimeError):
     """A kernel, clock or shadow run was used after `close()`."""
+
+
+class TraceWriteError(KernelError, RuntimeError):
+    """A trace file (`pbort.trace`) the disk refused a write: full, or a file size limit. The
+    trace has closed its file; what it holds ends before the refused write."""
+
+    def __init__(self, path: Path, error: OSError) -> None:
+        super().__init__(f"trace {path}: cannot write it: {error.strerror or error}")
+        self.path = path
 
 
 def describe_failure(method: str, result: CallResult) -> str:

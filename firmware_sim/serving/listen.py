@@ -55,7 +55,7 @@ from hexmigrate.signing.keys import short_hash
 from hexmigrate.transfer.receiver import Receiver
 from pbort.clock import Clock, RealTimeClock, VirtualClock
 from pbort.code import ModuleCode
-from pbort.errors import KernelError
+from pbort.errors import KernelError, TraceWriteError
 from pbort.module_log import EchoLimit, LogLine
 from pbort.native import NativeModule
 from pbort.trace import recording
@@ -208,7 +208,7 @@ def listen(
             )
             try:
                 with (
-                    recording(node.kernel, config.traces, live=live),
+                    recording(node.kernel, config.traces, live=live, on_failure=_trace_lost(say)),
                     stop_requests() as requested,
                 ):
                     stop = _stopper(node, config, say, gdb, requested, live)
@@ -220,6 +220,16 @@ def listen(
             finally:
                 control.close()
     return 0
+
+
+def _trace_lost(say: Callable[[str], None]) -> Callable[[TraceWriteError], None]:
+    """What a listening node does when the disk refuses one of its traces: it says so and
+    serves on without it (its modules are a robot's; a trace is the bench's record)."""
+
+    def lost(error: TraceWriteError) -> None:
+        say(f"{error}; the trace stops there, the node runs on")
+
+    return lost
 
 
 def _listen_host(url: str) -> str | None:

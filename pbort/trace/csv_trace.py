@@ -8,12 +8,14 @@ killed outright leaves whole rows up to its last flush.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from pbort.errors import TraceWriteError
 from pbort.ports import PortSpec
 from pbort.trace.recorder import Sample
 
@@ -36,15 +38,25 @@ class CsvTrace:
         return True
 
     def write(self, sample: Sample, ports: Sequence[PortSpec]) -> None:
-        """One row per port of the sample."""
-        for name, value in sample.values.items():
-            cell = json.dumps(value) if isinstance(value, list) else repr(value)
-            self._rows.writerow((repr(sample.time), sample.pbo, name, cell))
-        if time.monotonic() - self._flushed >= FLUSH_SECONDS:
-            self._file.flush()
-            self._flushed = time.monotonic()
+        """One row per port of the sample; TraceWriteError when the disk refuses them (the
+        file is closed then)."""
+        try:
+            for name, value in sample.values.items():
+                cell = json.dumps(value) if isinstance(value, list) else repr(value)
+                self._rows.writerow((repr(sample.time), sample.pbo, name, cell))
+            if time.monotonic() - self._flushed >= FLUSH_SECONDS:
+                self._file.flush()
+                self._flushed = time.monotonic()
+        except OSError as error:
+            with contextlib.suppress(OSError):
+                self._file.close()  # its last rows cannot reach the disk either
+            raise TraceWriteError(self.path, error) from None
 
     def close(self) -> None:
-        """Flush and close the file; calling it again does nothing."""
+        """Flush and close the file (TraceWriteError when the disk refuses the last rows);
+        calling it again does nothing."""
         if not self._file.closed:
-            self._file.close()
+            try:
+                self._file.close()
+            except OSError as error:
+                raise TraceWriteError(self.path, error) from None

@@ -10,10 +10,12 @@ no summary: `mcap recover` (the mcap CLI) rebuilds a whole file from them.
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 from mcap.writer import Writer
 
+from pbort.errors import TraceWriteError
 from pbort.trace.json_channels import JsonChannels
 
 LIBRARY = "refresh-toolchain"
@@ -41,18 +43,32 @@ class McapTrace(JsonChannels):
         )
 
     def _log(self, topic: str, stamp: int, data: bytes) -> None:
-        self._writer.add_message(
-            self._channels[topic],
-            log_time=stamp,
-            data=data,
-            publish_time=stamp,
-            sequence=self._sequence,
-        )
+        """One message; TraceWriteError when the disk refuses a chunk (the file is closed then,
+        without its summary: `mcap recover` reads the chunks before)."""
+        try:
+            self._writer.add_message(
+                self._channels[topic],
+                log_time=stamp,
+                data=data,
+                publish_time=stamp,
+                sequence=self._sequence,
+            )
+        except OSError as error:
+            self._closed = True
+            with contextlib.suppress(OSError):
+                self._stream.close()
+            raise TraceWriteError(self.path, error) from None
         self._sequence += 1
 
     def close(self) -> None:
-        """Write the summary and close the file; calling it again does nothing."""
+        """Write the summary and close the file (TraceWriteError when the disk refuses them);
+        calling it again does nothing."""
         if not self._closed:
             self._closed = True
-            self._writer.finish()
-            self._stream.close()
+            try:
+                self._writer.finish()
+                self._stream.close()
+            except OSError as error:
+                with contextlib.suppress(OSError):
+                    self._stream.close()
+                raise TraceWriteError(self.path, error) from None

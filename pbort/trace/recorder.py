@@ -8,6 +8,7 @@ from typing import Protocol
 
 import numpy as np
 
+from pbort.errors import TraceWriteError
 from pbort.kernel import Kernel
 from pbort.ports import PortSpec
 
@@ -36,11 +37,20 @@ class TraceWriter(Protocol):
 
 
 class Recorder:
-    """Samples every job of `kernel` into `writers` until `stop` (or the kernel closes)."""
+    """Samples every job of `kernel` into `writers` until `stop` (or the kernel closes).
 
-    def __init__(self, kernel: Kernel, writers: Sequence[TraceWriter]) -> None:
+    A trace file the disk refuses (TraceWriteError) ends the kernel's run, unless `on_failure`
+    takes it: then that trace stops and the others record on (a listening node serves on)."""
+
+    def __init__(
+        self,
+        kernel: Kernel,
+        writers: Sequence[TraceWriter],
+        on_failure: Callable[[TraceWriteError], None] | None = None,
+    ) -> None:
         self.kernel = kernel
         self.writers = tuple(writers)
+        self._on_failure = on_failure
         self._observer: Callable[[str, float], None] = self._record
         kernel.observe(self._observer)
 
@@ -56,7 +66,13 @@ class Recorder:
         values = {port.name: plain(self.kernel.value(f"{pbo}.{port.name}")) for port in ports}
         sample = Sample(time, pbo, values)
         for writer in writers:
-            writer.write(sample, ports)
+            try:
+                writer.write(sample, ports)
+            except TraceWriteError as error:
+                if self._on_failure is None:
+                    raise
+                self.writers = tuple(kept for kept in self.writers if kept is not writer)
+                self._on_failure(error)
 
 
 def plain(value: object) -> Value:

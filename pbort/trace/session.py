@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import ExitStack, closing, contextmanager
 from pathlib import Path
 
+from pbort.errors import TraceWriteError
 from pbort.kernel import Kernel
 from pbort.trace.files import open_trace
 from pbort.trace.plot import PlotTrace
@@ -19,11 +20,14 @@ def recording(
     plot: Path | None = None,
     plot_ports: Sequence[str] = (),
     live: Sequence[TraceWriter] = (),
+    on_failure: Callable[[TraceWriteError], None] | None = None,
 ) -> Iterator[None]:
     """Record every job of `kernel` into each of `traces` (by suffix) while the block runs, then
     close them, whatever ended the block, and draw `plot` (of `plot_ports`, ``PBO.port``; none:
     every input and output). Samples go to the `live` writers too (a `pbort.trace.live`
-    view, which its caller closes). Nothing is opened when there is nothing to record."""
+    view, which its caller closes). A trace the disk refuses ends the block with
+    TraceWriteError, or with `on_failure` stops alone (`Recorder`). Nothing is opened when
+    there is nothing to record."""
     if not traces and plot is None and not live:
         yield
         return
@@ -35,7 +39,7 @@ def recording(
         drawing = PlotTrace(plot_ports) if plot is not None else None
         if drawing is not None:
             writers.append(drawing)
-        recorder = Recorder(kernel, writers)
+        recorder = Recorder(kernel, writers, on_failure)
         try:
             yield
         finally:

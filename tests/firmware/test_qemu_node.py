@@ -11,7 +11,6 @@ from __future__ import annotations
 import os
 import pty
 import re
-import resource
 import signal
 import subprocess
 import sys
@@ -33,7 +32,12 @@ from hexmigrate.transfer.messages import Commit, Nak, PboTable, encode
 from hexmigrate.transfer.sender import Sender
 from module_sdk.build import build_module
 from tests.firmware.flash_image import FLASH_BASE, committed
-from tests.firmware_sim.host_side import CLI_TIMEOUT, hexmigrate, hexmigrate_refused
+from tests.firmware_sim.host_side import (
+    CLI_TIMEOUT,
+    hexmigrate,
+    hexmigrate_refused,
+    small_disk,
+)
 
 SECTOR = 256 * 1024
 """QEMU virt's flash erase sector: the firmware places each module at a sector boundary."""
@@ -185,17 +189,11 @@ def test_a_qemu_that_ends_by_itself_is_an_error_quoting_what_it_said(tmp_path, f
     )
 
 
-def _small_disk() -> None:
-    """In the child: files end at 1 MiB (a full disk, for the flash bank's 32 MiB)."""
-    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # the write fails with EFBIG instead
-    resource.setrlimit(resource.RLIMIT_FSIZE, (1 << 20, 1 << 20))
-
-
 def test_a_flash_file_the_disk_cannot_hold_is_an_error_and_leaves_no_part(tmp_path, firmware):
     flash = tmp_path / "node.img"
     command = [sys.executable, "-m", "firmware_sim", "qemu", "--flash", str(flash)]
     done = subprocess.run(
-        command, preexec_fn=_small_disk, capture_output=True, text=True, timeout=CLI_TIMEOUT
+        command, **small_disk(1 << 20), capture_output=True, text=True, timeout=CLI_TIMEOUT
     )
     assert done.returncode == 1
     assert done.stderr == (

@@ -24,6 +24,7 @@ from hexmigrate.transfer.sender import Sender
 from pbort.ports import PortSpec
 from pbort.trace.plot import PlotTrace
 from pbort.trace.recorder import Sample
+from tests.firmware_sim.host_side import small_disk
 
 RUN = (
     "--native",
@@ -39,9 +40,15 @@ RUN = (
 )
 
 
-def firmware_sim(*args: object, timeout: float = 60) -> subprocess.CompletedProcess[str]:
+def firmware_sim(
+    *args: object, timeout: float = 60, disk: int | None = None
+) -> subprocess.CompletedProcess[str]:
+    """The command run to its end; `disk`: its files end at that many bytes (`small_disk`)."""
     command = [sys.executable, "-m", "firmware_sim", *map(str, args)]
-    return subprocess.run(command, capture_output=True, text=True, timeout=timeout, check=False)
+    limit = {} if disk is None else small_disk(disk)
+    return subprocess.run(
+        command, capture_output=True, text=True, timeout=timeout, check=False, **limit
+    )
 
 
 @pytest.fixture(scope="module")
@@ -169,3 +176,41 @@ def test_a_listening_node_stopped_by_sigterm_leaves_whole_traces(tmp_path):
     assert from_csv == from_mcap and from_csv
     ramp = [values["y"] for (_, pbo), values in sorted(from_csv.items()) if pbo == "signal"]
     assert ramp == [2 * n for n in range(1, len(ramp) + 1)]
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".mcap"])
+def test_a_trace_the_disk_refuses_ends_a_run_naming_it(gain, tmp_path, suffix):
+    trace = tmp_path / f"run{suffix}"
+    result = firmware_sim(
+        "run", "--native", "signal", "--trace", trace, "--seconds", 60, disk=20000
+    )
+    assert result.returncode == 1
+    assert result.stderr == f"error: trace {trace}: cannot write it: File too large\n"
+
+
+def test_a_listening_node_whose_trace_the_disk_refuses_says_so_and_runs_on(tmp_path):
+    trace = tmp_path / "node.csv"
+    options = ("--native", "signal", "--set", "signal.amplitude=2", "--default-rate", 1000)
+    result = firmware_sim(
+        "listen",
+        "--listen",
+        "tcp-listen://127.0.0.1:0",
+        *options,
+        "--show",
+        "signal.y",
+        "--trace",
+        trace,
+        "--seconds",
+        3.5,
+        disk=12000,
+    )
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    lost = (
+        f"trace {trace}: cannot write it: File too large; the trace stops there, the node runs on"
+    )
+    assert lost in lines
+    shown = [
+        int(line.rpartition("=")[2]) for line in lines[lines.index(lost) :] if "signal.y=" in line
+    ]
+    assert len(shown) >= 2 and shown == sorted(shown) and shown[0] > 0  # the ramp ran on
