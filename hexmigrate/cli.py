@@ -28,6 +28,7 @@ from commandline import (
     run,
 )
 from commandline.arguments import address, apart, input_file, integer, output_file, real
+from commandline.output import write_whole
 from commandline.progress import progress_bar
 from hexmigrate.checks import verify_file
 from hexmigrate.control_cli import add_control_commands, setting_text
@@ -185,9 +186,7 @@ def cmd_relocate(args: argparse.Namespace) -> int:
         flat = image.relocate(args.base)
     except ValueError as error:
         raise CommandLineError(str(error)) from None
-    partial = args.output.with_name(args.output.name + ".partial")
-    partial.write_bytes(flat)
-    partial.replace(args.output)
+    write_whole(args.output, flat)
     print(
         f"{args.output}: {len(flat)} bytes for 0x{args.base:08X}, "
         f"{len(image.relocations)} pointers moved by {args.base - image.link_base:+#x}, "

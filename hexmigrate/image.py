@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from itertools import pairwise
 from pathlib import Path
 
+from commandline.output import write_whole
 from hexmigrate import descriptor as abi
 from hexmigrate.errors import (
     AddressOverflowError,
@@ -196,10 +197,7 @@ class ModuleImage:
 
     def write(self, path: str | Path, record_size: int = 16) -> None:
         """Write the module file whole or not at all: a failure midway leaves no half file."""
-        path = Path(path)
-        partial = path.with_name(path.name + ".partial")
-        partial.write_text(self.to_hex(record_size), encoding="ascii", newline="")
-        partial.replace(path)
+        write_whole(Path(path), self.to_hex(record_size).encode("ascii"))
 
     def relocate(self, load_base: int) -> bytes:
         """The bytes as they sit in flash when the image is placed at `load_base`.

@@ -4,11 +4,11 @@
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 
 from commandline import CommandLineError, add_command
 from commandline.arguments import apart, input_file, output_file
+from commandline.output import write_whole
 from hexmigrate.checks import MAX_NAME_CHARACTERS, check_one_descriptor
 from hexmigrate.image import ModuleImage
 from hexmigrate.signing import keys
@@ -17,15 +17,17 @@ from hexmigrate.signing.tlv import Version
 from hexmigrate.signing.verify import Verdict
 
 KEY_FILE = input_file(keys.MAX_KEY_FILE)
+SECRET = 0o600
+"""A private key's file mode: its owner's only, as ssh-keygen and imgtool leave keys."""
 
 
 def cmd_keygen(args: argparse.Namespace) -> int:
     """Write a new private key (and its public half with --public), as imgtool does."""
     apart(("-o", args.output), ("--public", args.public))
     key = keys.generate(args.type)
-    _write_secret(args.output, keys.private_pem(key))
+    write_whole(args.output, keys.private_pem(key), SECRET)
     if args.public is not None:
-        _write(args.public, keys.public_pem(key.public_key()))
+        write_whole(args.public, keys.public_pem(key.public_key()))
     print(
         f"{args.output}: {args.type} private key, key hash "
         f"{keys.short_hash(key.public_key())}"
@@ -137,19 +139,3 @@ def add_signing_commands(commands: argparse._SubParsersAction) -> None:
     sign.add_argument(
         "-o", "--output", type=output_file, required=True, metavar="OUT.hex", help="file to write"
     )
-
-
-def _write(path: Path, data: bytes) -> None:
-    """Whole or not at all, as every output of hexmigrate."""
-    partial = path.with_name(path.name + ".partial")
-    partial.write_bytes(data)
-    partial.replace(path)
-
-
-def _write_secret(path: Path, data: bytes) -> None:
-    """A private key, readable by its owner only (as ssh-keygen and imgtool leave keys)."""
-    partial = path.with_name(path.name + ".partial")
-    descriptor = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-    with os.fdopen(descriptor, "wb") as file:
-        file.write(data)
-    partial.replace(path)

@@ -19,6 +19,7 @@ import pytest
 import hexmigrate
 from firmware_sim.core.node import Node
 from hexmigrate import cli
+from tests.firmware_sim.host_side import small_disk
 from tests.hexmigrate.cli_node import route_to
 
 COMMANDS = ("pack", "inspect", "verify", "relocate", "keygen", "sign", "send", "ping", "ls", "rm")
@@ -199,3 +200,27 @@ def test_a_module_is_signed_in_place(packed, tmp_path):
     argv = ["sign", str(packed), "--key", str(key), "--version", "1.0.0", "-o", str(packed)]
     assert cli.main(argv) == 0
     assert cli.main(["verify", str(packed), "--key", str(key)]) == 0
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ("pack", "{elf}", "-o", "{out}"),
+        ("relocate", "{hex}", "--base", "0x20000", "-o", "{out}"),
+        ("keygen", "-o", "{out}"),
+    ],
+    ids=["pack", "relocate", "keygen"],
+)
+def test_an_output_the_disk_refuses_is_an_error_naming_it_and_no_file_is_cut(
+    example_builds, packed, tmp_path, command
+):
+    out = tmp_path / "out" / "made"
+    out.parent.mkdir()
+    out.write_text("the old file\n")
+    values = {"elf": example_builds["gain"].elf, "hex": packed, "out": out}
+    argv = [sys.executable, "-m", "hexmigrate", *(word.format(**values) for word in command)]
+    done = subprocess.run(argv, capture_output=True, text=True, timeout=60, **small_disk(100))
+    assert done.returncode == 1
+    assert done.stderr == f"error: {out}: File too large\n"
+    assert [path.name for path in out.parent.iterdir()] == ["made"]  # no .partial beside it
+    assert out.read_text() == "the old file\n"

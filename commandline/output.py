@@ -1,0 +1,26 @@
+"""Writing a command's output file whole or not at all.
+
+A command that writes a file (a module, a relocated image, a key) must never leave a cut one
+behind: a full disk, a file size limit or a kill midway would leave a file that looks like an
+output and is not. The bytes go to ``NAME.partial`` beside it, moved over NAME once whole.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+
+def write_whole(path: Path, data: bytes, mode: int = 0o666) -> None:
+    """`data` into `path` (created with `mode`, less the umask): the old file or the new one
+    afterwards, never a cut one. An OSError names `path` (a write's own names no file, and
+    `commandline.run` words the error with the file it names) and leaves no ``.partial``."""
+    partial = path.with_name(path.name + ".partial")
+    try:
+        descriptor = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, mode)
+        with os.fdopen(descriptor, "wb") as file:
+            file.write(data)
+        partial.replace(path)
+    except OSError as error:
+        partial.unlink(missing_ok=True)
+        raise OSError(error.errno, error.strerror, str(path)) from None
