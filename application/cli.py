@@ -55,6 +55,7 @@ from commandline.children import ChildError
 from commandline.progress import progress_bar
 from firmware_sim.errors import FirmwareSimError
 from hexmigrate.errors import HexmigrateError
+from pbort.errors import KernelError
 from refresh.cli import add_location_option, add_quantum_option
 from refresh.errors import RefreshError
 
@@ -70,6 +71,7 @@ def main(application: Application, argv: Sequence[str] | None = None) -> int:
         FirmwareSimError,
         CampaignError,
         ChildError,
+        KernelError,  # a recording the disk refuses (TraceWriteError)
         *application.errors,
     )
     return run(build_parser(application), errors, argv)

@@ -18,6 +18,7 @@ from typing import Any
 
 from application.declaration import Application
 from application.records import Outcome
+from commandline.output import write_whole
 from pbort.trace.mcap_trace import McapTrace
 from refresh.events import EVENT_FIELDS
 from refresh.runtime import Reconfiguration
@@ -246,13 +247,13 @@ def write_json(
         "events": [event.as_dict() for event in outcome.log],
         "samples": [{"time": s.time, **s.values} for s in outcome.samples],
     }
-    path.write_text(json.dumps(document, indent=1) + "\n", encoding="utf-8")
+    write_whole(path, (json.dumps(document, indent=1) + "\n").encode("utf-8"))
 
 
 def write_timeline(outcome: Outcome, path: Path) -> None:
     """The events with their times, one a line."""
     lines = [f"{event.time:9.3f} s  {event.kind:<12} {event.message}" for event in outcome.log]
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_whole(path, ("\n".join(lines) + "\n").encode("utf-8"))
 
 
 def write_mcap(application: Application, outcome: Outcome, path: Path) -> None:

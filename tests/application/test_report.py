@@ -4,6 +4,8 @@ run lost is summed from its events and said."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 from application.declaration import Application
@@ -11,6 +13,7 @@ from application.records import Outcome
 from application.report import summary, table
 from application.scenario import Scenario
 from refresh.events import EventLog
+from tests.firmware_sim.host_side import small_disk
 
 SUMMARY = {
     "scenario": "calm",
@@ -72,3 +75,14 @@ def test_a_run_that_held_real_time_says_nothing_of_it():
     figures = lost_and_held([])
     assert "real_time_lost" not in figures
     assert "real time lost" not in table(figures)
+
+
+def test_a_report_the_disk_refuses_is_an_error_naming_it_and_no_file_is_cut(tmp_path):
+    out = tmp_path / "run"
+    command = [sys.executable, "-m", "patrol", "run", "--out", str(out)]
+    done = subprocess.run(
+        command, capture_output=True, text=True, timeout=120, **small_disk(100_000)
+    )
+    assert done.returncode == 1, done.stderr  # report.json is 140 kB: the first report refused
+    assert done.stderr == f"error: {out / 'report.json'}: File too large\n"
+    assert not list(out.glob("report.*")) and not list(out.glob("*.partial"))
