@@ -29,7 +29,7 @@ from campaign.plan import plan
 from campaign.summary import lines, rounded, summarize
 from commandline import UsageError
 from commandline.arguments import integer, output_folder
-from commandline.interrupts import stop_requests
+from commandline.interrupts import remembered_interrupts, stop_requests
 from commandline.progress import progress_bar
 from refresh.cli import add_location_option
 from refresh.location import STRATEGIES
@@ -128,9 +128,14 @@ def run_campaign(options: argparse.Namespace, application: CampaignSpec) -> None
     out: Path = options.out or application.default_out
     parameters = _parameters(options, application, out)
     store.check_folder(out)
-    with client(options.workers, options.scheduler, out / WORKERS_LOG) as dask:
+    with (
+        remembered_interrupts() as pressed,
+        client(options.workers, options.scheduler, out / WORKERS_LOG) as dask,
+    ):
+        if pressed():  # a Ctrl-C that Dask's start-up swallowed
+            raise KeyboardInterrupt
         records = store.start(out, parameters, options.resume)
-        _run(dask, out, parameters, records, options, application)
+        _run(dask, out, parameters, records, options, application, pressed)
 
 
 def _run(
@@ -140,8 +145,10 @@ def _run(
     records: dict[int, dict[str, Any]],
     options: argparse.Namespace,
     application: CampaignSpec,
+    pressed: Callable[[], bool],
 ) -> None:
-    """The campaign's runs that `records` lacks, on `dask`'s cluster; then `finish`."""
+    """The campaign's runs that `records` lacks, on `dask`'s cluster, until they end or Ctrl-C
+    (`pressed` since the start, or a stop request while they run); then `finish`."""
     specs = plan(
         parameters["runs"],
         parameters["seed"],
@@ -166,7 +173,7 @@ def _run(
             records[record["index"]] = record
             bar.update(1)
 
-        execute(dask, pending, application.runner, keep, stopping)
+        execute(dask, pending, application.runner, keep, lambda: pressed() or stopping())
     finish(out, parameters, [records[spec["index"]] for spec in specs])
 
 

@@ -36,3 +36,27 @@ def stop_requests() -> Iterator[Callable[[], bool]]:
     finally:
         for number, handler in previous.items():
             signal.signal(number, handler)
+
+
+@contextmanager
+def remembered_interrupts() -> Iterator[Callable[[], bool]]:
+    """Ctrl-C raises KeyboardInterrupt as usual, and the callable yielded turns true for good.
+    Python ignores an exception raised in a weakref callback or a ``__del__`` (it prints
+    "Exception ignored in ..." and goes on): a Ctrl-C that lands there is lost, and a job that
+    can only be stopped by raising (a library starting a cluster) would run to its end. The job
+    reads the flag at its next step instead. The handler before is back afterwards; only the
+    main thread receives signals (elsewhere nothing changes)."""
+    pressed: list[bool] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield lambda: False
+        return
+
+    def press(_number: int, _frame: object) -> None:
+        pressed.append(True)
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGINT, press)
+    try:
+        yield lambda: bool(pressed)
+    finally:
+        signal.signal(signal.SIGINT, previous)
