@@ -20,6 +20,7 @@ Two things make it a model of non-volatile memory rather than a byte array:
 
 from __future__ import annotations
 
+import contextlib
 import os
 import random
 import struct
@@ -166,10 +167,11 @@ class FlashFile:
         """Close the files and remove those this flash created, taking back a new flash that
         could not be written whole: a file of another size is refused at the next start."""
         self.close()
-        for file in self._new:
-            file.unlink(missing_ok=True)
-        for file in self._empty:
-            os.truncate(file, 0)  # empty again: taken as new
+        with contextlib.suppress(OSError):  # the error that brought us here is the one to tell
+            for file in self._new:
+                file.unlink(missing_ok=True)
+            for file in self._empty:
+                os.truncate(file, 0)  # empty again: taken as new
 
     def close(self) -> None:
         """Close both files; a second call does nothing."""
