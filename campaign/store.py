@@ -11,6 +11,7 @@ mixed with them.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from collections.abc import Mapping
@@ -19,7 +20,7 @@ from typing import IO, Any
 
 from jsonschema import Draft202012Validator
 
-from campaign.errors import CampaignFolderError
+from campaign.errors import CampaignError, CampaignFolderError
 from campaign.record import SCHEMA, Record
 
 _VALIDATOR = Draft202012Validator(SCHEMA)
@@ -121,16 +122,31 @@ class Records:
     """``runs.jsonl`` open for appending, one whole line per record."""
 
     def __init__(self, out: Path) -> None:
-        self._file: IO[str] = (out / RECORDS).open("a", encoding="utf-8")
+        self.path = out / RECORDS
+        self._file: IO[bytes] = self.path.open("ab")
 
     def add(self, record: Record) -> None:
-        """Append `record` and put it on disk before the next."""
-        self._file.write(json.dumps(record, sort_keys=True) + "\n")
-        self._file.flush()
-        os.fsync(self._file.fileno())
+        """Append `record` and put it on disk before the next. A disk that refuses it (full, a
+        file size limit) is a CampaignError naming the file, the part written taken back: the
+        records before stay whole, for --resume once there is room."""
+        end = self._file.tell()
+        try:
+            self._file.write((json.dumps(record, sort_keys=True) + "\n").encode("utf-8"))
+            self._file.flush()
+            os.fsync(self._file.fileno())
+        except OSError as error:
+            with contextlib.suppress(OSError):
+                self._file.close()  # what it still buffers cannot reach the disk either
+            with contextlib.suppress(OSError):
+                os.truncate(self.path, end)
+            raise CampaignError(
+                f"{self.path}: cannot write run {record.get('index')}'s record: "
+                f"{error.strerror}; the records before it are kept (--resume once there is room)"
+            ) from None
 
     def close(self) -> None:
-        self._file.close()
+        if not self._file.closed:
+            self._file.close()
 
     def __enter__(self) -> Records:
         return self

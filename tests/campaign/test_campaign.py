@@ -6,7 +6,9 @@ summary, plots and page say what the records hold."""
 from __future__ import annotations
 
 import argparse
+import errno
 import json
+import os
 import re
 import sys
 from pathlib import Path
@@ -17,7 +19,7 @@ from matplotlib import image
 
 from campaign import store
 from campaign.cli import CampaignSpec, add_campaign_arguments, run_campaign
-from campaign.errors import CampaignFolderError
+from campaign.errors import CampaignError, CampaignFolderError
 from campaign.plan import plan
 from campaign.record import crashed, reproducible
 from campaign.summary import distribution, rounded, summarize
@@ -117,6 +119,24 @@ def test_an_interrupted_campaign_resumes_where_it_stopped(finished, tmp_path):
     resumed = records(tmp_path)
     assert [reproducible(r) for r in resumed] == [reproducible(r) for r in records(finished)]
     assert len((tmp_path / store.RECORDS).read_text().splitlines()) == 12
+
+
+def test_a_record_the_disk_refuses_is_an_error_naming_the_file_and_is_taken_back(
+    finished, tmp_path, monkeypatch
+):
+    whole = (finished / store.RECORDS).read_bytes().splitlines(keepends=True)
+    with store.Records(tmp_path) as sink:
+        for line in whole[:3]:
+            sink.add(json.loads(line))
+
+        def full(_descriptor: int) -> None:  # the disk took the bytes, not their sync
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+        monkeypatch.setattr(os, "fsync", full)
+        refused = rf"{tmp_path / store.RECORDS}: cannot write run 3's record: No space left"
+        with pytest.raises(CampaignError, match=refused):
+            sink.add(json.loads(whole[3]))
+    assert (tmp_path / store.RECORDS).read_bytes() == b"".join(whole[:3])  # no torn line
 
 
 def test_a_folder_holding_a_campaign_is_refused_unless_resumed(finished, tmp_path):
