@@ -3,7 +3,8 @@ message says what was expected, what came and where.
 
 Tree::
 
-    CampaignError (RuntimeError)     a campaign cannot start: no scheduler at --scheduler
+    CampaignError (RuntimeError)     a campaign cannot start or go on: no scheduler at
+                                     --scheduler, a disk that refuses its records
     └── CampaignFolderError          the folder holds another campaign, unreadable records, or
                                      no campaign to resume
 """
