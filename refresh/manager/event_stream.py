@@ -9,6 +9,7 @@ time), never the wall clock.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import json
 from collections.abc import Callable
@@ -45,12 +46,31 @@ class EventStream:
         for event in events:
             self.say(line(event))
             if self.out is not None:
-                self.out.write(json.dumps(event.as_dict()) + "\n")
+                self._write(json.dumps(event.as_dict()) + "\n")
             if self.live is not None:
                 self.live(event)
         if self.out is not None and events:
-            self.out.flush()
+            self._write(None)
         self.written += len(events)
+
+    def _write(self, text: str | None) -> None:
+        """`text` into the file (None: flush it). A disk that refuses it (full, a file size
+        limit) ends the file, not the run: the robots' manager goes on, and says so."""
+        assert self.out is not None
+        try:
+            if text is None:
+                self.out.flush()
+            else:
+                self.out.write(text)
+        except OSError as error:
+            name = getattr(self.out, "name", "the events file")
+            with contextlib.suppress(OSError):
+                self.out.close()  # what it still buffers cannot reach the disk either
+            self.out = None
+            self.say(
+                f"events {name}: cannot write it: {error.strerror}; the run goes on, its events "
+                "on the terminal only"
+            )
 
 
 def line(event: Event) -> str:
