@@ -4,7 +4,9 @@ A job that writes as it goes (a node recording traces, a campaign writing record
 cut wherever the signal finds it: a record half-written, one trace a sample ahead of the other,
 or the signal raised inside a library's own machinery. `stop_requests` turns the first signal
 into a flag the job reads between two steps; a second signal while the first is pending raises
-KeyboardInterrupt, for a job that does not come back to its loop.
+KeyboardInterrupt, for a job that does not come back to its loop. `remembered_interrupts` is
+for the steps a flag cannot stop (a library's blocking start-up): Ctrl-C raises there, and the
+flag keeps it for the job's next step in case Python swallowed the raise.
 """
 
 from __future__ import annotations
