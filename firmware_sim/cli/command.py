@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -102,8 +104,21 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def _say(line: str) -> None:
-    """A line for the user, out at once (a gdb user waits for it)."""
-    print(line, flush=True)
+    """A line for the user, out at once (a gdb user waits for it). Standard output on a disk
+    that refuses it (full, a file size limit) loses the node its output, not its life: the
+    node says so once on standard error and runs on (a closed pipe still ends the command)."""
+    try:
+        print(line, flush=True)
+    except BrokenPipeError:
+        raise
+    except OSError as error:
+        sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - standard output from now on
+        print(
+            f"firmware-sim: cannot write standard output: {error.strerror}; the node runs on "
+            "without it",
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 def _start(node: Node, codes: dict[str, ModuleCode], args: argparse.Namespace) -> None:

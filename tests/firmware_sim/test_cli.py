@@ -11,6 +11,7 @@ import pytest
 from commandline.children import Child
 from firmware_sim.cli.command import data_flow_order
 from hexmigrate.elf import image_from_elf
+from tests.firmware_sim.host_side import small_disk
 
 
 def run(*args: object) -> subprocess.CompletedProcess[str]:
@@ -278,3 +279,23 @@ def test_a_transfer_the_wire_is_too_slow_for_is_one_error_line(example_hex):
     assert result.returncode == 1
     assert result.stderr.startswith("error: transfer ")
     assert "the node stopped answering" in result.stderr
+
+
+def test_a_listening_node_whose_output_the_disk_refuses_runs_on(tmp_path):
+    log = tmp_path / "node.log"  # standard output into a file, as a launcher keeps it
+    command = [sys.executable, "-m", "firmware_sim", "listen", "--listen"]
+    command += ["tcp-listen://127.0.0.1:0", "--native", "signal", "--show", "signal.y"]
+    with log.open("w") as out:
+        done = subprocess.run(
+            [*command, "--seconds", "3"],
+            stdout=out,
+            stderr=subprocess.PIPE,
+            text=True,
+            timeout=60,
+            **small_disk(125),  # the listening line and a --show line or so
+        )
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == (
+        "firmware-sim: cannot write standard output: File too large; the node runs on without it\n"
+    )
+    assert log.read_text().startswith("listening on tcp-listen://127.0.0.1:")
