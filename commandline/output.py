@@ -17,7 +17,10 @@ def write_whole(path: Path, data: bytes, mode: int = 0o666) -> None:
     `commandline.run` words the error with the file it names) and leaves no ``.partial``."""
     partial = path.with_name(path.name + ".partial")
     try:
-        descriptor = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, mode)
+        # A new file each time: one left by a killed run (or a symlink put there) would keep its
+        # mode, a private key's too, or lead the bytes into another file.
+        partial.unlink(missing_ok=True)
+        descriptor = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, mode)
         with os.fdopen(descriptor, "wb") as file:
             file.write(data)
         partial.replace(path)

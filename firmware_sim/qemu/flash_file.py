@@ -9,11 +9,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from commandline.output import write_whole
 from firmware_sim.errors import QemuError
 
 FLASH_SIZE = 32 * 1024 * 1024
 ERASED = 0xFF
-_CHUNK = 1024 * 1024
 
 
 def ensure_flash(path: Path) -> Path:
@@ -29,18 +29,12 @@ def ensure_flash(path: Path) -> Path:
 
 
 def _write_erased(path: Path) -> None:
-    """Write an erased flash bank to `path` through a file beside it, moved in place once
-    whole: never a file of the wrong size, even if this process dies or the disk is full (the
-    part written is removed then)."""
-    partial = path.with_name(path.name + ".new")
+    """Write an erased flash bank to `path`, whole or not at all (`write_whole`): never a file of
+    the wrong size, even if this process dies or the disk is full."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        with partial.open("wb") as file:
-            for _ in range(FLASH_SIZE // _CHUNK):
-                file.write(bytes([ERASED]) * _CHUNK)
-        partial.replace(path)
+        write_whole(path, bytes([ERASED]) * FLASH_SIZE)
     except OSError as error:
-        partial.unlink(missing_ok=True)
         raise QemuError(
             f"flash file {path}: cannot write an erased one ({FLASH_SIZE} bytes): {error.strerror}"
         ) from None

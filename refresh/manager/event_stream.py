@@ -46,26 +46,22 @@ class EventStream:
         for event in events:
             self.say(line(event))
             if self.out is not None:
-                self._write(json.dumps(event.as_dict()) + "\n")
+                self._write(self.out, json.dumps(event.as_dict()) + "\n")
             if self.live is not None:
                 self.live(event)
-        if self.out is not None and events:
-            self._write(None)
         self.written += len(events)
 
-    def _write(self, text: str | None) -> None:
-        """`text` into the file (None: flush it). A disk that refuses it (full, a file size
-        limit) ends the file, not the run: the robots' manager goes on, and says so."""
-        assert self.out is not None
+    def _write(self, out: TextIO, text: str) -> None:
+        """`text` into the file, flushed (a few events a decision period). A disk that refuses
+        it (full, a file size limit) ends the file, not the run: the robots' manager goes on,
+        and says so."""
         try:
-            if text is None:
-                self.out.flush()
-            else:
-                self.out.write(text)
+            out.write(text)
+            out.flush()
         except OSError as error:
-            name = getattr(self.out, "name", "the events file")
+            name = getattr(out, "name", "the events file")
             with contextlib.suppress(OSError):
-                self.out.close()  # what it still buffers cannot reach the disk either
+                out.close()  # what it still buffers cannot reach the disk either
             self.out = None
             self.say(
                 f"events {name}: cannot write it: {error.strerror}; the run goes on, its events "
