@@ -33,7 +33,7 @@ import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from application.declaration import Application
 from application.errors import ScenarioError
@@ -107,7 +107,7 @@ def run_processes(
     robots = list(database_of(application, scenario).robots)
     killed = _killed(application, scenario, robots)
     launch = Launch(out)
-    with contextlib.ExitStack() as stack, (out / "manager.log").open("w") as log:
+    with contextlib.ExitStack() as stack, (out / "manager.log").open("wb", buffering=0) as log:
         stack.callback(launch.stop)
         launched = application.plant.launch(launch, lock_step=not real_time)
         node = ["-m", application.name, "node", "--scenario", scenario.name]
@@ -143,7 +143,7 @@ def run_processes(
             real_time=real_time,
             quantum=quantum,
             prepared=prepared,
-            say=lambda line: print(line, file=log, flush=True),
+            say=_logging(log, out / "manager.log"),
             progress=progress,
             supervise=supervise,
         )
@@ -154,6 +154,22 @@ def run_processes(
     figures["processes"] = launch.urls
     figures["ended"] = ended
     return figures
+
+
+def _logging(log: BinaryIO, path: Path) -> Callable[[str], None]:
+    """What the manager says, a line at a time into its log at `path`, unbuffered: a write the
+    disk refuses is an OSError naming the log (its own names no file), and the log's closing
+    has nothing left to write that would fail again and hide it."""
+
+    def say(line: str) -> None:
+        data = memoryview(f"{line}\n".encode())
+        try:
+            while data:
+                data = data[log.write(data) :]
+        except OSError as error:
+            raise OSError(error.errno, error.strerror, str(path)) from None
+
+    return say
 
 
 def _pairs(option: str, urls: Mapping[str, str]) -> list[str]:

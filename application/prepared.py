@@ -16,6 +16,7 @@ from pathlib import Path
 from application.declaration import Application
 from application.errors import ApplicationSetupError
 from application.scenario import Scenario, with_faults
+from commandline.output import write_whole
 from hexmigrate.elf import image_from_elf
 from hexmigrate.errors import HexmigrateError
 from hexmigrate.image import ModuleImage, read_module_text
@@ -58,7 +59,7 @@ def prepare(application: Application, scenario: Scenario, work: Path) -> Prepare
     text = source.read_text(encoding="utf-8") + scenario.extra
     work.mkdir(parents=True, exist_ok=True)
     file = work / source.name
-    file.write_text(text, encoding="utf-8")
+    write_whole(file, text.encode("utf-8"))
     loaded = loads(text, source.name, work)
     if loaded.task is None:
         raise DatabaseError(str(source), "task", "a [task] table", "none")
@@ -83,14 +84,14 @@ def _copy_bitstreams(loaded: Loaded, origin: Path, work: Path) -> None:
             relative = _inside(work, path, f"hardware module {module.name}: its bitstream")
             try:
                 text = read_module_text(origin / relative)
-                path.parent.mkdir(parents=True, exist_ok=True)
-                path.write_text(text, encoding="latin-1", newline="")
             except (HexmigrateError, OSError) as error:
                 why = error.strerror if isinstance(error, OSError) else None
                 raise ApplicationSetupError(
                     f"hardware module {module.name}: expected its bitstream {origin / relative}, "
                     f"got {why or error}"
                 ) from None
+            path.parent.mkdir(parents=True, exist_ok=True)
+            write_whole(path, text.encode("latin-1"))  # an OSError names the copy
 
 
 def _inside(work: Path, path: Path, what: str) -> Path:

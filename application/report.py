@@ -18,7 +18,7 @@ from typing import Any
 
 from application.declaration import Application
 from application.records import Outcome
-from commandline.output import write_whole
+from commandline.output import save_figure, write_whole
 from pbort.trace.mcap_trace import McapTrace
 from refresh.events import EVENT_FIELDS
 from refresh.runtime import Reconfiguration
@@ -333,7 +333,7 @@ def plot(application: Application, outcome: Outcome, path: Path) -> None:
     axes.grid(alpha=0.3)
     drawing.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    drawing.savefig(path, metadata={"Software": None})
+    save_figure(drawing, path, metadata={"Software": None})
     plt.close(drawing)
 
 

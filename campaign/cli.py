@@ -30,6 +30,7 @@ from campaign.summary import lines, rounded, summarize
 from commandline import UsageError
 from commandline.arguments import integer, output_folder
 from commandline.interrupts import remembered_interrupts, stop_requests
+from commandline.output import write_whole
 from commandline.progress import progress_bar
 from refresh.cli import add_location_option
 from refresh.location import STRATEGIES
@@ -225,7 +226,7 @@ def finish(out: Path, parameters: Mapping[str, Any], records: Sequence[dict[str,
     from campaign.plots import PLOTS, draw_plots  # matplotlib: the campaign extra's
 
     summary = summarize(records)
-    (out / SUMMARY).write_text(json.dumps(rounded(summary), indent=1) + "\n", encoding="utf-8")
+    write_whole(out / SUMMARY, (json.dumps(rounded(summary), indent=1) + "\n").encode("utf-8"))
     plots = draw_plots(summary, out)
     write_page(summary, parameters, PLOTS, records, out / PAGE)
     print("\n".join(lines(summary)))

@@ -12,6 +12,7 @@ from typing import Any
 
 from campaign.record import OK
 from campaign.summary import percent
+from commandline.output import write_whole
 
 STYLE = (
     "body{font-family:sans-serif;margin:2em;max-width:70em}"
@@ -56,7 +57,7 @@ def write_page(
         ]
     parts += ["<h2>Every run</h2>", _table(RUN_COLUMNS, map(_run_row, records))]
     parts.append("</body></html>\n")
-    path.write_text("\n".join(parts), encoding="utf-8")
+    write_whole(path, "\n".join(parts).encode("utf-8"))
 
 
 RUN_COLUMNS = (

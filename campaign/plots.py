@@ -13,6 +13,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from commandline.output import save_figure
+
 PLOTS = {
     "detection_latency.png": "detection latency",
     "recovery_time.png": "recovery time",
@@ -71,5 +73,5 @@ def _accuracy(accuracy: Mapping[str, Mapping[str, float | None]], path: Path) ->
 
 def _save(figure: Any, path: Path) -> None:
     figure.tight_layout()
-    figure.savefig(path, metadata={"Software": None})
+    save_figure(figure, path, metadata={"Software": None})
     plt.close(figure)

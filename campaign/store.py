@@ -22,6 +22,7 @@ from jsonschema import Draft202012Validator
 
 from campaign.errors import CampaignError, CampaignFolderError
 from campaign.record import SCHEMA, Record
+from commandline.output import write_whole
 
 _VALIDATOR = Draft202012Validator(SCHEMA)
 MANIFEST = "campaign.json"
@@ -63,7 +64,7 @@ def start(out: Path, parameters: Mapping[str, Any], resume: bool) -> dict[int, R
         raise CampaignFolderError(
             f"{out}: expected a folder the campaign can be written in, got {error.strerror}"
         ) from None
-    manifest.write_text(json.dumps(dict(parameters), indent=1) + "\n", encoding="utf-8")
+    write_whole(manifest, (json.dumps(dict(parameters), indent=1) + "\n").encode("utf-8"))
     return {}
 
 

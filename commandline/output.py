@@ -1,14 +1,24 @@
 """Writing a command's output file whole or not at all.
 
-A command that writes a file (a module, a relocated image, a key) must never leave a cut one
-behind: a full disk, a file size limit or a kill midway would leave a file that looks like an
-output and is not. The bytes go to ``NAME.partial`` beside it, moved over NAME once whole.
+A command that writes a file (a module, a relocated image, a key, a report, a figure, a
+campaign's manifest) must never leave a cut one behind: a full disk, a file size limit or a kill
+midway would leave a file that looks like an output and is not (a cut manifest would even hold
+its campaign's folder against both a new start and ``--resume``). The bytes go to
+``NAME.partial`` beside it, moved over NAME once whole.
 """
 
 from __future__ import annotations
 
+import io
 import os
 from pathlib import Path
+from typing import Any, Protocol
+
+
+class Figure(Protocol):
+    """What `save_figure` needs of a figure (matplotlib's; this layer does not import it)."""
+
+    def savefig(self, fname: Any, **options: Any) -> None: ...
 
 
 def write_whole(path: Path, data: bytes, mode: int = 0o666) -> None:
@@ -27,3 +37,12 @@ def write_whole(path: Path, data: bytes, mode: int = 0o666) -> None:
     except OSError as error:
         partial.unlink(missing_ok=True)
         raise OSError(error.errno, error.strerror, str(path)) from None
+
+
+def save_figure(figure: Figure, path: Path, **options: Any) -> None:
+    """`figure` drawn into `path` in the format its suffix names (``savefig``'s `options`),
+    whole or not at all: drawn in memory first, then written by `write_whole` (``savefig`` to a
+    path writes as it draws, and leaves a cut image behind when the disk refuses the rest)."""
+    drawn = io.BytesIO()
+    figure.savefig(drawn, format=path.suffix.lstrip(".") or None, **options)
+    write_whole(path, drawn.getvalue())

@@ -26,6 +26,7 @@ import numpy as np
 
 from commandline import command_parser, entry_point, run
 from commandline.arguments import input_file, output_file_ending
+from commandline.output import save_figure
 from hexmanipulator.can_bus import CanServoBus
 from hexmanipulator.errors import HexmanipulatorError
 from hexmanipulator.geometry import Geometry, load
@@ -99,7 +100,7 @@ def plot(data: dict[str, np.ndarray], out: Path) -> None:
         f"HexManipulator yaw sweep: +-{AMPLITUDE:g} deg at {FREQUENCY:g} Hz, CAN servos"
     )
     figure.tight_layout()
-    figure.savefig(out, metadata={"Software": None})
+    save_figure(figure, out, metadata={"Software": None})
     plt.close(figure)
 
 

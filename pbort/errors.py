@@ -156,7 +156,8 @@ class ClosedError(KernelError, RuntimeError):
 
 class TraceWriteError(KernelError, RuntimeError):
     """A trace file (`pbort.trace`) the disk refused a write: full, or a file size limit. The
-    trace has closed its file; what it holds ends before the refused write."""
+    trace has closed its file; what it holds ends before the refused write (a plot, written
+    whole or not at all, is not there)."""
 
     def __init__(self, path: Path, error: OSError) -> None:
         super().__init__(f"trace {path}: cannot write it: {error.strerror or error}")

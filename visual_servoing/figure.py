@@ -24,6 +24,7 @@ import matplotlib.pyplot as plt
 
 from commandline import command_parser, entry_point, run
 from commandline.arguments import output_file_ending
+from commandline.output import save_figure
 from visual_servoing.dehaze import dehaze
 from visual_servoing.errors import ServoingError
 from visual_servoing.image_faults import FaultSchedule
@@ -54,7 +55,7 @@ def draw(out: Path) -> None:
         axis.set_title(f"{title}\nSSD off by {match.x - truth.x:+.1f} px", fontsize=9)
         axis.set_axis_off()
     figure.tight_layout()
-    figure.savefig(out, dpi=80, bbox_inches="tight")
+    save_figure(figure, out, dpi=80, bbox_inches="tight")
     plt.close(figure)
 
 

@@ -13,7 +13,8 @@ from collections import defaultdict
 from collections.abc import Sequence
 from pathlib import Path
 
-from pbort.errors import SetupError
+from commandline.output import save_figure
+from pbort.errors import SetupError, TraceWriteError
 from pbort.ports import Direction, PortSpec
 from pbort.trace.recorder import Sample
 
@@ -42,7 +43,8 @@ class PlotTrace:
                 values.append(float(value))
 
     def save(self, path: Path) -> None:
-        """Draw one panel per PBO with its ports' lines, as a PNG at `path`."""
+        """Draw one panel per PBO with its ports' lines, as a PNG at `path`, whole or not at all
+        (TraceWriteError when the disk refuses it)."""
         try:
             import matplotlib
 
@@ -64,5 +66,9 @@ class PlotTrace:
             axis.grid(alpha=0.3)
         axes[-1, 0].set_xlabel("kernel time (s)")
         figure.tight_layout()
-        figure.savefig(path, dpi=100)
-        pyplot.close(figure)
+        try:
+            save_figure(figure, path, dpi=100)
+        except OSError as error:
+            raise TraceWriteError(path, error) from None
+        finally:
+            pyplot.close(figure)

@@ -14,6 +14,7 @@ from application.errors import ApplicationSetupError
 from application.prepared import prepare
 from application.scenario import Scenario
 from module_sdk.build import EXAMPLES_DIR
+from tests.disk import disk_of
 
 DATABASE = """
 [robots.r]
@@ -42,14 +43,18 @@ BITSTREAM = ":0400000500000000F7\n:00000001FF\n"
 """What the copy carries (its text is not read as a bitstream here)."""
 
 
-def prepared_with(tmp_path: Path, bitstream: str) -> Path:
-    """Prepare a run of ``tmp_path/app/db.toml``, a database naming `bitstream` (TOML text),
-    into ``tmp_path/runs/run``; the run's folder."""
+def application_of(tmp_path: Path, bitstream: str) -> Application:
+    """An application of ``tmp_path/app/db.toml``, a database naming `bitstream` (TOML text)."""
     origin = tmp_path / "app"
     origin.mkdir(exist_ok=True)
     (origin / "db.toml").write_text(DATABASE.format(bitstream=bitstream))
     scenarios = (Scenario("s", "a scenario", "nothing"),)
-    application = Application("app", "An application.", origin / "db.toml", scenarios, "s")
+    return Application("app", "An application.", origin / "db.toml", scenarios, "s")
+
+
+def prepared_with(tmp_path: Path, bitstream: str) -> Path:
+    """Prepare a run of `application_of` into ``tmp_path/runs/run``; the run's folder."""
+    application = application_of(tmp_path, bitstream)
     work = tmp_path / "runs" / "run"
     prepare(application, application.scenario("s"), work)
     return work
@@ -60,6 +65,20 @@ def test_a_bitstream_beside_the_database_is_copied_where_the_run_s_database_name
     (tmp_path / "app" / "bits" / "hw.hex").write_text(BITSTREAM)
     work = prepared_with(tmp_path, '"bits/hw.hex"')
     assert (work / "bits" / "hw.hex").read_text() == BITSTREAM
+
+
+@pytest.mark.parametrize("limit, refused", [(100, "db.toml"), (1_000, "bits/hw.hex")])
+def test_a_file_the_disk_refuses_is_an_error_naming_it_and_none_is_left_cut(
+    tmp_path, limit, refused
+):
+    (tmp_path / "app" / "bits").mkdir(parents=True)
+    (tmp_path / "app" / "bits" / "hw.hex").write_text(BITSTREAM * 100)  # 3.4 kB
+    application = application_of(tmp_path, '"bits/hw.hex"')  # its database 0.5 kB
+    work = tmp_path / "runs" / "run"
+    with disk_of(limit), pytest.raises(OSError) as refusal:
+        prepare(application, application.scenario("s"), work)
+    assert refusal.value.filename == str(work / refused)  # commandline.run's error names it
+    assert not (work / refused).exists() and not list(work.rglob("*.partial"))
 
 
 @pytest.mark.parametrize("named", ['"../escaped.hex"', '"bits/../../escaped.hex"'])

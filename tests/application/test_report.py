@@ -13,7 +13,7 @@ from application.records import Outcome
 from application.report import summary, table
 from application.scenario import Scenario
 from refresh.events import EventLog
-from tests.firmware_sim.host_side import small_disk
+from tests.disk import small_disk
 
 SUMMARY = {
     "scenario": "calm",

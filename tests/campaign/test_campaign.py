@@ -18,12 +18,14 @@ import pytest
 from matplotlib import image
 
 from campaign import store
-from campaign.cli import CampaignSpec, add_campaign_arguments, run_campaign
+from campaign.cli import CampaignSpec, add_campaign_arguments, finish, run_campaign
 from campaign.errors import CampaignError, CampaignFolderError
 from campaign.plan import plan
+from campaign.plots import PLOTS
 from campaign.record import crashed, reproducible
 from campaign.summary import distribution, rounded, summarize
 from tests.campaign import toy
+from tests.disk import disk_of
 
 TOY = CampaignSpec("toy", ("a", "b"), toy.draw, toy.run, Path("unused"))
 
@@ -137,6 +139,25 @@ def test_a_record_the_disk_refuses_is_an_error_naming_the_file_and_is_taken_back
         with pytest.raises(CampaignError, match=refused):
             sink.add(json.loads(whole[3]))
     assert (tmp_path / store.RECORDS).read_bytes() == b"".join(whole[:3])  # no torn line
+
+
+def test_a_manifest_the_disk_refuses_is_named_and_leaves_the_folder_free(tmp_path):
+    parameters = {"runs": 12, "seed": 3}
+    with disk_of(10), pytest.raises(OSError) as refusal:
+        store.start(tmp_path, parameters, resume=False)
+    assert refusal.value.filename == str(tmp_path / store.MANIFEST)
+    assert list(tmp_path.iterdir()) == []
+    assert store.start(tmp_path, parameters, resume=False) == {}  # no cut manifest holds it
+
+
+def test_a_plot_the_disk_refuses_is_named_and_no_file_is_left_cut(finished, tmp_path):
+    summary = (finished / "summary.json").read_bytes()
+    with disk_of(len(summary) + 100), pytest.raises(OSError) as refusal:  # a plot is 20 kB
+        finish(tmp_path, store.read_manifest(finished), records(finished))
+    assert Path(refusal.value.filename).parent == tmp_path
+    assert Path(refusal.value.filename).name in PLOTS
+    assert [path.name for path in tmp_path.iterdir()] == ["summary.json"]
+    assert (tmp_path / "summary.json").read_bytes() == summary
 
 
 def test_a_folder_holding_a_campaign_is_refused_unless_resumed(finished, tmp_path):

@@ -31,13 +31,9 @@ from hexmigrate.links.listening import CONNECT_URL
 from hexmigrate.transfer.messages import Commit, Nak, PboTable, encode
 from hexmigrate.transfer.sender import Sender
 from module_sdk.build import build_module
+from tests.disk import small_disk
 from tests.firmware.flash_image import FLASH_BASE, committed
-from tests.firmware_sim.host_side import (
-    CLI_TIMEOUT,
-    hexmigrate,
-    hexmigrate_refused,
-    small_disk,
-)
+from tests.firmware_sim.host_side import CLI_TIMEOUT, hexmigrate, hexmigrate_refused
 
 SECTOR = 256 * 1024
 """QEMU virt's flash erase sector: the firmware places each module at a sector boundary."""

@@ -6,14 +6,10 @@ modules arrived. Every wait is bounded.
 
 from __future__ import annotations
 
-import os
 import re
-import resource
-import signal
 import subprocess
 import sys
 from collections.abc import Iterable
-from typing import Any
 
 from firmware_sim.serving.node_process import NodeProcess
 
@@ -21,19 +17,6 @@ CLI_TIMEOUT = 30.0
 """Seconds a ``hexmigrate`` command may take (it imports python-can and cryptography)."""
 GAIN_SHOWN = re.compile(r"\bgain\.y=(-?\d+)\b")
 """A ``--show gain.y`` line of the node."""
-
-
-def small_disk(size: int) -> dict[str, Any]:
-    """What `subprocess.run` takes to end a child's files at `size` bytes, as a full disk would:
-    a write past it is cut short, the next one fails (EFBIG; SIGXFSZ ignored, as a full disk
-    says nothing either). The child writes no bytecode: Python takes a short write of a .pyc
-    for a whole one, and the cut file would break every later import of that module."""
-
-    def limit() -> None:
-        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
-        resource.setrlimit(resource.RLIMIT_FSIZE, (size, size))
-
-    return {"preexec_fn": limit, "env": {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}}
 
 
 def hexmigrate(*arguments: object) -> str:

@@ -11,7 +11,7 @@ import pytest
 from commandline.children import Child
 from firmware_sim.cli.command import data_flow_order
 from hexmigrate.elf import image_from_elf
-from tests.firmware_sim.host_side import small_disk
+from tests.disk import small_disk
 
 
 def run(*args: object) -> subprocess.CompletedProcess[str]:

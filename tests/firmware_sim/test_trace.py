@@ -24,7 +24,7 @@ from hexmigrate.transfer.sender import Sender
 from pbort.ports import PortSpec
 from pbort.trace.plot import PlotTrace
 from pbort.trace.recorder import Sample
-from tests.firmware_sim.host_side import small_disk
+from tests.disk import small_disk
 
 RUN = (
     "--native",
@@ -186,6 +186,14 @@ def test_a_trace_the_disk_refuses_ends_a_run_naming_it(gain, tmp_path, suffix):
     )
     assert result.returncode == 1
     assert result.stderr == f"error: trace {trace}: cannot write it: File too large\n"
+
+
+def test_a_plot_the_disk_refuses_ends_a_run_naming_it_and_is_not_left_cut(gain, tmp_path):
+    plot = tmp_path / "run.png"
+    result = firmware_sim("run", "--module", gain, *RUN, "--plot", plot, disk=4000)  # 40 kB
+    assert result.returncode == 1
+    assert result.stderr == f"error: trace {plot}: cannot write it: File too large\n"
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_a_listening_node_whose_trace_the_disk_refuses_says_so_and_runs_on(tmp_path):

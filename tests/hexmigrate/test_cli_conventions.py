@@ -19,7 +19,7 @@ import pytest
 import hexmigrate
 from firmware_sim.core.node import Node
 from hexmigrate import cli
-from tests.firmware_sim.host_side import small_disk
+from tests.disk import small_disk
 from tests.hexmigrate.cli_node import route_to
 
 COMMANDS = ("pack", "inspect", "verify", "relocate", "keygen", "sign", "send", "ping", "ls", "rm")

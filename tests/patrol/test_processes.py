@@ -5,6 +5,7 @@ in process; and the nodes stopped at the end."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -68,6 +69,16 @@ def test_run_processes_names_each_node_and_its_log(tmp_path, capsys):
         ("Pursuit", "rover1", 884)
     ]
     assert "listening on tcp-listen://127.0.0.1:" in (tmp_path / "rover1.log").read_text()
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full")
+def test_a_manager_log_the_disk_refuses_ends_the_run_with_an_error_naming_it(tmp_path, capsys):
+    (tmp_path / "manager.log").symlink_to("/dev/full")  # every write: No space left on device
+    argv = ["run", "--scenario", "controller", "--processes", "--out", str(tmp_path)]
+    assert main(APPLICATION, argv) == 1
+    said = capsys.readouterr()
+    assert said.err == f"error: {tmp_path / 'manager.log'}: No space left on device\n"
+    assert not list(tmp_path.glob("report.*"))
 
 
 @pytest.mark.slow
