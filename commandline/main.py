@@ -22,7 +22,7 @@ import sys
 import traceback
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from typing import NoReturn
+from typing import Any, NoReturn, TextIO
 
 from commandline.extras import missing_extra
 
@@ -98,7 +98,22 @@ def run(
 ) -> int:
     """Parse `argv`, run the command the parser chose (its ``func`` default) and return the exit
     status. `errors` is the package's error root (or roots): those, `CommandLineError` and
-    `OSError` become one ``error:`` line."""
+    `OSError` become one ``error:`` line. Meanwhile standard output names itself in the errors
+    of writes it refuses (`NamedOutput`)."""
+    output = NamedOutput(sys.stdout)
+    sys.stdout = output
+    try:
+        return _run(parser, errors, argv)
+    finally:
+        if sys.stdout is output:  # a command may have put another in its place
+            sys.stdout = output.stream
+
+
+def _run(
+    parser: argparse.ArgumentParser,
+    errors: type[BaseException] | tuple[type[BaseException], ...],
+    argv: Sequence[str] | None,
+) -> int:
     caught = (errors if isinstance(errors, tuple) else (errors,)) + (CommandLineError, OSError)
     debug = False
     try:
@@ -114,6 +129,8 @@ def run(
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except caught as error:
+        if isinstance(error, OSError) and error.filename == NamedOutput.NAME:
+            _drop_output()  # the interpreter's final flush would fail on the same bytes again
         return _error_line(describe(error), debug)
     except ModuleNotFoundError as error:
         problem = missing_extra(error)
@@ -121,6 +138,38 @@ def run(
             raise
         return _error_line(problem, debug)
     return EXIT_OK if status is None else status
+
+
+class NamedOutput:
+    """Standard output whose refused writes name it: output into a file on a full disk fails
+    with an OSError that names no file, and ``error: [Errno 28] No space left on device`` would
+    leave the user to guess which file. A closed pipe stays a BrokenPipeError (`_pipe_closed`);
+    everything but writing is the stream's own."""
+
+    NAME = "standard output"
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+
+    def write(self, text: str) -> int:
+        with self._named():
+            return self.stream.write(text)
+
+    def flush(self) -> None:
+        with self._named():
+            self.stream.flush()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.stream, name)
+
+    @contextmanager
+    def _named(self) -> Iterator[None]:
+        try:
+            yield
+        except BrokenPipeError:
+            raise
+        except OSError as error:
+            raise OSError(error.errno, error.strerror, self.NAME) from None
 
 
 @contextmanager
@@ -211,7 +260,12 @@ def describe(error: BaseException) -> str:
 def _pipe_closed() -> int:
     """Standard output's reader went away: point it at /dev/null so that the interpreter's
     final flush does not print "Broken pipe", and stop."""
+    _drop_output()
+    return EXIT_PIPE_CLOSED
+
+
+def _drop_output() -> None:
+    """Point standard output at /dev/null: what it still holds goes nowhere, without error."""
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, sys.stdout.fileno())
     os.close(devnull)
-    return EXIT_PIPE_CLOSED

@@ -224,3 +224,31 @@ def test_a_closed_pipe_ends_quietly():
     )
     assert done.stdout == f"line 0\nstatus {EXIT_PIPE_CLOSED}\n"
     assert done.stderr == ""
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
+@pytest.mark.parametrize("lines", [1, 200000])  # refused at the command's end, or midway
+def test_output_the_disk_refuses_is_an_error_naming_standard_output(lines):
+    script = textwrap.dedent(
+        f"""
+        import sys
+        from commandline import add_command, command_parser, run
+
+        def say(args):
+            for n in range({lines}):
+                print(f"line {{n}}")
+
+        parser = command_parser("say", "Says.")
+        add_command(parser.add_subparsers(required=True), "go", say, "say")
+        sys.exit(run(parser, Exception, ["go"]))
+        """
+    )
+    with open("/dev/full", "w") as full:  # every write: No space left on device
+        done = subprocess.run(
+            [sys.executable, "-c", script], stdout=full, stderr=subprocess.PIPE, text=True,
+            timeout=60,
+        )  # fmt: skip
+    assert (done.returncode, done.stderr) == (
+        EXIT_ERROR,
+        "error: standard output: No space left on device\n",
+    )
