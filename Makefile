@@ -18,6 +18,10 @@ include firmware/firmware.mk
 
 .PHONY: demo test lint tools modules bench clean
 
+# A recipe that fails removes the target it began to write: a linker killed midway (a full disk,
+# a file size limit) left a cut node.elf that the next make took for an up-to-date one.
+.DELETE_ON_ERROR:
+
 tools:
 	@scripts/ensure-tools.sh $(SYSTEM_TOOLS)
 
