@@ -52,6 +52,7 @@ from campaign.errors import CampaignError
 from commandline import UsageError, add_command, command_parser, run
 from commandline.arguments import named_url, output_file, output_folder, real
 from commandline.children import ChildError
+from commandline.output import serving_output
 from commandline.progress import progress_bar
 from firmware_sim.errors import FirmwareSimError
 from hexmigrate.errors import HexmigrateError
@@ -209,7 +210,7 @@ def _node(application: Application, args: argparse.Namespace) -> int:
         scenario,
         args.robot,
         args.listen,
-        lambda line: print(line, flush=True),
+        serving_output(f"python -m {application.name}"),
         lock_step=args.lock_step,
         flash=args.flash,
         kill_at=args.kill_at,

@@ -1,16 +1,19 @@
-"""Writing a command's output file whole or not at all.
+"""Writing a command's output file whole or not at all, and a node's standard output.
 
 A command that writes a file (a module, a relocated image, a key, a report, a figure, a
 campaign's manifest) must never leave a cut one behind: a full disk, a file size limit or a kill
 midway would leave a file that looks like an output and is not (a cut manifest would even hold
 its campaign's folder against both a new start and ``--resume``). The bytes go to
-``NAME.partial`` beside it, moved over NAME once whole.
+``NAME.partial`` beside it, moved over NAME once whole. A node's standard output, on the other
+hand, is a log, not a result: one the disk refuses costs the node its output, never its life.
 """
 
 from __future__ import annotations
 
 import io
 import os
+import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -46,3 +49,27 @@ def save_figure(figure: Figure, path: Path, **options: Any) -> None:
     drawn = io.BytesIO()
     figure.savefig(drawn, format=path.suffix.lstrip(".") or None, **options)
     write_whole(path, drawn.getvalue())
+
+
+def serving_output(program: str) -> Callable[[str], None]:
+    """What a node (a program that serves until it is stopped) says, each line out at once (a
+    user, a launcher or a gdb user waits for it). Standard output on a disk that refuses it
+    (full, a file size limit: a launcher keeps it in a log file) loses the node its output, not
+    its life: `program` says so once on standard error and runs on; a closed pipe still ends the
+    command (``commandline.run``: 141)."""
+
+    def say(line: str) -> None:
+        try:
+            print(line, flush=True)
+        except BrokenPipeError:
+            raise
+        except OSError as error:
+            sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - standard output from now on
+            print(
+                f"{program}: cannot write standard output: {error.strerror}; the node runs on "
+                "without it",
+                file=sys.stderr,
+                flush=True,
+            )
+
+    return say

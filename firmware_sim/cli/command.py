@@ -8,13 +8,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 from commandline import UsageError, add_command, command_parser, run
 from commandline.arguments import host_port, input_file, integer
+from commandline.output import serving_output
 from firmware_sim.cli import arguments
 from firmware_sim.cli.qemu_command import add_qemu
 from firmware_sim.cli.run_report import render, run_report
@@ -42,6 +41,9 @@ from pbort.code import ModuleCode
 from pbort.errors import KernelError
 from pbort.native import NativeModule
 from pbort.trace import recording
+
+_SAY = serving_output("firmware-sim")
+"""What the node says: each line at once, and a node whose output the disk refuses runs on."""
 
 ERRORS = (FirmwareSimError, HexmigrateError, KernelError)
 """What a command of the node reports as one error line: firmware_sim's root and the roots of the
@@ -88,7 +90,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         _check_plotted(node, args.plot_port)
         seconds = DEFAULT_SECONDS if args.cycles is None and args.seconds is None else args.seconds
         with (
-            debugging(DebugPort(node), args.gdb, _say, wait=True),
+            debugging(DebugPort(node), args.gdb, _SAY, wait=True),
             recording(node.kernel, args.trace, args.plot, args.plot_port),
         ):
             jobs = node.run(until=seconds, cycles=args.cycles)
@@ -101,24 +103,6 @@ def cmd_run(args: argparse.Namespace) -> int:
             + "; ".join(f"{name}: {report['stats'][name]['last_failure']}" for name in failed)
         )
     return 0
-
-
-def _say(line: str) -> None:
-    """A line for the user, out at once (a gdb user waits for it). Standard output on a disk
-    that refuses it (full, a file size limit) loses the node its output, not its life: the
-    node says so once on standard error and runs on (a closed pipe still ends the command)."""
-    try:
-        print(line, flush=True)
-    except BrokenPipeError:
-        raise
-    except OSError as error:
-        sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - standard output from now on
-        print(
-            f"firmware-sim: cannot write standard output: {error.strerror}; the node runs on "
-            "without it",
-            file=sys.stderr,
-            flush=True,
-        )
 
 
 def _start(node: Node, codes: dict[str, ModuleCode], args: argparse.Namespace) -> None:
@@ -203,7 +187,7 @@ def cmd_listen(args: argparse.Namespace) -> int:
         trust=TrustPolicy(tuple(_trusted(path) for path in args.trust or ()), args.allow_downgrade),
     )
     firmware = {name: NativeModule(native) for name, native in load_natives(args.natives).items()}
-    return listen(config, _say, firmware=firmware)
+    return listen(config, _SAY, firmware=firmware)
 
 
 def _trusted(path: Path) -> PublicKey:
@@ -288,7 +272,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_run(commands)
     _add_listen(commands)
     _add_transfer(commands)
-    add_qemu(commands, _say)
+    add_qemu(commands, _SAY)
     info = add_command(commands, "info", cmd_info, "print the memory map and the service table")
     info.add_argument("--json", action="store_true", help="print them as JSON")
     return parser

@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import json
+import re
+import signal
+import subprocess
+import sys
+import time
 
 import pytest
 
@@ -10,6 +15,8 @@ from application.cli import main
 from patrol.declaration import APPLICATION
 from refresh.images import check_images
 from refresh.load import load
+from tests.disk import small_disk
+from tests.firmware_sim.host_side import CLI_TIMEOUT, hexmigrate
 
 
 def patrol(*argv: str) -> int:
@@ -68,3 +75,28 @@ def test_quantum_goes_with_processes(capsys):
         patrol("run", "--quantum", "0.01")
     assert caught.value.code == 2
     assert "--real-time and --quantum go with --processes" in capsys.readouterr().err
+
+
+def test_a_node_whose_log_the_disk_refuses_says_so_and_serves_on(tmp_path):
+    log = tmp_path / "rover1.log"  # standard output into a file, as the launcher keeps it
+    command = [sys.executable, "-m", "patrol", "node", "--robot", "rover1"]
+    command += ["--listen", "tcp-listen://127.0.0.1:0"]
+    with log.open("w") as out:
+        node = subprocess.Popen(
+            command, stdout=out, stderr=subprocess.PIPE, text=True, **small_disk(60)
+        )  # the listening line fits, what follows it does not
+    try:
+        deadline = time.monotonic() + CLI_TIMEOUT
+        while not (found := re.search(r"listening on tcp-listen://(\S+) ", log.read_text())):
+            assert node.poll() is None and time.monotonic() < deadline, log.read_text()
+            time.sleep(0.05)
+        assert "LineCam" in hexmigrate("ps", "--to", f"socket://{found[1]}")
+        assert node.poll() is None
+    finally:
+        node.send_signal(signal.SIGINT)
+        _, err = node.communicate(timeout=CLI_TIMEOUT)
+    assert (node.returncode, err) == (
+        0,
+        "python -m patrol: cannot write standard output: File too large; the node runs on "
+        "without it\n",
+    )
