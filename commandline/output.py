@@ -5,7 +5,8 @@ campaign's manifest) must never leave a cut one behind: a full disk, a file size
 midway would leave a file that looks like an output and is not (a cut manifest would even hold
 its campaign's folder against both a new start and ``--resume``). The bytes go to
 ``NAME.partial`` beside it, moved over NAME once whole. A node's standard output, on the other
-hand, is a log, not a result: one the disk refuses costs the node its output, never its life.
+hand, is a log, not a result: one the disk refuses costs the node (or the manager) its output,
+never its life.
 """
 
 from __future__ import annotations
@@ -51,12 +52,12 @@ def save_figure(figure: Figure, path: Path, **options: Any) -> None:
     write_whole(path, drawn.getvalue())
 
 
-def serving_output(program: str) -> Callable[[str], None]:
-    """What a node (a program that serves until it is stopped) says, each line out at once (a
-    user, a launcher or a gdb user waits for it). Standard output on a disk that refuses it
-    (full, a file size limit: a launcher keeps it in a log file) loses the node its output, not
-    its life: `program` says so once on standard error and runs on; a closed pipe still ends the
-    command (``commandline.run``: 141)."""
+def serving_output(program: str, who: str = "the node") -> Callable[[str], None]:
+    """What a program others depend on while it runs (`who`: a node, the manager of robots)
+    says, each line out at once (a user, a launcher or a gdb user waits for it). Standard
+    output on a disk that refuses it (full, a file size limit: a launcher keeps it in a log
+    file) loses the program its output, not its life: `program` says so once on standard error
+    and runs on; a closed pipe still ends the command (``commandline.run``: 141)."""
 
     def say(line: str) -> None:
         try:
@@ -66,7 +67,7 @@ def serving_output(program: str) -> Callable[[str], None]:
         except OSError as error:
             sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - standard output from now on
             print(
-                f"{program}: cannot write standard output: {error.strerror}; the node runs on "
+                f"{program}: cannot write standard output: {error.strerror}; {who} runs on "
                 "without it",
                 file=sys.stderr,
                 flush=True,

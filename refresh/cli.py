@@ -24,6 +24,7 @@ from collections.abc import Sequence
 
 from commandline import CommandLineError, UsageError, add_command, command_parser, one_line, run
 from commandline.arguments import host_port, input_file, integer, named_url, output_file, real
+from commandline.output import serving_output
 from firmware_sim.errors import FirmwareSimError
 from hexmigrate.errors import HexmigrateError, KeyFileError
 from hexmigrate.signing.keys import MAX_KEY_FILE, load_private
@@ -164,7 +165,7 @@ def manage_command(options: argparse.Namespace) -> None:
         plant=Plant() if options.plant is None else load_plant(options.plant),
         foxglove=options.foxglove,
     )
-    manage(loaded, config, lambda line: print(line, flush=True))
+    manage(loaded, config, serving_output("python -m refresh manage", "the manager"))
 
 
 def add_location_option(command: argparse.ArgumentParser) -> None:

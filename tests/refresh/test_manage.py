@@ -35,6 +35,7 @@ from refresh.appliers.over_links import LinkApplier
 from refresh.errors import ConfigurationError
 from refresh.events import EVENT_FIELDS
 from refresh.manager.manager import check_names
+from tests.disk import small_disk
 from tests.foxglove_client import live_client
 from tests.hostile_node import hostile_node
 
@@ -170,6 +171,27 @@ def test_in_lock_step_the_fault_is_repaired_by_a_coalition_across_hosts(database
     for event in found:
         assert f"{event['time']:9.3f} s  {event['kind']:<11} {event['message']}" in stdout
     assert reproducible(runs[1][1]) == reproducible(found)
+
+
+def test_a_manager_whose_output_the_disk_refuses_says_so_and_repairs_on(database, tmp_path):
+    command = [sys.executable, "-m", "refresh", "manage", "--db", str(database)]
+    command += ["--task", "levels", "--natives", NATIVES, *RUN]
+    with (
+        nodes("--lock-step", "--lock-step") as (started, options),
+        (tmp_path / "log").open("w") as log,
+    ):  # standard output into a file, as a launcher keeps it
+        done = subprocess.run(
+            [*command, *options], stdout=log, stderr=subprocess.PIPE, text=True,
+            timeout=MANAGER_TIMEOUT, **small_disk(300),
+        )  # fmt: skip
+        assert (done.returncode, done.stderr) == (
+            0,
+            "python -m refresh manage: cannot write standard output: File too large; the "
+            "manager runs on without it\n",
+        )
+        # It repaired on: b's node feeds a's over a connection to a's host.
+        assert "127.0.0.2" in {remote for _, remote in tcp_sockets(started["b"].pid)}
+    assert (tmp_path / "log").read_text().startswith("robot a: a: 0 module(s)")  # all that fit
 
 
 def test_in_real_time_it_repairs_and_runs_until_interrupted(database, tmp_path):
