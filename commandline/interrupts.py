@@ -7,6 +7,10 @@ into a flag the job reads between two steps; a second signal while the first is 
 KeyboardInterrupt, for a job that does not come back to its loop. `remembered_interrupts` is
 for the steps a flag cannot stop (a library's blocking start-up): Ctrl-C raises there, and the
 flag keeps it for the job's next step in case Python swallowed the raise.
+
+A signal ignored when the job starts stays ignored: a shell runs a command of a script in the
+background (``firmware-sim listen ... &``) with SIGINT ignored, so that a Ctrl-C meant for the
+script does not end it (Python keeps it ignored too).
 """
 
 from __future__ import annotations
@@ -15,13 +19,18 @@ import signal
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from typing import Any
+
+Handler = Callable[[int, Any], Any] | int | signal.Handlers | None
+"""What `signal.getsignal` returns: a function, SIG_IGN or SIG_DFL, or None (set outside Python)."""
 
 
 @contextmanager
 def stop_requests() -> Iterator[Callable[[], bool]]:
     """Ctrl-C and SIGTERM make the callable yielded turn true; a second one raises
-    KeyboardInterrupt. The handlers before are back afterwards. Only the main thread receives
-    signals: elsewhere nothing changes (Ctrl-C raises as usual)."""
+    KeyboardInterrupt; one ignored before stays ignored. The handlers before are back
+    afterwards. Only the main thread receives signals: elsewhere nothing changes (Ctrl-C raises
+    as usual)."""
     asked: list[int] = []
     if threading.current_thread() is not threading.main_thread():
         yield lambda: False
@@ -32,7 +41,7 @@ def stop_requests() -> Iterator[Callable[[], bool]]:
             raise KeyboardInterrupt
         asked.append(number)
 
-    previous = {number: signal.signal(number, ask) for number in (signal.SIGINT, signal.SIGTERM)}
+    previous = {number: _handle(number, ask) for number in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield lambda: bool(asked)
     finally:
@@ -46,8 +55,8 @@ def remembered_interrupts() -> Iterator[Callable[[], bool]]:
     Python ignores an exception raised in a weakref callback or a ``__del__`` (it prints
     "Exception ignored in ..." and goes on): a Ctrl-C that lands there is lost, and a job that
     can only be stopped by raising (a library starting a cluster) would run to its end. The job
-    reads the flag at its next step instead. The handler before is back afterwards; only the
-    main thread receives signals (elsewhere nothing changes)."""
+    reads the flag at its next step instead. An ignored SIGINT stays ignored, the handler before
+    is back afterwards; only the main thread receives signals (elsewhere nothing changes)."""
     pressed: list[bool] = []
     if threading.current_thread() is not threading.main_thread():
         yield lambda: False
@@ -57,8 +66,16 @@ def remembered_interrupts() -> Iterator[Callable[[], bool]]:
         pressed.append(True)
         raise KeyboardInterrupt
 
-    previous = signal.signal(signal.SIGINT, press)
+    previous = _handle(signal.SIGINT, press)
     try:
         yield lambda: bool(pressed)
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+def _handle(number: int, handler: Callable[[int, object], None]) -> Handler:
+    """Put `handler` on signal `number` unless the signal is ignored; the handler before."""
+    previous = signal.getsignal(number)
+    if previous != signal.SIG_IGN:
+        signal.signal(number, handler)
+    return previous
