@@ -59,9 +59,9 @@ def image_from_elf(path: str | Path, init_symbol: str = DEFAULT_INIT_SYMBOL) -> 
             segments = _allocated_sections(elf, path)
             relocations = _pointer_relocations(elf)
             _check_movable(elf)
-            functions, symbols = _symbols(elf)
-            if init_symbol in symbols:
-                _check_init_in_code(elf, init_symbol)
+            functions, symbols, named = _symbols(elf)
+            if init_symbol in named:
+                _check_init_in_code(elf, init_symbol, named[init_symbol])
             if not _has_relocation_sections(elf):
                 _check_no_absolute_words(elf, functions)
     except HexError as error:
@@ -155,8 +155,11 @@ def _pointer_relocations(elf: ELFFile) -> list[int]:
 
 
 def _check_movable(elf: ELFFile) -> None:
-    """Every relocation of the image keeps its meaning at any load address, or is a 07 word."""
+    """Every relocation of the image keeps its meaning at any load address, or is a 07 word.
+    A symbol is parsed once however many relocations name it (pyelftools parses it anew at each
+    look: a module's thousand relocations took most of a pack's time)."""
     table = elf.get_section_by_name(".symtab")
+    symbol_of = _SymbolCache(table)
     for section in elf.iter_sections():
         if not isinstance(section, RelocationSection):
             continue
@@ -167,7 +170,7 @@ def _check_movable(elf: ELFFile) -> None:
         subtracted = {r["r_offset"] for r in relocations if r["r_info_type"] in SUBTRACTIONS}
         for relocation in relocations:
             kind = relocation["r_info_type"]
-            symbol = _relocation_symbol(table, relocation)
+            symbol = symbol_of(relocation)
             why = refusal(kind, relocation["r_offset"] in subtracted)
             if why is None and pc_relative(kind) and not _moves_with_image(elf, symbol):
                 why = Refusal(
@@ -187,12 +190,21 @@ def _check_movable(elf: ELFFile) -> None:
                 )
 
 
-def _relocation_symbol(table: Section | None, relocation: Relocation) -> Symbol | None:
-    """The symbol a relocation refers to (None without a symbol table or for index 0)."""
-    index = relocation["r_info_sym"]
-    if not isinstance(table, SymbolTableSection) or index == 0:
-        return None
-    return table.get_symbol(index)
+class _SymbolCache:
+    """The symbols relocations refer to, each parsed once from `table`."""
+
+    def __init__(self, table: Section | None) -> None:
+        self._table = table if isinstance(table, SymbolTableSection) else None
+        self._parsed: dict[int, Symbol] = {}
+
+    def __call__(self, relocation: Relocation) -> Symbol | None:
+        """The symbol `relocation` refers to (None without a symbol table or for index 0)."""
+        index = relocation["r_info_sym"]
+        if self._table is None or index == 0:
+            return None
+        if index not in self._parsed:
+            self._parsed[index] = self._table.get_symbol(index)
+        return self._parsed[index]
 
 
 def _moves_with_image(elf: ELFFile, symbol: Symbol | None) -> bool:
@@ -239,20 +251,23 @@ def _symbol_at(table: Section | None, address: int, types: tuple[str, ...]) -> s
     return None
 
 
-def _symbols(elf: ELFFile) -> tuple[dict[int, str], dict[str, int]]:
-    """Function starts (address to name) and every named symbol (name to address)."""
+def _symbols(elf: ELFFile) -> tuple[dict[int, str], dict[str, int], dict[str, Symbol]]:
+    """Function starts (address to name), every named symbol (name to address), and the first
+    symbol of each name, read in one pass over the table."""
     table = elf.get_section_by_name(".symtab")
     functions: dict[int, str] = {}
     symbols: dict[str, int] = {}
+    named: dict[str, Symbol] = {}
     if not isinstance(table, SymbolTableSection):
-        return functions, symbols
+        return functions, symbols, named
     for symbol in table.iter_symbols():
         if not symbol.name:
             continue
         symbols[symbol.name] = symbol["st_value"]
+        named.setdefault(symbol.name, symbol)
         if symbol["st_info"]["type"] == "STT_FUNC":
             functions[symbol["st_value"]] = symbol.name
-    return functions, symbols
+    return functions, symbols, named
 
 
 def _check_not_compressed(elf: ELFFile) -> None:
@@ -264,11 +279,9 @@ def _check_not_compressed(elf: ELFFile) -> None:
         )
 
 
-def _check_init_in_code(elf: ELFFile, init_symbol: str) -> None:
-    """The init symbol must name code: a function in an executable section."""
-    table = elf.get_section_by_name(".symtab")
-    assert isinstance(table, SymbolTableSection)
-    symbol = table.get_symbol_by_name(init_symbol)[0]
+def _check_init_in_code(elf: ELFFile, init_symbol: str, symbol: Symbol) -> None:
+    """The init symbol (`symbol`, the first of its name) must name code: a function in an
+    executable section."""
     index = symbol["st_shndx"]
     section = elf.get_section(index) if isinstance(index, int) else None
     if section is not None and section["sh_flags"] & SH_FLAGS.SHF_EXECINSTR:
