@@ -42,6 +42,7 @@ from application.report import write_reports
 from application.runs import run_managed
 from application.scenario import Scenario
 from commandline.children import Child
+from commandline.output import named
 from hexmigrate.links.listening import CONNECT_URL, PTY
 
 HOST = "127.0.0.1"
@@ -158,16 +159,14 @@ def run_processes(
 
 def _logging(log: BinaryIO, path: Path) -> Callable[[str], None]:
     """What the manager says, a line at a time into its log at `path`, unbuffered: a write the
-    disk refuses is an OSError naming the log (its own names no file), and the log's closing
-    has nothing left to write that would fail again and hide it."""
+    disk refuses is an OSError naming the log, and the log's closing has nothing left to write
+    that would fail again and hide it."""
 
     def say(line: str) -> None:
         data = memoryview(f"{line}\n".encode())
-        try:
+        with named(str(path)):
             while data:
                 data = data[log.write(data) :]
-        except OSError as error:
-            raise OSError(error.errno, error.strerror, str(path)) from None
 
     return say
 

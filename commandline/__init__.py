@@ -6,8 +6,9 @@ build their parser with `command_parser`, take numbers and files through the typ
 `commandline.arguments`, show long jobs with `commandline.progress`, stop a job that writes as it
 goes between two of its steps on Ctrl-C or SIGTERM with `commandline.interrupts`, and hand their
 parser and their package's error root to `run`, which owns ``--debug``, the exit codes and the
-``error: ...`` line. A file made in one piece (a module, an image, a key) is written whole or not
-at all with `commandline.output`.
+``error: ...`` line. A file made in one piece (a module, an image, a key, a report, a figure) is
+written whole or not at all with `commandline.output`, and a node's lines go out through its
+`serving_output`.
 
 This package sits below every other one: it imports none of the toolchain's packages.
 """

@@ -17,7 +17,6 @@ bug, not bad input: it is not caught, so its traceback shows where to look.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import traceback
 from collections.abc import Callable, Iterator, Sequence
@@ -25,6 +24,7 @@ from contextlib import contextmanager
 from typing import Any, NoReturn, TextIO
 
 from commandline.extras import missing_extra
+from commandline.output import STANDARD_OUTPUT, drop_standard_output, named
 
 EXIT_OK = 0
 EXIT_ERROR = 1
@@ -129,8 +129,8 @@ def _run(
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except caught as error:
-        if isinstance(error, OSError) and error.filename == NamedOutput.NAME:
-            _drop_output()  # the interpreter's final flush would fail on the same bytes again
+        if isinstance(error, OSError) and error.filename == STANDARD_OUTPUT:
+            drop_standard_output()  # the interpreter's final flush would fail on them again
         return _error_line(describe(error), debug)
     except ModuleNotFoundError as error:
         problem = missing_extra(error)
@@ -146,30 +146,19 @@ class NamedOutput:
     leave the user to guess which file. A closed pipe stays a BrokenPipeError (`_pipe_closed`);
     everything but writing is the stream's own."""
 
-    NAME = "standard output"
-
     def __init__(self, stream: TextIO) -> None:
         self.stream = stream
 
     def write(self, text: str) -> int:
-        with self._named():
+        with named(STANDARD_OUTPUT):
             return self.stream.write(text)
 
     def flush(self) -> None:
-        with self._named():
+        with named(STANDARD_OUTPUT):
             self.stream.flush()
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self.stream, name)
-
-    @contextmanager
-    def _named(self) -> Iterator[None]:
-        try:
-            yield
-        except BrokenPipeError:
-            raise
-        except OSError as error:
-            raise OSError(error.errno, error.strerror, self.NAME) from None
 
 
 @contextmanager
@@ -260,12 +249,5 @@ def describe(error: BaseException) -> str:
 def _pipe_closed() -> int:
     """Standard output's reader went away: point it at /dev/null so that the interpreter's
     final flush does not print "Broken pipe", and stop."""
-    _drop_output()
+    drop_standard_output()
     return EXIT_PIPE_CLOSED
-
-
-def _drop_output() -> None:
-    """Point standard output at /dev/null: what it still holds goes nowhere, without error."""
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, sys.stdout.fileno())
-    os.close(devnull)

@@ -14,9 +14,13 @@ from __future__ import annotations
 import io
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Protocol
+
+STANDARD_OUTPUT = "standard output"
+"""The name `named` gives standard output in an error: ``error: standard output: ...``."""
 
 
 class Figure(Protocol):
@@ -25,22 +29,35 @@ class Figure(Protocol):
     def savefig(self, fname: Any, **options: Any) -> None: ...
 
 
+@contextmanager
+def named(name: str) -> Iterator[None]:
+    """An OSError raised inside names `name`: a write's own names no file, and `commandline.run`
+    words the error with the file it names (``error: NAME: No space left on device``). A closed
+    pipe stays a BrokenPipeError, which `commandline.run` ends quietly."""
+    try:
+        yield
+    except BrokenPipeError:
+        raise
+    except OSError as error:
+        raise OSError(error.errno, error.strerror, name) from None
+
+
 def write_whole(path: Path, data: bytes, mode: int = 0o666) -> None:
     """`data` into `path` (created with `mode`, less the umask): the old file or the new one
-    afterwards, never a cut one. An OSError names `path` (a write's own names no file, and
-    `commandline.run` words the error with the file it names) and leaves no ``.partial``."""
+    afterwards, never a cut one. An OSError names `path` and leaves no ``.partial``."""
     partial = path.with_name(path.name + ".partial")
-    try:
-        # A new file each time: one left by a killed run (or a symlink put there) would keep its
-        # mode, a private key's too, or lead the bytes into another file.
-        partial.unlink(missing_ok=True)
-        descriptor = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, mode)
-        with os.fdopen(descriptor, "wb") as file:
-            file.write(data)
-        partial.replace(path)
-    except OSError as error:
-        partial.unlink(missing_ok=True)
-        raise OSError(error.errno, error.strerror, str(path)) from None
+    with named(str(path)):
+        try:
+            # A new file each time: one left by a killed run (or a symlink put there) would keep
+            # its mode, a private key's too, or lead the bytes into another file.
+            partial.unlink(missing_ok=True)
+            descriptor = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, mode)
+            with os.fdopen(descriptor, "wb") as file:
+                file.write(data)
+            partial.replace(path)
+        except OSError:
+            partial.unlink(missing_ok=True)
+            raise
 
 
 def save_figure(figure: Figure, path: Path, **options: Any) -> None:
@@ -65,7 +82,7 @@ def serving_output(program: str, who: str = "the node") -> Callable[[str], None]
         except BrokenPipeError:
             raise
         except OSError as error:
-            sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - standard output from now on
+            drop_standard_output()
             print(
                 f"{program}: cannot write standard output: {error.strerror}; {who} runs on "
                 "without it",
@@ -74,3 +91,11 @@ def serving_output(program: str, who: str = "the node") -> Callable[[str], None]
             )
 
     return say
+
+
+def drop_standard_output() -> None:
+    """Point standard output at /dev/null: what it still holds, and all it is given from now on,
+    goes nowhere without error (a reader gone, a disk that refuses it)."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    os.close(devnull)

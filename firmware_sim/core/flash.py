@@ -167,10 +167,12 @@ class FlashFile:
         """Close the files and remove those this flash created, taking back a new flash that
         could not be written whole: a file of another size is refused at the next start."""
         self.close()
-        with contextlib.suppress(OSError):  # the error that brought us here is the one to tell
-            for file in self._new:
+        # Each file on its own, quietly: the error that brought us here is the one to tell.
+        for file in self._new:
+            with contextlib.suppress(OSError):
                 file.unlink(missing_ok=True)
-            for file in self._empty:
+        for file in self._empty:
+            with contextlib.suppress(OSError):
                 os.truncate(file, 0)  # empty again: taken as new
 
     def close(self) -> None:
