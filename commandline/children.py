@@ -67,13 +67,23 @@ class Child:
     @classmethod
     def start(cls, role: str, argv: Sequence[str], log: Path, cwd: Path | None = None) -> Child:
         """Start `argv` in `cwd` as `role`, its output and errors into `log`, with SIGINT at its
-        default action and ended when this process dies (`_interruptible`)."""
+        default action and ended when this process dies (`_interruptible`).
+
+        The child gets a process group of its own and no standard input: a terminal's Ctrl-C
+        (SIGINT to its foreground group) reaches this process alone, which stops its children
+        with one SIGINT each. Sharing the group, a child got two, the terminal's and `stop`'s,
+        the second cutting its clean stop short; and the children of a process that ignores
+        SIGINT (a script's ``cmd &``) ended on a Ctrl-C meant for the script while their parent
+        ran on without them. Outside the terminal's foreground group, a child that read the
+        terminal would be stopped (SIGTTIN): no child reads one."""
         with log.open("wb") as output:
             process = subprocess.Popen(
                 list(argv),
+                stdin=subprocess.DEVNULL,
                 stdout=output,
                 stderr=subprocess.STDOUT,
                 cwd=cwd,
+                process_group=0,
                 preexec_fn=functools.partial(_interruptible, os.getpid()),
             )
         return cls(role, process, log)

@@ -7,8 +7,10 @@ import contextlib
 import os
 import re
 import signal
+import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -181,3 +183,75 @@ def test_a_busy_child_is_charged_its_cpu_time_and_an_idle_one_nothing(tmp_path: 
             assert time.monotonic() < deadline, f"{busy.cpu_seconds()} s of CPU in 30 s"
             time.sleep(0.05)
         assert idle.cpu_seconds() < 0.5
+
+
+LAUNCHER = (
+    "import signal, sys, time\n"
+    "from pathlib import Path\n"
+    "from commandline.children import Child\n"
+    "if sys.argv[2] == 'ignore':\n    signal.signal(signal.SIGINT, signal.SIG_IGN)\n"
+    "with Child.start('node', [sys.executable, '-c', sys.argv[3]], Path(sys.argv[1])) as child:\n"
+    "    child.wait_for('^ready$')\n"
+    "    print('listening on', child.process.pid, flush=True)\n"
+    "    time.sleep(60)\n"
+)
+"""A launcher: it starts a node, says the node's pid, and waits; `ignore` makes it ignore SIGINT
+as a script's ``cmd &`` does."""
+COUNTING_NODE = (
+    "import signal, time\n"
+    "got = []\n"
+    "signal.signal(signal.SIGINT, lambda *_: got.append(1))\n"
+    "print('ready', flush=True)\n"
+    "while not got:\n    time.sleep(0.01)\n"
+    "time.sleep(0.5)\n"
+    "print('SIGINTs:', len(got), flush=True)\n"
+)
+"""A node that stops cleanly, in half a second, on SIGINT, and says how many it got."""
+
+
+@contextlib.contextmanager
+def _in_a_terminal(tmp_path: Path, mode: str) -> Iterator[tuple[subprocess.Popen[bytes], int]]:
+    """A launcher in a process group of its own, as a terminal's foreground job is, and its
+    node's pid; both killed at the end, whatever happened."""
+    log = tmp_path / "launcher.log"
+    with log.open("wb") as output:
+        launcher = subprocess.Popen(
+            [*python(LAUNCHER), str(tmp_path / "node.log"), mode, COUNTING_NODE],
+            stdout=output,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
+    node = 0
+    try:
+        deadline = time.monotonic() + 30
+        while not (said := LISTENING.search(log.read_text())):
+            assert launcher.poll() is None and time.monotonic() < deadline, log.read_text()
+            time.sleep(0.05)
+        node = int(said[1])
+        yield launcher, node
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(launcher.pid, signal.SIGKILL)
+        launcher.wait(5)
+        with contextlib.suppress(ProcessLookupError):
+            if node:
+                os.kill(node, signal.SIGKILL)
+
+
+def test_a_terminal_s_ctrl_c_reaches_a_node_once_through_its_launcher(tmp_path: Path) -> None:
+    """Ctrl-C sends SIGINT to the terminal's whole foreground group: a node in its launcher's
+    group got it twice (the terminal's, then the launcher's stop), cutting its clean stop."""
+    with _in_a_terminal(tmp_path, "default") as (launcher, _):
+        os.killpg(launcher.pid, signal.SIGINT)
+        launcher.wait(10)
+    assert (tmp_path / "node.log").read_text().splitlines()[-1] == "SIGINTs: 1"
+
+
+def test_the_node_of_a_launcher_ignoring_sigint_outlives_a_ctrl_c(tmp_path: Path) -> None:
+    """A script's ``launcher &`` ignores SIGINT; a Ctrl-C meant for the script must not end
+    its nodes behind the launcher's back."""
+    with _in_a_terminal(tmp_path, "ignore") as (launcher, node):
+        os.killpg(launcher.pid, signal.SIGINT)
+        time.sleep(1)
+        assert _alive(node) and launcher.poll() is None
+        assert "SIGINTs" not in (tmp_path / "node.log").read_text()
