@@ -104,6 +104,10 @@ def run(
     sys.stdout = output
     try:
         return _run(parser, errors, argv)
+    except SystemExit:
+        if output.refused is None:
+            raise
+        return _output_refused(output.refused)
     finally:
         if sys.stdout is output:  # a command may have put another in its place
             sys.stdout = output.stream
@@ -140,22 +144,44 @@ def _run(
     return EXIT_OK if status is None else status
 
 
+def _output_refused(error: OSError) -> int:
+    """The exit status of a parser's exit whose text standard output refused: argparse prints
+    ``--help`` and swallows an OSError, so ``--help > /dev/full`` ended with status 0 and no
+    word."""
+    if isinstance(error, BrokenPipeError):
+        return _pipe_closed()
+    drop_standard_output()
+    return _error_line(describe(error), debug=False)
+
+
 class NamedOutput:
     """Standard output whose refused writes name it: output into a file on a full disk fails
     with an OSError that names no file, and ``error: [Errno 28] No space left on device`` would
     leave the user to guess which file. A closed pipe stays a BrokenPipeError (`_pipe_closed`);
-    everything but writing is the stream's own."""
+    everything but writing is the stream's own. The last refusal is kept in `refused`, for
+    `run` to report it when the writer swallowed it (argparse does)."""
 
     def __init__(self, stream: TextIO) -> None:
         self.stream = stream
+        self.refused: OSError | None = None
 
     def write(self, text: str) -> int:
-        with named(STANDARD_OUTPUT):
+        with self._refusals():
             return self.stream.write(text)
 
     def flush(self) -> None:
-        with named(STANDARD_OUTPUT):
+        with self._refusals():
             self.stream.flush()
+
+    @contextmanager
+    def _refusals(self) -> Iterator[None]:
+        """An OSError of the stream, named and kept in `refused`."""
+        try:
+            with named(STANDARD_OUTPUT):
+                yield
+        except OSError as error:
+            self.refused = error
+            raise
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self.stream, name)

@@ -227,8 +227,16 @@ def test_a_closed_pipe_ends_quietly():
 
 
 @pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
-@pytest.mark.parametrize("lines", [1, 200000])  # refused at the command's end, or midway
-def test_output_the_disk_refuses_is_an_error_naming_standard_output(lines):
+@pytest.mark.parametrize(
+    "lines, argv",
+    [
+        (1, ["go"]),  # refused at the command's end
+        (200000, ["go"]),  # midway
+        (0, ["--help"]),  # argparse swallows the OSError of its help: the exit status was 0
+        (0, ["go", "--help"]),
+    ],
+)
+def test_output_the_disk_refuses_is_an_error_naming_standard_output(lines, argv):
     script = textwrap.dedent(
         f"""
         import sys
@@ -240,7 +248,7 @@ def test_output_the_disk_refuses_is_an_error_naming_standard_output(lines):
 
         parser = command_parser("say", "Says.")
         add_command(parser.add_subparsers(required=True), "go", say, "say")
-        sys.exit(run(parser, Exception, ["go"]))
+        sys.exit(run(parser, Exception, {argv!r}))
         """
     )
     with open("/dev/full", "w") as full:  # every write: No space left on device
