@@ -17,6 +17,7 @@ bug, not bad input: it is not caught, so its traceback shows where to look.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import traceback
 from collections.abc import Callable, Iterator, Sequence
@@ -194,7 +195,8 @@ def entry_point() -> Iterator[None]:
     command runs, and Ctrl-C while the imports run or the parser is built (they take a while on
     a loaded machine) with ``interrupted`` and 130, as during the command; it printed a
     traceback and the program died of the signal. The exit status is the program's own
-    (`_forget_caught_interrupts`)."""
+    (`_forget_caught_interrupts`). Numpy's BLAS runs on one thread (`one_blas_thread`)."""
+    one_blas_thread()
     try:
         yield
     except KeyboardInterrupt:
@@ -207,6 +209,15 @@ def entry_point() -> Iterator[None]:
         raise SystemExit(_error_line(problem, debug=False)) from None
     finally:
         _forget_caught_interrupts()
+
+
+def one_blas_thread() -> None:
+    """Numpy's BLAS (OpenBLAS, in numpy's wheels) on one thread in this process and the ones it
+    starts, unless the user chose otherwise, when called before numpy is imported. Its pool of
+    a thread per core, started at import, cost each process 60 to 130 ms of CPU (a node, a
+    launcher's every process, the test suite's 900): the toolchain's matrices (the hexapod's
+    6x6, the patrol's Kalman filter) are far too small for a pool to help."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
 def _forget_caught_interrupts() -> None:

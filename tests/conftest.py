@@ -8,8 +8,12 @@ from pathlib import Path
 import pytest
 from hypothesis import settings
 
-from hexmigrate.elf import image_from_elf
-from module_sdk.build import ModuleBuild, build_examples
+from commandline.main import one_blas_thread
+
+one_blas_thread()  # before numpy's first import: in the suite's workers and what they start
+
+from hexmigrate.elf import image_from_elf  # noqa: E402
+from module_sdk.build import ModuleBuild, build_examples  # noqa: E402
 
 # No deadline, for every test (none sets its own): hypothesis fails an example that takes more
 # than 200 ms, a timed assertion, and

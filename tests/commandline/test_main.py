@@ -260,3 +260,29 @@ def test_output_the_disk_refuses_is_an_error_naming_standard_output(lines, argv)
         EXIT_ERROR,
         "error: standard output: No space left on device\n",
     )
+
+
+def test_a_command_imports_numpy_without_a_blas_thread_pool():
+    """A pool of a thread per core, started at numpy's import, cost every process of the
+    toolchain 60 to 130 ms of CPU; one the user asks for is kept."""
+    script = textwrap.dedent(
+        """
+        import os
+        from commandline import entry_point
+
+        with entry_point():
+            import numpy
+        print(len(os.listdir("/proc/self/task")), os.environ.get("OPENBLAS_NUM_THREADS"))
+        """
+    )
+    environment = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60,
+        env=environment,
+    )  # fmt: skip
+    assert done.stdout.split() == ["1", "1"], done.stderr
+    chosen = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60,
+        env={**environment, "OPENBLAS_NUM_THREADS": "2"},
+    )  # fmt: skip
+    assert chosen.stdout.split() == ["2", "2"], chosen.stderr
