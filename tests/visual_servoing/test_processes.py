@@ -31,9 +31,11 @@ TIMES = ("detected_at", "applied_at", "recovered_at")
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "name", ["paper", "blackout", "fog", "servo-cut", "fog-hardware", "power-drop"]
-)
+# A scenario for each path across processes: the Dehazer sent over the serial line (paper; fog
+# takes the same path), the servos' second CAN bus, the bitstreams, a module moved to the other
+# robot over TCP. The blackout's coalition is the first repair of each outage scenario
+# (test_outages.py).
+@pytest.mark.parametrize("name", ["paper", "servo-cut", "fog-hardware", "power-drop"])
 def test_across_processes_in_lock_step_a_scenario_ends_as_in_process(
     name, tmp_path, scenario_outcome
 ) -> None:
