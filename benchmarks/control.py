@@ -38,6 +38,7 @@ from collections.abc import Callable
 from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from nodes import node_process
 
@@ -48,11 +49,13 @@ from hexmigrate.links import open_link
 from hexmigrate.links.base import LinkBase
 from hexmigrate.links.framing import frame
 from hexmigrate.signing import keys
-from hexmigrate.signing.keys import PrivateKey
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import Heartbeat, PerformanceReport, encode
 from hexmigrate.transfer.sender import Sender
 from module_sdk.build import EXAMPLES_DIR, build_module
+
+if TYPE_CHECKING:
+    from hexmigrate.signing.keys import PrivateKey
 
 ROUND_TRIP_GOAL = 2.0  # a control request's median round trip / the echo's
 UNGOALED = ("echo", "authenticate")  # the baseline, and a figure with no goal

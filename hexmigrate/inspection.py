@@ -9,13 +9,15 @@ from __future__ import annotations
 import zlib
 from collections import Counter
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from hexmigrate import descriptor as abi
 from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage, find_descriptor
 from hexmigrate.records import RecordType, decode_record
-from hexmigrate.signing.keys import PublicKey
 from hexmigrate.signing.verify import examine
+
+if TYPE_CHECKING:
+    from hexmigrate.signing.keys import PublicKey
 
 
 def build_report(

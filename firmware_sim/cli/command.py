@@ -10,6 +10,7 @@ import argparse
 import json
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from commandline import UsageError, add_command, command_parser, run
 from commandline.arguments import host_port, input_file, integer
@@ -35,12 +36,15 @@ from firmware_sim.wires.transfer import DEFAULT_WINDOW, run_transfer
 from hexmigrate.errors import HexmigrateError
 from hexmigrate.image import ModuleImage
 from hexmigrate.links.listening import PTY
-from hexmigrate.signing.keys import MAX_KEY_FILE, PublicKey, load_public
+from hexmigrate.signing.keys import MAX_KEY_FILE, load_public
 from hexmigrate.transfer.sender import MODES
 from pbort.code import ModuleCode
 from pbort.errors import KernelError
 from pbort.native import NativeModule
 from pbort.trace import recording
+
+if TYPE_CHECKING:
+    from hexmigrate.signing.keys import PublicKey
 
 _SAY = serving_output("firmware-sim")
 """What the node says: each line at once, and a node whose output the disk refuses runs on."""

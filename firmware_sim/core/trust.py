@@ -12,13 +12,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from firmware_sim.errors import TrustError
 from hexmigrate.errors import SignatureError
 from hexmigrate.image import ModuleImage
-from hexmigrate.signing.keys import PublicKey
 from hexmigrate.signing.tlv import Version
 from hexmigrate.signing.verify import require_trusted
+
+if TYPE_CHECKING:
+    from hexmigrate.signing.keys import PublicKey
 
 WORD_MASK = 0xFFFFFFFF
 

@@ -13,14 +13,14 @@ from __future__ import annotations
 
 import secrets
 from collections.abc import Iterable
-
-from cryptography.exceptions import InvalidSignature
-from cryptography.hazmat.primitives import hashes
-from cryptography.hazmat.primitives.asymmetric import ec, ed25519
+from typing import TYPE_CHECKING
 
 from hexmigrate.errors import SignatureError
-from hexmigrate.signing.keys import PrivateKey, PublicKey, key_hash
+from hexmigrate.signing.keys import key_hash
 from hexmigrate.signing.verify import MISMATCH, UNKNOWN_KEY
+
+if TYPE_CHECKING:
+    from hexmigrate.signing.keys import PrivateKey, PublicKey
 
 CONTEXT = b"ReFrESH node session v1\x00"
 """What every challenge signature starts with (domain separation from module signatures)."""
@@ -36,6 +36,9 @@ def new_nonce() -> bytes:
 
 def respond(key: PrivateKey, nonce: bytes) -> tuple[bytes, bytes]:
     """(the hash of `key`'s public half, its signature over the challenge `nonce`)."""
+    from cryptography.hazmat.primitives import hashes
+    from cryptography.hazmat.primitives.asymmetric import ec, ed25519
+
     message = CONTEXT + nonce
     if isinstance(key, ed25519.Ed25519PrivateKey):
         signature = key.sign(message)
@@ -48,6 +51,10 @@ def check(trusted: Iterable[PublicKey], hash_: bytes, nonce: bytes, signature: b
     """The trusted key named by `hash_` when `signature` is its signature over `nonce`;
     otherwise `SignatureError` whose reason is "signed by an unknown key" or "signature does
     not match"."""
+    from cryptography.exceptions import InvalidSignature
+    from cryptography.hazmat.primitives import hashes
+    from cryptography.hazmat.primitives.asymmetric import ec, ed25519
+
     key = next((key for key in trusted if key_hash(key) == hash_), None)
     if key is None:
         raise SignatureError(UNKNOWN_KEY, f"no trusted key has the hash {hash_.hex()[:16]}...")

@@ -5,20 +5,27 @@ getpub -e pem` its SubjectPublicKeyInfo. `hexmigrate keygen` writes the same two
 tool's keys work with the other. A key is named by its hash, the SHA-256 of the DER
 SubjectPublicKeyInfo of its public half: that is what a signed module carries (TLV KEYHASH) and
 what `inspect`, `verify` and a node show.
+
+The signing package imports `cryptography` where a key is used, not when it is imported: every
+node and every hexmigrate command imports it (the protocol's AUTH, a node's trust), most never
+see a key, and cryptography's import cost each of them 25 to 35 ms of CPU (a third of a
+hexmigrate command's start). `PrivateKey` and `PublicKey` are for annotations only
+(``if TYPE_CHECKING:`` where they are imported).
 """
 
 from __future__ import annotations
 
 import hashlib
 from pathlib import Path
-
-from cryptography.hazmat.primitives import serialization
-from cryptography.hazmat.primitives.asymmetric import ec, ed25519
+from typing import TYPE_CHECKING, TypeAlias
 
 from hexmigrate.errors import KeyFileError
 
-PrivateKey = ed25519.Ed25519PrivateKey | ec.EllipticCurvePrivateKey
-PublicKey = ed25519.Ed25519PublicKey | ec.EllipticCurvePublicKey
+if TYPE_CHECKING:
+    from cryptography.hazmat.primitives.asymmetric import ec, ed25519
+
+    PrivateKey: TypeAlias = ed25519.Ed25519PrivateKey | ec.EllipticCurvePrivateKey
+    PublicKey: TypeAlias = ed25519.Ed25519PublicKey | ec.EllipticCurvePublicKey
 KEY_TYPES = ("ed25519", "ecdsa-p256")
 MAX_KEY_FILE = 64 << 10
 """A PEM key is well under a kilobyte: a larger file is not a key, and is not read whole."""
@@ -26,6 +33,8 @@ MAX_KEY_FILE = 64 << 10
 
 def generate(kind: str) -> PrivateKey:
     """A new private key of `kind` ('ed25519' or 'ecdsa-p256', imgtool's names)."""
+    from cryptography.hazmat.primitives.asymmetric import ec, ed25519
+
     if kind == "ed25519":
         return ed25519.Ed25519PrivateKey.generate()
     if kind == "ecdsa-p256":
@@ -35,6 +44,8 @@ def generate(kind: str) -> PrivateKey:
 
 def private_pem(key: PrivateKey) -> bytes:
     """The private key as unencrypted PKCS#8 PEM, as `imgtool keygen` writes it."""
+    from cryptography.hazmat.primitives import serialization
+
     return key.private_bytes(
         serialization.Encoding.PEM,
         serialization.PrivateFormat.PKCS8,
@@ -44,6 +55,8 @@ def private_pem(key: PrivateKey) -> bytes:
 
 def public_pem(key: PublicKey) -> bytes:
     """The public key as SubjectPublicKeyInfo PEM, as `imgtool getpub -e pem` writes it."""
+    from cryptography.hazmat.primitives import serialization
+
     return key.public_bytes(
         serialization.Encoding.PEM, serialization.PublicFormat.SubjectPublicKeyInfo
     )
@@ -51,6 +64,8 @@ def public_pem(key: PublicKey) -> bytes:
 
 def key_hash(key: PublicKey) -> bytes:
     """SHA-256 of the DER SubjectPublicKeyInfo: the 32 bytes that name a key."""
+    from cryptography.hazmat.primitives import serialization
+
     der = key.public_bytes(
         serialization.Encoding.DER, serialization.PublicFormat.SubjectPublicKeyInfo
     )
@@ -74,6 +89,8 @@ def short_hash(key: PublicKey) -> str:
 
 def key_type(key: PrivateKey | PublicKey) -> str:
     """'ed25519' or 'ecdsa-p256'."""
+    from cryptography.hazmat.primitives.asymmetric import ed25519
+
     if isinstance(key, ed25519.Ed25519PrivateKey | ed25519.Ed25519PublicKey):
         return "ed25519"
     return "ecdsa-p256"
@@ -81,6 +98,8 @@ def key_type(key: PrivateKey | PublicKey) -> str:
 
 def load_private(path: str | Path) -> PrivateKey:
     """Read a private key PEM; refuse anything but an unencrypted Ed25519 or P-256 key."""
+    from cryptography.hazmat.primitives import serialization
+
     text = _read(path)
     try:
         key = serialization.load_pem_private_key(text, password=None)
@@ -94,6 +113,8 @@ def load_private(path: str | Path) -> PrivateKey:
 
 def load_public(path: str | Path) -> PublicKey:
     """Read a public key PEM, or the public half of a private key PEM."""
+    from cryptography.hazmat.primitives import serialization
+
     text = _read(path)
     if b"PRIVATE KEY" in text:
         return load_private(path).public_key()
@@ -109,6 +130,8 @@ def load_public(path: str | Path) -> PublicKey:
 
 def _supported(key: object, path: str | Path) -> PrivateKey | PublicKey:
     """The key when it is Ed25519 or ECDSA on P-256, the two types a node verifies."""
+    from cryptography.hazmat.primitives.asymmetric import ec, ed25519
+
     if isinstance(key, ed25519.Ed25519PrivateKey | ed25519.Ed25519PublicKey):
         return key
     if isinstance(key, ec.EllipticCurvePrivateKey | ec.EllipticCurvePublicKey) and isinstance(

@@ -13,13 +13,14 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import struct
-
-from cryptography.hazmat.primitives import hashes
-from cryptography.hazmat.primitives.asymmetric import ec, ed25519, utils
+from typing import TYPE_CHECKING
 
 from hexmigrate.image import ModuleImage
 from hexmigrate.signing import tlv
-from hexmigrate.signing.keys import PrivateKey, key_hash
+from hexmigrate.signing.keys import key_hash
+
+if TYPE_CHECKING:
+    from hexmigrate.signing.keys import PrivateKey
 
 WORD = struct.Struct("<I")
 
@@ -42,6 +43,9 @@ def image_hash(image: ModuleImage, protected: bytes) -> bytes:
 def sign_image(image: ModuleImage, key: PrivateKey, version: tlv.Version) -> ModuleImage:
     """The image with a signature area for `version` signed by `key` (any earlier one replaced).
     The name signed is the one the node registers (`image.name`)."""
+    from cryptography.hazmat.primitives import hashes
+    from cryptography.hazmat.primitives.asymmetric import ec, ed25519, utils
+
     protected = tlv.protected_area(image.name, version)
     digest = image_hash(image, protected)
     if isinstance(key, ed25519.Ed25519PrivateKey):

@@ -11,16 +11,16 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
-
-from cryptography.exceptions import InvalidSignature
-from cryptography.hazmat.primitives import hashes
-from cryptography.hazmat.primitives.asymmetric import ec, ed25519, utils
+from typing import TYPE_CHECKING
 
 from hexmigrate.errors import SignatureError, TlvError
 from hexmigrate.image import ModuleImage
 from hexmigrate.signing import tlv
-from hexmigrate.signing.keys import PublicKey, key_hash, key_type, shown_hash
+from hexmigrate.signing.keys import key_hash, key_type, shown_hash
 from hexmigrate.signing.sign import image_hash
+
+if TYPE_CHECKING:
+    from hexmigrate.signing.keys import PublicKey
 
 NOT_SIGNED = "not signed"
 UNKNOWN_KEY = "signed by an unknown key"
@@ -98,6 +98,10 @@ def _what_broke(verdict: Verdict) -> str:
 
 def _signature_holds(key: PublicKey, area: tlv.SignatureArea, digest: bytes) -> bool:
     """Whether `area.signature` is `key`'s signature over `digest` (the recomputed hash)."""
+    from cryptography.exceptions import InvalidSignature
+    from cryptography.hazmat.primitives import hashes
+    from cryptography.hazmat.primitives.asymmetric import ec, ed25519, utils
+
     if area.signature_type != key_type(key):
         return False
     try:

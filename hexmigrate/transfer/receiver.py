@@ -32,14 +32,14 @@ import time
 from collections import OrderedDict
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from commandline import one_line
 from hexmigrate.errors import HexError, MessageError, SignatureError
 from hexmigrate.links.base import is_text
 from hexmigrate.records import MAX_SIGNATURE_AREA, RecordType, decode_record
 from hexmigrate.signing import challenge
-from hexmigrate.signing.keys import HASH_DIGITS, PublicKey, shown_hash
+from hexmigrate.signing.keys import HASH_DIGITS, shown_hash
 from hexmigrate.signing.verify import MISMATCH, UNKNOWN_KEY
 from hexmigrate.transfer.control import (
     MAX_LOG_TEXT,
@@ -110,6 +110,9 @@ from hexmigrate.transfer.sessions import (
     Sessions,
 )
 from hexmigrate.transfer.subscription import HEARTBEAT_PERIOD, MIN_PERIOD_MS, Subscription
+
+if TYPE_CHECKING:
+    from hexmigrate.signing.keys import PublicKey
 
 IMPLICIT = 0  # the transfer id of a module typed or pasted on a terminal without BEGIN
 REMEMBERED_COMMITS = 64

@@ -16,6 +16,7 @@ import time
 import zlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from hexmigrate.errors import (
     LinkError,
@@ -30,7 +31,6 @@ from hexmigrate.image import FLASH_BLOCK_SIZE, ModuleImage
 from hexmigrate.links.base import Link
 from hexmigrate.records import SIGNATURE_RECORD_SIZE, Record, RecordType
 from hexmigrate.signing import challenge
-from hexmigrate.signing.keys import PrivateKey
 from hexmigrate.transfer.fields import ListedModule
 from hexmigrate.transfer.messages import (
     UNKNOWN_TRANSFER,
@@ -59,6 +59,9 @@ from hexmigrate.transfer.messages import (
     encode,
 )
 from hexmigrate.transfer.sessions import AUTHENTICATION_REQUIRED
+
+if TYPE_CHECKING:
+    from hexmigrate.signing.keys import PrivateKey
 
 MODES = ("binary", "hex")
 # Flash blocks per binary DATA message. Two halve the per-message overhead (on CAN, ISO-TP's

@@ -23,13 +23,13 @@ from collections.abc import Callable, Mapping, Sequence
 from contextlib import closing
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from commandline import SHOWN, one_line
 from commandline.imports import ModuleImportError, import_named
 from firmware_sim.core.natives import load_natives
 from firmware_sim.core.node import Node, NodeConfig
 from firmware_sim.errors import FirmwareSimError
-from hexmigrate.signing.keys import PrivateKey
 from pbort.code import ModuleCode
 from pbort.native import NativeModule
 from pbort.trace.live import LiveView
@@ -45,6 +45,9 @@ from refresh.manager.session import Session
 from refresh.manager.time_modes import TimeMode
 from refresh.remote.remote_node import REPORT_PERIOD
 from refresh.runtime import Runtime, RuntimeSettings
+
+if TYPE_CHECKING:
+    from hexmigrate.signing.keys import PrivateKey
 
 
 @dataclass(frozen=True)

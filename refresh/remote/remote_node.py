@@ -27,18 +27,20 @@ import math
 import threading
 import time
 from collections.abc import Callable
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 from hexmigrate.errors import HexmigrateError, MessageError, NoAnswer, NodeRefused, TransferError
 from hexmigrate.links import open_link
 from hexmigrate.links.base import Link
-from hexmigrate.signing.keys import PrivateKey
 from hexmigrate.transfer.control_client import NodeControl
 from hexmigrate.transfer.messages import Message, decode
 from hexmigrate.transfer.sender import Sender
 from hexmigrate.transfer.sessions import SUPERSEDED
 from refresh.errors import NodeLinkError
 from refresh.remote.reports import ReportObserver, ReportSource
+
+if TYPE_CHECKING:
+    from hexmigrate.signing.keys import PrivateKey
 
 T = TypeVar("T")
 
