@@ -189,14 +189,16 @@ LAUNCHER = (
     "import signal, sys, time\n"
     "from pathlib import Path\n"
     "from commandline.children import Child\n"
-    "if sys.argv[2] == 'ignore':\n    signal.signal(signal.SIGINT, signal.SIG_IGN)\n"
+    "ignore = sys.argv[2] == 'ignore'\n"
+    "signal.signal(signal.SIGINT, signal.SIG_IGN if ignore else signal.default_int_handler)\n"
     "with Child.start('node', [sys.executable, '-c', sys.argv[3]], Path(sys.argv[1])) as child:\n"
     "    child.wait_for('^ready$')\n"
     "    print('listening on', child.process.pid, flush=True)\n"
     "    time.sleep(60)\n"
 )
 """A launcher: it starts a node, says the node's pid, and waits; `ignore` makes it ignore SIGINT
-as a script's ``cmd &`` does."""
+as a script's ``cmd &`` does, and otherwise it takes SIGINT as Python does, also when the suite
+runs in the background (``make test &``: every process it starts ignores SIGINT)."""
 COUNTING_NODE = (
     "import signal, time\n"
     "got = []\n"
