@@ -59,9 +59,10 @@ def image_from_elf(path: str | Path, init_symbol: str = DEFAULT_INIT_SYMBOL) -> 
             segments = _allocated_sections(elf, path)
             relocations = _pointer_relocations(elf)
             _check_movable(elf)
-            functions, symbols, named = _symbols(elf)
-            if init_symbol in named:
-                _check_init_in_code(elf, init_symbol, named[init_symbol])
+            functions, named = _symbols(elf)
+            init = named.get(init_symbol)
+            if init is not None:
+                _check_init_in_code(elf, init_symbol, init)
             if not _has_relocation_sections(elf):
                 _check_no_absolute_words(elf, functions)
     except HexError as error:
@@ -70,7 +71,7 @@ def image_from_elf(path: str | Path, init_symbol: str = DEFAULT_INIT_SYMBOL) -> 
         raise ModuleSourceError(f"expected an ELF file, but {error}", path=path) from None
     except OSError as error:
         raise ModuleSourceError(f"cannot read: {error.strerror}", path=path) from None
-    if init_symbol not in symbols:
+    if init is None:
         raise ModuleSourceError(
             f"expected a symbol {init_symbol!r} (the init subroutine; choose another with --init), "
             "got none",
@@ -78,7 +79,7 @@ def image_from_elf(path: str | Path, init_symbol: str = DEFAULT_INIT_SYMBOL) -> 
         )
     try:
         image = ModuleImage.from_segments(
-            path.stem, segments, relocations, symbols[init_symbol], functions
+            path.stem, segments, relocations, init["st_value"], functions
         )
         check_module(image)
     except HexError as error:
@@ -251,23 +252,22 @@ def _symbol_at(table: Section | None, address: int, types: tuple[str, ...]) -> s
     return None
 
 
-def _symbols(elf: ELFFile) -> tuple[dict[int, str], dict[str, int], dict[str, Symbol]]:
-    """Function starts (address to name), every named symbol (name to address), and the first
-    symbol of each name, read in one pass over the table."""
+def _symbols(elf: ELFFile) -> tuple[dict[int, str], dict[str, Symbol]]:
+    """Function starts (address to name) and every named symbol by its name, read in one pass
+    over the table. Of two symbols of one name the last is kept: the table lists the locals
+    first, so a global init wins over a local of its name, its address and its section alike."""
     table = elf.get_section_by_name(".symtab")
     functions: dict[int, str] = {}
-    symbols: dict[str, int] = {}
     named: dict[str, Symbol] = {}
     if not isinstance(table, SymbolTableSection):
-        return functions, symbols, named
+        return functions, named
     for symbol in table.iter_symbols():
         if not symbol.name:
             continue
-        symbols[symbol.name] = symbol["st_value"]
-        named.setdefault(symbol.name, symbol)
+        named[symbol.name] = symbol
         if symbol["st_info"]["type"] == "STT_FUNC":
             functions[symbol["st_value"]] = symbol.name
-    return functions, symbols, named
+    return functions, named
 
 
 def _check_not_compressed(elf: ELFFile) -> None:
@@ -280,8 +280,7 @@ def _check_not_compressed(elf: ELFFile) -> None:
 
 
 def _check_init_in_code(elf: ELFFile, init_symbol: str, symbol: Symbol) -> None:
-    """The init symbol (`symbol`, the first of its name) must name code: a function in an
-    executable section."""
+    """The init symbol (`symbol`) must name code: a function in an executable section."""
     index = symbol["st_shndx"]
     section = elf.get_section(index) if isinstance(index, int) else None
     if section is not None and section["sh_flags"] & SH_FLAGS.SHF_EXECINSTR:
